@@ -1,0 +1,173 @@
+#include "lensdata/prescription.h"
+
+#include <cmath>
+#include <sstream>
+
+namespace veil {
+
+// Material Public Methods
+
+std::string Material::label() const {
+    switch (kind) {
+        case Kind::Air: return "AIR";
+        case Kind::Catalog: return name;
+        case Kind::Model: {
+            std::ostringstream os;
+            os << "model " << nd << "/" << vd;
+            if (dPgF != 0.0) os << "/" << dPgF;
+            return os.str();
+        }
+    }
+    return "?";
+}
+
+std::ostream& operator<<(std::ostream& os, const Material& m) { return os << m.label(); }
+
+// Surface Public Methods
+
+bool Surface::hasAsphere() const {
+    for (double a : asphere)
+        if (a != 0.0) return true;
+    return false;
+}
+
+std::ostream& operator<<(std::ostream& os, const Surface& s) {
+    os << "Surface{" << (s.name.empty() ? "?" : s.name) << " R=";
+    if (s.curvature == 0.0)
+        os << "inf";
+    else
+        os << s.radiusMm();
+    os << " t=" << s.thicknessMm << " " << s.material;
+    if (s.conic != 0.0) os << " k=" << s.conic;
+    if (s.hasAsphere()) os << " asphere";
+    if (s.clearSemiDiameterMm > 0.0) os << " sd=" << s.clearSemiDiameterMm;
+    if (s.mechSemiDiameterMm > 0.0) os << " msd=" << s.mechSemiDiameterMm;
+    if (s.stop) os << " STOP";
+    if (s.mirror) os << " MIRROR";
+    if (!s.coating.empty()) os << " coating=" << s.coating;
+    return os << "}";
+}
+
+std::ostream& operator<<(std::ostream& os, const Element& e) {
+    return os << "Element{" << e.name << " surfaces " << e.frontSurface << ".." << e.backSurface
+              << " " << e.material << "}";
+}
+
+std::ostream& operator<<(std::ostream& os, const SystemAperture& a) {
+    switch (a.kind) {
+        case SystemAperture::Kind::EntrancePupilDiameter:
+            return os << "EPD " << a.value << " mm";
+        case SystemAperture::Kind::ImageSpaceFNumber: return os << "F/" << a.value;
+        case SystemAperture::Kind::ObjectSpaceNA: return os << "object NA " << a.value;
+        case SystemAperture::Kind::FloatByStop: return os << "float by stop size";
+    }
+    return os;
+}
+
+std::ostream& operator<<(std::ostream& os, const ImportNote& n) {
+    const char* sev = n.severity == ImportNote::Severity::Info      ? "info"
+                      : n.severity == ImportNote::Severity::Warning ? "warning"
+                                                                    : "error";
+    return os << n.loc << ": " << sev << ": " << n.message;
+}
+
+// Prescription Public Methods
+
+int Prescription::stopIndex() const {
+    for (size_t i = 0; i < surfaces.size(); ++i)
+        if (surfaces[i].stop) return static_cast<int>(i);
+    return surfaces.size() > 1 ? 1 : 0;
+}
+
+std::vector<Element> Prescription::elements() const {
+    // Gap i runs from surface i to surface i+1; gaps 1..N-2 lie inside the system. Each gap
+    // holding glass is an element, except the return pass through a second-surface mirror
+    // (Mangin): the gap after a mirror inside glass belongs to the element in front of it.
+    std::vector<Element> out;
+    const int n = static_cast<int>(surfaces.size());
+    for (int i = 1; i + 1 < n; ++i) {
+        const Surface& s = surfaces[i];
+        if (s.material.isAir()) continue;
+        const bool returnPass = s.mirror && !out.empty() && out.back().backSurface == i;
+        if (returnPass) continue;
+        out.push_back({"L" + std::to_string(out.size() + 1), i, i + 1, s.material});
+    }
+    return out;
+}
+
+void Prescription::assignNames() {
+    const int n = static_cast<int>(surfaces.size());
+    if (n == 0) return;
+    std::vector<std::string> names(n);
+    names[0] = "object";
+    names[n - 1] = "image";
+    for (const Element& e : elements()) {
+        if (names[e.frontSurface].empty()) names[e.frontSurface] = e.name + ".front";
+        if (names[e.backSurface].empty()) names[e.backSurface] = e.name + ".back";
+    }
+    int mirrorCount = 0;
+    for (int i = 1; i < n - 1; ++i) {
+        if (surfaces[i].mirror && names[i].empty()) names[i] = "M" + std::to_string(++mirrorCount);
+    }
+    for (int i = 1; i < n - 1; ++i) {
+        if (!names[i].empty()) continue;
+        names[i] = surfaces[i].stop ? "stop" : "S" + std::to_string(i);
+    }
+    for (int i = 0; i < n; ++i)
+        if (surfaces[i].name.empty()) surfaces[i].name = names[i];
+}
+
+std::vector<std::string> Prescription::aliasesOf(int surfaceIndex) const {
+    std::vector<std::string> out;
+    for (const Element& e : elements()) {
+        const std::string front = e.name + ".front";
+        const std::string back = e.name + ".back";
+        if (e.frontSurface == surfaceIndex && surfaces[surfaceIndex].name != front)
+            out.push_back(front);
+        if (e.backSurface == surfaceIndex && surfaces[surfaceIndex].name != back)
+            out.push_back(back);
+    }
+    if (surfaces[surfaceIndex].stop && surfaces[surfaceIndex].name != "stop") out.push_back("stop");
+    return out;
+}
+
+void Prescription::validate() const {
+    const int n = static_cast<int>(surfaces.size());
+    if (n < 3)
+        throw ModelError(sourceFile.empty() ? "prescription" : sourceFile,
+                         "a system needs an object surface, at least one surface and an image "
+                         "surface (got " + std::to_string(n) + " surfaces)");
+    auto nameOf = [&](int i) {
+        return surfaces[i].name.empty() ? "surface " + std::to_string(i) : surfaces[i].name;
+    };
+    int stops = 0;
+    for (int i = 0; i < n; ++i) {
+        const Surface& s = surfaces[i];
+        if (!std::isfinite(s.curvature)) throw ModelError(nameOf(i), "curvature is not finite");
+        if (!std::isfinite(s.conic)) throw ModelError(nameOf(i), "conic is not finite");
+        for (double a : s.asphere)
+            if (!std::isfinite(a)) throw ModelError(nameOf(i), "asphere term is not finite");
+        if (i > 0 && i < n - 1 && !std::isfinite(s.thicknessMm))
+            throw ModelError(nameOf(i), "only the object distance may be infinite");
+        if (std::isnan(s.thicknessMm)) throw ModelError(nameOf(i), "thickness is NaN");
+        if (s.clearSemiDiameterMm < 0.0 || s.mechSemiDiameterMm < 0.0)
+            throw ModelError(nameOf(i), "negative semi-diameter");
+        if (s.mechSemiDiameterMm > 0.0 && s.clearSemiDiameterMm > s.mechSemiDiameterMm)
+            throw ModelError(nameOf(i), "clear semi-diameter " +
+                                            std::to_string(s.clearSemiDiameterMm) +
+                                            " mm exceeds the mechanical semi-diameter " +
+                                            std::to_string(s.mechSemiDiameterMm) + " mm");
+        if (s.stop) ++stops;
+        if (s.mirror && (i == 0 || i == n - 1))
+            throw ModelError(nameOf(i), "the object and image surfaces cannot be mirrors");
+        if (s.mirror && !(s.material == surfaces[i - 1].material))
+            throw ModelError(nameOf(i), "a mirror keeps the medium: material after it must be " +
+                                            surfaces[i - 1].material.label());
+        if (s.material.kind == Material::Kind::Model && (s.material.nd < 1.0 || s.material.vd <= 0.0))
+            throw ModelError(nameOf(i), "model glass needs nd >= 1 and Vd > 0");
+    }
+    if (stops > 1) throw ModelError("stop", "more than one surface is flagged as the stop");
+    if (surfaces[0].stop) throw ModelError("object", "the object surface cannot be the stop");
+}
+
+}  // namespace veil

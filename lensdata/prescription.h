@@ -1,0 +1,155 @@
+#pragma once
+// The lens prescription: a sequential model of N surfaces (N-1 gaps), plus system data.
+//
+//   surface:   0 (object)   1        2        3 ...      N-1 (image)
+//   gap:              0         1        2       ...  N-2
+//   medium:    surfaces[i].material fills gap i, from surface i to surface i+1.
+//
+// Sign conventions are those of lens design programs: light travels toward +z at the start;
+// radius > 0 when the centre of curvature lies at +z of the vertex; thicknessMm is the signed
+// vertex-to-vertex distance along z to the next surface (negative after an odd number of
+// mirrors). A mirror keeps the medium: the material of a mirror surface is the medium the
+// light came from. Lengths in mm, wavelengths in nm, angles in degrees.
+
+#include <array>
+#include <limits>
+#include <optional>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "lensdata/errors.h"
+
+namespace veil {
+
+// What fills a gap.
+struct Material {
+    enum class Kind { Air, Catalog, Model };
+    Kind kind = Kind::Air;
+    std::string name;   // catalog glass name (Kind::Catalog)
+    double nd = 1.0;    // Kind::Model
+    double vd = 0.0;    // Kind::Model
+    double dPgF = 0.0;  // Kind::Model
+
+    static Material air() { return {}; }
+    static Material catalog(std::string glassName) { return {Kind::Catalog, std::move(glassName)}; }
+    static Material model(double nd, double vd, double dPgF = 0.0) {
+        return {Kind::Model, {}, nd, vd, dPgF};
+    }
+    bool isAir() const { return kind == Kind::Air; }
+    std::string label() const;  // "AIR", "N-BK7", "model 1.5168/64.17"
+    bool operator==(const Material&) const = default;
+};
+std::ostream& operator<<(std::ostream& os, const Material& m);
+
+inline constexpr double kInfinity = std::numeric_limits<double>::infinity();
+
+struct Surface {
+    std::string name;     // stable name: object, L1.front, L1.back, stop, M1, image, S7, ...
+    std::string comment;  // free text from the lens file
+
+    double curvature = 0.0;  // 1/mm, 0 = flat
+    double conic = 0.0;      // k: 0 sphere, -1 paraboloid, < -1 hyperboloid
+    // Even asphere: sag += sum_i asphere[i] r^(2i+2), so asphere[0] multiplies r^2 and
+    // asphere[1..9] are A4..A20.
+    std::array<double, 10> asphere{};
+    double thicknessMm = 0.0;  // to the next surface; may be +-kInfinity for the object
+    Material material;         // medium after this surface (gap index = this surface's index)
+
+    // Clear (optical) semi-diameter and mechanical semi-diameter, mm. 0 = not given: the
+    // clear aperture is then computed from the marginal and chief rays (see analysis).
+    double clearSemiDiameterMm = 0.0;
+    double mechSemiDiameterMm = 0.0;
+    // The clear semi-diameter was computed by the program that wrote the file (a Zemax DIAM
+    // without a fixed solve): it sizes the part but does not vignette sequential rays, as in
+    // that program. A semi-diameter the user fixed does vignette.
+    bool semiDiameterAutomatic = false;
+
+    bool stop = false;
+    bool mirror = false;
+    std::string coating;  // coating or surface property name; empty = default for the scene
+
+    FileLoc origin;  // where in the input file this surface was defined
+
+    double radiusMm() const { return curvature == 0.0 ? kInfinity : 1.0 / curvature; }
+    bool hasAsphere() const;
+};
+std::ostream& operator<<(std::ostream& os, const Surface& s);
+
+// A lens element: glass between two surfaces. Cemented neighbours share a surface.
+struct Element {
+    std::string name;  // "L1", "L2", ...
+    int frontSurface = 0;
+    int backSurface = 0;
+    Material material;
+};
+std::ostream& operator<<(std::ostream& os, const Element& e);
+
+// How the system aperture is specified.
+struct SystemAperture {
+    enum class Kind {
+        EntrancePupilDiameter,  // value: mm
+        ImageSpaceFNumber,      // value: F/# = EFL / EPD (infinite conjugates)
+        ObjectSpaceNA,          // value: n sin(theta) of the marginal ray in object space
+        FloatByStop,            // value unused: the stop's clear semi-diameter sets it
+    };
+    Kind kind = Kind::EntrancePupilDiameter;
+    double value = 0.0;
+};
+std::ostream& operator<<(std::ostream& os, const SystemAperture& a);
+
+struct Field {
+    double x = 0.0;  // degrees for angle fields, mm for object heights
+    double y = 0.0;
+    double weight = 1.0;
+};
+
+struct Wavelength {
+    double nm = 0.0;
+    double weight = 1.0;
+};
+
+struct SystemData {
+    std::string name;
+    std::string notes;
+    SystemAperture aperture;
+    enum class FieldKind { AngleDeg, ObjectHeightMm };
+    FieldKind fieldKind = FieldKind::AngleDeg;
+    bool rectangularField = false;  // fields span a rectangle (x, y) rather than a radius
+    std::vector<Field> fields;
+    std::vector<Wavelength> wavelengths;
+    int primaryWavelength = 0;  // index into wavelengths
+    std::vector<std::string> glassCatalogs;  // preferred catalogs, in order (ZMX GCAT)
+};
+
+// A line of an import report: something in the input that was not used as written.
+struct ImportNote {
+    enum class Severity { Info, Warning, Error };
+    Severity severity = Severity::Warning;
+    FileLoc loc;
+    std::string message;
+};
+std::ostream& operator<<(std::ostream& os, const ImportNote& n);
+
+struct Prescription {
+    SystemData system;
+    std::vector<Surface> surfaces;  // [0] object ... [N-1] image
+    std::vector<ImportNote> report;
+    std::string sourceFile;
+
+    int stopIndex() const;   // the surface flagged stop; the first surface if none
+    int imageIndex() const { return static_cast<int>(surfaces.size()) - 1; }
+    // Lens elements, found from the gaps that hold glass.
+    std::vector<Element> elements() const;
+    // Gives surfaces their stable names (object, L<k>.front/.back, M<k>, stop, image, S<i>)
+    // unless a name was already set by the input file. Cemented faces take the name of the
+    // element in front (L2.back); aliasesOf() lists the other name (L3.front).
+    void assignNames();
+    std::vector<std::string> aliasesOf(int surfaceIndex) const;
+    // Structural checks: at least object, one surface and image; finite thicknesses except
+    // the object's; a mirror's material equals the incident medium; and so on. Throws
+    // ModelError naming the surface.
+    void validate() const;
+};
+
+}  // namespace veil

@@ -1,0 +1,452 @@
+// The [system] table of a veil TOML file. User documentation: docs/format.md.
+//
+//   key                 type                         default       meaning
+//   name, notes         string                       ""            title; data source
+//   wavelengths_nm      [nm, ...] | [{nm, weight}]   [587.5618]    in air, nm
+//   primary_wavelength  integer, 1-based             middle entry  reference wavelength
+//   aperture            { f_number | epd_mm | object_na | float_by_stop = true }, required
+//   fields_deg          [y, ...] | [[x, y], ...]     [0.0]         field angles, degrees
+//   fields_mm           same                         -             object heights, mm
+//   field_weights       [w, ...]                     all 1         one per field
+//   rectangular_field   bool                         false
+//   object_distance_mm  number | inf                 inf           object to surface 1, mm
+//   glass_catalogs      [name, ...]                  []            searched first
+//   surfaces            [{ row }, ...]               required      surfaces 1, 2, ...
+//
+//   row key             type                         default       meaning
+//   r | c               number (r = 0 or inf: flat)  flat          radius mm | curvature 1/mm
+//   t                   number                       required      to the next vertex, mm
+//   glass               "N-BK7" | "AIR" | {nd, vd, dpgf}           air; mirror: incident medium
+//   sd, mech_sd         number >= 0                  0 = not given clear, mechanical semi-dia.
+//   conic               number                       0             conic constant k
+//   asph                [A4, A6, ..., A20]           []            even asphere terms
+//   asph_r2             number                       0             A2 (r^2 term)
+//   stop, mirror        bool                         false
+//   coating, name, comment  string                   ""
+//   image               bool, last row only          false         the row is the image
+//
+// The reader builds the object surface from object_distance_mm, one surface per row, and the
+// image surface (flat, after the last row's t, unless the last row is an image row).
+
+#include "lensdata/toml_reader.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <sstream>
+
+namespace veil {
+
+namespace {
+
+bool equalsIgnoringCase(std::string_view a, std::string_view b) {
+    return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(), [](char x, char y) {
+               return std::tolower(static_cast<unsigned char>(x)) ==
+                      std::tolower(static_cast<unsigned char>(y));
+           });
+}
+
+// "'A', 'B' or 'C'"
+std::string quotedList(const std::vector<std::string>& items, std::string_view lastJoin) {
+    std::string out;
+    for (size_t i = 0; i < items.size(); ++i) {
+        if (i > 0) out += i + 1 == items.size() ? std::string(lastJoin) : std::string(", ");
+        out += "'" + items[i] + "'";
+    }
+    return out;
+}
+
+std::string rowPath(int surfaceIndex) {
+    return "system.surfaces[" + std::to_string(surfaceIndex) + "]";
+}
+
+// Among the values present, the one written last in the file (for "not both" errors).
+const TomlValue& laterInFile(const TomlValue& a, const TomlValue& b) {
+    const FileLoc la = a.loc(), lb = b.loc();
+    return std::pair(la.line, la.column) > std::pair(lb.line, lb.column) ? a : b;
+}
+
+// Lens Reader Definition
+
+class LensReader {
+  public:
+    explicit LensReader(const GlassCatalog& catalog) : catalog_(catalog) {}
+
+    // Reads everything; names and validation come in finish().
+    void read(TomlDocument& doc);
+    Prescription finish();
+
+  private:
+    void readGlassCatalogs(const TomlTable& system);
+    void readWavelengths(const TomlTable& system);
+    void readObjectDistance(const TomlTable& system);
+    void readSurfaces(const TomlTable& system);
+    void readRow(const TomlTable& row, bool last, Material& incident);
+    void readShape(const TomlTable& row, Surface& s);
+    Material readMaterial(const TomlValue& value) const;
+    void readAperture(const TomlTable& system);
+    void readFields(const TomlTable& system);
+
+    const GlassCatalog& catalog_;
+    Prescription p_;
+    int stopIndex_ = -1;  // the row flagged stop so far
+    bool sawImageRow_ = false;
+    // Names given in the file, by surface index, so duplicates are reported at the name.
+    std::vector<std::pair<int, TomlValue>> userNames_;
+};
+
+// Lens Reader Methods
+
+void LensReader::read(TomlDocument& doc) {
+    p_.sourceFile = doc.fileName();
+    const TomlTable root = doc.root();
+    const TomlValue systemValue = root.require(
+        "system", "a lens file starts with [system]: wavelengths_nm, aperture, fields, surfaces");
+    if (!systemValue.isTable()) systemValue.failExpected("a table [system]");
+    const TomlTable system = systemValue.asTable();
+
+    p_.system.name = system.string("name");
+    p_.system.notes = system.string("notes");
+    readGlassCatalogs(system);
+    readWavelengths(system);
+    readObjectDistance(system);
+    readSurfaces(system);
+    readAperture(system);  // after the surfaces: float_by_stop needs the stop
+    readFields(system);
+}
+
+void LensReader::readGlassCatalogs(const TomlTable& system) {
+    const auto value = system.get("glass_catalogs");
+    if (!value) return;
+    const std::vector<std::string> known = catalog_.catalogNames();
+    for (const TomlValue& entry : value->asArray()) {
+        const std::string name = entry.asString();
+        const auto it = std::find_if(known.begin(), known.end(), [&](const std::string& k) {
+            return equalsIgnoringCase(k, name);
+        });
+        if (it == known.end())
+            entry.fail("unknown glass catalog '" + name +
+                       "' (known: " + quotedList(known, " and ") + ")");
+        p_.system.glassCatalogs.push_back(*it);  // the catalog's own spelling
+    }
+}
+
+void LensReader::readWavelengths(const TomlTable& system) {
+    std::vector<Wavelength>& wavelengths = p_.system.wavelengths;
+    if (const auto value = system.get("wavelengths_nm")) {
+        const std::vector<TomlValue> entries = value->asArray();
+        if (entries.empty()) value->fail("wavelengths_nm needs at least one wavelength");
+        for (const TomlValue& entry : entries) {
+            Wavelength w;
+            if (entry.isTable()) {
+                const TomlTable t = entry.asTable();
+                w.nm = t.require("nm", "wavelength in nm").asNumber(NumberRange::above(0.0));
+                w.weight = t.number("weight", 1.0, NumberRange::atLeast(0.0));
+            } else if (entry.isNumber()) {
+                w.nm = entry.asNumber(NumberRange::above(0.0));
+            } else {
+                entry.failExpected("a wavelength in nm or a table { nm = 587.56, weight = 1 }");
+            }
+            // Not an error: EUV mirror systems work at 13.5 nm. But 0.5876 is far more
+            // often a wavelength in micrometres.
+            if (w.nm < 100.0) {
+                std::ostringstream message;
+                message << "wavelength " << w.nm
+                        << " nm is below 100 nm; wavelengths_nm is in nm, not um";
+                p_.report.push_back({ImportNote::Severity::Warning, entry.loc(), message.str()});
+            }
+            wavelengths.push_back(w);
+        }
+    } else {
+        wavelengths.push_back({kLineD, 1.0});
+    }
+    const int n = static_cast<int>(wavelengths.size());
+    if (const auto value = system.get("primary_wavelength"))
+        p_.system.primaryWavelength =
+            static_cast<int>(value->asInteger(NumberRange::between(1, n))) - 1;
+    else
+        p_.system.primaryWavelength = (n - 1) / 2;
+}
+
+void LensReader::readObjectDistance(const TomlTable& system) {
+    Surface object;
+    object.thicknessMm = kInfinity;
+    object.origin = system.loc();
+    if (const auto value = system.get("object_distance_mm")) {
+        object.thicknessMm = value->asNumber(NumberRange::any().orInfinite());
+        if (object.thicknessMm == -kInfinity)
+            value->fail("object_distance_mm = -inf: write inf for an object at infinity");
+        object.origin = value->loc();
+    }
+    p_.surfaces.push_back(object);
+}
+
+void LensReader::readSurfaces(const TomlTable& system) {
+    const TomlValue rowsValue = system.require(
+        "surfaces", "the lens rows: surfaces = [ { r = ..., t = ..., glass = ... }, ... ]");
+    const std::vector<TomlValue> rows = rowsValue.asArray();
+    Material incident = Material::air();  // object space
+    for (size_t i = 0; i < rows.size(); ++i) {
+        if (!rows[i].isTable())
+            rows[i].failExpected("a surface row { r = ..., t = ..., glass = ..., sd = ... }");
+        readRow(rows[i].asTable(), i + 1 == rows.size(), incident);
+    }
+    // Object plus at least one real surface; the image may be the last row or implicit.
+    const size_t realSurfaces = p_.surfaces.size() - 1 - (sawImageRow_ ? 1 : 0);
+    if (realSurfaces == 0)
+        rowsValue.fail("surfaces needs at least one surface row before the image");
+    if (!sawImageRow_) {
+        Surface image;
+        image.material = incident;
+        image.origin = rows.back().loc();
+        p_.surfaces.push_back(image);
+    }
+}
+
+void LensReader::readRow(const TomlTable& row, bool last, Material& incident) {
+    const int index = static_cast<int>(p_.surfaces.size());
+    Surface s;
+    s.origin = row.loc();
+
+    bool image = false;
+    if (const auto flag = row.get("image")) {
+        image = flag->asBool();
+        if (image && !last)
+            flag->fail("only the last row can be the image row { image = true, ... }");
+    }
+
+    readShape(row, s);
+    s.clearSemiDiameterMm = row.number("sd", 0.0, NumberRange::atLeast(0.0));
+    s.mechSemiDiameterMm = row.number("mech_sd", 0.0, NumberRange::atLeast(0.0));
+    s.coating = row.string("coating");
+    s.comment = row.string("comment");
+    if (const auto name = row.get("name")) {
+        s.name = name->asString();
+        const bool valid = !s.name.empty() && std::all_of(s.name.begin(), s.name.end(), [](char c) {
+            return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '.' || c == '-';
+        });
+        if (!valid)
+            name->fail("surface name '" + s.name +
+                       "' may hold letters, digits, '_', '.' and '-' only (names are typed in "
+                       "path criteria)");
+        userNames_.emplace_back(index, *name);
+    }
+
+    if (image) {
+        for (const char* key : {"t", "glass", "stop", "mirror"}) {
+            if (const auto v = row.get(key))
+                v->fail(std::string("the image row takes no '") + key +
+                        "' (the previous row's t is the distance to the image)");
+        }
+        s.material = incident;
+        sawImageRow_ = true;
+        p_.surfaces.push_back(s);
+        return;
+    }
+
+    s.thicknessMm =
+        row.require("t", "thickness to the next surface in mm; t = 0 is allowed").asNumber();
+    if (const auto flag = row.get("stop")) {
+        s.stop = flag->asBool();
+        if (s.stop && stopIndex_ >= 0)
+            flag->fail("only one surface can be the stop; " + rowPath(stopIndex_) + " already is");
+        if (s.stop) stopIndex_ = index;
+    }
+    s.mirror = row.boolean("mirror", false);
+    const auto glass = row.get("glass");
+    if (s.mirror) {
+        // A mirror reflects back into the medium the light came from.
+        s.material = incident;
+        if (glass && !(readMaterial(*glass) == incident))
+            glass->fail("a mirror keeps the medium: after the mirror " + rowPath(index) +
+                        " the light travels back through the incident medium " + incident.label() +
+                        "; leave 'glass' out of mirror rows (or repeat " + incident.label() + ")");
+    } else {
+        s.material = glass ? readMaterial(*glass) : Material::air();
+    }
+    incident = s.material;
+    p_.surfaces.push_back(s);
+}
+
+void LensReader::readShape(const TomlTable& row, Surface& s) {
+    const auto r = row.get("r");
+    const auto c = row.get("c");
+    if (r && c) laterInFile(*r, *c).fail("give the radius r or the curvature c, not both");
+    if (r) {
+        const double radius = r->asNumber(NumberRange::any().orInfinite());
+        s.curvature = radius == 0.0 || std::isinf(radius) ? 0.0 : 1.0 / radius;
+    } else if (c) {
+        s.curvature = c->asNumber();
+    }
+    s.conic = row.number("conic", 0.0);
+    s.asphere[0] = row.number("asph_r2", 0.0);
+    if (const auto asph = row.get("asph")) {
+        const std::vector<TomlValue> terms = asph->asArray();
+        if (terms.size() + 1 > s.asphere.size())
+            asph->fail("asph lists A4, A6, ..., A20: at most " +
+                       std::to_string(s.asphere.size() - 1) + " terms (got " +
+                       std::to_string(terms.size()) + ")");
+        for (size_t j = 0; j < terms.size(); ++j) s.asphere[j + 1] = terms[j].asNumber();
+    }
+}
+
+Material LensReader::readMaterial(const TomlValue& value) const {
+    if (value.isString()) {
+        const std::string name = value.asString();
+        if (equalsIgnoringCase(name, "AIR")) return Material::air();
+        if (const Glass* glass = catalog_.find(name, p_.system.glassCatalogs))
+            return Material::catalog(glass->name());
+        std::string message = "unknown glass '" + name + "'";
+        const std::vector<std::string> suggestions = catalog_.suggestions(name);
+        if (!suggestions.empty())
+            message += " (did you mean " + quotedList(suggestions, " or ") + "?)";
+        value.fail(message);
+    }
+    if (value.isTable()) {
+        const TomlTable model = value.asTable();
+        const double nd = model.require("nd", "refractive index at 587.56 nm")
+                              .asNumber(NumberRange::atLeast(1.0));
+        const double vd = model.require("vd", "Abbe number").asNumber(NumberRange::above(0.0));
+        const double dPgF = model.number("dpgf", 0.0);
+        return Material::model(nd, vd, dPgF);
+    }
+    value.failExpected(
+        "a catalog glass name (\"N-BK7\"), \"AIR\" or a model glass { nd = 1.5168, vd = 64.17 }");
+}
+
+void LensReader::readAperture(const TomlTable& system) {
+    const TomlValue value =
+        system.require("aperture",
+                       "one of { f_number = ... }, { epd_mm = ... }, { object_na = ... }, "
+                       "{ float_by_stop = true }");
+    if (!value.isTable()) value.failExpected("a table such as { f_number = 2.0 }");
+    const TomlTable aperture = value.asTable();
+
+    std::vector<std::pair<std::string, TomlValue>> given;
+    for (const char* key : {"f_number", "epd_mm", "object_na", "float_by_stop"})
+        if (const auto v = aperture.get(key)) given.emplace_back(key, *v);
+    if (given.empty())
+        aperture.fail("aperture needs one of f_number, epd_mm, object_na or float_by_stop = true");
+    if (given.size() > 1)
+        laterInFile(given[0].second, given[1].second)
+            .fail("aperture takes one of f_number, epd_mm, object_na and float_by_stop, not '" +
+                  given[0].first + "' and '" + given[1].first + "'");
+
+    const auto& [key, v] = given.front();
+    SystemAperture& a = p_.system.aperture;
+    if (key == "f_number") {
+        a = {SystemAperture::Kind::ImageSpaceFNumber, v.asNumber(NumberRange::above(0.0))};
+    } else if (key == "epd_mm") {
+        a = {SystemAperture::Kind::EntrancePupilDiameter, v.asNumber(NumberRange::above(0.0))};
+    } else if (key == "object_na") {
+        a = {SystemAperture::Kind::ObjectSpaceNA, v.asNumber(NumberRange::strictlyBetween(0, 1))};
+        if (std::isinf(p_.surfaces[0].thicknessMm))
+            v.fail(
+                "object_na needs a finite object_distance_mm; use f_number or epd_mm for an "
+                "object at infinity");
+    } else {
+        if (!v.asBool())
+            v.fail("float_by_stop = false sets no aperture; give f_number, epd_mm or object_na");
+        const int stop = p_.stopIndex();
+        if (p_.surfaces[stop].clearSemiDiameterMm <= 0.0)
+            v.fail("float_by_stop takes the aperture from the stop's sd, but the stop " +
+                   rowPath(stop) + " has none");
+        a = {SystemAperture::Kind::FloatByStop, 0.0};
+    }
+}
+
+void LensReader::readFields(const TomlTable& system) {
+    SystemData& sys = p_.system;
+    const auto deg = system.get("fields_deg");
+    const auto mm = system.get("fields_mm");
+    if (deg && mm)
+        laterInFile(*deg, *mm).fail(
+            "give fields_deg (angles) or fields_mm (object heights), "
+            "not both");
+    if (mm && std::isinf(p_.surfaces[0].thicknessMm))
+        mm->fail(
+            "fields_mm gives object heights, which need a finite object_distance_mm; use "
+            "fields_deg for an object at infinity");
+    sys.fieldKind = mm ? SystemData::FieldKind::ObjectHeightMm : SystemData::FieldKind::AngleDeg;
+    const NumberRange range = mm ? NumberRange::any() : NumberRange::strictlyBetween(-90, 90);
+
+    if (const auto& list = deg ? deg : mm) {
+        const std::vector<TomlValue> entries = list->asArray();
+        if (entries.empty()) list->fail(list->path() + " needs at least one field");
+        for (const TomlValue& entry : entries) {
+            Field f;
+            if (entry.isNumber()) {
+                f.y = entry.asNumber(range);
+            } else if (entry.isArray()) {
+                const std::vector<TomlValue> xy = entry.asArray();
+                if (xy.size() != 2)
+                    entry.fail(entry.path() + " must be a pair [x, y] (got " +
+                               std::to_string(xy.size()) + " numbers)");
+                f.x = xy[0].asNumber(range);
+                f.y = xy[1].asNumber(range);
+            } else {
+                entry.failExpected("a number (y) or a pair [x, y]");
+            }
+            sys.fields.push_back(f);
+        }
+    } else {
+        sys.fields.push_back({});  // on axis
+    }
+
+    if (const auto weights = system.get("field_weights")) {
+        const std::vector<TomlValue> entries = weights->asArray();
+        if (entries.size() != sys.fields.size())
+            weights->fail("field_weights has " + std::to_string(entries.size()) + " entries for " +
+                          std::to_string(sys.fields.size()) + " fields");
+        for (size_t i = 0; i < entries.size(); ++i)
+            sys.fields[i].weight = entries[i].asNumber(NumberRange::atLeast(0.0));
+    }
+    sys.rectangularField = system.boolean("rectangular_field", false);
+}
+
+Prescription LensReader::finish() {
+    p_.assignNames();
+    const int n = static_cast<int>(p_.surfaces.size());
+    for (const auto& [index, value] : userNames_) {
+        for (int j = 0; j < n; ++j) {
+            if (j == index || p_.surfaces[j].name != p_.surfaces[index].name) continue;
+            const std::string other = j == 0       ? "the object surface"
+                                      : j == n - 1 ? "the image surface"
+                                                   : rowPath(j);
+            value.fail("surface name '" + p_.surfaces[index].name + "' is also the name of " +
+                       other);
+        }
+    }
+    p_.validate();
+    return std::move(p_);
+}
+
+}  // namespace
+
+// TOML Reader Public Functions
+
+Prescription readTomlPrescription(TomlDocument& doc, const GlassCatalog& catalog) {
+    LensReader reader(catalog);
+    reader.read(doc);
+    return reader.finish();
+}
+
+Prescription readTomlPrescriptionText(std::string_view text, const std::string& fileName,
+                                      const GlassCatalog& catalog) {
+    TomlDocument doc = TomlDocument::fromString(text, fileName);
+    LensReader reader(catalog);
+    reader.read(doc);
+    doc.checkAllUsed();  // a misspelt key explains more than the model check it may cause
+    return reader.finish();
+}
+
+Prescription readTomlPrescriptionFile(const std::filesystem::path& path,
+                                      const GlassCatalog& catalog) {
+    TomlDocument doc = TomlDocument::fromFile(path);
+    LensReader reader(catalog);
+    reader.read(doc);
+    doc.checkAllUsed();
+    return reader.finish();
+}
+
+}  // namespace veil

@@ -1,0 +1,994 @@
+// Zemax .zmx import. User documentation: docs/zmx-import.md; overview in zmx_reader.h.
+//
+// The reader works in three passes over the decoded text:
+//   1. split lines into whitespace-separated tokens (a "quoted string" is one token), each
+//      with its 1-based column;
+//   2. dispatch every line on its command tag, filling surfaces in file units and collecting
+//      header data (fields, wavelengths, aperture, units) and glass references;
+//   3. resolve glasses against the catalog (the file's GCAT order first), give mirrors the
+//      incident medium, convert lengths to mm, assemble fields and wavelengths, and add the
+//      summary notes. Then Prescription::assignNames() and validate().
+
+#include "lensdata/zmx_reader.h"
+
+#include <algorithm>
+#include <array>
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <optional>
+#include <sstream>
+#include <vector>
+
+namespace veil {
+
+// Text Decoding
+
+namespace {
+
+void appendUtf8(std::string& out, char32_t cp) {
+    if (cp < 0x80) {
+        out += static_cast<char>(cp);
+    } else if (cp < 0x800) {
+        out += static_cast<char>(0xC0 | (cp >> 6));
+        out += static_cast<char>(0x80 | (cp & 0x3F));
+    } else if (cp < 0x10000) {
+        out += static_cast<char>(0xE0 | (cp >> 12));
+        out += static_cast<char>(0x80 | ((cp >> 6) & 0x3F));
+        out += static_cast<char>(0x80 | (cp & 0x3F));
+    } else {
+        out += static_cast<char>(0xF0 | (cp >> 18));
+        out += static_cast<char>(0x80 | ((cp >> 12) & 0x3F));
+        out += static_cast<char>(0x80 | ((cp >> 6) & 0x3F));
+        out += static_cast<char>(0x80 | (cp & 0x3F));
+    }
+}
+
+std::string decodeUtf16(std::string_view bytes, bool bigEndian) {
+    std::string out;
+    out.reserve(bytes.size() / 2);
+    auto unit = [&](size_t i) -> char32_t {
+        const auto b0 = static_cast<unsigned char>(bytes[i]);
+        const auto b1 = static_cast<unsigned char>(bytes[i + 1]);
+        return bigEndian ? (char32_t(b0) << 8 | b1) : (char32_t(b1) << 8 | b0);
+    };
+    const size_t n = bytes.size() & ~size_t(1);  // a dangling odd byte is dropped
+    for (size_t i = 0; i < n; i += 2) {
+        char32_t u = unit(i);
+        if (u >= 0xD800 && u < 0xDC00 && i + 3 < n) {
+            const char32_t lo = unit(i + 2);
+            if (lo >= 0xDC00 && lo < 0xE000) {
+                appendUtf8(out, 0x10000 + ((u - 0xD800) << 10) + (lo - 0xDC00));
+                i += 2;
+                continue;
+            }
+        }
+        if (u >= 0xD800 && u < 0xE000) u = 0xFFFD;  // unpaired surrogate
+        appendUtf8(out, u);
+    }
+    return out;
+}
+
+bool isValidUtf8(std::string_view s) {
+    for (size_t i = 0; i < s.size();) {
+        const auto c = static_cast<unsigned char>(s[i]);
+        const int extra = c < 0x80             ? 0
+                          : (c & 0xE0) == 0xC0 ? 1
+                          : (c & 0xF0) == 0xE0 ? 2
+                          : (c & 0xF8) == 0xF0 ? 3
+                                               : -1;
+        if (extra < 0 || s.size() - i <= static_cast<size_t>(extra)) return false;
+        for (int k = 1; k <= extra; ++k)
+            if ((static_cast<unsigned char>(s[i + k]) & 0xC0) != 0x80) return false;
+        i += extra + 1;
+    }
+    return true;
+}
+
+}  // namespace
+
+std::string decodeZemaxText(std::string_view bytes) {
+    auto startsWith = [&](std::initializer_list<unsigned char> bom) {
+        if (bytes.size() < bom.size()) return false;
+        size_t i = 0;
+        for (unsigned char b : bom)
+            if (static_cast<unsigned char>(bytes[i++]) != b) return false;
+        return true;
+    };
+    if (startsWith({0xEF, 0xBB, 0xBF}))
+        bytes.remove_prefix(3);
+    else if (startsWith({0xFF, 0xFE}))
+        return decodeUtf16(bytes.substr(2), false);
+    else if (startsWith({0xFE, 0xFF}))
+        return decodeUtf16(bytes.substr(2), true);
+    else if (bytes.size() >= 4) {
+        // No BOM: ASCII text in UTF-16 has a NUL in every other byte (odd offsets for little
+        // endian, even offsets for big endian). Text files have no NULs at all, so a clear
+        // majority decides.
+        const size_t n = std::min<size_t>(bytes.size() & ~size_t(1), 1024);
+        size_t evenNul = 0, oddNul = 0;
+        for (size_t i = 0; i < n; ++i)
+            if (bytes[i] == '\0') (i % 2 ? oddNul : evenNul)++;
+        const size_t pairs = n / 2;
+        if (oddNul * 2 > pairs && evenNul * 8 < pairs) return decodeUtf16(bytes, false);
+        if (evenNul * 2 > pairs && oddNul * 8 < pairs) return decodeUtf16(bytes, true);
+    }
+    if (isValidUtf8(bytes)) return std::string(bytes);
+    // Older Zemax versions write the Windows code page; read it as Latin-1.
+    std::string out;
+    out.reserve(bytes.size() + bytes.size() / 8);
+    for (char c : bytes) appendUtf8(out, static_cast<unsigned char>(c));
+    return out;
+}
+
+namespace {
+
+// Tokens and Lines
+
+struct Token {
+    std::string_view text;  // without the quotes of a "quoted" token
+    size_t offset = 0;      // byte offset in the line, of the opening quote if quoted
+    bool quoted = false;
+};
+
+struct Line {
+    int number = 0;
+    std::string_view text;
+    std::vector<Token> tokens;
+};
+
+std::vector<Token> tokenize(std::string_view text) {
+    std::vector<Token> out;
+    size_t i = 0;
+    auto isSpace = [](char c) { return c == ' ' || c == '\t' || c == '\f' || c == '\v'; };
+    while (i < text.size()) {
+        while (i < text.size() && isSpace(text[i])) ++i;
+        if (i >= text.size()) break;
+        Token t;
+        t.offset = i;
+        if (text[i] == '"') {
+            const size_t close = text.find('"', i + 1);
+            const size_t end = close == std::string_view::npos ? text.size() : close;
+            t.text = text.substr(i + 1, end - i - 1);
+            t.quoted = true;
+            i = close == std::string_view::npos ? text.size() : close + 1;
+        } else {
+            const size_t start = i;
+            while (i < text.size() && !isSpace(text[i])) ++i;
+            t.text = text.substr(start, i - start);
+        }
+        out.push_back(t);
+    }
+    return out;
+}
+
+std::vector<Line> splitLines(std::string_view text) {
+    std::vector<Line> out;
+    int number = 1;
+    size_t start = 0;
+    while (start <= text.size()) {
+        size_t end = text.find_first_of("\r\n", start);
+        if (end == std::string_view::npos) end = text.size();
+        Line line;
+        line.number = number++;
+        line.text = text.substr(start, end - start);
+        line.tokens = tokenize(line.text);
+        if (!line.tokens.empty()) out.push_back(std::move(line));
+        if (end == text.size()) break;
+        // CR LF, LF and lone CR all end a line.
+        start =
+            end + ((text[end] == '\r' && end + 1 < text.size() && text[end + 1] == '\n') ? 2 : 1);
+    }
+    return out;
+}
+
+std::string upper(std::string_view s) {
+    std::string out(s);
+    for (char& c : out) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    return out;
+}
+
+std::string trim(std::string_view s) {
+    const auto b = s.find_first_not_of(" \t");
+    if (b == std::string_view::npos) return {};
+    const auto e = s.find_last_not_of(" \t");
+    return std::string(s.substr(b, e - b + 1));
+}
+
+std::string formatNumber(double v) {
+    std::ostringstream os;
+    os.precision(10);
+    os << v;
+    return os.str();
+}
+
+std::string joinNames(const std::vector<std::string>& names) {
+    std::string out;
+    for (size_t i = 0; i < names.size(); ++i) out += (i ? ", " : "") + names[i];
+    return out;
+}
+
+// Commands that only concern display, solves, optimization, tolerancing or analysis settings.
+// They do not change the surfaces the reader imports (solves and pickups are already evaluated
+// in the values the file stores), so they are summarized in one Info note per tag.
+struct SkippedTag {
+    const char* tag;
+    const char* meaning;
+};
+constexpr std::array kSkippedTags = {
+    SkippedTag{"VERS", "program version"},
+    SkippedTag{"PFIL", "file settings"},
+    SkippedTag{"LANG", "user interface language"},
+    SkippedTag{"GFAC", "glass substitution settings"},
+    SkippedTag{"RAIM", "ray aiming settings"},
+    SkippedTag{"PUSH", "lens push settings"},
+    SkippedTag{"SDMA", "semi-diameter margin settings"},
+    SkippedTag{"OMMA", "mechanical semi-diameter settings"},
+    SkippedTag{"ROPD", "OPD reference settings"},
+    SkippedTag{"HYPR", "huygens/analysis settings"},
+    SkippedTag{"PICB", "paraxial ignore-coordinate-break setting"},
+    SkippedTag{"VDXN", "field vignetting decenter x (clear apertures are used instead)"},
+    SkippedTag{"VDYN", "field vignetting decenter y (clear apertures are used instead)"},
+    SkippedTag{"VCXN", "field vignetting compression x (clear apertures are used instead)"},
+    SkippedTag{"VCYN", "field vignetting compression y (clear apertures are used instead)"},
+    SkippedTag{"VANN", "field vignetting angle (clear apertures are used instead)"},
+    SkippedTag{"POLS", "polarization analysis settings"},
+    SkippedTag{"GLRS", "glass rest settings"},
+    SkippedTag{"GSTD", "glass substitution template"},
+    SkippedTag{"NSCD", "non-sequential ray trace settings"},
+    SkippedTag{"COFN", "coating, scatter and profile data file names"},
+    SkippedTag{"TOL", "tolerance data"},
+    SkippedTag{"TOLE", "tolerance data"},
+    SkippedTag{"MOFF", "multi-configuration operand data"},
+    SkippedTag{"MNUM", "configuration count"},
+    SkippedTag{"REAY", "merit function operand"},
+    SkippedTag{"EFLY", "merit function operand"},
+    SkippedTag{"DMFS", "default merit function settings"},
+    SkippedTag{"BLNK", "merit function separator"},
+    SkippedTag{"OPDX", "OPD settings"},
+    SkippedTag{"FIMP", "surface import data"},
+    SkippedTag{"HIDE", "surface drawing visibility"},
+    SkippedTag{"SLAB", "surface label number"},
+    SkippedTag{"POPS", "physical optics settings"},
+    SkippedTag{"MIRR", "mirror substrate drawing data (the mirror flag is GLAS MIRROR)"},
+    SkippedTag{"PZUP", "thickness pickup (the picked-up thickness in DISZ was imported)"},
+    SkippedTag{"FLAP", "floating aperture solve (the semi-diameter in DIAM was imported)"},
+    SkippedTag{"MAZH", "thickness solve (the solved thickness in DISZ was imported)"},
+};
+
+const SkippedTag* findSkipped(std::string_view tag) {
+    for (const SkippedTag& s : kSkippedTags)
+        if (tag == s.tag) return &s;
+    return nullptr;
+}
+
+// The lens unit of a UNIT line and its length in mm.
+std::optional<double> mmPerUnit(std::string_view unit) {
+    const std::string u = upper(unit);
+    if (u == "MM") return 1.0;
+    if (u == "CM") return 10.0;
+    if (u == "IN" || u == "INCH" || u == "INCHES") return 25.4;
+    if (u == "M" || u == "METER" || u == "METERS") return 1000.0;
+    return std::nullopt;
+}
+
+// Parser
+
+class ZmxParser {
+  public:
+    ZmxParser(std::string fileName, const GlassCatalog& catalog)
+        : file_(std::move(fileName)), catalog_(catalog) {}
+
+    Prescription parse(std::string_view decoded);
+
+  private:
+    using Severity = ImportNote::Severity;
+
+    // A GLAS line, resolved after the whole file is read (GCAT may come anywhere).
+    struct GlassRef {
+        int surface = 0;
+        std::string name;
+        int solve = 0;
+        std::optional<double> nd, vd, dPgF;
+        FileLoc loc;
+    };
+    // A surface whose TYPE is not imported: the note is written when its block ends, so that
+    // it can list the parameters that were lost.
+    struct UnsupportedSurface {
+        std::string type;
+        FileLoc loc;
+        std::vector<std::string> lostParameters;
+    };
+    struct TagCount {
+        int count = 0;
+        FileLoc first;
+    };
+
+    // Positions and values
+    FileLoc locOf(const Line& line, size_t byteOffset) const;
+    FileLoc locOf(const Line& line) const { return {file_, line.number, 1}; }
+    FileLoc locOf(const Line& line, const Token& t) const { return locOf(line, t.offset); }
+    const Token& arg(const Line& line, size_t i, const char* what) const;
+    double number(const Line& line, size_t i, const char* what) const;
+    std::optional<double> optionalNumber(const Line& line, size_t i) const;
+    int integer(const Line& line, size_t i, const char* what) const;
+    std::vector<double> numberList(const Line& line) const;
+    std::string restOfLine(const Line& line, size_t firstToken) const;
+
+    void note(Severity s, FileLoc loc, std::string message) {
+        report_.push_back({s, std::move(loc), std::move(message)});
+    }
+    void countSolve(const std::string& what, const FileLoc& loc) {
+        TagCount& c = solves_[what];
+        if (c.count++ == 0) c.first = loc;
+    }
+
+    // Commands
+    void dispatch(const Line& line);
+    bool headerCommand(const std::string& tag, const Line& line);
+    bool surfaceCommand(const std::string& tag, const Line& line);
+    Surface& current(const Line& line, const std::string& tag);
+    void endSurface();
+
+    // Post-processing
+    void resolveGlasses();
+    void applyMirrors();
+    void convertUnits();
+    void buildFields();
+    void buildWavelengths();
+    void buildAperture();
+    void checkApertures();
+    void summarize();
+
+    std::string file_;
+    const GlassCatalog& catalog_;
+    Prescription rx_;
+    std::vector<ImportNote> report_;
+
+    // Surfaces
+    std::optional<UnsupportedSurface> unsupported_;
+    std::vector<std::string> surfaceTypes_;  // TYPE of each surface, upper case
+    std::vector<GlassRef> glasses_;
+
+    // Header
+    double mmPerUnit_ = 1.0;
+    std::string unitName_ = "MM";
+    FileLoc unitLoc_;
+    std::optional<int> fieldType_;
+    FileLoc fieldTypeLoc_;
+    std::optional<int> fieldCount_, waveCount_;
+    std::vector<double> xFields_, yFields_, fieldWeights_;
+    bool oldFieldForm_ = false;
+    std::map<int, std::pair<double, double>> wavm_;  // index -> (um, weight)
+    std::vector<double> waveList_, waveWeights_;     // WAVL / WAVN and WWGT / WWGN
+    FileLoc waveLoc_;
+    std::optional<int> primaryWave_;
+    FileLoc primaryWaveLoc_;
+    struct ApertureLine {
+        std::string tag;
+        double value = 0.0;
+        int flag = 0;
+        FileLoc loc;
+    };
+    std::vector<ApertureLine> apertureLines_;
+
+    // Summaries
+    std::map<std::string, TagCount> skipped_;  // known, display-only tags
+    std::map<std::string, TagCount> solves_;   // solves and pickups on imported values
+};
+
+FileLoc ZmxParser::locOf(const Line& line, size_t byteOffset) const {
+    // Columns count characters: skip UTF-8 continuation bytes.
+    int column = 1;
+    for (size_t i = 0; i < byteOffset && i < line.text.size(); ++i)
+        if ((static_cast<unsigned char>(line.text[i]) & 0xC0) != 0x80) ++column;
+    return {file_, line.number, column};
+}
+
+const Token& ZmxParser::arg(const Line& line, size_t i, const char* what) const {
+    if (i >= line.tokens.size())
+        throw ParseError(locOf(line, line.text.size()),
+                         std::string(line.tokens[0].text) + ": missing " + what);
+    return line.tokens[i];
+}
+
+double ZmxParser::number(const Line& line, size_t i, const char* what) const {
+    const Token& t = arg(line, i, what);
+    std::string_view s = t.text;
+    if (!s.empty() && s[0] == '+') s.remove_prefix(1);
+    double v = 0.0;
+    const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+    if (t.quoted || s.empty() || ec != std::errc() || end != s.data() + s.size() ||
+        !std::isfinite(v))
+        throw ParseError(locOf(line, t), std::string(line.tokens[0].text) + ": malformed " + what +
+                                             " '" + std::string(t.text) + "'");
+    return v;
+}
+
+std::optional<double> ZmxParser::optionalNumber(const Line& line, size_t i) const {
+    if (i >= line.tokens.size()) return std::nullopt;
+    return number(line, i, "number");
+}
+
+int ZmxParser::integer(const Line& line, size_t i, const char* what) const {
+    // Zemax sometimes writes integers as "6.0"; accept integral values.
+    const double v = number(line, i, what);
+    if (v != std::floor(v) || std::abs(v) > 1e9)
+        throw ParseError(locOf(line, line.tokens[i]),
+                         std::string(line.tokens[0].text) + ": expected an integer " + what +
+                             ", got '" + std::string(line.tokens[i].text) + "'");
+    return static_cast<int>(v);
+}
+
+std::vector<double> ZmxParser::numberList(const Line& line) const {
+    std::vector<double> out;
+    for (size_t i = 1; i < line.tokens.size(); ++i) out.push_back(number(line, i, "value"));
+    return out;
+}
+
+std::string ZmxParser::restOfLine(const Line& line, size_t firstToken) const {
+    if (firstToken >= line.tokens.size()) return {};
+    std::string s = trim(line.text.substr(line.tokens[firstToken].offset));
+    if (s.size() >= 2 && s.front() == '"' && s.back() == '"') s = s.substr(1, s.size() - 2);
+    return s;
+}
+
+Surface& ZmxParser::current(const Line& line, const std::string& tag) {
+    if (rx_.surfaces.empty())
+        throw ParseError(locOf(line), tag + " appears before the first SURF line");
+    return rx_.surfaces.back();
+}
+
+// Command Dispatch
+
+void ZmxParser::dispatch(const Line& line) {
+    const std::string tag(line.tokens[0].text);
+    if (tag == "SURF") {
+        endSurface();
+        const int index = integer(line, 1, "surface number");
+        const int expected = static_cast<int>(rx_.surfaces.size());
+        if (index != expected)
+            note(Severity::Warning, locOf(line, line.tokens[1]),
+                 "SURF " + std::to_string(index) + " is surface " + std::to_string(expected) +
+                     " in file order; surfaces are numbered in file order");
+        Surface s;
+        s.origin = locOf(line);
+        rx_.surfaces.push_back(std::move(s));
+        surfaceTypes_.push_back("STANDARD");
+        return;
+    }
+    if (headerCommand(tag, line)) return;
+    if (surfaceCommand(tag, line)) return;
+    if (const SkippedTag* s = findSkipped(tag)) {
+        TagCount& c = skipped_[s->tag];
+        if (c.count++ == 0) c.first = locOf(line);
+        return;
+    }
+    note(Severity::Warning, locOf(line),
+         "unknown command '" + tag + "' ignored: " + trim(line.text));
+}
+
+bool ZmxParser::headerCommand(const std::string& tag, const Line& line) {
+    SystemData& sys = rx_.system;
+    if (tag == "NAME") {
+        sys.name = restOfLine(line, 1);
+    } else if (tag == "NOTE") {
+        // NOTE <index> <text>
+        size_t first = 1;
+        if (line.tokens.size() > 1 && !line.tokens[1].text.empty() &&
+            std::all_of(line.tokens[1].text.begin(), line.tokens[1].text.end(),
+                        [](char c) { return std::isdigit(static_cast<unsigned char>(c)); }))
+            first = 2;
+        const std::string text = restOfLine(line, first);
+        if (!text.empty()) sys.notes += (sys.notes.empty() ? "" : "\n") + text;
+    } else if (tag == "MODE") {
+        const std::string mode = upper(arg(line, 1, "mode").text);
+        if (mode != "SEQ")
+            note(Severity::Error, locOf(line, line.tokens[1]),
+                 "MODE " + mode +
+                     ": only sequential systems are imported; non-sequential objects are "
+                     "ignored");
+    } else if (tag == "UNIT") {
+        const Token& t = arg(line, 1, "lens unit");
+        const auto mm = mmPerUnit(t.text);
+        if (!mm)
+            throw ParseError(locOf(line, t), "UNIT: unknown lens unit '" + std::string(t.text) +
+                                                 "' (expected MM, CM, IN or METER)");
+        mmPerUnit_ = *mm;
+        unitName_ = upper(t.text);
+        unitLoc_ = locOf(line);
+    } else if (tag == "ENPD" || tag == "FNUM" || tag == "OBNA") {
+        ApertureLine a{tag, number(line, 1, "aperture value"), 0, locOf(line)};
+        if (line.tokens.size() > 2) a.flag = integer(line, 2, "aperture flag");
+        apertureLines_.push_back(a);
+    } else if (tag == "FLOA") {
+        apertureLines_.push_back({tag, 0.0, 0, locOf(line)});
+    } else if (tag == "ENVD") {
+        // ENVD <temperature C> <pressure atm> <flag>
+        const double temperatureC = number(line, 1, "temperature");
+        const double pressureAtm = line.tokens.size() > 2 ? number(line, 2, "pressure") : 1.0;
+        if (std::abs(temperatureC - 20.0) > 1e-9 || std::abs(pressureAtm - 1.0) > 1e-9)
+            note(Severity::Warning, locOf(line),
+                 "environment " + formatNumber(temperatureC) + " C, " + formatNumber(pressureAtm) +
+                     " atm ignored: indices are taken at the catalog reference (20 C, 1 atm) "
+                     "and no thermal expansion is applied");
+    } else if (tag == "GCAT") {
+        sys.glassCatalogs.clear();
+        const auto known = catalog_.catalogNames();
+        for (size_t i = 1; i < line.tokens.size(); ++i) {
+            const std::string name = upper(line.tokens[i].text);
+            sys.glassCatalogs.push_back(name);
+            const bool loaded = std::any_of(known.begin(), known.end(),
+                                            [&](const auto& k) { return upper(k) == name; });
+            if (!loaded)
+                note(Severity::Info, locOf(line, line.tokens[i]),
+                     "glass catalog " + name +
+                         " named by GCAT is not loaded; glasses are "
+                         "looked up in the other catalogs");
+        }
+    } else if (tag == "FTYP") {
+        // FTYP <type> <object telecentric> <field count> <wavelength count> <?> <?> <afocal>
+        fieldType_ = integer(line, 1, "field type");
+        fieldTypeLoc_ = locOf(line, line.tokens[1]);
+        if (line.tokens.size() > 2 && integer(line, 2, "telecentric flag") != 0)
+            note(Severity::Warning, locOf(line, line.tokens[2]),
+                 "object space telecentric is not supported; the pupil is found from the stop");
+        if (line.tokens.size() > 3) fieldCount_ = integer(line, 3, "field count");
+        if (line.tokens.size() > 4) waveCount_ = integer(line, 4, "wavelength count");
+        if (line.tokens.size() > 7 && integer(line, 7, "afocal flag") != 0)
+            note(Severity::Warning, locOf(line, line.tokens[7]),
+                 "afocal image space is not supported; image data are computed as for a "
+                 "focal system");
+        for (size_t i = 5; i < std::min<size_t>(line.tokens.size(), 7); ++i)
+            if (number(line, i, "value") != 0.0)
+                note(Severity::Info, locOf(line, line.tokens[i]),
+                     "FTYP entry " + std::to_string(i) + " = " + std::string(line.tokens[i].text) +
+                         " is not interpreted");
+    } else if (tag == "XFLN" || tag == "XFLD") {
+        xFields_ = numberList(line);
+        oldFieldForm_ = tag == "XFLD";
+    } else if (tag == "YFLN" || tag == "YFLD") {
+        yFields_ = numberList(line);
+        oldFieldForm_ = tag == "YFLD";
+    } else if (tag == "FWGN" || tag == "FWGT") {
+        fieldWeights_ = numberList(line);
+    } else if (tag == "WAVM") {
+        // WAVM <index> <wavelength um> <weight>
+        const int index = integer(line, 1, "wavelength index");
+        const double um = number(line, 2, "wavelength");
+        const double weight = line.tokens.size() > 3 ? number(line, 3, "weight") : 1.0;
+        wavm_[index] = {um, weight};
+        if (waveLoc_.line == 0) waveLoc_ = locOf(line);
+    } else if (tag == "WAVL" || tag == "WAVN") {
+        waveList_ = numberList(line);
+        waveLoc_ = locOf(line);
+    } else if (tag == "WWGT" || tag == "WWGN") {
+        waveWeights_ = numberList(line);
+    } else if (tag == "PWAV") {
+        primaryWave_ = integer(line, 1, "primary wavelength");
+        primaryWaveLoc_ = locOf(line, line.tokens[1]);
+    } else if (tag == "MNUM") {
+        const int configs = integer(line, 1, "configuration count");
+        if (configs > 1)
+            note(Severity::Warning, locOf(line),
+                 std::to_string(configs) +
+                     " configurations: only the lens data stored in the surface blocks (the "
+                     "current configuration) is imported; multi-configuration operands are "
+                     "ignored");
+        TagCount& c = skipped_["MNUM"];
+        if (c.count++ == 0) c.first = locOf(line);
+    } else {
+        return false;
+    }
+    return true;
+}
+
+bool ZmxParser::surfaceCommand(const std::string& tag, const Line& line) {
+    if (tag == "TYPE") {
+        Surface& s = current(line, tag);
+        (void)s;
+        const std::string type = upper(arg(line, 1, "surface type").text);
+        surfaceTypes_.back() = type;
+        if (type != "STANDARD" && type != "EVENASPH")
+            unsupported_ = UnsupportedSurface{restOfLine(line, 1), locOf(line, line.tokens[1]), {}};
+    } else if (tag == "CURV") {
+        // CURV <curvature> <solve type> <solve parameters...> "<pickup name>"
+        Surface& s = current(line, tag);
+        s.curvature = number(line, 1, "curvature");
+        if (line.tokens.size() > 2) {
+            const int solve = integer(line, 2, "solve type");
+            if (solve != 0 && solve != 1) countSolve("CURV", locOf(line, line.tokens[2]));
+        }
+    } else if (tag == "DISZ") {
+        Surface& s = current(line, tag);
+        const std::string v = upper(arg(line, 1, "thickness").text);
+        if (v == "INFINITY" || v == "INF")
+            s.thicknessMm = kInfinity;
+        else if (v == "-INFINITY" || v == "-INF")
+            s.thicknessMm = -kInfinity;
+        else
+            s.thicknessMm = number(line, 1, "thickness");
+    } else if (tag == "CONI") {
+        current(line, tag).conic = number(line, 1, "conic constant");
+    } else if (tag == "PARM") {
+        // PARM <n> <value>; for EVENASPH, n = 1..8 multiplies r^2, r^4, ... r^16.
+        Surface& s = current(line, tag);
+        const int n = integer(line, 1, "parameter number");
+        const double v = number(line, 2, "parameter value");
+        const std::string& type = surfaceTypes_.back();
+        if (unsupported_) {
+            if (v != 0.0)
+                unsupported_->lostParameters.push_back("PARM " + std::to_string(n) + " = " +
+                                                       std::string(line.tokens[2].text));
+        } else if (type == "EVENASPH" && n >= 1 && n <= static_cast<int>(s.asphere.size())) {
+            s.asphere[n - 1] = v;
+        } else if (v != 0.0) {
+            note(Severity::Warning, locOf(line, line.tokens[1]),
+                 "PARM " + std::to_string(n) + " = " + std::string(line.tokens[2].text) +
+                     " has no meaning for a " + type + " surface and was ignored");
+        }
+    } else if (tag == "XDAT") {
+        current(line, tag);
+        if (unsupported_) {
+            if (line.tokens.size() > 2 && number(line, 2, "extra data value") != 0.0)
+                unsupported_->lostParameters.push_back("XDAT " + std::string(line.tokens[1].text) +
+                                                       " = " + std::string(line.tokens[2].text));
+        } else {
+            note(Severity::Warning, locOf(line),
+                 "extra data (XDAT) on a " + surfaceTypes_.back() + " surface ignored");
+        }
+    } else if (tag == "GLAS") {
+        // GLAS <name> <solve> <pickup surface> <nd> <vd> <dPgF> <flags...>
+        current(line, tag);
+        GlassRef g;
+        g.surface = static_cast<int>(rx_.surfaces.size()) - 1;
+        g.name = std::string(arg(line, 1, "glass name").text);
+        g.solve = line.tokens.size() > 2 ? integer(line, 2, "glass solve type") : 0;
+        g.nd = optionalNumber(line, 4);
+        g.vd = optionalNumber(line, 5);
+        g.dPgF = optionalNumber(line, 6);
+        g.loc = locOf(line, line.tokens[1]);
+        if (g.solve == 2) countSolve("GLAS", locOf(line, line.tokens[2]));
+        glasses_.push_back(std::move(g));
+    } else if (tag == "DIAM") {
+        // DIAM <clear semi-diameter> <solve type> ...: the value is what Zemax computed (solve
+        // type 0, automatic) or what the user fixed; either way it is the clear
+        // semi-diameter, but only a fixed one vignettes sequential rays (as in Zemax).
+        Surface& s = current(line, tag);
+        s.clearSemiDiameterMm = number(line, 1, "semi-diameter");
+        s.semiDiameterAutomatic =
+            line.tokens.size() <= 2 || integer(line, 2, "semi-diameter solve type") == 0;
+    } else if (tag == "MEMA") {
+        current(line, tag).mechSemiDiameterMm = number(line, 1, "mechanical semi-diameter");
+    } else if (tag == "STOP") {
+        current(line, tag).stop = true;
+    } else if (tag == "COAT") {
+        Surface& s = current(line, tag);
+        if (line.tokens.size() > 1) s.coating = std::string(line.tokens[1].text);
+    } else if (tag == "COMM") {
+        current(line, tag).comment = restOfLine(line, 1);
+    } else if (tag == "CLAP" || tag == "OBSC" || tag == "SQAP" || tag == "OBSQ" || tag == "ELAP" ||
+               tag == "OBEL" || tag == "UDAP" || tag == "OBDC") {
+        current(line, tag);
+        note(Severity::Warning, locOf(line),
+             "surface aperture " + tag + " not imported: " + trim(line.text) +
+                 " (only the clear semi-diameter DIAM limits rays)");
+    } else {
+        return false;
+    }
+    return true;
+}
+
+void ZmxParser::endSurface() {
+    if (!unsupported_) return;
+    std::string msg = "surface type " + unsupported_->type +
+                      " is not supported; the surface is kept as a STANDARD surface with its "
+                      "curvature, conic and thickness";
+    if (!unsupported_->lostParameters.empty())
+        msg += "; lost: " + joinNames(unsupported_->lostParameters);
+    note(Severity::Error, unsupported_->loc, msg);
+    unsupported_.reset();
+}
+
+// Post-processing
+
+void ZmxParser::resolveGlasses() {
+    const std::vector<std::string>& preferred = rx_.system.glassCatalogs;
+    const std::string where = preferred.empty()
+                                  ? "in any loaded catalog"
+                                  : "in " + joinNames(preferred) + " or any other loaded catalog";
+    for (const GlassRef& g : glasses_) {
+        Surface& s = rx_.surfaces[g.surface];
+        const std::string name = upper(g.name);
+        if (name == "MIRROR") {
+            s.mirror = true;
+            continue;
+        }
+        if (name == "___BLANK") {
+            // Model glass: nd, Vd, dPgF stored on the line.
+            const double nd = g.nd.value_or(0.0), vd = g.vd.value_or(0.0);
+            if (nd == 1.0 && vd == 0.0) {
+                s.material = Material::air();
+                note(Severity::Info, g.loc, "model glass nd = 1, Vd = 0 imported as air");
+            } else if (nd < 1.0 || vd <= 0.0) {
+                // Vd = 0 is Zemax's constant index. The prescription's model glass follows
+                // the Schott normal lines, which have no dispersion-free limit: a huge Vd
+                // gets n_d, n_F and n_C right but not the g and t lines.
+                s.material = Material::model(std::max(nd, 1.0), vd > 0.0 ? vd : 1e6);
+                note(Severity::Error, g.loc,
+                     "model glass nd = " + formatNumber(nd) + ", Vd = " + formatNumber(vd) +
+                         (vd == 0.0 ? " (a constant index)" : "") +
+                         " cannot be represented; imported as nd = " + formatNumber(s.material.nd) +
+                         ", Vd = " + formatNumber(s.material.vd) +
+                         ", whose index away from the d, F and C lines is approximate");
+            } else {
+                s.material = Material::model(nd, vd, g.dPgF.value_or(0.0));
+            }
+            continue;
+        }
+        if (const Glass* glass = catalog_.find(g.name, preferred)) {
+            s.material = Material::catalog(glass->name());
+            if (!preferred.empty() &&
+                std::none_of(preferred.begin(), preferred.end(),
+                             [&](const std::string& c) { return c == upper(glass->catalog()); }))
+                note(Severity::Info, g.loc,
+                     "glass " + g.name + " is not in " + joinNames(preferred) + "; taken from " +
+                         glass->catalog());
+            if (g.nd && *g.nd > 1.0) {
+                const double n = glass->index(kLineD);
+                if (std::isfinite(n) && std::abs(n - *g.nd) > 1e-4)
+                    note(Severity::Info, g.loc,
+                         "glass " + g.name + ": catalog nd = " + formatNumber(n) +
+                             " differs from the nd = " + formatNumber(*g.nd) +
+                             " stored in the file (different catalog version?)");
+            }
+            continue;
+        }
+        std::string msg = "unknown glass '" + g.name + "': not found " + where;
+        const auto suggestions = catalog_.suggestions(g.name);
+        if (!suggestions.empty()) msg += " (did you mean " + joinNames(suggestions) + "?)";
+        if (g.nd && g.vd && *g.nd > 1.0 && *g.vd > 0.0) {
+            s.material = Material::model(*g.nd, *g.vd, g.dPgF.value_or(0.0));
+            note(Severity::Warning, g.loc,
+                 msg + "; replaced by the model glass nd = " + formatNumber(*g.nd) +
+                     ", Vd = " + formatNumber(*g.vd) + " stored in the file");
+        } else {
+            s.material = Material::catalog(g.name);
+            note(Severity::Error, g.loc,
+                 msg +
+                     "; the file stores no usable nd/Vd, so the name is kept and the glass "
+                     "must be supplied in a catalog before tracing");
+        }
+    }
+}
+
+void ZmxParser::applyMirrors() {
+    // A mirror keeps the medium the light came from (in order, so mirror after mirror works).
+    for (size_t i = 1; i < rx_.surfaces.size(); ++i)
+        if (rx_.surfaces[i].mirror) rx_.surfaces[i].material = rx_.surfaces[i - 1].material;
+}
+
+void ZmxParser::convertUnits() {
+    if (mmPerUnit_ == 1.0) return;
+    const double f = mmPerUnit_;
+    for (Surface& s : rx_.surfaces) {
+        s.curvature /= f;
+        s.thicknessMm *= f;  // infinity stays infinity
+        s.clearSemiDiameterMm *= f;
+        s.mechSemiDiameterMm *= f;
+        // asphere[i] multiplies r^(2i+2) and has units length^-(2i+1).
+        for (size_t i = 0; i < s.asphere.size(); ++i)
+            s.asphere[i] *= std::pow(f, -(2.0 * static_cast<double>(i) + 1.0));
+    }
+    note(Severity::Info, unitLoc_,
+         "lens units " + unitName_ + ": lengths converted to mm (x " + formatNumber(f) + ")");
+}
+
+void ZmxParser::buildFields() {
+    SystemData& sys = rx_.system;
+    const int type = fieldType_.value_or(0);
+    size_t n = std::max(xFields_.size(), yFields_.size());
+    if (fieldCount_ && !oldFieldForm_) n = std::min<size_t>(n, std::max(*fieldCount_, 0));
+    if (fieldCount_ && *fieldCount_ > static_cast<int>(n))
+        note(Severity::Warning, fieldTypeLoc_,
+             "FTYP announces " + std::to_string(*fieldCount_) + " fields but only " +
+                 std::to_string(n) + " are given");
+    for (size_t i = 0; i < n; ++i) {
+        Field f;
+        f.x = i < xFields_.size() ? xFields_[i] : 0.0;
+        f.y = i < yFields_.size() ? yFields_[i] : 0.0;
+        f.weight = i < fieldWeights_.size() ? fieldWeights_[i] : 1.0;
+        sys.fields.push_back(f);
+    }
+    if (type == 0) {
+        sys.fieldKind = SystemData::FieldKind::AngleDeg;
+    } else if (type == 1) {
+        sys.fieldKind = SystemData::FieldKind::ObjectHeightMm;
+        for (Field& f : sys.fields) f.x *= mmPerUnit_, f.y *= mmPerUnit_;
+    } else {
+        static const char* kNames[] = {"angle", "object height", "paraxial image height",
+                                       "real image height", "theodolite angle"};
+        const std::string name =
+            type >= 0 && type <= 4 ? kNames[type] : "type " + std::to_string(type);
+        // The axial field (0, 0) means the same in every field type; other fields cannot be
+        // converted without tracing.
+        const size_t before = sys.fields.size();
+        std::erase_if(sys.fields, [](const Field& f) { return f.x != 0.0 || f.y != 0.0; });
+        note(Severity::Error, fieldTypeLoc_,
+             "field type " + name +
+                 " is not supported: " + std::to_string(before - sys.fields.size()) +
+                 " off-axis field(s) dropped, only the axial field is kept");
+    }
+    if (sys.fields.empty()) {
+        sys.fields.push_back({});
+        note(Severity::Warning, fieldTypeLoc_.line ? fieldTypeLoc_ : FileLoc{file_, 1, 1},
+             "no fields in the file; the axial field was added");
+    }
+}
+
+void ZmxParser::buildWavelengths() {
+    SystemData& sys = rx_.system;
+    if (!wavm_.empty()) {
+        // WAVM lists 24 slots; FTYP says how many are in use.
+        const int n = waveCount_.value_or(static_cast<int>(wavm_.size()));
+        for (int i = 1; i <= n; ++i) {
+            const auto it = wavm_.find(i);
+            if (it == wavm_.end()) {
+                note(Severity::Warning, waveLoc_,
+                     "wavelength " + std::to_string(i) + " announced by FTYP has no WAVM line");
+                continue;
+            }
+            sys.wavelengths.push_back({it->second.first * 1000.0, it->second.second});
+        }
+    } else {
+        size_t n = waveList_.size();
+        if (waveCount_) n = std::min<size_t>(n, std::max(*waveCount_, 0));
+        for (size_t i = 0; i < n; ++i)
+            sys.wavelengths.push_back(
+                {waveList_[i] * 1000.0, i < waveWeights_.size() ? waveWeights_[i] : 1.0});
+    }
+    if (sys.wavelengths.empty()) {
+        sys.wavelengths.push_back({550.0, 1.0});
+        note(Severity::Warning, FileLoc{file_, 1, 1},
+             "no wavelengths in the file; 550 nm (the Zemax default) was used");
+    }
+    for (const Wavelength& w : sys.wavelengths)
+        if (!(w.nm > 0.0))
+            throw ParseError(waveLoc_, "wavelength " + formatNumber(w.nm) + " nm is not positive");
+    sys.primaryWavelength = 0;
+    if (primaryWave_) {
+        const int p = *primaryWave_;
+        if (p >= 1 && p <= static_cast<int>(sys.wavelengths.size()))
+            sys.primaryWavelength = p - 1;
+        else
+            note(Severity::Warning, primaryWaveLoc_,
+                 "primary wavelength " + std::to_string(p) + " is out of range 1.." +
+                     std::to_string(sys.wavelengths.size()) + "; the first one is used");
+    }
+}
+
+void ZmxParser::buildAperture() {
+    SystemAperture& ap = rx_.system.aperture;
+    if (apertureLines_.empty()) {
+        note(Severity::Warning, FileLoc{file_, 1, 1},
+             "no system aperture (ENPD, FNUM, OBNA, FLOA) in the file; float by stop size is "
+             "used");
+        ap = {SystemAperture::Kind::FloatByStop, 0.0};
+        return;
+    }
+    if (apertureLines_.size() > 1)
+        note(Severity::Warning, apertureLines_.back().loc,
+             "several system aperture lines; the last one (" + apertureLines_.back().tag +
+                 ") is used");
+    const ApertureLine& a = apertureLines_.back();
+    const bool objectAtInfinity =
+        !rx_.surfaces.empty() && std::isinf(rx_.surfaces.front().thicknessMm);
+    if (a.tag == "ENPD") {
+        ap = {SystemAperture::Kind::EntrancePupilDiameter, a.value * mmPerUnit_};
+    } else if (a.tag == "FNUM") {
+        ap = {SystemAperture::Kind::ImageSpaceFNumber, a.value};
+        if (a.flag != 0) {
+            // Flag 1: paraxial working F/#, 1 / (2 n' u'). For an object at infinity it
+            // equals the image space F/# (EFL / EPD) in air.
+            if (objectAtInfinity)
+                note(Severity::Info, a.loc,
+                     "paraxial working F/# imported as image space F/# (equal for an object at "
+                     "infinity)");
+            else
+                note(Severity::Warning, a.loc,
+                     "paraxial working F/# with a finite object is not supported; the value was "
+                     "imported as image space F/# (EFL / EPD)");
+        }
+    } else if (a.tag == "OBNA") {
+        if (a.flag == 0) {
+            ap = {SystemAperture::Kind::ObjectSpaceNA, a.value};
+        } else {
+            // Flag 1: object cone angle in degrees; NA = n sin(angle).
+            constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
+            ap = {SystemAperture::Kind::ObjectSpaceNA, std::sin(a.value * kDegToRad)};
+            const bool air = rx_.surfaces.empty() || rx_.surfaces.front().material.isAir();
+            note(air ? Severity::Info : Severity::Warning, a.loc,
+                 "object cone angle " + formatNumber(a.value) +
+                     " deg converted to NA = " + formatNumber(ap.value) +
+                     (air ? "" : " assuming n = 1 in object space (the object medium is glass)"));
+        }
+    } else {
+        ap = {SystemAperture::Kind::FloatByStop, 0.0};
+    }
+}
+
+void ZmxParser::checkApertures() {
+    for (size_t i = 0; i < rx_.surfaces.size(); ++i) {
+        Surface& s = rx_.surfaces[i];
+        if (s.mechSemiDiameterMm > 0.0 && s.clearSemiDiameterMm > s.mechSemiDiameterMm) {
+            note(Severity::Warning, s.origin,
+                 "clear semi-diameter " + formatNumber(s.clearSemiDiameterMm) +
+                     " mm exceeds the mechanical semi-diameter " +
+                     formatNumber(s.mechSemiDiameterMm) +
+                     " mm; the mechanical semi-diameter was raised to match");
+            s.mechSemiDiameterMm = s.clearSemiDiameterMm;
+        }
+    }
+}
+
+void ZmxParser::summarize() {
+    for (const auto& [tag, c] : skipped_) {
+        const SkippedTag* s = findSkipped(tag);
+        note(Severity::Info, c.first,
+             std::to_string(c.count) + " " + tag +
+                 " line(s) skipped: " + (s ? s->meaning : "not needed"));
+    }
+    for (const auto& [tag, c] : solves_)
+        note(Severity::Info, c.first,
+             tag + ": " + std::to_string(c.count) +
+                 " surface(s) carry a solve or pickup; the current values were imported, the "
+                 "solve itself is not kept");
+}
+
+Prescription ZmxParser::parse(std::string_view decoded) {
+    rx_.sourceFile = file_;
+    const std::vector<Line> lines = splitLines(decoded);
+    const bool hasSurf = std::any_of(lines.begin(), lines.end(),
+                                     [](const Line& l) { return l.tokens[0].text == "SURF"; });
+    if (!hasSurf) throw ParseError({file_, 1, 1}, "not a Zemax lens file: no SURF line found");
+    for (const Line& line : lines) dispatch(line);
+    endSurface();
+
+    resolveGlasses();
+    applyMirrors();
+    convertUnits();
+    buildFields();
+    buildWavelengths();
+    buildAperture();
+    checkApertures();
+    summarize();
+
+    std::stable_sort(report_.begin(), report_.end(), [](const ImportNote& a, const ImportNote& b) {
+        return a.loc.line < b.loc.line;
+    });
+    rx_.report = std::move(report_);
+    rx_.assignNames();
+    rx_.validate();
+    return std::move(rx_);
+}
+
+}  // namespace
+
+// Public Functions
+
+Prescription readZmxText(std::string_view bytes, const std::string& fileName,
+                         const GlassCatalog& catalog) {
+    const std::string decoded = decodeZemaxText(bytes);
+    return ZmxParser(fileName, catalog).parse(decoded);
+}
+
+Prescription readZmx(const std::filesystem::path& path, const GlassCatalog& catalog) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw ParseError({path.string()}, "cannot open the file");
+    const std::string bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+    return readZmxText(bytes, path.string(), catalog);
+}
+
+}  // namespace veil
