@@ -1,0 +1,743 @@
+#include "geometry/surface_shape.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace veil {
+
+namespace {
+
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kEpsilon = std::numeric_limits<double>::epsilon();
+
+// Asphere root search limits. The first segment of the search is kInitialSegmentMm long and
+// later ones double in length away from the reference point; a segment narrower than
+// kMinSegmentMm (plus a few ulps of its position) is not split again. kMaxSegments and
+// kMaxPolishIterations bound the work per ray: past them the ray is reported as missing.
+constexpr double kInitialSegmentMm = 1.0;
+constexpr double kMinSegmentMm = 1e-15;
+constexpr int kMaxSegments = 4000;
+constexpr int kMaxPolishIterations = 200;
+constexpr int kStackCapacity = 256;
+
+// a * b - c * d with a single rounding error (Kahan's algorithm): keeps B^2 - AC accurate for
+// grazing rays, where the two products nearly cancel.
+double differenceOfProducts(double a, double b, double c, double d) {
+    const double cd = c * d;
+    const double err = std::fma(-c, d, cd);
+    const double dop = std::fma(a, b, -cd);
+    return dop + err;
+}
+
+// Base conic of a shape: curvature c and conic constant k (a plane is c = 0).
+struct ConicBase {
+    double c = 0.0;
+    double k = 0.0;
+    // K = (1 + k) c^2: the sag's square root is w = sqrt(1 - K u), u = r^2.
+    double bigK() const { return (1.0 + k) * c * c; }
+};
+
+ConicBase conicBase(const SurfaceShape& shape) {
+    return std::visit(
+        [](const auto& s) -> ConicBase {
+            using S = std::decay_t<decltype(s)>;
+            if constexpr (std::is_same_v<S, PlaneShape>) {
+                return {};
+            } else if constexpr (std::is_same_v<S, SphereShape>) {
+                return {s.curvature, 0.0};
+            } else {
+                return {s.curvature, s.conic};
+            }
+        },
+        shape);
+}
+
+// Conic sag in the rationalized form c u / (1 + w): no cancellation at the vertex (u -> 0)
+// nor for tiny curvature, where the textbook (1 - w) / ((1 + k) c) loses every digit.
+// At the rim 1 - K u may round to a few ulps below zero (maxRadius^2 is rounded); that is
+// still the rim. Beyond it the sag is NaN.
+double conicSag(const ConicBase& b, double u) {
+    double w2 = 1.0 - b.bigK() * u;
+    if (w2 < 0.0 && w2 >= -8.0 * kEpsilon) w2 = 0.0;
+    return b.c * u / (1.0 + std::sqrt(w2));
+}
+// The same with w clamped at 0, for evaluations that may overshoot the rim by rounding, and
+// dz/du = c / (2 w), infinite at the rim of an ellipsoid.
+void conicSagAndSlopeClamped(const ConicBase& b, double u, double& z, double& dzdu) {
+    const double w = std::sqrt(std::max(0.0, 1.0 - b.bigK() * u));
+    z = b.c * u / (1.0 + w);
+    dzdu = b.c / (2.0 * w);
+}
+double conicSagClamped(const ConicBase& b, double u) {
+    return b.c * u / (1.0 + std::sqrt(std::max(0.0, 1.0 - b.bigK() * u)));
+}
+
+// Polynomial part P(u) = sum a[i] u^(i+1) and dP/du = sum (i+1) a[i] u^i (Horner).
+double polySag(const std::array<double, 10>& a, double u) {
+    double acc = 0.0;
+    for (int i = 9; i >= 0; --i) acc = acc * u + a[i];
+    return acc * u;
+}
+double polySlope(const std::array<double, 10>& a, double u) {
+    double acc = 0.0;
+    for (int i = 9; i >= 1; --i) acc = acc * u + (i + 1) * a[i];
+    return acc * u + a[0];
+}
+
+bool allZero(const std::array<double, 10>& a) {
+    return std::all_of(a.begin(), a.end(), [](double v) { return v == 0.0; });
+}
+
+// Conic Intersection
+//
+// On the vertex sheet z = c u / (1 + w), w = sqrt(1 - (1+k) c^2 u), so z (1 + w) = c u, and
+// squaring (c u - z)^2 = z^2 w^2 gives the implicit quadric
+//
+//     G(x, y, z) = c (x^2 + y^2 + (1 + k) z^2) - 2 z = 0,
+//
+// which also holds on the far sheet z = c u / (1 - w) (the other half of a sphere or
+// ellipsoid, the mirror sheet of a hyperboloid). Since dG/dz = 2 ((1 + k) c z - 1) and on
+// the vertex sheet (1 + k) c z = 1 - w, the vertex sheet is where (1 + k) c z <= 1; roots
+// beyond are dropped. Along the ray p + s d,
+//
+//     G(s) = A s^2 + 2 B s + C,   A = c (dx^2 + dy^2 + (1 + k) dz^2),
+//                                 B = c (px dx + py dy + (1 + k) pz dz) - dz,   C = G(p).
+//
+// The roots (-B -+ sqrt(B^2 - AC)) / A are, after multiplying above and below by
+// (-B +- sqrt(B^2 - AC)), also C / (-B +- sqrt(B^2 - AC)). With
+//
+//     q = -(B + sign(B) sqrt(B^2 - AC))
+//
+// the two roots are C / q and q / A, and q adds two terms of the same sign, so neither root
+// cancels. The root near the vertex tangent plane is C / q: as c -> 0 it tends to the plane
+// root -pz / dz (A -> 0, B -> -dz, q -> 2 dz), at the vertex it is exactly 0 (C = 0), and
+// q / A -> infinity is the far sheet. For A = 0 (a paraboloid met parallel to its axis) only
+// the root C / q exists. B^2 - AC is evaluated with fma so grazing rays keep their digits.
+//
+// The reference point p is the point of the ray nearest the vertex (p . d = 0), so that the
+// terms c |p|^2 and pz in B and C are never larger than the hit point itself: a ray from
+// 1 m away still meets a 1 um sphere to full relative precision.
+struct QuadraticRoots {
+    int count = 0;
+    std::array<double, 2> s{};
+};
+
+QuadraticRoots conicRoots(const ConicBase& b, const Vec3& p, const Vec3& d) {
+    const double kp1 = 1.0 + b.k;
+    const double qa = b.c * (d.x * d.x + d.y * d.y + kp1 * d.z * d.z);
+    const double qb = b.c * (p.x * d.x + p.y * d.y + kp1 * p.z * d.z) - d.z;
+    const double qc = b.c * (p.x * p.x + p.y * p.y + kp1 * p.z * p.z) - 2.0 * p.z;
+    const double disc = differenceOfProducts(qb, qb, qa, qc);
+    if (!(disc >= 0.0)) return {};
+    const double q = -(qb + std::copysign(std::sqrt(disc), qb));
+    if (q == 0.0) {
+        // qb == 0 and qa * qc == 0: either the ray touches the vertex sheet at p (qc == 0) or
+        // the equation degenerates (qa == 0 with no linear term).
+        if (qc == 0.0) return {1, {0.0, 0.0}};
+        return {};
+    }
+    QuadraticRoots r;
+    r.s[r.count++] = qc / q;
+    if (qa != 0.0) r.s[r.count++] = q / qa;
+    return r;
+}
+
+bool onVertexSheet(const ConicBase& b, double z) { return (1.0 + b.k) * b.c * z <= 1.0; }
+
+// Parameter of the ray point nearest the vertex.
+double nearestToVertex(const Ray& ray) {
+    const double dd = glm::dot(ray.direction, ray.direction);
+    return dd > 0.0 ? -glm::dot(ray.origin, ray.direction) / dd : 0.0;
+}
+
+// Edge test with an allowance for the rounding of the hit point p + s d (see the header).
+bool withinRadius(const Vec3& point, double rMax, double magnitude) {
+    if (rMax == kInfinity) return true;
+    const double r = std::sqrt(point.x * point.x + point.y * point.y);
+    return r <= rMax + 8.0 * kEpsilon * (rMax + magnitude);
+}
+
+std::optional<double> conicSequential(const ConicBase& b, const Ray& ray) {
+    const Vec3& d = ray.direction;
+    const double tRef = nearestToVertex(ray);
+    const Vec3 p = ray.origin + tRef * d;
+    const QuadraticRoots roots = conicRoots(b, p, d);
+    // The crossing nearest the tangent-plane crossing has the smallest |z| (|z| = |dz| |t -
+    // t0|); with dz == 0 all candidates share z and the one nearest the origin wins.
+    std::optional<double> best;
+    double bestZ = kInfinity;
+    double bestT = kInfinity;
+    for (int i = 0; i < roots.count; ++i) {
+        const double s = roots.s[i];
+        const double z = p.z + s * d.z;
+        if (!std::isfinite(s) || !onVertexSheet(b, z)) continue;
+        const double t = tRef + s;
+        const double az = std::abs(z);
+        if (az < bestZ || (az == bestZ && std::abs(t) < bestT)) {
+            best = t;
+            bestZ = az;
+            bestT = std::abs(t);
+        }
+    }
+    return best;
+}
+
+std::optional<ShapeHit> conicFirst(const SurfaceShape& shape, const ConicBase& b,
+                                   const Ray& ray, double tMin, double tMax, double rMax,
+                                   bool startsOnSurface) {
+    const Vec3& d = ray.direction;
+    // A ray that starts on the surface is solved from its origin, where one root is the
+    // origin itself (C ~ 0): the root of smaller magnitude, C / q or q / A, is that one and is
+    // dropped; the other is computed without cancellation, and no offset is needed.
+    const double tRef = startsOnSurface ? 0.0 : nearestToVertex(ray);
+    const Vec3 p = ray.origin + tRef * d;
+    QuadraticRoots roots = conicRoots(b, p, d);
+    if (startsOnSurface) {
+        if (roots.count < 2) return std::nullopt;
+        if (std::abs(roots.s[0]) < std::abs(roots.s[1])) roots.s[0] = roots.s[1];
+        roots.count = 1;
+    }
+    std::optional<ShapeHit> best;
+    for (int i = 0; i < roots.count; ++i) {
+        const double s = roots.s[i];
+        const double t = tRef + s;
+        if (!(t > tMin && t <= tMax)) continue;
+        if (best && t >= best->t) continue;
+        const Vec3 point = p + s * d;
+        if (!onVertexSheet(b, point.z)) continue;
+        if (!withinRadius(point, rMax, glm::length(p) + std::abs(s))) continue;
+        best = ShapeHit{t, point, surfaceNormal(shape, point)};
+    }
+    return best;
+}
+
+// Even Asphere Intersection
+//
+// The asphere is the height field z = S(u), u = x^2 + y^2, S(u) = c u / (1 + w) + P(u).
+// Along the ray p + s d its crossings are the roots of
+//
+//     f(s) = z(s) - S(u(s)),   f'(s) = dz - S'(u) u'(s),   u'(s) = 2 (x dx + y dy),
+//
+// and every root is on the surface (there is no far sheet to reject). f has no closed-form
+// roots and may have several, so the wanted one (nearest the tangent-plane crossing, or the
+// first after tMin) is isolated by branch and bound before it is polished:
+//
+//   * Interval bounds of f and f' over a segment [a, b] come from the exact range of u(s)
+//     (a quadratic in s), the monotonicity in u of the conic sag, of its slope and of every
+//     a[i] u^(i+1) term (u >= 0), and the mean-value form f(m) + f'([a, b]) [-h, h]. Bounds
+//     are widened by a few ulps of the magnitudes involved, so no root is lost to rounding.
+//   * A segment whose f-range excludes 0 holds no root and is dropped. A segment whose
+//     f'-range excludes 0 is monotone: it holds at most one root, present exactly when f
+//     changes sign between its ends, and that root is polished by bracketed Newton (Newton
+//     steps, replaced by bisection whenever they leave the bracket or shrink too slowly), which
+//     always converges. Other segments are split.
+//   * Segments are visited nearest first from a reference point sRef (the tangent-plane
+//     crossing, or the start of the range) on two sorted stacks, one on each side, and are
+//     pruned once farther than the best root found; far segments are split geometrically
+//     (lengths doubling away from sRef) so a root near sRef is reached in a few steps even
+//     when the search range is long.
+//   * A ray starting on the surface has its own root at s = 0: a monotone segment that ends
+//     at 0 holds only that root and is dropped, by the sign of f' rather than an offset.
+//   * The number of segments and of Newton steps is bounded; if either runs out, the ray is
+//     reported as missing rather than looping.
+class AsphereAlongRay {
+public:
+    AsphereAlongRay(const EvenAsphereShape& shape, const Vec3& p, const Vec3& d)
+        : base_{shape.curvature, shape.conic}, a_(shape.coefficients), p_(p), d_(d) {
+        bigK_ = base_.bigK();
+    }
+
+    double value(double s) const {
+        const double x = p_.x + s * d_.x, y = p_.y + s * d_.y, z = p_.z + s * d_.z;
+        const double u = x * x + y * y;
+        return z - (conicSagClamped(base_, u) + polySag(a_, u));
+    }
+    void valueAndSlope(double s, double& f, double& df) const {
+        const double x = p_.x + s * d_.x, y = p_.y + s * d_.y, z = p_.z + s * d_.z;
+        const double u = x * x + y * y;
+        double zc, dzc;
+        conicSagAndSlopeClamped(base_, u, zc, dzc);
+        f = z - (zc + polySag(a_, u));
+        df = d_.z - (dzc + polySlope(a_, u)) * 2.0 * (x * d_.x + y * d_.y);
+    }
+
+    // Enclosure of S and S' over u in [uLo, uHi], and a bound on the magnitudes summed.
+    struct SagRange {
+        double lo, hi, slopeLo, slopeHi, magnitude;
+    };
+    SagRange sagRange(double uLo, double uHi) const {
+        double c0, c1, d0, d1;
+        conicSagAndSlopeClamped(base_, uLo, c0, d0);
+        conicSagAndSlopeClamped(base_, uHi, c1, d1);
+        SagRange r{std::min(c0, c1), std::max(c0, c1), std::min(d0, d1), std::max(d0, d1),
+                   std::max(std::abs(c0), std::abs(c1))};
+        double powLo = uLo, powHi = uHi;  // u^(i+1)
+        double derLo = 1.0, derHi = 1.0;  // u^i
+        for (int i = 0; i < 10; ++i) {
+            if (a_[i] != 0.0) {
+                const double t0 = a_[i] * powLo, t1 = a_[i] * powHi;
+                r.lo += std::min(t0, t1);
+                r.hi += std::max(t0, t1);
+                r.magnitude += std::max(std::abs(t0), std::abs(t1));
+                const double e0 = (i + 1) * a_[i] * derLo, e1 = (i + 1) * a_[i] * derHi;
+                r.slopeLo += std::min(e0, e1);
+                r.slopeHi += std::max(e0, e1);
+            }
+            derLo = powLo;
+            derHi = powHi;
+            powLo *= uLo;
+            powHi *= uHi;
+        }
+        return r;
+    }
+
+    double radiusSqAt(double s) const {
+        const double x = p_.x + s * d_.x, y = p_.y + s * d_.y;
+        return x * x + y * y;
+    }
+
+    struct Bounds {
+        double fLo, fHi, dfLo, dfHi;
+    };
+    Bounds bounds(double a, double b) const {
+        // Exact range of u(s) = |pxy + s dxy|^2 on [a, b], then a few ulps of slack.
+        const double ua = radiusSqAt(a), ub = radiusSqAt(b);
+        double uLo = std::min(ua, ub), uHi = std::max(ua, ub);
+        const double dxy2 = d_.x * d_.x + d_.y * d_.y;
+        if (dxy2 > 0.0) {
+            const double sStar = -(p_.x * d_.x + p_.y * d_.y) / dxy2;
+            if (sStar > a && sStar < b) uLo = std::min(uLo, radiusSqAt(sStar));
+        }
+        uLo = std::max(0.0, uLo * (1.0 - 8.0 * kEpsilon));
+        uHi *= 1.0 + 8.0 * kEpsilon;
+        if (bigK_ > 0.0) {
+            uHi = std::min(uHi, 1.0 / bigK_);
+            uLo = std::min(uLo, uHi);
+        }
+        const SagRange sr = sagRange(uLo, uHi);
+
+        const double za = p_.z + a * d_.z, zb = p_.z + b * d_.z;
+        const double magnitude = sr.magnitude + std::max(std::abs(za), std::abs(zb));
+        const double fTol = 32.0 * kEpsilon * magnitude;
+        Bounds r;
+        r.fLo = std::min(za, zb) - sr.hi - fTol;
+        r.fHi = std::max(za, zb) - sr.lo + fTol;
+
+        // f' = dz - S'(u) u'(s); u'(s) is linear in s. An undefined product (0 times the
+        // infinite slope at an ellipsoid's rim) leaves f' unbounded.
+        const double up0 = 2.0 * ((p_.x + a * d_.x) * d_.x + (p_.y + a * d_.y) * d_.y);
+        const double up1 = 2.0 * ((p_.x + b * d_.x) * d_.x + (p_.y + b * d_.y) * d_.y);
+        const double upLo = std::min(up0, up1), upHi = std::max(up0, up1);
+        const double pr[4] = {sr.slopeLo * upLo, sr.slopeLo * upHi, sr.slopeHi * upLo,
+                              sr.slopeHi * upHi};
+        double prLo = kInfinity, prHi = -kInfinity;
+        bool undefined = false;
+        for (double v : pr) {
+            if (std::isnan(v)) undefined = true;
+            prLo = std::min(prLo, v);
+            prHi = std::max(prHi, v);
+        }
+        if (undefined) {
+            r.dfLo = -kInfinity;
+            r.dfHi = kInfinity;
+        } else {
+            const double dfTol = 32.0 * kEpsilon * (std::abs(d_.z) + std::max(-prLo, prHi));
+            r.dfLo = d_.z - prHi - dfTol;
+            r.dfHi = d_.z - prLo + dfTol;
+        }
+
+        // Mean-value form, tighter than the natural bounds once the segment is short.
+        const double h = 0.5 * (b - a);
+        const double slopeMax = std::max(std::abs(r.dfLo), std::abs(r.dfHi));
+        if (std::isfinite(slopeMax)) {
+            const double fm = value(a + h);
+            r.fLo = std::max(r.fLo, fm - h * slopeMax - fTol);
+            r.fHi = std::min(r.fHi, fm + h * slopeMax + fTol);
+        }
+        return r;
+    }
+
+    // Bracketed Newton on [a, b], where f(a) and f(b) differ in sign (or one is 0), from
+    // `start` if it lies inside, else from the regula falsi point.
+    double polish(double a, double b, double fa, double fb, double start) const {
+        if (fa == 0.0) return a;
+        if (fb == 0.0) return b;
+        double lo = fa < 0.0 ? a : b;  // f(lo) < 0 < f(hi)
+        double hi = fa < 0.0 ? b : a;
+        double x = start;
+        if (!(x > a && x < b)) x = a - fa * (b - a) / (fb - fa);
+        if (!(x > a && x < b)) x = 0.5 * (a + b);
+        double stepOld = std::abs(b - a);
+        double step = stepOld;
+        double f, df;
+        valueAndSlope(x, f, df);
+        for (int i = 0; i < kMaxPolishIterations && f != 0.0; ++i) {
+            if (f < 0.0) {
+                lo = x;
+            } else {
+                hi = x;
+            }
+            const double newton = x - f / df;
+            const bool inside = newton > std::min(lo, hi) && newton < std::max(lo, hi);
+            if (!inside || !std::isfinite(newton) || std::abs(2.0 * f) > std::abs(stepOld * df)) {
+                stepOld = step;
+                step = 0.5 * (hi - lo);
+                x = lo + step;
+            } else {
+                stepOld = step;
+                step = newton - x;
+                x = newton;
+            }
+            if (std::abs(step) <= 2.0 * kEpsilon * std::abs(x) + kMinSegmentMm * 1e-3 ||
+                std::abs(hi - lo) <= 2.0 * kEpsilon * std::max(std::abs(lo), std::abs(hi))) {
+                break;
+            }
+            valueAndSlope(x, f, df);
+        }
+        return x;
+    }
+
+private:
+    ConicBase base_;
+    double bigK_ = 0.0;
+    std::array<double, 10> a_;
+    Vec3 p_, d_;
+};
+
+struct Segment {
+    double a, b;
+};
+
+// A stack of disjoint segments on one side of sRef, nearest on top.
+class SegmentStack {
+public:
+    bool empty() const { return size_ == 0; }
+    bool push(const Segment& s) {
+        if (size_ == kStackCapacity) return false;
+        items_[size_++] = s;
+        return true;
+    }
+    const Segment& top() const { return items_[size_ - 1]; }
+    Segment pop() { return items_[--size_]; }
+    void clear() { size_ = 0; }
+
+private:
+    std::array<Segment, kStackCapacity> items_;
+    int size_ = 0;
+};
+
+// Root of f in [lo, hi] nearest to sRef (lo <= sRef <= hi) that `accept` takes. sSelf is
+// the parameter of the ray origin when the ray starts on the surface (NaN otherwise).
+// `firstStep` is the length of the first segment on each side and `guess` a likely root
+// where Newton starts when its bracket holds it (NaN if none).
+template <typename Accept>
+std::optional<double> findAsphereRoot(const AsphereAlongRay& f, double lo, double hi,
+                                      double sRef, double sSelf, double firstStep, double guess,
+                                      Accept&& accept) {
+    SegmentStack right, left;  // right: segments at >= sRef; left: <= sRef
+    auto pushSide = [&](SegmentStack& stack, Segment seg, bool isRight) {
+        // Split at the origin of a ray that starts on the surface so that its own root sits
+        // at a segment end.
+        if (sSelf > seg.a && sSelf < seg.b) {
+            const Segment nearPart = isRight ? Segment{seg.a, sSelf} : Segment{sSelf, seg.b};
+            const Segment farPart = isRight ? Segment{sSelf, seg.b} : Segment{seg.a, sSelf};
+            stack.push(farPart);
+            stack.push(nearPart);
+        } else {
+            stack.push(seg);
+        }
+    };
+    if (hi > sRef) pushSide(right, {sRef, hi}, true);
+    if (sRef > lo) pushSide(left, {lo, sRef}, false);
+    if (hi == lo) pushSide(right, {lo, hi}, true);
+
+    std::optional<double> best;
+    double bestKey = kInfinity;
+    for (int evaluated = 0;;) {
+        const double keyRight = right.empty() ? kInfinity : right.top().a - sRef;
+        const double keyLeft = left.empty() ? kInfinity : sRef - left.top().b;
+        if (right.empty() && left.empty()) break;
+        const bool isRight = keyRight <= keyLeft;
+        SegmentStack& stack = isRight ? right : left;
+        if (std::min(keyRight, keyLeft) >= bestKey) {
+            stack.clear();  // the whole stack is farther than the best root
+            continue;
+        }
+        const Segment seg = stack.pop();
+        if (++evaluated > kMaxSegments) return std::nullopt;
+
+        const AsphereAlongRay::Bounds bd = f.bounds(seg.a, seg.b);
+        if (!(bd.fLo <= 0.0 && bd.fHi >= 0.0)) continue;
+        const bool monotone = bd.dfLo > 0.0 || bd.dfHi < 0.0;
+
+        // Split point: geometric while the segment is long compared with its distance from
+        // sRef, halving otherwise.
+        const double nearEnd = isRight ? seg.a : seg.b;
+        const double step = std::max(std::abs(nearEnd - sRef), firstStep);
+        double m = 0.5 * (seg.a + seg.b);
+        if (seg.b - seg.a > 4.0 * step) m = isRight ? seg.a + step : seg.b - step;
+        const double minWidth =
+            kMinSegmentMm + 8.0 * kEpsilon * std::max(std::abs(seg.a), std::abs(seg.b));
+        const bool leaf = !(m > seg.a && m < seg.b) || seg.b - seg.a <= minWidth;
+
+        if (monotone || leaf) {
+            // A monotone segment ending at the origin of a ray that starts on the surface
+            // holds only the origin's own root.
+            if (seg.a == sSelf || seg.b == sSelf) continue;
+            const double fa = f.value(seg.a), fb = f.value(seg.b);
+            if (!((fa <= 0.0 && fb >= 0.0) || (fa >= 0.0 && fb <= 0.0))) continue;
+            const double s = f.polish(seg.a, seg.b, fa, fb, guess);
+            const double key = std::abs(s - sRef);
+            if (key < bestKey && accept(s)) {
+                best = s;
+                bestKey = key;
+            }
+            continue;
+        }
+        const Segment nearPart = isRight ? Segment{seg.a, m} : Segment{m, seg.b};
+        const Segment farPart = isRight ? Segment{m, seg.b} : Segment{seg.a, m};
+        if (!stack.push(farPart) || !stack.push(nearPart)) return std::nullopt;
+    }
+    return best;
+}
+
+// The range of s to search: radial distance within rLimit (a quadratic inequality in s) and
+// z within the range of the sag over that disc (linear in s). At least one of the two is
+// bounded since d is a unit vector; false if the range is empty.
+bool asphereSearchRange(const AsphereAlongRay& f, const Vec3& p, const Vec3& d, double rLimit,
+                        double& lo, double& hi) {
+    const double uMax = rLimit * rLimit * (1.0 + 64.0 * kEpsilon);
+    const double qa = d.x * d.x + d.y * d.y;
+    const double qb = p.x * d.x + p.y * d.y;
+    const double qc = p.x * p.x + p.y * p.y - uMax;
+    if (qa == 0.0) {
+        if (qc > 0.0) return false;
+    } else {
+        const double disc = differenceOfProducts(qb, qb, qa, qc);
+        if (!(disc >= 0.0)) return false;
+        const double q = -(qb + std::copysign(std::sqrt(disc), qb));
+        const double s1 = q / qa, s2 = q != 0.0 ? qc / q : 0.0;
+        lo = std::max(lo, std::min(s1, s2));
+        hi = std::min(hi, std::max(s1, s2));
+    }
+    const AsphereAlongRay::SagRange sr = f.sagRange(0.0, uMax);
+    const double zTol = 32.0 * kEpsilon * sr.magnitude;
+    const double zLo = sr.lo - zTol, zHi = sr.hi + zTol;
+    if (d.z != 0.0) {
+        const double s1 = (zLo - p.z) / d.z, s2 = (zHi - p.z) / d.z;
+        if (std::isfinite(s1) && std::isfinite(s2)) {
+            lo = std::max(lo, std::min(s1, s2));
+            hi = std::min(hi, std::max(s1, s2));
+        }
+    } else if (p.z < zLo || p.z > zHi) {
+        return false;
+    }
+    return lo <= hi && std::isfinite(lo) && std::isfinite(hi);
+}
+
+double asphereRadiusLimit(const EvenAsphereShape& s, double rMax) {
+    return std::min({rMax, maxRadius(s), kAsphereSearchRadiusMm});
+}
+
+std::optional<double> asphereSequential(const EvenAsphereShape& shape, const Ray& ray) {
+    const Vec3& d = ray.direction;
+    const double tRef = nearestToVertex(ray);
+    const Vec3 p = ray.origin + tRef * d;
+    const AsphereAlongRay f(shape, p, d);
+    double lo = -kInfinity, hi = kInfinity;
+    if (!asphereSearchRange(f, p, d, asphereRadiusLimit(shape, kInfinity), lo, hi)) {
+        return std::nullopt;
+    }
+    // Tangent-plane crossing, or the ray origin for rays parallel to the plane; clamping it
+    // to the range does not change which root is nearest.
+    double sRef = d.z != 0.0 ? -p.z / d.z : -tRef;
+    if (!std::isfinite(sRef)) sRef = -tRef;
+    sRef = std::clamp(sRef, lo, hi);
+    // The base conic's crossing is usually close to the asphere's: it sets the length of the
+    // first segments and starts Newton.
+    double guess = kNaN;
+    const ConicBase base{shape.curvature, shape.conic};
+    const QuadraticRoots roots = conicRoots(base, p, d);
+    for (int i = 0; i < roots.count; ++i) {
+        const double sc = roots.s[i];
+        if (std::isfinite(sc) && onVertexSheet(base, p.z + sc * d.z) &&
+            !(std::abs(sc - sRef) >= std::abs(guess - sRef))) {
+            guess = sc;
+        }
+    }
+    const double firstStep =
+        std::isfinite(guess) ? std::max(kInitialSegmentMm, 2.0 * std::abs(guess - sRef))
+                             : kInitialSegmentMm;
+    const std::optional<double> s =
+        findAsphereRoot(f, lo, hi, sRef, kNaN, firstStep, guess, [](double) { return true; });
+    if (!s) return std::nullopt;
+    return tRef + *s;
+}
+
+std::optional<ShapeHit> asphereFirst(const EvenAsphereShape& shape, const Ray& ray,
+                                     double tMin, double tMax, double rMax,
+                                     bool startsOnSurface) {
+    const Vec3& d = ray.direction;
+    const double tRef = startsOnSurface ? 0.0 : nearestToVertex(ray);
+    const Vec3 p = ray.origin + tRef * d;
+    const AsphereAlongRay f(shape, p, d);
+    double lo = tMin - tRef, hi = tMax - tRef;
+    const double rLimit = asphereRadiusLimit(shape, rMax + 8.0 * kEpsilon * rMax);
+    if (!(lo <= hi) || !asphereSearchRange(f, p, d, rLimit, lo, hi)) return std::nullopt;
+    // The origin of a ray that starts on the surface may fall just outside the range by
+    // rounding (an origin on the aperture edge); keep it inside so that its own root is
+    // recognised as such.
+    if (startsOnSurface && tMin <= 0.0 && lo > 0.0 && hi >= 0.0) lo = 0.0;
+    const double pLength = glm::length(p);
+    auto accept = [&](double s) {
+        const double t = tRef + s;
+        return t > tMin && t <= tMax &&
+               withinRadius(p + s * d, rMax, pLength + std::abs(s));
+    };
+    const std::optional<double> s =
+        findAsphereRoot(f, lo, hi, lo, startsOnSurface ? 0.0 : kNaN, kInitialSegmentMm, kNaN,
+                        accept);
+    if (!s) return std::nullopt;
+    const Vec3 point = p + *s * d;
+    return ShapeHit{tRef + *s, point, surfaceNormal(SurfaceShape{shape}, point)};
+}
+
+}  // namespace
+
+// Printing
+
+std::ostream& operator<<(std::ostream& os, const PlaneShape&) { return os << "Plane{}"; }
+std::ostream& operator<<(std::ostream& os, const SphereShape& s) {
+    return os << "Sphere{curvature " << s.curvature << " /mm}";
+}
+std::ostream& operator<<(std::ostream& os, const ConicShape& s) {
+    return os << "Conic{curvature " << s.curvature << " /mm, conic " << s.conic << "}";
+}
+std::ostream& operator<<(std::ostream& os, const EvenAsphereShape& s) {
+    os << "EvenAsphere{curvature " << s.curvature << " /mm, conic " << s.conic << ", a [";
+    for (size_t i = 0; i < s.coefficients.size(); ++i) {
+        os << (i ? ", " : "") << s.coefficients[i];
+    }
+    return os << "]}";
+}
+std::ostream& operator<<(std::ostream& os, const SurfaceShape& s) {
+    std::visit([&os](const auto& shape) { os << shape; }, s);
+    return os;
+}
+std::ostream& operator<<(std::ostream& os, const ShapeHit& h) {
+    return os << "ShapeHit{t " << h.t << " mm, point " << h.point << ", normal " << h.normal
+              << "}";
+}
+
+// Surface Shape Functions
+
+SurfaceShape makeShape(double curvature, double conic, const std::array<double, 10>& asphere) {
+    if (!allZero(asphere)) return EvenAsphereShape{curvature, conic, asphere};
+    if (curvature == 0.0) return PlaneShape{};
+    if (conic == 0.0) return SphereShape{curvature};
+    return ConicShape{curvature, conic};
+}
+
+double sag(const SurfaceShape& shape, double rSq) {
+    return std::visit(
+        [rSq](const auto& s) -> double {
+            using S = std::decay_t<decltype(s)>;
+            if constexpr (std::is_same_v<S, PlaneShape>) {
+                return 0.0;
+            } else if constexpr (std::is_same_v<S, SphereShape>) {
+                return conicSag({s.curvature, 0.0}, rSq);
+            } else if constexpr (std::is_same_v<S, ConicShape>) {
+                return conicSag({s.curvature, s.conic}, rSq);
+            } else {
+                return conicSag({s.curvature, s.conic}, rSq) + polySag(s.coefficients, rSq);
+            }
+        },
+        shape);
+}
+
+// The normal is grad(z - S(u)) = (-2 x S', -2 y S', 1) scaled by w = sqrt(1 - K u) >= 0,
+// which keeps it finite at an ellipsoid's rim: (-x (c + 2 w P'), -y (c + 2 w P'), w). For a
+// pure conic w is taken from the implicit form, w = 1 - (1 + k) c z (equal on the vertex
+// sheet, and well conditioned near the rim where 1 - K u cancels); for a sphere the normal
+// is then exactly along the radius. No term divides by c, so tiny curvatures are harmless.
+Vec3 surfaceNormal(const SurfaceShape& shape, const Vec3& point) {
+    const Vec3 g = std::visit(
+        [&point](const auto& s) -> Vec3 {
+            using S = std::decay_t<decltype(s)>;
+            if constexpr (std::is_same_v<S, PlaneShape>) {
+                return {0.0, 0.0, 1.0};
+            } else if constexpr (std::is_same_v<S, EvenAsphereShape>) {
+                const ConicBase b{s.curvature, s.conic};
+                const double u = point.x * point.x + point.y * point.y;
+                const double w = std::sqrt(std::max(0.0, 1.0 - b.bigK() * u));
+                const double m = b.c + 2.0 * w * polySlope(s.coefficients, u);
+                return {-point.x * m, -point.y * m, w};
+            } else {
+                const ConicBase b = conicBase(s);
+                return {-b.c * point.x, -b.c * point.y, 1.0 - (1.0 + b.k) * b.c * point.z};
+            }
+        },
+        shape);
+    return glm::normalize(g);
+}
+
+double maxRadius(const SurfaceShape& shape) {
+    const ConicBase b = conicBase(shape);
+    // Spheres and ellipsoids end where 1 - (1 + k) c^2 r^2 = 0 (decided on 1 + k and c, not on
+    // (1 + k) c^2, which underflows for tiny c).
+    if (b.c == 0.0 || !(1.0 + b.k > 0.0)) return kInfinity;
+    return 1.0 / (std::abs(b.c) * std::sqrt(1.0 + b.k));
+}
+
+std::optional<double> intersectSequential(const SurfaceShape& shape, const Ray& localRay) {
+    return std::visit(
+        [&](const auto& s) -> std::optional<double> {
+            using S = std::decay_t<decltype(s)>;
+            if constexpr (std::is_same_v<S, PlaneShape>) {
+                if (localRay.direction.z == 0.0) return std::nullopt;
+                return -localRay.origin.z / localRay.direction.z;
+            } else if constexpr (std::is_same_v<S, EvenAsphereShape>) {
+                if (allZero(s.coefficients)) {
+                    return conicSequential({s.curvature, s.conic}, localRay);
+                }
+                return asphereSequential(s, localRay);
+            } else {
+                return conicSequential(conicBase(s), localRay);
+            }
+        },
+        shape);
+}
+
+std::optional<ShapeHit> intersectFirst(const SurfaceShape& shape, const Ray& localRay,
+                                       double tMin, double tMax, double rMax,
+                                       bool startsOnSurface) {
+    return std::visit(
+        [&](const auto& s) -> std::optional<ShapeHit> {
+            using S = std::decay_t<decltype(s)>;
+            if constexpr (std::is_same_v<S, PlaneShape>) {
+                // A ray that starts on a plane cannot meet it again.
+                const Vec3& o = localRay.origin;
+                const Vec3& d = localRay.direction;
+                if (startsOnSurface || d.z == 0.0) return std::nullopt;
+                const double t = -o.z / d.z;
+                if (!(t > tMin && t <= tMax)) return std::nullopt;
+                const Vec3 point{o.x + t * d.x, o.y + t * d.y, 0.0};
+                if (!withinRadius(point, rMax, glm::length(o) + std::abs(t))) return std::nullopt;
+                return ShapeHit{t, point, {0.0, 0.0, 1.0}};
+            } else if constexpr (std::is_same_v<S, EvenAsphereShape>) {
+                if (allZero(s.coefficients)) {
+                    return conicFirst(shape, {s.curvature, s.conic}, localRay, tMin, tMax, rMax,
+                                      startsOnSurface);
+                }
+                return asphereFirst(s, localRay, tMin, tMax, rMax, startsOnSurface);
+            } else {
+                return conicFirst(shape, conicBase(s), localRay, tMin, tMax, rMax,
+                                  startsOnSurface);
+            }
+        },
+        shape);
+}
+
+}  // namespace veil

@@ -1,0 +1,99 @@
+#pragma once
+// Exact optical surfaces in their local frame: vertex at the origin, axis along +z.
+//
+// Every shape is a height field z = sag(x, y) over the aperture; for spheres and conics it
+// is the sheet through the vertex (the other sheet is never part of a lens surface). All
+// arithmetic is double precision; intersections are written to avoid cancellation near the
+// vertex and for radii up to 1e9 mm, and aspheres are refined by bracketed Newton steps.
+//
+//   plane          z = 0
+//   sphere         z = c r^2 / (1 + sqrt(1 - c^2 r^2))
+//   conic          z = c r^2 / (1 + sqrt(1 - (1 + k) c^2 r^2))
+//   even asphere   conic + sum_i a[i] r^(2i+2)      (a[0] r^2, a[1] r^4 = A4, ... a[9] = A20)
+//
+// Units: lengths in mm, curvature c in 1/mm (c > 0 when the centre of curvature is at +z),
+// k dimensionless (k > 0 oblate ellipsoid, 0 sphere, (-1, 0) prolate ellipsoid, -1
+// paraboloid, < -1 hyperboloid), a[i] in mm^-(2i+1).
+//
+// Normals are unit vectors along grad(z - sag): at the vertex (0, 0, 1), that is toward +z.
+// The closed set of shapes is a std::variant dispatched with std::visit, without virtual
+// calls.
+//
+// Rays are given in the surface's local frame; their direction should be a unit vector, so
+// that the distances t are in mm.
+
+#include <array>
+#include <optional>
+#include <ostream>
+#include <variant>
+
+#include "geometry/vec.h"
+
+namespace veil {
+
+struct PlaneShape {};
+struct SphereShape {
+    double curvature = 0.0;  // 1/mm
+};
+struct ConicShape {
+    double curvature = 0.0;
+    double conic = 0.0;
+};
+struct EvenAsphereShape {
+    double curvature = 0.0;
+    double conic = 0.0;
+    std::array<double, 10> coefficients{};  // coefficients[i] multiplies r^(2i+2)
+};
+
+using SurfaceShape = std::variant<PlaneShape, SphereShape, ConicShape, EvenAsphereShape>;
+std::ostream& operator<<(std::ostream& os, const PlaneShape& s);
+std::ostream& operator<<(std::ostream& os, const SphereShape& s);
+std::ostream& operator<<(std::ostream& os, const ConicShape& s);
+std::ostream& operator<<(std::ostream& os, const EvenAsphereShape& s);
+std::ostream& operator<<(std::ostream& os, const SurfaceShape& s);
+
+// The simplest shape that represents the given parameters exactly: a plane when c == 0 and
+// every a[i] == 0 (the conic constant of a flat surface has no effect), a sphere when also
+// k == 0, a conic when only the a[i] vanish, an even asphere otherwise (a[0] r^2 curves a
+// flat base, so it makes an asphere too).
+SurfaceShape makeShape(double curvature, double conic, const std::array<double, 10>& asphere);
+
+// Sag z at radial distance squared rSq (mm^2). NaN outside the conic's domain.
+double sag(const SurfaceShape& shape, double rSq);
+// Unit normal at a point on (or near) the surface; +z at the vertex.
+Vec3 surfaceNormal(const SurfaceShape& shape, const Vec3& point);
+// Largest radial distance where the surface is defined (infinite for planes, paraboloids,
+// hyperboloids and aspheres without a conic limit).
+double maxRadius(const SurfaceShape& shape);
+
+// Even aspheres have no closed-form intersection; their roots are searched for on the part
+// of the ray with radial distance below min(maxRadius, rMax, kAsphereSearchRadiusMm). The
+// limit only matters for aspheres on a paraboloid or hyperboloid base (or a flat one)
+// traced sequentially or with an infinite rMax.
+inline constexpr double kAsphereSearchRadiusMm = 1e6;
+
+// Sequential intersection: the crossing of the surface sheet nearest to where the ray meets
+// the vertex tangent plane (the Spencer and Murty convention). The distance t along the
+// ray may be negative (virtual segments are allowed in sequential tracing). nullopt if the
+// ray misses the surface. A ray parallel to the tangent plane takes the crossing nearest
+// to its origin.
+std::optional<double> intersectSequential(const SurfaceShape& shape, const Ray& localRay);
+
+// Nonsequential intersection: the smallest t in (tMin, tMax] where the ray crosses the sheet
+// at radial distance r <= rMax. Rays that start on the surface pass tMin = 0 with
+// `startsOnSurface` set, so the crossing at t ~ 0 is skipped without an epsilon offset; the
+// ray can still meet the same surface again elsewhere (a chord inside a curved surface).
+// A point on the edge r == rMax counts as inside, also after the rounding of the hit point
+// (a few units in the last place of the ray's coordinates).
+struct ShapeHit {
+    double t = 0.0;
+    Vec3 point{0.0};
+    Vec3 normal{0.0};  // unit, +z at the vertex
+};
+std::ostream& operator<<(std::ostream& os, const ShapeHit& h);
+
+std::optional<ShapeHit> intersectFirst(const SurfaceShape& shape, const Ray& localRay,
+                                       double tMin, double tMax, double rMax,
+                                       bool startsOnSurface);
+
+}  // namespace veil

@@ -1,0 +1,28 @@
+#pragma once
+// Vector types for geometry in double precision (mm).
+
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+#include <glm/geometric.hpp>
+#include <ostream>
+
+namespace veil {
+
+using Vec2 = glm::dvec2;
+using Vec3 = glm::dvec3;
+
+inline std::ostream& operator<<(std::ostream& os, const Vec3& v) {
+    return os << "(" << v.x << ", " << v.y << ", " << v.z << ")";
+}
+inline std::ostream& operator<<(std::ostream& os, const Vec2& v) {
+    return os << "(" << v.x << ", " << v.y << ")";
+}
+
+// A ray: origin (mm) and unit direction, in whatever frame the caller states.
+struct Ray {
+    Vec3 origin{0.0};
+    Vec3 direction{0.0, 0.0, 1.0};
+};
+std::ostream& operator<<(std::ostream& os, const Ray& r);
+
+}  // namespace veil
