@@ -1,0 +1,232 @@
+// veil info FILE: first-order data, surfaces, spot sizes and the import report of a lens.
+//
+//   veil info examples/lenses/double_gauss_50mm.toml
+//   veil info lens.zmx --json        # the same as JSON on standard output
+//
+// JSON: the primary wavelength's first-order data at the top level (efl_mm, bfl_mm,
+// ffl_mm, f_number, ...), every wavelength under "wavelengths", surfaces, elements, spots
+// and the import report beside them.
+
+#include <cmath>
+#include <iomanip>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "analysis/first_order.h"
+#include "analysis/spot.h"
+#include "cli/commands.h"
+#include "lensdata/lens_file.h"
+#include "tracer/sequential_model.h"
+
+namespace veil::cli {
+
+namespace {
+
+// JSON has no infinity: write null for non-finite numbers.
+nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
+
+nlohmann::json firstOrderJson(const FirstOrderData& d) {
+    nlohmann::json j;
+    j["wavelength_nm"] = d.wavelengthNm;
+    j["efl_mm"] = num(d.eflMm);
+    j["bfl_mm"] = num(d.bflMm);
+    j["ffl_mm"] = num(d.fflMm);
+    j["front_principal_plane_from_surface1_mm"] = num(d.frontPrincipalPlaneMm);
+    j["rear_principal_plane_from_image_mm"] = num(d.rearPrincipalPlaneMm);
+    j["paraxial_image_from_image_surface_mm"] = num(d.paraxialImageDistanceMm);
+    j["entrance_pupil_from_surface1_mm"] = num(d.entrancePupilPositionMm);
+    j["entrance_pupil_diameter_mm"] = num(d.entrancePupilDiameterMm);
+    j["exit_pupil_from_image_mm"] = num(d.exitPupilPositionMm);
+    j["exit_pupil_diameter_mm"] = num(d.exitPupilDiameterMm);
+    j["stop_semi_diameter_mm"] = num(d.stopSemiDiameterMm);
+    j["f_number"] = num(d.imageSpaceFNumber);
+    j["working_f_number"] = num(d.workingFNumber);
+    j["image_space_na"] = num(d.imageSpaceNA);
+    j["object_space_na"] = num(d.objectSpaceNA);
+    j["paraxial_magnification"] = num(d.paraxialMagnification);
+    j["total_track_mm"] = num(d.totalTrackMm);
+    j["petzval_radius_mm"] = num(d.petzvalRadiusMm);
+    nlohmann::json h = nlohmann::json::array();
+    for (double v : d.paraxialImageHeightsMm) h.push_back(num(v));
+    j["paraxial_image_heights_mm"] = h;
+    return j;
+}
+
+std::string fmt(double v, int prec = 6) {
+    if (!std::isfinite(v)) return v > 0 ? "inf" : (v < 0 ? "-inf" : "nan");
+    std::ostringstream os;
+    os << std::setprecision(prec) << v;
+    return os.str();
+}
+
+const char* severityName(ImportNote::Severity s) {
+    switch (s) {
+        case ImportNote::Severity::Info: return "info";
+        case ImportNote::Severity::Warning: return "warning";
+        case ImportNote::Severity::Error: return "error";
+    }
+    return "?";
+}
+
+}  // namespace
+
+GlassCatalog loadCatalog(const CommonOptions& common) {
+    GlassCatalog catalog = GlassCatalog::withEnvironment();
+    for (const std::string& f : common.glassCatalogs) catalog.loadAgf(f);
+    return catalog;
+}
+
+void addInfoCommand(CLI::App& app, CommonOptions& common, InfoOptions& options) {
+    CLI::App* sub = app.add_subcommand("info", "first-order data, spots and import report of a lens");
+    sub->add_option("file", options.file, "lens file (.toml or .zmx)")->required();
+    sub->add_flag("--json", options.json, "print JSON on standard output");
+    sub->add_option("--aim", options.aim, "ray aiming: real (to the real stop) or paraxial")
+        ->check(CLI::IsMember({"real", "paraxial"}));
+    sub->add_option("--rings", options.rings, "hexapolar rings for the spot diagrams")
+        ->check(CLI::Range(1, 200));
+}
+
+int runInfo(const CommonOptions& common, const InfoOptions& options) {
+    const GlassCatalog catalog = loadCatalog(common);
+    const Prescription p = readLensFile(options.file, catalog);
+    const SequentialModel model = SequentialModel::build(p, catalog);
+    const FirstOrderReport fo = computeFirstOrder(model);
+    const RayAimer aimer(model, options.aim == "real" ? AimMode::Real : AimMode::Paraxial);
+    SpotOptions spotOptions;
+    spotOptions.rings = options.rings;
+    spotOptions.aim = aimer.mode();
+    std::vector<SpotResult> spots;
+    for (int f = 0; f < static_cast<int>(p.system.fields.size()); ++f)
+        for (int w = 0; w < model.wavelengthCount(); ++w)
+            spots.push_back(computeSpot(model, aimer, f, w, spotOptions));
+
+    const bool angle = p.system.fieldKind == SystemData::FieldKind::AngleDeg;
+    if (options.json) {
+        nlohmann::json j = firstOrderJson(fo.primaryData());
+        j["file"] = options.file;
+        j["name"] = p.system.name;
+        j["primary_wavelength_nm"] = model.wavelengthNm(model.primaryWavelength());
+        j["wavelengths"] = nlohmann::json::array();
+        for (const FirstOrderData& d : fo.wavelengths) j["wavelengths"].push_back(firstOrderJson(d));
+        j["field_unit"] = angle ? "deg" : "mm";
+        j["fields"] = nlohmann::json::array();
+        for (const Field& f : p.system.fields) j["fields"].push_back({{"x", f.x}, {"y", f.y}, {"weight", f.weight}});
+        j["surfaces"] = nlohmann::json::array();
+        for (const Surface& s : p.surfaces) {
+            nlohmann::json js{{"name", s.name},
+                              {"radius_mm", num(s.radiusMm())},
+                              {"thickness_mm", num(s.thicknessMm)},
+                              {"material", s.material.label()},
+                              {"conic", s.conic},
+                              {"clear_semi_diameter_mm", s.clearSemiDiameterMm},
+                              {"mech_semi_diameter_mm", s.mechSemiDiameterMm},
+                              {"stop", s.stop},
+                              {"mirror", s.mirror}};
+            if (!s.coating.empty()) js["coating"] = s.coating;
+            j["surfaces"].push_back(js);
+        }
+        j["elements"] = nlohmann::json::array();
+        for (const Element& e : p.elements())
+            j["elements"].push_back({{"name", e.name},
+                                     {"front", p.surfaces[e.frontSurface].name},
+                                     {"back", p.surfaces[e.backSurface].name},
+                                     {"material", e.material.label()}});
+        j["spots"] = nlohmann::json::array();
+        for (const SpotResult& s : spots)
+            j["spots"].push_back({{"field", s.field},
+                                  {"wavelength_nm", model.wavelengthNm(s.wavelength)},
+                                  {"rays_traced", s.raysTraced},
+                                  {"rays_landed", s.raysLanded},
+                                  {"centroid_x_mm", s.centroidMm.x},
+                                  {"centroid_y_mm", s.centroidMm.y},
+                                  {"rms_radius_mm", s.rmsRadiusMm},
+                                  {"rms_radius_chief_mm", s.rmsRadiusChiefMm}});
+        j["import_report"] = nlohmann::json::array();
+        for (const ImportNote& n : p.report)
+            j["import_report"].push_back({{"severity", severityName(n.severity)},
+                                          {"file", n.loc.file},
+                                          {"line", n.loc.line},
+                                          {"column", n.loc.column},
+                                          {"message", n.message}});
+        std::cout << j.dump(2) << "\n";
+        return 0;
+    }
+
+    std::ostream& os = std::cout;
+    os << (p.system.name.empty() ? options.file : p.system.name) << "\n";
+    if (!p.system.notes.empty()) os << "  " << p.system.notes << "\n";
+    os << "\nSurfaces\n";
+    os << "  " << std::left << std::setw(4) << "#" << std::setw(12) << "name" << std::right
+       << std::setw(13) << "radius" << std::setw(12) << "thickness" << "  " << std::left
+       << std::setw(14) << "material" << std::right << std::setw(9) << "sd" << "\n";
+    for (size_t i = 0; i < p.surfaces.size(); ++i) {
+        const Surface& s = p.surfaces[i];
+        std::string flags;
+        if (s.stop) flags += " STOP";
+        if (s.mirror) flags += " MIRROR";
+        if (s.conic != 0.0) flags += " k=" + fmt(s.conic);
+        if (s.hasAsphere()) flags += " asphere";
+        os << "  " << std::left << std::setw(4) << i << std::setw(12) << s.name << std::right
+           << std::setw(13) << fmt(s.radiusMm(), 8) << std::setw(12) << fmt(s.thicknessMm, 7)
+           << "  " << std::left << std::setw(14) << s.material.label() << std::right
+           << std::setw(9) << fmt(s.clearSemiDiameterMm, 5) << flags << "\n";
+    }
+    const FirstOrderData& d = fo.primaryData();
+    os << "\nFirst-order data at " << fmt(d.wavelengthNm) << " nm (primary)\n";
+    auto row = [&](const char* label, double v, const char* unit) {
+        os << "  " << std::left << std::setw(40) << label << std::right << std::setw(14)
+           << fmt(v, 8) << " " << unit << "\n";
+    };
+    row("effective focal length", d.eflMm, "mm");
+    row("back focal length (from last surface)", d.bflMm, "mm");
+    row("front focal length (from surface 1)", d.fflMm, "mm");
+    row("front principal plane (from surface 1)", d.frontPrincipalPlaneMm, "mm");
+    row("rear principal plane (from image)", d.rearPrincipalPlaneMm, "mm");
+    row("paraxial image (from image surface)", d.paraxialImageDistanceMm, "mm");
+    row("entrance pupil position (from surface 1)", d.entrancePupilPositionMm, "mm");
+    row("entrance pupil diameter", d.entrancePupilDiameterMm, "mm");
+    row("exit pupil position (from image)", d.exitPupilPositionMm, "mm");
+    row("exit pupil diameter", d.exitPupilDiameterMm, "mm");
+    row("stop semi-diameter", d.stopSemiDiameterMm, "mm");
+    row("image-space F/# (EFL/EPD)", d.imageSpaceFNumber, "");
+    row("paraxial working F/#", d.workingFNumber, "");
+    row("image-space NA", d.imageSpaceNA, "");
+    row("total track (surface 1 to image)", d.totalTrackMm, "mm");
+    row("Petzval radius", d.petzvalRadiusMm, "mm");
+    for (size_t f = 0; f < d.paraxialImageHeightsMm.size(); ++f) {
+        std::string label = "paraxial image height, field " + std::to_string(f + 1) + " (" +
+                            fmt(p.system.fields[f].y) + (angle ? " deg)" : " mm)");
+        row(label.c_str(), d.paraxialImageHeightsMm[f], "mm");
+    }
+    if (fo.wavelengths.size() > 1) {
+        os << "\n  " << std::setw(12) << "wavelength" << std::setw(14) << "EFL" << std::setw(14)
+           << "BFL" << std::setw(14) << "EP diameter" << std::setw(12) << "F/#" << "\n";
+        for (const FirstOrderData& x : fo.wavelengths)
+            os << "  " << std::setw(12) << fmt(x.wavelengthNm) << std::setw(14) << fmt(x.eflMm, 8)
+               << std::setw(14) << fmt(x.bflMm, 8) << std::setw(14)
+               << fmt(x.entrancePupilDiameterMm, 7) << std::setw(12) << fmt(x.imageSpaceFNumber, 5)
+               << "\n";
+    }
+    os << "\nSpots on the image surface (" << aimer.mode() << " aiming, " << options.rings
+       << " rings)\n";
+    os << "  " << std::setw(10) << "field" << std::setw(12) << "wavelength" << std::setw(10)
+       << "rays" << std::setw(14) << "centroid y" << std::setw(14) << "RMS radius" << "\n";
+    for (const SpotResult& s : spots) {
+        os << "  " << std::setw(10) << fmt(p.system.fields[s.field].y) << std::setw(12)
+           << fmt(model.wavelengthNm(s.wavelength)) << std::setw(10)
+           << (std::to_string(s.raysLanded) + "/" + std::to_string(s.raysTraced))
+           << std::setw(14) << fmt(s.centroidMm.y, 7) << std::setw(14) << fmt(s.rmsRadiusMm, 5)
+           << "\n";
+    }
+    os << "\nImport report: ";
+    if (p.report.empty()) {
+        os << "nothing to report\n";
+    } else {
+        os << p.report.size() << " note(s)\n";
+        for (const ImportNote& n : p.report) os << "  " << n << "\n";
+    }
+    return 0;
+}
+
+}  // namespace veil::cli

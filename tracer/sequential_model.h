@@ -1,0 +1,76 @@
+#pragma once
+// A prescription resolved for tracing: exact surface shapes placed on the axis and signed
+// refractive indices per gap and wavelength.
+//
+//   gap i: from surface i to surface i+1; index(i, w) = n of that gap at wavelength w.
+//
+// Frames: the global z axis is the optical axis; surface 1's vertex is at z = 0 and each
+// following vertex at z += thicknessMm (thicknesses are negative after an odd number of
+// mirrors, so folded systems need no tilts). Indices are signed as in lens design
+// programs: negative in gaps where light travels toward -z, so the paraxial equations
+// n'u' = nu - y c (n' - n) hold through mirrors unchanged. The real-ray trace uses |n|.
+// No tilts or decenters yet: every surface is centred on the axis.
+
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "geometry/surface_shape.h"
+#include "lensdata/glass_catalog.h"
+#include "lensdata/prescription.h"
+
+namespace veil {
+
+struct SequentialSurface {
+    std::string name;
+    SurfaceShape shape;
+    double zMm = 0.0;                  // vertex position on the axis (global)
+    double clearSemiDiameterMm = 0.0;  // 0 = not given
+    // Rays outside clearSemiDiameterMm are vignetted. False for the stop (the system aperture
+    // sets its size) and for semi-diameters a lens file marked as computed.
+    bool vignettes = false;
+    bool mirror = false;
+    bool stop = false;
+};
+std::ostream& operator<<(std::ostream& os, const SequentialSurface& s);
+
+class SequentialModel {
+public:
+    // Resolves every material with `catalog` (the prescription's preferred catalogs first).
+    // Throws ModelError naming the surface for an unknown glass or an index that is not
+    // defined at one of the system wavelengths.
+    static SequentialModel build(const Prescription& prescription, const GlassCatalog& catalog);
+    // Same, at the given wavelengths (nm) instead of the system's.
+    static SequentialModel build(const Prescription& prescription, const GlassCatalog& catalog,
+                                 const std::vector<double>& wavelengthsNm);
+
+    const Prescription& prescription() const { return prescription_; }
+    const std::vector<SequentialSurface>& surfaces() const { return surfaces_; }
+    const SequentialSurface& surface(int i) const { return surfaces_[i]; }
+    int surfaceCount() const { return static_cast<int>(surfaces_.size()); }
+    int stopIndex() const { return stopIndex_; }
+    int imageIndex() const { return surfaceCount() - 1; }
+
+    int wavelengthCount() const { return static_cast<int>(wavelengthsNm_.size()); }
+    double wavelengthNm(int w) const { return wavelengthsNm_[w]; }
+    int primaryWavelength() const { return primaryWavelength_; }
+
+    // Signed index of gap `gap` at wavelength `w` (see the header comment).
+    double index(int gap, int w) const { return indices_[w][gap]; }
+    // +1 where light travels toward +z in the gap, -1 toward -z.
+    double direction(int gap) const { return directions_[gap]; }
+    // Signed thickness of gap `gap` (mm); infinite for an object at infinity.
+    double thicknessMm(int gap) const;
+    bool objectAtInfinity() const;
+
+private:
+    Prescription prescription_;
+    std::vector<SequentialSurface> surfaces_;
+    std::vector<double> wavelengthsNm_;
+    int primaryWavelength_ = 0;
+    int stopIndex_ = 1;
+    std::vector<std::vector<double>> indices_;  // [wavelength][gap]
+    std::vector<double> directions_;            // [gap]
+};
+
+}  // namespace veil

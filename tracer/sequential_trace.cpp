@@ -1,0 +1,85 @@
+#include "tracer/sequential_trace.h"
+
+#include <cmath>
+
+namespace veil {
+
+std::ostream& operator<<(std::ostream& os, const SequentialRayResult& r) {
+    return os << "SequentialRayResult{" << r.status << " at surface " << r.surface << ", "
+              << r.ray << "}";
+}
+
+std::optional<Vec3> refract(const Vec3& d, const Vec3& nrm, double n1, double n2) {
+    // Orient the normal against the incoming ray so cosI >= 0.
+    Vec3 nn = nrm;
+    double cosI = -glm::dot(d, nn);
+    if (cosI < 0.0) {
+        nn = -nn;
+        cosI = -cosI;
+    }
+    const double mu = n1 / n2;
+    const double sin2T = mu * mu * std::max(0.0, 1.0 - cosI * cosI);
+    if (sin2T > 1.0) return std::nullopt;
+    const double cosT = std::sqrt(1.0 - sin2T);
+    const Vec3 out = mu * d + (mu * cosI - cosT) * nn;
+    return glm::normalize(out);
+}
+
+Vec3 reflect(const Vec3& d, const Vec3& nrm) { return d - 2.0 * glm::dot(d, nrm) * nrm; }
+
+SequentialRayResult traceSequential(const SequentialModel& model, int w, const Ray& start,
+                                    const SequentialTraceOptions& options) {
+    SequentialRayResult result;
+    const int last = options.lastSurface < 0 ? model.imageIndex() : options.lastSurface;
+    Vec3 p = start.origin;
+    Vec3 d = start.direction;
+    result.ray = start;
+    result.surface = options.firstSurface - 1;
+    const double len = glm::length(d);
+    if (!(len > 0.0) || !std::isfinite(len) || !std::isfinite(p.x + p.y + p.z)) {
+        result.status = RayStatus::Invalid;
+        return result;
+    }
+    d /= len;
+    for (int i = options.firstSurface; i <= last; ++i) {
+        const SequentialSurface& s = model.surface(i);
+        const Ray local{p - Vec3(0.0, 0.0, s.zMm), d};
+        const std::optional<double> t = intersectSequential(s.shape, local);
+        if (!t) {
+            result.status = RayStatus::Missed;
+            result.surface = i;
+            return result;
+        }
+        const Vec3 localHit = local.origin + *t * d;
+        const double nBefore = std::abs(model.index(i - 1, w));
+        result.opticalPathMm += nBefore * *t;
+        p = localHit + Vec3(0.0, 0.0, s.zMm);
+        result.ray = {p, d};
+        result.surface = i;
+        if (options.clipApertures && s.vignettes &&
+            std::hypot(localHit.x, localHit.y) > s.clearSemiDiameterMm) {
+            result.status = RayStatus::Clipped;
+            return result;
+        }
+        const Vec3 nrm = surfaceNormal(s.shape, localHit);
+        if (s.mirror) {
+            d = reflect(d, nrm);
+        } else {
+            const double nAfter = std::abs(model.index(i, w));
+            if (nAfter != nBefore) {
+                const std::optional<Vec3> r = refract(d, nrm, nBefore, nAfter);
+                if (!r) {
+                    result.status = RayStatus::TotalInternalReflection;
+                    return result;
+                }
+                d = *r;
+            }
+        }
+        result.ray.direction = d;
+        if (options.recordPath) result.path.push_back(result.ray);
+    }
+    result.status = RayStatus::Ok;
+    return result;
+}
+
+}  // namespace veil

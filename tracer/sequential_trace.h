@@ -1,0 +1,44 @@
+#pragma once
+// Real-ray sequential trace through a SequentialModel.
+//
+// Rays are in the global frame (z = optical axis). Each surface is met by
+// intersectSequential() on the same exact shapes the nonsequential tracer uses; refraction
+// uses Snell's law in vector form with |n|, reflection mirrors the direction about the
+// normal. The outcome of every ray is a RayStatus with the surface where it stopped.
+
+#include <optional>
+#include <ostream>
+#include <vector>
+
+#include "geometry/vec.h"
+#include "tracer/ray_status.h"
+#include "tracer/sequential_model.h"
+
+namespace veil {
+
+struct SequentialTraceOptions {
+    int firstSurface = 1;        // the ray is given in the gap before this surface
+    int lastSurface = -1;        // -1 = the image surface
+    bool clipApertures = true;   // rays outside a vignetting semi-diameter are Clipped
+    bool recordPath = false;     // keep the point and direction at every surface
+};
+
+struct SequentialRayResult {
+    RayStatus status = RayStatus::Ok;
+    int surface = 0;   // last surface reached (Ok) or where the ray failed
+    Ray ray;           // at the last surface reached: point on it, direction after it
+    double opticalPathMm = 0.0;  // sum of |n| * length from the start point
+    std::vector<Ray> path;       // per surface from firstSurface (recordPath only)
+    bool ok() const { return status == RayStatus::Ok; }
+};
+std::ostream& operator<<(std::ostream& os, const SequentialRayResult& r);
+
+SequentialRayResult traceSequential(const SequentialModel& model, int w, const Ray& ray,
+                                    const SequentialTraceOptions& options = {});
+
+// Refraction of unit direction d at a surface with unit normal nrm (either orientation),
+// from |n| = n1 into |n| = n2. nullopt on total internal reflection.
+std::optional<Vec3> refract(const Vec3& d, const Vec3& nrm, double n1, double n2);
+Vec3 reflect(const Vec3& d, const Vec3& nrm);
+
+}  // namespace veil
