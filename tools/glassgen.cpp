@@ -13,8 +13,9 @@
 // inputs are read with veil's own AGF reader and written back with writeAgf(): only the lines
 // veil reads are kept (NM GC ED CD TD LD IT and CC), numbers in their shortest exact form.
 // The other lines of each input before its first glass (vendor notices, status legends) are
-// copied into the header as '!' comments. The output is written to OUT.agf.tmp, read back and
-// checked, then renamed over OUT.agf, so a failed run never leaves a half-written catalog.
+// copied into the header as '!' comments. The text is read back and checked in memory,
+// written to OUT.agf.tmp, then renamed over OUT.agf, so a failed run never leaves a
+// half-written catalog. The output holds no date: the same inputs give the same bytes.
 
 #include <cstdio>
 #include <exception>

@@ -6,6 +6,7 @@
 
 #include <cmath>
 
+#include "lensdata/zmx_reader.h"
 #include "tests/test_lenses.h"
 #include "tracer/paraxial.h"
 #include "tracer/pupil.h"
@@ -136,6 +137,46 @@ TEST(Paraxial, UnitMagnificationAtTwiceTheFocalLength) {
     EXPECT_NEAR(fo.paraxialImageDistanceMm, 0.0, 1e-6);
     // NA: marginal ray from the axial object point to the pupil edge.
     EXPECT_NEAR(fo.objectSpaceNA, std::sin(std::atan(5.0 / 100.0)), 1e-9);
+}
+
+}  // namespace
+}  // namespace veil
+
+namespace veil {
+namespace {
+
+// The two Zemax sample files, imported and traced. The reference EFLs were derived by hand
+// (y-nu table in tests/lensdata/zmx_reader_test.cpp): 49.38898 mm for the double Gauss at
+// the d line with N-BAK1 and N-BALF4 from the catalog; 24.60872 mm for the catadioptric
+// HoO lens at 550 nm, which also follows from the file's own automatic stop semi-diameter
+// (FNUM 1.25: EFL = 1.25 * 2 * 9.843488 mm).
+TEST(FirstOrderZmx, SampleFilesHaveTheirDerivedFocalLengths) {
+    const GlassCatalog& catalog = GlassCatalog::builtIn();
+    {
+        const Prescription p =
+            readZmx(VEIL_SOURCE_DIR "/tests/data/zmx/US00583336-2-scaled.zmx", catalog);
+        const SequentialModel m = SequentialModel::build(p, catalog);
+        const FirstOrderData fo = computeFirstOrder(m, m.primaryWavelength());
+        EXPECT_NEAR(fo.eflMm, 49.38898, 2e-5);
+        EXPECT_NEAR(fo.entrancePupilDiameterMm, 49.38898 / 4.5, 1e-5);
+        // Symmetric about the stop: the pupils sit at the principal planes.
+        EXPECT_NEAR(fo.entrancePupilPositionMm, fo.frontPrincipalPlaneMm, 1e-9);
+        EXPECT_NEAR(fo.exitPupilPositionMm, fo.rearPrincipalPlaneMm, 1e-9);
+    }
+    {
+        const Prescription p = readZmx(VEIL_SOURCE_DIR "/tests/data/zmx/HoO-V2C18Ex27.zmx", catalog);
+        const SequentialModel m = SequentialModel::build(p, catalog);
+        const FirstOrderData fo = computeFirstOrder(m, m.primaryWavelength());
+        EXPECT_NEAR(fo.eflMm, 24.60872, 2e-5);
+        // The stop is surface 1: its paraxial semi-diameter is EPD / 2, which Zemax wrote
+        // (plus the field's offset) as DIAM 9.8475 for the 1.5 degree field.
+        EXPECT_NEAR(fo.stopSemiDiameterMm, 24.60872 / 1.25 / 2.0, 1e-5);
+        EXPECT_LT(fo.stopSemiDiameterMm, p.surfaces[1].clearSemiDiameterMm);
+        // Two mirrors: the image space runs toward +z again, and the image lies near the
+        // paraxial focus the file's last thickness was solved for.
+        EXPECT_GT(m.index(m.imageIndex() - 1, 0), 0.0);
+        EXPECT_NEAR(fo.paraxialImageDistanceMm, 0.0, 1e-3);
+    }
 }
 
 }  // namespace

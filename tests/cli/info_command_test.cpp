@@ -1,0 +1,97 @@
+// `veil info` run as a user runs it: text, JSON on standard output, exit codes and messages.
+
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+#include <string>
+
+namespace {
+
+struct VeilRun {
+    int exitCode = -1;
+    std::string out;  // standard output
+    std::string err;  // standard error
+};
+
+// Runs veil with the given arguments (a shell fragment) from the source directory.
+VeilRun runVeil(const std::string& args) {
+    const std::string errFile = ::testing::TempDir() + "veil_cli_stderr.txt";
+    const std::string cmd = std::string("cd ") + VEIL_SOURCE_DIR + " && " + VEIL_EXE + " " + args +
+                            " 2>" + errFile;
+    VeilRun r;
+    FILE* pipe = popen(cmd.c_str(), "r");
+    if (!pipe) return r;
+    std::array<char, 4096> buf{};
+    size_t n;
+    while ((n = fread(buf.data(), 1, buf.size(), pipe)) > 0) r.out.append(buf.data(), n);
+    const int status = pclose(pipe);
+    r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    if (FILE* f = fopen(errFile.c_str(), "r")) {
+        while ((n = fread(buf.data(), 1, buf.size(), f)) > 0) r.err.append(buf.data(), n);
+        fclose(f);
+    }
+    return r;
+}
+
+TEST(VeilInfo, JsonHasFirstOrderKeysForTheZemaxDoubleGauss) {
+    const VeilRun r = runVeil("info tests/data/zmx/US00583336-2-scaled.zmx --json");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const nlohmann::json j = nlohmann::json::parse(r.out);
+    // EFL derived by hand (y-nu at the d line, N-BAK1 1.57250, N-BALF4 1.57956): 49.389 mm.
+    EXPECT_NEAR(j["efl_mm"].get<double>(), 49.389, 0.001);
+    EXPECT_NEAR(j["f_number"].get<double>(), 4.5, 1e-9);
+    EXPECT_NEAR(j["entrance_pupil_diameter_mm"].get<double>(), 49.389 / 4.5, 0.001);
+    EXPECT_TRUE(j.contains("bfl_mm"));
+    EXPECT_TRUE(j.contains("ffl_mm"));
+    ASSERT_EQ(j["wavelengths"].size(), 3u);
+    EXPECT_NEAR(j["primary_wavelength_nm"].get<double>(), 587.5618, 1e-9);
+    // The F line focuses shorter than C for this uncorrected pair of crowns.
+    EXPECT_LT(j["wavelengths"][0]["efl_mm"].get<double>(), j["wavelengths"][2]["efl_mm"].get<double>());
+    EXPECT_EQ(j["surfaces"].size(), 14u);
+    EXPECT_EQ(j["elements"].size(), 6u);
+    EXPECT_EQ(j["spots"].size(), 9u);  // 3 fields x 3 wavelengths
+    EXPECT_FALSE(j["import_report"].empty());
+}
+
+TEST(VeilInfo, TextOutputNamesTheSystemAndItsFocalLength) {
+    const VeilRun r = runVeil("info tests/data/zmx/HoO-V2C18Ex27.zmx");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.out.find("effective focal length"), std::string::npos);
+    EXPECT_NE(r.out.find("24.6087"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("M1"), std::string::npos);
+}
+
+TEST(VeilInfo, MissingFileIsAnErrorWithExitCode1) {
+    const VeilRun r = runVeil("info no/such/lens.toml");
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_NE(r.err.find("no/such/lens.toml"), std::string::npos) << r.err;
+    EXPECT_TRUE(r.out.empty());
+}
+
+TEST(VeilInfo, MalformedZmxNamesFileLineAndColumn) {
+    const VeilRun r = runVeil("info tests/data/zmx/malformed_number.zmx");
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_NE(r.err.find("malformed_number.zmx:"), std::string::npos) << r.err;
+    EXPECT_TRUE(r.out.empty());
+}
+
+TEST(VeilInfo, UnknownTomlKeyNamesItsPosition) {
+    const std::string path = ::testing::TempDir() + "veil_cli_typo.toml";
+    FILE* f = fopen(path.c_str(), "w");
+    ASSERT_TRUE(f);
+    fputs("[system]\naperture = { epd_mm = 10 }\nsurfaces = [\n  { r = 50, t = 5, glass = \"N-BK7\", stop = true },\n  { r = -50, t = 45, thikness = 3 },\n]\n", f);
+    fclose(f);
+    const VeilRun r = runVeil("info " + path);
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_NE(r.err.find("veil_cli_typo.toml:5:"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("thikness"), std::string::npos) << r.err;
+}
+
+TEST(VeilInfo, BadCommandLineExitsWith2) {
+    EXPECT_EQ(runVeil("info").exitCode, 2);
+    EXPECT_EQ(runVeil("frobnicate x").exitCode, 2);
+}
+
+}  // namespace
