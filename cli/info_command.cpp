@@ -60,6 +60,15 @@ std::string fmt(double v, int prec = 6) {
     return os.str();
 }
 
+// Fixed-point millimetres to the nanometre, with -0 shown as 0.
+std::string fmtMm(double v) {
+    if (!std::isfinite(v)) return fmt(v);
+    if (std::abs(v) < 5e-7) v = 0.0;
+    std::ostringstream os;
+    os << std::fixed << std::setprecision(6) << v;
+    return os.str();
+}
+
 const char* severityName(ImportNote::Severity s) {
     switch (s) {
         case ImportNote::Severity::Info: return "info";
@@ -159,7 +168,7 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
     os << "\nSurfaces\n";
     os << "  " << std::left << std::setw(4) << "#" << std::setw(12) << "name" << std::right
        << std::setw(13) << "radius" << std::setw(12) << "thickness" << "  " << std::left
-       << std::setw(14) << "material" << std::right << std::setw(9) << "sd" << "\n";
+       << std::setw(22) << "material" << std::right << std::setw(9) << "sd" << "\n";
     for (size_t i = 0; i < p.surfaces.size(); ++i) {
         const Surface& s = p.surfaces[i];
         std::string flags;
@@ -169,7 +178,7 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
         if (s.hasAsphere()) flags += " asphere";
         os << "  " << std::left << std::setw(4) << i << std::setw(12) << s.name << std::right
            << std::setw(13) << fmt(s.radiusMm(), 8) << std::setw(12) << fmt(s.thicknessMm, 7)
-           << "  " << std::left << std::setw(14) << s.material.label() << std::right
+           << "  " << std::left << std::setw(22) << s.material.label() << std::right
            << std::setw(9) << fmt(s.clearSemiDiameterMm, 5) << flags << "\n";
     }
     const FirstOrderData& d = fo.primaryData();
@@ -195,7 +204,7 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
     row("total track (surface 1 to image)", d.totalTrackMm, "mm");
     row("Petzval radius", d.petzvalRadiusMm, "mm");
     for (size_t f = 0; f < d.paraxialImageHeightsMm.size(); ++f) {
-        std::string label = "paraxial image height, field " + std::to_string(f + 1) + " (" +
+        std::string label = "paraxial image height y, field " + std::to_string(f + 1) + " (" +
                             fmt(p.system.fields[f].y) + (angle ? " deg)" : " mm)");
         row(label.c_str(), d.paraxialImageHeightsMm[f], "mm");
     }
@@ -210,14 +219,16 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
     }
     os << "\nSpots on the image surface (" << aimer.mode() << " aiming, " << options.rings
        << " rings)\n";
-    os << "  " << std::setw(10) << "field" << std::setw(12) << "wavelength" << std::setw(10)
-       << "rays" << std::setw(14) << "centroid y" << std::setw(14) << "RMS radius" << "\n";
+    os << "  " << std::setw(16) << "field (x, y)" << std::setw(12) << "wavelength"
+       << std::setw(10) << "rays" << std::setw(28) << "centroid (x, y) mm" << std::setw(16)
+       << "RMS radius mm" << "\n";
     for (const SpotResult& s : spots) {
-        os << "  " << std::setw(10) << fmt(p.system.fields[s.field].y) << std::setw(12)
+        const Field& f = p.system.fields[s.field];
+        os << "  " << std::setw(16) << (fmt(f.x, 4) + ", " + fmt(f.y, 4)) << std::setw(12)
            << fmt(model.wavelengthNm(s.wavelength)) << std::setw(10)
            << (std::to_string(s.raysLanded) + "/" + std::to_string(s.raysTraced))
-           << std::setw(14) << fmt(s.centroidMm.y, 7) << std::setw(14) << fmt(s.rmsRadiusMm, 5)
-           << "\n";
+           << std::setw(28) << (fmtMm(s.centroidMm.x) + ", " + fmtMm(s.centroidMm.y))
+           << std::setw(16) << fmtMm(s.rmsRadiusMm) << "\n";
     }
     os << "\nImport report: ";
     if (p.report.empty()) {

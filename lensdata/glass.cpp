@@ -233,12 +233,19 @@ std::array<double, 4> solve4(std::array<std::array<double, 4>, 4> m, std::array<
 }  // namespace
 
 Glass Glass::model(double nd, double vd, double dPgF) {
-    if (!(std::isfinite(nd) && nd > 0.0) || !(std::isfinite(vd) && vd != 0.0) ||
+    if (!(std::isfinite(nd) && nd > 0.0) || !(std::isfinite(vd) && vd >= 0.0) ||
         !std::isfinite(dPgF)) {
         std::ostringstream msg;
-        msg << "Glass::model needs finite nd > 0 and Vd != 0, got nd=" << nd << " vd=" << vd
+        msg << "Glass::model needs finite nd > 0 and Vd >= 0, got nd=" << nd << " vd=" << vd
             << " dPgF=" << dPgF;
         throw std::invalid_argument(msg.str());
+    }
+    if (vd == 0.0) {
+        // Vd = 0 stands for a constant, dispersion-free index (as in lens design programs).
+        Glass glass(shortest(nd), "MODEL", DispersionFormula::Model, {nd, 0.0, 0.0, 0.0});
+        glass.ndCatalog = nd;
+        glass.vdCatalog = 0.0;
+        return glass;
     }
     // Schott normal lines (see glass.h).
     const double dispersion = (nd - 1.0) / vd;  // n_F - n_C

@@ -104,6 +104,7 @@ class Glass {
     // condition pins the near-infrared end; over 400..1000 nm the model stays within ~2e-4
     // of the real glass (median over the Schott catalog, given the catalog dPgF; 7x better
     // than without the t line). Named "nd/Vd" or "nd/Vd/dPgF", catalog "MODEL".
+    // Vd = 0 means a constant index nd at every wavelength (no dispersion).
     static Glass model(double nd, double vd, double dPgF = 0.0);
 
     const std::string& name() const { return name_; }

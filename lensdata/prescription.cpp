@@ -163,8 +163,8 @@ void Prescription::validate() const {
         if (s.mirror && !(s.material == surfaces[i - 1].material))
             throw ModelError(nameOf(i), "a mirror keeps the medium: material after it must be " +
                                             surfaces[i - 1].material.label());
-        if (s.material.kind == Material::Kind::Model && (s.material.nd < 1.0 || s.material.vd <= 0.0))
-            throw ModelError(nameOf(i), "model glass needs nd >= 1 and Vd > 0");
+        if (s.material.kind == Material::Kind::Model && (s.material.nd < 1.0 || s.material.vd < 0.0))
+            throw ModelError(nameOf(i), "model glass needs nd >= 1 and Vd >= 0 (0: no dispersion)");
     }
     if (stops > 1) throw ModelError("stop", "more than one surface is flagged as the stop");
     if (surfaces[0].stop) throw ModelError("object", "the object surface cannot be the stop");

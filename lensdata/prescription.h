@@ -28,7 +28,7 @@ struct Material {
     Kind kind = Kind::Air;
     std::string name;   // catalog glass name (Kind::Catalog)
     double nd = 1.0;    // Kind::Model
-    double vd = 0.0;    // Kind::Model
+    double vd = 0.0;    // Kind::Model; 0 = constant index (no dispersion)
     double dPgF = 0.0;  // Kind::Model
 
     static Material air() { return {}; }

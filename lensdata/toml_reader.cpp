@@ -306,7 +306,8 @@ Material LensReader::readMaterial(const TomlValue& value) const {
         const TomlTable model = value.asTable();
         const double nd = model.require("nd", "refractive index at 587.56 nm")
                               .asNumber(NumberRange::atLeast(1.0));
-        const double vd = model.require("vd", "Abbe number").asNumber(NumberRange::above(0.0));
+        const double vd = model.require("vd", "Abbe number (0: no dispersion)")
+                              .asNumber(NumberRange::atLeast(0.0));
         const double dPgF = model.number("dpgf", 0.0);
         return Material::model(nd, vd, dPgF);
     }

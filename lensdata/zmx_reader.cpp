@@ -712,17 +712,15 @@ void ZmxParser::resolveGlasses() {
             if (nd == 1.0 && vd == 0.0) {
                 s.material = Material::air();
                 note(Severity::Info, g.loc, "model glass nd = 1, Vd = 0 imported as air");
-            } else if (nd < 1.0 || vd <= 0.0) {
-                // Vd = 0 is Zemax's constant index. The prescription's model glass follows
-                // the Schott normal lines, which have no dispersion-free limit: a huge Vd
-                // gets n_d, n_F and n_C right but not the g and t lines.
-                s.material = Material::model(std::max(nd, 1.0), vd > 0.0 ? vd : 1e6);
+            } else if (nd >= 1.0 && vd == 0.0) {
+                // Vd = 0 is Zemax's constant (dispersion-free) index.
+                s.material = Material::model(nd, 0.0);
+            } else if (nd < 1.0 || vd < 0.0) {
+                s.material = Material::model(std::max(nd, 1.0), 0.0);
                 note(Severity::Error, g.loc,
                      "model glass nd = " + formatNumber(nd) + ", Vd = " + formatNumber(vd) +
-                         (vd == 0.0 ? " (a constant index)" : "") +
-                         " cannot be represented; imported as nd = " + formatNumber(s.material.nd) +
-                         ", Vd = " + formatNumber(s.material.vd) +
-                         ", whose index away from the d, F and C lines is approximate");
+                         " is not physical; imported as a constant index " +
+                         formatNumber(s.material.nd));
             } else {
                 s.material = Material::model(nd, vd, g.dPgF.value_or(0.0));
             }

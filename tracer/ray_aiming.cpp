@@ -47,7 +47,6 @@ AimedRay RayAimer::aim(double fx, double fy, double px, double py, int w) const 
     if (mode_ == AimMode::Paraxial) return out;
 
     const int stop = model_->stopIndex();
-    if (stop <= 1) return out;  // the stop is the first surface: nothing to aim through
     SequentialTraceOptions opts;
     opts.lastSurface = stop;
     opts.clipApertures = false;

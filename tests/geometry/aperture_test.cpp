@@ -17,7 +17,7 @@ TEST(Aperture, CircularEdgeIsInside) {
     EXPECT_TRUE(apertureContains(a, 0.0, 0.0));
     EXPECT_TRUE(apertureContains(a, 5.0, 0.0));
     EXPECT_TRUE(apertureContains(a, 0.0, -5.0));
-    EXPECT_TRUE(apertureContains(a, 3.0, 4.0));    // r = 5 exactly
+    EXPECT_TRUE(apertureContains(a, 3.0, 4.0));  // r = 5 exactly
     EXPECT_TRUE(apertureContains(a, -3.0, -4.0));
     EXPECT_FALSE(apertureContains(a, std::nextafter(5.0, 6.0), 0.0));
     EXPECT_FALSE(apertureContains(a, 3.0, 4.000001));
@@ -30,7 +30,7 @@ TEST(Aperture, CircularEdgeIsInside) {
 
 TEST(Aperture, AnnularBothEdgesAreInside) {
     const Aperture a = AnnularAperture{2.0, 10.0};
-    EXPECT_FALSE(apertureContains(a, 0.0, 0.0));   // central obscuration
+    EXPECT_FALSE(apertureContains(a, 0.0, 0.0));  // central obscuration
     EXPECT_FALSE(apertureContains(a, 1.0, 1.0));
     EXPECT_TRUE(apertureContains(a, 2.0, 0.0));    // inner edge
     EXPECT_TRUE(apertureContains(a, 0.0, -10.0));  // outer edge

@@ -319,12 +319,12 @@ TEST(SurfaceShape, MaxRadiusIsTheConicDomain) {
     EXPECT_EQ(maxRadius(PlaneShape{}), kInf);
     EXPECT_DOUBLE_EQ(maxRadius(SphereShape{0.05}), 20.0);
     EXPECT_DOUBLE_EQ(maxRadius(SphereShape{-0.05}), 20.0);
-    EXPECT_DOUBLE_EQ(maxRadius(ConicShape{0.05, 3.0}), 10.0);               // oblate
-    EXPECT_DOUBLE_EQ(maxRadius(ConicShape{0.05, -0.75}), 40.0);             // prolate
-    EXPECT_EQ(maxRadius(ConicShape{0.05, -1.0}), kInf);                     // paraboloid
-    EXPECT_EQ(maxRadius(ConicShape{0.05, -2.5}), kInf);                     // hyperboloid
-    EXPECT_EQ(maxRadius(SphereShape{0.0}), kInf);                           // flat
-    EXPECT_DOUBLE_EQ(maxRadius(SphereShape{1e-300}), 1e300);                // no overflow
+    EXPECT_DOUBLE_EQ(maxRadius(ConicShape{0.05, 3.0}), 10.0);                // oblate
+    EXPECT_DOUBLE_EQ(maxRadius(ConicShape{0.05, -0.75}), 40.0);              // prolate
+    EXPECT_EQ(maxRadius(ConicShape{0.05, -1.0}), kInf);                      // paraboloid
+    EXPECT_EQ(maxRadius(ConicShape{0.05, -2.5}), kInf);                      // hyperboloid
+    EXPECT_EQ(maxRadius(SphereShape{0.0}), kInf);                            // flat
+    EXPECT_DOUBLE_EQ(maxRadius(SphereShape{1e-300}), 1e300);                 // no overflow
     EXPECT_DOUBLE_EQ(maxRadius(EvenAsphereShape{0.05, 0.0, {1e-3}}), 20.0);  // conic limit
     EXPECT_EQ(maxRadius(EvenAsphereShape{0.05, -1.0, {1e-3}}), kInf);
     // At maxRadius the sag is defined, just beyond it is not.
@@ -336,9 +336,9 @@ TEST(SurfaceShape, MaxRadiusIsTheConicDomain) {
 TEST(SurfaceShape, NormalMatchesFiniteDifferencesOfSag) {
     std::mt19937_64 rng(11);
     std::uniform_real_distribution<double> uni(-1.0, 1.0);
-    std::vector<SurfaceShape> shapes = {PlaneShape{},           SphereShape{0.04},
-                                        SphereShape{-1e-9},     ConicShape{0.03, 1.5},
-                                        ConicShape{-0.02, -1.0}, ConicShape{0.05, -3.0}};
+    std::vector<SurfaceShape> shapes = {
+        PlaneShape{},          SphereShape{0.04},       SphereShape{-1e-9},
+        ConicShape{0.03, 1.5}, ConicShape{-0.02, -1.0}, ConicShape{0.05, -3.0}};
     for (int i = 0; i < 4; ++i) shapes.push_back(randomAsphere(rng, 15.0, 1.0));
     LD worst = 0;
     for (const SurfaceShape& shape : shapes) {
@@ -355,8 +355,8 @@ TEST(SurfaceShape, NormalMatchesFiniteDifferencesOfSag) {
             const LD sx = (s(x + h, y) - s(x - h, y)) / (2 * h);
             const LD sy = (s(x, y + h) - s(x, y - h)) / (2 * h);
             const LD len = std::sqrt(1 + sx * sx + sy * sy);
-            const LD err = std::max({std::abs(n.x + sx / len), std::abs(n.y + sy / len),
-                                     std::abs(n.z - 1 / len)});
+            const LD err = std::max(
+                {std::abs(n.x + sx / len), std::abs(n.y + sy / len), std::abs(n.z - 1 / len)});
             worst = std::max(worst, err);
             ASSERT_LT(err, 1e-8) << shape << " at " << text(p) << " normal " << text(n);
             ASSERT_NEAR(glm::length(n), 1.0, 4e-16);
@@ -380,8 +380,7 @@ TEST(SurfaceShape, SequentialPicksVertexSheetNearestTangentPlane) {
     const SurfaceShape sphere = SphereShape{1.0 / 20.0};
     const LD sag25 = 20 - std::sqrt(400.0L - 25);
     // Forward, backward (after a mirror) and from behind the surface (virtual, t < 0).
-    EXPECT_NEAR(*intersectSequential(sphere, {{5, 0, -10}, {0, 0, 1}}), double(10 + sag25),
-                1e-14);
+    EXPECT_NEAR(*intersectSequential(sphere, {{5, 0, -10}, {0, 0, 1}}), double(10 + sag25), 1e-14);
     EXPECT_NEAR(*intersectSequential(sphere, {{0, 5, 100}, {0, 0, -1}}), double(100 - sag25),
                 1e-13);
     EXPECT_NEAR(*intersectSequential(sphere, {{5, 0, 5}, {0, 0, 1}}), double(sag25 - 5), 1e-14);
@@ -643,9 +642,8 @@ TEST(SurfaceShape, GrazingRaysHitOnTheSurface) {
             cases.push_back({s, sinAlpha, mustHit});
         }
     }
-    for (const SurfaceShape& s :
-         {SurfaceShape{SphereShape{1e-9}}, SurfaceShape{SphereShape{-1e-5}},
-          SurfaceShape{ConicShape{1e-6, -3.0}}, SurfaceShape{flatAsph}}) {
+    for (const SurfaceShape& s : {SurfaceShape{SphereShape{1e-9}}, SurfaceShape{SphereShape{-1e-5}},
+                                  SurfaceShape{ConicShape{1e-6, -3.0}}, SurfaceShape{flatAsph}}) {
         cases.push_back({s, 1e-8, true});
     }
     int required = 0, optional = 0, optionalHits = 0;
@@ -714,7 +712,8 @@ TEST(SurfaceShape, RayStartingOnSphereFindsTheChord) {
             worst.hit(refShape(shape), hit->point);
             ++hits;
         } else if (expectMiss) {
-            ASSERT_FALSE(hit) << shape << " from " << text(o) << " along " << text(d) << " got " << *hit;
+            ASSERT_FALSE(hit) << shape << " from " << text(o) << " along " << text(d) << " got "
+                              << *hit;
             ++misses;
         }
     }

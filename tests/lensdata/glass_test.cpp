@@ -308,7 +308,8 @@ TEST(Glass, ModelFollowsARealGlass) {
 }
 
 TEST(Glass, ModelRejectsNonsense) {
-    EXPECT_THROW(Glass::model(1.5, 0.0), std::invalid_argument);
+    EXPECT_THROW(Glass::model(1.5, -1.0), std::invalid_argument);
+    EXPECT_THROW(Glass::model(1.5, std::nan("")), std::invalid_argument);
     EXPECT_THROW(Glass::model(std::nan(""), 60.0), std::invalid_argument);
     EXPECT_THROW(Glass::model(-1.0, 60.0), std::invalid_argument);
 }

@@ -294,7 +294,8 @@ surfaces = [
 ]
 )");
     expectAt(e, 4, 28);
-    EXPECT_EQ(e.message(), "missing key 'vd' (Abbe number) in system.surfaces[1].glass");
+    EXPECT_EQ(e.message(),
+              "missing key 'vd' (Abbe number (0: no dispersion)) in system.surfaces[1].glass");
 
     e = parseErrorOf(R"([system]
 aperture = { f_number = 4 }
@@ -302,6 +303,13 @@ surfaces = [{ r = 40, t = 5, glass = { nd = 0.9, vd = 40 } }]
 )");
     expectAt(e, 3, 45);
     EXPECT_EQ(e.message(), "system.surfaces[1].glass.nd must be >= 1 (got 0.9)");
+
+    e = parseErrorOf(R"([system]
+aperture = { f_number = 4 }
+surfaces = [{ r = 40, t = 5, glass = { nd = 1.5, vd = -2 } }]
+)");
+    expectAt(e, 3, 55);
+    EXPECT_EQ(e.message(), "system.surfaces[1].glass.vd must be >= 0 (got -2)");
 }
 
 TEST(TomlReader, CassegrainMirrors) {

@@ -593,19 +593,23 @@ TEST(ZmxReader, UnknownGlassIsReportedWithItsLine) {
     EXPECT_EQ(rx.surfaces[2].material, Material::catalog("UNOBTAINIUM"));
 }
 
-TEST(ZmxReader, ConstantIndexModelGlassIsAnError) {
-    // Vd = 0 is Zemax's constant index: not representable, reported; nd 1 / Vd 0 is air.
+TEST(ZmxReader, ConstantIndexModelGlassHasNoDispersion) {
+    // Vd = 0 is Zemax's constant index; nd 1 / Vd 0 is air; nd < 1 is reported.
     const std::string text =
         "ENPD 10\nSURF 0\n DISZ INFINITY\nSURF 1\n STOP\n CURV 0.02\n DISZ 2\n"
         " GLAS ___BLANK 1 0 1.7 0 0 0 0 0 0 0\nSURF 2\n DISZ 1\n"
-        " GLAS ___BLANK 1 0 1 0 0 0 0 0 0 0\nSURF 3\n DISZ 40\nSURF 4\n";
+        " GLAS ___BLANK 1 0 1 0 0 0 0 0 0 0\nSURF 3\n DISZ 1\n"
+        " GLAS ___BLANK 1 0 0.9 0 0 0 0 0 0 0\nSURF 4\n DISZ 40\nSURF 5\n";
     const Prescription rx = readZmxText(text, "const.zmx", GlassCatalog::builtIn());
-    const ImportNote* n = findNote(rx, "model glass nd = 1.7, Vd = 0 (a constant index)");
+    EXPECT_EQ(rx.surfaces[1].material, Material::model(1.7, 0.0));
+    const Glass g = Glass::model(1.7, 0.0);
+    EXPECT_EQ(g.index(400.0), 1.7);
+    EXPECT_EQ(g.index(1000.0), 1.7);
+    EXPECT_TRUE(rx.surfaces[2].material.isAir());
+    const ImportNote* n = findNote(rx, "model glass nd = 0.9, Vd = 0 is not physical");
     ASSERT_NE(n, nullptr) << reportText(rx);
     EXPECT_EQ(n->severity, ImportNote::Severity::Error);
-    EXPECT_EQ(n->loc.line, 8);
-    EXPECT_EQ(rx.surfaces[1].material.nd, 1.7);
-    EXPECT_TRUE(rx.surfaces[2].material.isAir());
+    EXPECT_EQ(n->loc.line, 14);
 }
 
 TEST(ZmxReader, UnsupportedSurfacesAndCommandsAreReported) {
