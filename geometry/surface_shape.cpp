@@ -12,8 +12,9 @@ constexpr double kInfinity = std::numeric_limits<double>::infinity();
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kEpsilon = std::numeric_limits<double>::epsilon();
 
-// Asphere root search limits. The first segment of the search is kInitialSegmentMm long and
-// later ones double in length away from the reference point; a segment narrower than
+// Asphere root search limits. The first segment of the search is kInitialSegmentMm long (or
+// twice the distance to the base conic's crossing, if longer) and later ones double in
+// length away from the reference point; a segment narrower than
 // kMinSegmentMm (plus a few ulps of its position) is not split again. kMaxSegments and
 // kMaxPolishIterations bound the work per ray: past them the ray is reported as missing.
 constexpr double kInitialSegmentMm = 1.0;
@@ -111,10 +112,11 @@ bool allZero(const std::array<double, 10>& a) {
 //     q = -(B + sign(B) sqrt(B^2 - AC))
 //
 // the two roots are C / q and q / A, and q adds two terms of the same sign, so neither root
-// cancels. The root near the vertex tangent plane is C / q: as c -> 0 it tends to the plane
+// cancels. Near the vertex C / q is the vertex-sheet root: as c -> 0 it tends to the plane
 // root -pz / dz (A -> 0, B -> -dz, q -> 2 dz), at the vertex it is exactly 0 (C = 0), and
-// q / A -> infinity is the far sheet. For A = 0 (a paraboloid met parallel to its axis) only
-// the root C / q exists. B^2 - AC is evaluated with fma so grazing rays keep their digits.
+// q / A -> infinity is the far sheet. In general both roots are kept and the sheet test and
+// the caller's convention choose. For A = 0 (a paraboloid met parallel to its axis) only the
+// root C / q exists. B^2 - AC is evaluated with fma so grazing rays keep their digits.
 //
 // The reference point p is the point of the ray nearest the vertex (p . d = 0), so that the
 // terms c |p|^2 and pz in B and C are never larger than the hit point itself: a ray from
@@ -184,9 +186,8 @@ std::optional<double> conicSequential(const ConicBase& b, const Ray& ray) {
     return best;
 }
 
-std::optional<ShapeHit> conicFirst(const SurfaceShape& shape, const ConicBase& b,
-                                   const Ray& ray, double tMin, double tMax, double rMax,
-                                   bool startsOnSurface) {
+std::optional<ShapeHit> conicFirst(const SurfaceShape& shape, const ConicBase& b, const Ray& ray,
+                                   double tMin, double tMax, double rMax, bool startsOnSurface) {
     const Vec3& d = ray.direction;
     // A ray that starts on the surface is solved from its origin, where one root is the
     // origin itself (C ~ 0): the root of smaller magnitude, C / q or q / A, is that one and is
@@ -243,7 +244,7 @@ std::optional<ShapeHit> conicFirst(const SurfaceShape& shape, const ConicBase& b
 //   * The number of segments and of Newton steps is bounded; if either runs out, the ray is
 //     reported as missing rather than looping.
 class AsphereAlongRay {
-public:
+  public:
     AsphereAlongRay(const EvenAsphereShape& shape, const Vec3& p, const Vec3& d)
         : base_{shape.curvature, shape.conic}, a_(shape.coefficients), p_(p), d_(d) {
         bigK_ = base_.bigK();
@@ -399,7 +400,7 @@ public:
         return x;
     }
 
-private:
+  private:
     ConicBase base_;
     double bigK_ = 0.0;
     std::array<double, 10> a_;
@@ -412,7 +413,7 @@ struct Segment {
 
 // A stack of disjoint segments on one side of sRef, nearest on top.
 class SegmentStack {
-public:
+  public:
     bool empty() const { return size_ == 0; }
     bool push(const Segment& s) {
         if (size_ == kStackCapacity) return false;
@@ -423,7 +424,7 @@ public:
     Segment pop() { return items_[--size_]; }
     void clear() { size_ = 0; }
 
-private:
+  private:
     std::array<Segment, kStackCapacity> items_;
     int size_ = 0;
 };
@@ -433,8 +434,8 @@ private:
 // `firstStep` is the length of the first segment on each side and `guess` a likely root
 // where Newton starts when its bracket holds it (NaN if none).
 template <typename Accept>
-std::optional<double> findAsphereRoot(const AsphereAlongRay& f, double lo, double hi,
-                                      double sRef, double sSelf, double firstStep, double guess,
+std::optional<double> findAsphereRoot(const AsphereAlongRay& f, double lo, double hi, double sRef,
+                                      double sSelf, double firstStep, double guess,
                                       Accept&& accept) {
     SegmentStack right, left;  // right: segments at >= sRef; left: <= sRef
     auto pushSide = [&](SegmentStack& stack, Segment seg, bool isRight) {
@@ -567,18 +568,17 @@ std::optional<double> asphereSequential(const EvenAsphereShape& shape, const Ray
             guess = sc;
         }
     }
-    const double firstStep =
-        std::isfinite(guess) ? std::max(kInitialSegmentMm, 2.0 * std::abs(guess - sRef))
-                             : kInitialSegmentMm;
+    const double firstStep = std::isfinite(guess)
+                                 ? std::max(kInitialSegmentMm, 2.0 * std::abs(guess - sRef))
+                                 : kInitialSegmentMm;
     const std::optional<double> s =
         findAsphereRoot(f, lo, hi, sRef, kNaN, firstStep, guess, [](double) { return true; });
     if (!s) return std::nullopt;
     return tRef + *s;
 }
 
-std::optional<ShapeHit> asphereFirst(const EvenAsphereShape& shape, const Ray& ray,
-                                     double tMin, double tMax, double rMax,
-                                     bool startsOnSurface) {
+std::optional<ShapeHit> asphereFirst(const EvenAsphereShape& shape, const Ray& ray, double tMin,
+                                     double tMax, double rMax, bool startsOnSurface) {
     const Vec3& d = ray.direction;
     const double tRef = startsOnSurface ? 0.0 : nearestToVertex(ray);
     const Vec3 p = ray.origin + tRef * d;
@@ -593,12 +593,10 @@ std::optional<ShapeHit> asphereFirst(const EvenAsphereShape& shape, const Ray& r
     const double pLength = glm::length(p);
     auto accept = [&](double s) {
         const double t = tRef + s;
-        return t > tMin && t <= tMax &&
-               withinRadius(p + s * d, rMax, pLength + std::abs(s));
+        return t > tMin && t <= tMax && withinRadius(p + s * d, rMax, pLength + std::abs(s));
     };
-    const std::optional<double> s =
-        findAsphereRoot(f, lo, hi, lo, startsOnSurface ? 0.0 : kNaN, kInitialSegmentMm, kNaN,
-                        accept);
+    const std::optional<double> s = findAsphereRoot(f, lo, hi, lo, startsOnSurface ? 0.0 : kNaN,
+                                                    kInitialSegmentMm, kNaN, accept);
     if (!s) return std::nullopt;
     const Vec3 point = p + *s * d;
     return ShapeHit{tRef + *s, point, surfaceNormal(SurfaceShape{shape}, point)};
@@ -627,8 +625,7 @@ std::ostream& operator<<(std::ostream& os, const SurfaceShape& s) {
     return os;
 }
 std::ostream& operator<<(std::ostream& os, const ShapeHit& h) {
-    return os << "ShapeHit{t " << h.t << " mm, point " << h.point << ", normal " << h.normal
-              << "}";
+    return os << "ShapeHit{t " << h.t << " mm, point " << h.point << ", normal " << h.normal << "}";
 }
 
 // Surface Shape Functions
@@ -710,9 +707,8 @@ std::optional<double> intersectSequential(const SurfaceShape& shape, const Ray& 
         shape);
 }
 
-std::optional<ShapeHit> intersectFirst(const SurfaceShape& shape, const Ray& localRay,
-                                       double tMin, double tMax, double rMax,
-                                       bool startsOnSurface) {
+std::optional<ShapeHit> intersectFirst(const SurfaceShape& shape, const Ray& localRay, double tMin,
+                                       double tMax, double rMax, bool startsOnSurface) {
     return std::visit(
         [&](const auto& s) -> std::optional<ShapeHit> {
             using S = std::decay_t<decltype(s)>;
@@ -733,8 +729,7 @@ std::optional<ShapeHit> intersectFirst(const SurfaceShape& shape, const Ray& loc
                 }
                 return asphereFirst(s, localRay, tMin, tMax, rMax, startsOnSurface);
             } else {
-                return conicFirst(shape, conicBase(s), localRay, tMin, tMax, rMax,
-                                  startsOnSurface);
+                return conicFirst(shape, conicBase(s), localRay, tMin, tMax, rMax, startsOnSurface);
             }
         },
         shape);

@@ -92,8 +92,7 @@ struct ShapeHit {
 };
 std::ostream& operator<<(std::ostream& os, const ShapeHit& h);
 
-std::optional<ShapeHit> intersectFirst(const SurfaceShape& shape, const Ray& localRay,
-                                       double tMin, double tMax, double rMax,
-                                       bool startsOnSurface);
+std::optional<ShapeHit> intersectFirst(const SurfaceShape& shape, const Ray& localRay, double tMin,
+                                       double tMax, double rMax, bool startsOnSurface);
 
 }  // namespace veil

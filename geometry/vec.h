@@ -6,17 +6,21 @@
 #include <glm/geometric.hpp>
 #include <ostream>
 
+// Printing lives in namespace glm so argument-dependent lookup finds it everywhere
+// (GoogleTest failure messages included).
+namespace glm {
+inline std::ostream& operator<<(std::ostream& os, const dvec3& v) {
+    return os << "(" << v.x << ", " << v.y << ", " << v.z << ")";
+}
+inline std::ostream& operator<<(std::ostream& os, const dvec2& v) {
+    return os << "(" << v.x << ", " << v.y << ")";
+}
+}  // namespace glm
+
 namespace veil {
 
 using Vec2 = glm::dvec2;
 using Vec3 = glm::dvec3;
-
-inline std::ostream& operator<<(std::ostream& os, const Vec3& v) {
-    return os << "(" << v.x << ", " << v.y << ", " << v.z << ")";
-}
-inline std::ostream& operator<<(std::ostream& os, const Vec2& v) {
-    return os << "(" << v.x << ", " << v.y << ")";
-}
 
 // A ray: origin (mm) and unit direction, in whatever frame the caller states.
 struct Ray {

@@ -95,3 +95,20 @@ TEST(VeilInfo, BadCommandLineExitsWith2) {
 }
 
 }  // namespace
+
+namespace {
+
+// Every example lens runs through `veil info --json` and reports a finite focal length.
+TEST(VeilInfo, EveryExampleLensRuns) {
+    for (const char* name : {"singlet", "achromat", "cooke_triplet", "double_gauss_50mm",
+                             "longfocus_360mm", "catadioptric_2000mm"}) {
+        const VeilRun r = runVeil(std::string("info examples/lenses/") + name + ".toml --json");
+        ASSERT_EQ(r.exitCode, 0) << name << ": " << r.err;
+        const nlohmann::json j = nlohmann::json::parse(r.out);
+        EXPECT_TRUE(j["efl_mm"].is_number()) << name;
+        EXPECT_TRUE(j["import_report"].empty()) << name << ": " << j["import_report"].dump();
+        for (const auto& s : j["spots"]) EXPECT_GT(s["rays_landed"].get<int>(), 0) << name;
+    }
+}
+
+}  // namespace
