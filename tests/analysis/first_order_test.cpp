@@ -99,6 +99,28 @@ TEST(Paraxial, SphericalMirrorFocalLengthIsHalfTheRadius) {
     }
 }
 
+// A Cassegrain telescope: concave primary f1 = 200, convex secondary f2 = -75, 150 mm
+// apart. Two-mirror closed form: 1/f = 1/f1 + 1/f2 - d / (f1 f2) = 1/600, and the focus lies
+// f (1 - d / f1) = 150 mm behind the secondary, toward +z again.
+TEST(Paraxial, CassegrainFollowsTheTwoMirrorFormula) {
+    Prescription p = startLens(kInfinity, 100.0);
+    Surface m1 = surface(-400.0, -150.0);
+    m1.mirror = true;
+    m1.stop = true;
+    p.surfaces.push_back(m1);
+    Surface m2 = surface(-150.0, 150.0);
+    m2.mirror = true;
+    p.surfaces.push_back(m2);
+    finishLens(p);
+    const SequentialModel m = SequentialModel::build(p, kNoCatalog);
+    const FirstOrderData fo = computeFirstOrder(m, 0);
+    EXPECT_NEAR(fo.eflMm, 600.0, 1e-9);
+    EXPECT_NEAR(fo.bflMm, 150.0, 1e-9);
+    EXPECT_NEAR(fo.imageSpaceFNumber, 6.0, 1e-12);
+    EXPECT_GT(m.index(2, 0), 0.0);
+    EXPECT_LT(m.index(1, 0), 0.0);
+}
+
 // Two thin lenses in contact: powers add. Separated: the Gullstrand formula.
 TEST(Paraxial, SeparatedThinLensesFollowGullstrand) {
     // Nearly thin lenses of f1 = 100, f2 = -150 (thickness 1e-9 mm) separated by d = 30.

@@ -16,10 +16,11 @@ struct VeilRun {
 };
 
 // Runs veil with the given arguments (a shell fragment) from the source directory.
-VeilRun runVeil(const std::string& args) {
+// `env` is an optional VAR=value prefix for the command.
+VeilRun runVeil(const std::string& args, const std::string& env = "") {
     const std::string errFile = ::testing::TempDir() + "veil_cli_stderr.txt";
-    const std::string cmd = std::string("cd ") + VEIL_SOURCE_DIR + " && " + VEIL_EXE + " " + args +
-                            " 2>" + errFile;
+    const std::string cmd = std::string("cd ") + VEIL_SOURCE_DIR + " && " + env + " " +
+                            VEIL_EXE + " " + args + " 2>" + errFile;
     VeilRun r;
     FILE* pipe = popen(cmd.c_str(), "r");
     if (!pipe) return r;
@@ -109,6 +110,38 @@ TEST(VeilInfo, EveryExampleLensRuns) {
         EXPECT_TRUE(j["import_report"].empty()) << name << ": " << j["import_report"].dump();
         for (const auto& s : j["spots"]) EXPECT_GT(s["rays_landed"].get<int>(), 0) << name;
     }
+}
+
+}  // namespace
+
+namespace {
+
+// A lens using a glass only a user catalog has: unknown without the catalog, found with
+// --glass-catalog FILE or with VEIL_GLASS_PATH.
+TEST(VeilInfo, UserGlassCatalogFromOptionAndEnvironment) {
+    const std::string lens = ::testing::TempDir() + "veil_cli_userglass.toml";
+    FILE* f = fopen(lens.c_str(), "w");
+    ASSERT_TRUE(f);
+    fputs("[system]\naperture = { epd_mm = 10 }\nsurfaces = [\n"
+          "  { r = 50, t = 5, glass = \"TESTSELL\", stop = true },\n  { r = -50, t = 45 },\n]\n",
+          f);
+    fclose(f);
+    const VeilRun without = runVeil("info " + lens + " --json");
+    EXPECT_EQ(without.exitCode, 1);
+    EXPECT_NE(without.err.find("TESTSELL"), std::string::npos) << without.err;
+
+    const VeilRun option =
+        runVeil("--glass-catalog tests/data/glass/sample.agf info " + lens + " --json");
+    ASSERT_EQ(option.exitCode, 0) << option.err;
+    const VeilRun env = runVeil("info " + lens + " --json", "VEIL_GLASS_PATH=tests/data/glass/sample.agf");
+    ASSERT_EQ(env.exitCode, 0) << env.err;
+    // Same glass, same answer; and it is TESTSELL's nd 1.62004 at work: a thick lens
+    // R = +-50, t = 5 has f = 1 / ((n-1)(2/50 - (n-1) 5 / (n 2500))).
+    const double n = 1.62004;
+    const double fExpected = 1.0 / ((n - 1.0) * (2.0 / 50.0 - (n - 1.0) * 5.0 / (n * 2500.0)));
+    const double efl = nlohmann::json::parse(option.out)["efl_mm"].get<double>();
+    EXPECT_NEAR(efl, fExpected, 1e-4);
+    EXPECT_EQ(efl, nlohmann::json::parse(env.out)["efl_mm"].get<double>());
 }
 
 }  // namespace
