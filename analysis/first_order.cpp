@@ -8,8 +8,8 @@ namespace veil {
 
 std::ostream& operator<<(std::ostream& os, const FirstOrderData& d) {
     return os << "FirstOrderData{" << d.wavelengthNm << " nm: EFL " << d.eflMm << ", BFL "
-              << d.bflMm << ", FFL " << d.fflMm << ", EPD " << d.entrancePupilDiameterMm
-              << ", F/# " << d.imageSpaceFNumber << "}";
+              << d.bflMm << ", FFL " << d.fflMm << ", EPD " << d.entrancePupilDiameterMm << ", F/# "
+              << d.imageSpaceFNumber << "}";
 }
 
 FirstOrderData computeFirstOrder(const SequentialModel& model, int w) {
@@ -39,7 +39,8 @@ FirstOrderData computeFirstOrder(const SequentialModel& model, int w) {
     fo.entrancePupilPositionMm = pupil.entrancePupilZMm - model.surface(1).zMm;
     fo.entrancePupilDiameterMm = 2.0 * pupil.entrancePupilRadiusMm;
     fo.stopSemiDiameterMm = pupil.stopRadiusMm;
-    const ParaxialRay marginal = traceParaxial(model, w, 1, last, pupil.marginalY1, pupil.marginalNu0);
+    const ParaxialRay marginal =
+        traceParaxial(model, w, 1, last, pupil.marginalY1, pupil.marginalNu0);
     const double uk = marginal.nu[last] / nk;  // image-space marginal slope dy/dz
     // The marginal ray crosses the axis at the paraxial image (for finite objects too).
     const double zImageParaxial = uk != 0.0 ? zLast - marginal.y[last] / uk : kInfinity;
@@ -108,7 +109,8 @@ FirstOrderData computeFirstOrder(const SequentialModel& model, int w) {
 FirstOrderReport computeFirstOrder(const SequentialModel& model) {
     FirstOrderReport r;
     r.primary = model.primaryWavelength();
-    for (int w = 0; w < model.wavelengthCount(); ++w) r.wavelengths.push_back(computeFirstOrder(model, w));
+    for (int w = 0; w < model.wavelengthCount(); ++w)
+        r.wavelengths.push_back(computeFirstOrder(model, w));
     return r;
 }
 

@@ -36,7 +36,7 @@ struct FirstOrderData {
     double workingFNumber = 0.0;
     double imageSpaceFNumber = 0.0;
     double imageSpaceNA = 0.0;
-    double objectSpaceNA = 0.0;  // 0 for an object at infinity
+    double objectSpaceNA = 0.0;          // 0 for an object at infinity
     double paraxialMagnification = 0.0;  // 0 for an object at infinity
     double totalTrackMm = 0.0;           // surface 1 to image surface
     double petzvalRadiusMm = 0.0;

@@ -11,7 +11,7 @@
 namespace veil {
 
 struct SpotOptions {
-    int rings = 8;                 // hexapolar rings: ring k holds 6k rays, plus the centre
+    int rings = 8;  // hexapolar rings: ring k holds 6k rays, plus the centre
     AimMode aim = AimMode::Real;
     bool clipApertures = true;
 };
@@ -20,12 +20,12 @@ struct SpotResult {
     int field = 0;
     int wavelength = 0;
     int raysTraced = 0;
-    int raysLanded = 0;        // reached the image surface
-    Vec2 chiefMm{0.0};         // chief ray on the image surface
+    int raysLanded = 0;  // reached the image surface
+    Vec2 chiefMm{0.0};   // chief ray on the image surface
     Vec2 centroidMm{0.0};
-    double rmsRadiusMm = 0.0;  // about the centroid
+    double rmsRadiusMm = 0.0;       // about the centroid
     double rmsRadiusChiefMm = 0.0;  // about the chief ray
-    double maxRadiusMm = 0.0;  // about the centroid (GEO radius)
+    double maxRadiusMm = 0.0;       // about the centroid (GEO radius)
     std::vector<Vec2> pointsMm;
 };
 std::ostream& operator<<(std::ostream& os, const SpotResult& s);

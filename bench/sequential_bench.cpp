@@ -66,7 +66,8 @@ void BM_SphereKernel(benchmark::State& state) {
     const SurfaceShape shape = makeShape(1.0 / 30.0, 0.0, {});
     std::vector<Ray> rays;
     for (const Vec2& pp : hexapolarPupil(20))
-        rays.push_back({Vec3(10.0 * pp.x, 10.0 * pp.y, -5.0), glm::normalize(Vec3(0.0, 0.05, 1.0))});
+        rays.push_back(
+            {Vec3(10.0 * pp.x, 10.0 * pp.y, -5.0), glm::normalize(Vec3(0.0, 0.05, 1.0))});
     long long raySurfaces = 0;
     for (auto _ : state) {
         for (const Ray& r : rays) {

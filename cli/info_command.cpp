@@ -71,9 +71,12 @@ std::string fmtMm(double v) {
 
 const char* severityName(ImportNote::Severity s) {
     switch (s) {
-        case ImportNote::Severity::Info: return "info";
-        case ImportNote::Severity::Warning: return "warning";
-        case ImportNote::Severity::Error: return "error";
+        case ImportNote::Severity::Info:
+            return "info";
+        case ImportNote::Severity::Warning:
+            return "warning";
+        case ImportNote::Severity::Error:
+            return "error";
     }
     return "?";
 }
@@ -87,7 +90,8 @@ GlassCatalog loadCatalog(const CommonOptions& common) {
 }
 
 void addInfoCommand(CLI::App& app, CommonOptions& common, InfoOptions& options) {
-    CLI::App* sub = app.add_subcommand("info", "first-order data, spots and import report of a lens");
+    CLI::App* sub =
+        app.add_subcommand("info", "first-order data, spots and import report of a lens");
     sub->add_option("file", options.file, "lens file (.toml or .zmx)")->required();
     sub->add_flag("--json", options.json, "print JSON on standard output");
     sub->add_option("--aim", options.aim, "ray aiming: real (to the real stop) or paraxial")
@@ -117,10 +121,12 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
         j["name"] = p.system.name;
         j["primary_wavelength_nm"] = model.wavelengthNm(model.primaryWavelength());
         j["wavelengths"] = nlohmann::json::array();
-        for (const FirstOrderData& d : fo.wavelengths) j["wavelengths"].push_back(firstOrderJson(d));
+        for (const FirstOrderData& d : fo.wavelengths)
+            j["wavelengths"].push_back(firstOrderJson(d));
         j["field_unit"] = angle ? "deg" : "mm";
         j["fields"] = nlohmann::json::array();
-        for (const Field& f : p.system.fields) j["fields"].push_back({{"x", f.x}, {"y", f.y}, {"weight", f.weight}});
+        for (const Field& f : p.system.fields)
+            j["fields"].push_back({{"x", f.x}, {"y", f.y}, {"weight", f.weight}});
         j["surfaces"] = nlohmann::json::array();
         for (const Surface& s : p.surfaces) {
             nlohmann::json js{{"name", s.name},
@@ -167,8 +173,9 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
     if (!p.system.notes.empty()) os << "  " << p.system.notes << "\n";
     os << "\nSurfaces\n";
     os << "  " << std::left << std::setw(4) << "#" << std::setw(12) << "name" << std::right
-       << std::setw(13) << "radius" << std::setw(12) << "thickness" << "  " << std::left
-       << std::setw(22) << "material" << std::right << std::setw(9) << "sd" << "\n";
+       << std::setw(13) << "radius" << std::setw(12) << "thickness"
+       << "  " << std::left << std::setw(22) << "material" << std::right << std::setw(9) << "sd"
+       << "\n";
     for (size_t i = 0; i < p.surfaces.size(); ++i) {
         const Surface& s = p.surfaces[i];
         std::string flags;
@@ -178,8 +185,8 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
         if (s.hasAsphere()) flags += " asphere";
         os << "  " << std::left << std::setw(4) << i << std::setw(12) << s.name << std::right
            << std::setw(13) << fmt(s.radiusMm(), 8) << std::setw(12) << fmt(s.thicknessMm, 7)
-           << "  " << std::left << std::setw(22) << s.material.label() << std::right
-           << std::setw(9) << fmt(s.clearSemiDiameterMm, 5) << flags << "\n";
+           << "  " << std::left << std::setw(22) << s.material.label() << std::right << std::setw(9)
+           << fmt(s.clearSemiDiameterMm, 5) << flags << "\n";
     }
     const FirstOrderData& d = fo.primaryData();
     os << "\nFirst-order data at " << fmt(d.wavelengthNm) << " nm (primary)\n";
@@ -210,7 +217,8 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
     }
     if (fo.wavelengths.size() > 1) {
         os << "\n  " << std::setw(12) << "wavelength" << std::setw(14) << "EFL" << std::setw(14)
-           << "BFL" << std::setw(14) << "EP diameter" << std::setw(12) << "F/#" << "\n";
+           << "BFL" << std::setw(14) << "EP diameter" << std::setw(12) << "F/#"
+           << "\n";
         for (const FirstOrderData& x : fo.wavelengths)
             os << "  " << std::setw(12) << fmt(x.wavelengthNm) << std::setw(14) << fmt(x.eflMm, 8)
                << std::setw(14) << fmt(x.bflMm, 8) << std::setw(14)
@@ -219,16 +227,16 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
     }
     os << "\nSpots on the image surface (" << aimer.mode() << " aiming, " << options.rings
        << " rings)\n";
-    os << "  " << std::setw(16) << "field (x, y)" << std::setw(12) << "wavelength"
-       << std::setw(10) << "rays" << std::setw(28) << "centroid (x, y) mm" << std::setw(16)
-       << "RMS radius mm" << "\n";
+    os << "  " << std::setw(16) << "field (x, y)" << std::setw(12) << "wavelength" << std::setw(10)
+       << "rays" << std::setw(28) << "centroid (x, y) mm" << std::setw(16) << "RMS radius mm"
+       << "\n";
     for (const SpotResult& s : spots) {
         const Field& f = p.system.fields[s.field];
         os << "  " << std::setw(16) << (fmt(f.x, 4) + ", " + fmt(f.y, 4)) << std::setw(12)
            << fmt(model.wavelengthNm(s.wavelength)) << std::setw(10)
-           << (std::to_string(s.raysLanded) + "/" + std::to_string(s.raysTraced))
-           << std::setw(28) << (fmtMm(s.centroidMm.x) + ", " + fmtMm(s.centroidMm.y))
-           << std::setw(16) << fmtMm(s.rmsRadiusMm) << "\n";
+           << (std::to_string(s.raysLanded) + "/" + std::to_string(s.raysTraced)) << std::setw(28)
+           << (fmtMm(s.centroidMm.x) + ", " + fmtMm(s.centroidMm.y)) << std::setw(16)
+           << fmtMm(s.rmsRadiusMm) << "\n";
     }
     os << "\nImport report: ";
     if (p.report.empty()) {

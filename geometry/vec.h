@@ -1,9 +1,9 @@
 #pragma once
 // Vector types for geometry in double precision (mm).
 
+#include <glm/geometric.hpp>
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
-#include <glm/geometric.hpp>
 #include <ostream>
 
 // Printing lives in namespace glm so argument-dependent lookup finds it everywhere

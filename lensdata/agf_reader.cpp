@@ -13,80 +13,13 @@
 #include <sstream>
 
 #include "lensdata/errors.h"
+#include "lensdata/text_decoding.h"
 
 namespace veil {
 
 std::ostream& operator<<(std::ostream& os, const AgfCatalog& c) {
     return os << "AgfCatalog{" << c.name << ", " << c.glasses.size() << " glasses, "
               << c.comments.size() << " comments}";
-}
-
-// Text Decoding
-
-namespace {
-
-void appendUtf8(std::string& out, char32_t cp) {
-    if (cp < 0x80) {
-        out += static_cast<char>(cp);
-    } else if (cp < 0x800) {
-        out += static_cast<char>(0xC0 | (cp >> 6));
-        out += static_cast<char>(0x80 | (cp & 0x3F));
-    } else if (cp < 0x10000) {
-        out += static_cast<char>(0xE0 | (cp >> 12));
-        out += static_cast<char>(0x80 | ((cp >> 6) & 0x3F));
-        out += static_cast<char>(0x80 | (cp & 0x3F));
-    } else {
-        out += static_cast<char>(0xF0 | (cp >> 18));
-        out += static_cast<char>(0x80 | ((cp >> 12) & 0x3F));
-        out += static_cast<char>(0x80 | ((cp >> 6) & 0x3F));
-        out += static_cast<char>(0x80 | (cp & 0x3F));
-    }
-}
-
-std::string decodeUtf16(std::string_view bytes, bool bigEndian, const std::string& fileName) {
-    if (bytes.size() % 2 != 0)
-        throw ParseError(FileLoc{fileName}, "UTF-16 text with an odd number of bytes");
-    auto unit = [&](size_t i) -> char16_t {
-        const auto b0 = static_cast<unsigned char>(bytes[2 * i]);
-        const auto b1 = static_cast<unsigned char>(bytes[2 * i + 1]);
-        return bigEndian ? static_cast<char16_t>(b0 << 8 | b1)
-                         : static_cast<char16_t>(b1 << 8 | b0);
-    };
-    std::string out;
-    out.reserve(bytes.size() / 2);
-    const size_t n = bytes.size() / 2;
-    for (size_t i = 0; i < n; ++i) {
-        const char16_t u = unit(i);
-        if (u >= 0xD800 && u < 0xDC00 && i + 1 < n) {
-            const char16_t low = unit(i + 1);
-            if (low >= 0xDC00 && low < 0xE000) {
-                appendUtf8(out, 0x10000 + ((char32_t(u) - 0xD800) << 10) + (low - 0xDC00));
-                ++i;
-                continue;
-            }
-        }
-        // An unpaired surrogate can only sit in comment text: replace it, do not fail.
-        appendUtf8(out, (u >= 0xD800 && u < 0xE000) ? char32_t(0xFFFD) : char32_t(u));
-    }
-    return out;
-}
-
-}  // namespace
-
-std::string decodeAgfBytes(std::string_view bytes, const std::string& fileName) {
-    auto byteAt = [&](size_t i) { return static_cast<unsigned char>(bytes[i]); };
-    if (bytes.size() >= 3 && byteAt(0) == 0xEF && byteAt(1) == 0xBB && byteAt(2) == 0xBF)
-        return std::string(bytes.substr(3));
-    if (bytes.size() >= 2 && byteAt(0) == 0xFF && byteAt(1) == 0xFE)
-        return decodeUtf16(bytes.substr(2), false, fileName);
-    if (bytes.size() >= 2 && byteAt(0) == 0xFE && byteAt(1) == 0xFF)
-        return decodeUtf16(bytes.substr(2), true, fileName);
-    // No BOM. AGF text starts with an ASCII letter, so a zero byte beside it means UTF-16.
-    if (bytes.size() >= 2 && byteAt(0) != 0 && byteAt(1) == 0)
-        return decodeUtf16(bytes, false, fileName);
-    if (bytes.size() >= 2 && byteAt(0) == 0 && byteAt(1) != 0)
-        return decodeUtf16(bytes, true, fileName);
-    return std::string(bytes);
 }
 
 // AGF Parsing
@@ -371,7 +304,7 @@ std::vector<AgfCatalog> readAgfFile(const std::string& path) {
     if (!in) throw ParseError(FileLoc{path}, "cannot open glass catalog file");
     std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     if (in.bad()) throw ParseError(FileLoc{path}, "cannot read glass catalog file");
-    const std::string text = decodeAgfBytes(bytes, path);
+    const std::string text = decodeText(bytes, path);
     return parseAgf(text, path, upper(std::filesystem::path(path).stem().string()));
 }
 

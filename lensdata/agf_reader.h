@@ -43,10 +43,6 @@ struct AgfCatalog {
 };
 std::ostream& operator<<(std::ostream& os, const AgfCatalog& c);
 
-// Converts the raw bytes of an AGF file to UTF-8 (see the encodings above). Throws
-// ParseError naming `fileName` for UTF-16 with an odd number of bytes.
-std::string decodeAgfBytes(std::string_view bytes, const std::string& fileName);
-
 // Parses UTF-8 AGF text. `defaultCatalog` names the glasses before any veil-catalog marker
 // (that catalog is left out when it has no glasses and a marker follows). Throws ParseError
 // with fileName:line:column for malformed input: a non-numeric number field, a glass line
@@ -56,8 +52,8 @@ std::string decodeAgfBytes(std::string_view bytes, const std::string& fileName);
 std::vector<AgfCatalog> parseAgf(std::string_view text, const std::string& fileName,
                                  const std::string& defaultCatalog);
 
-// Reads the file at `path`: decodeAgfBytes + parseAgf, default catalog = file stem in upper
-// case. Throws ParseError naming the path when it cannot be read.
+// Reads the file at `path`: decodeText (text_decoding.h) + parseAgf, default catalog = file stem in
+// upper case. Throws ParseError naming the path when it cannot be read.
 std::vector<AgfCatalog> readAgfFile(const std::string& path);
 
 // Writes `catalog` as normalized AGF: a "CC veil-catalog NAME" marker, its CC lines, then per

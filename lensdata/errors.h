@@ -23,12 +23,12 @@ std::ostream& operator<<(std::ostream& os, const FileLoc& loc);
 
 // Input that cannot be read: malformed syntax, unknown key, value of the wrong type.
 class ParseError : public std::runtime_error {
-public:
+  public:
     ParseError(FileLoc loc, const std::string& message);
     const FileLoc& loc() const { return loc_; }
     const std::string& message() const { return message_; }
 
-private:
+  private:
     FileLoc loc_;
     std::string message_;
 };
@@ -36,11 +36,11 @@ private:
 // A model that parses but makes no physical sense: unknown glass, negative edge thickness,
 // colliding parts. `object` names the culprit as users know it ("L3.front", "spacer2").
 class ModelError : public std::runtime_error {
-public:
+  public:
     ModelError(const std::string& object, const std::string& message);
     const std::string& object() const { return object_; }
 
-private:
+  private:
     std::string object_;
 };
 

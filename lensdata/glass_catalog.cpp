@@ -10,6 +10,7 @@
 
 #include "lensdata/agf_reader.h"
 #include "lensdata/errors.h"
+#include "lensdata/text_decoding.h"
 
 namespace veil {
 
@@ -94,7 +95,7 @@ void GlassCatalog::loadAgfText(std::string_view text, const std::string& fileNam
                                const std::string& catalogName) {
     const std::string defaultName =
         catalogName.empty() ? upper(std::filesystem::path(fileName).stem().string()) : catalogName;
-    const std::string decoded = decodeAgfBytes(text, fileName);
+    const std::string decoded = decodeText(text, fileName);
     std::vector<AgfCatalog> parsed = parseAgf(decoded, fileName, defaultName);
     for (AgfCatalog& agf : parsed) {
         Catalog c{std::move(agf.name), std::move(agf.comments), std::move(agf.glasses), {}};

@@ -12,8 +12,7 @@ Prescription readLensFile(const std::filesystem::path& path, const GlassCatalog&
     std::string ext = path.extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(),
                    [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-    if (!std::filesystem::exists(path))
-        throw ParseError({path.string(), 0, 0}, "no such file");
+    if (!std::filesystem::exists(path)) throw ParseError({path.string(), 0, 0}, "no such file");
     if (ext == ".zmx") return readZmx(path, catalog);
     if (ext == ".toml") return readTomlPrescriptionFile(path, catalog);
     throw ParseError({path.string(), 0, 0},

@@ -9,8 +9,10 @@ namespace veil {
 
 std::string Material::label() const {
     switch (kind) {
-        case Kind::Air: return "AIR";
-        case Kind::Catalog: return name;
+        case Kind::Air:
+            return "AIR";
+        case Kind::Catalog:
+            return name;
         case Kind::Model: {
             std::ostringstream os;
             os << "model " << nd << "/" << vd;
@@ -57,9 +59,12 @@ std::ostream& operator<<(std::ostream& os, const SystemAperture& a) {
     switch (a.kind) {
         case SystemAperture::Kind::EntrancePupilDiameter:
             return os << "EPD " << a.value << " mm";
-        case SystemAperture::Kind::ImageSpaceFNumber: return os << "F/" << a.value;
-        case SystemAperture::Kind::ObjectSpaceNA: return os << "object NA " << a.value;
-        case SystemAperture::Kind::FloatByStop: return os << "float by stop size";
+        case SystemAperture::Kind::ImageSpaceFNumber:
+            return os << "F/" << a.value;
+        case SystemAperture::Kind::ObjectSpaceNA:
+            return os << "object NA " << a.value;
+        case SystemAperture::Kind::FloatByStop:
+            return os << "float by stop size";
     }
     return os;
 }
@@ -136,7 +141,8 @@ void Prescription::validate() const {
     if (n < 3)
         throw ModelError(sourceFile.empty() ? "prescription" : sourceFile,
                          "a system needs an object surface, at least one surface and an image "
-                         "surface (got " + std::to_string(n) + " surfaces)");
+                         "surface (got " +
+                             std::to_string(n) + " surfaces)");
     auto nameOf = [&](int i) {
         return surfaces[i].name.empty() ? "surface " + std::to_string(i) : surfaces[i].name;
     };
@@ -163,7 +169,8 @@ void Prescription::validate() const {
         if (s.mirror && !(s.material == surfaces[i - 1].material))
             throw ModelError(nameOf(i), "a mirror keeps the medium: material after it must be " +
                                             surfaces[i - 1].material.label());
-        if (s.material.kind == Material::Kind::Model && (s.material.nd < 1.0 || s.material.vd < 0.0))
+        if (s.material.kind == Material::Kind::Model &&
+            (s.material.nd < 1.0 || s.material.vd < 0.0))
             throw ModelError(nameOf(i), "model glass needs nd >= 1 and Vd >= 0 (0: no dispersion)");
     }
     if (stops > 1) throw ModelError("stop", "more than one surface is flagged as the stop");

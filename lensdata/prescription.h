@@ -118,7 +118,7 @@ struct SystemData {
     bool rectangularField = false;  // fields span a rectangle (x, y) rather than a radius
     std::vector<Field> fields;
     std::vector<Wavelength> wavelengths;
-    int primaryWavelength = 0;  // index into wavelengths
+    int primaryWavelength = 0;               // index into wavelengths
     std::vector<std::string> glassCatalogs;  // preferred catalogs, in order (ZMX GCAT)
 };
 
@@ -137,7 +137,7 @@ struct Prescription {
     std::vector<ImportNote> report;
     std::string sourceFile;
 
-    int stopIndex() const;   // the surface flagged stop; the first surface if none
+    int stopIndex() const;  // the surface flagged stop; the first surface if none
     int imageIndex() const { return static_cast<int>(surfaces.size()) - 1; }
     // Lens elements, found from the gaps that hold glass.
     std::vector<Element> elements() const;

@@ -44,8 +44,4 @@ Prescription readZmx(const std::filesystem::path& path, const GlassCatalog& cata
 Prescription readZmxText(std::string_view bytes, const std::string& fileName,
                          const GlassCatalog& catalog);
 
-// Decodes the raw bytes of a Zemax text file (see the encodings above) to UTF-8 with the BOM
-// removed. Exposed for tests.
-std::string decodeZemaxText(std::string_view bytes);
-
 }  // namespace veil

@@ -29,6 +29,7 @@
 
 #include "lensdata/agf_reader.h"
 #include "lensdata/errors.h"
+#include "lensdata/text_decoding.h"
 
 namespace {
 
@@ -47,7 +48,7 @@ Input readInput(const std::string& path) {
     const std::string bytes((std::istreambuf_iterator<char>(file)),
                             std::istreambuf_iterator<char>());
     in.bytes = bytes.size();
-    std::istringstream text(veil::decodeAgfBytes(bytes, path));
+    std::istringstream text(veil::decodeText(bytes, path));
     for (std::string line; std::getline(text, line);) {
         if (!line.empty() && line.back() == '\r') line.pop_back();
         if (line.rfind("NM ", 0) == 0) break;

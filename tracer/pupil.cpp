@@ -43,8 +43,8 @@ PupilData computePupil(const SequentialModel& model, int w) {
     pd.objectZMm = infinite ? -kInfinity : -t0;
 
     const SystemAperture& ap = p.system.aperture;
-    const std::string where = p.sourceFile.empty() ? std::string("system aperture")
-                                                   : p.sourceFile + ": system aperture";
+    const std::string where =
+        p.sourceFile.empty() ? std::string("system aperture") : p.sourceFile + ": system aperture";
     // The marginal ray is (y1, nu0) at surface 1; it sets everything else.
     auto fromEntrancePupilRadius = [&](double epr) {
         if (infinite) {
@@ -83,12 +83,14 @@ PupilData computePupil(const SequentialModel& model, int w) {
                 throw ModelError(p.surfaces[stop].name,
                                  "aperture floats by stop size but the stop has no semi-diameter");
             if (infinite) {
-                if (aS == 0.0) throw ModelError(p.surfaces[stop].name, "no axial ray reaches the stop");
+                if (aS == 0.0)
+                    throw ModelError(p.surfaces[stop].name, "no axial ray reaches the stop");
                 pd.marginalY1 = rs / aS;
                 pd.marginalNu0 = 0.0;
             } else {
                 const double denom = aS * t0 + bS * n0;
-                if (denom == 0.0) throw ModelError(p.surfaces[stop].name, "no axial ray reaches the stop");
+                if (denom == 0.0)
+                    throw ModelError(p.surfaces[stop].name, "no axial ray reaches the stop");
                 const double u0 = rs / denom;
                 pd.marginalNu0 = n0 * u0;
                 pd.marginalY1 = u0 * t0;

@@ -12,13 +12,13 @@
 namespace veil {
 
 struct PupilData {
-    int wavelength = 0;               // index the pupil was computed at
-    double stopRadiusMm = 0.0;        // paraxial marginal ray height at the stop
-    double entrancePupilZMm = 0.0;    // global z of the entrance pupil (infinite if telecentric)
+    int wavelength = 0;             // index the pupil was computed at
+    double stopRadiusMm = 0.0;      // paraxial marginal ray height at the stop
+    double entrancePupilZMm = 0.0;  // global z of the entrance pupil (infinite if telecentric)
     double entrancePupilRadiusMm = 0.0;
-    double objectZMm = 0.0;           // global z of the object plane (-inf at infinity)
-    double marginalNu0 = 0.0;         // reduced angle of the marginal ray in object space
-    double marginalY1 = 0.0;          // marginal ray height at surface 1
+    double objectZMm = 0.0;    // global z of the object plane (-inf at infinity)
+    double marginalNu0 = 0.0;  // reduced angle of the marginal ray in object space
+    double marginalY1 = 0.0;   // marginal ray height at surface 1
 };
 std::ostream& operator<<(std::ostream& os, const PupilData& p);
 

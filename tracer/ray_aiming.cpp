@@ -53,7 +53,8 @@ AimedRay RayAimer::aim(double fx, double fy, double px, double py, int w) const 
     const double rs = pupil_.stopRadiusMm;
     const Vec2 target(px * rs, py * rs);
     auto stopPoint = [&](const Vec2& e, Vec2& hit) {
-        const SequentialRayResult r = traceSequential(*model_, w, rayThrough(fx, fy, e.x, e.y), opts);
+        const SequentialRayResult r =
+            traceSequential(*model_, w, rayThrough(fx, fy, e.x, e.y), opts);
         if (!r.ok()) return false;
         hit = Vec2(r.ray.origin.x, r.ray.origin.y);
         return true;

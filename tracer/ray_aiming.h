@@ -26,7 +26,7 @@ struct AimedRay {
 };
 
 class RayAimer {
-public:
+  public:
     RayAimer(const SequentialModel& model, AimMode mode = AimMode::Real);
     RayAimer(const SequentialModel& model, const PupilData& pupil, AimMode mode);
 
@@ -40,7 +40,7 @@ public:
         return aim(f.x, f.y, px, py, w);
     }
 
-private:
+  private:
     // The object-space ray through entrance-pupil-plane point (ex, ey).
     Ray rayThrough(double fx, double fy, double ex, double ey) const;
 

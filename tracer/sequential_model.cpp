@@ -65,8 +65,11 @@ SequentialModel SequentialModel::build(const Prescription& p, const GlassCatalog
     for (int i = 0; i < n; ++i) {
         const Material& mat = p.surfaces[i].material;
         switch (mat.kind) {
-            case Material::Kind::Air: break;
-            case Material::Kind::Model: glasses[i] = Glass::model(mat.nd, mat.vd, mat.dPgF); break;
+            case Material::Kind::Air:
+                break;
+            case Material::Kind::Model:
+                glasses[i] = Glass::model(mat.nd, mat.vd, mat.dPgF);
+                break;
             case Material::Kind::Catalog: {
                 const Glass* g = catalog.find(mat.name, p.system.glassCatalogs);
                 if (!g) {
@@ -74,8 +77,7 @@ SequentialModel SequentialModel::build(const Prescription& p, const GlassCatalog
                     auto sug = catalog.suggestions(mat.name);
                     if (!sug.empty()) {
                         msg += " (did you mean";
-                        for (size_t k = 0; k < sug.size(); ++k)
-                            msg += (k ? ", " : " ") + sug[k];
+                        for (size_t k = 0; k < sug.size(); ++k) msg += (k ? ", " : " ") + sug[k];
                         msg += "?)";
                     }
                     throw ModelError(p.surfaces[i].name, msg);
@@ -90,9 +92,9 @@ SequentialModel SequentialModel::build(const Prescription& p, const GlassCatalog
         for (int i = 0; i < n; ++i) {
             double idx = glasses[i] ? glasses[i]->index(wl) : 1.0;
             if (!(idx >= 1.0 || (idx > 0.0 && glasses[i])) || !std::isfinite(idx))
-                throw ModelError(p.surfaces[i].name,
-                                 "index of " + p.surfaces[i].material.label() +
-                                     " is undefined at " + std::to_string(wl) + " nm");
+                throw ModelError(p.surfaces[i].name, "index of " + p.surfaces[i].material.label() +
+                                                         " is undefined at " + std::to_string(wl) +
+                                                         " nm");
             row[i] = idx * m.directions_[i];
         }
         m.indices_.push_back(std::move(row));

@@ -35,7 +35,7 @@ struct SequentialSurface {
 std::ostream& operator<<(std::ostream& os, const SequentialSurface& s);
 
 class SequentialModel {
-public:
+  public:
     // Resolves every material with `catalog` (the prescription's preferred catalogs first).
     // Throws ModelError naming the surface for an unknown glass or an index that is not
     // defined at one of the system wavelengths.
@@ -63,7 +63,7 @@ public:
     double thicknessMm(int gap) const;
     bool objectAtInfinity() const;
 
-private:
+  private:
     Prescription prescription_;
     std::vector<SequentialSurface> surfaces_;
     std::vector<double> wavelengthsNm_;

@@ -5,8 +5,8 @@
 namespace veil {
 
 std::ostream& operator<<(std::ostream& os, const SequentialRayResult& r) {
-    return os << "SequentialRayResult{" << r.status << " at surface " << r.surface << ", "
-              << r.ray << "}";
+    return os << "SequentialRayResult{" << r.status << " at surface " << r.surface << ", " << r.ray
+              << "}";
 }
 
 std::optional<Vec3> refract(const Vec3& d, const Vec3& nrm, double n1, double n2) {

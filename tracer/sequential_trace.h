@@ -17,16 +17,16 @@
 namespace veil {
 
 struct SequentialTraceOptions {
-    int firstSurface = 1;        // the ray is given in the gap before this surface
-    int lastSurface = -1;        // -1 = the image surface
-    bool clipApertures = true;   // rays outside a vignetting semi-diameter are Clipped
-    bool recordPath = false;     // keep the point and direction at every surface
+    int firstSurface = 1;       // the ray is given in the gap before this surface
+    int lastSurface = -1;       // -1 = the image surface
+    bool clipApertures = true;  // rays outside a vignetting semi-diameter are Clipped
+    bool recordPath = false;    // keep the point and direction at every surface
 };
 
 struct SequentialRayResult {
     RayStatus status = RayStatus::Ok;
-    int surface = 0;   // last surface reached (Ok) or where the ray failed
-    Ray ray;           // at the last surface reached: point on it, direction after it
+    int surface = 0;             // last surface reached (Ok) or where the ray failed
+    Ray ray;                     // at the last surface reached: point on it, direction after it
     double opticalPathMm = 0.0;  // sum of |n| * length from the start point
     std::vector<Ray> path;       // per surface from firstSurface (recordPath only)
     bool ok() const { return status == RayStatus::Ok; }

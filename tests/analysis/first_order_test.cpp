@@ -186,7 +186,8 @@ TEST(FirstOrderZmx, SampleFilesHaveTheirDerivedFocalLengths) {
         EXPECT_NEAR(fo.exitPupilPositionMm, fo.rearPrincipalPlaneMm, 1e-9);
     }
     {
-        const Prescription p = readZmx(VEIL_SOURCE_DIR "/tests/data/zmx/HoO-V2C18Ex27.zmx", catalog);
+        const Prescription p =
+            readZmx(VEIL_SOURCE_DIR "/tests/data/zmx/HoO-V2C18Ex27.zmx", catalog);
         const SequentialModel m = SequentialModel::build(p, catalog);
         const FirstOrderData fo = computeFirstOrder(m, m.primaryWavelength());
         EXPECT_NEAR(fo.eflMm, 24.60872, 2e-5);

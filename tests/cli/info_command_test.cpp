@@ -19,8 +19,8 @@ struct VeilRun {
 // `env` is an optional VAR=value prefix for the command.
 VeilRun runVeil(const std::string& args, const std::string& env = "") {
     const std::string errFile = ::testing::TempDir() + "veil_cli_stderr.txt";
-    const std::string cmd = std::string("cd ") + VEIL_SOURCE_DIR + " && " + env + " " +
-                            VEIL_EXE + " " + args + " 2>" + errFile;
+    const std::string cmd = std::string("cd ") + VEIL_SOURCE_DIR + " && " + env + " " + VEIL_EXE +
+                            " " + args + " 2>" + errFile;
     VeilRun r;
     FILE* pipe = popen(cmd.c_str(), "r");
     if (!pipe) return r;
@@ -49,7 +49,8 @@ TEST(VeilInfo, JsonHasFirstOrderKeysForTheZemaxDoubleGauss) {
     ASSERT_EQ(j["wavelengths"].size(), 3u);
     EXPECT_NEAR(j["primary_wavelength_nm"].get<double>(), 587.5618, 1e-9);
     // The F line focuses shorter than C for this uncorrected pair of crowns.
-    EXPECT_LT(j["wavelengths"][0]["efl_mm"].get<double>(), j["wavelengths"][2]["efl_mm"].get<double>());
+    EXPECT_LT(j["wavelengths"][0]["efl_mm"].get<double>(),
+              j["wavelengths"][2]["efl_mm"].get<double>());
     EXPECT_EQ(j["surfaces"].size(), 14u);
     EXPECT_EQ(j["elements"].size(), 6u);
     EXPECT_EQ(j["spots"].size(), 9u);  // 3 fields x 3 wavelengths
@@ -82,7 +83,10 @@ TEST(VeilInfo, UnknownTomlKeyNamesItsPosition) {
     const std::string path = ::testing::TempDir() + "veil_cli_typo.toml";
     FILE* f = fopen(path.c_str(), "w");
     ASSERT_TRUE(f);
-    fputs("[system]\naperture = { epd_mm = 10 }\nsurfaces = [\n  { r = 50, t = 5, glass = \"N-BK7\", stop = true },\n  { r = -50, t = 45, thikness = 3 },\n]\n", f);
+    fputs(
+        "[system]\naperture = { epd_mm = 10 }\nsurfaces = [\n  { r = 50, t = 5, glass = \"N-BK7\", "
+        "stop = true },\n  { r = -50, t = 45, thikness = 3 },\n]\n",
+        f);
     fclose(f);
     const VeilRun r = runVeil("info " + path);
     EXPECT_EQ(r.exitCode, 1);
@@ -122,9 +126,10 @@ TEST(VeilInfo, UserGlassCatalogFromOptionAndEnvironment) {
     const std::string lens = ::testing::TempDir() + "veil_cli_userglass.toml";
     FILE* f = fopen(lens.c_str(), "w");
     ASSERT_TRUE(f);
-    fputs("[system]\naperture = { epd_mm = 10 }\nsurfaces = [\n"
-          "  { r = 50, t = 5, glass = \"TESTSELL\", stop = true },\n  { r = -50, t = 45 },\n]\n",
-          f);
+    fputs(
+        "[system]\naperture = { epd_mm = 10 }\nsurfaces = [\n"
+        "  { r = 50, t = 5, glass = \"TESTSELL\", stop = true },\n  { r = -50, t = 45 },\n]\n",
+        f);
     fclose(f);
     const VeilRun without = runVeil("info " + lens + " --json");
     EXPECT_EQ(without.exitCode, 1);
@@ -133,7 +138,8 @@ TEST(VeilInfo, UserGlassCatalogFromOptionAndEnvironment) {
     const VeilRun option =
         runVeil("--glass-catalog tests/data/glass/sample.agf info " + lens + " --json");
     ASSERT_EQ(option.exitCode, 0) << option.err;
-    const VeilRun env = runVeil("info " + lens + " --json", "VEIL_GLASS_PATH=tests/data/glass/sample.agf");
+    const VeilRun env =
+        runVeil("info " + lens + " --json", "VEIL_GLASS_PATH=tests/data/glass/sample.agf");
     ASSERT_EQ(env.exitCode, 0) << env.err;
     // Same glass, same answer; and it is TESTSELL's nd 1.62004 at work: a thick lens
     // R = +-50, t = 5 has f = 1 / ((n-1)(2/50 - (n-1) 5 / (n 2500))).

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "lensdata/errors.h"
+#include "lensdata/text_decoding.h"
 
 namespace veil {
 namespace {
@@ -120,23 +121,23 @@ std::string utf16(std::u16string_view units, bool bigEndian, bool bom = true) {
     return bytes;
 }
 
-TEST(AgfReader, DecodesUtf16ToUtf8) {
+TEST(TextDecoding, DecodesUtf16ToUtf8) {
     // A BMP character (degree sign) and a surrogate pair (U+1F600), in UTF-8 after decoding.
     const std::u16string text = u"CC 25\u00B0C \U0001F600";
     const std::string expected = "CC 25\u00B0C \U0001F600";  // UTF-8 execution charset
-    EXPECT_EQ(decodeAgfBytes(utf16(text, false), "x"), expected);
-    EXPECT_EQ(decodeAgfBytes(utf16(text, true), "x"), expected);
+    EXPECT_EQ(decodeText(utf16(text, false), "x"), expected);
+    EXPECT_EQ(decodeText(utf16(text, true), "x"), expected);
     // Without BOM, the zero bytes give UTF-16 away.
-    EXPECT_EQ(decodeAgfBytes(utf16(u"NM", false, false), "x"), "NM");
-    EXPECT_EQ(decodeAgfBytes(utf16(u"NM", true, false), "x"), "NM");
+    EXPECT_EQ(decodeText(utf16(u"NM", false, false), "x"), "NM");
+    EXPECT_EQ(decodeText(utf16(u"NM", true, false), "x"), "NM");
     // An unpaired surrogate becomes U+FFFD.
     const std::u16string lone = {char16_t(0xD800), u'A'};
-    EXPECT_EQ(decodeAgfBytes(utf16(lone, false), "x"), "\uFFFDA");
+    EXPECT_EQ(decodeText(utf16(lone, false), "x"), "\uFFFDA");
     // ASCII and UTF-8 pass through; a UTF-8 BOM is dropped.
-    EXPECT_EQ(decodeAgfBytes("NM X", "x"), "NM X");
-    EXPECT_EQ(decodeAgfBytes("\xEF\xBB\xBFNM X", "x"), "NM X");
+    EXPECT_EQ(decodeText("NM X", "x"), "NM X");
+    EXPECT_EQ(decodeText("\xEF\xBB\xBFNM X", "x"), "NM X");
     // Half a UTF-16 code unit at the end.
-    EXPECT_THROW(decodeAgfBytes(utf16(u"CC", false) + "C", "x"), ParseError);
+    EXPECT_THROW(decodeText(utf16(u"CC", false) + "C", "x"), ParseError);
 }
 
 TEST(AgfReader, SkipsUnknownTagsAndAcceptsAnyLineEnd) {

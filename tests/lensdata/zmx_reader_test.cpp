@@ -16,6 +16,7 @@
 #include <string>
 
 #include "lensdata/glass_catalog.h"
+#include "lensdata/text_decoding.h"
 
 namespace veil {
 namespace {
@@ -442,13 +443,13 @@ TEST(ZmxReader, EveryEncodingGivesTheSamePrescription) {
     }
 }
 
-TEST(ZmxReader, DecodesNonAsciiText) {
+TEST(TextDecoding, DecodesNonAsciiText) {
     // "NAME Objectif f/2 µ" in UTF-16 LE with a surrogate pair, and Latin-1 bytes.
     std::string le = toUtf16("NAME x", false, true);
     le += std::string("\x3D\xD8\x00\xDE", 4);  // U+1F600 as a surrogate pair
-    EXPECT_EQ(decodeZemaxText(le), "NAME x\xF0\x9F\x98\x80");
-    EXPECT_EQ(decodeZemaxText("NAME \xB5m"), "NAME \xC2\xB5m");      // Latin-1 micro sign
-    EXPECT_EQ(decodeZemaxText("NAME \xC2\xB5m"), "NAME \xC2\xB5m");  // already UTF-8
+    EXPECT_EQ(decodeText(le, "x"), "NAME x\xF0\x9F\x98\x80");
+    EXPECT_EQ(decodeText("NAME \xB5m", "x"), "NAME \xC2\xB5m");      // Latin-1 micro sign
+    EXPECT_EQ(decodeText("NAME \xC2\xB5m", "x"), "NAME \xC2\xB5m");  // already UTF-8
 }
 
 // Hand-written files exercising each command
