@@ -1,0 +1,140 @@
+#pragma once
+// The 3D scene the nonsequential tracer flies through: one object table for exact lens
+// faces, mechanical parts, imported meshes and detectors, and closest-hit queries over all
+// of them.
+//
+// Every object has a stable name users type in criteria and reports (L4.front, L4.edge,
+// L4.flat1, stop, stop.edge, spacer3, barrel, sensor), a numeric id (its index), a kind, the
+// name of its optical property (resolved by the tracer), and the media on its two sides:
+// mediumFront is where the face normal points, mediumBack the other side. A ray meeting a
+// face with direction . normal < 0 comes from the front medium and enters the back one.
+// Opaque parts (mechanics, meshes) have air on both sides; their property decides what
+// happens.
+//
+// Closest hit: exact faces are intersected analytically in double precision (own bounds);
+// triangle meshes go through Embree (float) for candidates, refined in double on the
+// candidate triangle. A ray that starts on an object passes that object (and for meshes the
+// triangle) so the start point is not found again: no epsilon offsets.
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <ostream>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "geometry/exact_face.h"
+#include "geometry/triangle_mesh.h"
+#include "lensdata/prescription.h"
+
+namespace veil {
+
+enum class ObjectKind {
+    LensFace,      // refracting face of a lens element (front, back, cemented)
+    MirrorFace,    // reflecting optical surface
+    LensEdge,      // butt end (cylinder) of a lens element
+    LensFlat,      // flat annular shoulder between clear and mechanical aperture
+    Stop,          // aperture stop plate (its faces) and its edge
+    Mechanics,     // barrel, seats, retainers, spacers, baffles, vanes, field stop
+    ImportedMesh,  // CAD import
+    Detector,      // image sensor or any detector surface
+    Dummy,         // a sequential surface with no physical part (kept for naming)
+};
+std::string_view toString(ObjectKind k);
+std::ostream& operator<<(std::ostream& os, ObjectKind k);
+
+struct Medium {
+    std::string name;   // "air", a glass name, or a model glass label
+    Material material;  // resolved to indices by the tracer
+};
+
+// A named group of triangles of one mesh. A closed part can be split into several named
+// objects (the stop plate and its edge, stop and stop.edge) that together close it.
+struct MeshRef {
+    int mesh = 0;  // index into Scene::meshes()
+    uint32_t firstTriangle = 0;
+    uint32_t triangleCount = 0;  // 0 = all triangles from firstTriangle on
+};
+
+struct SceneObject {
+    int id = -1;
+    std::string name;
+    std::vector<std::string> aliases;  // other names it answers to (L3.front for L2.back)
+    ObjectKind kind = ObjectKind::Dummy;
+    std::string part;      // the part it belongs to: "L4", "barrel", "spacer3", "stop"
+    std::string property;  // optical property name; empty = the scene default for its kind
+    int mediumFront = 0;   // index into Scene::media(); 0 is the ambient air
+    int mediumBack = 0;
+    Frame frame;           // exact faces: local to global; meshes are stored in global coords
+    std::variant<FaceGeometry, MeshRef> geometry;
+    int sequentialSurface = -1;  // prescription surface index for optical faces, else -1
+};
+std::ostream& operator<<(std::ostream& os, const SceneObject& o);
+
+struct SceneHit {
+    int object = -1;
+    int primitive = 0;  // triangle index within its mesh, 0 for exact faces
+    double t = 0.0;
+    Vec3 point{0.0};   // global
+    Vec3 normal{0.0};  // global, unit, the object's orientation (not flipped toward the ray)
+    bool fromFront = true;  // the ray arrived from the side the normal points to
+    int mediumFrom = 0;     // medium the ray travelled in
+    int mediumTo = 0;       // medium on the other side
+};
+std::ostream& operator<<(std::ostream& os, const SceneHit& h);
+
+class EmbreeMeshes;  // geometry/embree_meshes.h
+
+class Scene {
+public:
+    Scene();
+    ~Scene();
+    Scene(Scene&&) noexcept;
+    Scene& operator=(Scene&&) noexcept;
+
+    // Building. Names must be unique (aliases included): a clash is a ModelError naming both.
+    int addMedium(Medium m);  // returns its index; "air" is medium 0 from the start
+    int addMesh(TriangleMesh mesh);
+    int addObject(SceneObject o);  // assigns the id
+    // Builds the acceleration structures. Must be called after the last add and before
+    // any query; adding after commit() requires another commit().
+    void commit();
+
+    const std::vector<SceneObject>& objects() const { return objects_; }
+    const SceneObject& object(int id) const { return objects_[id]; }
+    const std::vector<Medium>& media() const { return media_; }
+    const std::vector<TriangleMesh>& meshes() const { return meshes_; }
+    // Object by name or alias; nullptr if none.
+    const SceneObject* find(const std::string& name) const;
+    Bounds3 bounds() const;
+
+    // Closest hit with t in (0, tMax]. startObject/startPrimitive: the object (and mesh
+    // triangle) the ray starts on, or -1.
+    std::optional<SceneHit> closestHit(const Ray& ray, double tMax = kInfinity,
+                                       int startObject = -1, int startPrimitive = -1) const;
+    // The same by a plain loop over every face and every triangle in double precision: the
+    // test oracle for closestHit().
+    std::optional<SceneHit> closestHitBruteForce(const Ray& ray, double tMax = kInfinity,
+                                                 int startObject = -1,
+                                                 int startPrimitive = -1) const;
+
+    // Everything as one triangle mesh in global coordinates (exact faces tessellated with
+    // the given chord tolerance), with the object id of every triangle: for OBJ/PLY export.
+    TriangleMesh tessellate(double chordToleranceMm, std::vector<int>* objectOfTriangle) const;
+
+private:
+    SceneHit makeHit(int object, int primitive, double t, const Ray& ray,
+                     const Vec3& normal) const;
+
+    std::vector<Medium> media_;
+    std::vector<TriangleMesh> meshes_;
+    std::vector<SceneObject> objects_;
+    std::vector<int> exactObjects_;  // ids of objects with FaceGeometry
+    std::vector<Bounds3> exactBounds_;  // global bounds per entry of exactObjects_
+    std::vector<std::vector<int>> objectOfTriangle_;  // [mesh][triangle] -> object id
+    std::unique_ptr<EmbreeMeshes> embree_;
+    bool committed_ = false;
+};
+
+}  // namespace veil
