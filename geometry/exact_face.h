@@ -35,16 +35,38 @@ using FaceGeometry = std::variant<SurfacePatch, CylinderPatch>;
 std::ostream& operator<<(std::ostream& os, const FaceGeometry& f);
 
 // First hit with t in (tMin, tMax], local frame. startsOnFace: the ray starts on this face
-// (the root at t ~ 0 is skipped without an epsilon, see intersectFirst()).
+// (the root at t ~ 0 is skipped without an epsilon, see intersectFirst()). A crossing of a
+// patch's shape outside its aperture (in an annulus's hole) does not end the search: the
+// next crossing of the same shape is taken if it lies within. Edges are inside, with an
+// allowance of a few ulps of the hit's coordinates (as intersectFirst() grants at rMax), so
+// faces that share an edge overlap by rounding rather than leave a crack between them.
 std::optional<ShapeHit> intersectFace(const FaceGeometry& face, const Ray& localRay, double tMin,
                                       double tMax, bool startsOnFace);
-// Local bounds.
+// Local bounds: the aperture's box in x, y and an enclosure of the sag over it in z (exact
+// for planes, spheres and conics, whose sag is monotone in r; an interval enclosure over
+// 1024 radial pieces for aspheres), padded by a relative 1e-9 to hold edge hits.
 Bounds3 faceBounds(const FaceGeometry& face);
 // A triangle mesh for display and export whose chord error (distance between the exact
-// face and its triangles) stays below chordToleranceMm. Local frame.
+// face and its triangles) stays below chordToleranceMm. Local frame; triangles face along
+// the face's normal. The rule (M = bound on the sag's curvature over the aperture, exact for
+// conics, sampled and times 1.25 for aspheres; tol = chordToleranceMm):
+//   disc, annulus  polar grid, vertices on the surface: ring spacing and outer arc spacing
+//                  <= sqrt(3 tol / M) (linear interpolation error <= M rho^2 / 2 with the
+//                  triangle's enclosing radius rho <= h / sqrt(3)), and the rim polygon
+//                  within tol of the circle, R (1 - cos(dphi / 2)) <= tol; a hole's rim is a
+//                  polygon circumscribed about it, so no triangle reaches into the hole.
+//                  Triangles ~ 1 / tol for curved faces, ~ tol^-1/2 for flat rings.
+//   rectangle      regular grid, cell sides <= sqrt(4 tol / M); exact outline.
+//   cylinder       inscribed prism, R (1 - cos(dphi / 2)) <= tol; ~ tol^-1/2 triangles.
+// Counts are capped (2048 rings, 4096 segments), which only a tolerance far below what a
+// display needs, or a face reaching an ellipsoid's rim (M infinite there), runs into.
+// Throws std::invalid_argument unless chordToleranceMm > 0.
 TriangleMesh tessellateFace(const FaceGeometry& face, double chordToleranceMm);
 // Points where the face meets the plane x = 0 (the y-z section), as polylines in (y, z):
-// used for 2D layouts. Local frame; samples keep the chord error below chordToleranceMm.
+// used for 2D layouts. Local frame; samples keep the chord error below chordToleranceMm
+// (spacing <= sqrt(8 tol / M)). A surface patch gives its profile z = sag(0, y) over the
+// aperture's y range, increasing y (two pieces for an annulus); a cylinder gives the two
+// segments y = -R and y = +R from zMin to zMax.
 std::vector<std::vector<Vec2>> sectionOfFace(const FaceGeometry& face, double chordToleranceMm);
 
 }  // namespace veil

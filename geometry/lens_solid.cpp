@@ -1,0 +1,474 @@
+#include "geometry/lens_solid.h"
+
+#include <algorithm>
+#include <cmath>
+#include <initializer_list>
+#include <limits>
+#include <set>
+#include <sstream>
+
+#include "geometry/surface_shape.h"
+
+namespace veil {
+
+namespace {
+
+// Thickness profiles are checked at this many radii (plus the face rims) between the axis
+// and the edge.
+constexpr int kProfileSamples = 512;
+// Two surfaces are the same physical surface (a repeated pass) when their vertices are this
+// close (absolute mm plus a relative part for long systems) and their shape parameters agree
+// to a relative 1e-9.
+constexpr double kCoincidentAbsMm = 1e-6;
+constexpr double kCoincidentRel = 1e-12;
+constexpr double kSameShapeRel = 1e-9;
+// A neighbour's air gap may close to zero (touching) but not below this.
+constexpr double kOverlapToleranceMm = 1e-9;
+
+std::string fmt(double v) {
+    std::ostringstream os;
+    os << v;
+    return os.str();
+}
+
+// Global z of every vertex: surface 1 at 0, then the signed thicknesses (surface 0, the
+// object, sits one object distance in front, or at -infinity).
+std::vector<double> vertexZ(const Prescription& p) {
+    const int n = static_cast<int>(p.surfaces.size());
+    std::vector<double> z(n, 0.0);
+    if (n > 0) z[0] = -p.surfaces[0].thicknessMm;
+    double acc = 0.0;
+    for (int i = 1; i < n; ++i) {
+        z[i] = acc;
+        acc += p.surfaces[i].thicknessMm;
+    }
+    return z;
+}
+
+SurfaceShape shapeOf(const Surface& s) { return makeShape(s.curvature, s.conic, s.asphere); }
+
+bool close(double a, double b, double rel) {
+    return std::abs(a - b) <= rel * std::max(std::abs(a), std::abs(b));
+}
+
+bool sameShape(const Surface& a, const Surface& b) {
+    if (!close(a.curvature, b.curvature, kSameShapeRel)) return false;
+    if (std::abs(a.conic - b.conic) > kSameShapeRel * (1.0 + std::abs(a.conic))) return false;
+    for (size_t i = 0; i < a.asphere.size(); ++i) {
+        if (!close(a.asphere[i], b.asphere[i], kSameShapeRel)) return false;
+    }
+    return true;
+}
+
+bool coincide(const Prescription& p, const std::vector<double>& z, int i, int j) {
+    if (i == j) return true;
+    const double tol = kCoincidentAbsMm + kCoincidentRel * std::max(std::abs(z[i]), std::abs(z[j]));
+    return std::abs(z[i] - z[j]) <= tol && sameShape(p.surfaces[i], p.surfaces[j]);
+}
+
+double mechanicalRadius(const Surface& s) {
+    return s.mechSemiDiameterMm > 0.0 ? s.mechSemiDiameterMm : s.clearSemiDiameterMm;
+}
+
+void requireClearSize(const Surface& s) {
+    if (!(s.clearSemiDiameterMm > 0.0)) {
+        throw ModelError(s.name,
+                         "no clear semi-diameter: the scene needs the size of every "
+                         "lens and mirror surface");
+    }
+}
+
+// A side whose exact face ends at radius r: its rim height, computed once for every object
+// that meets there.
+LensSide makeSide(const Prescription& p, const std::vector<double>& z, int surface, double r,
+                  bool cemented) {
+    const Surface& s = p.surfaces[surface];
+    const SurfaceShape shape = shapeOf(s);
+    const double rim = maxRadius(shape);
+    if (r > rim) {
+        throw ModelError(
+            s.name,
+            std::string(cemented ? "cemented surface must reach r = " : "clear semi-diameter ") +
+                fmt(r) + " mm, beyond the rim of the surface at r = " + fmt(rim) + " mm");
+    }
+    LensSide side;
+    side.surface = surface;
+    side.shape = shape;
+    side.vertexZMm = z[surface];
+    side.faceRadiusMm = r;
+    side.rimZMm = z[surface] + sag(shape, r * r);
+    side.cemented = cemented;
+    if (!std::isfinite(side.rimZMm)) {
+        throw ModelError(s.name, "sag undefined at r = " + fmt(r) + " mm");
+    }
+    return side;
+}
+
+double sideZ(const LensSide& side, double r) {
+    if (r >= side.faceRadiusMm) return side.rimZMm;
+    return side.vertexZMm + sag(side.shape, r * r);
+}
+
+// Radii at which thickness profiles are checked: a regular grid plus the face rims.
+std::vector<double> profileRadii(double rMax, std::initializer_list<double> extra) {
+    std::vector<double> r;
+    for (int k = 0; k <= kProfileSamples; ++k) r.push_back(rMax * k / kProfileSamples);
+    for (double e : extra)
+        if (e <= rMax) r.push_back(e);
+    return r;
+}
+
+void checkThickness(const LensSolid& s) {
+    // Beyond both face rims the thickness is the edge's: flats that cross show up here.
+    const double edge = s.direction * (s.back.rimZMm - s.front.rimZMm);
+    if (!(edge > 0.0)) {
+        throw ModelError(s.name, std::string(edge < 0.0 ? "negative" : "zero") +
+                                     " edge thickness " + fmt(edge) +
+                                     " mm at r = " + fmt(s.edgeRadiusMm) + " mm");
+    }
+    double worst = std::numeric_limits<double>::infinity(), worstR = 0.0;
+    for (double r : profileRadii(s.edgeRadiusMm, {s.front.faceRadiusMm, s.back.faceRadiusMm})) {
+        const double t = s.direction * (s.backZ(r) - s.frontZ(r));
+        if (t < worst) {
+            worst = t;
+            worstR = r;
+        }
+    }
+    if (!(worst > 0.0)) {
+        throw ModelError(s.name, "front and back faces cross: thickness " + fmt(worst) +
+                                     " mm at r = " + fmt(worstR) + " mm");
+    }
+}
+
+// Neighbours across an air gap (no mirror in between, so light keeps its direction) must not
+// overlap anywhere both exist.
+void checkAirGap(const Prescription& p, const LensSolid& a, const LensSolid& b) {
+    for (int j = a.back.surface; j < b.front.surface; ++j) {
+        if (p.surfaces[j].mirror) return;
+    }
+    if (a.direction != b.direction) return;
+    const double rMax = std::min(a.edgeRadiusMm, b.edgeRadiusMm);
+    double worst = std::numeric_limits<double>::infinity(), worstR = 0.0;
+    for (double r : profileRadii(rMax, {a.back.faceRadiusMm, b.front.faceRadiusMm})) {
+        const double gap = a.direction * (b.frontZ(r) - a.backZ(r));
+        if (gap < worst) {
+            worst = gap;
+            worstR = r;
+        }
+    }
+    if (worst < -kOverlapToleranceMm) {
+        throw ModelError(a.name, "overlaps " + b.name + ": air gap " + fmt(worst) +
+                                     " mm at r = " + fmt(worstR) + " mm");
+    }
+}
+
+std::vector<LensSolid> solidsOfNamed(const Prescription& p) {
+    p.validate();
+    const std::vector<double> z = vertexZ(p);
+    const int image = p.imageIndex();
+
+    // Elements, without repeated passes through glass already listed.
+    std::vector<Element> kept;
+    for (const Element& e : p.elements()) {
+        if (e.backSurface >= image) {
+            throw ModelError(e.name,
+                             "glass reaches the image surface: a lens element needs its "
+                             "own back surface");
+        }
+        const bool repeat = std::any_of(kept.begin(), kept.end(), [&](const Element& k) {
+            if (!(k.material == e.material)) return false;
+            return (coincide(p, z, k.frontSurface, e.frontSurface) &&
+                    coincide(p, z, k.backSurface, e.backSurface)) ||
+                   (coincide(p, z, k.frontSurface, e.backSurface) &&
+                    coincide(p, z, k.backSurface, e.frontSurface));
+        });
+        if (!repeat) kept.push_back(e);
+    }
+
+    const size_t count = kept.size();
+    std::vector<double> radius(count);
+    for (size_t k = 0; k < count; ++k) {
+        const Surface& f = p.surfaces[kept[k].frontSurface];
+        const Surface& b = p.surfaces[kept[k].backSurface];
+        requireClearSize(f);
+        requireClearSize(b);
+        radius[k] = std::max(mechanicalRadius(f), mechanicalRadius(b));
+    }
+    auto cementedToNext = [&](size_t k) {
+        return k + 1 < count && kept[k].backSurface == kept[k + 1].frontSurface;
+    };
+
+    std::vector<LensSolid> out(count);
+    for (size_t k = 0; k < count; ++k) {
+        const Element& e = kept[k];
+        LensSolid& s = out[k];
+        s.name = e.name;
+        s.material = e.material;
+        s.edgeRadiusMm = radius[k];
+        const double t = p.surfaces[e.frontSurface].thicknessMm;
+        if (t == 0.0) throw ModelError(e.name, "zero centre thickness");
+        s.direction = t > 0.0 ? 1.0 : -1.0;
+        if (k > 0 && cementedToNext(k - 1)) {
+            s.front = out[k - 1].back;  // the shared face, rim computed once
+        } else {
+            s.front = makeSide(p, z, e.frontSurface, p.surfaces[e.frontSurface].clearSemiDiameterMm,
+                               false);
+        }
+        if (cementedToNext(k)) {
+            // Glass touches glass out to the smaller element's radius.
+            const double rc = std::min(radius[k], radius[k + 1]);
+            s.back = makeSide(p, z, e.backSurface, rc, true);
+        } else {
+            s.back =
+                makeSide(p, z, e.backSurface, p.surfaces[e.backSurface].clearSemiDiameterMm, false);
+        }
+        // Clear apertures larger than the mechanical one are caught by validate(); a cemented
+        // face never exceeds its elements.
+        s.edgeRadiusMm = std::max({s.edgeRadiusMm, s.front.faceRadiusMm, s.back.faceRadiusMm});
+        checkThickness(s);
+    }
+    for (size_t k = 0; k + 1 < count; ++k) {
+        if (!cementedToNext(k)) checkAirGap(p, out[k], out[k + 1]);
+    }
+    return out;
+}
+
+Prescription withNames(const Prescription& p) {
+    Prescription named = p;
+    named.assignNames();
+    return named;
+}
+
+// Names a surface answers to besides its own. "stop" is left out: that name belongs to the
+// stop plate the mechanics builder makes.
+std::vector<std::string> aliasesFor(const Prescription& p, int i) {
+    std::vector<std::string> out;
+    for (const std::string& a : p.aliasesOf(i)) {
+        if (a != "stop" && a != p.surfaces[i].name) out.push_back(a);
+    }
+    return out;
+}
+
+void addAliases(SceneObject& o, const std::vector<std::string>& names) {
+    for (const std::string& n : names) {
+        if (n == o.name) continue;
+        if (std::find(o.aliases.begin(), o.aliases.end(), n) != o.aliases.end()) continue;
+        o.aliases.push_back(n);
+    }
+}
+
+std::string mirrorPropertyOf(const Surface& s, const LensSolidOptions& options) {
+    return options.mirrorProperty.empty() ? s.coating : options.mirrorProperty;
+}
+
+}  // namespace
+
+// Printing
+
+std::ostream& operator<<(std::ostream& os, const LensSolidOptions& o) {
+    return os << "LensSolidOptions{edge '" << o.edgeProperty << "', flat '" << o.flatProperty
+              << "', optical '" << o.opticalFaceProperty << "', mirror '" << o.mirrorProperty
+              << "'}";
+}
+
+std::ostream& operator<<(std::ostream& os, const LensSide& s) {
+    return os << "LensSide{surface " << s.surface << " " << s.shape << ", vertex z " << s.vertexZMm
+              << " mm, face r <= " << s.faceRadiusMm << " mm, rim z " << s.rimZMm << " mm"
+              << (s.cemented ? ", cemented" : "") << "}";
+}
+
+std::ostream& operator<<(std::ostream& os, const LensSolid& s) {
+    return os << "LensSolid{" << s.name << " " << s.material << ", R " << s.edgeRadiusMm
+              << " mm, direction " << s.direction << ", front " << s.front << ", back " << s.back
+              << "}";
+}
+
+// Lens Solid Methods
+
+double LensSolid::frontZ(double rMm) const { return sideZ(front, rMm); }
+double LensSolid::backZ(double rMm) const { return sideZ(back, rMm); }
+
+std::vector<LensSolid> lensSolids(const Prescription& p) { return solidsOfNamed(withNames(p)); }
+
+void addLensSolids(const Prescription& prescription, Scene& scene,
+                   const LensSolidOptions& options) {
+    const Prescription p = withNames(prescription);
+    const std::vector<LensSolid> solids = solidsOfNamed(p);
+    const std::vector<double> z = vertexZ(p);
+    const int n = static_cast<int>(p.surfaces.size());
+
+    // One medium per distinct material; air is medium 0.
+    auto mediumOf = [&scene](const Material& m) -> int {
+        if (m.isAir()) return 0;
+        const std::vector<Medium>& media = scene.media();
+        for (size_t i = 0; i < media.size(); ++i) {
+            if (media[i].material == m) return static_cast<int>(i);
+        }
+        return scene.addMedium(Medium{m.label(), m});
+    };
+
+    // Objects are collected first (a spot mirror found later cuts a face already made), each
+    // with the index of the surface that orders it.
+    struct Planned {
+        int order;
+        SceneObject object;
+    };
+    std::vector<Planned> planned;
+
+    auto opticalFace = [&](const LensSolid& s, const LensSide& side) {
+        const Surface& sf = p.surfaces[side.surface];
+        SceneObject o;
+        o.name = sf.name;
+        o.aliases = aliasesFor(p, side.surface);
+        o.kind = sf.mirror ? ObjectKind::MirrorFace : ObjectKind::LensFace;
+        o.part = s.name;
+        o.property =
+            sf.mirror
+                ? mirrorPropertyOf(sf, options)
+                : (options.opticalFaceProperty.empty() ? sf.coating : options.opticalFaceProperty);
+        o.frame = Frame::alongAxis(side.vertexZMm);
+        o.geometry = FaceGeometry{SurfacePatch{side.shape, CircularAperture{side.faceRadiusMm}}};
+        o.sequentialSurface = side.surface;
+        return o;
+    };
+    auto flat = [&](const LensSolid& s, const LensSide& side, const char* suffix) {
+        SceneObject o;
+        o.name = s.name + suffix;
+        o.kind = ObjectKind::LensFlat;
+        o.part = s.name;
+        o.property = options.flatProperty;
+        o.frame = Frame::alongAxis(side.rimZMm);
+        o.geometry = FaceGeometry{
+            SurfacePatch{PlaneShape{}, AnnularAperture{side.faceRadiusMm, s.edgeRadiusMm}}};
+        return o;
+    };
+
+    std::set<int> built;
+    for (size_t k = 0; k < solids.size(); ++k) {
+        const LensSolid& s = solids[k];
+        const int order = s.front.surface;
+        const int glass = mediumOf(s.material);
+        // The glass lies on the side of each face toward the element's other side: at +z of
+        // the front side when the element runs toward +z.
+        const bool up = s.direction > 0.0;
+        auto frontSide = [&](SceneObject& o, int outside) {
+            o.mediumFront = up ? glass : outside;
+            o.mediumBack = up ? outside : glass;
+        };
+        auto backSide = [&](SceneObject& o, int outside) {
+            o.mediumFront = up ? outside : glass;
+            o.mediumBack = up ? glass : outside;
+        };
+        built.insert(s.front.surface);
+        built.insert(s.back.surface);
+
+        // A cemented front face was made with the element in front.
+        if (!s.front.cemented) {
+            SceneObject o = opticalFace(s, s.front);
+            frontSide(o, 0);
+            planned.push_back({order, std::move(o)});
+        }
+        if (s.edgeRadiusMm > s.front.faceRadiusMm) {
+            SceneObject o = flat(s, s.front, ".flat1");
+            frontSide(o, 0);
+            planned.push_back({order, std::move(o)});
+        }
+        {
+            SceneObject o;
+            o.name = s.name + ".edge";
+            o.kind = ObjectKind::LensEdge;
+            o.part = s.name;
+            o.property = options.edgeProperty;
+            o.frame = Frame::alongAxis(0.0);
+            o.geometry =
+                FaceGeometry{CylinderPatch{s.edgeRadiusMm, std::min(s.front.rimZMm, s.back.rimZMm),
+                                           std::max(s.front.rimZMm, s.back.rimZMm), true}};
+            o.mediumFront = 0;  // outward normal: air outside, glass inside
+            o.mediumBack = glass;
+            planned.push_back({order, std::move(o)});
+        }
+        if (s.edgeRadiusMm > s.back.faceRadiusMm) {
+            SceneObject o = flat(s, s.back, ".flat2");
+            backSide(o, 0);
+            planned.push_back({order, std::move(o)});
+        }
+        {
+            SceneObject o = opticalFace(s, s.back);
+            const int outside = s.back.cemented ? mediumOf(solids[k + 1].material) : 0;
+            backSide(o, outside);
+            planned.push_back({order, std::move(o)});
+        }
+    }
+
+    // Surfaces outside the elements: mirrors, and repeated passes over faces already made.
+    auto findCoincident = [&](int i) -> Planned* {
+        for (Planned& pl : planned) {
+            const int j = pl.object.sequentialSurface;
+            if (j >= 0 && coincide(p, z, i, j)) return &pl;
+        }
+        return nullptr;
+    };
+    for (int i = 1; i < n - 1; ++i) {
+        if (built.count(i)) continue;
+        const Surface& sf = p.surfaces[i];
+        if (sf.stop && !sf.mirror) continue;
+        std::vector<std::string> names = aliasesFor(p, i);
+        names.insert(names.begin(), sf.name);
+
+        if (Planned* match = findCoincident(i)) {
+            SceneObject& face = match->object;
+            if (!sf.mirror || face.kind == ObjectKind::MirrorFace) {
+                addAliases(face, names);
+                continue;
+            }
+            // A mirror on a lens face (a spot secondary): cut it out of the face.
+            requireClearSize(sf);
+            auto& patch = std::get<SurfacePatch>(std::get<FaceGeometry>(face.geometry));
+            const auto* disc = std::get_if<CircularAperture>(&patch.aperture);
+            if (!disc) {
+                throw ModelError(sf.name, "a second mirror on " + face.name + " is not supported");
+            }
+            if (sf.clearSemiDiameterMm >= disc->radiusMm) {
+                face.kind = ObjectKind::MirrorFace;
+                face.property = mirrorPropertyOf(sf, options);
+                addAliases(face, names);
+                continue;
+            }
+            SceneObject spot = face;
+            spot.name = sf.name;
+            spot.aliases.clear();
+            addAliases(spot, std::vector<std::string>(names.begin() + 1, names.end()));
+            spot.kind = ObjectKind::MirrorFace;
+            spot.property = mirrorPropertyOf(sf, options);
+            spot.sequentialSurface = i;
+            std::get<SurfacePatch>(std::get<FaceGeometry>(spot.geometry)).aperture =
+                CircularAperture{sf.clearSemiDiameterMm};
+            patch.aperture = AnnularAperture{sf.clearSemiDiameterMm, disc->radiusMm};
+            const int order = match->order;
+            planned.push_back({order, std::move(spot)});
+            continue;
+        }
+        if (!sf.mirror) continue;  // dummy surface
+        if (!sf.material.isAir()) {
+            throw ModelError(sf.name, "mirror inside glass that is not the back of a lens element");
+        }
+        requireClearSize(sf);
+        SceneObject o;
+        o.name = sf.name;
+        addAliases(o, std::vector<std::string>(names.begin() + 1, names.end()));
+        o.kind = ObjectKind::MirrorFace;
+        o.part = sf.name;
+        o.property = mirrorPropertyOf(sf, options);
+        o.frame = Frame::alongAxis(z[i]);
+        o.geometry =
+            FaceGeometry{SurfacePatch{shapeOf(sf), CircularAperture{sf.clearSemiDiameterMm}}};
+        o.sequentialSurface = i;
+        planned.push_back({i, std::move(o)});
+    }
+
+    std::stable_sort(planned.begin(), planned.end(),
+                     [](const Planned& a, const Planned& b) { return a.order < b.order; });
+    for (Planned& pl : planned) scene.addObject(std::move(pl.object));
+}
+
+}  // namespace veil

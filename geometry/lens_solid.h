@@ -1,0 +1,147 @@
+#pragma once
+// Lens elements as closed solids of exact faces, added to the scene's object table.
+//
+// Every lens element of the prescription (Prescription::elements()) becomes a closed solid
+// bounded by named exact faces, each its own SceneObject:
+//
+//   L4.front, L4.back   the optical surfaces, exact up to the clear semi-diameter
+//                       (ObjectKind::LensFace; MirrorFace for the silvered back of a Mangin)
+//   L4.flat1, L4.flat2  flat annular shoulders between the clear semi-diameter and the
+//                       element's mechanical radius, on the front and the back side
+//                       (ObjectKind::LensFlat; only where the radius exceeds the face)
+//   L4.edge             the butt end, a cylinder at the mechanical radius (ObjectKind::LensEdge)
+//
+// Section through the axis (upper half; light toward +z, biconvex singlet):
+//
+//        r
+//        ^          rimF            rimB
+//      R |           +----- edge -----+        edge:  cylinder r = R, rimF <= z <= rimB
+//        |     flat1 |                | flat2  flats: planes z = rimF, r from cF to R,
+//     cF |           +                |               and z = rimB, r from cB to R
+//     cB |          /                 +        rimF = zF + sagF(cF), rimB = zB + sagB(cB)
+//        |         /      glass        \       faces: exact, r <= cF (front), r <= cB
+//        |        ( front          back )             (back)
+//      0 +--------+---------------------+-----> z
+//                 zF                    zB
+//
+// The rim heights are computed once and shared: the flat is placed at exactly rimF, the
+// cylinder runs between exactly rimF and rimB, and the face's own rim is the sag at cF in
+// its frame. Intersections accept a point a few ulps beyond an edge (exact_face.h), so
+// neighbouring faces overlap by rounding instead of leaving a crack: a ray from inside the
+// glass always leaves through one of the element's faces.
+//
+// Cemented groups. The surface between two glasses is ONE face (named after the element in
+// front, L2.back, with the alias L3.front; Prescription::aliasesOf), with glass on both
+// sides. It is exact out to rc = the smaller element's mechanical radius, where the two
+// glasses stop touching. If the other element is larger, its part of the interface beyond
+// rc is a flat annular step at the height of the shared face's rim (its flat2 if it is the
+// element in front, flat1 if it is behind), and each element has its own edge:
+//
+//         r
+//         ^      A.rimF       rimC       B.rimB
+//     R_A |        +-- A.edge --+
+//         | A.flat1|            | A.flat2: the step, plane z = rimC, r from rc to R_A
+//      rc |        +            +-- B.edge --+
+//         |       /     A       )     B      | B.flat2
+//         |      /             )             +
+//         |     ( A.front     ) shared face   \ B.back
+//       0 +-----+-------------+----------------+--> z
+//
+// With equal radii there is no step and both edges start at rimC.
+//
+// Sizes. The element's mechanical radius R is the largest mechanical semi-diameter of its
+// surfaces (a surface without one counts with its clear semi-diameter): a lens has one
+// outer diameter, and the smaller side gets a wider flat (as lens drawings in OpticStudio
+// do). Every lens surface needs a clear semi-diameter (ModelError otherwise: the scene needs
+// sizes). Thickness must stay positive everywhere from the axis to R: front and back faces
+// that cross, or flats that cross, are a ModelError naming the element
+// ("L3: negative edge thickness -0.4 mm at r = 12.9 mm"). Neighbouring elements across an
+// air gap must not overlap either.
+//
+// Placement. Surface 1's vertex is at z = 0 and z accumulates the thicknesses (negative
+// after a mirror), as in tracer/sequential_model.cpp; faces and flats are placed with
+// Frame::alongAxis(z), the edge cylinder with the identity frame (its z range is global).
+// Elements traversed toward -z (after a mirror) have their front at the larger z.
+//
+// Media. A SurfacePatch's normal is +z at its vertex, so mediumFront is the medium on the
+// face's +z side and mediumBack the one on its -z side (scene.h). These are geometric: the
+// glass lies on the side of the face toward the element's other face, whichever way light
+// travels there. The edge's normal points outward: air outside (mediumFront), glass inside.
+// One Medium is registered per distinct Material (air is medium 0).
+//
+// Mirrors.
+//  * A second-surface mirror (Mangin: glass, then a silvered back, then back through the
+//    glass) is one element whose back face is a MirrorFace with glass on the inner side and
+//    air behind it. The return pass's exit surface is the front face again: its name becomes
+//    an alias of the front face rather than a second object.
+//  * A mirror in air is a single MirrorFace (named M1, M2, ...; part = its own name) sized to
+//    its clear semi-diameter, with air on both sides: a thin front-surface mirror without a
+//    substrate for now. A central hole is a later concern.
+//  * A mirror that coincides with a face of an element (same vertex and shape: a Maksutov's
+//    spot secondary, aluminised on the corrector) is cut out of that face: the spot is a
+//    MirrorFace disc with the face's media, the face keeps the annulus around it.
+//  * In general a surface that coincides with one already built (a repeated pass through
+//    the same glass) adds its names as aliases of that face instead of a second copy.
+//
+// Other surfaces (object, dummy planes, the stop, the image) get no objects here: the
+// mechanics builder makes the stop plate and the scene builder adds the image.
+
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "geometry/scene.h"
+#include "lensdata/prescription.h"
+
+namespace veil {
+
+struct LensSolidOptions {
+    std::string edgeProperty = "lens_edge";  // butt ends
+    std::string flatProperty = "lens_flat";  // flats and steps
+    // Refracting faces; empty = each face takes its Surface::coating (which may itself be
+    // empty: the scene's default for lens faces).
+    std::string opticalFaceProperty;
+    // Mirror faces; empty = Surface::coating.
+    std::string mirrorProperty;
+};
+std::ostream& operator<<(std::ostream& os, const LensSolidOptions& o);
+
+// One side of an element: where it meets air (an optical face and maybe a flat) or its
+// cemented neighbour (the shared face and maybe a step).
+struct LensSide {
+    int surface = -1;           // prescription index of the optical surface
+    SurfaceShape shape;         // its shape, local frame at the vertex
+    double vertexZMm = 0.0;     // global z of its vertex
+    double faceRadiusMm = 0.0;  // the exact face ends here: clear sd, or rc when cemented
+    double rimZMm = 0.0;        // vertexZ + sag(faceRadius): plane of the flat or step
+    bool cemented = false;
+};
+std::ostream& operator<<(std::ostream& os, const LensSide& s);
+
+// The solid of one lens element, in global coordinates (mm).
+struct LensSolid {
+    std::string name;  // "L4"
+    Material material;
+    double edgeRadiusMm = 0.0;  // mechanical radius R: the edge cylinder
+    LensSide front;             // the side light enters first
+    LensSide back;
+    double direction = 1.0;  // +1 when back lies at +z of front, -1 after an odd number of mirrors
+
+    // z of the front or back boundary at radial distance r <= edgeRadiusMm: the face inside
+    // faceRadius, the flat (rimZ) beyond.
+    double frontZ(double rMm) const;
+    double backZ(double rMm) const;
+};
+std::ostream& operator<<(std::ostream& os, const LensSolid& s);
+
+// The solids of a prescription's lens elements, checked (sizes present, positive thickness
+// from the axis to the edge, no overlap with a neighbour across an air gap). Elements that
+// repeat a pass through glass already listed are left out. Throws ModelError.
+std::vector<LensSolid> lensSolids(const Prescription& p);
+
+// Adds the faces of every lens element and every mirror to the scene (see the top of this
+// file). Throws ModelError for missing sizes, negative thickness, overlapping elements and
+// name clashes.
+void addLensSolids(const Prescription& p, Scene& scene, const LensSolidOptions& options = {});
+
+}  // namespace veil
