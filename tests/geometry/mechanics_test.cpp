@@ -1,0 +1,627 @@
+// Mechanics for every example lens, checked with oracles that do not share the builder's
+// code: mesh validity (CGAL), volumes against Pappus times the polygon factor, glass
+// clearance by testing every mesh vertex and triangle centroid against the lens faces'
+// exact sags (the lens solid's convention: exact to sd, flat out to the element radius),
+// and part against part with CGAL. Collisions forced on purpose name both parts.
+
+#include "geometry/mechanics.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <numbers>
+#include <set>
+#include <sstream>
+
+#include "geometry/mesh_check.h"
+#include "geometry/revolve.h"
+#include "geometry/surface_shape.h"
+#include "lensdata/lens_file.h"
+#include "lensdata/toml_document.h"
+#include "tests/test_lenses.h"
+
+namespace veil {
+namespace {
+
+using ::testing::HasSubstr;
+namespace fs = std::filesystem;
+
+constexpr double kPi = std::numbers::pi;
+
+fs::path lensPath(const std::string& name) {
+    return fs::path(VEIL_SOURCE_DIR) / "examples" / "lenses" / name;
+}
+
+Prescription lens(const std::string& name) {
+    return readLensFile(lensPath(name), GlassCatalog::builtIn());
+}
+
+const MechanicalPart* findPart(const std::vector<MechanicalPart>& parts, const std::string& name) {
+    for (const MechanicalPart& p : parts)
+        if (p.name == name) return &p;
+    return nullptr;
+}
+
+std::vector<std::string> names(const std::vector<MechanicalPart>& parts) {
+    std::vector<std::string> out;
+    for (const MechanicalPart& p : parts) out.push_back(p.name);
+    return out;
+}
+
+template <class F>
+ModelError modelErrorOf(F&& body) {
+    try {
+        body();
+    } catch (const ModelError& e) {
+        return e;
+    }
+    ADD_FAILURE() << "expected a ModelError";
+    return ModelError("none", "none");
+}
+
+// Oracle: the deepest point of `mesh` inside any lens element, by the lens solid's
+// convention (faces exact up to sd, flat at the rim out to the element's radius R). Vertices,
+// triangle centroids and edge midpoints are tested; returns the depth (<= 0: clear) and the
+// element.
+struct GlassHit {
+    double depth = -1e300;
+    std::string element;
+    Vec3 where{0.0};
+};
+
+GlassHit deepestInGlass(const Prescription& rx, const TriangleMesh& mesh) {
+    std::vector<double> z(rx.surfaces.size(), 0.0);
+    for (size_t i = 1; i + 1 < rx.surfaces.size(); ++i)
+        z[i + 1] = z[i] + rx.surfaces[i].thicknessMm;
+    auto faceZ = [&](int s, double r) {
+        const Surface& su = rx.surfaces[s];
+        const SurfaceShape shape = makeShape(su.curvature, su.conic, su.asphere);
+        const double c = su.clearSemiDiameterMm;
+        return z[s] + sag(shape, std::pow(std::min(r, c), 2));
+    };
+    GlassHit worst;
+    auto test = [&](const Vec3& p) {
+        const double r = std::hypot(p.x, p.y);
+        for (const Element& e : rx.elements()) {
+            const double R = std::max({rx.surfaces[e.frontSurface].mechSemiDiameterMm,
+                                       rx.surfaces[e.backSurface].mechSemiDiameterMm,
+                                       rx.surfaces[e.frontSurface].clearSemiDiameterMm,
+                                       rx.surfaces[e.backSurface].clearSemiDiameterMm});
+            if (r > R) continue;
+            const double a = faceZ(e.frontSurface, r), b = faceZ(e.backSurface, r);
+            const double d = std::min({p.z - std::min(a, b), std::max(a, b) - p.z, R - r});
+            if (d > worst.depth) worst = {d, e.name, p};
+        }
+    };
+    for (const Vec3& v : mesh.vertices) test(v);
+    for (const auto& t : mesh.triangles) {
+        const Vec3 &a = mesh.vertices[t[0]], &b = mesh.vertices[t[1]], &c = mesh.vertices[t[2]];
+        test((a + b + c) / 3.0);
+        // Edge midpoints: the chords of a ring come closest to the axis there.
+        test(0.5 * (a + b));
+        test(0.5 * (b + c));
+        test(0.5 * (c + a));
+    }
+    return worst;
+}
+
+double polygonFactor(int n) { return n * std::sin(2.0 * kPi / n) / (2.0 * kPi); }
+
+// Every Example Lens
+
+TEST(Mechanics, EveryExampleLensGetsValidPartsClearOfGlassAndEachOther) {
+    std::vector<fs::path> files;
+    for (const auto& entry : fs::directory_iterator(fs::path(VEIL_SOURCE_DIR) / "examples/lenses"))
+        if (entry.path().extension() == ".toml") files.push_back(entry.path());
+    std::sort(files.begin(), files.end());
+    ASSERT_GE(files.size(), 6u);
+    for (const fs::path& file : files) {
+        SCOPED_TRACE(file.filename().string());
+        const Prescription rx = readLensFile(file, GlassCatalog::builtIn());
+        std::vector<std::string> notes;
+        const auto t0 = std::chrono::steady_clock::now();
+        const std::vector<MechanicalPart> parts = buildMechanics(rx, MechanicsSpec{}, &notes);
+        const double ms =
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                .count();
+        ASSERT_FALSE(parts.empty());
+        EXPECT_EQ(parts.front().name, "barrel");
+        EXPECT_NE(findPart(parts, "stop"), nullptr);
+        size_t triangles = 0;
+        for (const MechanicalPart& p : parts) {
+            SCOPED_TRACE(p.name);
+            triangles += p.mesh.triangles.size();
+            const MeshCheck c = checkMesh(p.mesh);
+            EXPECT_TRUE(c.valid()) << c;
+            EXPECT_NEAR(c.volumeMm3, profileRevolvedVolume(p.profile) * polygonFactor(p.segments),
+                        1e-9 * c.volumeMm3);
+            // The named ranges cover the mesh exactly once.
+            uint32_t next = 0;
+            for (const NamedTriangleRange& r : p.namedRanges) {
+                EXPECT_EQ(r.firstTriangle, next);
+                next += r.triangleCount;
+            }
+            EXPECT_EQ(next, p.mesh.triangles.size());
+            const GlassHit g = deepestInGlass(rx, p.mesh);
+            EXPECT_LE(g.depth, 0.0) << "inside " << g.element << " at " << g.where;
+        }
+        for (size_t i = 0; i < parts.size(); ++i)
+            for (size_t j = i + 1; j < parts.size(); ++j)
+                EXPECT_FALSE(meshesIntersect(parts[i].mesh, parts[j].mesh))
+                    << parts[i].name << " / " << parts[j].name;
+        std::cout << "[ mech     ] " << file.filename().string() << ": " << parts.size()
+                  << " parts, " << triangles << " triangles, N = " << parts.front().segments
+                  << ", built and checked in " << std::lround(ms) << " ms:";
+        for (const MechanicalPart& p : parts) std::cout << " " << p.name;
+        std::cout << "\n";
+        for (const std::string& n : notes) std::cout << "[ mech     ]   " << n << "\n";
+    }
+}
+
+TEST(Mechanics, DoubleGaussStack) {
+    const Prescription rx = lens("double_gauss_50mm.toml");
+    const std::vector<MechanicalPart> parts = buildMechanics(rx, MechanicsSpec{});
+    const std::vector<std::string> n = names(parts);
+    for (const char* expected : {"barrel", "retainer1", "retainer2", "spacer1", "spacer5", "stop"})
+        EXPECT_NE(std::find(n.begin(), n.end(), expected), n.end()) << expected;
+    // The stop splits the air space behind the cemented L2+L3 into spacer3a / spacer3b; no
+    // spacer inside the cemented groups.
+    EXPECT_EQ(findPart(parts, "spacer2"), nullptr);
+    EXPECT_EQ(findPart(parts, "spacer4"), nullptr);
+    EXPECT_EQ(findPart(parts, "spacer3"), nullptr);
+    // The barrel's bore steps: a seat per lens group.
+    const MechanicalPart* barrel = findPart(parts, "barrel");
+    ASSERT_NE(barrel, nullptr);
+    std::set<double> bores;
+    for (const Vec2& v : barrel->profile) bores.insert(v.x);
+    EXPECT_GE(bores.size(), 4u);  // the outer wall and at least three bore radii
+    // Spacer inner radii leave the beam free: at least the larger facing clear radius.
+    const MechanicalPart* s1 = findPart(parts, "spacer1");
+    ASSERT_NE(s1, nullptr);
+    EXPECT_GE(s1->profile[0].x, 12.6);  // L1.back sd 12.6 > L2.front sd 11.9
+}
+
+// Stop
+
+TEST(Mechanics, StopEdgeIsExactlyEdgeMmWide) {
+    const Prescription rx = lens("double_gauss_50mm.toml");
+    for (double edge : {0.05, 0.1, 0.013}) {
+        MechanicsSpec spec;
+        spec.stop.edgeMm = edge;
+        const std::vector<MechanicalPart> parts = buildMechanics(rx, spec);
+        const MechanicalPart* stop = findPart(parts, "stop");
+        ASSERT_NE(stop, nullptr);
+        ASSERT_EQ(stop->namedRanges.size(), 2u);
+        EXPECT_EQ(stop->namedRanges[0].name, "stop");
+        EXPECT_EQ(stop->namedRanges[1].name, "stop.edge");
+        const NamedTriangleRange& er = stop->namedRanges[1];
+        EXPECT_EQ(er.triangleCount, 2u * stop->segments);
+        const double sd = rx.surfaces[rx.stopIndex()].clearSemiDiameterMm;
+        double zMin = 1e300, zMax = -1e300;
+        for (uint32_t t = er.firstTriangle; t < er.firstTriangle + er.triangleCount; ++t)
+            for (uint32_t v : stop->mesh.triangles[t]) {
+                const Vec3 p = stop->mesh.vertices[v];
+                EXPECT_NEAR(std::hypot(p.x, p.y), sd, 1e-12);
+                zMin = std::min(zMin, p.z);
+                zMax = std::max(zMax, p.z);
+            }
+        EXPECT_NEAR(zMax - zMin, edge, 1e-12) << edge;
+        // Centred on the stop plane (the stop surface is flat, at z = 16.885).
+        EXPECT_NEAR(0.5 * (zMax + zMin), 3.76 + 0.12 + 4.025 + 3.275 + 5.705, 1e-12);
+        // Everything else of the plate lies outside the edge radius.
+        for (const Vec2& v : stop->profile) EXPECT_GE(v.x, sd);
+    }
+}
+
+TEST(Mechanics, StopOnALensFaceSitsOnTheAirSide) {
+    // The singlet with its stop flag moved onto L1.front (no separate diaphragm).
+    Prescription rx = lens("singlet.toml");
+    rx.surfaces.erase(rx.surfaces.begin() + 1);
+    rx.surfaces[1].stop = true;
+    rx.surfaces[1].clearSemiDiameterMm = 10.0;
+    rx.surfaces[1].name.clear();
+    rx.surfaces[2].name.clear();
+    rx.assignNames();
+    rx.validate();
+    const std::vector<MechanicalPart> parts = buildMechanics(rx, MechanicsSpec{});
+    const MechanicalPart* stop = findPart(parts, "stop");
+    ASSERT_NE(stop, nullptr);
+    // The knife edge (the closing profile edge) sits just in front of L1.front's rim at the
+    // stop's radius: light comes from -z.
+    const Vec2 top = stop->profile.back(), bottom = stop->profile.front();
+    ASSERT_EQ(top.x, 10.0);
+    ASSERT_EQ(bottom.x, 10.0);
+    // In front of the face at the stop radius, closer than the plate's half thickness (the
+    // bevel keeps clear of the face curving away).
+    const double rim = sag(makeShape(1.0 / 59.26, 0.0, {}), 100.0);
+    EXPECT_LT(top.y, rim);
+    EXPECT_GT(top.y, rim - 0.25);
+    EXPECT_LE(deepestInGlass(rx, stop->mesh).depth, 0.0);
+}
+
+TEST(Mechanics, StopWithoutSemiDiameterIsAModelErrorNamingIt) {
+    Prescription rx = lens("double_gauss_50mm.toml");
+    rx.surfaces[rx.stopIndex()].clearSemiDiameterMm = 0.0;
+    const ModelError e = modelErrorOf([&] { buildMechanics(rx, MechanicsSpec{}); });
+    EXPECT_EQ(e.object(), "stop");
+    EXPECT_THAT(e.what(), HasSubstr("clear semi-diameter"));
+}
+
+TEST(Mechanics, StopThicknessItsBevelsCannotReachIsAModelError) {
+    // The double Gauss's stop plate is 2.64 mm wide (8.608 to 11.249 mm): 45 deg bevels
+    // cannot grow it to 6 mm.
+    MechanicsSpec spec;
+    spec.stop.thicknessMm = 6.0;
+    const ModelError e =
+        modelErrorOf([&] { buildMechanics(lens("double_gauss_50mm.toml"), spec); });
+    EXPECT_EQ(e.object(), "stop");
+    EXPECT_THAT(e.what(), HasSubstr("too thick"));
+}
+
+// Placement
+
+TEST(Mechanics, RingsRestOnTheExactSagOverTheirMeshRadii) {
+    // Singlet: stop plate at z = 0, spacer0, L1 (front r = 59.26 mm at z = 1, sd 10.5, flat
+    // beyond; back r = -394.56 mm at z = 5), retainer2.
+    const Prescription rx = lens("singlet.toml");
+    MechanicsSpec spec;
+    const std::vector<MechanicalPart> parts = buildMechanics(rx, spec);
+    const MechanicalPart* s0 = findPart(parts, "spacer0");
+    ASSERT_NE(s0, nullptr);
+    // spacer0's inner radius is L1.front's sd (> the stop's 10.0). The convex front face
+    // rises with r, so its lowest point under the spacer is at the spacer mesh's smallest
+    // radius, the chord midpoint rin cos(pi / N), not at rin.
+    const double rin = s0->profile[0].x;
+    EXPECT_EQ(rin, 10.5);
+    const double rMesh = rin * std::cos(kPi / s0->segments);
+    const SurfaceShape front = makeShape(1.0 / 59.26, 0.0, {});
+    EXPECT_NEAR(s0->profile[2].y, 1.0 + sag(front, rMesh * rMesh) - spec.contactGapMm, 1e-9);
+    EXPECT_LT(s0->profile[2].y, 1.0 + sag(front, rin * rin) - spec.contactGapMm - 1e-6);
+    // retainer2 sits on L1.back's flat shoulder, at the height of the face at its sd.
+    const MechanicalPart* r2 = findPart(parts, "retainer2");
+    ASSERT_NE(r2, nullptr);
+    EXPECT_NEAR(r2->profile[0].x, 10.5 + spec.retainers.widthMm * std::tan(5.0 * kPi / 180.0),
+                1e-12);
+    const SurfaceShape back = makeShape(1.0 / -394.56, 0.0, {});
+    EXPECT_NEAR(r2->profile[0].y, 5.0 + sag(back, 10.5 * 10.5) + spec.contactGapMm, 1e-9);
+}
+
+// Collisions
+
+TEST(Mechanics, CollisionsNameBothParts) {
+    const Prescription rx = lens("double_gauss_50mm.toml");
+    {
+        // A stop plate far too thick for the 3.5 mm between the flats of L3 and L4.
+        MechanicsSpec spec;
+        spec.stop.thicknessMm = 5.0;
+        const ModelError e = modelErrorOf([&] { buildMechanics(rx, spec); });
+        EXPECT_EQ(e.object(), "stop");
+        EXPECT_THAT(e.what(), HasSubstr("collides with L"));
+        EXPECT_THAT(e.what(), HasSubstr("at r = "));
+        std::cout << "[ collide  ] " << e.what() << "\n";
+    }
+    {
+        // A clearance smaller than the chord error: the bore's chords cut into a lens rim.
+        MechanicsSpec spec;
+        spec.chordToleranceMm = 0.05;
+        spec.barrel.clearanceMm = 0.001;
+        const ModelError e = modelErrorOf([&] { buildMechanics(rx, spec); });
+        EXPECT_EQ(e.object(), "barrel");
+        EXPECT_THAT(e.what(), HasSubstr("collides with L"));
+        std::cout << "[ collide  ] " << e.what() << "\n";
+    }
+    {
+        // A baffle placed in the middle of L6 (z 28.8 to 32.0).
+        MechanicsSpec spec;
+        spec.baffles.push_back({true, 30.4, 5.0, 0.5, ""});
+        const ModelError e = modelErrorOf([&] { buildMechanics(rx, spec); });
+        EXPECT_EQ(e.object(), "baffle1");
+        EXPECT_THAT(e.what(), HasSubstr("collides with L6"));
+        std::cout << "[ collide  ] " << e.what() << "\n";
+    }
+    {
+        // A baffle on top of the stop plate: part against part (CGAL).
+        MechanicsSpec spec;
+        spec.baffles.push_back({true, 16.885, 9.0, 0.2, ""});
+        const ModelError e = modelErrorOf([&] { buildMechanics(rx, spec); });
+        EXPECT_THAT(e.what(), HasSubstr("stop"));
+        EXPECT_THAT(e.what(), HasSubstr("baffle1"));
+        std::cout << "[ collide  ] " << e.what() << "\n";
+    }
+}
+
+// Folded Systems
+
+TEST(Mechanics, MirrorSystemsBuildWhatMakesSense) {
+    {
+        // The Cassegrain of docs/format.md: mirrors only, the stop on the primary. The light
+        // crosses the tube twice: no spacers or retainers; a tube clear of the primary, and
+        // the stop plate in front of the primary's rim.
+        Prescription rx = test::startLens(kInfinity, 100.0);
+        Surface m1 = test::surface(-400.0, -150.0);
+        m1.mirror = true;
+        m1.conic = -1.0;
+        m1.clearSemiDiameterMm = 50.0;
+        Surface m2 = test::surface(-150.0, 180.0);
+        m2.mirror = true;
+        m2.conic = -2.5;
+        m2.clearSemiDiameterMm = 15.0;
+        rx.surfaces.push_back(m1);
+        rx.surfaces.push_back(m2);
+        test::finishLens(rx);
+        std::vector<std::string> notes;
+        const std::vector<MechanicalPart> parts = buildMechanics(rx, MechanicsSpec{}, &notes);
+        EXPECT_EQ(names(parts), (std::vector<std::string>{"barrel", "stop"}));
+        for (const MechanicalPart& p : parts) EXPECT_TRUE(checkMesh(p.mesh).valid()) << p.name;
+        ASSERT_EQ(parts.size(), 2u);
+        double boreMin = 1e300;
+        for (const Vec2& v : parts[0].profile) boreMin = std::min(boreMin, v.x);
+        EXPECT_GT(boreMin, 50.0);
+        // The primary's rim is at z = -3.125 (paraboloid, r = 50); light comes from -z.
+        double stopZMax = -1e300;
+        for (const Vec2& v : parts[1].profile) stopZMax = std::max(stopZMax, v.y);
+        EXPECT_LT(stopZMax, -3.125);
+        for (const std::string& s : notes) std::cout << "[ mech     ]   cassegrain: " << s << "\n";
+    }
+    {
+        // A Mangin mirror: glass, a silvered back, and back out through the front face.
+        Prescription rx = test::startLens(kInfinity, 20.0);
+        Surface front = test::surface(-100.0, 5.0, Material::catalog("N-BK7"));
+        front.clearSemiDiameterMm = 12.0;
+        Surface back = test::surface(-200.0, -5.0, Material::catalog("N-BK7"));
+        back.mirror = true;
+        back.clearSemiDiameterMm = 12.0;
+        Surface out = test::surface(-100.0, -60.0);
+        out.clearSemiDiameterMm = 12.0;
+        rx.surfaces.push_back(front);
+        rx.surfaces.push_back(back);
+        rx.surfaces.push_back(out);
+        test::finishLens(rx);
+        const std::vector<MechanicalPart> parts = buildMechanics(rx, MechanicsSpec{});
+        EXPECT_NE(findPart(parts, "barrel"), nullptr);
+        EXPECT_NE(findPart(parts, "stop"), nullptr);
+        for (const MechanicalPart& p : parts) {
+            EXPECT_TRUE(checkMesh(p.mesh).valid()) << p.name;
+            EXPECT_LE(deepestInGlass(rx, p.mesh).depth, 0.0) << p.name;
+        }
+    }
+}
+
+// Optional Parts
+
+TEST(Mechanics, FieldStopBafflesAndVanes) {
+    {
+        const Prescription rx = lens("double_gauss_50mm.toml");
+        MechanicsSpec spec;
+        spec.fieldStop.enabled = true;
+        spec.fieldStop.radiusMm = 21.7;
+        spec.baffles.push_back({true, 50.0, 14.0, 0.5, "black"});
+        const std::vector<MechanicalPart> parts = buildMechanics(rx, spec);
+        const MechanicalPart* fs = findPart(parts, "field_stop");
+        ASSERT_NE(fs, nullptr);
+        double zMid = 0.0;
+        for (const Vec2& v : fs->profile) zMid += v.y / fs->profile.size();
+        const double image =
+            3.76 + 0.12 + 4.025 + 3.275 + 5.705 + 4.5 + 1.18 + 6.065 + 0.19 + 3.22 + 35.72;
+        EXPECT_NEAR(zMid, image - 1.0, 1e-9);
+        EXPECT_EQ(fs->profile.front().x, 21.7);
+        const MechanicalPart* b = findPart(parts, "baffle1");
+        ASSERT_NE(b, nullptr);
+        EXPECT_EQ(b->property, "black");
+        // The barrel reaches the field stop.
+        double zEnd = -1e300;
+        for (const Vec2& v : findPart(parts, "barrel")->profile) zEnd = std::max(zEnd, v.y);
+        EXPECT_GT(zEnd, image - 1.0);
+    }
+    {
+        // Vanes along the catadioptric's tube, between the secondary and the primary.
+        const Prescription rx = lens("catadioptric_2000mm.toml");
+        MechanicsSpec spec;
+        spec.vanes = {true, 7, 2.0, 0.5, 100.0, 400.0, ""};
+        std::vector<std::string> notes;
+        const std::vector<MechanicalPart> parts = buildMechanics(rx, spec, &notes);
+        for (int i = 1; i <= 7; ++i)
+            EXPECT_NE(findPart(parts, "vane" + std::to_string(i)), nullptr) << i;
+        const MechanicalPart* v1 = findPart(parts, "vane1");
+        ASSERT_NE(v1, nullptr);
+        // On the tube's bore, which clears the primary mirror (mech_sd 112).
+        EXPECT_GT(v1->profile.front().x + 2.0, 112.0);
+    }
+}
+
+TEST(Mechanics, PartsSwitchedOffAreAbsent) {
+    const Prescription rx = lens("double_gauss_50mm.toml");
+    auto without = [&](auto change) {
+        MechanicsSpec spec;
+        change(spec);
+        return names(buildMechanics(rx, spec));
+    };
+    auto has = [](const std::vector<std::string>& n, const std::string& prefix) {
+        return std::any_of(n.begin(), n.end(),
+                           [&](const std::string& s) { return s.rfind(prefix, 0) == 0; });
+    };
+    const auto all = without([](MechanicsSpec&) {});
+    EXPECT_TRUE(has(all, "barrel") && has(all, "retainer") && has(all, "spacer") &&
+                has(all, "stop"));
+    const auto noBarrel = without([](MechanicsSpec& s) { s.barrel.enabled = false; });
+    EXPECT_FALSE(has(noBarrel, "barrel"));
+    EXPECT_TRUE(has(noBarrel, "spacer"));
+    const auto noSpacers = without([](MechanicsSpec& s) { s.spacers.enabled = false; });
+    EXPECT_FALSE(has(noSpacers, "spacer"));
+    const auto noRetainers = without([](MechanicsSpec& s) { s.retainers.enabled = false; });
+    EXPECT_FALSE(has(noRetainers, "retainer"));
+    // Without the stop plate the air space L3 | L4 holds one spacer.
+    const auto noStop = without([](MechanicsSpec& s) { s.stop.enabled = false; });
+    EXPECT_FALSE(has(noStop, "stop"));
+    EXPECT_NE(std::find(noStop.begin(), noStop.end(), "spacer3"), noStop.end());
+    const auto none = without([](MechanicsSpec& s) {
+        s.barrel.enabled = s.spacers.enabled = s.retainers.enabled = s.stop.enabled = false;
+    });
+    EXPECT_TRUE(none.empty());
+}
+
+// Tessellation Tolerance
+
+TEST(Mechanics, ChordToleranceTradesTrianglesForVolumeError) {
+    // Relative volume error of every part is exactly 1 - N sin(2 pi / N) / (2 pi), about
+    // (2 pi / N)^2 / 6 = (4/3) tol / r_max: ten times smaller per decade of tolerance, for
+    // sqrt(10) times more triangles.
+    const Prescription rx = lens("double_gauss_50mm.toml");
+    struct Row {
+        double tol;
+        int segments;
+        size_t triangles;
+        double volumeError;
+        double ms;
+    };
+    std::vector<Row> rows;
+    for (double tol : {0.1, 0.01, 0.001}) {
+        MechanicsSpec spec;
+        spec.chordToleranceMm = tol;
+        spec.barrel.clearanceMm = 0.15;  // above the coarsest chord error
+        const auto t0 = std::chrono::steady_clock::now();
+        const std::vector<MechanicalPart> parts = buildMechanics(rx, spec);
+        const double ms =
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                .count();
+        size_t triangles = 0;
+        double exact = 0.0, meshed = 0.0;
+        for (const MechanicalPart& p : parts) {
+            triangles += p.mesh.triangles.size();
+            exact += profileRevolvedVolume(p.profile);
+            meshed += checkMesh(p.mesh).volumeMm3;
+        }
+        const double err = 1.0 - meshed / exact;
+        const int n = parts.front().segments;
+        EXPECT_NEAR(err, 1.0 - polygonFactor(n), 1e-9);
+        // The chord error bound at the barrel's outer radius.
+        double rMax = 0.0;
+        for (const Vec2& v : parts.front().profile) rMax = std::max(rMax, v.x);
+        EXPECT_LE(chordError(rMax, n), tol);
+        rows.push_back({tol, n, triangles, err, ms});
+    }
+    std::cout << "[ chord    ] double Gauss mechanics, by chord_tolerance_mm:\n";
+    for (const Row& r : rows)
+        std::cout << "[ chord    ]   " << r.tol << " mm: N = " << r.segments << ", " << r.triangles
+                  << " triangles, volume error " << r.volumeError * 100.0
+                  << " %, built and checked in " << std::lround(r.ms) << " ms\n";
+    for (size_t i = 1; i < rows.size(); ++i) {
+        EXPECT_NEAR(static_cast<double>(rows[i].triangles) / rows[i - 1].triangles, std::sqrt(10.0),
+                    0.15);
+        EXPECT_NEAR(rows[i - 1].volumeError / rows[i].volumeError, 10.0, 1.0);
+    }
+}
+
+// Reading [mechanics]
+
+// The example of docs/format.md, section [mechanics], read from the document itself.
+std::string formatDocMechanicsExample() {
+    std::ifstream in(fs::path(VEIL_SOURCE_DIR) / "docs" / "format.md");
+    std::stringstream ss;
+    ss << in.rdbuf();
+    const std::string doc = ss.str();
+    const size_t section = doc.find("## `[mechanics]`");
+    const size_t begin = doc.find("```toml\n", section);
+    const size_t end = doc.find("```\n", begin + 8);
+    if (section == std::string::npos || begin == std::string::npos || end == std::string::npos)
+        return {};
+    return doc.substr(begin + 8, end - begin - 8);
+}
+
+TEST(Mechanics, ReadsTheTable) {
+    const std::string text = formatDocMechanicsExample();
+    ASSERT_FALSE(text.empty()) << "no [mechanics] example in docs/format.md";
+    TomlDocument doc = TomlDocument::fromString(text, "scene.toml");
+    const std::optional<MechanicsSpec> s = readMechanics(doc);
+    ASSERT_TRUE(s.has_value());
+    EXPECT_NO_THROW(doc.checkAllUsed());
+    EXPECT_EQ(s->chordToleranceMm, 0.02);
+    EXPECT_EQ(s->contactGapMm, 0.002);
+    EXPECT_EQ(s->property, "black_anodized");
+    EXPECT_EQ(s->lensEdgeProperty, "ground_glass");
+    EXPECT_EQ(s->barrel.wallMm, 3.0);
+    EXPECT_EQ(s->barrel.clearanceMm, 0.03);
+    EXPECT_EQ(s->barrel.property, "anodized");
+    EXPECT_FALSE(s->retainers.enabled);
+    EXPECT_TRUE(s->spacers.enabled);
+    EXPECT_EQ(s->spacers.minLengthMm, 0.5);
+    EXPECT_EQ(s->stop.edgeMm, 0.02);
+    EXPECT_EQ(s->stop.thicknessMm, 0.3);
+    EXPECT_EQ(s->stop.bevelDeg, 30.0);
+    EXPECT_EQ(s->stop.edgeProperty, "knife");
+    EXPECT_TRUE(s->fieldStop.enabled);
+    EXPECT_FALSE(s->fieldStop.zMm.has_value());
+    EXPECT_EQ(s->fieldStop.beforeImageMm, 2.0);
+    EXPECT_TRUE(s->vanes.enabled);
+    EXPECT_EQ(s->vanes.count, 4);
+    ASSERT_EQ(s->baffles.size(), 2u);
+    EXPECT_FALSE(s->baffles[1].enabled);
+
+    // The spec builds: properties reach the parts and the stop's edge.
+    const std::vector<MechanicalPart> parts = buildMechanics(lens("double_gauss_50mm.toml"), *s);
+    EXPECT_EQ(findPart(parts, "barrel")->property, "anodized");
+    EXPECT_EQ(findPart(parts, "stop")->property, "black_anodized");
+    EXPECT_EQ(findPart(parts, "stop")->namedRanges[1].property, "knife");
+    EXPECT_EQ(findPart(parts, "retainer1"), nullptr);
+    EXPECT_NE(findPart(parts, "baffle1"), nullptr);
+    EXPECT_EQ(findPart(parts, "baffle2"), nullptr);
+    // As the document says.
+    EXPECT_EQ(names(parts), (std::vector<std::string>{
+                                "barrel", "spacer1", "spacer3a", "spacer3b", "spacer5", "spacer6a",
+                                "spacer6b", "spacer6c", "spacer6d", "spacer6e", "spacer6f", "stop",
+                                "field_stop", "baffle1", "vane1", "vane2", "vane3", "vane4"}));
+}
+
+TEST(Mechanics, NoTableNoMechanics) {
+    TomlDocument doc = TomlDocument::fromString("[system]\nname = \"x\"\n", "lens.toml");
+    EXPECT_FALSE(readMechanics(doc).has_value());
+}
+
+TEST(Mechanics, UnknownKeysAndBadValuesAreParseErrorsAtTheirPlace) {
+    {
+        TomlDocument doc =
+            TomlDocument::fromString("[mechanics]\nbarrel = { wal_mm = 2 }\n", "scene.toml");
+        readMechanics(doc);
+        try {
+            doc.checkAllUsed();
+            ADD_FAILURE() << "expected a ParseError";
+        } catch (const ParseError& e) {
+            EXPECT_EQ(e.loc().line, 2);
+            EXPECT_EQ(e.loc().column, 12);
+            EXPECT_THAT(e.what(), HasSubstr("wal_mm"));
+            EXPECT_THAT(e.what(), HasSubstr("did you mean 'wall_mm'"));
+        }
+    }
+    auto parseError = [](const std::string& text) {
+        TomlDocument doc = TomlDocument::fromString(text, "scene.toml");
+        try {
+            readMechanics(doc);
+        } catch (const ParseError& e) {
+            return std::string(e.what());
+        }
+        return std::string("no error");
+    };
+    EXPECT_THAT(parseError("[mechanics]\nchord_tolerance_mm = 0\n"), HasSubstr("scene.toml:2:"));
+    EXPECT_THAT(parseError("[mechanics]\nstop = { edge_mm = 0.1, thickness_mm = 0.05 }\n"),
+                HasSubstr("at least edge_mm"));
+    EXPECT_THAT(parseError("[mechanics]\nstop = { bevel_deg = 90 }\n"), HasSubstr("bevel_deg"));
+    EXPECT_THAT(parseError("[mechanics]\nfield_stop = { z_mm = 3 }\n"), HasSubstr("radius_mm"));
+    EXPECT_THAT(
+        parseError("[mechanics]\nfield_stop = { z_mm = 3, before_image_mm = 1, radius_mm = 2 }\n"),
+        HasSubstr("not both"));
+    EXPECT_THAT(
+        parseError(
+            "[mechanics]\nvanes = { count = 2, depth_mm = 1, from_z_mm = 5, to_z_mm = 1 }\n"),
+        HasSubstr("to_z_mm"));
+    EXPECT_THAT(parseError("[mechanics]\nbarrel = 3\n"), HasSubstr("a table or a boolean"));
+    EXPECT_THAT(parseError("[mechanics]\nfield_stop = true\n"), HasSubstr("radius_mm"));
+}
+
+}  // namespace
+}  // namespace veil
