@@ -66,7 +66,7 @@ struct SceneObject {
     std::string property;  // optical property name; empty = the scene default for its kind
     int mediumFront = 0;   // index into Scene::media(); 0 is the ambient air
     int mediumBack = 0;
-    Frame frame;           // exact faces: local to global; meshes are stored in global coords
+    Frame frame;  // exact faces: local to global; meshes are stored in global coords
     std::variant<FaceGeometry, MeshRef> geometry;
     int sequentialSurface = -1;  // prescription surface index for optical faces, else -1
 };
@@ -76,8 +76,8 @@ struct SceneHit {
     int object = -1;
     int primitive = 0;  // triangle index within its mesh, 0 for exact faces
     double t = 0.0;
-    Vec3 point{0.0};   // global
-    Vec3 normal{0.0};  // global, unit, the object's orientation (not flipped toward the ray)
+    Vec3 point{0.0};        // global
+    Vec3 normal{0.0};       // global, unit, the object's orientation (not flipped toward the ray)
     bool fromFront = true;  // the ray arrived from the side the normal points to
     int mediumFrom = 0;     // medium the ray travelled in
     int mediumTo = 0;       // medium on the other side
@@ -87,7 +87,7 @@ std::ostream& operator<<(std::ostream& os, const SceneHit& h);
 class EmbreeMeshes;  // geometry/embree_meshes.h
 
 class Scene {
-public:
+  public:
     Scene();
     ~Scene();
     Scene(Scene&&) noexcept;
@@ -123,16 +123,19 @@ public:
     // the given chord tolerance), with the object id of every triangle: for OBJ/PLY export.
     TriangleMesh tessellate(double chordToleranceMm, std::vector<int>* objectOfTriangle) const;
 
-private:
-    SceneHit makeHit(int object, int primitive, double t, const Ray& ray,
-                     const Vec3& normal) const;
+  private:
+    SceneHit makeHit(int object, int primitive, double t, const Ray& ray, const Vec3& normal) const;
 
     std::vector<Medium> media_;
     std::vector<TriangleMesh> meshes_;
     std::vector<SceneObject> objects_;
-    std::vector<int> exactObjects_;  // ids of objects with FaceGeometry
-    std::vector<Bounds3> exactBounds_;  // global bounds per entry of exactObjects_
+    std::vector<int> exactObjects_;                   // ids of objects with FaceGeometry
+    std::vector<Bounds3> exactBounds_;                // global bounds per entry of exactObjects_
     std::vector<std::vector<int>> objectOfTriangle_;  // [mesh][triangle] -> object id
+    // [mesh][vertex] -> triangles using it: a ray leaving a mesh is tested in double against
+    // the triangles around its start triangle, where float candidates are unreliable (a
+    // concave corner a few nanometres away).
+    std::vector<std::vector<std::vector<uint32_t>>> trianglesOfVertex_;
     std::unique_ptr<EmbreeMeshes> embree_;
     bool committed_ = false;
 };

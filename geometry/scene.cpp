@@ -1,0 +1,312 @@
+#include "geometry/scene.h"
+
+#include <cmath>
+#include <limits>
+
+#include "geometry/embree_meshes.h"
+
+namespace veil {
+
+std::string_view toString(ObjectKind k) {
+    switch (k) {
+        case ObjectKind::LensFace:
+            return "lens face";
+        case ObjectKind::MirrorFace:
+            return "mirror";
+        case ObjectKind::LensEdge:
+            return "lens edge";
+        case ObjectKind::LensFlat:
+            return "lens flat";
+        case ObjectKind::Stop:
+            return "stop";
+        case ObjectKind::Mechanics:
+            return "mechanics";
+        case ObjectKind::ImportedMesh:
+            return "imported mesh";
+        case ObjectKind::Detector:
+            return "detector";
+        case ObjectKind::Dummy:
+            return "dummy";
+    }
+    return "?";
+}
+
+std::ostream& operator<<(std::ostream& os, ObjectKind k) { return os << toString(k); }
+
+std::ostream& operator<<(std::ostream& os, const SceneObject& o) {
+    os << "SceneObject{#" << o.id << " " << o.name << " (" << o.kind << ")";
+    if (!o.property.empty()) os << " property " << o.property;
+    os << " media " << o.mediumBack << "|" << o.mediumFront;
+    if (std::holds_alternative<MeshRef>(o.geometry)) {
+        const MeshRef& m = std::get<MeshRef>(o.geometry);
+        os << " mesh " << m.mesh << " [" << m.firstTriangle << ", +" << m.triangleCount << ")";
+    } else {
+        os << " " << std::get<FaceGeometry>(o.geometry);
+    }
+    return os << "}";
+}
+
+std::ostream& operator<<(std::ostream& os, const SceneHit& h) {
+    return os << "SceneHit{object " << h.object << " primitive " << h.primitive << " t=" << h.t
+              << " at " << h.point << " normal " << h.normal << (h.fromFront ? " front" : " back")
+              << " media " << h.mediumFrom << "->" << h.mediumTo << "}";
+}
+
+// Scene Public Methods
+
+Scene::Scene() { media_.push_back({"air", Material::air()}); }
+Scene::~Scene() = default;
+Scene::Scene(Scene&&) noexcept = default;
+Scene& Scene::operator=(Scene&&) noexcept = default;
+
+int Scene::addMedium(Medium m) {
+    for (size_t i = 0; i < media_.size(); ++i)
+        if (media_[i].material == m.material) return static_cast<int>(i);
+    media_.push_back(std::move(m));
+    return static_cast<int>(media_.size()) - 1;
+}
+
+int Scene::addMesh(TriangleMesh mesh) {
+    meshes_.push_back(std::move(mesh));
+    committed_ = false;
+    return static_cast<int>(meshes_.size()) - 1;
+}
+
+const SceneObject* Scene::find(const std::string& name) const {
+    for (const SceneObject& o : objects_) {
+        if (o.name == name) return &o;
+        for (const std::string& a : o.aliases)
+            if (a == name) return &o;
+    }
+    return nullptr;
+}
+
+int Scene::addObject(SceneObject o) {
+    auto clash = [&](const std::string& n) {
+        if (const SceneObject* other = find(n))
+            throw ModelError(o.name, "name '" + n + "' is already used by " + other->name);
+    };
+    if (o.name.empty()) throw ModelError("scene", "an object needs a name");
+    clash(o.name);
+    for (const std::string& a : o.aliases) clash(a);
+    if (o.mediumFront < 0 || o.mediumFront >= static_cast<int>(media_.size()) || o.mediumBack < 0 ||
+        o.mediumBack >= static_cast<int>(media_.size()))
+        throw ModelError(o.name, "unknown medium index");
+    if (const MeshRef* m = std::get_if<MeshRef>(&o.geometry)) {
+        if (m->mesh < 0 || m->mesh >= static_cast<int>(meshes_.size()))
+            throw ModelError(o.name, "unknown mesh index");
+        const size_t n = meshes_[m->mesh].triangles.size();
+        if (m->firstTriangle > n || m->firstTriangle + m->triangleCount > n)
+            throw ModelError(o.name, "triangle range outside its mesh");
+    }
+    o.id = static_cast<int>(objects_.size());
+    objects_.push_back(std::move(o));
+    committed_ = false;
+    return objects_.back().id;
+}
+
+void Scene::commit() {
+    exactObjects_.clear();
+    exactBounds_.clear();
+    objectOfTriangle_.assign(meshes_.size(), {});
+    for (size_t m = 0; m < meshes_.size(); ++m)
+        objectOfTriangle_[m].assign(meshes_[m].triangles.size(), -1);
+    for (const SceneObject& o : objects_) {
+        if (const FaceGeometry* f = std::get_if<FaceGeometry>(&o.geometry)) {
+            exactObjects_.push_back(o.id);
+            exactBounds_.push_back(transformBounds(o.frame, faceBounds(*f)));
+        } else {
+            const MeshRef& r = std::get<MeshRef>(o.geometry);
+            const uint32_t n = static_cast<uint32_t>(meshes_[r.mesh].triangles.size());
+            const uint32_t end = r.triangleCount == 0 ? n : r.firstTriangle + r.triangleCount;
+            for (uint32_t t = r.firstTriangle; t < end; ++t) {
+                if (objectOfTriangle_[r.mesh][t] >= 0)
+                    throw ModelError(o.name, "shares triangles with " +
+                                                 objects_[objectOfTriangle_[r.mesh][t]].name);
+                objectOfTriangle_[r.mesh][t] = o.id;
+            }
+        }
+    }
+    trianglesOfVertex_.assign(meshes_.size(), {});
+    for (size_t m = 0; m < meshes_.size(); ++m) {
+        trianglesOfVertex_[m].assign(meshes_[m].vertices.size(), {});
+        for (size_t t = 0; t < meshes_[m].triangles.size(); ++t)
+            for (uint32_t v : meshes_[m].triangles[t])
+                trianglesOfVertex_[m][v].push_back(static_cast<uint32_t>(t));
+    }
+    // Triangles no object claims would be hit without a name: refuse such a scene.
+    for (size_t m = 0; m < meshes_.size(); ++m)
+        for (size_t t = 0; t < objectOfTriangle_[m].size(); ++t)
+            if (objectOfTriangle_[m][t] < 0)
+                throw ModelError("mesh " + std::to_string(m),
+                                 "triangle " + std::to_string(t) + " belongs to no object");
+    embree_ = std::make_unique<EmbreeMeshes>(meshes_);
+    committed_ = true;
+}
+
+Bounds3 Scene::bounds() const {
+    Bounds3 b;
+    for (const SceneObject& o : objects_) {
+        if (const FaceGeometry* f = std::get_if<FaceGeometry>(&o.geometry))
+            b.extend(transformBounds(o.frame, faceBounds(*f)));
+    }
+    for (const TriangleMesh& m : meshes_) b.extend(m.bounds());
+    return b;
+}
+
+SceneHit Scene::makeHit(int object, int primitive, double t, const Ray& ray,
+                        const Vec3& normal) const {
+    const SceneObject& o = objects_[object];
+    SceneHit h;
+    h.object = object;
+    h.primitive = primitive;
+    h.t = t;
+    h.point = ray.origin + t * ray.direction;
+    h.normal = normal;
+    h.fromFront = glm::dot(ray.direction, normal) < 0.0;
+    h.mediumFrom = h.fromFront ? o.mediumFront : o.mediumBack;
+    h.mediumTo = h.fromFront ? o.mediumBack : o.mediumFront;
+    return h;
+}
+
+std::optional<SceneHit> Scene::closestHit(const Ray& ray, double tMax, int startObject,
+                                          int startPrimitive) const {
+    if (!committed_) throw ModelError("scene", "closestHit() before commit()");
+    int bestObject = -1, bestPrimitive = 0;
+    double bestT = tMax;
+    Vec3 bestNormal(0.0);
+
+    // Exact faces: analytic, double precision, culled by their global bounds.
+    for (size_t k = 0; k < exactObjects_.size(); ++k) {
+        if (!exactBounds_[k].hitBy(ray, 0.0, bestT)) continue;
+        const SceneObject& o = objects_[exactObjects_[k]];
+        const auto hit = intersectFace(std::get<FaceGeometry>(o.geometry), o.frame.toLocal(ray),
+                                       0.0, bestT, o.id == startObject);
+        if (hit && hit->t < bestT) {
+            bestT = hit->t;
+            bestObject = o.id;
+            bestNormal = o.frame.toGlobalDirection(hit->normal);
+        }
+    }
+
+    // Meshes: Embree finds the candidate triangle in float; its plane gives t in double. A
+    // candidate whose double t is not ahead of the origin (a neighbour of the start
+    // triangle seen through float rounding) is skipped and the query repeated beyond it.
+    if (embree_ && !embree_->empty()) {
+        EmbreeMeshes::Skip skips[EmbreeMeshes::kMaxSkips];
+        int skipCount = 0;
+        if (startObject >= 0 && startPrimitive >= 0) {
+            if (const MeshRef* r = std::get_if<MeshRef>(&objects_[startObject].geometry)) {
+                skips[skipCount++] = {r->mesh, startPrimitive};
+                // The start triangle's neighbourhood, in double.
+                const TriangleMesh& m = meshes_[r->mesh];
+                for (uint32_t v : m.triangles[startPrimitive]) {
+                    for (uint32_t t : trianglesOfVertex_[r->mesh][v]) {
+                        if (static_cast<int>(t) == startPrimitive) continue;
+                        const auto& tri = m.triangles[t];
+                        const auto th = intersectTriangle(m.vertices[tri[0]], m.vertices[tri[1]],
+                                                          m.vertices[tri[2]], ray, 0.0, bestT);
+                        if (th && *th < bestT) {
+                            bestT = *th;
+                            bestObject = objectOfTriangle_[r->mesh][t];
+                            bestPrimitive = static_cast<int>(t);
+                            bestNormal = m.triangleNormal(t);
+                        }
+                    }
+                }
+            }
+        }
+        // Widen the float search a little so a mesh hit that ties with an exact hit in
+        // double is still seen; the double comparison below decides.
+        const float tFar = std::isfinite(bestT) ? static_cast<float>(bestT * (1.0 + 1e-5) + 1e-5)
+                                                : std::numeric_limits<float>::infinity();
+        float tNear = 0.0f;
+        while (true) {
+            const auto eh = embree_->intersect(ray, tNear, tFar, skips, skipCount);
+            if (!eh) break;
+            const TriangleMesh& m = meshes_[eh->mesh];
+            const auto& tri = m.triangles[eh->triangle];
+            const Vec3 a = m.vertices[tri[0]];
+            const Vec3 n = glm::cross(m.vertices[tri[1]] - a, m.vertices[tri[2]] - a);
+            const double denom = glm::dot(ray.direction, n);
+            const double t = denom != 0.0 ? glm::dot(a - ray.origin, n) / denom : 0.0;
+            if (t > 0.0) {
+                if (t < bestT) {
+                    bestT = t;
+                    bestObject = objectOfTriangle_[eh->mesh][eh->triangle];
+                    bestPrimitive = eh->triangle;
+                    bestNormal = glm::normalize(n);
+                }
+                break;
+            }
+            if (skipCount == EmbreeMeshes::kMaxSkips) break;
+            skips[skipCount++] = {eh->mesh, eh->triangle};
+            tNear = eh->t;
+        }
+    }
+    if (bestObject < 0) return std::nullopt;
+    return makeHit(bestObject, bestPrimitive, bestT, ray, bestNormal);
+}
+
+std::optional<SceneHit> Scene::closestHitBruteForce(const Ray& ray, double tMax, int startObject,
+                                                    int startPrimitive) const {
+    int bestObject = -1, bestPrimitive = 0;
+    double bestT = tMax;
+    Vec3 bestNormal(0.0);
+    for (const SceneObject& o : objects_) {
+        if (const FaceGeometry* f = std::get_if<FaceGeometry>(&o.geometry)) {
+            const auto hit =
+                intersectFace(*f, o.frame.toLocal(ray), 0.0, bestT, o.id == startObject);
+            if (hit && hit->t < bestT) {
+                bestT = hit->t;
+                bestObject = o.id;
+                bestPrimitive = 0;
+                bestNormal = o.frame.toGlobalDirection(hit->normal);
+            }
+            continue;
+        }
+        const MeshRef& r = std::get<MeshRef>(o.geometry);
+        const TriangleMesh& m = meshes_[r.mesh];
+        const uint32_t end = r.triangleCount == 0 ? static_cast<uint32_t>(m.triangles.size())
+                                                  : r.firstTriangle + r.triangleCount;
+        for (uint32_t t = r.firstTriangle; t < end; ++t) {
+            if (o.id == startObject && static_cast<int>(t) == startPrimitive) continue;
+            const auto& tri = m.triangles[t];
+            const auto th = intersectTriangle(m.vertices[tri[0]], m.vertices[tri[1]],
+                                              m.vertices[tri[2]], ray, 0.0, bestT);
+            if (th && *th < bestT) {
+                bestT = *th;
+                bestObject = o.id;
+                bestPrimitive = static_cast<int>(t);
+                bestNormal = m.triangleNormal(t);
+            }
+        }
+    }
+    if (bestObject < 0) return std::nullopt;
+    return makeHit(bestObject, bestPrimitive, bestT, ray, bestNormal);
+}
+
+TriangleMesh Scene::tessellate(double chordToleranceMm, std::vector<int>* objectOfTriangle) const {
+    TriangleMesh out;
+    if (objectOfTriangle) objectOfTriangle->clear();
+    for (const SceneObject& o : objects_) {
+        TriangleMesh part;
+        if (const FaceGeometry* f = std::get_if<FaceGeometry>(&o.geometry)) {
+            part = tessellateFace(*f, chordToleranceMm);
+            part.transform(o.frame);
+        } else {
+            const MeshRef& r = std::get<MeshRef>(o.geometry);
+            const TriangleMesh& m = meshes_[r.mesh];
+            const uint32_t end = r.triangleCount == 0 ? static_cast<uint32_t>(m.triangles.size())
+                                                      : r.firstTriangle + r.triangleCount;
+            part.vertices = m.vertices;  // unused vertices are harmless in OBJ/PLY
+            part.triangles.assign(m.triangles.begin() + r.firstTriangle, m.triangles.begin() + end);
+        }
+        out.append(part);
+        if (objectOfTriangle)
+            objectOfTriangle->insert(objectOfTriangle->end(), part.triangles.size(), o.id);
+    }
+    return out;
+}
+
+}  // namespace veil
