@@ -24,4 +24,23 @@ struct InfoOptions {
 void addInfoCommand(CLI::App& app, CommonOptions& common, InfoOptions& options);
 int runInfo(const CommonOptions& common, const InfoOptions& options);
 
+struct LayoutOptions {
+    std::string file;
+    std::string output = "layout.svg";
+    std::string png;  // default: the output with .png
+    int widthPx = 2000;
+    bool noMechanics = false;
+};
+void addLayoutCommand(CLI::App& app, LayoutOptions& options);
+int runLayout(const CommonOptions& common, const LayoutOptions& options);
+
+struct ExportOptions {
+    std::string file;
+    std::string output = "scene.obj";
+    double chordToleranceMm = 0.01;
+    bool noMechanics = false;
+};
+void addExportCommand(CLI::App& app, ExportOptions& options);
+int runExport(const CommonOptions& common, const ExportOptions& options);
+
 }  // namespace veil::cli

@@ -14,9 +14,9 @@
 #include <sstream>
 
 #include "analysis/first_order.h"
+#include "analysis/scene_setup.h"
 #include "analysis/spot.h"
 #include "cli/commands.h"
-#include "lensdata/lens_file.h"
 #include "tracer/sequential_model.h"
 
 namespace veil::cli {
@@ -92,7 +92,7 @@ GlassCatalog loadCatalog(const CommonOptions& common) {
 void addInfoCommand(CLI::App& app, CommonOptions& common, InfoOptions& options) {
     CLI::App* sub =
         app.add_subcommand("info", "first-order data, spots and import report of a lens");
-    sub->add_option("file", options.file, "lens file (.toml or .zmx)")->required();
+    sub->add_option("file", options.file, "lens or scene file (.toml or .zmx)")->required();
     sub->add_flag("--json", options.json, "print JSON on standard output");
     sub->add_option("--aim", options.aim, "ray aiming: real (to the real stop) or paraxial")
         ->check(CLI::IsMember({"real", "paraxial"}));
@@ -102,7 +102,7 @@ void addInfoCommand(CLI::App& app, CommonOptions& common, InfoOptions& options) 
 
 int runInfo(const CommonOptions& common, const InfoOptions& options) {
     const GlassCatalog catalog = loadCatalog(common);
-    const Prescription p = readLensFile(options.file, catalog);
+    const Prescription p = readSceneFile(options.file, catalog).prescription;
     const SequentialModel model = SequentialModel::build(p, catalog);
     const FirstOrderReport fo = computeFirstOrder(model);
     const RayAimer aimer(model, options.aim == "real" ? AimMode::Real : AimMode::Paraxial);

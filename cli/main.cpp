@@ -19,6 +19,10 @@ int main(int argc, char** argv) {
 
     veil::cli::InfoOptions info;
     veil::cli::addInfoCommand(app, common, info);
+    veil::cli::LayoutOptions layout;
+    veil::cli::addLayoutCommand(app, layout);
+    veil::cli::ExportOptions exportOptions;
+    veil::cli::addExportCommand(app, exportOptions);
 
     try {
         app.parse(argc, argv);
@@ -28,6 +32,8 @@ int main(int argc, char** argv) {
     try {
         for (CLI::App* sub : app.get_subcommands()) {
             if (sub->get_name() == "info") return veil::cli::runInfo(common, info);
+            if (sub->get_name() == "layout") return veil::cli::runLayout(common, layout);
+            if (sub->get_name() == "export") return veil::cli::runExport(common, exportOptions);
         }
     } catch (const veil::ParseError& e) {
         std::cerr << "veil: error: " << e.what() << "\n";

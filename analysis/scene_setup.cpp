@@ -1,0 +1,124 @@
+#include "analysis/scene_setup.h"
+
+#include <algorithm>
+#include <cctype>
+
+#include "analysis/auto_apertures.h"
+#include "geometry/lens_solid.h"
+#include "lensdata/lens_file.h"
+#include "lensdata/toml_reader.h"
+#include "tracer/sequential_model.h"
+
+namespace veil {
+
+namespace {
+
+std::string lowerExtension(const std::filesystem::path& p) {
+    std::string ext = p.extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    return ext;
+}
+
+}  // namespace
+
+SceneFile readSceneFile(const std::filesystem::path& path, const GlassCatalog& catalog) {
+    SceneFile f;
+    f.path = path;
+    if (lowerExtension(path) != ".toml") {
+        f.prescription = readLensFile(path, catalog);
+        return f;
+    }
+    if (!std::filesystem::exists(path)) throw ParseError({path.string(), 0, 0}, "no such file");
+    TomlDocument doc = TomlDocument::fromFile(path);
+    const TomlTable root = doc.root();
+    if (const auto lens = root.get("lens")) {
+        if (root.has("system"))
+            lens->fail(
+                "a scene names its lens either with `lens = \"file\"` or inline in "
+                "[system], not both");
+        const std::filesystem::path lensPath = path.parent_path() / lens->asString();
+        if (!std::filesystem::exists(lensPath))
+            lens->fail("lens file '" + lensPath.string() + "' does not exist");
+        f.prescription = readLensFile(lensPath, catalog);
+    } else {
+        f.prescription = readTomlPrescription(doc, catalog);
+    }
+    f.mechanics = readMechanics(doc);
+    f.meshes = readMeshImports(doc);
+    doc.checkAllUsed();
+    return f;
+}
+
+SceneSetup buildScene(const SceneFile& file, const GlassCatalog& catalog,
+                      const SceneOptions& options) {
+    SceneSetup s;
+    const SequentialModel model = SequentialModel::build(file.prescription, catalog);
+    s.prescription = withAutomaticSemiDiameters(model);
+    s.notes = s.prescription.report;
+    const Prescription& p = s.prescription;
+
+    LensSolidOptions lensOptions;
+    if (options.mechanics && file.mechanics && !file.mechanics->lensEdgeProperty.empty()) {
+        lensOptions.edgeProperty = file.mechanics->lensEdgeProperty;
+        lensOptions.flatProperty = file.mechanics->lensEdgeProperty;
+    }
+    addLensSolids(p, s.scene, lensOptions);
+
+    if (options.mechanics && file.mechanics) {
+        std::vector<std::string> left;
+        s.mechanicalParts = buildMechanics(p, *file.mechanics, &left);
+        for (const std::string& n : left) {
+            ImportNote note;
+            note.severity = ImportNote::Severity::Info;
+            note.loc.file = file.path.string();
+            note.message = n;
+            s.notes.push_back(std::move(note));
+        }
+        for (const MechanicalPart& part : s.mechanicalParts) {
+            const int mesh = s.scene.addMesh(part.mesh);
+            for (const NamedTriangleRange& r : part.namedRanges) {
+                SceneObject o;
+                o.name = r.name;
+                o.kind = r.name.rfind("stop", 0) == 0 ? ObjectKind::Stop : ObjectKind::Mechanics;
+                o.part = part.name;
+                o.property = r.property;
+                o.geometry = MeshRef{mesh, r.firstTriangle, r.triangleCount};
+                s.scene.addObject(std::move(o));
+            }
+        }
+    }
+    if (options.meshes) {
+        for (const MeshImportSpec& spec : file.meshes) {
+            ImportedMesh im = loadMeshImport(spec);
+            s.notes.insert(s.notes.end(), im.notes.begin(), im.notes.end());
+            const uint32_t count = static_cast<uint32_t>(im.mesh.triangles.size());
+            const int mesh = s.scene.addMesh(std::move(im.mesh));
+            SceneObject o;
+            o.name = im.name;
+            o.kind = ObjectKind::ImportedMesh;
+            o.part = im.name;
+            o.property = im.property;
+            o.geometry = MeshRef{mesh, 0, count};
+            s.scene.addObject(std::move(o));
+        }
+    }
+
+    // The image surface is the detector: its shape, the traced image semi-diameter.
+    const int image = model.imageIndex();
+    const Surface& is = p.surfaces[image];
+    SceneObject det;
+    det.name = "sensor";
+    det.aliases = {"image"};
+    det.kind = ObjectKind::Detector;
+    det.part = "sensor";
+    det.frame = Frame::alongAxis(model.surface(image).zMm);
+    det.geometry = FaceGeometry{SurfacePatch{makeShape(is.curvature, is.conic, is.asphere),
+                                             CircularAperture{is.clearSemiDiameterMm}}};
+    det.sequentialSurface = image;
+    s.scene.addObject(std::move(det));
+    s.scene.commit();
+    return s;
+}
+
+}  // namespace veil

@@ -1,0 +1,50 @@
+#pragma once
+// From a file on disk to a scene ready to trace.
+//
+// A scene file is a veil TOML file holding a lens, either inline ([system] with its
+// surfaces) or by reference (`lens = "path/to/lens.toml"` or a .zmx file, relative to the
+// scene file), plus optional [mechanics] and [[mesh]] sections (later: sources, detector,
+// optical properties). A bare lens file (.toml or .zmx) is a scene without mechanics.
+//
+// Building the scene: clear semi-diameters the file leaves open are computed from real rays
+// (analysis/auto_apertures.h), lens solids are added with their exact faces, mechanics are
+// built and checked with CGAL, meshes are imported, and the image surface becomes the
+// detector `sensor` (alias `image`).
+
+#include <filesystem>
+#include <optional>
+#include <vector>
+
+#include "geometry/mechanics.h"
+#include "geometry/mesh_io.h"
+#include "geometry/scene.h"
+#include "lensdata/glass_catalog.h"
+
+namespace veil {
+
+struct SceneFile {
+    std::filesystem::path path;
+    Prescription prescription;
+    std::optional<MechanicsSpec> mechanics;
+    std::vector<MeshImportSpec> meshes;
+};
+
+// Reads and checks every section (unknown keys are a ParseError at file:line:col).
+SceneFile readSceneFile(const std::filesystem::path& path, const GlassCatalog& catalog);
+
+struct SceneOptions {
+    bool mechanics = true;  // build the [mechanics] section when present
+    bool meshes = true;     // import the [[mesh]] entries
+};
+
+struct SceneSetup {
+    Prescription prescription;  // with automatic semi-diameters filled in
+    Scene scene;                // committed
+    std::vector<MechanicalPart> mechanicalParts;
+    std::vector<ImportNote> notes;  // import report, parts left out, mesh warnings
+};
+
+SceneSetup buildScene(const SceneFile& file, const GlassCatalog& catalog,
+                      const SceneOptions& options = {});
+
+}  // namespace veil
