@@ -4,6 +4,9 @@
 
 #include <array>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -148,6 +151,56 @@ TEST(VeilInfo, UserGlassCatalogFromOptionAndEnvironment) {
     const double efl = nlohmann::json::parse(option.out)["efl_mm"].get<double>();
     EXPECT_NEAR(efl, fExpected, 1e-4);
     EXPECT_EQ(efl, nlohmann::json::parse(env.out)["efl_mm"].get<double>());
+}
+
+}  // namespace
+
+namespace {
+
+// `veil layout` writes an SVG and a PNG; `veil export` writes OBJ groups named after the
+// scene's objects; nothing is left behind under a temporary name.
+TEST(VeilLayout, WritesSvgAndPngOfASceneWithMechanics) {
+    const std::string dir = ::testing::TempDir() + "veil_layout_test";
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    const VeilRun r =
+        runVeil("layout examples/scenes/double_gauss_50mm.toml -o " + dir + "/dg.svg");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    std::ifstream svg(dir + "/dg.svg");
+    const std::string text((std::istreambuf_iterator<char>(svg)), std::istreambuf_iterator<char>());
+    EXPECT_NE(text.find("<svg"), std::string::npos);
+    std::ifstream png(dir + "/dg.png", std::ios::binary);
+    char magic[8] = {};
+    png.read(magic, 8);
+    EXPECT_EQ(std::string(magic + 1, 3), "PNG");
+    // Written under a temporary name and renamed: nothing else is left in the folder.
+    for (const auto& e : std::filesystem::directory_iterator(dir)) {
+        const std::string ext = e.path().extension().string();
+        EXPECT_TRUE(ext == ".png" || ext == ".svg") << e.path();
+    }
+}
+
+TEST(VeilExport, WritesObjGroupsForEveryObject) {
+    const std::string out = ::testing::TempDir() + "veil_export_test.obj";
+    const VeilRun r = runVeil("export examples/scenes/longfocus_360mm.toml -o " + out);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    std::ifstream obj(out);
+    const std::string text((std::istreambuf_iterator<char>(obj)), std::istreambuf_iterator<char>());
+    for (const char* name : {"g L4.front", "g L4.back", "g L4.edge", "g stop.edge", "g barrel",
+                             "g spacer", "g sensor"})
+        EXPECT_NE(text.find(name), std::string::npos) << name;
+}
+
+TEST(VeilLayout, CollidingMechanicsNameBothParts) {
+    const std::string path = ::testing::TempDir() + "veil_collide.toml";
+    FILE* f = fopen(path.c_str(), "w");
+    ASSERT_TRUE(f);
+    fprintf(f, "lens = \"%s/examples/lenses/double_gauss_50mm.toml\"\n[mechanics]\n"
+               "barrel = { clearance_mm = 0.001 }\n", VEIL_SOURCE_DIR);
+    fclose(f);
+    const VeilRun r = runVeil("layout " + path + " -o " + ::testing::TempDir() + "collide.svg");
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_NE(r.err.find("barrel: collides with L"), std::string::npos) << r.err;
 }
 
 }  // namespace
