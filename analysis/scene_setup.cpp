@@ -20,13 +20,18 @@ std::string lowerExtension(const std::filesystem::path& p) {
     return ext;
 }
 
+// Every surface gets a clear semi-diameter (traced where the file leaves it open).
+Prescription sized(const Prescription& p, const GlassCatalog& catalog) {
+    return withAutomaticSemiDiameters(SequentialModel::build(p, catalog));
+}
+
 }  // namespace
 
 SceneFile readSceneFile(const std::filesystem::path& path, const GlassCatalog& catalog) {
     SceneFile f;
     f.path = path;
     if (lowerExtension(path) != ".toml") {
-        f.prescription = readLensFile(path, catalog);
+        f.prescription = sized(readLensFile(path, catalog), catalog);
         return f;
     }
     if (!std::filesystem::exists(path)) throw ParseError({path.string(), 0, 0}, "no such file");
@@ -44,8 +49,12 @@ SceneFile readSceneFile(const std::filesystem::path& path, const GlassCatalog& c
     } else {
         f.prescription = readTomlPrescription(doc, catalog);
     }
+    f.prescription = sized(f.prescription, catalog);
     f.mechanics = readMechanics(doc);
     f.meshes = readMeshImports(doc);
+    f.sources = readSources(doc, f.prescription, SequentialModel::build(f.prescription, catalog));
+    f.detectors = readDetectors(doc);
+    f.properties = PropertyTable::read(doc);
     doc.checkAllUsed();
     return f;
 }
@@ -54,7 +63,7 @@ SceneSetup buildScene(const SceneFile& file, const GlassCatalog& catalog,
                       const SceneOptions& options) {
     SceneSetup s;
     const SequentialModel model = SequentialModel::build(file.prescription, catalog);
-    s.prescription = withAutomaticSemiDiameters(model);
+    s.prescription = file.prescription;
     s.notes = s.prescription.report;
     const Prescription& p = s.prescription;
 
@@ -117,6 +126,12 @@ SceneSetup buildScene(const SceneFile& file, const GlassCatalog& catalog,
                                              CircularAperture{is.clearSemiDiameterMm}}};
     det.sequentialSurface = image;
     s.scene.addObject(std::move(det));
+    // Detectors: on scene objects (the sensor by default) or free rectangles of their own.
+    std::vector<DetectorSpec> specs = file.detectors;
+    if (specs.empty()) specs.push_back(DetectorSpec{});
+    s.detectors = placeDetectors(specs, s.scene);
+    for (DetectorGeometry& g : s.detectors)
+        if (g.object < 0) g.object = s.scene.addObject(detectorSceneObject(g));
     s.scene.commit();
     return s;
 }

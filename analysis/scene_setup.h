@@ -19,14 +19,22 @@
 #include "geometry/mesh_io.h"
 #include "geometry/scene.h"
 #include "lensdata/glass_catalog.h"
+#include "tracer/detector.h"
+#include "tracer/property_table.h"
+#include "tracer/source.h"
 
 namespace veil {
 
 struct SceneFile {
     std::filesystem::path path;
+    // The lens with every clear semi-diameter set (automatic ones traced, see
+    // analysis/auto_apertures.h): the sizes sources, solids and mechanics are built from.
     Prescription prescription;
     std::optional<MechanicsSpec> mechanics;
     std::vector<MeshImportSpec> meshes;
+    std::vector<Source> sources;          // [[source]]
+    std::vector<DetectorSpec> detectors;  // [detector] / [[detector]]; empty: the default one
+    PropertyTable properties;             // built-ins + [properties.*] + [[assign]]
 };
 
 // Reads and checks every section (unknown keys are a ParseError at file:line:col).
@@ -41,7 +49,8 @@ struct SceneSetup {
     Prescription prescription;  // with automatic semi-diameters filled in
     Scene scene;                // committed
     std::vector<MechanicalPart> mechanicalParts;
-    std::vector<ImportNote> notes;  // import report, parts left out, mesh warnings
+    std::vector<DetectorGeometry> detectors;  // placed; their objects are in the scene
+    std::vector<ImportNote> notes;            // import report, parts left out, mesh warnings
 };
 
 SceneSetup buildScene(const SceneFile& file, const GlassCatalog& catalog,

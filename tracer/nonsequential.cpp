@@ -1,0 +1,301 @@
+#include "tracer/nonsequential.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <exception>
+#include <thread>
+
+#include "tracer/rng.h"
+#include "tracer/sequential_trace.h"
+
+namespace veil {
+
+std::ostream& operator<<(std::ostream& os, const TransportOptions& o) {
+    return os << "TransportOptions{"
+              << (o.mode == TransportOptions::Mode::Split ? "split" : "random")
+              << ", min relative flux " << o.minRelativeFlux << ", max split depth "
+              << o.maxSplitDepth << ", roulette " << o.rouletteRelativeFlux << ", max segments "
+              << o.maxSegments << ", seed " << o.seed << "}";
+}
+
+double FluxBudget::imbalance() const {
+    return (emitted + rouletteGain) - (detected + absorbed() + escaped + culled);
+}
+
+void FluxBudget::merge(const FluxBudget& o) {
+    emitted += o.emitted;
+    detected += o.detected;
+    absorbedSurface += o.absorbedSurface;
+    absorbedVolume += o.absorbedVolume;
+    escaped += o.escaped;
+    culled += o.culled;
+    rouletteGain += o.rouletteGain;
+    rays += o.rays;
+    segments += o.segments;
+    branches += o.branches;
+}
+
+std::ostream& operator<<(std::ostream& os, const FluxBudget& b) {
+    return os << "FluxBudget{emitted " << b.emitted << ", detected " << b.detected << ", absorbed "
+              << b.absorbed() << " (surface " << b.absorbedSurface << ", volume "
+              << b.absorbedVolume << "), escaped " << b.escaped << ", culled " << b.culled
+              << ", roulette gain " << b.rouletteGain << ", imbalance " << b.imbalance() << "}";
+}
+
+namespace {
+
+struct Branch {
+    Ray ray;
+    double flux = 0.0;
+    int medium = 0;
+    int depth = 0;
+    int segments = 0;
+    int startObject = -1;
+    int startPrimitive = -1;
+};
+
+bool isOpaque(ObjectKind k) {
+    return k == ObjectKind::Mechanics || k == ObjectKind::Stop || k == ObjectKind::ImportedMesh ||
+           k == ObjectKind::MirrorFace || k == ObjectKind::Detector;
+}
+
+// Per-block accumulation: the budget and one image per detector.
+struct Accumulator {
+    FluxBudget budget;
+    std::vector<DetectorImage> images;
+    // The current ray's contributions, one list per detector, added once the ray (with all
+    // its branches) is done: sums of squares are per emitted ray, per pixel and in total.
+    std::vector<RayContribution> scratch;
+
+    void flushRay() {
+        for (size_t d = 0; d < scratch.size(); ++d)
+            if (!scratch[d].empty()) images[d].add(scratch[d]);
+    }
+};
+
+class RayTracer {
+  public:
+    RayTracer(const TransportScene& ts, const TransportOptions& o) : ts_(ts), o_(o) {}
+
+    void trace(const Source& source, uint64_t rayIndex, uint64_t raysPerSource, Accumulator& acc) {
+        CounterRng rng(o_.seed, rayIndex);
+        const EmittedRay e = source.emit(rng, raysPerSource);
+        FluxBudget& b = acc.budget;
+        b.emitted += e.flux;
+        ++b.rays;
+        if (!(e.flux > 0.0)) return;
+        const int w = e.wavelength;
+        const double cullFlux = o_.minRelativeFlux * e.flux;
+        const double rouletteFlux = o_.rouletteRelativeFlux * e.flux;
+        stack_.clear();
+        stack_.push_back({e.ray, e.flux, 0, 0, 0, -1, -1});
+        while (!stack_.empty()) {
+            Branch br = stack_.back();
+            stack_.pop_back();
+            ++b.branches;
+            follow(br, w, e.wavelengthNm, cullFlux, rouletteFlux, rng, acc);
+        }
+        acc.flushRay();
+    }
+
+  private:
+    void follow(Branch br, int w, double wavelengthNm, double cullFlux, double rouletteFlux,
+                CounterRng& rng, Accumulator& acc) {
+        FluxBudget& b = acc.budget;
+        const Scene& scene = *ts_.scene;
+        while (true) {
+            if (br.segments >= o_.maxSegments) {
+                b.culled += br.flux;
+                return;
+            }
+            const auto hit = scene.closestHit(br.ray, kInfinity, br.startObject, br.startPrimitive);
+            ++br.segments;
+            ++b.segments;
+            if (!hit) {
+                b.escaped += br.flux;
+                return;
+            }
+            // Absorption inside the medium along the segment.
+            const double alpha = ts_.media->absorptionPerMm(br.medium, w);
+            if (alpha > 0.0) {
+                const double kept = br.flux * std::exp(-alpha * hit->t);
+                b.absorbedVolume += br.flux - kept;
+                br.flux = kept;
+            }
+            const SceneObject& obj = scene.object(hit->object);
+            const int det = ts_.detectorOfObject[hit->object];
+            if (det >= 0) {
+                const auto pixel = acc.images[det].pixelOf(hit->point);
+                if (pixel) {
+                    acc.scratch[det].add(*pixel, br.flux);
+                    b.detected += br.flux;
+                } else {
+                    b.absorbedSurface += br.flux;
+                }
+                return;
+            }
+            const OpticalProperty& prop = ts_.properties[ts_.propertyOfObject[hit->object]];
+            SurfaceContext ctx;
+            ctx.direction = br.ray.direction;
+            ctx.normal = hit->fromFront ? hit->normal : -hit->normal;
+            ctx.n1 = ts_.media->index(hit->mediumFrom, w);
+            ctx.n2 = ts_.media->index(hit->mediumTo, w);
+            ctx.wavelengthNm = wavelengthNm;
+            ctx.opaque = isOpaque(obj.kind);
+            const Channels ch = prop.channels(ctx);
+
+            // Children: (share, direction, medium) for every channel that carries flux.
+            struct Child {
+                double share;
+                Vec3 direction;  // specular children; scattered ones are sampled when used
+                int medium;
+                bool scatter;
+                bool transmit;
+            };
+            Child children[4];
+            int n = 0;
+            double total = 0.0;
+            if (ch.specularReflect > 0.0)
+                children[n++] = {ch.specularReflect, reflect(br.ray.direction, ctx.normal),
+                                 hit->mediumFrom, false, false};
+            if (ch.specularTransmit > 0.0) {
+                if (const auto t = refract(br.ray.direction, ctx.normal, ctx.n1, ctx.n2))
+                    children[n++] = {ch.specularTransmit, *t, hit->mediumTo, false, true};
+            }
+            if (ch.scatterReflect > 0.0)
+                children[n++] = {ch.scatterReflect, Vec3(0.0), hit->mediumFrom, true, false};
+            if (ch.scatterTransmit > 0.0)
+                children[n++] = {ch.scatterTransmit, Vec3(0.0), hit->mediumTo, true, true};
+            for (int k = 0; k < n; ++k) total += children[k].share;
+            b.absorbedSurface += br.flux * std::max(0.0, 1.0 - total);
+            if (n == 0) return;
+
+            auto direction = [&](int k) {
+                if (!children[k].scatter) return children[k].direction;
+                const double u1 = rng.uniform(), u2 = rng.uniform();
+                return prop.sampleScatter(ctx, children[k].transmit, u1, u2).direction;
+            };
+
+            if (o_.mode == TransportOptions::Mode::Random || n == 1) {
+                int k = 0;
+                if (n > 1) {
+                    const double u = rng.uniform() * total;
+                    double c = 0.0;
+                    for (k = 0; k < n - 1; ++k) {
+                        c += children[k].share;
+                        if (u < c) break;
+                    }
+                }
+                br.flux *= total;
+                br.ray = {hit->point, direction(k)};
+                br.medium = children[k].medium;
+            } else {
+                if (br.depth >= o_.maxSplitDepth) {
+                    b.culled += br.flux * total;
+                    return;
+                }
+                // Push all but the first child; continue with the first.
+                for (int k = n - 1; k >= 1; --k) {
+                    Branch c = br;
+                    c.flux = br.flux * children[k].share;
+                    c.depth = br.depth + 1;
+                    c.ray = {hit->point, direction(k)};
+                    c.medium = children[k].medium;
+                    c.startObject = hit->object;
+                    c.startPrimitive = hit->primitive;
+                    if (c.flux < cullFlux) {
+                        b.culled += c.flux;
+                        continue;
+                    }
+                    stack_.push_back(c);
+                }
+                br.flux *= children[0].share;
+                br.depth += 1;
+                br.ray = {hit->point, direction(0)};
+                br.medium = children[0].medium;
+                if (br.flux < cullFlux) {
+                    b.culled += br.flux;
+                    return;
+                }
+            }
+            br.startObject = hit->object;
+            br.startPrimitive = hit->primitive;
+            if (rouletteFlux > 0.0 && br.flux < rouletteFlux) {
+                if (rng.uniform() * rouletteFlux < br.flux) {
+                    b.rouletteGain += rouletteFlux - br.flux;
+                    br.flux = rouletteFlux;
+                } else {
+                    b.culled += br.flux;
+                    return;
+                }
+            }
+        }
+    }
+
+    const TransportScene& ts_;
+    const TransportOptions& o_;
+    std::vector<Branch> stack_;
+};
+
+}  // namespace
+
+TraceResult traceNonsequential(const TransportScene& ts,
+                               const std::vector<DetectorImage>& detectors, uint64_t raysPerSource,
+                               const TransportOptions& options,
+                               const std::function<void(uint64_t)>& progress) {
+    const uint64_t sources = ts.sources.size();
+    const uint64_t total = raysPerSource * sources;
+    const uint64_t block = std::max<uint64_t>(1, options.raysPerBlock);
+    std::atomic<uint64_t> done{0};
+
+    auto work = [&]() {
+        Accumulator identity{{}, detectors, std::vector<RayContribution>(detectors.size())};
+        return tbb::parallel_deterministic_reduce(
+            tbb::blocked_range<uint64_t>(0, total, block), identity,
+            [&](const tbb::blocked_range<uint64_t>& r, Accumulator acc) {
+                RayTracer tracer(ts, options);
+                for (uint64_t i = r.begin(); i < r.end(); ++i) {
+                    // Ray i belongs to source i / raysPerSource; its random stream is keyed
+                    // by i alone, so sources never share numbers.
+                    tracer.trace(ts.sources[i / raysPerSource], i, raysPerSource, acc);
+                }
+                done += r.size();
+                return acc;
+            },
+            [](Accumulator a, const Accumulator& b) {
+                a.budget.merge(b.budget);
+                for (size_t d = 0; d < a.images.size(); ++d) a.images[d].merge(b.images[d]);
+                return a;
+            });
+    };
+    Accumulator result;
+    if (!progress) {
+        result = work();
+    } else {
+        std::exception_ptr failure;
+        std::atomic<bool> finished{false};
+        std::thread worker([&] {
+            try {
+                result = work();
+            } catch (...) {
+                failure = std::current_exception();
+            }
+            finished = true;
+        });
+        while (!finished.load()) {
+            progress(done.load());
+            std::this_thread::sleep_for(std::chrono::milliseconds(200));
+        }
+        worker.join();
+        if (failure) std::rethrow_exception(failure);
+        progress(total);
+    }
+    return {result.budget, std::move(result.images)};
+}
+
+}  // namespace veil

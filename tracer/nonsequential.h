@@ -1,0 +1,90 @@
+#pragma once
+// Forward nonsequential Monte Carlo transport through a Scene.
+//
+// Every emitted ray is followed from its source through the scene: at each hit the surface's
+// optical property splits the flux into channels (specular reflection, refraction, diffuse
+// reflection and transmission, absorption). Two ways to follow them:
+//   split   every non-empty channel becomes a branch carrying its share of the flux (the
+//           default: ghosts live in the weak reflected branches, and splitting sees them all);
+//           branches below minRelativeFlux of their ray's emitted flux, or deeper than
+//           maxSplitDepth splits, are culled;
+//   random  one channel is chosen with probability proportional to its share, and the ray
+//           carries the whole non-absorbed flux on.
+// Below rouletteRelativeFlux a branch plays unbiased Russian roulette: it survives with
+// probability flux / (threshold), carrying the threshold flux, or is culled.
+//
+// Bookkeeping: emitted = detected + absorbed + escaped + culled, exactly (up to rounding)
+// when roulette is off; with roulette the survivors' gain is reported separately so the
+// balance still closes: emitted + rouletteGain = detected + absorbed + escaped + culled.
+//
+// Determinism: ray i draws its random numbers from CounterRng(seed, i), and per-ray results
+// are reduced over fixed blocks of rays in a fixed order (tbb::parallel_deterministic_reduce),
+// so every thread count gives bitwise the same detector images and budget.
+
+#include <cstdint>
+#include <functional>
+#include <ostream>
+#include <vector>
+
+#include "geometry/scene.h"
+#include "tracer/detector.h"
+#include "tracer/media.h"
+#include "tracer/optical_property.h"
+#include "tracer/source.h"
+
+namespace veil {
+
+struct TransportOptions {
+    enum class Mode { Split, Random };
+    Mode mode = Mode::Split;
+    double minRelativeFlux = 1e-9;      // split mode: cull branches below this share
+    int maxSplitDepth = 64;             // split mode: cull deeper branches
+    double rouletteRelativeFlux = 0.0;  // 0 = no Russian roulette
+    int maxSegments = 1000;             // per branch
+    uint64_t seed = 1;
+    uint64_t raysPerBlock = 4096;  // reduction block (fixed: part of reproducibility)
+};
+std::ostream& operator<<(std::ostream& os, const TransportOptions& o);
+
+struct FluxBudget {
+    double emitted = 0.0;
+    double detected = 0.0;
+    double absorbedSurface = 0.0;
+    double absorbedVolume = 0.0;
+    double escaped = 0.0;
+    double culled = 0.0;
+    double rouletteGain = 0.0;
+    uint64_t rays = 0;
+    uint64_t segments = 0;
+    uint64_t branches = 0;
+    double absorbed() const { return absorbedSurface + absorbedVolume; }
+    // (emitted + rouletteGain) - (detected + absorbed + escaped + culled)
+    double imbalance() const;
+    void merge(const FluxBudget& o);
+};
+std::ostream& operator<<(std::ostream& os, const FluxBudget& b);
+
+// What the transport needs, resolved once.
+struct TransportScene {
+    const Scene* scene = nullptr;
+    const MediaOptics* media = nullptr;
+    std::vector<OpticalProperty> properties;  // distinct properties
+    std::vector<int> propertyOfObject;        // [object id] -> index into properties
+    std::vector<int> detectorOfObject;        // [object id] -> detector index, or -1
+    std::vector<Source> sources;
+};
+
+struct TraceResult {
+    FluxBudget budget;
+    std::vector<DetectorImage> detectors;
+};
+
+// Traces `raysPerSource` rays from every source. `detectors` are the empty images to fill
+// (one per detector, in detectorOfObject's numbering). `progress` (may be empty) is called
+// from one thread with the number of rays done so far.
+TraceResult traceNonsequential(const TransportScene& ts,
+                               const std::vector<DetectorImage>& detectors, uint64_t raysPerSource,
+                               const TransportOptions& options,
+                               const std::function<void(uint64_t)>& progress = {});
+
+}  // namespace veil

@@ -1,0 +1,644 @@
+#include "tracer/optical_property.h"
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+#include "lensdata/errors.h"
+#include "tracer/fresnel.h"
+#include "tracer/rng.h"
+#include "tracer/sequential_trace.h"
+
+namespace veil {
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr int kMaxTries = 256;
+
+template <class... Ts>
+struct Overloaded : Ts... {
+    using Ts::operator()...;
+};
+template <class... Ts>
+Overloaded(Ts...) -> Overloaded<Ts...>;
+
+// Gauss-Legendre nodes and weights on [-1, 1] (Newton on the Legendre polynomial).
+template <int N>
+struct GaussLegendre {
+    std::array<double, N> x{}, w{};
+    GaussLegendre() {
+        for (int i = 0; i < (N + 1) / 2; ++i) {
+            double z = std::cos(kPi * (i + 0.75) / (N + 0.5));
+            double dp = 1.0;
+            for (int it = 0; it < 100; ++it) {
+                double p0 = 1.0, p1 = z;
+                for (int k = 2; k <= N; ++k) {
+                    const double p2 = ((2.0 * k - 1.0) * z * p1 - (k - 1.0) * p0) / k;
+                    p0 = p1;
+                    p1 = p2;
+                }
+                dp = N * (z * p1 - p0) / (z * z - 1.0);
+                const double dz = p1 / dp;
+                z -= dz;
+                if (std::abs(dz) < 1e-16) break;
+            }
+            x[i] = -z;
+            x[N - 1 - i] = z;
+            w[i] = w[N - 1 - i] = 2.0 / ((1.0 - z * z) * dp * dp);
+        }
+    }
+};
+const GaussLegendre<8>& gauss8() {
+    static const GaussLegendre<8> g;
+    return g;
+}
+const GaussLegendre<64>& gauss64() {
+    static const GaussLegendre<64> g;
+    return g;
+}
+
+// Integral over [a, b] of a function with square-root behaviour at both ends (the clipped
+// fraction of a lobe): the substitution x = a + (b - a)(1 - cos t) / 2 makes it smooth.
+template <class F>
+double integrateEndpointSqrt(double a, double b, F&& f) {
+    if (!(b > a)) return 0.0;
+    const auto& g = gauss64();
+    double sum = 0.0;
+    for (int i = 0; i < 64; ++i) {
+        const double t = 0.5 * kPi * (g.x[i] + 1.0);
+        sum += g.w[i] * f(a + 0.5 * (b - a) * (1.0 - std::cos(t))) * std::sin(t);
+    }
+    return sum * 0.5 * kPi * 0.5 * (b - a);
+}
+
+// Orthonormal basis with n as the third axis (Duff et al., JCGT 2017).
+void basisAround(const Vec3& n, Vec3& t1, Vec3& t2) {
+    const double sign = std::copysign(1.0, n.z);
+    const double a = -1.0 / (sign + n.z);
+    const double b = n.x * n.y * a;
+    t1 = Vec3(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+    t2 = Vec3(b, sign + n.y * n.y * a, -n.y);
+}
+
+// Draws (u1, u2) pairs until `attempt` accepts one: first the given pair, then pairs from a
+// CounterRng keyed by their bits, so the outcome is a function of (u1, u2) alone.
+template <class F>
+bool sampleWithRejection(double u1, double u2, F&& attempt) {
+    if (attempt(u1, u2)) return true;
+    CounterRng rng(std::bit_cast<uint64_t>(u1), std::bit_cast<uint64_t>(u2));
+    for (int k = 1; k < kMaxTries; ++k) {
+        const double a = rng.uniform(), b = rng.uniform();
+        if (attempt(a, b)) return true;
+    }
+    return false;
+}
+
+// Fraction of a circle of angular radius alpha about an axis at angle thetaS from the side
+// normal that lies in the open hemisphere about that normal.
+double circleFractionAbove(double cosAlpha, double sinAlpha, double cosS, double sinS) {
+    if (sinAlpha <= 0.0 || sinS <= 0.0) return cosAlpha * cosS > 0.0 ? 1.0 : 0.0;
+    const double c = -cosAlpha * cosS / (sinAlpha * sinS);
+    return std::acos(std::clamp(c, -1.0, 1.0)) / kPi;
+}
+
+// Fraction of a circle of radius r about a point at distance b0 from the centre of the unit
+// disk that lies inside the disk.
+double circleFractionInDisk(double r, double b0) {
+    if (r <= 1.0 - b0) return 1.0;
+    if (r >= 1.0 + b0) return 0.0;
+    const double c = (r * r + b0 * b0 - 1.0) / (2.0 * r * b0);
+    return std::acos(std::clamp(c, -1.0, 1.0)) / kPi;
+}
+
+void requireFraction(double v, const char* what) {
+    if (!(v >= 0.0 && v <= 1.0))
+        throw std::invalid_argument(std::string(what) + " must be in [0, 1] (got " +
+                                    std::to_string(v) + ")");
+}
+
+}  // namespace
+
+// Surface Context and Channels
+
+double SurfaceContext::cosIncidence() const {
+    return std::clamp(-glm::dot(direction, normal), 0.0, 1.0);
+}
+
+std::ostream& operator<<(std::ostream& os, const SurfaceContext& c) {
+    os << "SurfaceContext{dir " << c.direction << ", normal " << c.normal << ", n1 " << c.n1
+       << ", n2 " << c.n2 << ", " << c.wavelengthNm << " nm";
+    if (c.opaque) os << ", opaque";
+    return os << "}";
+}
+
+std::ostream& operator<<(std::ostream& os, const Channels& c) {
+    os << "Channels{specR " << c.specularReflect << ", specT " << c.specularTransmit << ", scatR "
+       << c.scatterReflect << ", scatT " << c.scatterTransmit << ", absorbed " << c.absorbed();
+    if (c.tir) os << ", TIR";
+    return os << "}";
+}
+
+std::ostream& operator<<(std::ostream& os, const ScatterSample& s) {
+    return os << "ScatterSample{" << s.direction << ", pdf " << s.pdf << "}";
+}
+
+std::ostream& operator<<(std::ostream& os, const SpecularModel& m) {
+    std::visit(Overloaded{
+                   [&](const FresnelSpecular&) { os << "fresnel"; },
+                   [&](const IdealArSpecular&) { os << "ideal_ar"; },
+                   [&](const FixedSpecular& f) {
+                       os << "fixed{R " << f.reflectance << ", T " << f.transmittance << "}";
+                   },
+                   [&](const QuarterWaveSpecular& q) {
+                       os << "quarter_wave{index " << q.index << ", " << q.designNm << " nm}";
+                   },
+                   [&](const MirrorSpecular& mm) { os << "mirror{R " << mm.reflectance << "}"; },
+                   [&](const AbsorberSpecular&) { os << "absorber"; },
+               },
+               m);
+    return os;
+}
+
+std::ostream& operator<<(std::ostream& os, const AbgParams& p) {
+    return os << "{A " << p.a << ", B " << p.b << ", g " << p.g << "}";
+}
+
+std::ostream& operator<<(std::ostream& os, const ScatterModel& m) {
+    std::visit(Overloaded{
+                   [&](const NoScatter&) { os << "none"; },
+                   [&](const LambertianScatter& l) {
+                       os << "lambertian{R " << l.reflectance << ", T " << l.transmittance << "}";
+                   },
+                   [&](const GaussianScatter& g) {
+                       os << "gaussian{R " << g.reflectance() << ", T " << g.transmittance()
+                          << ", HWHM " << g.halfWidthDeg() << " deg}";
+                   },
+                   [&](const AbgScatter& a) {
+                       os << "abg{";
+                       if (a.reflectLobe()) os << "brdf " << a.reflectLobe()->params();
+                       if (a.reflectLobe() && a.transmitLobe()) os << ", ";
+                       if (a.transmitLobe()) os << "btdf " << a.transmitLobe()->params();
+                       os << "}";
+                   },
+               },
+               m);
+    return os;
+}
+
+// Gaussian Lobe
+
+GaussianScatter::GaussianScatter(double reflectance, double transmittance, double halfWidthDeg)
+    : reflectance_(reflectance), transmittance_(transmittance), halfWidthDeg_(halfWidthDeg) {
+    requireFraction(reflectance, "Gaussian reflectance");
+    requireFraction(transmittance, "Gaussian transmittance");
+    if (reflectance + transmittance > 1.0)
+        throw std::invalid_argument("Gaussian reflectance + transmittance must be <= 1");
+    if (!(halfWidthDeg > 0.0 && halfWidthDeg <= 90.0))
+        throw std::invalid_argument("Gaussian half width must be in (0, 90] degrees");
+    const double s = std::sin(0.5 * halfWidthDeg * kPi / 180.0);
+    kappa_ = std::log(2.0) / (2.0 * s * s);  // ln 2 / (1 - cos w)
+    norm_ = -std::expm1(-2.0 * kappa_);
+}
+
+// With w = 1 - cos(a): the unclipped lobe has intensity kappa exp(-kappa w) / (2 pi norm) per
+// steradian, CDF F(w) = (1 - exp(-kappa w)) / norm for w in [0, 2].
+double GaussianScatter::hemisphereMass(double cosAxisSide) const {
+    const double cosS = std::clamp(cosAxisSide, 0.0, 1.0);
+    const double sinS = std::sqrt(std::max(0.0, 1.0 - cosS * cosS));
+    auto cdf = [&](double w) { return -std::expm1(-kappa_ * w) / norm_; };
+    if (sinS == 0.0) return cdf(1.0);
+    // Below w1 the whole circle is above the horizon; above w2 none of it.
+    const double ua = cdf(1.0 - sinS), ub = cdf(1.0 + sinS);
+    if (ub - ua < 1e-10) return ua + 0.5 * (ub - ua);  // all but < 1e-10 above the horizon
+    const double middle = integrateEndpointSqrt(ua, ub, [&](double u) {
+        const double w = std::min(2.0, -std::log1p(-u * norm_) / kappa_);
+        return circleFractionAbove(1.0 - w, std::sqrt(std::max(0.0, w * (2.0 - w))), cosS, sinS);
+    });
+    return ua + middle;
+}
+
+double GaussianScatter::pdf(const Vec3& axis, const Vec3& side, const Vec3& w) const {
+    if (!(glm::dot(w, side) > 0.0)) return 0.0;
+    const Vec3 d = axis - w;
+    const double oneMinusCos = 0.5 * glm::dot(d, d);
+    const double density = kappa_ * std::exp(-kappa_ * oneMinusCos) / (2.0 * kPi * norm_);
+    return density / hemisphereMass(glm::dot(axis, side));
+}
+
+ScatterSample GaussianScatter::sample(const Vec3& axis, const Vec3& side, double u1,
+                                      double u2) const {
+    Vec3 t1, t2;
+    basisAround(axis, t1, t2);
+    Vec3 out = axis;
+    const bool ok = sampleWithRejection(u1, u2, [&](double a, double b) {
+        const double w = std::min(2.0, -std::log1p(-a * norm_) / kappa_);
+        const double sinA = std::sqrt(std::max(0.0, w * (2.0 - w)));
+        const double phi = 2.0 * kPi * b;
+        const Vec3 d = (1.0 - w) * axis + sinA * (std::cos(phi) * t1 + std::sin(phi) * t2);
+        if (!(glm::dot(d, side) > 0.0)) return false;
+        out = glm::normalize(d);
+        return true;
+    });
+    if (!ok) out = axis;
+    return {out, pdf(axis, side, out)};
+}
+
+// ABg Lobe
+
+namespace {
+constexpr int kRadialKnots = 400;  // geometric knots on [r1, 2]
+constexpr int kTisIntervals = 1024;
+}  // namespace
+
+AbgLobe::AbgLobe(const AbgParams& p) : p_(p) {
+    if (!(p.a >= 0.0) || !std::isfinite(p.a)) throw std::invalid_argument("ABg A must be >= 0");
+    if (!(p.b > 0.0) || !std::isfinite(p.b)) throw std::invalid_argument("ABg B must be > 0");
+    if (!(p.g >= 0.0) || !std::isfinite(p.g)) throw std::invalid_argument("ABg g must be >= 0");
+
+    // Radial CDF of r / (B + r^g): exact (8-point Gauss) on knots that are geometric from well
+    // inside the lobe's core (r ~ B^(1/g)) out to r = 2, the largest |beta - beta0|.
+    const double core = p.g > 0.0 ? std::min(1.0, std::pow(p.b, 1.0 / p.g)) : 1.0;
+    knot1_ = 1e-4 * core;
+    logRatio_ = std::log(2.0 / knot1_) / (kRadialKnots - 1);
+    knotR_.resize(kRadialKnots + 1);
+    knotCdf_.resize(kRadialKnots + 1);
+    knotR_[0] = 0.0;
+    for (int k = 1; k <= kRadialKnots; ++k) knotR_[k] = knot1_ * std::exp((k - 1) * logRatio_);
+    knotR_[kRadialKnots] = 2.0;
+    knotCdf_[0] = 0.0;
+    for (int k = 1; k <= kRadialKnots; ++k)
+        knotCdf_[k] = p.g == 2.0 ? radialCdf(knotR_[k])
+                                 : knotCdf_[k - 1] + partialIntegral(knotR_[k - 1], knotR_[k]);
+
+    tisTable_.resize(kTisIntervals + 1);
+    for (int i = 0; i <= kTisIntervals; ++i) {
+        const double theta = 0.5 * kPi * i / kTisIntervals;
+        tisTable_[i] = tisExact(i == kTisIntervals ? 1.0 : std::sin(theta));
+        maxTis_ = std::max(maxTis_, tisTable_[i]);
+    }
+}
+
+double AbgLobe::bsdf(double r) const { return p_.a / (p_.b + std::pow(r, p_.g)); }
+
+double AbgLobe::radialDensity(double r) const { return r / (p_.b + std::pow(r, p_.g)); }
+
+double AbgLobe::partialIntegral(double r0, double r1) const {
+    const auto& g = gauss8();
+    const double h = 0.5 * (r1 - r0), m = 0.5 * (r1 + r0);
+    double sum = 0.0;
+    for (int i = 0; i < 8; ++i) sum += g.w[i] * radialDensity(m + h * g.x[i]);
+    return sum * h;
+}
+
+double AbgLobe::radialCdf(double r) const {
+    r = std::clamp(r, 0.0, 2.0);
+    if (p_.g == 2.0) return 0.5 * std::log1p(r * r / p_.b);  // Harvey's usual g: closed form
+    if (r <= knotR_[1]) return partialIntegral(0.0, r);
+    int k = 1 + static_cast<int>(std::floor(std::log(r / knot1_) / logRatio_));
+    k = std::clamp(k, 1, kRadialKnots - 1);
+    while (k > 1 && knotR_[k] > r) --k;
+    while (k < kRadialKnots - 1 && knotR_[k + 1] <= r) ++k;
+    return knotCdf_[k] + partialIntegral(knotR_[k], r);
+}
+
+double AbgLobe::inverseRadialCdf(double c) const {
+    c = std::clamp(c, 0.0, knotCdf_.back());
+    if (p_.g == 2.0) return std::min(2.0, std::sqrt(p_.b * std::expm1(2.0 * c)));
+    int k =
+        static_cast<int>(std::upper_bound(knotCdf_.begin(), knotCdf_.end(), c) - knotCdf_.begin()) -
+        1;
+    k = std::clamp(k, 0, kRadialKnots - 1);
+    double lo = knotR_[k], hi = knotR_[k + 1];
+    const double target = c - knotCdf_[k];
+    const double span = knotCdf_[k + 1] - knotCdf_[k];
+    if (span <= 0.0) return lo;
+    // Safeguarded Newton on the exact partial integral, from linear interpolation.
+    double r = lo + (hi - lo) * std::clamp(target / span, 0.0, 1.0);
+    for (int it = 0; it < 60; ++it) {
+        const double f = partialIntegral(knotR_[k], r) - target;
+        if (std::abs(f) <= 1e-15 * knotCdf_.back()) break;
+        if (f > 0.0)
+            hi = r;
+        else
+            lo = r;
+        const double dens = radialDensity(r);
+        double next = dens > 0.0 ? r - f / dens : 0.5 * (lo + hi);
+        if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+        const bool converged = std::abs(next - r) <= 1e-14 * hi || hi - lo <= 1e-15 * hi;
+        r = next;
+        if (converged) break;
+    }
+    return r;
+}
+
+double AbgLobe::tisExact(double b0) const {
+    b0 = std::clamp(b0, 0.0, 1.0);
+    const double inner = radialCdf(1.0 - b0);  // circles wholly inside the disk
+    if (b0 == 0.0) return 2.0 * kPi * p_.a * inner;
+    const double outer = radialCdf(1.0 + b0);
+    // Over the radial CDF variable v (uniform under the unclipped radial distribution): the
+    // fraction of each circle inside the disk, 1 up to va.
+    const double va = inner / outer;
+    const double middle = integrateEndpointSqrt(
+        va, 1.0, [&](double v) { return circleFractionInDisk(inverseRadialCdf(v * outer), b0); });
+    return 2.0 * kPi * p_.a * (inner + outer * middle);
+}
+
+double AbgLobe::tis(double b0) const {
+    const double x = std::asin(std::clamp(b0, 0.0, 1.0)) / (0.5 * kPi) * kTisIntervals;
+    const int i = std::clamp(static_cast<int>(x), 0, kTisIntervals - 1);
+    const double f = x - i;
+    // Cubic (Catmull-Rom) through the four nearest knots. Past its ends the table continues
+    // by symmetry: b0 = sin(theta) is even about theta = 0 and about theta = pi/2.
+    const double p1 = tisTable_[i], p2 = tisTable_[i + 1];
+    const double p0 = i > 0 ? tisTable_[i - 1] : tisTable_[1];
+    const double p3 = i + 2 <= kTisIntervals ? tisTable_[i + 2] : tisTable_[kTisIntervals - 1];
+    return p1 + 0.5 * f *
+                    (p2 - p0 +
+                     f * (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3 + f * (3.0 * (p1 - p2) + p3 - p0)));
+}
+
+bool AbgLobe::sample(const Vec2& beta0, double u1, double u2, Vec2& beta) const {
+    const double outer = radialCdf(1.0 + std::min(1.0, glm::length(beta0)));
+    return sampleWithRejection(u1, u2, [&](double a, double b) {
+        const double r = inverseRadialCdf(a * outer);
+        const double phi = 2.0 * kPi * b;
+        const Vec2 candidate = beta0 + r * Vec2(std::cos(phi), std::sin(phi));
+        if (!(glm::dot(candidate, candidate) < 1.0)) return false;
+        beta = candidate;
+        return true;
+    });
+}
+
+AbgScatter::AbgScatter(std::optional<AbgParams> brdf, std::optional<AbgParams> btdf) {
+    if (!brdf && !btdf) throw std::invalid_argument("ABg scatter needs a BRDF or a BTDF");
+    if (brdf) reflect_ = std::make_shared<const AbgLobe>(*brdf);
+    if (btdf) transmit_ = std::make_shared<const AbgLobe>(*btdf);
+    const double total =
+        (reflect_ ? reflect_->maxTis() : 0.0) + (transmit_ ? transmit_->maxTis() : 0.0);
+    if (total > 1.0)
+        throw std::invalid_argument("ABg total integrated scatter reaches " +
+                                    std::to_string(total) +
+                                    " (BRDF and BTDF together must stay <= 1)");
+}
+
+// Optical Property
+
+OpticalProperty::OpticalProperty(std::string name, SpecularModel specular, ScatterModel scatter)
+    : name_(std::move(name)), specular_(std::move(specular)), scatter_(std::move(scatter)) {
+    try {
+        std::visit(Overloaded{
+                       [](const FixedSpecular& f) {
+                           requireFraction(f.reflectance, "fixed reflectance");
+                           requireFraction(f.transmittance, "fixed transmittance");
+                           if (f.reflectance + f.transmittance > 1.0)
+                               throw std::invalid_argument(
+                                   "fixed reflectance + transmittance must be <= 1");
+                       },
+                       [](const QuarterWaveSpecular& q) {
+                           if (!(q.index > 0.0) || !std::isfinite(q.index))
+                               throw std::invalid_argument("coating index must be > 0");
+                           if (!(q.designNm > 0.0) || !std::isfinite(q.designNm))
+                               throw std::invalid_argument("design wavelength must be > 0");
+                       },
+                       [](const MirrorSpecular& m) {
+                           requireFraction(m.reflectance, "mirror reflectance");
+                       },
+                       [](const auto&) {},
+                   },
+                   specular_);
+        if (const auto* l = std::get_if<LambertianScatter>(&scatter_)) {
+            requireFraction(l->reflectance, "Lambertian reflectance");
+            requireFraction(l->transmittance, "Lambertian transmittance");
+            if (l->reflectance + l->transmittance > 1.0)
+                throw std::invalid_argument("Lambertian reflectance + transmittance must be <= 1");
+        }
+    } catch (const std::invalid_argument& e) {
+        throw ModelError(name_, e.what());
+    }
+}
+
+OpticalProperty OpticalProperty::uncoated(std::string name) {
+    return OpticalProperty(std::move(name), FresnelSpecular{});
+}
+OpticalProperty OpticalProperty::idealAr(std::string name) {
+    return OpticalProperty(std::move(name), IdealArSpecular{});
+}
+OpticalProperty OpticalProperty::absorber(std::string name) {
+    return OpticalProperty(std::move(name), AbsorberSpecular{});
+}
+OpticalProperty OpticalProperty::mirror(double reflectance, std::string name) {
+    return OpticalProperty(std::move(name), MirrorSpecular{reflectance});
+}
+
+namespace {
+
+// Where the lobes of one side point, for one incident ray.
+struct LobeFrame {
+    bool transmit = false;
+    Vec3 side{0.0};      // unit normal of the outgoing hemisphere
+    Vec3 axis{0.0};      // specular direction on that side (mirror or Snell)
+    bool valid = false;  // false: no such direction (TIR on the transmit side)
+    Vec3 betaVec{0.0};   // projection of axis on the surface plane (beta0)
+};
+
+LobeFrame lobeFrame(const SurfaceContext& c, bool transmit) {
+    LobeFrame f;
+    f.transmit = transmit;
+    f.side = transmit ? -c.normal : c.normal;
+    const Vec3 tangential = c.direction - glm::dot(c.direction, c.normal) * c.normal;
+    if (!transmit) {
+        f.axis = reflect(c.direction, c.normal);
+        f.betaVec = tangential;
+        f.valid = true;
+        return f;
+    }
+    if (const auto t = refract(c.direction, c.normal, c.n1, c.n2)) {
+        f.axis = *t;
+        f.betaVec = (c.n1 / c.n2) * tangential;
+        f.valid = true;
+    }
+    return f;
+}
+
+}  // namespace
+
+Channels OpticalProperty::channels(const SurfaceContext& c) const {
+    const double cosI = c.cosIncidence();
+    const bool tir = !c.opaque && totalInternalReflection(c.n1, c.n2, cosI);
+    Channels ch;
+
+    // Scatter first.
+    double sR = 0.0, sT = 0.0;
+    std::visit(Overloaded{
+                   [&](const NoScatter&) {},
+                   [&](const LambertianScatter& l) {
+                       sR = l.reflectance;
+                       sT = l.transmittance;
+                   },
+                   [&](const GaussianScatter& g) {
+                       sR = g.reflectance();
+                       sT = tir ? 0.0 : g.transmittance();
+                   },
+                   [&](const AbgScatter& a) {
+                       const double b0 = std::sqrt(std::max(0.0, 1.0 - cosI * cosI));
+                       if (a.reflectLobe()) sR = a.reflectLobe()->tis(b0);
+                       if (a.transmitLobe() && !tir)
+                           sT = a.transmitLobe()->tis(std::min(1.0, c.n1 / c.n2 * b0));
+                   },
+               },
+               scatter_);
+    if (c.opaque) sT = 0.0;
+    ch.scatterReflect = sR;
+    ch.scatterTransmit = sT;
+    const double rest = std::max(0.0, 1.0 - sR - sT);
+
+    // The specular part shares the rest.
+    double r = 0.0, t = 0.0;
+    std::visit(Overloaded{
+                   [&](const FresnelSpecular&) {
+                       r = tir ? 1.0 : fresnelReflectance(c.n1, c.n2, cosI);
+                       t = 1.0 - r;
+                       ch.tir = tir;
+                   },
+                   [&](const IdealArSpecular&) {
+                       r = tir ? 1.0 : 0.0;
+                       t = 1.0 - r;
+                       ch.tir = tir;
+                   },
+                   [&](const FixedSpecular& f) {
+                       r = tir ? f.reflectance + f.transmittance : f.reflectance;
+                       t = tir ? 0.0 : f.transmittance;
+                       ch.tir = tir;
+                   },
+                   [&](const QuarterWaveSpecular& q) {
+                       r = tir ? 1.0
+                               : quarterWaveCoating(c.n1, q.index, q.designNm, c.n2, cosI,
+                                                    c.wavelengthNm)
+                                     .reflectance();
+                       t = 1.0 - r;
+                       ch.tir = tir;
+                   },
+                   [&](const MirrorSpecular& m) { r = m.reflectance; },
+                   [&](const AbsorberSpecular&) {},
+               },
+               specular_);
+    if (c.opaque) t = 0.0;
+    ch.specularReflect = rest * r;
+    ch.specularTransmit = rest * t;
+    return ch;
+}
+
+ScatterSample OpticalProperty::sampleScatter(const SurfaceContext& c, bool transmit, double u1,
+                                             double u2) const {
+    if (transmit && c.opaque) return {};
+    return std::visit(
+        Overloaded{
+            [&](const NoScatter&) { return ScatterSample{}; },
+            [&](const LambertianScatter& l) {
+                if ((transmit ? l.transmittance : l.reflectance) <= 0.0) return ScatterSample{};
+                const Vec3 side = transmit ? -c.normal : c.normal;
+                Vec3 t1, t2;
+                basisAround(side, t1, t2);
+                const double r = std::sqrt(u1), phi = 2.0 * kPi * u2;
+                const double z = std::sqrt(std::max(0.0, 1.0 - u1));
+                const Vec3 d = r * std::cos(phi) * t1 + r * std::sin(phi) * t2 + z * side;
+                return ScatterSample{d, z / kPi};
+            },
+            [&](const GaussianScatter& g) {
+                if ((transmit ? g.transmittance() : g.reflectance()) <= 0.0) return ScatterSample{};
+                const LobeFrame f = lobeFrame(c, transmit);
+                if (!f.valid) return ScatterSample{};
+                return g.sample(f.axis, f.side, u1, u2);
+            },
+            [&](const AbgScatter& a) {
+                const AbgLobe* lobe = transmit ? a.transmitLobe() : a.reflectLobe();
+                if (!lobe || lobe->params().a <= 0.0) return ScatterSample{};
+                const LobeFrame f = lobeFrame(c, transmit);
+                if (!f.valid) return ScatterSample{};
+                Vec3 t1, t2;
+                basisAround(f.side, t1, t2);
+                const Vec2 beta0(glm::dot(f.betaVec, t1), glm::dot(f.betaVec, t2));
+                Vec2 beta;
+                if (!lobe->sample(beta0, u1, u2, beta)) return ScatterSample{f.axis, 0.0};
+                const double cosO = std::sqrt(std::max(0.0, 1.0 - glm::dot(beta, beta)));
+                const Vec3 d = glm::normalize(beta.x * t1 + beta.y * t2 + cosO * f.side);
+                const double tis = lobe->tis(glm::length(beta0));
+                const double pdf =
+                    tis > 0.0 ? lobe->bsdf(glm::length(beta - beta0)) * cosO / tis : 0.0;
+                return ScatterSample{d, pdf};
+            },
+        },
+        scatter_);
+}
+
+double OpticalProperty::bsdf(const SurfaceContext& c, const Vec3& out) const {
+    const double cosO = glm::dot(out, c.normal);
+    if (cosO == 0.0) return 0.0;
+    const bool transmit = cosO < 0.0;
+    if (transmit && c.opaque) return 0.0;
+    return std::visit(Overloaded{
+                          [&](const NoScatter&) { return 0.0; },
+                          [&](const LambertianScatter& l) {
+                              return (transmit ? l.transmittance : l.reflectance) / kPi;
+                          },
+                          [&](const GaussianScatter& g) {
+                              const double frac = transmit ? g.transmittance() : g.reflectance();
+                              if (frac <= 0.0) return 0.0;
+                              const LobeFrame f = lobeFrame(c, transmit);
+                              if (!f.valid) return 0.0;
+                              return frac * g.pdf(f.axis, f.side, out) / std::abs(cosO);
+                          },
+                          [&](const AbgScatter& a) {
+                              const AbgLobe* lobe = transmit ? a.transmitLobe() : a.reflectLobe();
+                              if (!lobe) return 0.0;
+                              const LobeFrame f = lobeFrame(c, transmit);
+                              if (!f.valid) return 0.0;
+                              const Vec3 beta = out - glm::dot(out, c.normal) * c.normal;
+                              return lobe->bsdf(glm::length(beta - f.betaVec));
+                          },
+                      },
+                      scatter_);
+}
+
+double OpticalProperty::scatterPdf(const SurfaceContext& c, const Vec3& out) const {
+    const double cosO = glm::dot(out, c.normal);
+    if (cosO == 0.0) return 0.0;
+    const bool transmit = cosO < 0.0;
+    if (transmit && c.opaque) return 0.0;
+    return std::visit(
+        Overloaded{
+            [&](const NoScatter&) { return 0.0; },
+            [&](const LambertianScatter& l) {
+                return (transmit ? l.transmittance : l.reflectance) > 0.0 ? std::abs(cosO) / kPi
+                                                                          : 0.0;
+            },
+            [&](const GaussianScatter& g) {
+                if ((transmit ? g.transmittance() : g.reflectance()) <= 0.0) return 0.0;
+                const LobeFrame f = lobeFrame(c, transmit);
+                return f.valid ? g.pdf(f.axis, f.side, out) : 0.0;
+            },
+            [&](const AbgScatter& a) {
+                const AbgLobe* lobe = transmit ? a.transmitLobe() : a.reflectLobe();
+                if (!lobe) return 0.0;
+                const LobeFrame f = lobeFrame(c, transmit);
+                if (!f.valid) return 0.0;
+                const double tis = lobe->tis(glm::length(f.betaVec));
+                const Vec3 beta = out - glm::dot(out, c.normal) * c.normal;
+                return tis > 0.0 ? lobe->bsdf(glm::length(beta - f.betaVec)) * std::abs(cosO) / tis
+                                 : 0.0;
+            },
+        },
+        scatter_);
+}
+
+std::ostream& operator<<(std::ostream& os, const OpticalProperty& p) {
+    return os << "OpticalProperty{'" << p.name() << "', specular " << p.specular() << ", scatter "
+              << p.scatter() << "}";
+}
+
+}  // namespace veil

@@ -1,0 +1,367 @@
+#include "tracer/property_table.h"
+
+#include <algorithm>
+#include <array>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+
+namespace veil {
+
+namespace {
+
+constexpr std::array<std::string_view, 7> kBuiltInNames = {
+    "uncoated", "ideal_ar", "absorber", "mirror", "ground_glass", "lens_edge", "lens_flat"};
+
+OpticalProperty groundGlass(std::string name) {
+    return OpticalProperty(std::move(name), AbsorberSpecular{}, LambertianScatter{0.5, 0.5});
+}
+
+std::string quoted(std::string_view s) { return "'" + std::string(s) + "'"; }
+
+std::string didYouMean(std::string_view word, const std::vector<std::string>& candidates) {
+    const std::string close = closestSpelling(word, candidates);
+    return close.empty() ? std::string() : " (did you mean '" + close + "'?)";
+}
+
+std::string number(double v) {
+    std::ostringstream os;
+    os << v;
+    return os.str();
+}
+
+std::string joinNames(const std::vector<std::string>& names) {
+    std::string s;
+    for (size_t i = 0; i < names.size(); ++i) s += (i ? ", " : "") + names[i];
+    return s;
+}
+
+// Specular Part
+
+const std::vector<std::string> kSpecularModels = {"fresnel",      "uncoated", "ideal_ar", "fixed",
+                                                  "quarter_wave", "mirror",   "absorber", "none"};
+const std::vector<std::string> kScatterModels = {"lambertian", "gaussian", "abg", "none"};
+
+SpecularModel specularByName(const TomlValue& at, const std::string& model, bool inTable) {
+    if (model == "fresnel" || model == "uncoated") return FresnelSpecular{};
+    if (model == "ideal_ar") return IdealArSpecular{};
+    if (model == "absorber" || model == "none") return AbsorberSpecular{};
+    if (model == "mirror") return MirrorSpecular{1.0};
+    if (!inTable && (model == "fixed" || model == "quarter_wave"))
+        at.fail("specular model '" + model + "' takes parameters: write specular = { model = \"" +
+                model + "\", ... }");
+    const std::string hint = didYouMean(model, kSpecularModels);
+    at.fail("unknown specular model '" + model + "'" +
+            (hint.empty() ? " (expected one of " + joinNames(kSpecularModels) + ")" : hint));
+}
+
+SpecularModel readSpecular(const TomlValue& v) {
+    if (v.isString()) return specularByName(v, v.asString(), false);
+    if (!v.isTable()) v.failExpected("a model name or a table { model = \"...\", ... }");
+    const TomlTable t = v.asTable();
+    const TomlValue modelValue = t.require("model", "the specular model");
+    const std::string model = modelValue.asString();
+    const NumberRange unit = NumberRange::between(0.0, 1.0);
+    if (model == "fixed") {
+        const double r = t.require("reflectance", "specular reflectance, 0 to 1").asNumber(unit);
+        const std::optional<TomlValue> tv = t.get("transmittance");
+        const double tr = tv ? tv->asNumber(unit) : 1.0 - r;
+        if (r + tr > 1.0)
+            (tv ? *tv : modelValue)
+                .fail(t.path() + ": reflectance + transmittance = " + number(r + tr) +
+                      " exceeds 1");
+        return FixedSpecular{r, tr};
+    }
+    if (model == "quarter_wave") {
+        QuarterWaveSpecular q;
+        q.index = t.number("index", q.index, NumberRange::above(0.0));
+        q.designNm = t.number("design_nm", q.designNm, NumberRange::above(0.0));
+        return q;
+    }
+    if (model == "mirror") return MirrorSpecular{t.number("reflectance", 1.0, unit)};
+    return specularByName(modelValue, model, true);
+}
+
+// Scatter Part
+
+AbgParams readAbgParams(const TomlValue& v) {
+    if (!v.isTable()) v.failExpected("a table { a = ..., b = ..., g = ... }");
+    const TomlTable t = v.asTable();
+    AbgParams p;
+    p.a = t.require("a", "ABg A, 1/sr").asNumber(NumberRange::atLeast(0.0));
+    p.b = t.require("b", "ABg B").asNumber(NumberRange::above(0.0));
+    p.g = t.require("g", "ABg g").asNumber(NumberRange::atLeast(0.0));
+    return p;
+}
+
+ScatterModel readScatter(const TomlValue& v) {
+    if (v.isString()) {
+        if (v.asString() == "none") return NoScatter{};
+        v.fail("scatter must be a table { model = \"...\", ... } or \"none\" (got '" +
+               v.asString() + "')");
+    }
+    if (!v.isTable()) v.failExpected("a table { model = \"...\", ... }");
+    const TomlTable t = v.asTable();
+    const TomlValue modelValue = t.require("model", "the scatter model");
+    const std::string model = modelValue.asString();
+    const NumberRange unit = NumberRange::between(0.0, 1.0);
+    auto checkSum = [&](double r, double tr) {
+        if (r + tr > 1.0)
+            t.fail(t.path() + ": reflectance + transmittance = " + number(r + tr) + " exceeds 1");
+    };
+    if (model == "lambertian") {
+        const double r = t.number("reflectance", 0.0, unit);
+        const double tr = t.number("transmittance", 0.0, unit);
+        checkSum(r, tr);
+        return LambertianScatter{r, tr};
+    }
+    if (model == "gaussian") {
+        const double r = t.number("reflectance", 0.0, unit);
+        const double tr = t.number("transmittance", 0.0, unit);
+        checkSum(r, tr);
+        const double w = t.require("half_width_deg", "half width at half maximum, degrees")
+                             .asNumber(NumberRange{0.0, 90.0, true, false});
+        return GaussianScatter(r, tr, w);
+    }
+    if (model == "abg") {
+        const std::optional<TomlValue> brdf = t.get("brdf"), btdf = t.get("btdf");
+        if (!brdf && !btdf) t.fail(t.path() + ": ABg scatter needs `brdf` or `btdf` (or both)");
+        std::optional<AbgParams> r, tr;
+        if (brdf) r = readAbgParams(*brdf);
+        if (btdf) tr = readAbgParams(*btdf);
+        try {
+            return AbgScatter(r, tr);
+        } catch (const std::invalid_argument& e) {
+            t.fail(t.path() + ": " + e.what());
+        }
+    }
+    if (model == "none") return NoScatter{};
+    const std::string hint = didYouMean(model, kScatterModels);
+    modelValue.fail("unknown scatter model '" + model + "'" +
+                    (hint.empty() ? " (expected one of " + joinNames(kScatterModels) + ")" : hint));
+}
+
+OpticalProperty readProperty(const std::string& name, const TomlValue& v) {
+    if (!v.isTable()) v.failExpected("a table [properties." + name + "]");
+    const TomlTable t = v.asTable();
+    const std::optional<TomlValue> specular = t.get("specular"), scatter = t.get("scatter");
+    if (!specular && !scatter)
+        t.fail("[properties." + name + "] needs `specular`, `scatter` or both");
+    SpecularModel sm = specular ? readSpecular(*specular) : SpecularModel{AbsorberSpecular{}};
+    ScatterModel sc = scatter ? readScatter(*scatter) : ScatterModel{NoScatter{}};
+    try {
+        return OpticalProperty(name, std::move(sm), std::move(sc));
+    } catch (const ModelError& e) {
+        t.fail(e.what());
+    }
+}
+
+// Assign Rules
+
+AssignRule readRule(const TomlValue& entry, const PropertyTable& table) {
+    if (!entry.isTable()) entry.failExpected("a table [[assign]]");
+    const TomlTable t = entry.asTable();
+    AssignRule rule;
+    rule.loc = t.loc();
+    const TomlValue objects = t.require("objects", "object name glob or list of globs");
+    auto addPattern = [&](const TomlValue& p) {
+        if (!p.isString()) p.failExpected("a name glob (string)");
+        const std::string s = p.asString();
+        if (s.empty()) p.fail(p.path() + " must not be empty");
+        rule.patterns.push_back(s);
+        rule.patternLocs.push_back(p.loc());
+    };
+    if (objects.isArray()) {
+        const std::vector<TomlValue> list = objects.asArray();
+        if (list.empty()) objects.fail(objects.path() + " must list at least one glob");
+        for (const TomlValue& p : list) addPattern(p);
+    } else if (objects.isString()) {
+        addPattern(objects);
+    } else {
+        objects.failExpected("a name glob or an array of globs");
+    }
+    const TomlValue property = t.require("property", "name of a [properties.*] table or built-in");
+    rule.property = property.asString();
+    if (table.find(rule.property) < 0) {
+        std::vector<std::string> names;
+        for (const OpticalProperty& p : table.properties()) names.push_back(p.name());
+        property.fail("unknown optical property '" + rule.property + "'" +
+                      didYouMean(rule.property, names));
+    }
+    return rule;
+}
+
+}  // namespace
+
+// Globs
+
+bool globMatch(std::string_view pattern, std::string_view text) {
+    size_t p = 0, s = 0;
+    size_t starP = std::string_view::npos, starS = 0;
+    while (s < text.size()) {
+        if (p < pattern.size() && (pattern[p] == '?' || pattern[p] == text[s])) {
+            ++p;
+            ++s;
+        } else if (p < pattern.size() && pattern[p] == '*') {
+            starP = p++;
+            starS = s;
+        } else if (starP != std::string_view::npos) {
+            p = starP + 1;
+            s = ++starS;
+        } else {
+            return false;
+        }
+    }
+    while (p < pattern.size() && pattern[p] == '*') ++p;
+    return p == pattern.size();
+}
+
+std::ostream& operator<<(std::ostream& os, const AssignRule& r) {
+    os << "AssignRule{";
+    for (size_t i = 0; i < r.patterns.size(); ++i) os << (i ? " " : "") << r.patterns[i];
+    return os << " -> " << r.property << "}";
+}
+
+// Property Table
+
+PropertyTable::PropertyTable() {
+    properties_.push_back(OpticalProperty::uncoated("uncoated"));
+    properties_.push_back(OpticalProperty::idealAr("ideal_ar"));
+    properties_.push_back(OpticalProperty::absorber("absorber"));
+    properties_.push_back(OpticalProperty::mirror(1.0, "mirror"));
+    properties_.push_back(groundGlass("ground_glass"));
+    properties_.push_back(groundGlass("lens_edge"));
+    properties_.push_back(groundGlass("lens_flat"));
+}
+
+bool PropertyTable::isBuiltInName(std::string_view name) {
+    return std::find(kBuiltInNames.begin(), kBuiltInNames.end(), name) != kBuiltInNames.end();
+}
+
+std::string_view PropertyTable::defaultName(ObjectKind kind) {
+    switch (kind) {
+        case ObjectKind::LensFace:
+            return "uncoated";
+        case ObjectKind::MirrorFace:
+            return "mirror";
+        case ObjectKind::LensEdge:
+            return "lens_edge";
+        case ObjectKind::LensFlat:
+            return "lens_flat";
+        case ObjectKind::Dummy:
+            return "ideal_ar";
+        case ObjectKind::Stop:
+        case ObjectKind::Mechanics:
+        case ObjectKind::ImportedMesh:
+        case ObjectKind::Detector:
+            return "absorber";
+    }
+    return "absorber";
+}
+
+int PropertyTable::define(OpticalProperty p) {
+    const int i = find(p.name());
+    if (i >= 0) {
+        properties_[i] = std::move(p);
+        return i;
+    }
+    properties_.push_back(std::move(p));
+    return static_cast<int>(properties_.size()) - 1;
+}
+
+void PropertyTable::addRule(AssignRule rule) {
+    if (find(rule.property) < 0)
+        throw ModelError(rule.property, "[[assign]] names an undefined optical property");
+    rules_.push_back(std::move(rule));
+}
+
+int PropertyTable::find(std::string_view name) const {
+    for (size_t i = 0; i < properties_.size(); ++i)
+        if (properties_[i].name() == name) return static_cast<int>(i);
+    return -1;
+}
+
+PropertyTable PropertyTable::read(const TomlDocument& doc) {
+    PropertyTable table;
+    const TomlTable root = doc.root();
+    if (const std::optional<TomlValue> props = root.get("properties")) {
+        if (!props->isTable()) props->failExpected("tables [properties.NAME]");
+        const TomlTable t = props->asTable();
+        // In file order, so the first error reported is the first in the file.
+        std::vector<std::pair<toml::source_position, std::string>> keys;
+        for (auto&& [key, node] : t.table())
+            keys.emplace_back(node.source().begin, std::string(key.str()));
+        std::sort(keys.begin(), keys.end(), [](const auto& a, const auto& b) {
+            return a.first.line != b.first.line ? a.first.line < b.first.line
+                                                : a.first.column < b.first.column;
+        });
+        for (const auto& [pos, name] : keys) table.define(readProperty(name, *t.get(name)));
+    }
+    if (const std::optional<TomlValue> assign = root.get("assign")) {
+        if (!assign->isArray()) assign->failExpected("an array of tables [[assign]]");
+        for (const TomlValue& entry : assign->asArray())
+            table.rules_.push_back(readRule(entry, table));
+    }
+    return table;
+}
+
+std::vector<int> PropertyTable::resolve(const Scene& scene) const {
+    const std::vector<SceneObject>& objects = scene.objects();
+    auto matches = [](const std::string& pattern, const SceneObject& o) {
+        if (globMatch(pattern, o.name)) return true;
+        for (const std::string& a : o.aliases)
+            if (globMatch(pattern, a)) return true;
+        return false;
+    };
+
+    // A rule that matches nothing is a typo or a stale name: say so at the pattern.
+    for (const AssignRule& r : rules_) {
+        for (size_t k = 0; k < r.patterns.size(); ++k) {
+            const bool any = std::any_of(objects.begin(), objects.end(), [&](const SceneObject& o) {
+                return matches(r.patterns[k], o);
+            });
+            if (!any) {
+                const FileLoc loc = k < r.patternLocs.size() ? r.patternLocs[k] : r.loc;
+                throw ParseError(loc, "[[assign]] objects = '" + r.patterns[k] +
+                                          "' matches no object in the scene");
+            }
+        }
+    }
+
+    std::vector<int> out(objects.size(), -1);
+    for (size_t id = 0; id < objects.size(); ++id) {
+        const SceneObject& o = objects[id];
+        std::string_view name = o.property;
+        const bool placeholder = (o.kind == ObjectKind::LensEdge && name == "lens_edge") ||
+                                 (o.kind == ObjectKind::LensFlat && name == "lens_flat");
+        if (name.empty() || placeholder) {
+            name = {};
+            for (auto r = rules_.rbegin(); r != rules_.rend() && name.empty(); ++r)
+                for (const std::string& p : r->patterns)
+                    if (matches(p, o)) {
+                        name = r->property;
+                        break;
+                    }
+            if (name.empty()) name = defaultName(o.kind);
+        }
+        const int index = find(name);
+        if (index < 0) {
+            std::vector<std::string> names;
+            for (const OpticalProperty& p : properties_) names.push_back(p.name());
+            throw ModelError(o.name, "object '" + o.name + "' has the unknown optical property " +
+                                         quoted(name) + didYouMean(name, names) +
+                                         " (define it in [properties." + std::string(name) + "])");
+        }
+        out[id] = index;
+    }
+    return out;
+}
+
+std::ostream& operator<<(std::ostream& os, const PropertyTable& t) {
+    os << "PropertyTable{" << t.properties().size() << " properties";
+    for (const OpticalProperty& p : t.properties()) os << ", " << p.name();
+    os << "; " << t.rules().size() << " rules}";
+    return os;
+}
+
+}  // namespace veil

@@ -1,0 +1,202 @@
+#pragma once
+// Light sources: where a ray starts, which way it goes, at which wavelength, and how much
+// flux it carries.
+//
+// A closed set of kinds, dispatched with std::visit (no virtual calls):
+//
+//   collimated  a parallel beam from a field direction, filling the first lens surface
+//   sun         the same beam with directions uniform over the solar disk (0.533 deg)
+//   point       an isotropic point emitting into the cone that just covers the first surface
+//   window      a disk in front of the lens, uniform radiance inside a cone about +z (the
+//               seed paper's catadioptric case: 3.25 deg, 0.079833 lm)
+//   lambertian  a disk or rectangle placed anywhere, cosine law (optionally within a cone)
+//
+// Frames and units: global coordinates of the sequential model (z along the optical axis,
+// surface 1's vertex at z = 0), lengths in mm, angles in radians inside (degrees in files).
+// Field directions follow the system fields: (x, y) degrees -> normalize(tan x, tan y, 1).
+//
+// Flux: every source has a total flux in W or lm (FluxUnit). emit() draws one ray for a run
+// of rayCount rays and gives it flux totalFlux / rayCount times its spectral weight (1 when
+// the spectral sampling matches the unit, the default), so the N rays of a run sum to the
+// total flux. Beams (collimated, sun) start on a disk perpendicular to their direction,
+// placed in front of everything in the lens, and wide enough that every point of the first
+// surface out to its aperture (plus margin) is lit from every direction of the beam.
+//
+// Random numbers: emit() draws exactly kEmitUniforms numbers from the ray's stream, in this
+// order: the wavelength, two for the position, two for the direction (beams without a
+// direction spread draw and ignore them), so the draws that follow are the same for every
+// kind.
+//
+// The scene keys of [[source]] are documented in docs/format.md.
+
+#include <cstdint>
+#include <ostream>
+#include <string>
+#include <utility>
+#include <variant>
+#include <vector>
+
+#include "geometry/frame.h"
+#include "geometry/surface_shape.h"
+#include "geometry/vec.h"
+#include "lensdata/toml_document.h"
+#include "tracer/rng.h"
+#include "tracer/sequential_model.h"
+#include "tracer/spectrum.h"
+
+namespace veil {
+
+// What the sources need to know about the lens: the first surface and its aperture, and how
+// far forward (toward -z) the lens reaches.
+struct EntranceAperture {
+    int surface = 1;  // sequential surface index of the first surface
+    std::string surfaceName;
+    SurfaceShape shape;
+    double vertexZMm = 0.0;
+    double radiusMm = 0.0;       // mechanical semi-diameter if given, else clear; 0 = none
+    double clearRadiusMm = 0.0;  // clear semi-diameter if given, else mechanical; 0 = none
+    // The lowest z of any surface (1 to image) out to its semi-diameter (mechanical, else
+    // clear; the vertex alone when it has none).
+    double frontZMm = 0.0;
+
+    // Lowest and highest z of the first surface over radial distances 0..rMm (sampled finely
+    // enough for any even asphere; clamped to the shape's domain).
+    std::pair<double, double> zRange(double rMm) const;
+};
+std::ostream& operator<<(std::ostream& os, const EntranceAperture& a);
+
+EntranceAperture entranceAperture(const Prescription& p, const SequentialModel& model);
+
+// The unit direction of a field angle pair (degrees), as for the system fields.
+Vec3 fieldDirection(double xDeg, double yDeg);
+
+// Source Kinds
+
+// A beam of parallel (collimated) or nearly parallel (sun) rays. Rays start uniformly on a
+// disk perpendicular to `direction`, centred on `startCenterMm`.
+struct Beam {
+    Vec3 direction{0.0, 0.0, 1.0};  // central direction, unit, direction.z > 0
+    Vec3 axisU{1.0, 0.0, 0.0};      // unit, perpendicular to direction
+    Vec3 axisV{0.0, 1.0, 0.0};      // direction x axisU: (axisU, axisV, direction) right-handed
+    Vec3 startCenterMm{0.0};
+    double radiusMm = 0.0;          // start disk radius
+    double apertureRadiusMm = 0.0;  // the aperture it fills, margin excluded
+    double marginMm = 0.0;
+    double halfAngleRad = 0.0;  // of the direction cone (0 = collimated)
+    double areaMm2() const;     // of the start disk
+};
+std::ostream& operator<<(std::ostream& os, const Beam& b);
+
+struct BeamOptions {
+    double marginMm = 0.0;      // added to the aperture radius
+    double radiusMm = 0.0;      // aperture radius to fill; 0 = the first surface's
+    double startGapMm = 5.0;    // from the lens's front-most point to the nearest origin
+    double halfAngleRad = 0.0;  // direction cone about the central direction
+};
+// The beam along `direction` that lights every point of the first surface out to
+// radius + margin from every direction of its cone, starting startGapMm in front of the
+// lens. Throws ModelError when there is no aperture to fill (no semi-diameter and no
+// radiusMm), when the direction does not point toward +z, or when the cone reaches 90 deg
+// from the axis.
+Beam beamFillingAperture(const EntranceAperture& a, const Vec3& direction,
+                         const BeamOptions& options);
+
+struct CollimatedSource {
+    Beam beam;
+};
+struct SunSource {
+    Beam beam;  // beam.halfAngleRad is the solar radius, 0.2665 deg by default
+};
+
+// An isotropic point source emitting into a cone (uniform over its solid angle).
+struct PointSource {
+    Vec3 positionMm{0.0};
+    Vec3 axis{0.0, 0.0, 1.0};  // unit
+    Vec3 axisU{1.0, 0.0, 0.0};
+    Vec3 axisV{0.0, 1.0, 0.0};
+    double halfAngleRad = 0.0;    // up to pi (the whole sphere)
+    double solidAngleSr() const;  // 2 pi (1 - cos halfAngle)
+};
+std::ostream& operator<<(std::ostream& os, const PointSource& s);
+
+// The cone from `position` that just covers the first surface out to its aperture radius
+// (or radiusMm when > 0) plus margin: axis and half-angle from the sampled surface, padded
+// by the sampling error. Throws ModelError when the point is not in front of the surface.
+PointSource pointSourceCoveringAperture(const EntranceAperture& a, const Vec3& positionMm,
+                                        double marginMm, double radiusMm = 0.0);
+
+// A flat emitting area: a disk or a rectangle in the xy plane of `frame`, emitting toward
+// its +z with uniform radiance inside a cone of half-angle coneHalfAngleRad about +z
+// (pi / 2: the Lambertian hemisphere). Directions follow the cosine law within the cone.
+struct AreaEmitter {
+    enum class Shape { Disk, Rectangle };
+    Frame frame;  // global = frame(local); local z = the emitting normal
+    Shape shape = Shape::Disk;
+    double radiusMm = 0.0;  // Disk
+    Vec2 sizeMm{0.0};       // Rectangle: full width along local x, height along local y
+    double coneHalfAngleRad = 1.5707963267948966;
+    double areaMm2() const;
+    // Projected solid angle of the cone, pi sin^2(cone): flux = radiance * area * this.
+    double projectedSolidAngleSr() const;
+};
+std::ostream& operator<<(std::ostream& os, const AreaEmitter& e);
+
+struct WindowSource {
+    AreaEmitter area;  // a disk at z = const, normal +z
+};
+struct LambertianSource {
+    AreaEmitter area;
+};
+
+using SourceShape =
+    std::variant<CollimatedSource, SunSource, PointSource, WindowSource, LambertianSource>;
+std::ostream& operator<<(std::ostream& os, const SourceShape& s);
+const char* kindName(const SourceShape& s);  // "collimated", "sun", "point", ...
+
+// Source Interface
+
+struct EmittedRay {
+    Ray ray;             // global, unit direction
+    int wavelength = 0;  // index into the model's wavelengths
+    double wavelengthNm = 0;
+    double flux = 0;  // in the source's unit (W or lm)
+};
+std::ostream& operator<<(std::ostream& os, const EmittedRay& r);
+
+class Source {
+  public:
+    // Uniforms emit() draws from the stream for every ray.
+    static constexpr int kEmitUniforms = 5;
+
+    Source(std::string name, SourceShape shape, double totalFlux, SpectralSampler spectrum,
+           FileLoc loc = {});
+
+    const std::string& name() const { return name_; }
+    const SourceShape& shape() const { return shape_; }
+    const char* kind() const { return kindName(shape_); }
+    double totalFlux() const { return totalFlux_; }
+    FluxUnit unit() const { return spectrum_.unit(); }
+    const SpectralSampler& spectrum() const { return spectrum_; }
+    const FileLoc& loc() const { return loc_; }  // where the scene file defines it
+
+    // One ray of a run of rayCount rays (> 0): flux = totalFlux / rayCount * spectral weight.
+    EmittedRay emit(CounterRng& rng, uint64_t rayCount) const;
+
+  private:
+    std::string name_;
+    SourceShape shape_;
+    double totalFlux_ = 0.0;
+    SpectralSampler spectrum_;
+    FileLoc loc_;
+};
+std::ostream& operator<<(std::ostream& os, const Source& s);
+
+// Reads every [[source]] table of the scene (none: an empty list). The wavelengths are the
+// model's, weighted as in [system] (equal weights if the model was built at other
+// wavelengths). Errors are ParseErrors at the key at fault (or the source's table, for
+// problems of the whole source such as a first surface without a semi-diameter to fill);
+// keys the reader does not use are left for TomlDocument::checkAllUsed().
+std::vector<Source> readSources(TomlDocument& doc, const Prescription& p,
+                                const SequentialModel& model);
+
+}  // namespace veil
