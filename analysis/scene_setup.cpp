@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 
 #include "analysis/auto_apertures.h"
 #include "geometry/lens_solid.h"
@@ -122,8 +123,15 @@ SceneSetup buildScene(const SceneFile& file, const GlassCatalog& catalog,
     det.kind = ObjectKind::Detector;
     det.part = "sensor";
     det.frame = Frame::alongAxis(model.surface(image).zMm);
+    // Large enough for the image circle and for every detector rectangle placed on it.
+    double sensorRadius = is.clearSemiDiameterMm;
+    for (const DetectorSpec& d : file.detectors)
+        if ((d.object.empty() || d.object == "sensor" || d.object == "image") && !d.zMm && d.sizeMm)
+            sensorRadius =
+                std::max(sensorRadius, std::hypot(0.5 * d.sizeMm->x + std::abs(d.centerMm.x),
+                                                  0.5 * d.sizeMm->y + std::abs(d.centerMm.y)));
     det.geometry = FaceGeometry{SurfacePatch{makeShape(is.curvature, is.conic, is.asphere),
-                                             CircularAperture{is.clearSemiDiameterMm}}};
+                                             CircularAperture{sensorRadius}}};
     det.sequentialSurface = image;
     s.scene.addObject(std::move(det));
     // Detectors: on scene objects (the sensor by default) or free rectangles of their own.

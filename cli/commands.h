@@ -43,4 +43,20 @@ struct ExportOptions {
 void addExportCommand(CLI::App& app, ExportOptions& options);
 int runExport(const CommonOptions& common, const ExportOptions& options);
 
+struct TraceOptions {
+    std::string file;
+    double rays = 0;
+    std::string output;
+    int threads = 0;
+    uint64_t seed = 1;
+    std::string mode = "split";
+    double minRelativeFlux = 1e-4;
+    int maxSplitDepth = 64;
+    double roulette = 0.0;
+    int maxSegments = 1000;
+    bool quiet = false;
+};
+void addTraceCommand(CLI::App& app, TraceOptions& options);
+int runTrace(const CommonOptions& common, const TraceOptions& options);
+
 }  // namespace veil::cli

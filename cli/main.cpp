@@ -23,6 +23,8 @@ int main(int argc, char** argv) {
     veil::cli::addLayoutCommand(app, layout);
     veil::cli::ExportOptions exportOptions;
     veil::cli::addExportCommand(app, exportOptions);
+    veil::cli::TraceOptions traceOptions;
+    veil::cli::addTraceCommand(app, traceOptions);
 
     try {
         app.parse(argc, argv);
@@ -34,6 +36,7 @@ int main(int argc, char** argv) {
             if (sub->get_name() == "info") return veil::cli::runInfo(common, info);
             if (sub->get_name() == "layout") return veil::cli::runLayout(common, layout);
             if (sub->get_name() == "export") return veil::cli::runExport(common, exportOptions);
+            if (sub->get_name() == "trace") return veil::cli::runTrace(common, traceOptions);
         }
     } catch (const veil::ParseError& e) {
         std::cerr << "veil: error: " << e.what() << "\n";

@@ -37,7 +37,7 @@ namespace veil {
 struct TransportOptions {
     enum class Mode { Split, Random };
     Mode mode = Mode::Split;
-    double minRelativeFlux = 1e-9;      // split mode: cull branches below this share
+    double minRelativeFlux = 1e-4;      // split mode: cull branches below this share
     int maxSplitDepth = 64;             // split mode: cull deeper branches
     double rouletteRelativeFlux = 0.0;  // 0 = no Russian roulette
     int maxSegments = 1000;             // per branch
