@@ -55,8 +55,16 @@ struct TraceOptions {
     double roulette = 0.0;
     int maxSegments = 1000;
     bool quiet = false;
+    std::string saveRays;  // ray database file to write
 };
 void addTraceCommand(CLI::App& app, TraceOptions& options);
 int runTrace(const CommonOptions& common, const TraceOptions& options);
+
+struct RaysOptions {
+    std::string file;
+    bool json = false;
+};
+void addRaysCommand(CLI::App& app, RaysOptions& options);
+int runRays(const CommonOptions& common, const RaysOptions& options);
 
 }  // namespace veil::cli

@@ -139,6 +139,7 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
                               {"stop", s.stop},
                               {"mirror", s.mirror}};
             if (!s.coating.empty()) js["coating"] = s.coating;
+            if (s.innerSemiDiameterMm > 0.0) js["hole_semi_diameter_mm"] = s.innerSemiDiameterMm;
             j["surfaces"].push_back(js);
         }
         j["elements"] = nlohmann::json::array();
@@ -181,6 +182,7 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
         std::string flags;
         if (s.stop) flags += " STOP";
         if (s.mirror) flags += " MIRROR";
+        if (s.innerSemiDiameterMm > 0.0) flags += " hole=" + fmt(s.innerSemiDiameterMm, 5);
         if (s.conic != 0.0) flags += " k=" + fmt(s.conic);
         if (s.hasAsphere()) flags += " asphere";
         os << "  " << std::left << std::setw(4) << i << std::setw(12) << s.name << std::right

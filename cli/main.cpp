@@ -25,6 +25,8 @@ int main(int argc, char** argv) {
     veil::cli::addExportCommand(app, exportOptions);
     veil::cli::TraceOptions traceOptions;
     veil::cli::addTraceCommand(app, traceOptions);
+    veil::cli::RaysOptions raysOptions;
+    veil::cli::addRaysCommand(app, raysOptions);
 
     try {
         app.parse(argc, argv);
@@ -37,6 +39,7 @@ int main(int argc, char** argv) {
             if (sub->get_name() == "layout") return veil::cli::runLayout(common, layout);
             if (sub->get_name() == "export") return veil::cli::runExport(common, exportOptions);
             if (sub->get_name() == "trace") return veil::cli::runTrace(common, traceOptions);
+            if (sub->get_name() == "rays") return veil::cli::runRays(common, raysOptions);
         }
     } catch (const veil::ParseError& e) {
         std::cerr << "veil: error: " << e.what() << "\n";

@@ -21,6 +21,7 @@
 #include <sstream>
 
 #include "analysis/image_output.h"
+#include "analysis/ray_statistics.h"
 #include "analysis/trace_setup.h"
 #include "cli/commands.h"
 
@@ -49,6 +50,46 @@ void addTraceCommand(CLI::App& app, TraceOptions& o) {
     sub->add_option("--max-segments", o.maxSegments, "segments per branch before it is culled")
         ->capture_default_str();
     sub->add_flag("--quiet", o.quiet, "no progress bar");
+    sub->add_option(
+        "--save-rays", o.saveRays,
+        "write every ray's path history to this ray database file (docs/ray-database.md)");
+}
+
+void addRaysCommand(CLI::App& app, RaysOptions& o) {
+    CLI::App* sub = app.add_subcommand("rays", "summarise a ray database without tracing again");
+    sub->add_option("file", o.file, "ray database written by veil trace --save-rays")->required();
+    sub->add_flag("--json", o.json, "print JSON on standard output");
+}
+
+int runRays(const CommonOptions&, const RaysOptions& o) {
+    RayDatabaseReader reader(o.file);
+    const RayStatistics s = rayStatistics(reader);
+    const RayDatabaseInfo& info = reader.info();
+    if (o.json) {
+        nlohmann::json j;
+        j["scene"] = info.sceneName;
+        j["seed"] = info.seed;
+        j["unit"] = info.fluxUnit;
+        j["rays"] = s.rays;
+        j["paths"] = s.paths;
+        j["events"] = s.events;
+        for (int t = 0; t < kEventTypeCount; ++t)
+            j["events_by_type"][std::string(toString(static_cast<EventType>(t)))] =
+                s.eventsByType[t];
+        for (const auto& [name, flux] : s.detectedFlux) j["detected_flux"][name] = flux;
+        std::cout << j.dump(2) << "\n";
+        return 0;
+    }
+    std::cout << o.file << ": scene " << info.sceneName << ", seed " << info.seed << "\n  "
+              << s.rays << " rays, " << s.paths << " paths, " << s.events << " events\n";
+    for (int t = 0; t < kEventTypeCount; ++t)
+        if (s.eventsByType[t])
+            std::cout << "  " << std::left << std::setw(18) << toString(static_cast<EventType>(t))
+                      << std::right << std::setw(12) << s.eventsByType[t] << "\n";
+    for (const auto& [name, flux] : s.detectedFlux)
+        std::cout << "  detected on " << name << ": " << std::scientific << std::setprecision(6)
+                  << flux << " " << info.fluxUnit << "\n";
+    return 0;
 }
 
 namespace {
@@ -103,9 +144,24 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
                   << (total ? 100.0 * done / total : 100.0) << "%  " << std::setprecision(0) << rate
                   << " rays/s  ETA " << duration(left) << "   " << std::flush;
     };
+    std::unique_ptr<RayDatabaseWriter> db;
+    RayCallback onRay;
+    if (!o.saveRays.empty()) {
+        RayDatabaseInfo info = describeScene(setup.scene, o.file);
+        info.seed = o.seed;
+        info.fluxUnit = ts.transport.sources.front().unit() == FluxUnit::Lumen ? "lm" : "W";
+        for (const Source& src : ts.transport.sources) info.sources.push_back(src.name());
+        db = std::make_unique<RayDatabaseWriter>(o.saveRays, info);
+        options.recordHistories = true;
+        onRay = [&](uint64_t i, const PathHistory& h) { db->add(i, h); };
+    }
     const TraceResult result = traceNonsequential(
         ts.transport, ts.images, raysPerSource, options,
-        o.quiet ? std::function<void(uint64_t)>{} : std::function<void(uint64_t)>(progress));
+        o.quiet ? std::function<void(uint64_t)>{} : std::function<void(uint64_t)>(progress), onRay);
+    if (db) {
+        db->setEmittedRays(total);
+        db->close();
+    }
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (!o.quiet) std::cerr << "\n";

@@ -57,6 +57,7 @@ struct Branch {
     int segments = 0;
     int startObject = -1;
     int startPrimitive = -1;
+    NodeIndex node = kNoNode;  // its last event in the history (when recorded)
 };
 
 bool isOpaque(ObjectKind k) {
@@ -80,20 +81,28 @@ struct Accumulator {
 
 class RayTracer {
   public:
-    RayTracer(const TransportScene& ts, const TransportOptions& o) : ts_(ts), o_(o) {}
+    RayTracer(const TransportScene& ts, const TransportOptions& o)
+        : ts_(ts), o_(o), sceneBounds_(ts.scene->bounds()) {}
 
-    void trace(const Source& source, uint64_t rayIndex, uint64_t raysPerSource, Accumulator& acc) {
+    const PathHistory& history() const { return history_; }
+
+    void trace(int sourceIndex, uint64_t rayIndex, uint64_t raysPerSource, Accumulator& acc) {
+        const Source& source = ts_.sources[sourceIndex];
         CounterRng rng(o_.seed, rayIndex);
         const EmittedRay e = source.emit(rng, raysPerSource);
         FluxBudget& b = acc.budget;
         b.emitted += e.flux;
         ++b.rays;
+        NodeIndex root = kNoNode;
+        if (o_.recordHistories)
+            root = history_.start(sourceIndex, static_cast<float>(e.wavelengthNm), e.ray.origin,
+                                  e.ray.direction, e.flux, 0);
         if (!(e.flux > 0.0)) return;
         const int w = e.wavelength;
         const double cullFlux = o_.minRelativeFlux * e.flux;
         const double rouletteFlux = o_.rouletteRelativeFlux * e.flux;
         stack_.clear();
-        stack_.push_back({e.ray, e.flux, 0, 0, 0, -1, -1});
+        stack_.push_back({e.ray, e.flux, 0, 0, 0, -1, -1, root});
         while (!stack_.empty()) {
             Branch br = stack_.back();
             stack_.pop_back();
@@ -104,13 +113,45 @@ class RayTracer {
     }
 
   private:
+    // Appends an event to the branch's history (when recording) and moves the branch on it.
+    NodeIndex record(NodeIndex parent, EventType type, const Vec3& position, const Vec3& direction,
+                     double flux, int object, int face, int medium, uint8_t detail = 0) {
+        if (!o_.recordHistories) return kNoNode;
+        PathNode n;
+        n.position = position;
+        n.direction = direction;
+        n.flux = flux;
+        n.object = object;
+        n.face = face;
+        n.medium = static_cast<int16_t>(medium);
+        n.type = type;
+        n.detail = detail;
+        return history_.append(parent, n);
+    }
+    void cull(Branch& br, CullReason why, FluxBudget& b) {
+        b.culled += br.flux;
+        record(br.node, EventType::Culled, br.ray.origin, br.ray.direction, br.flux, -1, 0,
+               br.medium, static_cast<uint8_t>(why));
+    }
+    // Where a ray leaving the scene crosses its bounding box (for drawing Exit events).
+    Vec3 exitPoint(const Ray& r) const {
+        double tFar = 0.0;
+        for (int a = 0; a < 3; ++a) {
+            if (r.direction[a] == 0.0) continue;
+            const double bound = r.direction[a] > 0 ? sceneBounds_.hi[a] : sceneBounds_.lo[a];
+            const double t = (bound - r.origin[a]) / r.direction[a];
+            tFar = a == 0 || tFar == 0.0 ? t : std::min(tFar, t);
+        }
+        return r.origin + std::max(0.0, tFar) * r.direction;
+    }
+
     void follow(Branch br, int w, double wavelengthNm, double cullFlux, double rouletteFlux,
                 CounterRng& rng, Accumulator& acc) {
         FluxBudget& b = acc.budget;
         const Scene& scene = *ts_.scene;
         while (true) {
             if (br.segments >= o_.maxSegments) {
-                b.culled += br.flux;
+                cull(br, CullReason::MaxSegments, b);
                 return;
             }
             const auto hit = scene.closestHit(br.ray, kInfinity, br.startObject, br.startPrimitive);
@@ -118,6 +159,8 @@ class RayTracer {
             ++b.segments;
             if (!hit) {
                 b.escaped += br.flux;
+                record(br.node, EventType::Exit, exitPoint(br.ray), br.ray.direction, br.flux, -1,
+                       0, br.medium);
                 return;
             }
             // Absorption inside the medium along the segment.
@@ -137,6 +180,9 @@ class RayTracer {
                 } else {
                     b.absorbedSurface += br.flux;
                 }
+                record(br.node, pixel ? EventType::DetectorHit : EventType::SurfaceAbsorb,
+                       hit->point, br.ray.direction, br.flux, hit->object, hit->primitive,
+                       br.medium);
                 return;
             }
             const OpticalProperty& prop = ts_.properties[ts_.propertyOfObject[hit->object]];
@@ -156,24 +202,44 @@ class RayTracer {
                 int medium;
                 bool scatter;
                 bool transmit;
+                EventType event;
             };
+            // A reflection at an interface that also refracts is a ghost's first step.
+            const EventType specularEvent =
+                ch.tir ? EventType::TotalInternalReflection
+                : (obj.kind == ObjectKind::LensFace && !ctx.opaque && ctx.n1 != ctx.n2)
+                    ? EventType::FresnelReflect
+                    : EventType::SpecularReflect;
             Child children[4];
             int n = 0;
             double total = 0.0;
             if (ch.specularReflect > 0.0)
-                children[n++] = {ch.specularReflect, reflect(br.ray.direction, ctx.normal),
-                                 hit->mediumFrom, false, false};
+                children[n++] = {ch.specularReflect,
+                                 reflect(br.ray.direction, ctx.normal),
+                                 hit->mediumFrom,
+                                 false,
+                                 false,
+                                 specularEvent};
             if (ch.specularTransmit > 0.0) {
                 if (const auto t = refract(br.ray.direction, ctx.normal, ctx.n1, ctx.n2))
-                    children[n++] = {ch.specularTransmit, *t, hit->mediumTo, false, true};
+                    children[n++] = {ch.specularTransmit, *t, hit->mediumTo, false, true,
+                                     EventType::Refract};
             }
             if (ch.scatterReflect > 0.0)
-                children[n++] = {ch.scatterReflect, Vec3(0.0), hit->mediumFrom, true, false};
+                children[n++] = {ch.scatterReflect,        Vec3(0.0), hit->mediumFrom, true, false,
+                                 EventType::ScatterReflect};
             if (ch.scatterTransmit > 0.0)
-                children[n++] = {ch.scatterTransmit, Vec3(0.0), hit->mediumTo, true, true};
+                children[n++] = {ch.scatterTransmit,        Vec3(0.0), hit->mediumTo, true, true,
+                                 EventType::ScatterTransmit};
             for (int k = 0; k < n; ++k) total += children[k].share;
             b.absorbedSurface += br.flux * std::max(0.0, 1.0 - total);
-            if (n == 0) return;
+            if (n == 0) {
+                record(br.node, EventType::SurfaceAbsorb, hit->point, br.ray.direction, br.flux,
+                       hit->object, hit->primitive, br.medium);
+                return;
+            }
+            const double arriving = br.flux;
+            const NodeIndex parent = br.node;
 
             auto direction = [&](int k) {
                 if (!children[k].scatter) return children[k].direction;
@@ -194,9 +260,12 @@ class RayTracer {
                 br.flux *= total;
                 br.ray = {hit->point, direction(k)};
                 br.medium = children[k].medium;
+                br.node = record(parent, children[k].event, hit->point, br.ray.direction, arriving,
+                                 hit->object, hit->primitive, br.medium);
             } else {
                 if (br.depth >= o_.maxSplitDepth) {
-                    b.culled += br.flux * total;
+                    br.flux *= total;
+                    cull(br, CullReason::MaxSplitDepth, b);
                     return;
                 }
                 // Push all but the first child; continue with the first.
@@ -208,8 +277,10 @@ class RayTracer {
                     c.medium = children[k].medium;
                     c.startObject = hit->object;
                     c.startPrimitive = hit->primitive;
+                    c.node = record(parent, children[k].event, hit->point, c.ray.direction,
+                                    arriving, hit->object, hit->primitive, c.medium);
                     if (c.flux < cullFlux) {
-                        b.culled += c.flux;
+                        cull(c, CullReason::MinFlux, b);
                         continue;
                     }
                     stack_.push_back(c);
@@ -218,8 +289,10 @@ class RayTracer {
                 br.depth += 1;
                 br.ray = {hit->point, direction(0)};
                 br.medium = children[0].medium;
+                br.node = record(parent, children[0].event, hit->point, br.ray.direction, arriving,
+                                 hit->object, hit->primitive, br.medium);
                 if (br.flux < cullFlux) {
-                    b.culled += br.flux;
+                    cull(br, CullReason::MinFlux, b);
                     return;
                 }
             }
@@ -230,7 +303,7 @@ class RayTracer {
                     b.rouletteGain += rouletteFlux - br.flux;
                     br.flux = rouletteFlux;
                 } else {
-                    b.culled += br.flux;
+                    cull(br, CullReason::RussianRoulette, b);
                     return;
                 }
             }
@@ -240,6 +313,8 @@ class RayTracer {
     const TransportScene& ts_;
     const TransportOptions& o_;
     std::vector<Branch> stack_;
+    PathHistory history_;
+    Bounds3 sceneBounds_;
 };
 
 }  // namespace
@@ -247,7 +322,8 @@ class RayTracer {
 TraceResult traceNonsequential(const TransportScene& ts,
                                const std::vector<DetectorImage>& detectors, uint64_t raysPerSource,
                                const TransportOptions& options,
-                               const std::function<void(uint64_t)>& progress) {
+                               const std::function<void(uint64_t)>& progress,
+                               const RayCallback& onRay) {
     const uint64_t sources = ts.sources.size();
     const uint64_t total = raysPerSource * sources;
     const uint64_t block = std::max<uint64_t>(1, options.raysPerBlock);
@@ -262,7 +338,8 @@ TraceResult traceNonsequential(const TransportScene& ts,
                 for (uint64_t i = r.begin(); i < r.end(); ++i) {
                     // Ray i belongs to source i / raysPerSource; its random stream is keyed
                     // by i alone, so sources never share numbers.
-                    tracer.trace(ts.sources[i / raysPerSource], i, raysPerSource, acc);
+                    tracer.trace(static_cast<int>(i / raysPerSource), i, raysPerSource, acc);
+                    if (options.recordHistories && onRay) onRay(i, tracer.history());
                 }
                 done += r.size();
                 return acc;

@@ -30,6 +30,7 @@
 #include "tracer/detector.h"
 #include "tracer/media.h"
 #include "tracer/optical_property.h"
+#include "tracer/path_history.h"
 #include "tracer/source.h"
 
 namespace veil {
@@ -43,6 +44,9 @@ struct TransportOptions {
     int maxSegments = 1000;             // per branch
     uint64_t seed = 1;
     uint64_t raysPerBlock = 4096;  // reduction block (fixed: part of reproducibility)
+    // Record every ray's path history (tracer/path_history.h) and hand it to the onRay
+    // callback of traceNonsequential(). Costs a node append per event.
+    bool recordHistories = false;
 };
 std::ostream& operator<<(std::ostream& os, const TransportOptions& o);
 
@@ -82,9 +86,13 @@ struct TraceResult {
 // Traces `raysPerSource` rays from every source. `detectors` are the empty images to fill
 // (one per detector, in detectorOfObject's numbering). `progress` (may be empty) is called
 // from one thread with the number of rays done so far.
+// With options.recordHistories, onRay(rayIndex, history) is called once per emitted ray,
+// from worker threads, concurrently: it must be thread-safe (RayDatabaseWriter::add is).
+using RayCallback = std::function<void(uint64_t, const PathHistory&)>;
 TraceResult traceNonsequential(const TransportScene& ts,
                                const std::vector<DetectorImage>& detectors, uint64_t raysPerSource,
                                const TransportOptions& options,
-                               const std::function<void(uint64_t)>& progress = {});
+                               const std::function<void(uint64_t)>& progress = {},
+                               const RayCallback& onRay = {});
 
 }  // namespace veil
