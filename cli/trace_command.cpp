@@ -144,6 +144,7 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
                   << (total ? 100.0 * done / total : 100.0) << "%  " << std::setprecision(0) << rate
                   << " rays/s  ETA " << duration(left) << "   " << std::flush;
     };
+    std::filesystem::create_directories(o.output);
     std::unique_ptr<RayDatabaseWriter> db;
     RayCallback onRay;
     if (!o.saveRays.empty()) {
@@ -151,6 +152,8 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
         info.seed = o.seed;
         info.fluxUnit = ts.transport.sources.front().unit() == FluxUnit::Lumen ? "lm" : "W";
         for (const Source& src : ts.transport.sources) info.sources.push_back(src.name());
+        const std::filesystem::path dbParent = std::filesystem::path(o.saveRays).parent_path();
+        if (!dbParent.empty()) std::filesystem::create_directories(dbParent);
         db = std::make_unique<RayDatabaseWriter>(o.saveRays, info);
         options.recordHistories = true;
         onRay = [&](uint64_t i, const PathHistory& h) { db->add(i, h); };

@@ -195,12 +195,52 @@ TEST(VeilLayout, CollidingMechanicsNameBothParts) {
     const std::string path = ::testing::TempDir() + "veil_collide.toml";
     FILE* f = fopen(path.c_str(), "w");
     ASSERT_TRUE(f);
-    fprintf(f, "lens = \"%s/examples/lenses/double_gauss_50mm.toml\"\n[mechanics]\n"
-               "barrel = { clearance_mm = 0.001 }\n", VEIL_SOURCE_DIR);
+    fprintf(f,
+            "lens = \"%s/examples/lenses/double_gauss_50mm.toml\"\n[mechanics]\n"
+            "barrel = { clearance_mm = 0.001 }\n",
+            VEIL_SOURCE_DIR);
     fclose(f);
     const VeilRun r = runVeil("layout " + path + " -o " + ::testing::TempDir() + "collide.svg");
     EXPECT_EQ(r.exitCode, 1);
     EXPECT_NE(r.err.find("barrel: collides with L"), std::string::npos) << r.err;
+}
+
+}  // namespace
+
+namespace {
+
+// The Sun example scene runs end to end with a small ray budget: images, summary, budget.
+TEST(VeilTrace, SunSceneWritesImagesAndABalancedBudget) {
+    const std::string dir = ::testing::TempDir() + "veil_trace_test";
+    std::filesystem::remove_all(dir);
+    const VeilRun r = runVeil(
+        "trace examples/scenes/longfocus_360mm_sun.toml -n 300 --threads 1 "
+        "--quiet -o " +
+        dir + " --save-rays " + dir + "/rays.vrdb");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_TRUE(std::filesystem::exists(dir + "/sensor_image.exr"));
+    EXPECT_TRUE(std::filesystem::exists(dir + "/sensor_image.png"));
+    std::ifstream js(dir + "/summary.json");
+    const nlohmann::json j = nlohmann::json::parse(js);
+    const double emitted = j["budget"]["emitted"].get<double>();
+    EXPECT_GT(emitted, 0.9);
+    EXPECT_LT(std::abs(j["budget"]["imbalance"].get<double>()), 1e-12 * emitted);
+    const double detected = j["detectors"][0]["flux"].get<double>();
+    EXPECT_GT(detected, 0.0);  // stray light reaches the sensor although the Sun is off field
+    EXPECT_LT(detected, 0.05 * emitted);
+    // The saved histories give the same detector flux back.
+    const VeilRun rays = runVeil("rays --json " + dir + "/rays.vrdb");
+    ASSERT_EQ(rays.exitCode, 0) << rays.err;
+    const nlohmann::json s = nlohmann::json::parse(rays.out);
+    EXPECT_EQ(s["rays"].get<int>(), 300);
+    EXPECT_NEAR(s["detected_flux"]["sensor"].get<double>(), detected, 1e-6 * detected);
+}
+
+TEST(VeilTrace, SceneWithoutSourceIsAnError) {
+    const VeilRun r = runVeil("trace examples/scenes/double_gauss_50mm.toml -n 10 -o " +
+                              ::testing::TempDir() + "nosrc");
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_NE(r.err.find("no [[source]]"), std::string::npos) << r.err;
 }
 
 }  // namespace
