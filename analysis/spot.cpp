@@ -34,9 +34,13 @@ SpotResult computeSpot(const SequentialModel& model, const RayAimer& aimer, int 
     SequentialTraceOptions topts;
     topts.clipApertures = options.clipApertures;
 
+    // The chief ray is a reference: traced without apertures, so that a central obscuration
+    // (a Cassegrain's hole, which it always falls in) leaves it defined.
     const AimedRay chief = aimer.aim(f, 0.0, 0.0, w);
     if (chief.status == RayStatus::Ok) {
-        const SequentialRayResult r = traceSequential(model, w, chief.ray, topts);
+        SequentialTraceOptions chiefOptions = topts;
+        chiefOptions.clipApertures = false;
+        const SequentialRayResult r = traceSequential(model, w, chief.ray, chiefOptions);
         if (r.ok()) out.chiefMm = Vec2(r.ray.origin.x, r.ray.origin.y);
     }
     for (const Vec2& pp : hexapolarPupil(options.rings)) {

@@ -21,7 +21,7 @@ struct SpotResult {
     int wavelength = 0;
     int raysTraced = 0;
     int raysLanded = 0;  // reached the image surface
-    Vec2 chiefMm{0.0};   // chief ray on the image surface
+    Vec2 chiefMm{0.0};   // chief ray on the image surface (traced without apertures)
     Vec2 centroidMm{0.0};
     double rmsRadiusMm = 0.0;       // about the centroid
     double rmsRadiusChiefMm = 0.0;  // about the chief ray

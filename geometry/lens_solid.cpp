@@ -78,6 +78,22 @@ void requireClearSize(const Surface& s) {
     }
 }
 
+void rejectHole(const Surface& s) {
+    if (s.innerSemiDiameterMm > 0.0) {
+        throw ModelError(s.name,
+                         "central hole of " + fmt(s.innerSemiDiameterMm) +
+                             " mm: holes in lens elements are not modelled (only mirrors in air "
+                             "may have one)");
+    }
+}
+
+// The face of a surface out to its clear semi-diameter: a disc, or an annulus around its hole.
+Aperture clearAperture(const Surface& s) {
+    if (s.innerSemiDiameterMm > 0.0)
+        return AnnularAperture{s.innerSemiDiameterMm, s.clearSemiDiameterMm};
+    return CircularAperture{s.clearSemiDiameterMm};
+}
+
 // A side whose exact face ends at radius r: its rim height, computed once for every object
 // that meets there.
 LensSide makeSide(const Prescription& p, const std::vector<double>& z, int surface, double r,
@@ -192,6 +208,8 @@ std::vector<LensSolid> solidsOfNamed(const Prescription& p) {
         const Surface& b = p.surfaces[kept[k].backSurface];
         requireClearSize(f);
         requireClearSize(b);
+        rejectHole(f);
+        rejectHole(b);
         radius[k] = std::max(mechanicalRadius(f), mechanicalRadius(b));
     }
     auto cementedToNext = [&](size_t k) {
@@ -418,11 +436,24 @@ void addLensSolids(const Prescription& prescription, Scene& scene,
         if (Planned* match = findCoincident(i)) {
             SceneObject& face = match->object;
             if (!sf.mirror || face.kind == ObjectKind::MirrorFace) {
+                // A repeated pass: the face was built once, with the first pass's aperture.
+                if (sf.innerSemiDiameterMm > 0.0) {
+                    const auto& patch =
+                        std::get<SurfacePatch>(std::get<FaceGeometry>(face.geometry));
+                    const auto* ring = std::get_if<AnnularAperture>(&patch.aperture);
+                    if (!ring || ring->innerRadiusMm != sf.innerSemiDiameterMm) {
+                        throw ModelError(sf.name, "central hole of " + fmt(sf.innerSemiDiameterMm) +
+                                                      " mm: " + face.name +
+                                                      ", the face it coincides with, has no such "
+                                                      "hole");
+                    }
+                }
                 addAliases(face, names);
                 continue;
             }
             // A mirror on a lens face (a spot secondary): cut it out of the face.
             requireClearSize(sf);
+            rejectHole(sf);
             auto& patch = std::get<SurfacePatch>(std::get<FaceGeometry>(face.geometry));
             const auto* disc = std::get_if<CircularAperture>(&patch.aperture);
             if (!disc) {
@@ -460,8 +491,8 @@ void addLensSolids(const Prescription& prescription, Scene& scene,
         o.part = sf.name;
         o.property = mirrorPropertyOf(sf, options);
         o.frame = Frame::alongAxis(z[i]);
-        o.geometry =
-            FaceGeometry{SurfacePatch{shapeOf(sf), CircularAperture{sf.clearSemiDiameterMm}}};
+        // A hole (a Cassegrain primary) leaves an annulus: light passes through the centre.
+        o.geometry = FaceGeometry{SurfacePatch{shapeOf(sf), clearAperture(sf)}};
         o.sequentialSurface = i;
         planned.push_back({i, std::move(o)});
     }

@@ -76,15 +76,23 @@
 //    an alias of the front face rather than a second object.
 //  * A mirror in air is a single MirrorFace (named M1, M2, ...; part = its own name) sized to
 //    its clear semi-diameter, with air on both sides: a thin front-surface mirror without a
-//    substrate for now. A central hole is a later concern.
+//    substrate for now. A central hole (Surface::innerSemiDiameterMm, a Cassegrain primary)
+//    makes its aperture the annulus from the hole to the clear semi-diameter: light crosses
+//    the mirror's surface freely inside the hole.
 //  * A mirror that coincides with a face of an element (same vertex and shape: a Maksutov's
 //    spot secondary, aluminised on the corrector) is cut out of that face: the spot is a
 //    MirrorFace disc with the face's media, the face keeps the annulus around it.
 //  * In general a surface that coincides with one already built (a repeated pass through
 //    the same glass) adds its names as aliases of that face instead of a second copy.
 //
+// Holes. Only mirrors in air may have one. A hole in a lens element or in a spot mirror on a
+// lens face would need a bore through the glass: ModelError ("holes in lens elements are not
+// modelled"). A surface that repeats a face already built must have the same hole as it.
+//
 // Other surfaces (object, dummy planes, the stop, the image) get no objects here: the
-// mechanics builder makes the stop plate and the scene builder adds the image.
+// mechanics builder makes the stop plate and the scene builder adds the image. A hole on
+// such a surface only vignettes sequential rays (a Zemax obscuration on a dummy plane); in
+// the scene, whatever casts that shadow (the secondary mirror, a spider) must be an object.
 
 #include <ostream>
 #include <string>

@@ -26,7 +26,8 @@
 //     solid builds it (geometry/lens_solid.h): each face exact to its clear semi-diameter
 //     and flat beyond, a cemented face exact to the smaller element's R. Cemented elements
 //     form one group. Mirrors without glass are thin sheets (sag out to mech_sd, the larger
-//     of the mirror's sizes); no mirror cells or substrates.
+//     of the mirror's sizes; solid across a central hole, so parts keep clear of it); no
+//     mirror cells or substrates.
 //   - Light paths: the gaps between physical surfaces (stop and other non-glass,
 //     non-mirror surfaces are passed through), each with a beam radius, the largest clear
 //     semi-diameter along it.

@@ -43,6 +43,7 @@ std::ostream& operator<<(std::ostream& os, const Surface& s) {
     if (s.conic != 0.0) os << " k=" << s.conic;
     if (s.hasAsphere()) os << " asphere";
     if (s.clearSemiDiameterMm > 0.0) os << " sd=" << s.clearSemiDiameterMm;
+    if (s.innerSemiDiameterMm > 0.0) os << " hole=" << s.innerSemiDiameterMm;
     if (s.mechSemiDiameterMm > 0.0) os << " msd=" << s.mechSemiDiameterMm;
     if (s.stop) os << " STOP";
     if (s.mirror) os << " MIRROR";
@@ -163,6 +164,20 @@ void Prescription::validate() const {
                                             std::to_string(s.clearSemiDiameterMm) +
                                             " mm exceeds the mechanical semi-diameter " +
                                             std::to_string(s.mechSemiDiameterMm) + " mm");
+        if (!(s.innerSemiDiameterMm >= 0.0) || !std::isfinite(s.innerSemiDiameterMm))
+            throw ModelError(nameOf(i), "hole semi-diameter must be finite and >= 0 (got " +
+                                            std::to_string(s.innerSemiDiameterMm) + " mm)");
+        if (s.innerSemiDiameterMm > 0.0 && (i == 0 || i == n - 1))
+            throw ModelError(nameOf(i), "the object and image surfaces cannot have a hole");
+        if (s.innerSemiDiameterMm > 0.0 && !(s.clearSemiDiameterMm > 0.0))
+            throw ModelError(nameOf(i), "a central hole of " +
+                                            std::to_string(s.innerSemiDiameterMm) +
+                                            " mm needs the clear semi-diameter around it");
+        if (s.innerSemiDiameterMm > 0.0 && s.innerSemiDiameterMm >= s.clearSemiDiameterMm)
+            throw ModelError(nameOf(i), "hole semi-diameter " +
+                                            std::to_string(s.innerSemiDiameterMm) +
+                                            " mm must be smaller than the clear semi-diameter " +
+                                            std::to_string(s.clearSemiDiameterMm) + " mm");
         if (s.stop) ++stops;
         if (s.mirror && (i == 0 || i == n - 1))
             throw ModelError(nameOf(i), "the object and image surfaces cannot be mirrors");

@@ -64,6 +64,12 @@ struct Surface {
     // without a fixed solve): it sizes the part but does not vignette sequential rays, as in
     // that program. A semi-diameter the user fixed does vignette.
     bool semiDiameterAutomatic = false;
+    // Central hole or obscuration, mm; 0 = none. The clear aperture is then the annulus from
+    // innerSemiDiameterMm to clearSemiDiameterMm (0 <= inner < clear; a hole needs a clear
+    // semi-diameter). Sequential rays inside it are Clipped (a hole is never computed, so it
+    // clips even where the outer semi-diameter does not); in the scene a mirror in air gets
+    // an annular face, so light passes through the hole (a Cassegrain primary).
+    double innerSemiDiameterMm = 0.0;
 
     bool stop = false;
     bool mirror = false;

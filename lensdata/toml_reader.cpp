@@ -18,6 +18,7 @@
 //   t                   number                       required      to the next vertex, mm
 //   glass               "N-BK7" | "AIR" | {nd, vd, dpgf}           air; mirror: incident medium
 //   sd, mech_sd         number >= 0                  0 = not given clear, mechanical semi-dia.
+//   hole_sd             number >= 0, < sd            0 = none      central hole / obscuration
 //   conic               number                       0             conic constant k
 //   asph                [A4, A6, ..., A20]           []            even asphere terms
 //   asph_r2             number                       0             A2 (r^2 term)
@@ -218,6 +219,19 @@ void LensReader::readRow(const TomlTable& row, bool last, Material& incident) {
     readShape(row, s);
     s.clearSemiDiameterMm = row.number("sd", 0.0, NumberRange::atLeast(0.0));
     s.mechSemiDiameterMm = row.number("mech_sd", 0.0, NumberRange::atLeast(0.0));
+    if (const auto hole = row.get("hole_sd")) {
+        s.innerSemiDiameterMm = hole->asNumber(NumberRange::atLeast(0.0));
+        // Reported at the value here; validate() would only name the surface.
+        if (s.innerSemiDiameterMm > 0.0 && !(s.clearSemiDiameterMm > 0.0))
+            hole->fail("hole_sd needs the clear semi-diameter sd of the annulus around the hole");
+        if (s.innerSemiDiameterMm > 0.0 && s.innerSemiDiameterMm >= s.clearSemiDiameterMm) {
+            std::ostringstream message;
+            message << "hole_sd = " << s.innerSemiDiameterMm
+                    << " mm must be smaller than the clear semi-diameter sd = "
+                    << s.clearSemiDiameterMm << " mm";
+            hole->fail(message.str());
+        }
+    }
     s.coating = row.string("coating");
     s.comment = row.string("comment");
     if (const auto name = row.get("name")) {
@@ -238,6 +252,8 @@ void LensReader::readRow(const TomlTable& row, bool last, Material& incident) {
                 v->fail(std::string("the image row takes no '") + key +
                         "' (the previous row's t is the distance to the image)");
         }
+        if (const auto v = row.get("hole_sd"))
+            v->fail("the image row takes no 'hole_sd' (the image surface has no hole)");
         s.material = incident;
         sawImageRow_ = true;
         p_.surfaces.push_back(s);

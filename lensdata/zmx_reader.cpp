@@ -6,8 +6,9 @@
 //   2. dispatch every line on its command tag, filling surfaces in file units and collecting
 //      header data (fields, wavelengths, aperture, units) and glass references;
 //   3. resolve glasses against the catalog (the file's GCAT order first), give mirrors the
-//      incident medium, convert lengths to mm, assemble fields and wavelengths, and add the
-//      summary notes. Then Prescription::assignNames() and validate().
+//      incident medium, import centred circular holes (CLAP, OBSC), convert lengths to mm,
+//      assemble fields and wavelengths, and add the summary notes. Then
+//      Prescription::assignNames() and validate().
 
 #include "lensdata/zmx_reader.h"
 
@@ -208,6 +209,17 @@ class ZmxParser {
         int count = 0;
         FileLoc first;
     };
+    // A CLAP (circular aperture, min and max radius) or OBSC (circular obscuration, min and
+    // max radius) line, with the OBDC decenter that may follow it; resolved once the glasses
+    // are known, since only mirrors and surfaces in air take a hole.
+    struct SurfaceApertureRef {
+        int surface = 0;
+        std::string tag;
+        double minRadius = 0.0, maxRadius = 0.0;  // lens units
+        double decenterX = 0.0, decenterY = 0.0;
+        std::string text;  // the line, for the notes
+        FileLoc loc;
+    };
 
     // Positions and values
     FileLoc locOf(const Line& line, size_t byteOffset) const;
@@ -217,6 +229,7 @@ class ZmxParser {
     double number(const Line& line, size_t i, const char* what) const;
     std::optional<double> optionalNumber(const Line& line, size_t i) const;
     int integer(const Line& line, size_t i, const char* what) const;
+    bool isNumber(const Line& line, size_t i) const;  // token i exists and number() takes it
     std::vector<double> numberList(const Line& line) const;
     std::string restOfLine(const Line& line, size_t firstToken) const;
 
@@ -238,6 +251,7 @@ class ZmxParser {
     // Post-processing
     void resolveGlasses();
     void applyMirrors();
+    void importHoles();
     void convertUnits();
     void buildFields();
     void buildWavelengths();
@@ -254,6 +268,7 @@ class ZmxParser {
     std::optional<UnsupportedSurface> unsupported_;
     std::vector<std::string> surfaceTypes_;  // TYPE of each surface, upper case
     std::vector<GlassRef> glasses_;
+    std::vector<SurfaceApertureRef> surfaceApertures_;
 
     // Header
     double mmPerUnit_ = 1.0;
@@ -313,6 +328,16 @@ double ZmxParser::number(const Line& line, size_t i, const char* what) const {
 std::optional<double> ZmxParser::optionalNumber(const Line& line, size_t i) const {
     if (i >= line.tokens.size()) return std::nullopt;
     return number(line, i, "number");
+}
+
+bool ZmxParser::isNumber(const Line& line, size_t i) const {
+    if (i >= line.tokens.size()) return false;
+    try {
+        number(line, i, "number");
+        return true;
+    } catch (const ParseError&) {
+        return false;
+    }
 }
 
 int ZmxParser::integer(const Line& line, size_t i, const char* what) const {
@@ -572,6 +597,27 @@ bool ZmxParser::surfaceCommand(const std::string& tag, const Line& line) {
         if (line.tokens.size() > 1) s.coating = std::string(line.tokens[1].text);
     } else if (tag == "COMM") {
         current(line, tag).comment = restOfLine(line, 1);
+    } else if ((tag == "CLAP" || tag == "OBSC") && line.tokens.size() >= 3 && isNumber(line, 1) &&
+               isNumber(line, 2)) {
+        // CLAP <min radius> <max radius> ...: rays pass between the radii. OBSC <min radius>
+        // <max radius> ...: rays between the radii are blocked. Decided in importHoles().
+        current(line, tag);
+        SurfaceApertureRef a;
+        a.surface = static_cast<int>(rx_.surfaces.size()) - 1;
+        a.tag = tag;
+        a.minRadius = number(line, 1, "minimum radius");
+        a.maxRadius = number(line, 2, "maximum radius");
+        a.text = trim(line.text);
+        a.loc = locOf(line);
+        surfaceApertures_.push_back(std::move(a));
+    } else if (tag == "OBDC" && line.tokens.size() >= 3 && isNumber(line, 1) && isNumber(line, 2) &&
+               !surfaceApertures_.empty() &&
+               surfaceApertures_.back().surface == static_cast<int>(rx_.surfaces.size()) - 1) {
+        // OBDC <x> <y>: the decenter of the surface's aperture.
+        current(line, tag);
+        surfaceApertures_.back().decenterX = number(line, 1, "aperture decenter x");
+        surfaceApertures_.back().decenterY = number(line, 2, "aperture decenter y");
+        surfaceApertures_.back().text += "; " + trim(line.text);
     } else if (tag == "CLAP" || tag == "OBSC" || tag == "SQAP" || tag == "OBSQ" || tag == "ELAP" ||
                tag == "OBEL" || tag == "UDAP" || tag == "OBDC") {
         current(line, tag);
@@ -671,6 +717,63 @@ void ZmxParser::applyMirrors() {
         if (rx_.surfaces[i].mirror) rx_.surfaces[i].material = rx_.surfaces[i - 1].material;
 }
 
+void ZmxParser::importHoles() {
+    // A centred circular hole in the clear aperture becomes Surface::innerSemiDiameterMm: an
+    // obscuration from the axis (OBSC 0 R) or the inner edge of an annular aperture (CLAP R
+    // max). Everything else keeps the warning that DIAM alone limits rays.
+    const int last = static_cast<int>(rx_.surfaces.size()) - 1;
+    for (const SurfaceApertureRef& a : surfaceApertures_) {
+        Surface& s = rx_.surfaces[a.surface];
+        auto notImported = [&](const std::string& why) {
+            note(Severity::Warning, a.loc,
+                 "surface aperture " + a.tag + " not imported: " + a.text + " (" + why +
+                     "; only the clear semi-diameter DIAM limits rays)");
+        };
+        if (a.decenterX != 0.0 || a.decenterY != 0.0) {
+            notImported("decentered: only a centred circular hole is imported");
+            continue;
+        }
+        const bool obscuration = a.tag == "OBSC";
+        if (obscuration && a.minRadius > 0.0) {
+            notImported("an annular obscuration: only one from the axis is imported as a hole");
+            continue;
+        }
+        const double hole = obscuration ? a.maxRadius : a.minRadius;
+        if (!(hole > 0.0)) {
+            notImported(obscuration ? "an empty obscuration" : "no central hole");
+            continue;
+        }
+        if (a.surface == 0 || a.surface == last) {
+            notImported("the object and image surfaces take no hole");
+            continue;
+        }
+        const bool inGlass = !s.material.isAir() || !rx_.surfaces[a.surface - 1].material.isAir();
+        if (inGlass) {
+            notImported("a hole in a surface of a lens element is not modelled");
+            continue;
+        }
+        if (!(hole < s.clearSemiDiameterMm)) {
+            notImported("the hole radius " + formatNumber(hole) +
+                        " is not inside the clear semi-diameter DIAM " +
+                        formatNumber(s.clearSemiDiameterMm));
+            continue;
+        }
+        s.innerSemiDiameterMm = std::max(s.innerSemiDiameterMm, hole);
+        std::string message = a.tag + " imported as a central hole of radius " +
+                              formatNumber(hole) + " (hole_sd): " + a.text;
+        if (!obscuration && a.maxRadius != s.clearSemiDiameterMm) {
+            // The outer edge stays the DIAM: a smaller CLAP radius would vignette more.
+            message += "; its outer radius " + formatNumber(a.maxRadius) +
+                       " is not imported (the clear semi-diameter DIAM " +
+                       formatNumber(s.clearSemiDiameterMm) + " limits rays)";
+            note(a.maxRadius < s.clearSemiDiameterMm ? Severity::Warning : Severity::Info, a.loc,
+                 message);
+        } else {
+            note(Severity::Info, a.loc, message);
+        }
+    }
+}
+
 void ZmxParser::convertUnits() {
     if (mmPerUnit_ == 1.0) return;
     const double f = mmPerUnit_;
@@ -679,6 +782,7 @@ void ZmxParser::convertUnits() {
         s.thicknessMm *= f;  // infinity stays infinity
         s.clearSemiDiameterMm *= f;
         s.mechSemiDiameterMm *= f;
+        s.innerSemiDiameterMm *= f;
         // asphere[i] multiplies r^(2i+2) and has units length^-(2i+1).
         for (size_t i = 0; i < s.asphere.size(); ++i)
             s.asphere[i] *= std::pow(f, -(2.0 * static_cast<double>(i) + 1.0));
@@ -859,6 +963,7 @@ Prescription ZmxParser::parse(std::string_view decoded) {
 
     resolveGlasses();
     applyMirrors();
+    importHoles();
     convertUnits();
     buildFields();
     buildWavelengths();

@@ -8,6 +8,7 @@ namespace veil {
 std::ostream& operator<<(std::ostream& os, const SequentialSurface& s) {
     os << "SequentialSurface{" << s.name << " z=" << s.zMm << " " << s.shape;
     if (s.clearSemiDiameterMm > 0.0) os << " sd=" << s.clearSemiDiameterMm;
+    if (s.innerSemiDiameterMm > 0.0) os << " hole=" << s.innerSemiDiameterMm;
     if (s.mirror) os << " mirror";
     if (s.stop) os << " stop";
     return os << "}";
@@ -42,6 +43,7 @@ SequentialModel SequentialModel::build(const Prescription& p, const GlassCatalog
         seq.mirror = s.mirror;
         seq.stop = i == m.stopIndex_;
         seq.vignettes = s.clearSemiDiameterMm > 0.0 && !s.semiDiameterAutomatic && !seq.stop;
+        seq.innerSemiDiameterMm = s.innerSemiDiameterMm;
         if (i == 0) {
             // The object plane sits one object distance in front of surface 1.
             seq.zMm = std::isfinite(s.thicknessMm) ? -s.thicknessMm : -kInfinity;

@@ -29,6 +29,9 @@ struct SequentialSurface {
     // Rays outside clearSemiDiameterMm are vignetted. False for the stop (the system aperture
     // sets its size) and for semi-diameters a lens file marked as computed.
     bool vignettes = false;
+    // Central hole or obscuration (Surface::innerSemiDiameterMm), 0 = none. Rays inside it are
+    // Clipped on every surface, vignetting or not: a hole is always given, never computed.
+    double innerSemiDiameterMm = 0.0;
     bool mirror = false;
     bool stop = false;
 };

@@ -56,10 +56,13 @@ SequentialRayResult traceSequential(const SequentialModel& model, int w, const R
         p = localHit + Vec3(0.0, 0.0, s.zMm);
         result.ray = {p, d};
         result.surface = i;
-        if (options.clipApertures && s.vignettes &&
-            std::hypot(localHit.x, localHit.y) > s.clearSemiDiameterMm) {
-            result.status = RayStatus::Clipped;
-            return result;
+        if (options.clipApertures) {
+            // The clear aperture is the annulus inner <= r <= clear; either edge clips.
+            const double r = std::hypot(localHit.x, localHit.y);
+            if ((s.vignettes && r > s.clearSemiDiameterMm) || r < s.innerSemiDiameterMm) {
+                result.status = RayStatus::Clipped;
+                return result;
+            }
         }
         const Vec3 nrm = surfaceNormal(s.shape, localHit);
         if (s.mirror) {

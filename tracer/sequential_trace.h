@@ -19,7 +19,7 @@ namespace veil {
 struct SequentialTraceOptions {
     int firstSurface = 1;       // the ray is given in the gap before this surface
     int lastSurface = -1;       // -1 = the image surface
-    bool clipApertures = true;  // rays outside a vignetting semi-diameter are Clipped
+    bool clipApertures = true;  // Clipped: outside a vignetting semi-diameter, or in a hole
     bool recordPath = false;    // keep the point and direction at every surface
 };
 

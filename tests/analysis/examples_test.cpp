@@ -27,10 +27,12 @@ Loaded load(const std::string& name) {
     return {std::move(p), std::move(m), std::move(fo)};
 }
 
-double onAxisRmsUm(const Loaded& l) {
+// RMS spot radius on axis at the primary wavelength (8 hexapolar rings, 217 rays), of which
+// `vignetted` must be lost (a central hole) and no more.
+double onAxisRmsUm(const Loaded& l, int vignetted = 0) {
     const RayAimer aimer(l.model, AimMode::Real);
     const SpotResult s = computeSpot(l.model, aimer, 0, l.model.primaryWavelength());
-    EXPECT_EQ(s.raysLanded, s.raysTraced) << "on-axis rays vignetted";
+    EXPECT_EQ(s.raysLanded, s.raysTraced - vignetted) << "on-axis rays vignetted";
     return 1000.0 * s.rmsRadiusMm;
 }
 
@@ -121,7 +123,16 @@ TEST(Examples, CatadioptricIsTheSeedsSecondSystem) {
     EXPECT_EQ(l.prescription.system.fields.back().y, 0.625);
     // After two reflections the light travels toward +z again.
     EXPECT_GT(l.model.index(l.model.imageIndex() - 1, 0), 0.0);
-    EXPECT_LT(onAxisRmsUm(l), 15.0);
+    // The primary's central hole passes the light from M2 to the field lens; on the way in it
+    // vignettes the centre of the beam, as the secondary's shadow does in the real lens. On
+    // axis a pupil ray at height h meets M1 at about 1.03 h (the meniscus diverges the beam a
+    // little), so hexapolar rings 0 to 2 of 8 (h = 0, 12.5 and 25 mm on the 100 mm pupil
+    // radius) fall inside the 29.2 mm hole and ring 3 (h = 37.5 mm) outside: the centre, 6
+    // and 12 rays are lost.
+    const Surface& m1 = l.prescription.surfaces[4];
+    ASSERT_EQ(m1.name, "M1");
+    EXPECT_EQ(m1.innerSemiDiameterMm, 29.2);
+    EXPECT_LT(onAxisRmsUm(l, 1 + 6 + 12), 15.0);
 }
 
 }  // namespace

@@ -384,9 +384,14 @@ TEST(LensSolid, CatadioptricMirrorsAreThinFaces) {
         EXPECT_EQ(m.mediumFront, 0);
         EXPECT_EQ(m.mediumBack, 0);
         EXPECT_EQ(m.sequentialSurface, surface);
-        EXPECT_EQ(std::get<CircularAperture>(patchOf(m).aperture).radiusMm,
-                  p.surfaces[surface].clearSemiDiameterMm);
     }
+    // The primary has a central hole that passes the light from M2 to the field lens.
+    const auto& ring = std::get<AnnularAperture>(patchOf(get(scene, "M1")).aperture);
+    EXPECT_EQ(ring.innerRadiusMm, p.surfaces[4].innerSemiDiameterMm);
+    EXPECT_EQ(ring.innerRadiusMm, 29.2);
+    EXPECT_EQ(ring.outerRadiusMm, p.surfaces[4].clearSemiDiameterMm);
+    EXPECT_EQ(std::get<CircularAperture>(patchOf(get(scene, "M2")).aperture).radiusMm,
+              p.surfaces[5].clearSemiDiameterMm);
     // z: aperture ring at 0, L1 at 25..41, M1 at 460.14, M2 back at 61.0, L2 at 470.14.
     EXPECT_NEAR(get(scene, "M1").frame.translation.z, 460.14, 1e-9);
     EXPECT_NEAR(get(scene, "M2").frame.translation.z, 61.0, 1e-9);
@@ -682,6 +687,76 @@ TEST(LensSolid, SpotSecondaryIsCutOutOfTheCorrector) {
     EXPECT_EQ(ring.outerRadiusMm, 50.0);
     EXPECT_EQ(get(scene, "M1").part, "M1");
     expectWatertight(p, scene, 10000, 31);
+}
+
+// A Cassegrain-type primary with a central hole: a paraboloid (R = -400 mm, focus at
+// z = -200 mm) with clear radii 12..50 mm. In the committed scene a ray parallel to the axis
+// through the hole meets nothing; one on the annulus meets the mirror on the paraboloid, and
+// reflected about the hit normal it runs through the focus.
+TEST(LensSolid, MirrorWithAHoleIsAnAnnulus) {
+    Prescription p = test::startLens(kInf, 100.0);
+    Surface m1 = test::surface(-400.0, -150.0);
+    m1.conic = -1.0;
+    m1.mirror = true;
+    m1.clearSemiDiameterMm = 50.0;
+    m1.mechSemiDiameterMm = 52.0;
+    m1.innerSemiDiameterMm = 12.0;
+    p.surfaces.push_back(m1);
+    test::finishLens(p);
+
+    Scene scene;
+    addLensSolids(p, scene);
+    ASSERT_EQ(scene.objects().size(), 1u);
+    const SceneObject& mirror = get(scene, "M1");
+    EXPECT_EQ(mirror.kind, ObjectKind::MirrorFace);
+    const auto& ring = std::get<AnnularAperture>(patchOf(mirror).aperture);
+    EXPECT_EQ(ring.innerRadiusMm, 12.0);
+    EXPECT_EQ(ring.outerRadiusMm, 50.0);
+    scene.commit();
+
+    for (double h : {0.0, 5.0, 11.99}) {
+        const Ray through{Vec3(h, 0.0, -100.0), Vec3(0.0, 0.0, 1.0)};
+        const auto hit = scene.closestHit(through);
+        EXPECT_FALSE(hit.has_value()) << "h = " << h << ": " << *hit;
+    }
+    for (double h : {12.01, 30.0, 49.9}) {
+        const Ray onRing{Vec3(0.0, h, -100.0), Vec3(0.0, 0.0, 1.0)};
+        const auto hit = scene.closestHit(onRing);
+        ASSERT_TRUE(hit.has_value()) << "h = " << h;
+        EXPECT_EQ(hit->object, mirror.id);
+        EXPECT_NEAR(hit->point.z, -h * h / 800.0, 1e-12);  // the paraboloid's sag
+        const Vec3 d =
+            onRing.direction - 2.0 * glm::dot(onRing.direction, hit->normal) * hit->normal;
+        ASSERT_LT(d.z, 0.0);
+        const Vec3 atFocusPlane = hit->point + d * ((-200.0 - hit->point.z) / d.z);
+        EXPECT_NEAR(atFocusPlane.y, 0.0, 1e-9) << "h = " << h;
+        EXPECT_NEAR(atFocusPlane.x, 0.0, 1e-12);
+    }
+    // Beyond the outer edge: nothing either.
+    EXPECT_FALSE(scene.closestHit({Vec3(0.0, 50.1, -100.0), Vec3(0.0, 0.0, 1.0)}).has_value());
+}
+
+// A hole through glass would need a bore: a lens element with a hole is a model error.
+TEST(LensSolid, HoleInALensElementIsAnError) {
+    Prescription p = test::startLens(kInf, 20.0);
+    Surface s1 = test::surface(50.0, 5.0, Material::model(1.5, 60.0));
+    s1.clearSemiDiameterMm = 10.0;
+    s1.innerSemiDiameterMm = 2.0;
+    Surface s2 = test::surface(-50.0, 50.0);
+    s2.clearSemiDiameterMm = 10.0;
+    p.surfaces.push_back(s1);
+    p.surfaces.push_back(s2);
+    test::finishLens(p);
+    Scene scene;
+    try {
+        addLensSolids(p, scene);
+        FAIL() << "no error";
+    } catch (const ModelError& e) {
+        EXPECT_EQ(e.object(), "L1.front");
+        EXPECT_NE(std::string(e.what()).find("holes in lens elements are not modelled"),
+                  std::string::npos)
+            << e.what();
+    }
 }
 
 TEST(LensSolid, ElementAfterAMirrorRunsTowardMinusZ) {

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <sstream>
 #include <string>
 
 namespace veil {
@@ -330,6 +331,99 @@ surfaces = [
     EXPECT_EQ(p.surfaces[2].conic, -2.5);
     for (const Surface& s : p.surfaces) EXPECT_TRUE(s.material.isAir()) << s;
     EXPECT_TRUE(p.elements().empty());
+}
+
+// A Cassegrain primary with a central hole: hole_sd is the inner edge of its clear annulus.
+TEST(TomlReader, HoleSdIsTheInnerSemiDiameter) {
+    const Prescription p = read(R"([system]
+aperture = { epd_mm = 100 }
+surfaces = [
+  { r = -400, t = -150, mirror = true, conic = -1, sd = 50, hole_sd = 9.5 },
+  { r = -150, t = 180, mirror = true, conic = -2.5, sd = 15 },
+]
+)");
+    EXPECT_EQ(p.surfaces[1].innerSemiDiameterMm, 9.5);
+    EXPECT_EQ(p.surfaces[1].clearSemiDiameterMm, 50.0);
+    EXPECT_EQ(p.surfaces[2].innerSemiDiameterMm, 0.0);  // default: no hole
+    std::ostringstream os;
+    os << p.surfaces[1];
+    EXPECT_THAT(os.str(), HasSubstr(" sd=50 hole=9.5"));
+}
+
+// The hole must lie inside the clear aperture: errors at the hole_sd value.
+TEST(TomlReader, HoleSdErrors) {
+    {
+        const ParseError e = parseErrorOf(R"([system]
+aperture = { f_number = 4 }
+surfaces = [{ r = -400, t = -150, mirror = true, sd = 50, hole_sd = 50 }]
+)");
+        expectAt(e, 3, 69);
+        EXPECT_EQ(e.message(),
+                  "hole_sd = 50 mm must be smaller than the clear semi-diameter sd = 50 mm");
+    }
+    {
+        const ParseError e = parseErrorOf(R"([system]
+aperture = { f_number = 4 }
+surfaces = [{ r = -400, t = -150, mirror = true, hole_sd = 5 }]
+)");
+        expectAt(e, 3, 60);
+        EXPECT_EQ(e.message(),
+                  "hole_sd needs the clear semi-diameter sd of the annulus around the hole");
+    }
+    {
+        const ParseError e = parseErrorOf(R"([system]
+aperture = { f_number = 4 }
+surfaces = [{ r = -400, t = -150, mirror = true, sd = 50, hole_sd = -1 }]
+)");
+        expectAt(e, 3, 69);
+        EXPECT_EQ(e.message(), "system.surfaces[1].hole_sd must be >= 0 (got -1)");
+    }
+    {
+        const ParseError e = parseErrorOf(R"([system]
+aperture = { f_number = 4 }
+surfaces = [{ r = 40, t = 5, sd = 10 }, { image = true, sd = 10, hole_sd = 2 }]
+)");
+        expectAt(e, 3, 76);
+        EXPECT_EQ(e.message(), "the image row takes no 'hole_sd' (the image surface has no hole)");
+    }
+}
+
+// Prescription::validate() checks holes built in code (or by an importer) and names the
+// surface.
+TEST(TomlReader, HoleModelErrorsNameTheSurface) {
+    Prescription p = read(R"([system]
+aperture = { epd_mm = 100 }
+surfaces = [
+  { r = -400, t = -150, mirror = true, sd = 50 },
+  { r = -150, t = 180, mirror = true, sd = 15 },
+]
+)");
+    auto modelErrorOf = [](const Prescription& q) -> std::string {
+        try {
+            q.validate();
+        } catch (const ModelError& e) {
+            return e.object() + " | " + e.what();
+        }
+        return "no error";
+    };
+    p.surfaces[1].innerSemiDiameterMm = 9.5;
+    EXPECT_EQ(modelErrorOf(p), "no error");
+    p.surfaces[1].innerSemiDiameterMm = 50.0;
+    EXPECT_THAT(modelErrorOf(p),
+                HasSubstr("M1 | M1: hole semi-diameter 50.000000 mm must be smaller than the clear "
+                          "semi-diameter 50.000000 mm"));
+    p.surfaces[1].innerSemiDiameterMm = -1.0;
+    EXPECT_THAT(modelErrorOf(p), HasSubstr("M1 | M1: hole semi-diameter must be finite and >= 0"));
+    p.surfaces[1].innerSemiDiameterMm = 0.0;
+    p.surfaces[2].clearSemiDiameterMm = 0.0;
+    p.surfaces[2].innerSemiDiameterMm = 3.0;
+    EXPECT_THAT(modelErrorOf(p), HasSubstr("M2 | M2: a central hole of 3.000000 mm needs the clear "
+                                           "semi-diameter around it"));
+    p.surfaces[2].innerSemiDiameterMm = 0.0;
+    p.surfaces[3].clearSemiDiameterMm = 10.0;
+    p.surfaces[3].innerSemiDiameterMm = 1.0;
+    EXPECT_THAT(modelErrorOf(p),
+                HasSubstr("image | image: the object and image surfaces cannot have a hole"));
 }
 
 TEST(TomlReader, ManginMirrorKeepsTheGlass) {

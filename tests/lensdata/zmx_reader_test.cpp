@@ -573,6 +573,56 @@ TEST(ZmxReader, ObjectNumericalApertureAndConeAngle) {
     EXPECT_NE(findNote(cone, "object cone angle"), nullptr);
 }
 
+// Surface apertures: a centred circular obscuration from the axis (OBSC 0 R) or the inner edge
+// of a circular aperture (CLAP R max) on a mirror or a surface in air becomes the central
+// hole, in mm; anything else keeps the warning.
+TEST(ZmxReader, CentredCircularHolesAreImported) {
+    const std::string text =
+        "UNIT CM X W X CM MR CPMM\n"                              // 1
+        "ENPD 10\n"                                               // 2
+        "SURF 0\n DISZ INFINITY\n"                                // 3-4
+        "SURF 1\n CURV -0.025\n DISZ -15\n GLAS MIRROR 0 0\n"     // 5-8
+        " DIAM 5 1 0 0 1 \"\"\n OBSC 0 1.5 0\n OBDC 0 0\n"        // 9-11: primary, hole 15 mm
+        "SURF 2\n CURV -0.05\n DISZ 18\n GLAS MIRROR 0 0\n"       // 12-15
+        " DIAM 1.5 0 0 0 1 \"\"\n CLAP 0.3 1.4 0\n"               // 16-17: secondary, hole 3 mm
+        "SURF 3\n DISZ 1\n DIAM 2 0 0 0 1 \"\"\n"                 // 18-20
+        " OBSC 0 0.5 0\n OBDC 0.2 0\n"                            // 21-22: decentered
+        "SURF 4\n DISZ 0.5\n GLAS N-BK7 0 0 1.5168 64.17\n"       // 23-25
+        " DIAM 2 0 0 0 1 \"\"\n OBSC 0 0.4 0\n"                   // 26-27: lens face
+        "SURF 5\n DISZ 2\n DIAM 2 0 0 0 1 \"\"\n OBSC 0.5 1 0\n"  // 28-31: annular
+        "SURF 6\n DISZ 1\n DIAM 2 0 0 0 1 \"\"\n OBSC 0 3 0\n"    // 32-35: beyond DIAM
+        "SURF 7\n DISZ 1\n DIAM 2 0 0 0 1 \"\"\n CLAP 0 1.5 0\n"  // 36-39: no hole
+        "SURF 8\n";
+    const Prescription rx = readZmxText(text, "holes.zmx", GlassCatalog::builtIn());
+    ASSERT_EQ(rx.surfaces.size(), 9u);
+    EXPECT_DOUBLE_EQ(rx.surfaces[1].innerSemiDiameterMm, 15.0);  // cm -> mm
+    EXPECT_DOUBLE_EQ(rx.surfaces[2].innerSemiDiameterMm, 3.0);
+    for (int i : {3, 4, 5, 6, 7}) EXPECT_EQ(rx.surfaces[i].innerSemiDiameterMm, 0.0) << i;
+
+    auto expectNote = [&](const std::string& text, ImportNote::Severity severity, int line) {
+        const ImportNote* n = findNote(rx, text);
+        ASSERT_NE(n, nullptr) << text << "\n" << reportText(rx);
+        EXPECT_EQ(n->severity, severity) << n->message;
+        EXPECT_EQ(n->loc.line, line) << n->message;
+    };
+    using Severity = ImportNote::Severity;
+    expectNote("OBSC imported as a central hole of radius 1.5 (hole_sd): OBSC 0 1.5 0; OBDC 0 0",
+               Severity::Info, 10);
+    expectNote(
+        "CLAP imported as a central hole of radius 0.3 (hole_sd): CLAP 0.3 1.4 0; its "
+        "outer radius 1.4 is not imported",
+        Severity::Warning, 17);
+    expectNote("OBSC not imported: OBSC 0 0.5 0; OBDC 0.2 0 (decentered", Severity::Warning, 21);
+    expectNote("OBSC not imported: OBSC 0 0.4 0 (a hole in a surface of a lens element",
+               Severity::Warning, 27);
+    expectNote("OBSC not imported: OBSC 0.5 1 0 (an annular obscuration", Severity::Warning, 31);
+    expectNote(
+        "OBSC not imported: OBSC 0 3 0 (the hole radius 3 is not inside the clear "
+        "semi-diameter DIAM 2",
+        Severity::Warning, 35);
+    expectNote("CLAP not imported: CLAP 0 1.5 0 (no central hole", Severity::Warning, 39);
+}
+
 // Reported problems, with their line numbers
 
 TEST(ZmxReader, UnknownGlassIsReportedWithItsLine) {

@@ -154,6 +154,55 @@ TEST(SequentialTrace, ParaboloidFocusesAllParallelRaysExactly) {
     }
 }
 
+// A paraboloid primary with a central hole of 10 mm: rays parallel to the axis inside the
+// hole are Clipped at the mirror, on the hole's edge and outside they reach the focus. The
+// hole clips even where the outer semi-diameter does not (a computed one), and not at all
+// without aperture clipping.
+TEST(SequentialTrace, CentralHoleClipsLikeTheOuterEdge) {
+    const double r = -400.0;
+    Prescription p = startLens(kInfinity, 100.0);
+    Surface stop = surface(0.0, 50.0);
+    stop.stop = true;
+    stop.clearSemiDiameterMm = 50.0;
+    p.surfaces.push_back(stop);
+    Surface m1 = surface(r, r / 2.0);
+    m1.conic = -1.0;
+    m1.mirror = true;
+    m1.clearSemiDiameterMm = 50.0;
+    m1.innerSemiDiameterMm = 10.0;
+    p.surfaces.push_back(m1);
+    finishLens(p);
+    SequentialModel m = SequentialModel::build(p, kNoCatalog);
+    ASSERT_EQ(m.surface(2).innerSemiDiameterMm, 10.0);
+    ASSERT_TRUE(m.surface(2).vignettes);
+    auto trace = [&](const SequentialModel& model, double h, bool clip = true) {
+        SequentialTraceOptions o;
+        o.clipApertures = clip;
+        return traceSequential(model, 0, {Vec3(0.0, h, -10.0), Vec3(0.0, 0.0, 1.0)}, o);
+    };
+    for (double h : {0.0, 5.0, -9.999, 9.999}) {
+        const auto res = trace(m, h);
+        EXPECT_EQ(res.status, RayStatus::Clipped) << "h = " << h;
+        EXPECT_EQ(res.surface, 2) << "h = " << h;
+        // Stopped on the mirror, inside the hole (the paraboloid's sag z = -h^2 / 800).
+        EXPECT_NEAR(res.ray.origin.z, 50.0 - h * h / 800.0, 1e-12);
+    }
+    for (double h : {10.0, -10.0, 10.001, 30.0, 50.0}) {
+        const auto res = trace(m, h);
+        ASSERT_TRUE(res.ok()) << "h = " << h << ": " << res;
+        EXPECT_NEAR(res.ray.origin.y, 0.0, 1e-11) << "h = " << h;  // at the focus
+    }
+    EXPECT_EQ(trace(m, 50.001).status, RayStatus::Clipped);  // the outer edge still clips
+    EXPECT_TRUE(trace(m, 5.0, false).ok());                  // no clipping: no hole either
+
+    // A computed outer semi-diameter does not vignette; the hole, always given, still does.
+    p.surfaces[2].semiDiameterAutomatic = true;
+    m = SequentialModel::build(p, kNoCatalog);
+    EXPECT_FALSE(m.surface(2).vignettes);
+    EXPECT_EQ(trace(m, 5.0).status, RayStatus::Clipped);
+    EXPECT_TRUE(trace(m, 60.0).ok());
+}
+
 // Real aiming puts the chief ray through the centre of the real stop.
 TEST(SequentialTrace, RealAimingHitsTheStopCentre) {
     const SequentialModel m = testStack();
