@@ -14,13 +14,13 @@
 // optics.
 
 #include <benchmark/benchmark.h>
-#include <embree3/rtcore.h>
 
 #include <map>
 #include <memory>
 #include <random>
 
 #include "analysis/scene_setup.h"
+#include "bench/raw_embree.h"
 #include "geometry/embree_meshes.h"
 
 namespace {
@@ -85,27 +85,10 @@ BENCHMARK(BM_SceneClosestHit)->Arg(10)->Arg(100)->Arg(1)->Unit(benchmark::kMicro
 
 void BM_RawEmbree(benchmark::State& state) {
     const Fixture& f = longFocus(static_cast<int>(state.range(0)));
-    RTCScene scene = static_cast<RTCScene>(f.raw->rawScene());
     long long rays = 0, hits = 0;
     for (auto _ : state) {
-        for (const Ray& r : f.rays) {
-            RTCIntersectContext ctx;
-            rtcInitIntersectContext(&ctx);
-            RTCRayHit rh{};
-            rh.ray.org_x = static_cast<float>(r.origin.x);
-            rh.ray.org_y = static_cast<float>(r.origin.y);
-            rh.ray.org_z = static_cast<float>(r.origin.z);
-            rh.ray.dir_x = static_cast<float>(r.direction.x);
-            rh.ray.dir_y = static_cast<float>(r.direction.y);
-            rh.ray.dir_z = static_cast<float>(r.direction.z);
-            rh.ray.tnear = 0.0f;
-            rh.ray.tfar = std::numeric_limits<float>::infinity();
-            rh.ray.mask = ~0u;
-            rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-            rtcIntersect1(scene, &ctx, &rh);
-            hits += rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
-            ++rays;
-        }
+        hits += bench::rawEmbreeHits(*f.raw, f.rays);
+        rays += static_cast<long long>(f.rays.size());
     }
     state.counters["rays_per_s"] =
         benchmark::Counter(static_cast<double>(rays), benchmark::Counter::kIsRate);

@@ -11,12 +11,12 @@
 // for random rays inside the lens (one query = one segment's worth of work at best).
 
 #include <benchmark/benchmark.h>
-#include <embree3/rtcore.h>
 #include <tbb/global_control.h>
 
 #include <random>
 
 #include "analysis/trace_setup.h"
+#include "bench/raw_embree.h"
 #include "geometry/embree_meshes.h"
 
 namespace {
@@ -74,27 +74,10 @@ BENCHMARK(BM_TraceSun7)->Unit(benchmark::kMillisecond);
 
 void BM_RawEmbree(benchmark::State& state) {
     const Fixture& f = sun7();
-    RTCScene scene = static_cast<RTCScene>(f.raw->rawScene());
     double rays = 0;
     for (auto _ : state) {
-        for (const Ray& r : f.rays) {
-            RTCIntersectContext ctx;
-            rtcInitIntersectContext(&ctx);
-            RTCRayHit rh{};
-            rh.ray.org_x = static_cast<float>(r.origin.x);
-            rh.ray.org_y = static_cast<float>(r.origin.y);
-            rh.ray.org_z = static_cast<float>(r.origin.z);
-            rh.ray.dir_x = static_cast<float>(r.direction.x);
-            rh.ray.dir_y = static_cast<float>(r.direction.y);
-            rh.ray.dir_z = static_cast<float>(r.direction.z);
-            rh.ray.tnear = 0.0f;
-            rh.ray.tfar = std::numeric_limits<float>::infinity();
-            rh.ray.mask = ~0u;
-            rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-            rtcIntersect1(scene, &ctx, &rh);
-            benchmark::DoNotOptimize(rh.hit.geomID);
-            rays += 1;
-        }
+        benchmark::DoNotOptimize(bench::rawEmbreeHits(*f.raw, f.rays));
+        rays += static_cast<double>(f.rays.size());
     }
     state.counters["rays_per_s"] = benchmark::Counter(rays, benchmark::Counter::kIsRate);
 }

@@ -9,33 +9,16 @@
 
 #include "analysis/ray_statistics.h"
 #include "analysis/trace_setup.h"
+#include "tests/analysis/prepared_scene.h"
 #include "tracer/ray_aiming.h"
 #include "tracer/sequential_trace.h"
 
 namespace veil {
 namespace {
 
-// A scene file written for the test; lens paths are absolute.
-std::filesystem::path writeScene(const std::string& name, const std::string& text) {
-    const std::filesystem::path p = std::filesystem::path(::testing::TempDir()) / (name + ".toml");
-    std::ofstream(p) << text;
-    return p;
-}
-
-struct Prepared {
-    SceneFile file;
-    std::unique_ptr<SceneSetup> setup;
-    TraceSetup trace;
-};
-
-Prepared prepare(const std::filesystem::path& path) {
-    const GlassCatalog& catalog = GlassCatalog::builtIn();
-    Prepared r;
-    r.file = readSceneFile(path, catalog);
-    r.setup = std::make_unique<SceneSetup>(buildScene(r.file, catalog));
-    r.trace = prepareTrace(r.file, *r.setup, catalog);
-    return r;
-}
+using test::prepare;
+using test::Prepared;
+using test::writeScene;
 
 const std::string kLenses = VEIL_SOURCE_DIR "/examples/lenses/";
 

@@ -1,0 +1,38 @@
+#pragma once
+// Scenes written by tests and prepared for tracing: the scene file, its built scene and the
+// transport's inputs, kept together (the trace setup points into the scene).
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <string>
+
+#include "analysis/trace_setup.h"
+
+namespace veil::test {
+
+// Writes `text` as <temp>/<name>.toml; lens paths inside must be absolute.
+inline std::filesystem::path writeScene(const std::string& name, const std::string& text) {
+    const std::filesystem::path p = std::filesystem::path(::testing::TempDir()) / (name + ".toml");
+    std::ofstream(p) << text;
+    return p;
+}
+
+struct Prepared {
+    SceneFile file;
+    std::unique_ptr<SceneSetup> setup;
+    TraceSetup trace;
+};
+
+inline Prepared prepare(const std::filesystem::path& path) {
+    const GlassCatalog& catalog = GlassCatalog::builtIn();
+    Prepared r;
+    r.file = readSceneFile(path, catalog);
+    r.setup = std::make_unique<SceneSetup>(buildScene(r.file, catalog));
+    r.trace = prepareTrace(r.file, *r.setup, catalog);
+    return r;
+}
+
+}  // namespace veil::test
