@@ -103,8 +103,7 @@ TEST_P(SceneClosestHit, AgreesWithBruteForce) {
         }
         if (!hit) continue;
         ++hits;
-        compare(scene, {hit->point, randomDirection(rng)}, hit->object, hit->primitive, m,
-                nullptr);
+        compare(scene, {hit->point, randomDirection(rng)}, hit->object, hit->primitive, m, nullptr);
         ++compared;
     }
     EXPECT_EQ(m.count, 0) << m.count << " of " << compared << " rays differ; first: " << m.first;

@@ -1,0 +1,701 @@
+// Ray path criteria: parser, name resolution, the streaming evaluator and the direct oracle.
+// The grammar and the semantics implemented here are written down in docs/criteria.md.
+
+#include "analysis/criteria.h"
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <sstream>
+
+namespace veil {
+
+// Leaf Keywords
+namespace {
+
+constexpr std::array<std::string_view, kLeafKindCount> kLeafNames = {
+    "emit", "hit",     "detector", "property",        "medium",           "reflect", "fresnel",
+    "tir",  "refract", "scatter",  "scatter_reflect", "scatter_transmit", "absorb",  "exit"};
+
+uint16_t bit(EventType t) { return static_cast<uint16_t>(1u << static_cast<unsigned>(t)); }
+
+// Event types a leaf of kind k can match (before its object test).
+uint16_t typeMaskOf(LeafKind k) {
+    const uint16_t all = static_cast<uint16_t>((1u << kEventTypeCount) - 1);
+    switch (k) {
+        case LeafKind::Emit:
+            return bit(EventType::Emit);
+        case LeafKind::Hit:
+        case LeafKind::Property:
+        case LeafKind::Medium:
+            return static_cast<uint16_t>(all & ~bit(EventType::Emit));
+        case LeafKind::Detector:
+            return bit(EventType::DetectorHit);
+        case LeafKind::Reflect:
+            return bit(EventType::SpecularReflect) | bit(EventType::FresnelReflect);
+        case LeafKind::Fresnel:
+            return bit(EventType::FresnelReflect);
+        case LeafKind::Tir:
+            return bit(EventType::TotalInternalReflection);
+        case LeafKind::Refract:
+            return bit(EventType::Refract);
+        case LeafKind::Scatter:
+            return bit(EventType::ScatterReflect) | bit(EventType::ScatterTransmit);
+        case LeafKind::ScatterReflect:
+            return bit(EventType::ScatterReflect);
+        case LeafKind::ScatterTransmit:
+            return bit(EventType::ScatterTransmit);
+        case LeafKind::Absorb:
+            return bit(EventType::SurfaceAbsorb) | bit(EventType::VolumeAbsorb);
+        case LeafKind::Exit:
+            return bit(EventType::Exit);
+    }
+    return 0;
+}
+
+}  // namespace
+
+std::string_view toString(LeafKind k) { return kLeafNames[static_cast<size_t>(k)]; }
+std::ostream& operator<<(std::ostream& os, LeafKind k) { return os << toString(k); }
+
+std::ostream& operator<<(std::ostream& os, const CountRange& c) {
+    if (c.min == 1 && c.max == CountRange::kUnbounded) return os;
+    os << "{";
+    if (c.min == c.max) return os << c.min << "}";
+    if (c.min != 0) os << c.min;
+    os << ",";
+    if (c.max != CountRange::kUnbounded) os << c.max;
+    return os << "}";
+}
+
+std::ostream& operator<<(std::ostream& os, CriterionState s) {
+    switch (s) {
+        case CriterionState::Undefined:
+            return os << "undefined";
+        case CriterionState::True:
+            return os << "true";
+        case CriterionState::False:
+            return os << "false";
+    }
+    return os;
+}
+
+// Criterion Printing
+size_t Criterion::nodeCount() const {
+    size_t n = 1;
+    for (const Criterion& c : children) n += c.nodeCount();
+    return n;
+}
+
+std::ostream& operator<<(std::ostream& os, const Criterion& c) {
+    using K = Criterion::Kind;
+    switch (c.kind) {
+        case K::Leaf:
+            os << c.leaf;
+            if (!c.patterns.empty()) {
+                os << "(";
+                for (size_t i = 0; i < c.patterns.size(); ++i)
+                    os << (i ? " | " : "") << c.patterns[i].text;
+                os << ")";
+            }
+            return os << c.count;
+        case K::Not:
+            return os << "not (" << c.children[0] << ")";
+        case K::Seq:
+            os << "seq(";
+            for (size_t i = 0; i < c.children.size(); ++i) os << (i ? ", " : "") << c.children[i];
+            return os << ")";
+        case K::And:
+        case K::Or:
+            os << "(";
+            for (size_t i = 0; i < c.children.size(); ++i)
+                os << (i ? (c.kind == K::And ? " and " : " or ") : "") << c.children[i];
+            return os << ")";
+    }
+    return os;
+}
+
+std::string toString(const Criterion& c) {
+    std::ostringstream os;
+    os << c;
+    return os.str();
+}
+
+// Text Parser
+namespace {
+
+bool isIdentChar(char ch) { return std::isalnum(static_cast<unsigned char>(ch)) || ch == '_'; }
+bool isPatternChar(char ch) {
+    return !std::isspace(static_cast<unsigned char>(ch)) && ch != '(' && ch != ')' && ch != '|' &&
+           ch != ',' && ch != '{' && ch != '}' && ch != '\0';
+}
+
+class TextParser {
+  public:
+    TextParser(std::string_view text, std::string_view source) : text_(text), source_(source) {}
+
+    Criterion parse() {
+        Criterion c = parseOr();
+        skipSpace();
+        if (pos_ < text_.size()) fail("expected 'and', 'or' or the end of the criterion");
+        return c;
+    }
+
+  private:
+    [[noreturn]] void fail(const std::string& message, size_t at) const {
+        throw ParseError(FileLoc{std::string(source_), 1, static_cast<int>(at) + 1}, message);
+    }
+    [[noreturn]] void fail(const std::string& message) const { fail(message, pos_); }
+
+    void skipSpace() {
+        while (pos_ < text_.size() && std::isspace(static_cast<unsigned char>(text_[pos_]))) ++pos_;
+    }
+    char peek() {
+        skipSpace();
+        return pos_ < text_.size() ? text_[pos_] : '\0';
+    }
+    void expect(char ch, const char* what) {
+        if (peek() != ch) fail(std::string("expected ") + what);
+        ++pos_;
+    }
+    // The identifier at pos_ (after spaces), not consumed.
+    std::string_view peekWord() {
+        skipSpace();
+        size_t end = pos_;
+        while (end < text_.size() && isIdentChar(text_[end])) ++end;
+        return text_.substr(pos_, end - pos_);
+    }
+    bool acceptKeyword(std::string_view kw) {
+        if (peekWord() != kw) return false;
+        pos_ += kw.size();
+        return true;
+    }
+
+    Criterion parseOr() { return parseList(Criterion::Kind::Or, "or"); }
+    Criterion parseAnd() { return parseList(Criterion::Kind::And, "and"); }
+    Criterion parseList(Criterion::Kind kind, std::string_view kw) {
+        skipSpace();
+        const int column = static_cast<int>(pos_) + 1;
+        Criterion first = kind == Criterion::Kind::Or ? parseAnd() : parseUnary();
+        if (peekWord() != kw) return first;
+        Criterion node;
+        node.kind = kind;
+        node.column = column;
+        node.children.push_back(std::move(first));
+        while (acceptKeyword(kw))
+            node.children.push_back(kind == Criterion::Kind::Or ? parseAnd() : parseUnary());
+        return node;
+    }
+    Criterion parseUnary() {
+        skipSpace();
+        const int column = static_cast<int>(pos_) + 1;
+        if (acceptKeyword("not")) {
+            Criterion node;
+            node.kind = Criterion::Kind::Not;
+            node.column = column;
+            node.children.push_back(parseUnary());
+            return node;
+        }
+        return parsePrimary();
+    }
+    Criterion parsePrimary() {
+        const char ch = peek();
+        const size_t start = pos_;
+        if (ch == '(') {
+            ++pos_;
+            Criterion inner = parseOr();
+            expect(')', "')'");
+            if (peek() == '{') fail("a count {..} applies to a leaf only, not to a group");
+            return inner;
+        }
+        const std::string_view word = peekWord();
+        if (word.empty()) {
+            fail(ch == '\0' ? "expected a criterion (a leaf such as hit(sensor), seq(...), not "
+                              "or '('), found the end"
+                            : "expected a criterion (a leaf such as hit(sensor), seq(...), not "
+                              "or '(')");
+        }
+        pos_ += word.size();
+        if (word == "seq") {
+            Criterion node;
+            node.kind = Criterion::Kind::Seq;
+            node.column = static_cast<int>(start) + 1;
+            expect('(', "'(' after seq");
+            node.children.push_back(parseOr());
+            while (peek() == ',') {
+                ++pos_;
+                node.children.push_back(parseOr());
+            }
+            expect(')', "',' or ')' in seq(...)");
+            if (peek() == '{') fail("a count {..} applies to a leaf only, not to seq");
+            return node;
+        }
+        const auto it = std::find(kLeafNames.begin(), kLeafNames.end(), word);
+        if (it == kLeafNames.end()) {
+            std::string names;
+            for (std::string_view n : kLeafNames) {
+                if (!names.empty()) names += ", ";
+                names += n;
+            }
+            fail("unknown criterion '" + std::string(word) + "'; expected seq, not or a leaf (" +
+                     names + ")",
+                 start);
+        }
+        Criterion leaf;
+        leaf.kind = Criterion::Kind::Leaf;
+        leaf.leaf = static_cast<LeafKind>(it - kLeafNames.begin());
+        leaf.column = static_cast<int>(start) + 1;
+        if (peek() == '(') {
+            ++pos_;
+            if (peek() != ')') {
+                for (;;) {
+                    skipSpace();
+                    const size_t ps = pos_;
+                    while (pos_ < text_.size() && isPatternChar(text_[pos_])) ++pos_;
+                    if (pos_ == ps) fail("expected an object pattern");
+                    leaf.patterns.push_back(
+                        {std::string(text_.substr(ps, pos_ - ps)), static_cast<int>(ps) + 1});
+                    const char next = peek();
+                    if (next == '|') {
+                        ++pos_;
+                        continue;
+                    }
+                    if (next == ')') break;
+                    fail("expected '|' or ')' after a pattern");
+                }
+            }
+            ++pos_;  // ')'
+        }
+        if (peek() == '{') leaf.count = parseCount();
+        return leaf;
+    }
+    // Reads an unsigned number at pos_ (after spaces); -1 if there is none.
+    int parseNumber() {
+        skipSpace();
+        const size_t s = pos_;
+        long v = 0;
+        while (pos_ < text_.size() && std::isdigit(static_cast<unsigned char>(text_[pos_]))) {
+            v = v * 10 + (text_[pos_] - '0');
+            if (v > 1000000) fail("count too large", s);
+            ++pos_;
+        }
+        return pos_ == s ? -1 : static_cast<int>(v);
+    }
+    CountRange parseCount() {
+        const size_t open = pos_;
+        ++pos_;  // '{'
+        CountRange r;
+        const int a = parseNumber();
+        if (peek() == '}') {
+            if (a < 0) fail("expected a number in the count");
+            ++pos_;
+            return {a, a};
+        }
+        if (peek() != ',') fail(a < 0 ? "expected a number in the count" : "expected ',' or '}'");
+        ++pos_;
+        const int b = parseNumber();
+        if (a < 0 && b < 0) fail("expected a number in the count");
+        expect('}', "'}'");
+        r.min = a < 0 ? 0 : a;
+        r.max = b < 0 ? CountRange::kUnbounded : b;
+        if (r.min > r.max) fail("empty count range (min > max)", open);
+        if (r.min == 0 && r.max == CountRange::kUnbounded)
+            fail("count {0,} always holds; drop the leaf", open);
+        return r;
+    }
+
+    std::string_view text_, source_;
+    size_t pos_ = 0;
+};
+
+// OpticStudio Filter Parser
+// or := and ('|' and)* ; and := unary ('&' unary)* ; unary := '!' unary | primary ;
+// primary := '(' or ')' | ('H'|'R'|'T'|'S') number
+class ZemaxParser {
+  public:
+    ZemaxParser(std::string_view text, std::string_view source) : text_(text), source_(source) {}
+    Criterion parse() {
+        Criterion c = parseBinary(Criterion::Kind::Or, '|');
+        if (peek() != '\0') fail("expected '&', '|' or the end of the filter");
+        return c;
+    }
+
+  private:
+    [[noreturn]] void fail(const std::string& message) const {
+        throw ParseError(FileLoc{std::string(source_), 1, static_cast<int>(pos_) + 1}, message);
+    }
+    char peek() {
+        while (pos_ < text_.size() && std::isspace(static_cast<unsigned char>(text_[pos_]))) ++pos_;
+        return pos_ < text_.size() ? text_[pos_] : '\0';
+    }
+    Criterion parseBinary(Criterion::Kind kind, char op) {
+        const int column = static_cast<int>(pos_) + 1;
+        auto sub = [&] {
+            return kind == Criterion::Kind::Or ? parseBinary(Criterion::Kind::And, '&')
+                                               : parseUnary();
+        };
+        Criterion first = sub();
+        if (peek() != op) return first;
+        Criterion node;
+        node.kind = kind;
+        node.column = column;
+        node.children.push_back(std::move(first));
+        while (peek() == op) {
+            ++pos_;
+            node.children.push_back(sub());
+        }
+        return node;
+    }
+    Criterion parseUnary() {
+        const char ch = peek();
+        if (ch == '!') {
+            Criterion node;
+            node.kind = Criterion::Kind::Not;
+            node.column = static_cast<int>(pos_) + 1;
+            ++pos_;
+            node.children.push_back(parseUnary());
+            return node;
+        }
+        if (ch == '(') {
+            ++pos_;
+            Criterion inner = parseBinary(Criterion::Kind::Or, '|');
+            if (peek() != ')') fail("expected ')'");
+            ++pos_;
+            return inner;
+        }
+        const char up = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
+        LeafKind kind;
+        switch (up) {
+            case 'H':
+                kind = LeafKind::Hit;
+                break;
+            case 'R':
+                kind = LeafKind::Reflect;
+                break;
+            case 'T':
+                kind = LeafKind::Refract;
+                break;
+            case 'S':
+                kind = LeafKind::Scatter;
+                break;
+            default:
+                fail(ch == '\0' ? "expected Hn, Rn, Tn, Sn, '!' or '(', found the end"
+                                : "expected Hn, Rn, Tn, Sn, '!' or '('");
+        }
+        Criterion leaf;
+        leaf.kind = Criterion::Kind::Leaf;
+        leaf.leaf = kind;
+        leaf.column = static_cast<int>(pos_) + 1;
+        ++pos_;
+        const size_t s = pos_;
+        while (pos_ < text_.size() && std::isdigit(static_cast<unsigned char>(text_[pos_]))) ++pos_;
+        if (pos_ == s || pos_ - s > 9) fail("expected an object number");
+        leaf.patterns.push_back({std::string("#").append(text_.substr(s, pos_ - s)), leaf.column});
+        return leaf;
+    }
+
+    std::string_view text_, source_;
+    size_t pos_ = 0;
+};
+
+}  // namespace
+
+Criterion parseCriterion(std::string_view text, std::string_view source) {
+    return TextParser(text, source).parse();
+}
+
+Criterion parseZemaxFilter(std::string_view text, std::string_view source) {
+    return ZemaxParser(text, source).parse();
+}
+
+// Name Resolution
+bool CompiledCriterion::Leaf::matches(const PathEvent& e) const {
+    if (!((typeMask >> static_cast<unsigned>(e.type)) & 1u)) return false;
+    int64_t id = e.object;
+    if (useMedium) {
+        if (e.mediumBefore == e.mediumAfter) return false;
+        id = e.mediumAfter;
+    }
+    if (anyObject) return true;
+    if (id < 0 || static_cast<size_t>(id) >= set.size() * 64) return false;
+    return (set[static_cast<size_t>(id) / 64] >> (id % 64)) & 1u;
+}
+
+namespace {
+
+struct Compiler {
+    const NameTable& names;
+    std::string_view source;
+    CompiledCriterion out;
+
+    [[noreturn]] void fail(const NamePattern& p, const std::string& message) const {
+        throw ParseError(FileLoc{std::string(source), 1, p.column}, message);
+    }
+
+    int32_t add(const Criterion& c, int32_t parent, int32_t indexInParent) {
+        const int32_t id = static_cast<int32_t>(out.nodes.size());
+        out.nodes.push_back({});
+        out.nodes[id].kind = c.kind;
+        out.nodes[id].parent = parent;
+        out.nodes[id].indexInParent = indexInParent;
+        if (c.kind == Criterion::Kind::Leaf) {
+            out.nodes[id].leaf = static_cast<int32_t>(out.leaves.size());
+            out.leaves.push_back(compileLeaf(c, id));
+            return id;
+        }
+        if (c.children.empty() || (c.kind == Criterion::Kind::Not && c.children.size() != 1))
+            throw ParseError(FileLoc{std::string(source), 1, c.column},
+                             "malformed criterion node (wrong number of children)");
+        std::vector<int32_t> kids;
+        for (size_t i = 0; i < c.children.size(); ++i)
+            kids.push_back(add(c.children[i], id, static_cast<int32_t>(i)));
+        out.nodes[id].children = std::move(kids);
+        return id;
+    }
+
+    CompiledCriterion::Leaf compileLeaf(const Criterion& c, int32_t node) {
+        CompiledCriterion::Leaf leaf;
+        leaf.node = node;
+        leaf.typeMask = typeMaskOf(c.leaf);
+        leaf.count = c.count;
+        leaf.useMedium = c.leaf == LeafKind::Medium;
+        if (c.count.min < 0 || c.count.min > c.count.max ||
+            (c.count.min == 0 && c.count.max == CountRange::kUnbounded))
+            throw ParseError(FileLoc{std::string(source), 1, c.column}, "invalid count range");
+        const bool resolveAlways = c.leaf == LeafKind::Property || c.leaf == LeafKind::Detector;
+        const bool any =
+            c.patterns.empty() || std::any_of(c.patterns.begin(), c.patterns.end(),
+                                              [](const NamePattern& p) { return p.text == "*"; });
+        if (any && !resolveAlways) {
+            leaf.anyObject = true;
+            return leaf;
+        }
+        std::vector<NamePattern> patterns = c.patterns;
+        if (patterns.empty()) patterns.push_back({"*", c.column});
+        // The universe of names the patterns choose from.
+        size_t size = 0;
+        std::string what = "object";
+        std::vector<std::vector<std::string_view>> candidates;
+        if (c.leaf == LeafKind::Emit) {
+            what = "source";
+            for (const std::string& s : names.sources) candidates.push_back({s});
+        } else if (c.leaf == LeafKind::Medium) {
+            what = "medium";
+            for (const std::string& m : names.media) candidates.push_back({m});
+        } else {
+            if (c.leaf == LeafKind::Property) what = "property";
+            if (c.leaf == LeafKind::Detector) what = "detector";
+            for (const NameTable::Object& o : names.objects) {
+                std::vector<std::string_view> n;
+                if (c.leaf == LeafKind::Property) {
+                    if (!o.property.empty()) n.push_back(o.property);
+                } else if (c.leaf != LeafKind::Detector || o.detector) {
+                    n.push_back(o.name);
+                    for (const std::string& a : o.aliases) n.push_back(a);
+                }
+                candidates.push_back(std::move(n));
+            }
+        }
+        size = candidates.size();
+        leaf.set.assign((size + 63) / 64, 0);
+        for (const NamePattern& p : patterns) {
+            bool found = false;
+            auto set = [&](size_t i) {
+                leaf.set[i / 64] |= uint64_t{1} << (i % 64);
+                found = true;
+            };
+            if (p.text.size() > 1 && p.text[0] == '#' &&
+                std::all_of(p.text.begin() + 1, p.text.end(),
+                            [](char ch) { return std::isdigit(static_cast<unsigned char>(ch)); })) {
+                const size_t id = std::stoul(p.text.substr(1));
+                if (id < size && (c.leaf != LeafKind::Detector || !candidates[id].empty())) set(id);
+            } else {
+                for (size_t i = 0; i < size; ++i)
+                    for (std::string_view n : candidates[i])
+                        if (globMatch(p.text, n)) {
+                            set(i);
+                            break;
+                        }
+            }
+            if (!found) fail(p, what + " pattern '" + p.text + "' matches no " + what);
+        }
+        return leaf;
+    }
+};
+
+}  // namespace
+
+CompiledCriterion compile(const Criterion& c, const NameTable& names, std::string_view source) {
+    Compiler compiler{names, source, {}};
+    compiler.add(c, -1, 0);
+    return std::move(compiler.out);
+}
+
+// Streaming Evaluator
+StreamingEvaluator::StreamingEvaluator(const CompiledCriterion& c) : c_(&c) { reset(); }
+
+void StreamingEvaluator::reset() {
+    state_.assign(c_->nodes.size(), CriterionState::Undefined);
+    leadingTrue_.assign(c_->nodes.size(), 0);
+    count_.assign(c_->leaves.size(), 0);
+}
+
+// Conditions 2 and 3 of the seed: every ancestor undefined, and under each seq ancestor all
+// children left of the branch already true.
+bool StreamingEvaluator::eligible(int32_t node) const {
+    int32_t child = node;
+    for (int32_t p = c_->nodes[node].parent; p >= 0; child = p, p = c_->nodes[p].parent) {
+        if (state_[p] != CriterionState::Undefined) return false;
+        if (c_->nodes[p].kind == Criterion::Kind::Seq &&
+            c_->nodes[child].indexInParent != leadingTrue_[p])
+            return false;
+    }
+    return true;
+}
+
+CriterionState StreamingEvaluator::recompute(int32_t node) const {
+    const CompiledCriterion::Node& n = c_->nodes[node];
+    using K = Criterion::Kind;
+    using S = CriterionState;
+    if (n.kind == K::Not) {
+        const S s = state_[n.children[0]];
+        return s == S::True ? S::False : s == S::False ? S::True : S::Undefined;
+    }
+    const S dominant = n.kind == K::Or ? S::True : S::False;  // decides alone
+    bool allOther = true;
+    for (int32_t ch : n.children) {
+        if (state_[ch] == dominant) return dominant;
+        if (state_[ch] == S::Undefined) allOther = false;
+    }
+    if (!allOther) return S::Undefined;
+    return dominant == S::True ? S::False : S::True;
+}
+
+void StreamingEvaluator::setState(int32_t node, CriterionState s) {
+    state_[node] = s;
+    const int32_t p = c_->nodes[node].parent;
+    if (p < 0) return;
+    const CompiledCriterion::Node& parent = c_->nodes[p];
+    if (parent.kind == Criterion::Kind::Seq) {
+        int32_t& k = leadingTrue_[p];
+        while (k < static_cast<int32_t>(parent.children.size()) &&
+               state_[parent.children[k]] == CriterionState::True)
+            ++k;
+    }
+    if (state_[p] != CriterionState::Undefined) return;
+    const CriterionState ps = recompute(p);
+    if (ps != CriterionState::Undefined) setState(p, ps);
+}
+
+CriterionState StreamingEvaluator::push(const PathEvent& e) {
+    if (decided()) return state_[0];
+    // Eligibility is judged on the states before this event: one event advances a seq by at
+    // most one step. Changes are applied after all leaves have seen the event.
+    changed_.clear();
+    changedTo_.clear();
+    for (size_t i = 0; i < c_->leaves.size(); ++i) {
+        const CompiledCriterion::Leaf& leaf = c_->leaves[i];
+        if (state_[leaf.node] != CriterionState::Undefined || !leaf.matches(e) ||
+            !eligible(leaf.node))
+            continue;
+        const int32_t n = ++count_[i];
+        if (leaf.count.max == CountRange::kUnbounded) {
+            if (n >= leaf.count.min) {
+                changed_.push_back(leaf.node);
+                changedTo_.push_back(CriterionState::True);
+            }
+        } else if (n > leaf.count.max) {
+            changed_.push_back(leaf.node);
+            changedTo_.push_back(CriterionState::False);
+        }
+    }
+    for (size_t i = 0; i < changed_.size(); ++i) setState(changed_[i], changedTo_[i]);
+    return state_[0];
+}
+
+CriterionState StreamingEvaluator::finish() {
+    if (decided()) return state_[0];
+    changed_.clear();
+    changedTo_.clear();
+    for (size_t i = 0; i < c_->leaves.size(); ++i) {
+        const CompiledCriterion::Leaf& leaf = c_->leaves[i];
+        if (state_[leaf.node] != CriterionState::Undefined) continue;
+        const bool in = count_[i] >= leaf.count.min && count_[i] <= leaf.count.max;
+        changed_.push_back(leaf.node);
+        changedTo_.push_back(in ? CriterionState::True : CriterionState::False);
+    }
+    for (size_t i = 0; i < changed_.size(); ++i) setState(changed_[i], changedTo_[i]);
+    return state_[0];
+}
+
+bool matches(const CompiledCriterion& c, std::span<const PathEvent> events) {
+    StreamingEvaluator ev(c);
+    for (const PathEvent& e : events)
+        if (ev.push(e) != CriterionState::Undefined) return ev.state() == CriterionState::True;
+    return ev.finish() == CriterionState::True;
+}
+
+// Direct Evaluator
+// The definition of docs/criteria.md: a node opened at event index t sees events t, t+1, ...;
+// it yields its value and the index at which it became known (N = at the end of the path).
+namespace {
+
+DirectResult direct(const CompiledCriterion& c, int32_t node, size_t t,
+                    std::span<const PathEvent> ev) {
+    const size_t n = ev.size();
+    const CompiledCriterion::Node& nd = c.nodes[node];
+    switch (nd.kind) {
+        case Criterion::Kind::Leaf: {
+            const CompiledCriterion::Leaf& leaf = c.leaves[nd.leaf];
+            int count = 0;
+            for (size_t i = t; i < n; ++i) {
+                if (!leaf.matches(ev[i])) continue;
+                ++count;
+                if (leaf.count.max == CountRange::kUnbounded && count >= leaf.count.min)
+                    return {true, i};
+                if (count > leaf.count.max) return {false, i};
+            }
+            return {count >= leaf.count.min && count <= leaf.count.max, n};
+        }
+        case Criterion::Kind::Not: {
+            const DirectResult r = direct(c, nd.children[0], t, ev);
+            return {!r.value, r.decidedAt};
+        }
+        case Criterion::Kind::And:
+        case Criterion::Kind::Or: {
+            // And: false at the first false child, else true when the last child is.
+            const bool dominant = nd.kind == Criterion::Kind::Or;
+            bool anyDominant = false;
+            size_t first = n, last = 0;
+            for (int32_t ch : nd.children) {
+                const DirectResult r = direct(c, ch, t, ev);
+                if (r.value == dominant) {
+                    anyDominant = true;
+                    first = std::min(first, r.decidedAt);
+                }
+                last = std::max(last, r.decidedAt);
+            }
+            return anyDominant ? DirectResult{dominant, first} : DirectResult{!dominant, last};
+        }
+        case Criterion::Kind::Seq: {
+            // Child k opens at the event after the one that made child k-1 true.
+            size_t open = t, last = 0;
+            for (int32_t ch : nd.children) {
+                const DirectResult r = direct(c, ch, open, ev);
+                if (!r.value) return {false, r.decidedAt};
+                last = r.decidedAt;
+                open = r.decidedAt + 1;
+            }
+            return {true, last};
+        }
+    }
+    return {false, n};
+}
+
+}  // namespace
+
+DirectResult evaluateDirect(const CompiledCriterion& c, std::span<const PathEvent> events) {
+    return direct(c, 0, 0, events);
+}
+
+}  // namespace veil

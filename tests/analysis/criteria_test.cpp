@@ -1,0 +1,422 @@
+// Ray path criteria: the parsers, name resolution, hand-made paths (the seed's figure 3) and
+// the streaming evaluator against the direct recursive oracle on random criteria and paths.
+
+#include "analysis/criteria.h"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <random>
+
+namespace veil {
+namespace {
+
+using K = Criterion::Kind;
+using S = CriterionState;
+
+// A small lens: ids 0..7.
+NameTable lensNames() {
+    NameTable t;
+    t.objects = {{"L4.front", {}, "ar_coat", false}, {"L4.back", {"L5.front"}, "ar_coat", false},
+                 {"L4.edge", {}, "black", false},    {"spacer1", {}, "black", false},
+                 {"spacer2", {}, "black", false},    {"barrel", {}, "black_anodized", false},
+                 {"stop", {}, "black", false},       {"sensor", {}, "", true}};
+    t.media = {"air", "N-BK7", "N-SF6"};
+    t.sources = {"sun", "lamp"};
+    return t;
+}
+
+PathEvent ev(EventType t, int object, int before = 0, int after = 0) {
+    PathEvent e;
+    e.type = t;
+    e.object = object;
+    e.mediumBefore = static_cast<int16_t>(before);
+    e.mediumAfter = static_cast<int16_t>(after);
+    return e;
+}
+
+bool run(const std::string& text, const std::vector<PathEvent>& path) {
+    const CompiledCriterion c = compile(parseCriterion(text), lensNames());
+    const bool streaming = matches(c, path);
+    EXPECT_EQ(streaming, evaluateDirect(c, path).value) << text;
+    return streaming;
+}
+
+int errorColumn(const std::string& text) {
+    try {
+        parseCriterion(text);
+    } catch (const ParseError& e) {
+        return e.loc().column;
+    }
+    return -1;
+}
+
+std::string errorMessage(const std::string& text) {
+    try {
+        parseCriterion(text);
+    } catch (const ParseError& e) {
+        return e.what();
+    }
+    return "";
+}
+
+// Parser
+TEST(CriteriaParser, ReadsTheIssueExamples) {
+    Criterion c = parseCriterion("seq(reflect(L4.back), reflect(L4.front), hit(sensor))");
+    ASSERT_EQ(c.kind, K::Seq);
+    ASSERT_EQ(c.children.size(), 3u);
+    EXPECT_EQ(c.children[0].leaf, LeafKind::Reflect);
+    EXPECT_EQ(c.children[0].patterns[0].text, "L4.back");
+    EXPECT_EQ(c.children[0].patterns[0].column, 13);
+    EXPECT_EQ(c.children[2].leaf, LeafKind::Hit);
+
+    c = parseCriterion("scatter(spacer* | barrel) and hit(sensor)");
+    ASSERT_EQ(c.kind, K::And);
+    ASSERT_EQ(c.children[0].patterns.size(), 2u);
+    EXPECT_EQ(c.children[0].patterns[1].text, "barrel");
+    EXPECT_EQ(c.children[0].patterns[1].column, 19);
+
+    c = parseCriterion("reflect(*){2,}");
+    EXPECT_EQ(c.count, (CountRange{2, CountRange::kUnbounded}));
+    EXPECT_EQ(parseCriterion("reflect{3}").count, (CountRange{3, 3}));
+    EXPECT_EQ(parseCriterion("reflect{,2}").count, (CountRange{0, 2}));
+    EXPECT_EQ(parseCriterion("reflect { 1 , 4 }").count, (CountRange{1, 4}));
+}
+
+TEST(CriteriaParser, PrecedenceNotAndOr) {
+    // not binds tighter than and, and tighter than or.
+    const Criterion c = parseCriterion("hit(a) or not hit(b) and exit");
+    ASSERT_EQ(c.kind, K::Or);
+    ASSERT_EQ(c.children[1].kind, K::And);
+    EXPECT_EQ(c.children[1].children[0].kind, K::Not);
+    const Criterion d = parseCriterion("(hit(a) or hit(b)) and exit");
+    EXPECT_EQ(d.kind, K::And);
+    // Keywords are whole words: "hit(andy)" is a leaf with pattern "andy".
+    EXPECT_EQ(parseCriterion("hit(andy)").patterns[0].text, "andy");
+    EXPECT_EQ(errorColumn("hit(a) andexit"), 8);
+}
+
+TEST(CriteriaParser, PrintsAndReadsBack) {
+    for (const char* text :
+         {"seq(reflect(L4.back), reflect(L4.front), hit(sensor))",
+          "not (scatter(spacer* | barrel){2,5}) or (emit(sun) and medium(N-*){1})",
+          "seq(tir, fresnel{,3}, not (absorb), exit(#3))", "property(black*){2,}"}) {
+        const Criterion c = parseCriterion(text);
+        EXPECT_EQ(parseCriterion(toString(c)), c) << toString(c);
+    }
+}
+
+TEST(CriteriaParser, ErrorsPointAtTheColumn) {
+    EXPECT_EQ(errorColumn("hit(sensor) and"), 16);
+    EXPECT_NE(errorMessage("hit(sensor) and").find("expected a criterion"), std::string::npos);
+    EXPECT_EQ(errorColumn("reflec(L4.back)"), 1);
+    EXPECT_NE(errorMessage("reflec(L4.back)").find("unknown criterion 'reflec'"),
+              std::string::npos);
+    EXPECT_EQ(errorColumn("hit(sensor"), 11);
+    EXPECT_NE(errorMessage("hit(sensor").find("expected '|' or ')'"), std::string::npos);
+    EXPECT_EQ(errorColumn("hit(a | )"), 9);
+    EXPECT_EQ(errorColumn("seq(hit(a) hit(b))"), 12);
+    EXPECT_EQ(errorColumn("reflect{2,1}"), 8);
+    EXPECT_EQ(errorColumn("reflect{0,}"), 8);
+    EXPECT_EQ(errorColumn("reflect{x}"), 9);
+    EXPECT_EQ(errorColumn("(hit(a)){2}"), 9);
+    EXPECT_EQ(errorColumn("hit(a) hit(b)"), 8);
+    EXPECT_EQ(errorColumn("not"), 4);
+    try {
+        parseCriterion("exit or", "scene.toml");
+        FAIL();
+    } catch (const ParseError& e) {
+        EXPECT_EQ(e.loc().file, "scene.toml");
+        EXPECT_EQ(e.loc().line, 1);
+    }
+}
+
+// OpticStudio filters
+TEST(CriteriaZemax, MapsLettersAndPrecedence) {
+    const Criterion c = parseZemaxFilter("H7 & !R6 | S3");
+    ASSERT_EQ(c.kind, K::Or);
+    ASSERT_EQ(c.children[0].kind, K::And);
+    EXPECT_EQ(c.children[0].children[0].leaf, LeafKind::Hit);
+    EXPECT_EQ(c.children[0].children[0].patterns[0].text, "#7");
+    ASSERT_EQ(c.children[0].children[1].kind, K::Not);
+    EXPECT_EQ(c.children[0].children[1].children[0].leaf, LeafKind::Reflect);
+    EXPECT_EQ(c.children[1].leaf, LeafKind::Scatter);
+    EXPECT_EQ(parseZemaxFilter("t2").leaf, LeafKind::Refract);
+    EXPECT_EQ(parseZemaxFilter("H7 & (R6 | S3)").kind, K::And);
+
+    // Same answers as the text syntax on a path: refract at 0, reflect at 1, detector 7.
+    const NameTable names = lensNames();
+    const std::vector<PathEvent> path = {ev(EventType::Emit, 0), ev(EventType::Refract, 0),
+                                         ev(EventType::FresnelReflect, 1),
+                                         ev(EventType::DetectorHit, 7)};
+    EXPECT_TRUE(matches(compile(parseZemaxFilter("H7 & R1"), names), path));
+    EXPECT_FALSE(matches(compile(parseZemaxFilter("H7 & !R1"), names), path));
+    EXPECT_TRUE(matches(compile(parseZemaxFilter("H7 & !R1 | T0"), names), path));
+    EXPECT_FALSE(matches(compile(parseZemaxFilter("S3 | H5"), names), path));
+}
+
+TEST(CriteriaZemax, ErrorsPointAtTheColumn) {
+    auto column = [](const char* text) {
+        try {
+            parseZemaxFilter(text);
+        } catch (const ParseError& e) {
+            return e.loc().column;
+        }
+        return -1;
+    };
+    EXPECT_EQ(column("H7 & "), 6);
+    EXPECT_EQ(column("H7 & X2"), 6);
+    EXPECT_EQ(column("H & R2"), 2);
+    EXPECT_EQ(column("(H7 | R2"), 9);
+    EXPECT_EQ(column("H7 R2"), 4);
+}
+
+// Name resolution
+TEST(CriteriaNames, GlobsAliasesAndErrors) {
+    const NameTable names = lensNames();
+    const CompiledCriterion c = compile(parseCriterion("scatter(spacer* | barrel)"), names);
+    ASSERT_EQ(c.leaves.size(), 1u);
+    EXPECT_EQ(c.leaves[0].set[0], (1u << 3) | (1u << 4) | (1u << 5));
+    EXPECT_EQ(compile(parseCriterion("hit(L5.front)"), names).leaves[0].set[0], 1u << 1);
+    EXPECT_EQ(compile(parseCriterion("hit(L4.?\?\?\?)"), names).leaves[0].set[0], 0b110u);
+    EXPECT_EQ(compile(parseCriterion("property(black*)"), names).leaves[0].set[0], 0b1111100u);
+    EXPECT_EQ(compile(parseCriterion("detector"), names).leaves[0].set[0], 1u << 7);
+    EXPECT_EQ(compile(parseCriterion("medium(N-*)"), names).leaves[0].set[0], 0b110u);
+    EXPECT_EQ(compile(parseCriterion("emit(lamp)"), names).leaves[0].set[0], 0b10u);
+    EXPECT_TRUE(compile(parseCriterion("exit"), names).leaves[0].anyObject);
+
+    auto error = [&](const char* text) -> std::pair<int, std::string> {
+        try {
+            compile(parseCriterion(text), names);
+        } catch (const ParseError& e) {
+            return {e.loc().column, e.message()};
+        }
+        return {-1, ""};
+    };
+    EXPECT_EQ(error("hit(sensor) and scatter(spacer9 | baffle*)"),
+              std::make_pair(25, std::string("object pattern 'spacer9' matches no object")));
+    EXPECT_EQ(error("detector(barrel)"),
+              std::make_pair(10, std::string("detector pattern 'barrel' matches no detector")));
+    EXPECT_EQ(error("medium(air) or medium(CaF2)").first, 23);
+    EXPECT_EQ(error("emit(moon)").second, "source pattern 'moon' matches no source");
+    EXPECT_EQ(error("property(gold)").first, 10);
+    EXPECT_EQ(error("hit(#8)").first, 5);
+    EXPECT_EQ(error("hit(#7)").first, -1);
+}
+
+// Hand-made paths
+TEST(CriteriaEval, SeedFigure3) {
+    // "Before hitting the lens surface the ray either specularly refracts or enters glass":
+    // seq(refract or medium(N-BK7), hit(L4.back)).
+    const std::string crit = "seq(refract(L4.front) or medium(N-BK7), hit(L4.back))";
+    // First sequence: the ray hits L4.back directly, then refracts: does not qualify.
+    EXPECT_FALSE(run(crit, {ev(EventType::Emit, 0), ev(EventType::Refract, 1, 0, 2),
+                            ev(EventType::Refract, 0, 2, 0), ev(EventType::Exit, -1)}));
+    // Second sequence: refracts at L4.front into glass, then meets L4.back: qualifies.
+    EXPECT_TRUE(run(crit, {ev(EventType::Emit, 0), ev(EventType::Refract, 0, 0, 1),
+                           ev(EventType::Refract, 1, 1, 0), ev(EventType::DetectorHit, 7)}));
+}
+
+TEST(CriteriaEval, GhostsCountsAndEarlyDecision) {
+    const std::vector<PathEvent> ghost = {ev(EventType::Emit, 0),
+                                          ev(EventType::Refract, 0, 0, 1),
+                                          ev(EventType::FresnelReflect, 1, 1, 1),
+                                          ev(EventType::FresnelReflect, 0, 1, 1),
+                                          ev(EventType::Refract, 1, 1, 0),
+                                          ev(EventType::DetectorHit, 7)};
+    EXPECT_TRUE(run("seq(reflect(L4.back), reflect(L4.front), hit(sensor))", ghost));
+    EXPECT_FALSE(run("seq(reflect(L4.front), reflect(L4.back), hit(sensor))", ghost));
+    EXPECT_TRUE(run("reflect(*){2}", ghost));
+    EXPECT_FALSE(run("reflect(*){3,}", ghost));
+    EXPECT_TRUE(run("reflect{,2} and fresnel{2,2}", ghost));
+    EXPECT_FALSE(run("reflect{1}", ghost));
+    EXPECT_FALSE(run("scatter(spacer* | barrel) and hit(sensor)", ghost));
+    EXPECT_TRUE(run("not scatter and detector(sensor)", ghost));
+    // One event advances a seq by one step only.
+    EXPECT_FALSE(run("seq(reflect, reflect, reflect)", ghost));
+    EXPECT_TRUE(run("seq(reflect, reflect)", ghost));
+    // not inside seq: nothing of B after A; a child after a not never fires.
+    EXPECT_TRUE(run("seq(reflect(L4.front), not refract(L4.front))", ghost));
+    EXPECT_FALSE(run("seq(refract(L4.front), not reflect(L4.front))", ghost));
+    EXPECT_FALSE(run("seq(emit, not scatter, hit(sensor))", ghost));
+    // Counts inside seq are counted only while their step is open.
+    EXPECT_TRUE(run("seq(reflect(L4.back), reflect{1,})", ghost));
+    EXPECT_TRUE(run("seq(reflect(L4.front), reflect{,0})", ghost));
+
+    // Early decision: {2,} is true at the second reflection, {1} false there.
+    const CompiledCriterion c = compile(parseCriterion("reflect{2,}"), lensNames());
+    StreamingEvaluator s(c);
+    EXPECT_EQ(s.push(ghost[0]), S::Undefined);
+    EXPECT_EQ(s.push(ghost[1]), S::Undefined);
+    EXPECT_EQ(s.push(ghost[2]), S::Undefined);
+    EXPECT_EQ(s.push(ghost[3]), S::True);
+    EXPECT_TRUE(s.decided());
+    EXPECT_EQ(evaluateDirect(c, ghost).decidedAt, 3u);
+    const CompiledCriterion one = compile(parseCriterion("reflect{1}"), lensNames());
+    StreamingEvaluator s1(one);
+    for (int i = 0; i < 3; ++i) s1.push(ghost[i]);
+    EXPECT_FALSE(s1.decided());
+    EXPECT_EQ(s1.push(ghost[3]), S::False);
+    s1.reset();
+    EXPECT_FALSE(s1.decided());
+    EXPECT_EQ(s1.finish(), S::False);
+}
+
+// Property test: streaming against the oracle
+class RandomCriteria {
+  public:
+    explicit RandomCriteria(uint32_t seed) : rng_(seed) {}
+
+    int uniform(int lo, int hi) { return std::uniform_int_distribution<int>(lo, hi)(rng_); }
+
+    Criterion criterion(int budget) {
+        Criterion c;
+        if (budget <= 1 || uniform(0, 3) == 0) return leaf();
+        const int k = uniform(0, 3);
+        if (k == 0) {
+            c.kind = K::Not;
+            c.children.push_back(criterion(budget - 1));
+            return c;
+        }
+        c.kind = k == 1 ? K::And : k == 2 ? K::Or : K::Seq;
+        int left = budget - 1;
+        const int n = uniform(1, std::min(4, left));
+        for (int i = 0; i < n && left > 0; ++i) {
+            const int share = i == n - 1 ? left : uniform(1, std::max(1, left - (n - 1 - i)));
+            Criterion ch = criterion(share);
+            left -= static_cast<int>(ch.nodeCount());
+            c.children.push_back(std::move(ch));
+        }
+        return c;
+    }
+
+    Criterion leaf() {
+        Criterion c;
+        c.leaf = static_cast<LeafKind>(uniform(0, kLeafKindCount - 1));
+        const int universe = c.leaf == LeafKind::Emit ? 2 : c.leaf == LeafKind::Medium ? 3 : 5;
+        const int np = uniform(0, 2);
+        for (int i = 0; i < np; ++i) {
+            if (c.leaf == LeafKind::Detector) {
+                c.patterns.push_back(
+                    {uniform(0, 1) ? "d*"
+                                   : std::string("#").append(std::to_string(uniform(3, 4)))});
+            } else if (c.leaf == LeafKind::Property) {
+                c.patterns.push_back({uniform(0, 1) ? "p?" : "p1"});
+            } else {
+                c.patterns.push_back(
+                    {std::string("#").append(std::to_string(uniform(0, universe - 1)))});
+            }
+        }
+        switch (uniform(0, 5)) {
+            case 0:
+                c.count = {uniform(1, 3), uniform(3, 4)};
+                break;
+            case 1:
+                c.count = {uniform(0, 2), uniform(0, 2)};
+                break;
+            case 2:
+                c.count = {uniform(2, 3), CountRange::kUnbounded};
+                break;
+            default:
+                break;
+        }
+        if (c.count.min > c.count.max) std::swap(c.count.min, c.count.max);
+        if (c.count.min == 0 && c.count.max == CountRange::kUnbounded) c.count.min = 1;
+        return c;
+    }
+
+    std::vector<PathEvent> path() {
+        std::vector<PathEvent> p;
+        const int n = uniform(0, 14);
+        int medium = 0;
+        for (int i = 0; i < n; ++i) {
+            PathEvent e;
+            e.type =
+                i == 0 ? EventType::Emit : static_cast<EventType>(uniform(0, kEventTypeCount - 1));
+            e.object = e.type == EventType::Emit ? uniform(0, 1) : uniform(-1, 4);
+            e.mediumBefore = static_cast<int16_t>(medium);
+            if (uniform(0, 2) == 0) medium = uniform(0, 2);
+            e.mediumAfter = static_cast<int16_t>(medium);
+            p.push_back(e);
+        }
+        return p;
+    }
+
+  private:
+    std::mt19937 rng_;
+};
+
+NameTable randomNames() {
+    NameTable t;
+    t.objects = {{"o0", {}, "p1", false},
+                 {"o1", {"a1"}, "p2", false},
+                 {"o2", {}, "", false},
+                 {"d3", {}, "p1", true},
+                 {"d4", {}, "", true}};
+    t.media = {"m0", "m1", "m2"};
+    t.sources = {"s0", "s1"};
+    return t;
+}
+
+TEST(CriteriaProperty, StreamingAgreesWithTheOracle) {
+    const auto start = std::chrono::steady_clock::now();
+    RandomCriteria gen(20261122);
+    const NameTable names = randomNames();
+    constexpr int kCriteria = 100000;
+    constexpr int kPathsPerCriterion = 8;
+    int trueCount = 0, early = 0, maxNodes = 0;
+    bool kinds[5] = {};
+    for (int i = 0; i < kCriteria; ++i) {
+        const Criterion crit = gen.criterion(gen.uniform(1, 30));
+        ASSERT_LE(crit.nodeCount(), 30u);
+        maxNodes = std::max(maxNodes, static_cast<int>(crit.nodeCount()));
+        kinds[static_cast<int>(crit.kind)] = true;
+        const CompiledCriterion c = compile(crit, names);
+        StreamingEvaluator s(c);
+        for (int j = 0; j < kPathsPerCriterion; ++j) {
+            const std::vector<PathEvent> path = gen.path();
+            const DirectResult oracle = evaluateDirect(c, path);
+            s.reset();
+            size_t decidedAt = path.size();
+            S first = S::Undefined;
+            for (size_t k = 0; k < path.size(); ++k) {
+                const S st = s.push(path[k]);
+                if (first == S::Undefined && st != S::Undefined) {
+                    first = st;
+                    decidedAt = k;
+                }
+                // Once decided, the answer does not change with more events.
+                if (first != S::Undefined) {
+                    ASSERT_EQ(st, first);
+                }
+            }
+            const S final = s.finish();
+            ASSERT_NE(final, S::Undefined);
+            if (first != S::Undefined) {
+                ASSERT_EQ(final, first);
+            }
+            ASSERT_EQ(final == S::True, oracle.value)
+                << "criterion " << crit << "\npath " << ::testing::PrintToString(path);
+            ASSERT_EQ(decidedAt, oracle.decidedAt)
+                << "criterion " << crit << "\npath " << ::testing::PrintToString(path);
+            trueCount += oracle.value;
+            early += decidedAt < path.size();
+        }
+    }
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const int total = kCriteria * kPathsPerCriterion;
+    // The test must exercise both answers and early decisions, with big trees.
+    EXPECT_GT(trueCount, total / 10);
+    EXPECT_LT(trueCount, total * 9 / 10);
+    EXPECT_GT(early, total / 10);
+    EXPECT_EQ(maxNodes, 30);
+    for (int k = 0; k < 5; ++k) EXPECT_TRUE(kinds[k]) << k;
+    RecordProperty("cases", total);
+    std::cout << "[criteria] " << kCriteria << " criteria x " << kPathsPerCriterion
+              << " paths: true " << trueCount << ", decided early " << early << ", " << seconds
+              << " s\n";
+}
+
+}  // namespace
+}  // namespace veil
