@@ -55,7 +55,8 @@ struct TraceOptions {
     double roulette = 0.0;
     int maxSegments = 1000;
     bool quiet = false;
-    std::string saveRays;  // ray database file to write
+    std::string saveRays;            // ray database file to write
+    std::vector<std::string> where;  // path criteria: one image per criterion plus the rest
 };
 void addTraceCommand(CLI::App& app, TraceOptions& options);
 int runTrace(const CommonOptions& common, const TraceOptions& options);

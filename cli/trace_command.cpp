@@ -20,6 +20,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "analysis/criterion_images.h"
 #include "analysis/image_output.h"
 #include "analysis/ray_statistics.h"
 #include "analysis/trace_setup.h"
@@ -50,6 +51,9 @@ void addTraceCommand(CLI::App& app, TraceOptions& o) {
     sub->add_option("--max-segments", o.maxSegments, "segments per branch before it is culled")
         ->capture_default_str();
     sub->add_flag("--quiet", o.quiet, "no progress bar");
+    sub->add_option("--where", o.where,
+                    "path criterion (docs/criteria.md); repeatable: one image per criterion plus "
+                    "the rest, and the detector flux split by criterion");
     sub->add_option(
         "--save-rays", o.saveRays,
         "write every ray's path history to this ray database file (docs/ray-database.md)");
@@ -144,6 +148,18 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
                   << (total ? 100.0 * done / total : 100.0) << "%  " << std::setprecision(0) << rate
                   << " rays/s  ETA " << duration(left) << "   " << std::flush;
     };
+    // Criteria are parsed and resolved before any ray is traced: a typo costs nothing.
+    std::unique_ptr<CriterionImages> split;
+    if (!o.where.empty()) {
+        const NameTable names = criterionNames(setup.scene, ts.transport);
+        std::vector<CompiledCriterion> compiled;
+        for (size_t i = 0; i < o.where.size(); ++i) {
+            const std::string source = "--where " + std::to_string(i + 1);
+            compiled.push_back(compile(parseCriterion(o.where[i], source), names, source));
+        }
+        split = std::make_unique<CriterionImages>(o.where, std::move(compiled), ts.images,
+                                                  ts.transport.detectorOfObject);
+    }
     std::filesystem::create_directories(o.output);
     std::unique_ptr<RayDatabaseWriter> db;
     RayCallback onRay;
@@ -156,7 +172,14 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
         if (!dbParent.empty()) std::filesystem::create_directories(dbParent);
         db = std::make_unique<RayDatabaseWriter>(o.saveRays, info);
         options.recordHistories = true;
-        onRay = [&](uint64_t i, const PathHistory& h) { db->add(i, h); };
+    }
+    if (db || split) {
+        options.recordHistories = true;
+        RayCallback splitCallback = split ? split->callback() : RayCallback{};
+        onRay = [&, splitCallback](uint64_t i, const PathHistory& h) {
+            if (splitCallback) splitCallback(i, h);
+            if (db) db->add(i, h);
+        };
     }
     const TraceResult result = traceNonsequential(
         ts.transport, ts.images, raysPerSource, options,
@@ -165,6 +188,7 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
         db->setEmittedRays(total);
         db->close();
     }
+    if (split) split->finish();
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (!o.quiet) std::cerr << "\n";
@@ -207,20 +231,51 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
               << " segments in " << seconds << " s (" << std::setprecision(0)
               << total / std::max(seconds, 1e-9) << " rays/s)\n\nDetectors\n";
     summary["detectors"] = nlohmann::json::array();
-    for (const DetectorImage& img : result.detectors) {
+    for (size_t d = 0; d < result.detectors.size(); ++d) {
+        const DetectorImage& img = result.detectors[d];
         const std::string name = img.geometry().name;
+        const std::filesystem::path dir(o.output);
         ExrInfo info{unit, total};
-        writeDetectorExr(std::filesystem::path(o.output) / (name + ".exr"), img, info);
+        std::vector<ImageLayer> layers{{split ? "all" : "", &img}};
+        if (split) {
+            for (size_t c = 0; c <= split->criterionCount(); ++c)
+                layers.push_back(
+                    {c < split->criterionCount() ? "where" + std::to_string(c + 1) : "rest",
+                     &split->images()[c][d]});
+        }
+        writeDetectorExr(dir / (name + ".exr"), layers, info);
         PreviewOptions po;
         po.fluxUnit = unit;
         po.emittedRays = total;
-        writeDetectorPng(std::filesystem::path(o.output) / (name + ".png"), img, po);
+        writeDetectorPng(dir / (name + ".png"), img, po);
         const double rel = img.totalRelativeError(total);
         std::cout << "  " << name << ": " << std::scientific << std::setprecision(6)
                   << img.totalFlux() << " " << unit << " +- " << std::fixed << std::setprecision(3)
                   << 100.0 * rel << " %\n";
-        summary["detectors"].push_back(
-            {{"name", name}, {"flux", img.totalFlux()}, {"relative_error", num(rel)}});
+        nlohmann::json jd{{"name", name}, {"flux", img.totalFlux()}, {"relative_error", num(rel)}};
+        if (split) {
+            jd["by_criterion"] = nlohmann::json::array();
+            for (size_t c = 0; c <= split->criterionCount(); ++c) {
+                const DetectorImage& layer = split->images()[c][d];
+                const std::string tag =
+                    c < split->criterionCount() ? "where" + std::to_string(c + 1) : "rest";
+                const std::string text =
+                    c < split->criterionCount() ? split->text(c) : "none of the above";
+                PreviewOptions lp = po;
+                lp.title = name + ": " + text;
+                writeDetectorPng(dir / (name + "." + tag + ".png"), layer, lp);
+                const double lrel = layer.totalRelativeError(total);
+                std::cout << "    " << std::left << std::setw(8) << tag << std::right
+                          << std::scientific << std::setprecision(6) << layer.totalFlux() << " "
+                          << unit << " +- " << std::fixed << std::setprecision(3) << 100.0 * lrel
+                          << " %  " << text << "\n";
+                jd["by_criterion"].push_back({{"layer", tag},
+                                              {"criterion", text},
+                                              {"flux", layer.totalFlux()},
+                                              {"relative_error", num(lrel)}});
+            }
+        }
+        summary["detectors"].push_back(jd);
     }
     const std::filesystem::path js = std::filesystem::path(o.output) / "summary.json";
     {

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <fstream>
 
+#include "analysis/criterion_images.h"
 #include "analysis/ray_statistics.h"
 #include "analysis/trace_setup.h"
 #include "tests/analysis/prepared_scene.h"
@@ -290,6 +291,45 @@ field_deg = [0.0, 25.0]
     const double traced = plain.detectors[0].totalFlux();
     EXPECT_NEAR(st.detectedFlux.at("sensor"), traced, 1e-6 * traced);  // float32 fluxes
     EXPECT_GT(st.eventsByType[static_cast<size_t>(EventType::FresnelReflect)], 0u);
+}
+
+// The seed's filtered images: on the double Gauss with the Sun off axis, the image of the
+// two-reflection ghosts, the image of its complement, and the whole add up, pixel by pixel,
+// to the unfiltered image within floating point; nothing is left for "the rest".
+TEST(Transport, CriterionImagesAndTheirComplementAddUpToTheImage) {
+    const auto path = writeScene("where", "lens = \"" + kLenses + "double_gauss_50mm.toml\"\n" + R"(
+[mechanics]
+[[source]]
+kind = "sun"
+field_deg = [0.0, 12.0]
+[detector]
+size_mm = [36.0, 24.0]
+pixels = [72, 48]
+)");
+    Prepared r = prepare(path);
+    const NameTable names = criterionNames(r.setup->scene, r.trace.transport);
+    const std::vector<std::string> texts = {"reflect{2}", "not reflect{2}"};
+    std::vector<CompiledCriterion> compiled;
+    for (const std::string& t : texts) compiled.push_back(compile(parseCriterion(t), names));
+    CriterionImages split(texts, compiled, r.trace.images, r.trace.transport.detectorOfObject);
+    TransportOptions o;
+    o.seed = 21;
+    o.recordHistories = true;
+    const TraceResult res =
+        traceNonsequential(r.trace.transport, r.trace.images, 4000, o, {}, split.callback());
+    split.finish();
+    const DetectorImage& whole = res.detectors[0];
+    const DetectorImage& ghosts = split.images()[0][0];
+    const DetectorImage& others = split.images()[1][0];
+    const DetectorImage& rest = split.images()[2][0];
+    ASSERT_GT(ghosts.totalFlux(), 0.0);  // the sun at 12 deg makes two-reflection ghosts
+    ASSERT_GT(others.totalFlux(), 0.0);
+    EXPECT_EQ(rest.totalFlux(), 0.0);
+    for (int p = 0; p < whole.geometry().pixelCount(); ++p)
+        EXPECT_NEAR(ghosts.flux(p) + others.flux(p), whole.flux(p), 1e-12 * whole.totalFlux())
+            << "pixel " << p;
+    EXPECT_NEAR(ghosts.totalFlux() + others.totalFlux(), whole.totalFlux(),
+                1e-12 * whole.totalFlux());
 }
 
 }  // namespace

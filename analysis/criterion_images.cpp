@@ -1,0 +1,67 @@
+#include "analysis/criterion_images.h"
+
+namespace veil {
+
+CriterionImages::CriterionImages(std::vector<std::string> criterionTexts,
+                                 std::vector<CompiledCriterion> criteria,
+                                 const std::vector<DetectorImage>& detectors,
+                                 std::vector<int> detectorOfObject)
+    : texts_(std::move(criterionTexts)),
+      criteria_(std::move(criteria)),
+      detectorOfObject_(std::move(detectorOfObject)),
+      images_(texts_.size() + 1, detectors) {}
+
+RayCallback CriterionImages::callback() {
+    return [this](uint64_t ray, const PathHistory& h) { collect(ray, h); };
+}
+
+void CriterionImages::collect(uint64_t ray, const PathHistory& h) {
+    std::vector<Hit> hits;
+    std::vector<NodeIndex> chain;
+    std::vector<PathEvent> events;
+    thread_local std::vector<StreamingEvaluator> evaluators;
+    evaluators.clear();
+    for (const CompiledCriterion& c : criteria_) evaluators.emplace_back(c);
+    for (size_t i = 0; i < h.size(); ++i) {
+        const auto leaf = static_cast<NodeIndex>(i);
+        if (!h.isLeaf(leaf)) continue;
+        const PathNode& end = h.node(leaf);
+        if (end.type != EventType::DetectorHit) continue;
+        if (end.object < 0 || end.object >= static_cast<int>(detectorOfObject_.size())) continue;
+        const int d = detectorOfObject_[end.object];
+        if (d < 0) continue;
+        const auto pixel = images_[0][d].pixelOf(end.position);
+        if (!pixel) continue;
+        const PathView view = h.path(leaf, chain);
+        events.clear();
+        for (size_t k = 0; k < view.size(); ++k) events.push_back(view.event(k));
+        bool any = false;
+        for (size_t c = 0; c < criteria_.size(); ++c) {
+            StreamingEvaluator& ev = evaluators[c];
+            ev.reset();
+            for (size_t k = 0; k < events.size() && !ev.decided(); ++k) ev.push(events[k]);
+            if (ev.finish() == CriterionState::True) {
+                hits.push_back({static_cast<int>(c), d, *pixel, end.flux});
+                any = true;
+            }
+        }
+        if (!any) hits.push_back({static_cast<int>(criteria_.size()), d, *pixel, end.flux});
+    }
+    if (hits.empty()) return;
+    std::lock_guard<std::mutex> lock(mutex_);
+    pending_[ray] = std::move(hits);
+}
+
+void CriterionImages::finish() {
+    std::vector<std::vector<RayContribution>> scratch(
+        images_.size(), std::vector<RayContribution>(images_.empty() ? 0 : images_[0].size()));
+    for (auto& [ray, hits] : pending_) {
+        for (const Hit& h : hits) scratch[h.layer][h.detector].add(h.pixel, h.flux);
+        for (size_t l = 0; l < scratch.size(); ++l)
+            for (size_t d = 0; d < scratch[l].size(); ++d)
+                if (!scratch[l][d].empty()) images_[l][d].add(scratch[l][d]);
+    }
+    pending_.clear();
+}
+
+}  // namespace veil
