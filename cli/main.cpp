@@ -6,6 +6,7 @@
 #include <iostream>
 
 #include "cli/commands.h"
+#include "cli/paths_command.h"
 #include "lensdata/errors.h"
 
 int main(int argc, char** argv) {
@@ -27,6 +28,8 @@ int main(int argc, char** argv) {
     veil::cli::addTraceCommand(app, traceOptions);
     veil::cli::RaysOptions raysOptions;
     veil::cli::addRaysCommand(app, raysOptions);
+    veil::cli::PathsOptions pathsOptions;
+    veil::cli::addPathsCommand(app, pathsOptions);
 
     try {
         app.parse(argc, argv);
@@ -40,6 +43,7 @@ int main(int argc, char** argv) {
             if (sub->get_name() == "export") return veil::cli::runExport(common, exportOptions);
             if (sub->get_name() == "trace") return veil::cli::runTrace(common, traceOptions);
             if (sub->get_name() == "rays") return veil::cli::runRays(common, raysOptions);
+            if (sub->get_name() == "paths") return veil::cli::runPaths(common, pathsOptions);
         }
     } catch (const veil::ParseError& e) {
         std::cerr << "veil: error: " << e.what() << "\n";

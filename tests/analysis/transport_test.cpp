@@ -98,7 +98,9 @@ pixels = [16, 16]
         << "flux " << img.totalFlux() << " expected " << expected << " sigma " << sigma;
     EXPECT_LT(sigma, 0.02 * expected);  // the test has power: 2 % or better
     EXPECT_LT(std::abs(res.budget.imbalance()), 1e-12);
-    if (GetParam().roulette > 0.0) EXPECT_GT(res.budget.rouletteGain, 0.0);
+    if (GetParam().roulette > 0.0) {
+        EXPECT_GT(res.budget.rouletteGain, 0.0);
+    }
     // Every pixel sees the same irradiance (chi-square over the 256 pixels).
     double chi2 = 0.0;
     for (int p = 0; p < img.geometry().pixelCount(); ++p) {

@@ -1,0 +1,90 @@
+#pragma once
+// Ray path pictures: the first N ray paths that satisfy a criterion, drawn over the 2D layout
+// (the seed's figures 1a/1b and 4-6).
+//
+//   criterion text ──selectPaths(TransportScene)──> PathSelection ──drawPaths(layout)──> Picture
+//
+// Selection traces rays in batches with path histories and evaluates the criterion on every
+// complete path (root to leaf) of every ray. It keeps the first `count` matching paths in ray
+// index order, then leaf order, so the result is the same whatever the thread count: the rays
+// of a batch finish in any order, but only the lowest indices are kept.
+//
+// Batch b traces with seed `seed + b`; ray r of batch b has the global index
+// b * batchRays * sources + r (batch 0 is exactly `veil trace --seed seed`).
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "analysis/criteria.h"
+#include "analysis/picture.h"
+#include "tracer/nonsequential.h"
+
+namespace veil {
+
+// One complete path, root (the emission) to leaf. Node k > 0 ends the segment that starts at
+// node k-1: segment k runs from points[k-1] to points[k], carries flux[k] and ends with
+// events[k].type. Node 0 is the emission (flux[0] = emitted flux).
+struct SelectedPath {
+    uint64_t ray = 0;  // global ray index (see the header comment)
+    NodeIndex leaf = kNoNode;
+    std::vector<Vec3> points;       // global, mm
+    std::vector<double> flux;       // arriving at each node (W or lm, as the sources)
+    std::vector<PathEvent> events;  // what the criterion saw, in path order
+    size_t segmentCount() const { return points.empty() ? 0 : points.size() - 1; }
+};
+std::ostream& operator<<(std::ostream& os, const SelectedPath& p);
+
+struct PathSelectionOptions {
+    std::string where;           // criterion text (docs/criteria.md)
+    size_t count = 300;          // paths to keep
+    uint64_t maxRays = 1000000;  // emitted rays (all sources) to trace at most
+    uint64_t batchRays = 20000;  // rays per source per batch
+    TransportOptions transport;  // recordHistories is forced on; seed is the base seed
+};
+
+struct PathSelection {
+    std::string criterion;            // the text as given
+    std::vector<SelectedPath> paths;  // first `count` matches by (ray, leaf)
+    uint64_t raysTraced = 0;          // emitted rays (all sources)
+    uint64_t pathsEvaluated = 0;      // complete paths seen
+    uint64_t pathsMatched = 0;        // of those, matching (can exceed paths.size())
+    bool complete() const { return !paths.empty() && paths.size() >= requested; }
+    size_t requested = 0;
+};
+std::ostream& operator<<(std::ostream& os, const PathSelection& s);
+
+// Parses and compiles options.where against the scene's names (ParseError with the column on
+// a bad criterion), then traces batches until `count` paths are found or maxRays are traced.
+// `detectors` are the empty images traceNonsequential needs (TraceSetup::images).
+PathSelection selectPaths(const TransportScene& ts, const std::vector<DetectorImage>& detectors,
+                          const PathSelectionOptions& options);
+
+// Path Pictures
+enum class PathColouring { LogFlux, EventType };
+std::ostream& operator<<(std::ostream& os, PathColouring c);
+
+struct PathPictureOptions {
+    PathColouring colouring = PathColouring::LogFlux;
+    double decades = 6.0;  // LogFlux: the colour ramp spans [max 10^-decades, max]
+    double lineWidthPt = 0.5;
+    // Segments are clipped to this y-z rectangle (mm) when set: {zMin, zMax, yMin, yMax}.
+    // Exit segments run to the scene's far bounds; the layout's frame keeps the picture tidy.
+    std::optional<std::array<double, 4>> clipZY;
+};
+
+// The colour of a segment ending with event `t` in the EventType palette: refract blue,
+// Fresnel and specular reflection red, TIR orange, scatter green, absorb and exit grey,
+// detector black.
+Color eventColour(EventType t);
+
+// `base` (from drawLayout) with every path's segments projected to the y-z plane (a point
+// (x, y, z) is drawn at (z, y)) and a legend: the criterion, the number of paths and the
+// colour key.
+Picture drawPaths(const Picture& base, const PathSelection& selection,
+                  const PathPictureOptions& options = {});
+
+}  // namespace veil

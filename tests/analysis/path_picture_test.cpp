@@ -1,0 +1,156 @@
+// Ray path pictures: the selection keeps exactly the first matching paths in (ray, leaf) order
+// (checked against a brute-force trace of the same rays), every kept path satisfies the
+// criterion by the direct evaluator, the thread count changes nothing, and the picture files
+// are written.
+
+#include "analysis/path_picture.h"
+
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <fstream>
+#include <iterator>
+#include <mutex>
+#include <utility>
+
+#include "analysis/layout.h"
+#include "tests/analysis/prepared_scene.h"
+
+namespace veil {
+namespace {
+
+using test::prepare;
+using test::Prepared;
+
+const std::string kSunScene = VEIL_SOURCE_DIR "/examples/scenes/longfocus_360mm_sun.toml";
+const std::string kGhosts = "reflect{1,} and hit(sensor)";
+
+PathSelectionOptions ghostOptions() {
+    PathSelectionOptions o;
+    o.where = kGhosts;
+    o.count = 40;
+    o.batchRays = 200;
+    o.maxRays = 2000;
+    o.transport.seed = 11;
+    return o;
+}
+
+TEST(PathSelection, KeepsTheFirstMatchingPathsInRayOrder) {
+    const Prepared r = prepare(kSunScene);
+    const PathSelectionOptions o = ghostOptions();
+    const PathSelection sel = selectPaths(r.trace.transport, r.trace.images, o);
+    ASSERT_EQ(sel.paths.size(), o.count) << sel;
+    EXPECT_GE(sel.pathsMatched, o.count);
+
+    // Oracle: trace the same batches, record every matching (ray, leaf) with the direct
+    // evaluator, sort, take the first `count`.
+    const CompiledCriterion c =
+        compile(parseCriterion(kGhosts), criterionNames(r.setup->scene, r.trace.transport));
+    std::vector<std::pair<uint64_t, NodeIndex>> all;
+    std::mutex m;
+    uint64_t traced = 0;
+    for (uint64_t b = 0; traced < sel.raysTraced; ++b) {
+        TransportOptions to = o.transport;
+        to.recordHistories = true;
+        to.seed = o.transport.seed + b;
+        const uint64_t offset = traced;
+        traceNonsequential(r.trace.transport, r.trace.images, o.batchRays, to, {},
+                           [&](uint64_t i, const PathHistory& h) {
+                               h.forEachPath([&](const PathView& p) {
+                                   const std::vector<PathEvent> ev(p.begin(), p.end());
+                                   if (!evaluateDirect(c, ev).value) return;
+                                   std::lock_guard lock(m);
+                                   all.emplace_back(offset + i, p.leaf());
+                               });
+                           });
+        traced += o.batchRays * r.trace.transport.sources.size();
+    }
+    std::sort(all.begin(), all.end());
+    ASSERT_GE(all.size(), o.count);
+    for (size_t k = 0; k < o.count; ++k) {
+        EXPECT_EQ(sel.paths[k].ray, all[k].first) << k;
+        EXPECT_EQ(sel.paths[k].leaf, all[k].second) << k;
+    }
+}
+
+TEST(PathSelection, EveryKeptPathSatisfiesTheCriterion) {
+    const Prepared r = prepare(kSunScene);
+    const PathSelection sel = selectPaths(r.trace.transport, r.trace.images, ghostOptions());
+    const CompiledCriterion c =
+        compile(parseCriterion(kGhosts), criterionNames(r.setup->scene, r.trace.transport));
+    ASSERT_FALSE(sel.paths.empty());
+    for (const SelectedPath& p : sel.paths) {
+        EXPECT_TRUE(evaluateDirect(c, p.events).value) << p;
+        ASSERT_EQ(p.points.size(), p.events.size());
+        ASSERT_EQ(p.flux.size(), p.events.size());
+        EXPECT_EQ(p.events.front().type, EventType::Emit);
+        // A reflection somewhere, and a sensor event.
+        EXPECT_TRUE(std::any_of(p.events.begin(), p.events.end(), [](const PathEvent& e) {
+            return e.type == EventType::FresnelReflect || e.type == EventType::SpecularReflect;
+        })) << p;
+    }
+}
+
+TEST(PathSelection, OneAndTwoThreadsSelectTheSamePaths) {
+    const Prepared r = prepare(kSunScene);
+    auto run = [&](size_t threads) {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+        return selectPaths(r.trace.transport, r.trace.images, ghostOptions());
+    };
+    const PathSelection one = run(1), two = run(2);
+    ASSERT_EQ(one.paths.size(), two.paths.size());
+    EXPECT_EQ(one.pathsMatched, two.pathsMatched);
+    for (size_t k = 0; k < one.paths.size(); ++k) {
+        EXPECT_EQ(one.paths[k].ray, two.paths[k].ray);
+        EXPECT_EQ(one.paths[k].leaf, two.paths[k].leaf);
+        EXPECT_EQ(one.paths[k].events, two.paths[k].events);
+        EXPECT_EQ(one.paths[k].points, two.paths[k].points);
+    }
+}
+
+TEST(PathSelection, ABadCriterionNamesItsColumn) {
+    const Prepared r = prepare(kSunScene);
+    PathSelectionOptions o = ghostOptions();
+    o.where = "reflect and hit(nosuchpart)";
+    try {
+        selectPaths(r.trace.transport, r.trace.images, o);
+        FAIL() << "no error";
+    } catch (const ParseError& e) {
+        EXPECT_NE(std::string(e.what()).find(":1:17"), std::string::npos) << e.what();
+    }
+}
+
+TEST(PathPicture, WritesSvgAndPng) {
+    const Prepared r = prepare(kSunScene);
+    PathSelectionOptions o = ghostOptions();
+    o.count = 10;
+    const PathSelection sel = selectPaths(r.trace.transport, r.trace.images, o);
+    const Picture base = drawLayout(r.setup->scene, {});
+    const std::filesystem::path dir = ::testing::TempDir();
+    for (PathColouring colouring : {PathColouring::LogFlux, PathColouring::EventType}) {
+        PathPictureOptions po;
+        po.colouring = colouring;
+        const Picture pic = drawPaths(base, sel, po);
+        const std::filesystem::path svg = dir / "paths_test.svg", png = dir / "paths_test.png";
+        pic.writeSvg(svg);
+        pic.writePng(png, 600);
+        std::ifstream s(svg);
+        const std::string text((std::istreambuf_iterator<char>(s)), {});
+        EXPECT_NE(text.find("<svg"), std::string::npos) << colouring;
+        std::ifstream p(png, std::ios::binary);
+        char sig[8] = {};
+        p.read(sig, 8);
+        EXPECT_EQ(std::string(sig, 8), std::string("\x89PNG\r\n\x1a\n", 8)) << colouring;
+    }
+}
+
+TEST(PathPicture, EventPaletteFollowsTheLegend) {
+    EXPECT_EQ(eventColour(EventType::Refract).b, Color::hex(0x1f5fd0).b);
+    EXPECT_GT(eventColour(EventType::FresnelReflect).r, 0.8);
+    EXPECT_GT(eventColour(EventType::ScatterReflect).g, 0.5);
+    EXPECT_EQ(eventColour(EventType::DetectorHit).r, 0.0);
+}
+
+}  // namespace
+}  // namespace veil
