@@ -65,3 +65,36 @@ void CriterionImages::finish() {
 }
 
 }  // namespace veil
+
+namespace veil {
+
+namespace {
+
+class CriteriaState : public BranchState {
+  public:
+    explicit CriteriaState(const std::vector<CompiledCriterion>& criteria) {
+        for (const CompiledCriterion& c : criteria) evaluators_.emplace_back(c);
+    }
+    std::unique_ptr<BranchState> clone() const override {
+        return std::make_unique<CriteriaState>(*this);
+    }
+    bool push(const PathEvent& e) override {
+        bool any = false;
+        for (StreamingEvaluator& ev : evaluators_) {
+            if (ev.state() == CriterionState::False) continue;
+            if (ev.push(e) != CriterionState::False) any = true;
+        }
+        return any;
+    }
+
+  private:
+    std::vector<StreamingEvaluator> evaluators_;
+};
+
+}  // namespace
+
+std::unique_ptr<BranchState> CriteriaFilter::start() const {
+    return std::make_unique<CriteriaState>(criteria_);
+}
+
+}  // namespace veil

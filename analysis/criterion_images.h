@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "analysis/criteria.h"
+#include "tracer/branch_filter.h"
 #include "tracer/detector.h"
 #include "tracer/nonsequential.h"
 
@@ -33,6 +34,7 @@ class CriterionImages {
     void finish();
 
     size_t criterionCount() const { return texts_.size(); }
+    const std::vector<CompiledCriterion>& criteria() const { return criteria_; }
     const std::string& text(size_t c) const { return texts_[c]; }
     // images[c][d]: criterion c (c == criterionCount() is "the rest") on detector d.
     const std::vector<std::vector<DetectorImage>>& images() const { return images_; }
@@ -52,6 +54,21 @@ class CriterionImages {
     std::vector<std::vector<DetectorImage>> images_;
     std::mutex mutex_;
     std::map<uint64_t, std::vector<Hit>> pending_;
+};
+
+}  // namespace veil
+
+namespace veil {
+
+// Online pruning by criteria (tracer/branch_filter.h): a branch is traced on while at least
+// one criterion may still be true for it, and culled as soon as all are false.
+class CriteriaFilter : public BranchFilter {
+  public:
+    explicit CriteriaFilter(const std::vector<CompiledCriterion>& criteria) : criteria_(criteria) {}
+    std::unique_ptr<BranchState> start() const override;
+
+  private:
+    const std::vector<CompiledCriterion>& criteria_;
 };
 
 }  // namespace veil

@@ -15,6 +15,7 @@
 
 #include <random>
 
+#include "analysis/criterion_images.h"
 #include "analysis/trace_setup.h"
 #include "bench/raw_embree.h"
 #include "geometry/embree_meshes.h"
@@ -71,6 +72,37 @@ void BM_TraceSun7(benchmark::State& state) {
     state.counters["segments_per_ray"] = segments / std::max(rays, 1.0);
 }
 BENCHMARK(BM_TraceSun7)->Unit(benchmark::kMillisecond);
+
+// Online pruning for a ghost analysis that ignores scatter: `fresnel{2} and not scatter`
+// (two-reflection ghosts without any diffuse event). Argument 0: the criterion evaluated on
+// the histories after each ray (every branch traced); 1: branches culled as soon as the
+// criterion is false. The criterion image is the same within Monte Carlo error
+// (tests/analysis/transport_test.cpp, PruningKeepsTheCriterionFluxAndTracesLess).
+void BM_TraceSun7Ghosts(benchmark::State& state) {
+    const Fixture& f = sun7();
+    tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+    const NameTable names = criterionNames(f.setup->scene, f.trace.transport);
+    const std::vector<std::string> texts = {"fresnel{2} and not scatter"};
+    const std::vector<CompiledCriterion> compiled = {compile(parseCriterion(texts[0]), names)};
+    uint64_t seed = 1;
+    double rays = 0, segments = 0;
+    for (auto _ : state) {
+        CriterionImages split(texts, compiled, f.trace.images, f.trace.transport.detectorOfObject);
+        CriteriaFilter filter(split.criteria());
+        TransportOptions o;
+        o.seed = seed++;
+        o.recordHistories = true;
+        o.filter = state.range(0) ? &filter : nullptr;
+        const TraceResult r =
+            traceNonsequential(f.trace.transport, f.trace.images, 500, o, {}, split.callback());
+        split.finish();
+        rays += static_cast<double>(r.budget.rays);
+        segments += static_cast<double>(r.budget.segments);
+    }
+    state.counters["rays_per_s"] = benchmark::Counter(rays, benchmark::Counter::kIsRate);
+    state.counters["segments_per_ray"] = segments / std::max(rays, 1.0);
+}
+BENCHMARK(BM_TraceSun7Ghosts)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 void BM_RawEmbree(benchmark::State& state) {
     const Fixture& f = sun7();

@@ -57,6 +57,7 @@ struct TraceOptions {
     bool quiet = false;
     std::string saveRays;            // ray database file to write
     std::vector<std::string> where;  // path criteria: one image per criterion plus the rest
+    bool prune = false;              // cull branches once every --where criterion is false
 };
 void addTraceCommand(CLI::App& app, TraceOptions& options);
 int runTrace(const CommonOptions& common, const TraceOptions& options);

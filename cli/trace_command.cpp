@@ -54,6 +54,9 @@ void addTraceCommand(CLI::App& app, TraceOptions& o) {
     sub->add_option("--where", o.where,
                     "path criterion (docs/criteria.md); repeatable: one image per criterion plus "
                     "the rest, and the detector flux split by criterion");
+    sub->add_flag("--prune", o.prune,
+                  "with --where: stop tracing a branch as soon as no criterion can match it "
+                  "(faster; then only the criterion images are complete)");
     sub->add_option(
         "--save-rays", o.saveRays,
         "write every ray's path history to this ray database file (docs/ray-database.md)");
@@ -172,6 +175,12 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
         if (!dbParent.empty()) std::filesystem::create_directories(dbParent);
         db = std::make_unique<RayDatabaseWriter>(o.saveRays, info);
         options.recordHistories = true;
+    }
+    std::unique_ptr<CriteriaFilter> filter;
+    if (o.prune) {
+        if (!split) throw ParseError({o.file, 0, 0}, "--prune needs at least one --where");
+        filter = std::make_unique<CriteriaFilter>(split->criteria());
+        options.filter = filter.get();
     }
     if (db || split) {
         options.recordHistories = true;

@@ -57,7 +57,8 @@ struct Branch {
     int segments = 0;
     int startObject = -1;
     int startPrimitive = -1;
-    NodeIndex node = kNoNode;  // its last event in the history (when recorded)
+    NodeIndex node = kNoNode;             // its last event in the history (when recorded)
+    std::shared_ptr<BranchState> filter;  // online pruning state (copied on write at splits)
 };
 
 bool isOpaque(ObjectKind k) {
@@ -102,7 +103,20 @@ class RayTracer {
         const double cullFlux = o_.minRelativeFlux * e.flux;
         const double rouletteFlux = o_.rouletteRelativeFlux * e.flux;
         stack_.clear();
-        stack_.push_back({e.ray, e.flux, 0, 0, 0, -1, -1, root});
+        Branch first{e.ray, e.flux, 0, 0, 0, -1, -1, root, nullptr};
+        if (o_.filter) {
+            first.filter = o_.filter->start();
+            PathEvent emit;
+            emit.type = EventType::Emit;
+            emit.object = sourceIndex;
+            emit.flux = static_cast<float>(e.flux);
+            if (!first.filter->push(emit)) {
+                cull(first, CullReason::Criterion, b);
+                acc.flushRay();
+                return;
+            }
+        }
+        stack_.push_back(std::move(first));
         while (!stack_.empty()) {
             Branch br = stack_.back();
             stack_.pop_back();
@@ -133,6 +147,20 @@ class RayTracer {
         record(br.node, EventType::Culled, br.ray.origin, br.ray.direction, br.flux, -1, 0,
                br.medium, static_cast<uint8_t>(why));
     }
+    // Feeds the branch's online filter its next event; false: the branch is no longer wanted.
+    bool wanted(Branch& br, EventType type, int object, int face, int mediumBefore, int mediumAfter,
+                double flux) {
+        if (!br.filter) return true;
+        PathEvent e;
+        e.type = type;
+        e.object = object;
+        e.face = face;
+        e.mediumBefore = static_cast<int16_t>(mediumBefore);
+        e.mediumAfter = static_cast<int16_t>(mediumAfter);
+        e.flux = static_cast<float>(flux);
+        return br.filter->push(e);
+    }
+
     // Where a ray leaving the scene crosses its bounding box (for drawing Exit events).
     Vec3 exitPoint(const Ray& r) const {
         double tFar = 0.0;
@@ -262,6 +290,11 @@ class RayTracer {
                 br.medium = children[k].medium;
                 br.node = record(parent, children[k].event, hit->point, br.ray.direction, arriving,
                                  hit->object, hit->primitive, br.medium);
+                if (!wanted(br, children[k].event, hit->object, hit->primitive, hit->mediumFrom,
+                            br.medium, arriving)) {
+                    cull(br, CullReason::Criterion, b);
+                    return;
+                }
             } else {
                 if (br.depth >= o_.maxSplitDepth) {
                     br.flux *= total;
@@ -271,6 +304,7 @@ class RayTracer {
                 // Push all but the first child; continue with the first.
                 for (int k = n - 1; k >= 1; --k) {
                     Branch c = br;
+                    if (br.filter) c.filter = br.filter->clone();
                     c.flux = br.flux * children[k].share;
                     c.depth = br.depth + 1;
                     c.ray = {hit->point, direction(k)};
@@ -279,6 +313,11 @@ class RayTracer {
                     c.startPrimitive = hit->primitive;
                     c.node = record(parent, children[k].event, hit->point, c.ray.direction,
                                     arriving, hit->object, hit->primitive, c.medium);
+                    if (!wanted(c, children[k].event, hit->object, hit->primitive, hit->mediumFrom,
+                                c.medium, arriving)) {
+                        cull(c, CullReason::Criterion, b);
+                        continue;
+                    }
                     if (c.flux < cullFlux) {
                         cull(c, CullReason::MinFlux, b);
                         continue;
@@ -291,6 +330,11 @@ class RayTracer {
                 br.medium = children[0].medium;
                 br.node = record(parent, children[0].event, hit->point, br.ray.direction, arriving,
                                  hit->object, hit->primitive, br.medium);
+                if (!wanted(br, children[0].event, hit->object, hit->primitive, hit->mediumFrom,
+                            br.medium, arriving)) {
+                    cull(br, CullReason::Criterion, b);
+                    return;
+                }
                 if (br.flux < cullFlux) {
                     cull(br, CullReason::MinFlux, b);
                     return;

@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "geometry/scene.h"
+#include "tracer/branch_filter.h"
 #include "tracer/detector.h"
 #include "tracer/media.h"
 #include "tracer/optical_property.h"
@@ -47,6 +48,9 @@ struct TransportOptions {
     // Record every ray's path history (tracer/path_history.h) and hand it to the onRay
     // callback of traceNonsequential(). Costs a node append per event.
     bool recordHistories = false;
+    // Online pruning (may be null): branches whose filter state turns false are culled with
+    // CullReason::Criterion. Only what the filter may want is traced to the end.
+    const BranchFilter* filter = nullptr;
 };
 std::ostream& operator<<(std::ostream& os, const TransportOptions& o);
 

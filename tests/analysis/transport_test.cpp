@@ -334,5 +334,50 @@ pixels = [72, 48]
                 1e-12 * whole.totalFlux());
 }
 
+// Online pruning: with the branches that can no longer match culled as they go, the
+// criterion's image keeps its flux (within Monte Carlo error of both runs), while far fewer
+// segments are traced. The criterion excludes scatter, so every scattered branch is dropped
+// at its first diffuse event.
+TEST(Transport, PruningKeepsTheCriterionFluxAndTracesLess) {
+    const auto path = writeScene("prune", "lens = \"" + kLenses + "double_gauss_50mm.toml\"\n" + R"(
+[mechanics]
+property = "mount"
+[properties.mount]
+scatter = { model = "lambertian", reflectance = 0.05 }
+[[source]]
+kind = "sun"
+field_deg = [0.0, 12.0]
+[detector]
+size_mm = [36.0, 24.0]
+pixels = [36, 24]
+)");
+    Prepared r = prepare(path);
+    const NameTable names = criterionNames(r.setup->scene, r.trace.transport);
+    const std::vector<std::string> texts = {"fresnel{2} and not scatter"};
+    const std::vector<CompiledCriterion> compiled = {compile(parseCriterion(texts[0]), names)};
+    const uint64_t n = 6000;
+    auto run = [&](bool prune, uint64_t& segments) {
+        CriterionImages split(texts, compiled, r.trace.images, r.trace.transport.detectorOfObject);
+        CriteriaFilter filter(split.criteria());
+        TransportOptions o;
+        o.seed = 31;
+        o.recordHistories = true;
+        o.filter = prune ? &filter : nullptr;
+        const TraceResult res =
+            traceNonsequential(r.trace.transport, r.trace.images, n, o, {}, split.callback());
+        split.finish();
+        segments = res.budget.segments;
+        EXPECT_LT(std::abs(res.budget.imbalance()), 1e-12 * res.budget.emitted);
+        const DetectorImage& img = split.images()[0][0];
+        return std::make_pair(img.totalFlux(), img.totalRelativeError(n) * img.totalFlux());
+    };
+    uint64_t full = 0, pruned = 0;
+    const auto [f0, s0] = run(false, full);
+    const auto [f1, s1] = run(true, pruned);
+    ASSERT_GT(f0, 0.0);
+    EXPECT_LT(std::abs(f1 - f0), 5.0 * std::hypot(s0, s1)) << f0 << " vs " << f1;
+    EXPECT_LT(pruned, full / 2) << "segments " << full << " -> " << pruned;
+}
+
 }  // namespace
 }  // namespace veil
