@@ -7,6 +7,8 @@
 #include <stdexcept>
 #include <type_traits>
 
+#include "geometry/numerics.h"
+
 namespace veil {
 
 namespace {
@@ -27,14 +29,6 @@ constexpr double kCurvatureSafety = 1.25;
 // A hit that falls outside the aperture (in a hole, or outside a rectangle within its
 // bounding circle) is followed to the next crossing of the same shape at most this often.
 constexpr int kMaxContinuations = 16;
-
-// a * b - c * d with one rounding (Kahan), for discriminants of grazing rays.
-double differenceOfProducts(double a, double b, double c, double d) {
-    const double cd = c * d;
-    const double err = std::fma(-c, d, cd);
-    const double dop = std::fma(a, b, -cd);
-    return dop + err;
-}
 
 // Edge allowance of a hit point computed as p + s d, the same as intersectFirst() grants at
 // rMax: a few ulps of the magnitudes involved. Faces that share an edge (an optical face and

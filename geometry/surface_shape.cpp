@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "geometry/numerics.h"
+
 namespace veil {
 
 namespace {
@@ -22,15 +24,6 @@ constexpr double kMinSegmentMm = 1e-15;
 constexpr int kMaxSegments = 4000;
 constexpr int kMaxPolishIterations = 200;
 constexpr int kStackCapacity = 256;
-
-// a * b - c * d with a single rounding error (Kahan's algorithm): keeps B^2 - AC accurate for
-// grazing rays, where the two products nearly cancel.
-double differenceOfProducts(double a, double b, double c, double d) {
-    const double cd = c * d;
-    const double err = std::fma(-c, d, cd);
-    const double dop = std::fma(a, b, -cd);
-    return dop + err;
-}
 
 // Base conic of a shape: curvature c and conic constant k (a plane is c = 0).
 struct ConicBase {
