@@ -6,6 +6,7 @@
 #include <iostream>
 
 #include "cli/commands.h"
+#include "cli/ghosts_command.h"
 #include "cli/paths_command.h"
 #include "lensdata/errors.h"
 
@@ -30,6 +31,8 @@ int main(int argc, char** argv) {
     veil::cli::addRaysCommand(app, raysOptions);
     veil::cli::PathsOptions pathsOptions;
     veil::cli::addPathsCommand(app, pathsOptions);
+    veil::cli::GhostsOptions ghostsOptions;
+    veil::cli::addGhostsCommand(app, ghostsOptions);
 
     try {
         app.parse(argc, argv);
@@ -44,6 +47,7 @@ int main(int argc, char** argv) {
             if (sub->get_name() == "trace") return veil::cli::runTrace(common, traceOptions);
             if (sub->get_name() == "rays") return veil::cli::runRays(common, raysOptions);
             if (sub->get_name() == "paths") return veil::cli::runPaths(common, pathsOptions);
+            if (sub->get_name() == "ghosts") return veil::cli::runGhosts(common, ghostsOptions);
         }
     } catch (const veil::ParseError& e) {
         std::cerr << "veil: error: " << e.what() << "\n";

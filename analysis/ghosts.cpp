@@ -1,0 +1,663 @@
+#include "analysis/ghosts.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <numbers>
+#include <sstream>
+
+#include "geometry/lens_solid.h"
+#include "geometry/mechanics.h"
+#include "tracer/fresnel.h"
+#include "tracer/paraxial.h"
+#include "tracer/sequential_trace.h"
+
+namespace veil {
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+std::string join(const std::vector<std::string>& parts, const std::string& sep) {
+    std::string out;
+    for (size_t i = 0; i < parts.size(); ++i) out += (i ? sep : "") + parts[i];
+    return out;
+}
+
+}  // namespace
+
+std::ostream& operator<<(std::ostream& os, const GhostPath& g) {
+    return os << "GhostPath{" << g.label << ", " << g.criterion << "}";
+}
+
+std::ostream& operator<<(std::ostream& os, const GhostOptions& o) {
+    return os << "GhostOptions{order " << o.order << ", grid " << o.gridRays << ", min R^4 "
+              << o.minFourthOrderReflectance << ", near focus " << o.nearFocusMm << " mm}";
+}
+
+std::ostream& operator<<(std::ostream& os, const GhostSourceResult& r) {
+    return os << "GhostSourceResult{" << r.source << ": flux " << r.flux << " (" << r.relativeFlux
+              << " of nominal), focus " << r.focusMm << " mm, footprint " << r.footprintMm
+              << " mm, peak " << r.peakIrradiance << " /mm^2}";
+}
+
+std::vector<int> ghostSurfaces(const SequentialModel& model) {
+    std::vector<int> out;
+    const int w = model.primaryWavelength();
+    for (int s = 1; s < model.imageIndex(); ++s) {
+        if (model.surface(s).mirror) continue;
+        const double n1 = std::abs(model.index(s - 1, w));
+        const double n2 = std::abs(model.index(s, w));
+        if (std::abs(n1 - n2) > 1e-12 ||
+            !(model.prescription().surfaces[s - 1].material ==
+              model.prescription().surfaces[s].material))
+            out.push_back(s);
+    }
+    return out;
+}
+
+std::string ghostCriterion(const std::vector<std::string>& names, const std::string& detector) {
+    std::vector<std::string> leaves;
+    for (const std::string& n : names) leaves.push_back("fresnel(" + n + ")");
+    return "seq(" + join(leaves, ", ") + ") and fresnel{" + std::to_string(names.size()) +
+           "} and not scatter and not tir and detector(" + detector + ")";
+}
+
+std::string nominalCriterion(const std::string& detector) {
+    return "not fresnel and not scatter and not tir and detector(" + detector + ")";
+}
+
+double GhostEstimate::flux() const {
+    double f = 0.0;
+    for (const GhostSourceResult& s : sources) f += s.flux;
+    return f;
+}
+double GhostEstimate::relativeFlux() const {
+    return nominalFlux > 0.0 ? flux() / nominalFlux : 0.0;
+}
+double GhostEstimate::peakIrradiance() const {
+    double p = 0.0;
+    for (const GhostSourceResult& s : sources) p = std::max(p, s.peakIrradiance);
+    return p;
+}
+double GhostEstimate::relativeIrradiance() const {
+    double p = 0.0;
+    for (const GhostSourceResult& s : sources) p = std::max(p, s.relativeIrradiance);
+    return p;
+}
+bool GhostEstimate::nearFocus() const {
+    return std::any_of(sources.begin(), sources.end(),
+                       [](const GhostSourceResult& s) { return s.nearFocus; });
+}
+std::string GhostEstimate::glassFocus() const {
+    for (const GhostSourceResult& s : sources)
+        if (!s.glassFocus.empty()) return s.glassFocus;
+    return {};
+}
+
+// GhostTracer
+
+GhostTracer::GhostTracer(const SceneSetup& setup, const TraceSetup& trace,
+                         const GlassCatalog& catalog, const GhostOptions& options)
+    : setup_(&setup),
+      trace_(&trace),
+      model_(SequentialModel::build(setup.prescription, catalog)),
+      options_(options) {
+    if (options_.order != 2 && options_.order != 4)
+        throw ModelError("ghosts", "ghost order must be 2 or 4, not " +
+                                       std::to_string(options_.order));
+    if (options_.gridRays < 2)
+        throw ModelError("ghosts", "the ray grid needs at least 2 rays across the beam");
+    if (setup.detectors.empty()) throw ModelError("ghosts", "the scene has no detector");
+    detectorIndex_ = 0;
+    if (!options_.detector.empty()) {
+        detectorIndex_ = -1;
+        for (size_t d = 0; d < setup.detectors.size(); ++d)
+            if (setup.detectors[d].name == options_.detector) detectorIndex_ = static_cast<int>(d);
+        if (detectorIndex_ < 0)
+            throw ModelError(options_.detector, "no detector named '" + options_.detector + "'");
+    }
+    detector_ = &setup.detectors[detectorIndex_];
+    const SceneObject& detObject = setup.scene.object(detector_->object);
+    const SequentialSurface& image = model_.surface(model_.imageIndex());
+    if (detObject.name != image.name &&
+        std::find(detObject.aliases.begin(), detObject.aliases.end(), image.name) ==
+            detObject.aliases.end() &&
+        detObject.name != "sensor")
+        throw ModelError(detector_->name,
+                         "the ghost estimate follows the sequential path to the image surface; "
+                         "detector '" + detector_->name + "' does not lie on it");
+    for (const Source& s : trace.transport.sources)
+        if (std::holds_alternative<WindowSource>(s.shape()) ||
+            std::holds_alternative<LambertianSource>(s.shape()))
+            throw ModelError(s.name(), std::string("source '") + s.name() + "' is a " + s.kind() +
+                                           " source; the sequential ghost estimate needs "
+                                           "collimated, sun or point sources (use --field)");
+
+    ghostSurfaces_ = ghostSurfaces(model_);
+    const int n = model_.surfaceCount();
+    clipRadius_.assign(n, kInfinity);
+    holeRadius_.assign(n, 0.0);
+    propertyOf_.assign(n, -1);
+    objectName_.assign(n, "");
+    const Prescription& p = setup.prescription;
+    std::map<int, double> faceRadius;
+    for (const LensSolid& s : lensSolids(p)) {
+        faceRadius[s.front.surface] = s.front.faceRadiusMm;
+        faceRadius[s.back.surface] = s.back.faceRadiusMm;
+    }
+    const SceneObject* stopPlate = setup.scene.find("stop");
+    for (int s = 1; s < model_.imageIndex(); ++s) {
+        const Surface& sf = p.surfaces[s];
+        const SceneObject* o = sf.name.empty() ? nullptr : setup.scene.find(sf.name);
+        if (o && o->kind != ObjectKind::Stop && o->kind != ObjectKind::Mechanics) {
+            objectName_[s] = o->name;
+            propertyOf_[s] = trace.transport.propertyOfObject[o->id];
+        }
+        if (auto it = faceRadius.find(s); it != faceRadius.end()) {
+            clipRadius_[s] = it->second;
+        } else if (sf.mirror || (o && o->kind == ObjectKind::LensFace)) {
+            if (sf.clearSemiDiameterMm > 0.0) clipRadius_[s] = sf.clearSemiDiameterMm;
+        } else if (sf.stop && stopPlate && sf.clearSemiDiameterMm > 0.0) {
+            clipRadius_[s] = sf.clearSemiDiameterMm;
+        }
+        holeRadius_[s] = sf.innerSemiDiameterMm;
+    }
+    mediumOfGap_.assign(n, 0);
+    for (int g = 0; g < n; ++g) {
+        const Material& m = p.surfaces[g].material;
+        const auto& media = setup.scene.media();
+        for (size_t k = 0; k < media.size(); ++k)
+            if (media[k].material == m) mediumOfGap_[g] = static_cast<int>(k);
+    }
+    if (options_.nearFocusMm <= 0.0)
+        options_.nearFocusMm = 10.0 * std::max(detector_->pixelWidthMm(), detector_->pixelHeightMm());
+}
+
+std::vector<GhostPath> GhostTracer::enumerate(int* pruned) const {
+    std::vector<GhostPath> out;
+    const std::string det = setup_->scene.object(detector_->object).name;
+    auto make = [&](std::vector<int> refl) {
+        GhostPath g;
+        g.reflections = std::move(refl);
+        for (int s : g.reflections)
+            g.names.push_back(objectName_[s].empty() ? model_.surface(s).name : objectName_[s]);
+        g.label = join(g.names, " > ");
+        g.criterion = ghostCriterion(g.names, det);
+        return g;
+    };
+    const std::vector<int>& gs = ghostSurfaces_;
+    for (size_t a = 0; a < gs.size(); ++a)
+        for (size_t b = 0; b < a; ++b) out.push_back(make({gs[a], gs[b]}));
+    if (options_.order < 4) return out;
+    // Normal-incidence reflectance of each ghost surface at the primary wavelength under its
+    // optical property: the energy bound that prunes four-reflection paths.
+    const int w = model_.primaryWavelength();
+    std::map<int, double> r0;
+    for (int s : gs) {
+        const double n1 = std::abs(model_.index(s - 1, w)), n2 = std::abs(model_.index(s, w));
+        double r = fresnelReflectance(n1, n2, 1.0);
+        if (propertyOf_[s] >= 0) {
+            SurfaceContext c;
+            c.direction = Vec3(0.0, 0.0, 1.0);
+            c.normal = Vec3(0.0, 0.0, -1.0);
+            c.n1 = n1;
+            c.n2 = n2;
+            c.wavelengthNm = model_.wavelengthNm(w);
+            r = trace_->transport.properties[propertyOf_[s]].channels(c).specularReflect;
+        }
+        r0[s] = r;
+    }
+    int cut = 0;
+    for (int i : gs)
+        for (int j : gs) {
+            if (j >= i) continue;
+            for (int k : gs) {
+                if (k <= j) continue;
+                for (int l : gs) {
+                    if (l >= k) continue;
+                    if (r0[i] * r0[j] * r0[k] * r0[l] < options_.minFourthOrderReflectance) {
+                        ++cut;
+                        continue;
+                    }
+                    out.push_back(make({i, j, k, l}));
+                }
+            }
+        }
+    if (pruned) *pruned = cut;
+    return out;
+}
+
+GhostPath GhostTracer::nominalPath() const {
+    GhostPath g;
+    g.label = "nominal image";
+    g.criterion = nominalCriterion(setup_->scene.object(detector_->object).name);
+    return g;
+}
+
+std::vector<GhostTracer::Step> GhostTracer::steps(const GhostPath& path) const {
+    std::vector<Step> out;
+    const int image = model_.imageIndex();
+    int s = 1;
+    bool forward = true;
+    size_t r = 0;
+    while (!(forward && s == image)) {
+        if (s < 1 || s >= image)
+            throw ModelError(path.label, "ghost path leaves the lens: reflections must alternate "
+                                         "between later and earlier surfaces");
+        Step st;
+        st.surface = s;
+        st.forwardBefore = forward;
+        st.gapBefore = forward ? s - 1 : s;
+        if (r < path.reflections.size() && path.reflections[r] == s) {
+            ++r;
+            st.reflect = true;
+            st.gapAfter = st.gapBefore;
+            st.forwardAfter = !forward;
+        } else {
+            st.reflect = model_.surface(s).mirror;
+            st.gapAfter = forward ? s : s - 1;
+            st.forwardAfter = forward;
+        }
+        out.push_back(st);
+        forward = st.forwardAfter;
+        s += forward ? 1 : -1;
+    }
+    if (r != path.reflections.size())
+        throw ModelError(path.label, "ghost path: reflection surfaces out of order");
+    return out;
+}
+
+std::vector<GhostTracer::DetectorRay> GhostTracer::traceGrid(const GhostPath& path, int source,
+                                                            int w, int* traced) const {
+    const std::vector<Step> st = steps(path);
+    const Source& src = trace_->transport.sources[source];
+    const SpectralSampler& spec = src.spectrum();
+    double share = 0.0;
+    for (int i = 0; i < spec.size(); ++i)
+        if (std::abs(spec.lines()[i].nm - model_.wavelengthNm(w)) < 1e-9) share += spec.share(i);
+    std::vector<DetectorRay> out;
+    if (traced) *traced = 0;
+    if (!(share > 0.0)) return out;
+    const double wl = model_.wavelengthNm(w);
+    const MediaOptics& media = *trace_->transport.media;
+    const int n = options_.gridRays;
+    const double h = 2.0 / n;  // grid step in the unit disk
+    const SequentialSurface& image = model_.surface(model_.imageIndex());
+
+    // Launch points: the unit disk mapped to the beam's start disk or the point source's cone.
+    const Beam* beam = nullptr;
+    if (const auto* c = std::get_if<CollimatedSource>(&src.shape())) beam = &c->beam;
+    if (const auto* c = std::get_if<SunSource>(&src.shape())) beam = &c->beam;
+    const PointSource* point = std::get_if<PointSource>(&src.shape());
+    const double cellWeight = src.totalFlux() * share * h * h / kPi;
+
+    for (int iy = 0; iy < n; ++iy)
+        for (int ix = 0; ix < n; ++ix) {
+            const double a = -1.0 + (ix + 0.5) * h, b = -1.0 + (iy + 0.5) * h;
+            const double rr = a * a + b * b;
+            if (rr > 1.0) continue;
+            if (traced) ++*traced;
+            Vec3 pos, dir;
+            if (beam) {
+                pos = beam->startCenterMm + beam->radiusMm * (a * beam->axisU + b * beam->axisV);
+                dir = beam->direction;
+            } else if (point) {
+                // Equal-area map of the disk onto the cap: uniform in solid angle.
+                const double cosT = 1.0 - rr * (1.0 - std::cos(point->halfAngleRad));
+                const double sinT = std::sqrt(std::max(0.0, 1.0 - cosT * cosT));
+                const double rho = std::sqrt(rr);
+                const double ca = rho > 0.0 ? a / rho : 1.0, sa = rho > 0.0 ? b / rho : 0.0;
+                pos = point->positionMm;
+                dir = cosT * point->axis + sinT * (ca * point->axisU + sa * point->axisV);
+            } else {
+                return out;
+            }
+            double flux = cellWeight;
+            bool lost = false;
+            for (const Step& step : st) {
+                const SequentialSurface& s = model_.surface(step.surface);
+                const Ray local{pos - Vec3(0.0, 0.0, s.zMm), dir};
+                const std::optional<double> t = intersectSequential(s.shape, local);
+                if (!t || *t < -1e-9) {
+                    lost = true;
+                    break;
+                }
+                const Vec3 hit = local.origin + *t * dir;
+                const double r = std::hypot(hit.x, hit.y);
+                if (r > clipRadius_[step.surface] || r < holeRadius_[step.surface]) {
+                    lost = true;
+                    break;
+                }
+                const double alpha = media.absorptionPerMm(mediumOfGap_[step.gapBefore], w);
+                if (alpha > 0.0) flux *= std::exp(-alpha * std::max(0.0, *t));
+                pos = hit + Vec3(0.0, 0.0, s.zMm);
+                Vec3 nrm = surfaceNormal(s.shape, hit);
+                if (glm::dot(nrm, dir) > 0.0) nrm = -nrm;
+                const double n1 = std::abs(model_.index(step.gapBefore, w));
+                // The medium across the surface (for a reflection: the one it did not enter).
+                const int across = step.forwardBefore ? step.surface : step.surface - 1;
+                const double n2 = step.reflect && !s.mirror ? std::abs(model_.index(across, w))
+                                                            : std::abs(model_.index(step.gapAfter, w));
+                const int prop = propertyOf_[step.surface];
+                Channels ch;
+                if (prop >= 0) {
+                    SurfaceContext c;
+                    c.direction = dir;
+                    c.normal = nrm;
+                    c.n1 = n1;
+                    c.n2 = s.mirror ? n1 : n2;
+                    c.wavelengthNm = wl;
+                    ch = trace_->transport.properties[prop].channels(c);
+                } else {
+                    ch.specularTransmit = 1.0;  // no object: nothing happens but refraction
+                    ch.tir = !s.mirror && totalInternalReflection(n1, n2, -glm::dot(dir, nrm));
+                }
+                if (step.reflect) {
+                    if (ch.tir && !s.mirror) {  // a total reflection is not a ghost reflection
+                        lost = true;
+                        break;
+                    }
+                    flux *= prop >= 0 ? ch.specularReflect : 1.0;
+                    dir = reflect(dir, nrm);
+                } else {
+                    if (ch.tir) {
+                        lost = true;
+                        break;
+                    }
+                    flux *= ch.specularTransmit;
+                    if (n1 != n2) {
+                        const std::optional<Vec3> d2 = refract(dir, nrm, n1, n2);
+                        if (!d2) {
+                            lost = true;
+                            break;
+                        }
+                        dir = *d2;
+                    }
+                }
+                if (!(flux > 0.0)) {
+                    lost = true;
+                    break;
+                }
+            }
+            if (lost) continue;
+            // The image surface, where the detector lies.
+            const Ray local{pos - Vec3(0.0, 0.0, image.zMm), dir};
+            const std::optional<double> t = intersectSequential(image.shape, local);
+            if (!t || *t < -1e-9) continue;
+            const double alpha =
+                media.absorptionPerMm(mediumOfGap_[model_.imageIndex() - 1], w);
+            if (alpha > 0.0) flux *= std::exp(-alpha * *t);
+            const Vec3 localHit = local.origin + *t * dir;
+            // The sensor object is the image surface out to its clear semi-diameter.
+            const double imageSd = model_.prescription().surfaces[model_.imageIndex()].clearSemiDiameterMm;
+            if (imageSd > 0.0 && std::hypot(localHit.x, localHit.y) > imageSd) continue;
+            const Vec3 hit = localHit + Vec3(0.0, 0.0, image.zMm);
+            const Vec3 q = detector_->frame.toLocalPoint(hit);
+            if (std::abs(q.x) > 0.5 * detector_->widthMm || std::abs(q.y) > 0.5 * detector_->heightMm)
+                continue;
+            out.push_back({Vec2(q.x, q.y), flux});
+        }
+    return out;
+}
+
+std::pair<double, std::string> GhostTracer::paraxialFocus(const GhostPath& path,
+                                                          int source) const {
+    const std::vector<Step> st = steps(path);
+    const int w = model_.primaryWavelength();
+    const Source& src = trace_->transport.sources[source];
+    const Prescription& p = model_.prescription();
+    double y = 1.0, u = 0.0;  // collimated: height 1 mm, slope 0
+    double z = model_.surface(1).zMm;
+    if (const auto* ps = std::get_if<PointSource>(&src.shape())) {
+        u = 1e-3;
+        y = u * (z - ps->positionMm.z);
+    }
+    std::string glass;
+    auto signedIndex = [&](int gap, bool forward) {
+        return (forward ? 1.0 : -1.0) * model_.index(gap, w);
+    };
+    for (size_t k = 0; k < st.size(); ++k) {
+        const Step& step = st[k];
+        const SequentialSurface& s = model_.surface(step.surface);
+        const double y2 = y + u * (s.zMm - z);
+        if (k > 0 && glass.empty() && y * y2 < 0.0 && !p.surfaces[step.gapBefore].material.isAir()) {
+            const double f = y / (y - y2);
+            std::ostringstream os;
+            os.precision(4);
+            os << p.surfaces[step.gapBefore].material.label() << " between "
+               << model_.surface(st[k - 1].surface).name << " and " << s.name << " (z "
+               << (z + f * (s.zMm - z)) << " mm)";
+            glass = os.str();
+        }
+        y = y2;
+        z = s.zMm;
+        const double nBefore = signedIndex(step.gapBefore, step.forwardBefore);
+        const double nAfter = signedIndex(step.gapAfter, step.forwardAfter);
+        const double c = paraxialCurvature(p.surfaces[step.surface]);
+        const double nu = nBefore * u - y * c * (nAfter - nBefore);
+        u = nu / nAfter;
+    }
+    const double zImage = model_.surface(model_.imageIndex()).zMm;
+    if (std::abs(u) < 1e-15) return {kInfinity, glass};
+    const double zFocus = z - y / u;
+    return {zFocus - zImage, glass};
+}
+
+GhostEstimate GhostTracer::estimate(const GhostPath& path, const GhostEstimate* nominal) const {
+    GhostEstimate e;
+    e.path = path;
+    const auto& sources = trace_->transport.sources;
+    const double pitch = std::max(detector_->pixelWidthMm(), detector_->pixelHeightMm());
+    for (size_t s = 0; s < sources.size(); ++s) {
+        GhostSourceResult r;
+        r.source = sources[s].name();
+        std::vector<DetectorRay> rays;
+        for (int w = 0; w < model_.wavelengthCount(); ++w) {
+            int traced = 0;
+            std::vector<DetectorRay> part = traceGrid(path, static_cast<int>(s), w, &traced);
+            r.raysTraced += traced;
+            rays.insert(rays.end(), part.begin(), part.end());
+        }
+        r.raysArrived = static_cast<int>(rays.size());
+        for (const DetectorRay& d : rays) {
+            r.flux += d.flux;
+            r.centroidMm += d.flux * d.xyMm;
+        }
+        if (r.flux > 0.0) {
+            r.centroidMm /= r.flux;
+            double rmax = 0.0;
+            for (const DetectorRay& d : rays)
+                rmax = std::max(rmax, glm::length(d.xyMm - r.centroidMm));
+            r.footprintMm = 2.0 * rmax;
+            const double bin = std::max(pitch, r.footprintMm / 16.0);
+            std::map<std::pair<long, long>, double> bins;
+            for (const DetectorRay& d : rays) {
+                const Vec2 q = (d.xyMm - r.centroidMm) / bin;
+                bins[{std::lround(q.x), std::lround(q.y)}] += d.flux;
+            }
+            double peak = 0.0;
+            for (const auto& [key, f] : bins) peak = std::max(peak, f);
+            r.peakIrradiance = peak / (bin * bin);
+        }
+        const auto [focus, glass] = paraxialFocus(path, static_cast<int>(s));
+        r.focusMm = focus;
+        r.glassFocus = glass;
+        r.nearFocus = r.flux > 0.0 && r.footprintMm <= options_.nearFocusMm;
+        if (nominal && s < nominal->sources.size()) {
+            const GhostSourceResult& n = nominal->sources[s];
+            r.relativeFlux = n.flux > 0.0 ? r.flux / n.flux : 0.0;
+            r.relativeIrradiance = n.peakIrradiance > 0.0 ? r.peakIrradiance / n.peakIrradiance : 0.0;
+        } else {
+            r.relativeFlux = r.flux > 0.0 ? 1.0 : 0.0;
+            r.relativeIrradiance = r.peakIrradiance > 0.0 ? 1.0 : 0.0;
+        }
+        e.sources.push_back(r);
+    }
+    e.nominalFlux = nominal ? nominal->flux() : e.flux();
+    return e;
+}
+
+GhostAnalysis GhostTracer::analyse() const {
+    const auto start = std::chrono::steady_clock::now();
+    GhostAnalysis a;
+    a.surfaces = ghostSurfaces_;
+    for (int s : ghostSurfaces_)
+        a.surfaceNames.push_back(objectName_[s].empty() ? model_.surface(s).name : objectName_[s]);
+    a.detector = detector_->name;
+    a.nominal = estimate(nominalPath(), nullptr);
+    for (const GhostPath& g : enumerate(&a.pruned)) a.ghosts.push_back(estimate(g, &a.nominal));
+    std::stable_sort(a.ghosts.begin(), a.ghosts.end(),
+                     [](const GhostEstimate& x, const GhostEstimate& y) {
+                         return x.peakIrradiance() > y.peakIrradiance();
+                     });
+    a.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return a;
+}
+
+// Coating What-If
+
+std::vector<std::string> applyCoatingOverrides(TraceSetup& trace, const Scene& scene,
+                                               const PropertyTable& properties,
+                                               const std::vector<std::string>& overrides) {
+    std::vector<std::string> changes;
+    for (size_t k = 0; k < overrides.size(); ++k) {
+        const std::string& o = overrides[k];
+        const std::string where = "--coating " + std::to_string(k + 1);
+        const size_t eq = o.find('=');
+        if (eq == std::string::npos || eq == 0 || eq + 1 == o.size())
+            throw ParseError({where, 1, 1}, "expected GLOB=PROPERTY (for example 'L3.*=ideal_ar'), "
+                                            "got '" + o + "'");
+        const std::string glob = o.substr(0, eq), name = o.substr(eq + 1);
+        int index = -1;
+        for (size_t p = 0; p < trace.transport.properties.size(); ++p)
+            if (trace.transport.properties[p].name() == name) index = static_cast<int>(p);
+        if (index < 0) {
+            const int t = properties.find(name);
+            if (t < 0) {
+                std::vector<std::string> known;
+                for (const OpticalProperty& p : properties.properties()) known.push_back(p.name());
+                throw ParseError({where, 1, static_cast<int>(eq + 2)},
+                                 "unknown optical property '" + name + "' (known: " +
+                                     join(known, ", ") + ")");
+            }
+            trace.transport.properties.push_back(properties.property(t));
+            index = static_cast<int>(trace.transport.properties.size()) - 1;
+        }
+        bool any = false;
+        for (const SceneObject& obj : scene.objects()) {
+            bool match = globMatch(glob, obj.name);
+            for (const std::string& a : obj.aliases) match = match || globMatch(glob, a);
+            if (!match) continue;
+            any = true;
+            int& cur = trace.transport.propertyOfObject[obj.id];
+            if (cur == index) continue;
+            changes.push_back(obj.name + ": " + trace.transport.properties[cur].name() + " -> " +
+                              name);
+            cur = index;
+        }
+        if (!any)
+            throw ParseError({where, 1, 1}, "object pattern '" + glob + "' matches no object");
+    }
+    return changes;
+}
+
+// Default Scene
+
+namespace {
+
+std::vector<Source> fieldSources(const SceneFile& file, const GlassCatalog& catalog,
+                                 const std::vector<std::pair<double, double>>& fields) {
+    const SequentialModel model = SequentialModel::build(file.prescription, catalog);
+    const EntranceAperture ap = entranceAperture(file.prescription, model);
+    std::vector<Wavelength> lines = file.prescription.system.wavelengths;
+    if (lines.empty()) lines.push_back({kLineD, 1.0});
+    std::vector<Source> out;
+    for (size_t f = 0; f < fields.size(); ++f) {
+        std::ostringstream name;
+        name << "field" << f + 1;
+        SpectralSampler spectrum(lines, FluxUnit::Watt, name.str());
+        if (model.objectAtInfinity()) {
+            const Vec3 d = fieldDirection(fields[f].first, fields[f].second);
+            BeamOptions o;
+            const Beam beam = beamFillingAperture(ap, d, o);
+            // 1 W through the first surface's aperture disk, as [[source]] does by default.
+            const double irradiance = 1.0 / (kPi * beam.apertureRadiusMm * beam.apertureRadiusMm * d.z);
+            out.emplace_back(name.str(), CollimatedSource{beam}, irradiance * beam.areaMm2(),
+                             spectrum);
+        } else {
+            const double zObject = -file.prescription.surfaces[0].thicknessMm;
+            const Vec3 pos(fields[f].first, fields[f].second, zObject);
+            const PointSource ps = pointSourceCoveringAperture(ap, pos, 0.0);
+            out.emplace_back(name.str(), ps, 1.0, spectrum);
+        }
+    }
+    return out;
+}
+
+}  // namespace
+
+void setFieldSources(SceneFile& file, const GlassCatalog& catalog,
+                     const std::vector<std::pair<double, double>>& fieldsDeg) {
+    file.sources = fieldSources(file, catalog, fieldsDeg);
+}
+
+bool addDefaultGhostScene(SceneFile& file, const GlassCatalog& catalog) {
+    if (!file.sources.empty()) return false;
+    std::vector<std::pair<double, double>> fields;
+    for (const Field& f : file.prescription.system.fields) fields.emplace_back(f.x, f.y);
+    if (fields.empty()) fields.emplace_back(0.0, 0.0);
+    file.sources = fieldSources(file, catalog, fields);
+    if (!file.mechanics) {
+        MechanicsSpec m;
+        m.barrel.enabled = false;
+        m.retainers.enabled = false;
+        m.spacers.enabled = false;
+        m.stop.enabled = true;
+        file.mechanics = m;
+    }
+    return true;
+}
+
+}  // namespace veil
+
+namespace veil {
+
+double GhostMonteCarlo::flux(size_t layer, int detector) const {
+    return images ? images->images()[layer][detector].totalFlux() : 0.0;
+}
+
+double GhostMonteCarlo::relativeError(size_t layer, int detector) const {
+    return images ? images->images()[layer][detector].totalRelativeError(emittedRays) : kInfinity;
+}
+
+GhostMonteCarlo runGhostMonteCarlo(const SceneSetup& setup, const TraceSetup& trace,
+                                   const GhostAnalysis& analysis, const GhostMonteCarloOptions& o) {
+    const auto start = std::chrono::steady_clock::now();
+    const NameTable names = criterionNames(setup.scene, trace.transport);
+    std::vector<std::string> texts{analysis.nominal.path.criterion};
+    for (const GhostEstimate& g : analysis.ghosts) texts.push_back(g.path.criterion);
+    std::vector<CompiledCriterion> compiled;
+    for (size_t i = 0; i < texts.size(); ++i) {
+        const std::string source = i == 0 ? "nominal" : "ghost " + analysis.ghosts[i - 1].path.label;
+        compiled.push_back(compile(parseCriterion(texts[i], source), names, source));
+    }
+    GhostMonteCarlo mc;
+    mc.images = std::make_unique<CriterionImages>(texts, std::move(compiled), trace.images,
+                                                  trace.transport.detectorOfObject);
+    const CriteriaFilter filter(mc.images->criteria());
+    TransportOptions to = o.transport;
+    to.mode = TransportOptions::Mode::Split;
+    to.recordHistories = true;
+    to.filter = &filter;
+    const TraceResult r = traceNonsequential(trace.transport, trace.images, o.raysPerSource, to,
+                                             o.progress, mc.images->callback());
+    mc.images->finish();
+    mc.budget = r.budget;
+    mc.emittedRays = o.raysPerSource * trace.transport.sources.size();
+    mc.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return mc;
+}
+
+}  // namespace veil

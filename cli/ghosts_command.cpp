@@ -1,0 +1,415 @@
+// veil ghosts SCENE: every two-reflection (or four-reflection) ghost of the lens, estimated
+// sequentially, verified by one pruned Monte Carlo run, ranked, imaged and drawn.
+//
+//   veil ghosts examples/lenses/double_gauss_50mm.toml
+//   veil ghosts examples/scenes/longfocus_360mm_sun.toml --top 5 -o out/ghosts
+//   veil ghosts lens.zmx --field 0,0 --field 0,10 --coating 'L3.*=uncoated' --json
+//
+// A bare lens file (no [[source]]) gets the default scene of analysis/ghosts.h: a collimated
+// 1 W beam per system field filling the first surface, an absorbing stop plate, the detector
+// on the image surface. Writes to the output folder: ghosts.csv, ghosts.json, ghosts.md (the
+// whole ranked table), images/ghost_RR.exr|png per ghost (RR = rank, Monte Carlo), their sum
+// ghosts_all.exr|png and nominal.png, and paths/ghost_RR.svg|png for the top K ghosts plus
+// paths/all_ghosts.svg|png. The terminal shows the top K rows; --json prints the whole table
+// as JSON on standard output instead.
+
+#include "cli/ghosts_command.h"
+
+#include <tbb/global_control.h>
+
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "analysis/ghosts.h"
+#include "analysis/image_output.h"
+#include "analysis/layout.h"
+#include "analysis/path_picture.h"
+
+namespace veil::cli {
+
+namespace fs = std::filesystem;
+
+void addGhostsCommand(CLI::App& app, GhostsOptions& o) {
+    CLI::App* sub = app.add_subcommand(
+        "ghosts", "rank every ghost of the lens: sequential estimate, Monte Carlo, images, paths");
+    sub->add_option("scene", o.file, "scene file (.toml) or bare lens file (.toml, .zmx)")
+        ->required();
+    sub->add_option("--order", o.order, "2: two-reflection ghosts; 4: also four-reflection")
+        ->check(CLI::IsMember({2, 4}))
+        ->capture_default_str();
+    sub->add_option("--top", o.top, "rows shown and ghosts drawn (0: all rows, no drawings)")
+        ->check(CLI::Range(0, 100000))
+        ->capture_default_str();
+    sub->add_option("--field", o.fields,
+                    "field x,y (degrees; object mm for a finite object), repeatable: collimated "
+                    "(or point) 1 W sources replacing the scene's");
+    sub->add_option("--coating", o.coatings,
+                    "what-if GLOB=PROPERTY (e.g. 'L3.*=ideal_ar'), repeatable: re-ranks and "
+                    "shows what changed");
+    sub->add_flag("--json", o.json, "print the whole table as JSON on standard output");
+    sub->add_option("-o,--output", o.output, "output folder")->capture_default_str();
+    sub->add_option("--grid", o.grid, "sequential estimate: grid rays across each beam")
+        ->check(CLI::Range(2, 4096))
+        ->capture_default_str();
+    sub->add_option("--mc-rays", o.mcRays, "Monte Carlo rays per source (0: sequential only)")
+        ->check(CLI::Range(0.0, 1e12))
+        ->capture_default_str();
+    sub->add_option("--paths", o.paths, "paths per ghost path picture")
+        ->check(CLI::Range(1, 100000))
+        ->capture_default_str();
+    sub->add_option("--seed", o.seed, "random seed")->capture_default_str();
+    sub->add_option("--threads", o.threads, "worker threads (0: all cores)")->capture_default_str();
+    sub->add_flag("--quiet", o.quiet, "no progress bar");
+    sub->add_option("--detector", o.detector, "detector name (default: the first)");
+    sub->add_option("--near-focus", o.nearFocusMm,
+                    "footprint diameter (mm) below which a ghost counts as focused on the "
+                    "detector (0: 10 pixels)")
+        ->capture_default_str();
+    sub->add_option("--min-r4", o.minFourthOrder,
+                    "--order 4: skip paths whose four normal-incidence reflectances multiply "
+                    "to less than this")
+        ->capture_default_str();
+    sub->add_flag("--no-images", o.noImages, "write the tables only (no EXR, PNG, paths)");
+}
+
+namespace {
+
+nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
+
+void writeAtomically(const fs::path& path, const std::string& text) {
+    const fs::path tmp = path.string() + ".tmp";
+    {
+        std::ofstream f(tmp, std::ios::binary);
+        f << text;
+        if (!f) throw std::runtime_error("cannot write " + path.string());
+    }
+    fs::rename(tmp, path);
+}
+
+std::pair<double, double> parseField(const std::string& s, size_t k) {
+    std::istringstream in(s);
+    double x = 0, y = 0;
+    char comma = 0;
+    if (!(in >> x >> comma >> y) || comma != ',' || !(in >> std::ws).eof())
+        throw ParseError({"--field " + std::to_string(k + 1), 1, 1},
+                         "expected x,y (two numbers separated by a comma), got '" + s + "'");
+    return {x, y};
+}
+
+std::string sci(double v, int digits = 3) {
+    if (!std::isfinite(v)) return "-";
+    std::ostringstream os;
+    os << std::scientific << std::setprecision(digits - 1) << v;
+    return os.str();
+}
+std::string fix(double v, int digits = 3) {
+    if (!std::isfinite(v)) return "inf";
+    std::ostringstream os;
+    os << std::fixed << std::setprecision(digits) << v;
+    return os.str();
+}
+
+// The source where the ghost's peak irradiance is highest.
+const GhostSourceResult& worst(const GhostEstimate& g) {
+    size_t best = 0;
+    for (size_t s = 1; s < g.sources.size(); ++s)
+        if (g.sources[s].peakIrradiance > g.sources[best].peakIrradiance) best = s;
+    return g.sources[best];
+}
+
+std::string flags(const GhostEstimate& g) {
+    std::string f;
+    if (g.nearFocus()) f += "near-focus";
+    if (!g.glassFocus().empty()) f += std::string(f.empty() ? "" : " ") + "focus-in-glass";
+    return f;
+}
+
+}  // namespace
+
+int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
+    const GlassCatalog catalog = loadCatalog(common);
+    SceneFile file = readSceneFile(o.file, catalog);
+    const bool defaultScene = addDefaultGhostScene(file, catalog);
+    if (!o.fields.empty()) {
+        std::vector<std::pair<double, double>> fields;
+        for (size_t k = 0; k < o.fields.size(); ++k) fields.push_back(parseField(o.fields[k], k));
+        setFieldSources(file, catalog, fields);
+    }
+    const SceneSetup setup = buildScene(file, catalog);
+    TraceSetup ts = prepareTrace(file, setup, catalog);
+    for (const ImportNote& n : setup.notes)
+        if (n.severity != ImportNote::Severity::Info) std::cerr << "veil: " << n << "\n";
+
+    std::unique_ptr<tbb::global_control> limit;
+    if (o.threads > 0)
+        limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                      static_cast<size_t>(o.threads));
+    GhostOptions go;
+    go.order = o.order;
+    go.gridRays = o.grid;
+    go.minFourthOrderReflectance = o.minFourthOrder;
+    go.nearFocusMm = o.nearFocusMm;
+    go.detector = o.detector;
+
+    // Coating what-if: the baseline ranking first, then the overrides.
+    std::map<std::string, std::pair<int, double>> baseline;  // label -> rank, relative flux
+    std::vector<std::string> changes;
+    if (!o.coatings.empty()) {
+        const GhostAnalysis before = GhostTracer(setup, ts, catalog, go).analyse();
+        for (size_t r = 0; r < before.ghosts.size(); ++r)
+            baseline[before.ghosts[r].path.label] = {static_cast<int>(r) + 1,
+                                                     before.ghosts[r].relativeFlux()};
+        changes = applyCoatingOverrides(ts, setup.scene, file.properties, o.coatings);
+    }
+    const GhostTracer tracer(setup, ts, catalog, go);
+    const GhostAnalysis a = tracer.analyse();
+    const int det = tracer.detectorIndex();
+    const std::string unit = ts.transport.sources.front().unit() == FluxUnit::Lumen ? "lm" : "W";
+
+    GhostMonteCarlo mc;
+    if (o.mcRays >= 1) {
+        GhostMonteCarloOptions mo;
+        mo.raysPerSource = static_cast<uint64_t>(o.mcRays);
+        mo.transport.seed = o.seed;
+        const uint64_t total = mo.raysPerSource * ts.transport.sources.size();
+        if (!o.quiet && !o.json)
+            mo.progress = [total](uint64_t done) {
+                std::cerr << "\rMonte Carlo: " << std::fixed << std::setprecision(1)
+                          << (total ? 100.0 * done / total : 100.0) << "%   " << std::flush;
+            };
+        mc = runGhostMonteCarlo(setup, ts, a, mo);
+        if (mo.progress) std::cerr << "\n";
+    }
+    const bool haveMc = mc.images != nullptr;
+    const double mcNominal = haveMc ? mc.flux(0, det) : 0.0;
+
+    // The table, as JSON first (every other format is written from the same rows).
+    nlohmann::json j;
+    j["scene"] = o.file;
+    j["lens"] = setup.prescription.system.name;
+    j["default_scene"] = defaultScene;
+    j["order"] = o.order;
+    j["detector"] = a.detector;
+    j["unit"] = unit;
+    j["ghost_surfaces"] = a.surfaceNames;
+    j["ghost_count"] = a.ghosts.size();
+    j["pruned_fourth_order"] = a.pruned;
+    j["grid_rays"] = o.grid;
+    j["sequential_seconds"] = a.seconds;
+    j["coating_overrides"] = o.coatings;
+    j["coating_changes"] = changes;
+    j["sources"] = nlohmann::json::array();
+    for (const Source& s : ts.transport.sources) j["sources"].push_back(s.name());
+    j["nominal"] = {{"flux", a.nominal.flux()},
+                    {"mc_flux", haveMc ? num(mcNominal) : nlohmann::json()},
+                    {"mc_relative_error", haveMc ? num(mc.relativeError(0, det)) : nlohmann::json()}};
+    if (haveMc) {
+        j["monte_carlo"] = {{"rays_per_source", static_cast<uint64_t>(o.mcRays)},
+                            {"emitted_rays", mc.emittedRays},
+                            {"seed", o.seed},
+                            {"seconds", mc.seconds},
+                            {"segments", mc.budget.segments}};
+    }
+    j["ghosts"] = nlohmann::json::array();
+    for (size_t r = 0; r < a.ghosts.size(); ++r) {
+        const GhostEstimate& g = a.ghosts[r];
+        nlohmann::json row;
+        row["rank"] = r + 1;
+        row["ghost"] = g.path.label;
+        row["surfaces"] = g.path.names;
+        row["criterion"] = g.path.criterion;
+        row["flux"] = g.flux();
+        row["relative_flux"] = g.relativeFlux();
+        row["peak_irradiance"] = g.peakIrradiance();
+        row["relative_irradiance"] = g.relativeIrradiance();
+        row["near_focus"] = g.nearFocus();
+        row["focus_in_glass"] = g.glassFocus();
+        if (haveMc) {
+            row["mc_flux"] = mc.flux(r + 1, det);
+            row["mc_relative_flux"] = mcNominal > 0 ? num(mc.flux(r + 1, det) / mcNominal) : nlohmann::json();
+            row["mc_relative_error"] = num(mc.relativeError(r + 1, det));
+        }
+        if (auto it = baseline.find(g.path.label); it != baseline.end()) {
+            row["baseline_rank"] = it->second.first;
+            row["baseline_relative_flux"] = it->second.second;
+        }
+        row["per_source"] = nlohmann::json::array();
+        for (const GhostSourceResult& s : g.sources)
+            row["per_source"].push_back({{"source", s.source},
+                                         {"flux", s.flux},
+                                         {"relative_flux", s.relativeFlux},
+                                         {"focus_mm", num(s.focusMm)},
+                                         {"footprint_mm", s.footprintMm},
+                                         {"centroid_mm", {s.centroidMm.x, s.centroidMm.y}},
+                                         {"peak_irradiance", s.peakIrradiance},
+                                         {"relative_irradiance", s.relativeIrradiance},
+                                         {"near_focus", s.nearFocus},
+                                         {"focus_in_glass", s.glassFocus},
+                                         {"rays_traced", s.raysTraced},
+                                         {"rays_arrived", s.raysArrived}});
+        j["ghosts"].push_back(row);
+    }
+
+    // CSV and Markdown.
+    std::ostringstream csv, md;
+    csv << "rank,ghost,flux_" << unit << ",relative_flux,mc_relative_flux,mc_relative_error,"
+        << "focus_mm,footprint_mm,peak_irradiance_" << unit << "_per_mm2,relative_irradiance,"
+        << "near_focus,focus_in_glass,baseline_rank,criterion\n";
+    md << "# Ghosts of " << (setup.prescription.system.name.empty() ? o.file : setup.prescription.system.name)
+       << "\n\n" << a.ghosts.size() << " " << (o.order == 2 ? "two" : "two- and four")
+       << "-reflection ghosts of " << a.surfaces.size() << " ghost surfaces on detector "
+       << a.detector << "; sources:";
+    for (const Source& s : ts.transport.sources) md << " " << s.name();
+    md << ". Sequential grid " << o.grid << " rays across each beam";
+    if (haveMc) md << "; Monte Carlo " << static_cast<uint64_t>(o.mcRays) << " rays per source, seed " << o.seed;
+    md << ".\n\n";
+    if (!changes.empty()) {
+        md << "Coating what-if (" << changes.size() << " objects changed):\n\n";
+        for (const std::string& c : changes) md << "- " << c << "\n";
+        md << "\n";
+    }
+    md << "| rank | ghost | flux / nominal | Monte Carlo / nominal | focus - detector (mm) | "
+          "footprint (mm) | peak irradiance (" << unit << "/mm²) | peak / nominal peak | flags |"
+       << (changes.empty() ? "" : " was |") << "\n|---|---|---|---|---|---|---|---|---|"
+       << (changes.empty() ? "" : "---|") << "\n";
+    for (size_t r = 0; r < a.ghosts.size(); ++r) {
+        const GhostEstimate& g = a.ghosts[r];
+        const GhostSourceResult& w = worst(g);
+        const double mcRel = haveMc && mcNominal > 0 ? mc.flux(r + 1, det) / mcNominal : NAN;
+        const double mcErr = haveMc ? mc.relativeError(r + 1, det) : NAN;
+        const auto base = baseline.find(g.path.label);
+        csv << r + 1 << ",\"" << g.path.label << "\"," << g.flux() << "," << g.relativeFlux()
+            << "," << (haveMc ? sci(mcRel, 6) : "") << "," << (haveMc ? sci(mcErr, 3) : "") << ","
+            << w.focusMm << "," << w.footprintMm << "," << g.peakIrradiance() << ","
+            << g.relativeIrradiance() << "," << (g.nearFocus() ? 1 : 0) << ",\"" << g.glassFocus()
+            << "\"," << (base != baseline.end() ? std::to_string(base->second.first) : "")
+            << ",\"" << g.path.criterion << "\"\n";
+        md << "| " << r + 1 << " | " << g.path.label << " | " << sci(g.relativeFlux()) << " | "
+           << (haveMc ? sci(mcRel) + " ± " + fix(100.0 * mcErr, 1) + " %" : "-") << " | "
+           << fix(w.focusMm, 2) << " | " << fix(w.footprintMm, 3) << " | "
+           << sci(g.peakIrradiance()) << " | " << sci(g.relativeIrradiance()) << " | " << flags(g)
+           << (g.glassFocus().empty() ? "" : " (" + g.glassFocus() + ")") << " |";
+        if (!changes.empty())
+            md << " " << (base != baseline.end() ? std::to_string(base->second.first) : "-") << " |";
+        md << "\n";
+    }
+    md << "\nCriteria (docs/criteria.md) of the ranked ghosts, usable with veil trace --where and "
+          "veil paths --where:\n\n";
+    for (size_t r = 0; r < a.ghosts.size(); ++r)
+        md << r + 1 << ". `" << a.ghosts[r].path.criterion << "`\n";
+
+    fs::create_directories(o.output);
+    const fs::path out(o.output);
+    writeAtomically(out / "ghosts.json", j.dump(2) + "\n");
+    writeAtomically(out / "ghosts.csv", csv.str());
+    writeAtomically(out / "ghosts.md", md.str());
+
+    // Images (Monte Carlo) and path pictures.
+    if (haveMc && !o.noImages) {
+        fs::create_directories(out / "images");
+        const auto& layers = mc.images->images();
+        ExrInfo info{unit, mc.emittedRays};
+        PreviewOptions po;
+        po.fluxUnit = unit;
+        po.emittedRays = mc.emittedRays;
+        DetectorImage sum(layers[0][det].geometry());
+        for (size_t r = 0; r < a.ghosts.size(); ++r) {
+            const DetectorImage& img = layers[r + 1][det];
+            sum.merge(img);
+            std::ostringstream stem;
+            stem << "ghost_" << std::setw(2) << std::setfill('0') << r + 1;
+            writeDetectorExr(out / "images" / (stem.str() + ".exr"), img, info);
+            po.title = "#" + std::to_string(r + 1) + " " + a.ghosts[r].path.label;
+            writeDetectorPng(out / "images" / (stem.str() + ".png"), img, po);
+        }
+        writeDetectorExr(out / "ghosts_all.exr", sum, info);
+        po.title = "all " + std::to_string(a.ghosts.size()) + " ghosts";
+        writeDetectorPng(out / "ghosts_all.png", sum, po);
+        po.title = "nominal image";
+        writeDetectorPng(out / "nominal.png", layers[0][det], po);
+    }
+    if (!o.noImages && o.top > 0) {
+        fs::create_directories(out / "paths");
+        veil::LayoutOptions lo;
+        lo.title = setup.prescription.system.name.empty() ? o.file : setup.prescription.system.name;
+        const Picture base = drawLayout(setup.scene, lo);
+        PathPictureOptions pp;
+        const Bounds3 b = setup.scene.bounds();
+        const double pad = 0.06 * std::max(b.hi.z - b.lo.z, b.hi.y - b.lo.y);
+        pp.clipZY = std::array<double, 4>{b.lo.z - pad, b.hi.z + pad, b.lo.y - pad, b.hi.y + pad};
+        const NameTable names = criterionNames(setup.scene, ts.transport);
+        auto draw = [&](const std::string& criterion, const fs::path& stem) {
+            const CompiledCriterion c = compile(parseCriterion(criterion), names);
+            const std::vector<CompiledCriterion> one{c};
+            const CriteriaFilter filter(one);
+            PathSelectionOptions so;
+            so.where = criterion;
+            so.count = static_cast<size_t>(o.paths);
+            so.maxRays = 200000;
+            so.batchRays = 2000;
+            so.transport.seed = o.seed;
+            so.transport.minRelativeFlux = 1e-9;
+            so.transport.filter = &filter;
+            const PathSelection sel = selectPaths(ts.transport, ts.images, so);
+            const Picture pic = drawPaths(base, sel, pp);
+            pic.writeSvg(stem.string() + ".svg");
+            pic.writePng(stem.string() + ".png", 2000);
+        };
+        const size_t k = std::min<size_t>(static_cast<size_t>(o.top), a.ghosts.size());
+        for (size_t r = 0; r < k; ++r) {
+            std::ostringstream stem;
+            stem << "ghost_" << std::setw(2) << std::setfill('0') << r + 1;
+            draw(a.ghosts[r].path.criterion, out / "paths" / stem.str());
+        }
+        draw("fresnel{" + std::to_string(o.order) + "} and not scatter and not tir and detector(" +
+                 setup.scene.object(tracer.detector().object).name + ")",
+             out / "paths" / "all_ghosts");
+    }
+
+    if (o.json) {
+        std::cout << j.dump(2) << "\n";
+        return 0;
+    }
+    // The terminal table.
+    std::cout << "Ghosts of " << (setup.prescription.system.name.empty() ? o.file : setup.prescription.system.name)
+              << (defaultScene ? " (default scene: collimated sources at the system fields)" : "")
+              << "\n  " << a.surfaces.size() << " ghost surfaces, " << a.ghosts.size()
+              << " ghosts" << (a.pruned ? " (" + std::to_string(a.pruned) + " four-reflection paths below the energy bound)" : "")
+              << " on detector " << a.detector << "; sequential estimate " << fix(a.seconds, 3)
+              << " s";
+    if (haveMc)
+        std::cout << "; Monte Carlo " << mc.emittedRays << " rays in " << fix(mc.seconds, 1) << " s";
+    std::cout << "\n";
+    for (const std::string& c : changes) std::cout << "  coating what-if: " << c << "\n";
+    std::cout << "\n" << std::left << std::setw(5) << "rank" << std::setw(34) << "ghost"
+              << std::right << std::setw(11) << "flux/nom" << std::setw(22) << "Monte Carlo"
+              << std::setw(11) << "focus mm" << std::setw(11) << "foot mm" << std::setw(11)
+              << "peak/nom" << "  flags" << (changes.empty() ? "" : "  (was)") << "\n";
+    const size_t rows = o.top > 0 ? std::min<size_t>(o.top, a.ghosts.size()) : a.ghosts.size();
+    for (size_t r = 0; r < rows; ++r) {
+        const GhostEstimate& g = a.ghosts[r];
+        const GhostSourceResult& w = worst(g);
+        std::string mcText = "-";
+        if (haveMc && mcNominal > 0)
+            mcText = sci(mc.flux(r + 1, det) / mcNominal) + " +-" +
+                     fix(100.0 * mc.relativeError(r + 1, det), 1) + "%";
+        std::cout << std::left << std::setw(5) << r + 1 << std::setw(34) << g.path.label
+                  << std::right << std::setw(11) << sci(g.relativeFlux()) << std::setw(22)
+                  << mcText << std::setw(11) << fix(w.focusMm, 2) << std::setw(11)
+                  << fix(w.footprintMm, 3) << std::setw(11) << sci(g.relativeIrradiance()) << "  "
+                  << flags(g);
+        if (auto it = baseline.find(g.path.label); it != baseline.end())
+            std::cout << "  (" << it->second.first << ")";
+        std::cout << "\n";
+    }
+    std::cout << "\nwrote " << (out / "ghosts.md").string() << ", ghosts.csv, ghosts.json"
+              << (haveMc && !o.noImages ? ", images/, ghosts_all.png" : "")
+              << (!o.noImages && o.top > 0 ? ", paths/" : "") << "\n";
+    return 0;
+}
+
+}  // namespace veil::cli

@@ -1,0 +1,34 @@
+#pragma once
+// veil ghosts: automated ghost analysis (analysis/ghosts.h).
+
+#include <CLI/CLI.hpp>
+#include <string>
+#include <vector>
+
+#include "cli/commands.h"
+
+namespace veil::cli {
+
+struct GhostsOptions {
+    std::string file;
+    int order = 2;
+    int top = 10;
+    std::vector<std::string> fields;    // "x,y" degrees (or object mm for a finite object)
+    std::vector<std::string> coatings;  // GLOB=PROPERTY
+    bool json = false;
+    std::string output = "ghosts";
+    int grid = 64;
+    double mcRays = 20000;
+    int paths = 200;
+    uint64_t seed = 1;
+    int threads = 0;
+    bool quiet = false;
+    std::string detector;
+    double nearFocusMm = 0.0;
+    double minFourthOrder = 1e-7;
+    bool noImages = false;
+};
+void addGhostsCommand(CLI::App& app, GhostsOptions& options);
+int runGhosts(const CommonOptions& common, const GhostsOptions& options);
+
+}  // namespace veil::cli
