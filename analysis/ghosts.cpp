@@ -7,6 +7,8 @@
 #include <numbers>
 #include <sstream>
 
+#include <tbb/parallel_for.h>
+
 #include "geometry/lens_solid.h"
 #include "geometry/mechanics.h"
 #include "tracer/fresnel.h"
@@ -269,135 +271,132 @@ std::vector<GhostTracer::Step> GhostTracer::steps(const GhostPath& path) const {
     return out;
 }
 
-std::vector<GhostTracer::DetectorRay> GhostTracer::traceGrid(const GhostPath& path, int source,
-                                                            int w, int* traced) const {
-    const std::vector<Step> st = steps(path);
-    const Source& src = trace_->transport.sources[source];
-    const SpectralSampler& spec = src.spectrum();
+double GhostTracer::lineShare(int source, int w) const {
+    const SpectralSampler& spec = trace_->transport.sources[source].spectrum();
     double share = 0.0;
     for (int i = 0; i < spec.size(); ++i)
         if (std::abs(spec.lines()[i].nm - model_.wavelengthNm(w)) < 1e-9) share += spec.share(i);
-    std::vector<DetectorRay> out;
-    if (traced) *traced = 0;
-    if (!(share > 0.0)) return out;
-    const double wl = model_.wavelengthNm(w);
-    const MediaOptics& media = *trace_->transport.media;
+    return share;
+}
+
+bool GhostTracer::launch(int source, int w, int ix, int iy, RayState& r) const {
+    const Source& src = trace_->transport.sources[source];
     const int n = options_.gridRays;
     const double h = 2.0 / n;  // grid step in the unit disk
-    const SequentialSurface& image = model_.surface(model_.imageIndex());
-
-    // Launch points: the unit disk mapped to the beam's start disk or the point source's cone.
+    const double a = -1.0 + (ix + 0.5) * h, b = -1.0 + (iy + 0.5) * h;
+    const double rr = a * a + b * b;
+    if (rr > 1.0) return false;
+    // The unit disk mapped to the beam's start disk or onto the point source's cone.
     const Beam* beam = nullptr;
     if (const auto* c = std::get_if<CollimatedSource>(&src.shape())) beam = &c->beam;
     if (const auto* c = std::get_if<SunSource>(&src.shape())) beam = &c->beam;
-    const PointSource* point = std::get_if<PointSource>(&src.shape());
-    const double cellWeight = src.totalFlux() * share * h * h / kPi;
+    if (beam) {
+        r.pos = beam->startCenterMm + beam->radiusMm * (a * beam->axisU + b * beam->axisV);
+        r.dir = beam->direction;
+    } else if (const auto* point = std::get_if<PointSource>(&src.shape())) {
+        // Equal-area map of the disk onto the cap: uniform in solid angle.
+        const double cosT = 1.0 - rr * (1.0 - std::cos(point->halfAngleRad));
+        const double sinT = std::sqrt(std::max(0.0, 1.0 - cosT * cosT));
+        const double rho = std::sqrt(rr);
+        const double ca = rho > 0.0 ? a / rho : 1.0, sa = rho > 0.0 ? b / rho : 0.0;
+        r.pos = point->positionMm;
+        r.dir = cosT * point->axis + sinT * (ca * point->axisU + sa * point->axisV);
+    } else {
+        return false;
+    }
+    r.flux = src.totalFlux() * lineShare(source, w) * h * h / kPi;
+    return r.flux > 0.0;
+}
 
+bool GhostTracer::advance(RayState& r, const Step& step, int w) const {
+    const SequentialSurface& s = model_.surface(step.surface);
+    const Ray local{r.pos - Vec3(0.0, 0.0, s.zMm), r.dir};
+    const std::optional<double> t = intersectSequential(s.shape, local);
+    if (!t || *t < -1e-9) return false;  // missed, or behind the ray: not this path
+    const Vec3 hit = local.origin + *t * r.dir;
+    // Squared radii: hypot would cost more than the intersection.
+    const double r2 = hit.x * hit.x + hit.y * hit.y;
+    const double clip = clipRadius_[step.surface], hole = holeRadius_[step.surface];
+    if (r2 > clip * clip || r2 < hole * hole) return false;
+    const double alpha =
+        trace_->transport.media->absorptionPerMm(mediumOfGap_[step.gapBefore], w);
+    if (alpha > 0.0) r.flux *= std::exp(-alpha * std::max(0.0, *t));
+    r.pos = hit + Vec3(0.0, 0.0, s.zMm);
+    Vec3 nrm = surfaceNormal(s.shape, hit);
+    if (glm::dot(nrm, r.dir) > 0.0) nrm = -nrm;
+    const double n1 = std::abs(model_.index(step.gapBefore, w));
+    // The medium across the surface (for a ghost reflection: the one the ray did not enter).
+    const int across = step.forwardBefore ? step.surface : step.surface - 1;
+    const double n2 = step.reflect && !s.mirror ? std::abs(model_.index(across, w))
+                                                : std::abs(model_.index(step.gapAfter, w));
+    const int prop = propertyOf_[step.surface];
+    Channels ch;
+    if (prop >= 0) {
+        SurfaceContext c;
+        c.direction = r.dir;
+        c.normal = nrm;
+        c.n1 = n1;
+        c.n2 = s.mirror ? n1 : n2;
+        c.wavelengthNm = model_.wavelengthNm(w);
+        ch = trace_->transport.properties[prop].channels(c);
+    } else {
+        ch.specularReflect = 1.0;  // no object: nothing happens but the geometry
+        ch.specularTransmit = 1.0;
+        ch.tir = !s.mirror && totalInternalReflection(n1, n2, -glm::dot(r.dir, nrm));
+    }
+    if (step.reflect) {
+        if (ch.tir && !s.mirror) return false;  // a total reflection is not a ghost reflection
+        r.flux *= ch.specularReflect;
+        r.dir = reflect(r.dir, nrm);
+    } else {
+        if (ch.tir) return false;
+        r.flux *= ch.specularTransmit;
+        if (n1 != n2) {
+            const std::optional<Vec3> d2 = refract(r.dir, nrm, n1, n2);
+            if (!d2) return false;
+            r.dir = *d2;
+        }
+    }
+    return r.flux > 0.0;
+}
+
+bool GhostTracer::land(const RayState& r, int w, DetectorRay& out) const {
+    const int img = model_.imageIndex();
+    const SequentialSurface& image = model_.surface(img);
+    const Ray local{r.pos - Vec3(0.0, 0.0, image.zMm), r.dir};
+    const std::optional<double> t = intersectSequential(image.shape, local);
+    if (!t || *t < -1e-9) return false;
+    double flux = r.flux;
+    const double alpha = trace_->transport.media->absorptionPerMm(mediumOfGap_[img - 1], w);
+    if (alpha > 0.0) flux *= std::exp(-alpha * *t);
+    const Vec3 localHit = local.origin + *t * r.dir;
+    // The sensor object is the image surface out to its clear semi-diameter.
+    const double imageSd = model_.prescription().surfaces[img].clearSemiDiameterMm;
+    if (imageSd > 0.0 && localHit.x * localHit.x + localHit.y * localHit.y > imageSd * imageSd)
+        return false;
+    const Vec3 q = detector_->frame.toLocalPoint(localHit + Vec3(0.0, 0.0, image.zMm));
+    if (std::abs(q.x) > 0.5 * detector_->widthMm || std::abs(q.y) > 0.5 * detector_->heightMm)
+        return false;
+    out = {Vec2(q.x, q.y), flux};
+    return true;
+}
+
+std::vector<GhostTracer::DetectorRay> GhostTracer::traceGrid(const GhostPath& path, int source,
+                                                            int w, int* traced) const {
+    const std::vector<Step> st = steps(path);
+    std::vector<DetectorRay> out;
+    if (traced) *traced = 0;
+    const int n = options_.gridRays;
     for (int iy = 0; iy < n; ++iy)
         for (int ix = 0; ix < n; ++ix) {
-            const double a = -1.0 + (ix + 0.5) * h, b = -1.0 + (iy + 0.5) * h;
-            const double rr = a * a + b * b;
-            if (rr > 1.0) continue;
+            RayState r;
+            if (!launch(source, w, ix, iy, r)) continue;
             if (traced) ++*traced;
-            Vec3 pos, dir;
-            if (beam) {
-                pos = beam->startCenterMm + beam->radiusMm * (a * beam->axisU + b * beam->axisV);
-                dir = beam->direction;
-            } else if (point) {
-                // Equal-area map of the disk onto the cap: uniform in solid angle.
-                const double cosT = 1.0 - rr * (1.0 - std::cos(point->halfAngleRad));
-                const double sinT = std::sqrt(std::max(0.0, 1.0 - cosT * cosT));
-                const double rho = std::sqrt(rr);
-                const double ca = rho > 0.0 ? a / rho : 1.0, sa = rho > 0.0 ? b / rho : 0.0;
-                pos = point->positionMm;
-                dir = cosT * point->axis + sinT * (ca * point->axisU + sa * point->axisV);
-            } else {
-                return out;
-            }
-            double flux = cellWeight;
-            bool lost = false;
-            for (const Step& step : st) {
-                const SequentialSurface& s = model_.surface(step.surface);
-                const Ray local{pos - Vec3(0.0, 0.0, s.zMm), dir};
-                const std::optional<double> t = intersectSequential(s.shape, local);
-                if (!t || *t < -1e-9) {
-                    lost = true;
-                    break;
-                }
-                const Vec3 hit = local.origin + *t * dir;
-                const double r = std::hypot(hit.x, hit.y);
-                if (r > clipRadius_[step.surface] || r < holeRadius_[step.surface]) {
-                    lost = true;
-                    break;
-                }
-                const double alpha = media.absorptionPerMm(mediumOfGap_[step.gapBefore], w);
-                if (alpha > 0.0) flux *= std::exp(-alpha * std::max(0.0, *t));
-                pos = hit + Vec3(0.0, 0.0, s.zMm);
-                Vec3 nrm = surfaceNormal(s.shape, hit);
-                if (glm::dot(nrm, dir) > 0.0) nrm = -nrm;
-                const double n1 = std::abs(model_.index(step.gapBefore, w));
-                // The medium across the surface (for a reflection: the one it did not enter).
-                const int across = step.forwardBefore ? step.surface : step.surface - 1;
-                const double n2 = step.reflect && !s.mirror ? std::abs(model_.index(across, w))
-                                                            : std::abs(model_.index(step.gapAfter, w));
-                const int prop = propertyOf_[step.surface];
-                Channels ch;
-                if (prop >= 0) {
-                    SurfaceContext c;
-                    c.direction = dir;
-                    c.normal = nrm;
-                    c.n1 = n1;
-                    c.n2 = s.mirror ? n1 : n2;
-                    c.wavelengthNm = wl;
-                    ch = trace_->transport.properties[prop].channels(c);
-                } else {
-                    ch.specularTransmit = 1.0;  // no object: nothing happens but refraction
-                    ch.tir = !s.mirror && totalInternalReflection(n1, n2, -glm::dot(dir, nrm));
-                }
-                if (step.reflect) {
-                    if (ch.tir && !s.mirror) {  // a total reflection is not a ghost reflection
-                        lost = true;
-                        break;
-                    }
-                    flux *= prop >= 0 ? ch.specularReflect : 1.0;
-                    dir = reflect(dir, nrm);
-                } else {
-                    if (ch.tir) {
-                        lost = true;
-                        break;
-                    }
-                    flux *= ch.specularTransmit;
-                    if (n1 != n2) {
-                        const std::optional<Vec3> d2 = refract(dir, nrm, n1, n2);
-                        if (!d2) {
-                            lost = true;
-                            break;
-                        }
-                        dir = *d2;
-                    }
-                }
-                if (!(flux > 0.0)) {
-                    lost = true;
-                    break;
-                }
-            }
-            if (lost) continue;
-            // The image surface, where the detector lies.
-            const Ray local{pos - Vec3(0.0, 0.0, image.zMm), dir};
-            const std::optional<double> t = intersectSequential(image.shape, local);
-            if (!t || *t < -1e-9) continue;
-            const double alpha =
-                media.absorptionPerMm(mediumOfGap_[model_.imageIndex() - 1], w);
-            if (alpha > 0.0) flux *= std::exp(-alpha * *t);
-            const Vec3 localHit = local.origin + *t * dir;
-            // The sensor object is the image surface out to its clear semi-diameter.
-            const double imageSd = model_.prescription().surfaces[model_.imageIndex()].clearSemiDiameterMm;
-            if (imageSd > 0.0 && std::hypot(localHit.x, localHit.y) > imageSd) continue;
-            const Vec3 hit = localHit + Vec3(0.0, 0.0, image.zMm);
-            const Vec3 q = detector_->frame.toLocalPoint(hit);
-            if (std::abs(q.x) > 0.5 * detector_->widthMm || std::abs(q.y) > 0.5 * detector_->heightMm)
-                continue;
-            out.push_back({Vec2(q.x, q.y), flux});
+            bool alive = true;
+            for (const Step& step : st)
+                if (!(alive = advance(r, step, w))) break;
+            DetectorRay d;
+            if (alive && land(r, w, d)) out.push_back(d);
         }
     return out;
 }
@@ -445,58 +444,150 @@ std::pair<double, std::string> GhostTracer::paraxialFocus(const GhostPath& path,
     return {zFocus - zImage, glass};
 }
 
+GhostSourceResult GhostTracer::summarise(const GhostPath& path, int source,
+                                         const std::vector<DetectorRay>& rays, int raysTraced,
+                                         const GhostEstimate* nominal) const {
+    const double pitch = std::max(detector_->pixelWidthMm(), detector_->pixelHeightMm());
+    GhostSourceResult r;
+    r.source = trace_->transport.sources[source].name();
+    r.raysTraced = raysTraced;
+    r.raysArrived = static_cast<int>(rays.size());
+    for (const DetectorRay& d : rays) {
+        r.flux += d.flux;
+        r.centroidMm += d.flux * d.xyMm;
+    }
+    if (r.flux > 0.0) {
+        r.centroidMm /= r.flux;
+        double rmax = 0.0;
+        for (const DetectorRay& d : rays) rmax = std::max(rmax, glm::length(d.xyMm - r.centroidMm));
+        r.footprintMm = 2.0 * rmax;
+        const double bin = std::max(pitch, r.footprintMm / 16.0);
+        std::map<std::pair<long, long>, double> bins;
+        for (const DetectorRay& d : rays) {
+            const Vec2 q = (d.xyMm - r.centroidMm) / bin;
+            bins[{std::lround(q.x), std::lround(q.y)}] += d.flux;
+        }
+        double peak = 0.0;
+        for (const auto& [key, f] : bins) peak = std::max(peak, f);
+        r.peakIrradiance = peak / (bin * bin);
+    }
+    const auto [focus, glass] = paraxialFocus(path, source);
+    r.focusMm = focus;
+    r.glassFocus = glass;
+    r.nearFocus = r.flux > 0.0 && r.footprintMm <= options_.nearFocusMm;
+    if (nominal && static_cast<size_t>(source) < nominal->sources.size()) {
+        const GhostSourceResult& n = nominal->sources[source];
+        r.relativeFlux = n.flux > 0.0 ? r.flux / n.flux : 0.0;
+        r.relativeIrradiance = n.peakIrradiance > 0.0 ? r.peakIrradiance / n.peakIrradiance : 0.0;
+    } else {
+        r.relativeFlux = r.flux > 0.0 ? 1.0 : 0.0;
+        r.relativeIrradiance = r.peakIrradiance > 0.0 ? 1.0 : 0.0;
+    }
+    return r;
+}
+
 GhostEstimate GhostTracer::estimate(const GhostPath& path, const GhostEstimate* nominal) const {
     GhostEstimate e;
     e.path = path;
-    const auto& sources = trace_->transport.sources;
-    const double pitch = std::max(detector_->pixelWidthMm(), detector_->pixelHeightMm());
-    for (size_t s = 0; s < sources.size(); ++s) {
-        GhostSourceResult r;
-        r.source = sources[s].name();
+    for (size_t s = 0; s < trace_->transport.sources.size(); ++s) {
         std::vector<DetectorRay> rays;
+        int traced = 0;
         for (int w = 0; w < model_.wavelengthCount(); ++w) {
-            int traced = 0;
-            std::vector<DetectorRay> part = traceGrid(path, static_cast<int>(s), w, &traced);
-            r.raysTraced += traced;
+            int t = 0;
+            const std::vector<DetectorRay> part = traceGrid(path, static_cast<int>(s), w, &t);
+            traced += t;
             rays.insert(rays.end(), part.begin(), part.end());
         }
-        r.raysArrived = static_cast<int>(rays.size());
-        for (const DetectorRay& d : rays) {
-            r.flux += d.flux;
-            r.centroidMm += d.flux * d.xyMm;
-        }
-        if (r.flux > 0.0) {
-            r.centroidMm /= r.flux;
-            double rmax = 0.0;
-            for (const DetectorRay& d : rays)
-                rmax = std::max(rmax, glm::length(d.xyMm - r.centroidMm));
-            r.footprintMm = 2.0 * rmax;
-            const double bin = std::max(pitch, r.footprintMm / 16.0);
-            std::map<std::pair<long, long>, double> bins;
-            for (const DetectorRay& d : rays) {
-                const Vec2 q = (d.xyMm - r.centroidMm) / bin;
-                bins[{std::lround(q.x), std::lround(q.y)}] += d.flux;
-            }
-            double peak = 0.0;
-            for (const auto& [key, f] : bins) peak = std::max(peak, f);
-            r.peakIrradiance = peak / (bin * bin);
-        }
-        const auto [focus, glass] = paraxialFocus(path, static_cast<int>(s));
-        r.focusMm = focus;
-        r.glassFocus = glass;
-        r.nearFocus = r.flux > 0.0 && r.footprintMm <= options_.nearFocusMm;
-        if (nominal && s < nominal->sources.size()) {
-            const GhostSourceResult& n = nominal->sources[s];
-            r.relativeFlux = n.flux > 0.0 ? r.flux / n.flux : 0.0;
-            r.relativeIrradiance = n.peakIrradiance > 0.0 ? r.peakIrradiance / n.peakIrradiance : 0.0;
-        } else {
-            r.relativeFlux = r.flux > 0.0 ? 1.0 : 0.0;
-            r.relativeIrradiance = r.peakIrradiance > 0.0 ? 1.0 : 0.0;
-        }
-        e.sources.push_back(r);
+        e.sources.push_back(summarise(path, static_cast<int>(s), rays, traced, nominal));
     }
     e.nominalFlux = nominal ? nominal->flux() : e.flux();
     return e;
+}
+
+std::vector<GhostEstimate> GhostTracer::estimatePairs(const std::vector<GhostPath>& paths,
+                                                      const GhostEstimate* nominal) const {
+    // Two-reflection paths share their beginnings: every ray is traced forward once, from each
+    // first reflection i backward once, and from each second reflection j forward to the
+    // detector. The same steps in the same order as traceGrid, so the same numbers.
+    const int image = model_.imageIndex();
+    std::map<std::pair<int, int>, size_t> index;
+    for (size_t g = 0; g < paths.size(); ++g) {
+        if (paths[g].order() != 2)
+            throw ModelError(paths[g].label, "estimatePairs takes two-reflection paths only");
+        index[{paths[g].reflections[0], paths[g].reflections[1]}] = g;
+    }
+    std::vector<bool> firstSurface(image, false), secondSurface(image, false);
+    for (const auto& [key, g] : index) {
+        firstSurface[key.first] = true;
+        secondSurface[key.second] = true;
+    }
+    auto nominalStep = [&](int s, bool forward) {
+        Step st;
+        st.surface = s;
+        st.forwardBefore = st.forwardAfter = forward;
+        st.gapBefore = forward ? s - 1 : s;
+        st.gapAfter = forward ? s : s - 1;
+        st.reflect = model_.surface(s).mirror;
+        return st;
+    };
+    auto ghostStep = [&](int s, bool forward) {
+        Step st;
+        st.surface = s;
+        st.forwardBefore = forward;
+        st.forwardAfter = !forward;
+        st.gapBefore = st.gapAfter = forward ? s - 1 : s;
+        st.reflect = true;
+        return st;
+    };
+    const size_t nSources = trace_->transport.sources.size();
+    std::vector<GhostEstimate> out(paths.size());
+    for (GhostEstimate& e : out) e.sources.resize(nSources);
+    // Sources are independent: one task each (the numbers do not depend on the threads).
+    tbb::parallel_for(size_t(0), nSources, [&](size_t s) {
+        std::vector<std::vector<DetectorRay>> rays(paths.size());
+        std::vector<RayState> arriving(image);  // forward, arriving at surface k
+        int traced = 0;
+        for (int w = 0; w < model_.wavelengthCount(); ++w) {
+            const int n = options_.gridRays;
+            for (int iy = 0; iy < n; ++iy)
+                for (int ix = 0; ix < n; ++ix) {
+                    RayState r;
+                    if (!launch(static_cast<int>(s), w, ix, iy, r)) continue;
+                    ++traced;
+                    int reached = 0;  // the ray arrived at surfaces 1..reached
+                    for (int k = 1; k < image; ++k) {
+                        arriving[k] = r;
+                        reached = k;
+                        if (!advance(r, nominalStep(k, true), w)) break;
+                    }
+                    for (int i = 1; i <= reached; ++i) {
+                        if (!firstSurface[i]) continue;
+                        RayState b = arriving[i];
+                        if (!advance(b, ghostStep(i, true), w)) continue;
+                        for (int k = i - 1; k >= 1; --k) {
+                            if (secondSurface[k]) {
+                                if (auto it = index.find({i, k}); it != index.end()) {
+                                    RayState f = b;
+                                    bool alive = advance(f, ghostStep(k, false), w);
+                                    for (int m = k + 1; alive && m < image; ++m)
+                                        alive = advance(f, nominalStep(m, true), w);
+                                    DetectorRay d;
+                                    if (alive && land(f, w, d)) rays[it->second].push_back(d);
+                                }
+                            }
+                            if (!advance(b, nominalStep(k, false), w)) break;
+                        }
+                    }
+                }
+        }
+        for (size_t g = 0; g < paths.size(); ++g)
+            out[g].sources[s] = summarise(paths[g], static_cast<int>(s), rays[g], traced, nominal);
+    });
+    for (size_t g = 0; g < paths.size(); ++g) {
+        out[g].path = paths[g];
+        out[g].nominalFlux = nominal ? nominal->flux() : out[g].flux();
+    }
+    return out;
 }
 
 GhostAnalysis GhostTracer::analyse() const {
@@ -507,7 +598,10 @@ GhostAnalysis GhostTracer::analyse() const {
         a.surfaceNames.push_back(objectName_[s].empty() ? model_.surface(s).name : objectName_[s]);
     a.detector = detector_->name;
     a.nominal = estimate(nominalPath(), nullptr);
-    for (const GhostPath& g : enumerate(&a.pruned)) a.ghosts.push_back(estimate(g, &a.nominal));
+    std::vector<GhostPath> pairs, others;
+    for (GhostPath& g : enumerate(&a.pruned)) (g.order() == 2 ? pairs : others).push_back(std::move(g));
+    a.ghosts = estimatePairs(pairs, &a.nominal);
+    for (const GhostPath& g : others) a.ghosts.push_back(estimate(g, &a.nominal));
     std::stable_sort(a.ghosts.begin(), a.ghosts.end(),
                      [](const GhostEstimate& x, const GhostEstimate& y) {
                          return x.peakIrradiance() > y.peakIrradiance();

@@ -149,6 +149,11 @@ class GhostTracer {
     // The sequential estimate of one path (nominal: reflections empty) for every source.
     // `nominal` (may be null) gives the ratios.
     GhostEstimate estimate(const GhostPath& path, const GhostEstimate* nominal) const;
+    // The same for many two-reflection paths at once, sharing the traced beginnings (the
+    // forward path to the first reflection, the backward path to the second): the same
+    // numbers as estimate() path by path, about four times faster for a 12-surface lens.
+    std::vector<GhostEstimate> estimatePairs(const std::vector<GhostPath>& paths,
+                                             const GhostEstimate* nominal) const;
     // All of it: enumerate, estimate, rank.
     GhostAnalysis analyse() const;
 
@@ -172,6 +177,21 @@ class GhostTracer {
         bool reflect = false;  // the ray reflects here (ghost reflection or a mirror)
     };
     std::vector<Step> steps(const GhostPath& path) const;
+    struct RayState {
+        Vec3 pos{0.0}, dir{0.0, 0.0, 1.0};
+        double flux = 0.0;
+    };
+    // Share of the source's flux at model wavelength w.
+    double lineShare(int source, int w) const;
+    // Grid ray (ix, iy) of a source at wavelength w; false outside the disk.
+    bool launch(int source, int w, int ix, int iy, RayState& r) const;
+    // One step: meet the surface, clip, weight by the property's channel, turn. False = lost.
+    bool advance(RayState& r, const Step& step, int w) const;
+    // From after the last surface to the detector; false when it misses.
+    bool land(const RayState& r, int w, DetectorRay& out) const;
+    GhostSourceResult summarise(const GhostPath& path, int source,
+                                const std::vector<DetectorRay>& rays, int raysTraced,
+                                const GhostEstimate* nominal) const;
 
     const SceneSetup* setup_;
     const TraceSetup* trace_;

@@ -1,0 +1,253 @@
+// Ghost analysis (analysis/ghosts.h) against independent truth: the plane-parallel plate
+// (Fresnel products and the lateral shift 2 t tan(theta')), the N(N-1)/2 count for every
+// example lens, the shared-prefix estimate against path-by-path tracing, and the sequential
+// estimate against the Monte Carlo run binned by the generated criteria.
+
+#include "analysis/ghosts.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <string>
+
+#include "lensdata/errors.h"
+
+namespace veil {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+// A scene built the way veil ghosts builds it (default scene for a bare lens).
+struct GhostScene {
+    const GlassCatalog& catalog = GlassCatalog::builtIn();
+    SceneFile file;
+    SceneSetup setup;
+    TraceSetup trace;
+    GhostScene(const std::filesystem::path& lens,
+               std::vector<std::pair<double, double>> fields = {}) {
+        file = readSceneFile(lens, catalog);
+        addDefaultGhostScene(file, catalog);
+        if (!fields.empty()) setFieldSources(file, catalog, fields);
+        setup = buildScene(file, catalog);
+        trace = prepareTrace(file, setup, catalog);
+    }
+};
+
+std::filesystem::path writePlate(double n, double thickness, const std::string& name) {
+    const std::filesystem::path p = std::filesystem::path(::testing::TempDir()) / name;
+    std::ofstream f(p);
+    f << "[system]\nname = \"plate\"\nwavelengths_nm = [587.5618]\n"
+         "aperture = { epd_mm = 10.0 }\nfields_deg = [0.0]\nsurfaces = [\n"
+         "  { stop = true, t = 5.0, sd = 5.0, mech_sd = 14.0 },\n"
+         "  { t = "
+      << thickness << ", glass = { nd = " << n
+      << ", vd = 0 }, sd = 12.0, mech_sd = 14.0 },\n"
+         "  { t = 20.0, sd = 12.0, mech_sd = 14.0 },\n"
+         "  { image = true, sd = 30.0 },\n]\n";
+    return p;
+}
+
+// Unpolarised Fresnel reflectance from n1 to n2 at incidence angle i (radians), written out.
+double fresnelR(double n1, double n2, double i) {
+    const double st = n1 / n2 * std::sin(i);
+    const double t = std::asin(st);
+    const double ci = std::cos(i), ct = std::cos(t);
+    const double rs = (n1 * ci - n2 * ct) / (n1 * ci + n2 * ct);
+    const double rp = (n2 * ci - n1 * ct) / (n2 * ci + n1 * ct);
+    return 0.5 * (rs * rs + rp * rp);
+}
+
+TEST(Ghosts, PlateHasOneGhostWithTheAnalyticEnergyAtNormalIncidence) {
+    const double n = 1.5, t = 10.0;
+    GhostScene g(writePlate(n, t, "plate_normal.toml"));
+    GhostTracer tracer(g.setup, g.trace, g.catalog);
+    const GhostAnalysis a = tracer.analyse();
+    ASSERT_EQ(a.surfaces.size(), 2u);
+    ASSERT_EQ(a.ghosts.size(), 1u);
+    const GhostEstimate& ghost = a.ghosts[0];
+    EXPECT_EQ(ghost.path.reflections, (std::vector<int>{3, 2}));
+    const double R = std::pow((n - 1) / (n + 1), 2), T = 1 - R;
+    // Ghost: transmit, reflect, reflect, transmit; nominal: transmit twice.
+    EXPECT_NEAR(ghost.relativeFlux(), R * R, 1e-12);
+    EXPECT_NEAR(ghost.flux() / (R * R * T * T), a.nominal.flux() / (T * T), 1e-12);
+    // The stop passes the entrance pupil: pi 5^2 mm^2 of the 1 W that fills the first
+    // surface (radius mech_sd 14), to the grid's quadrature error.
+    EXPECT_NEAR(a.nominal.flux() / (T * T), 25.0 / 196.0, 0.002);
+    // Collimated in, collimated out: no focus, the footprint is the beam's.
+    EXPECT_FALSE(std::isfinite(ghost.sources[0].focusMm));
+    EXPECT_NEAR(ghost.sources[0].footprintMm, 10.0, 2 * 28.0 / 64);  // two grid cells
+    EXPECT_NEAR(glm::length(ghost.sources[0].centroidMm), 0.0, 1e-9);
+    EXPECT_TRUE(ghost.glassFocus().empty());
+}
+
+TEST(Ghosts, PlateGhostOffAxisIsShiftedByTwiceTheThicknessTimesTanTheRefractedAngle) {
+    const double n = 1.5, t = 10.0, deg = 10.0;
+    GhostScene g(writePlate(n, t, "plate_tilted.toml"), {{0.0, deg}});
+    GhostTracer tracer(g.setup, g.trace, g.catalog);
+    const GhostAnalysis a = tracer.analyse();
+    ASSERT_EQ(a.ghosts.size(), 1u);
+    const GhostSourceResult& ghost = a.ghosts[0].sources[0];
+    const GhostSourceResult& nominal = a.nominal.sources[0];
+    const double i = deg * kPi / 180, r = std::asin(std::sin(i) / n);
+    // Every ghost ray leaves parallel to its nominal twin, displaced along y by the extra
+    // 2 t tan(r) it travels in the glass (the sd leave room for both beams).
+    EXPECT_NEAR(ghost.centroidMm.y - nominal.centroidMm.y, 2 * t * std::tan(r), 1e-9);
+    EXPECT_NEAR(ghost.centroidMm.x, 0.0, 1e-9);
+    EXPECT_NEAR(ghost.footprintMm, nominal.footprintMm, 1e-9);
+    // Energy: one unpolarised Fresnel product per event (the tracer's model), both ghost
+    // reflections from inside at r; the transmissions cancel against the nominal's.
+    const double Rout = fresnelR(1.0, n, i), Rin = fresnelR(n, 1.0, r);
+    EXPECT_NEAR(ghost.relativeFlux, Rin * Rin, 1e-12);
+    EXPECT_NEAR(Rin, Rout, 1e-12);  // Stokes: the same reflectance from either side
+}
+
+TEST(Ghosts, PlateFourReflectionGhostCarriesRToTheFourth) {
+    const double n = 1.5;
+    GhostScene g(writePlate(n, 10.0, "plate_four.toml"));
+    GhostOptions o;
+    o.order = 4;
+    o.minFourthOrderReflectance = 0.0;
+    GhostTracer tracer(g.setup, g.trace, g.catalog, o);
+    const GhostAnalysis a = tracer.analyse();
+    // (3,2) and (3,2,3,2): the only alternating sequences of two surfaces.
+    ASSERT_EQ(a.ghosts.size(), 2u);
+    const double R = std::pow((n - 1) / (n + 1), 2);
+    const GhostEstimate& four = a.ghosts[0].path.order() == 4 ? a.ghosts[0] : a.ghosts[1];
+    EXPECT_EQ(four.path.reflections, (std::vector<int>{3, 2, 3, 2}));
+    EXPECT_NEAR(four.relativeFlux(), R * R * R * R, 1e-14);
+    EXPECT_EQ(four.path.criterion,
+              "seq(fresnel(L1.back), fresnel(L1.front), fresnel(L1.back), fresnel(L1.front)) and "
+              "fresnel{4} and not scatter and not tir and detector(sensor)");
+}
+
+TEST(Ghosts, CountIsNTimesNMinusOneOverTwoForEveryExampleLens) {
+    // N counted independently: the faces of the lens elements (a cemented face counts once).
+    const std::vector<std::pair<std::string, int>> lenses = {
+        {"singlet.toml", 2},          {"achromat.toml", 3},       {"cooke_triplet.toml", 6},
+        {"double_gauss_50mm.toml", 10}, {"longfocus_360mm.toml", 12},
+        {"catadioptric_2000mm.toml", -1}};
+    for (const auto& [name, expected] : lenses) {
+        SCOPED_TRACE(name);
+        GhostScene g(std::filesystem::path(VEIL_SOURCE_DIR "/examples/lenses") / name);
+        GhostTracer tracer(g.setup, g.trace, g.catalog);
+        const Prescription& p = g.setup.prescription;
+        int faces = 0;
+        std::vector<bool> seen(p.surfaces.size(), false);
+        for (const Element& e : p.elements())
+            for (int s : {e.frontSurface, e.backSurface})
+                if (!seen[s] && !p.surfaces[s].mirror) {
+                    seen[s] = true;
+                    ++faces;
+                }
+        if (expected > 0) EXPECT_EQ(faces, expected);
+        const std::vector<GhostPath> paths = tracer.enumerate();
+        const size_t n = ghostSurfaces(tracer.model()).size();
+        EXPECT_EQ(n, static_cast<size_t>(faces));
+        EXPECT_EQ(paths.size(), n * (n - 1) / 2);
+        // Every generated criterion names objects of the scene.
+        const NameTable names = criterionNames(g.setup.scene, g.trace.transport);
+        for (const GhostPath& path : paths)
+            EXPECT_NO_THROW(compile(parseCriterion(path.criterion), names)) << path.criterion;
+    }
+}
+
+TEST(Ghosts, SharedPrefixEstimateEqualsPathByPathTracing) {
+    GhostScene g(VEIL_SOURCE_DIR "/examples/lenses/double_gauss_50mm.toml");
+    GhostOptions o;
+    o.gridRays = 24;
+    GhostTracer tracer(g.setup, g.trace, g.catalog, o);
+    const GhostEstimate nominal = tracer.estimate(tracer.nominalPath(), nullptr);
+    const std::vector<GhostPath> paths = tracer.enumerate();
+    const std::vector<GhostEstimate> shared = tracer.estimatePairs(paths, &nominal);
+    ASSERT_EQ(shared.size(), paths.size());
+    for (size_t k = 0; k < paths.size(); ++k) {
+        const GhostEstimate one = tracer.estimate(paths[k], &nominal);
+        ASSERT_EQ(one.sources.size(), shared[k].sources.size());
+        for (size_t s = 0; s < one.sources.size(); ++s) {
+            EXPECT_EQ(one.sources[s].flux, shared[k].sources[s].flux) << paths[k].label;
+            EXPECT_EQ(one.sources[s].peakIrradiance, shared[k].sources[s].peakIrradiance);
+            EXPECT_EQ(one.sources[s].raysArrived, shared[k].sources[s].raysArrived);
+        }
+    }
+}
+
+TEST(Ghosts, SequentialAndMonteCarloAgreeForTheTopTenDoubleGaussGhostsUncoated) {
+    // The double Gauss as a bare lens: every face uncoated (Fresnel), on axis, 1 W.
+    GhostScene g(VEIL_SOURCE_DIR "/examples/lenses/double_gauss_50mm.toml", {{0.0, 0.0}});
+    GhostOptions o;
+    o.gridRays = 128;  // quadrature error ~0.2 %, well below the Monte Carlo error
+    GhostTracer tracer(g.setup, g.trace, g.catalog, o);
+    const GhostAnalysis a = tracer.analyse();
+    ASSERT_EQ(a.ghosts.size(), 45u);
+    GhostMonteCarloOptions mo;
+    mo.raysPerSource = 2500;
+    mo.transport.seed = 11;
+    const GhostMonteCarlo mc = runGhostMonteCarlo(g.setup, g.trace, a, mo);
+    const int d = tracer.detectorIndex();
+    // Nominal image too.
+    {
+        const double sigma = mc.relativeError(0, d) * mc.flux(0, d);
+        EXPECT_LT(std::abs(mc.flux(0, d) - a.nominal.flux()), 3 * sigma);
+    }
+    for (size_t r = 0; r < 10; ++r) {
+        const GhostEstimate& ghost = a.ghosts[r];
+        const double m = mc.flux(r + 1, d);
+        const double sigma = mc.relativeError(r + 1, d) * m;
+        ASSERT_GT(sigma, 0.0) << ghost.path.label;
+        const double z = (m - ghost.flux()) / sigma;
+        EXPECT_LT(std::abs(z), 3.0) << "#" << r + 1 << " " << ghost.path.label << ": sequential "
+                                    << ghost.flux() << " Monte Carlo " << m << " z " << z;
+        // And the error bar is a real one: a few percent, not a wide net.
+        EXPECT_LT(mc.relativeError(r + 1, d), 0.05) << ghost.path.label;
+    }
+}
+
+TEST(Ghosts, CoatingOverrideRemovesTheGhostsOfTheCoatedFacesAndSaysWhatChanged) {
+    GhostScene g(VEIL_SOURCE_DIR "/examples/lenses/double_gauss_50mm.toml", {{0.0, 0.0}});
+    GhostOptions o;
+    o.gridRays = 24;
+    const std::vector<std::string> changes =
+        applyCoatingOverrides(g.trace, g.setup.scene, g.file.properties,
+                              {"L1.front=ideal_ar", "L1.back=ideal_ar"});
+    EXPECT_EQ(changes, (std::vector<std::string>{"L1.front: uncoated -> ideal_ar",
+                                                 "L1.back: uncoated -> ideal_ar"}));
+    const GhostAnalysis a = GhostTracer(g.setup, g.trace, g.catalog, o).analyse();
+    int withL1 = 0;
+    for (const GhostEstimate& e : a.ghosts) {
+        const bool touchesL1 = e.path.label.find("L1.") != std::string::npos;
+        if (touchesL1) {
+            ++withL1;
+            EXPECT_EQ(e.flux(), 0.0) << e.path.label;
+        } else {
+            EXPECT_GT(e.flux(), 0.0) << e.path.label;
+        }
+    }
+    EXPECT_EQ(withL1, 17);  // 2 x 8 pairs with one L1 face plus L1.back > L1.front
+
+    EXPECT_THROW(applyCoatingOverrides(g.trace, g.setup.scene, g.file.properties, {"L1.*"}),
+                 ParseError);
+    EXPECT_THROW(applyCoatingOverrides(g.trace, g.setup.scene, g.file.properties, {"L9.*=ideal_ar"}),
+                 ParseError);
+    EXPECT_THROW(applyCoatingOverrides(g.trace, g.setup.scene, g.file.properties, {"L1.*=golden"}),
+                 ParseError);
+}
+
+TEST(Ghosts, WindowSourcesAreRefusedByName) {
+    const GlassCatalog& catalog = GlassCatalog::builtIn();
+    const SceneFile file =
+        readSceneFile(VEIL_SOURCE_DIR "/examples/scenes/catadioptric_2000mm_window.toml", catalog);
+    const SceneSetup setup = buildScene(file, catalog);
+    const TraceSetup trace = prepareTrace(file, setup, catalog);
+    try {
+        GhostTracer tracer(setup, trace, catalog);
+        FAIL() << "expected a ModelError";
+    } catch (const ModelError& e) {
+        EXPECT_NE(std::string(e.what()).find("window"), std::string::npos) << e.what();
+    }
+}
+
+}  // namespace
+}  // namespace veil
