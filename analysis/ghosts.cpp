@@ -66,6 +66,13 @@ std::string ghostCriterion(const std::vector<std::string>& names, const std::str
            "} and not scatter and not tir and detector(" + detector + ")";
 }
 
+std::string allGhostsCriterion(int order, const std::string& detector) {
+    std::string count = "fresnel{2}";
+    for (int k = 4; k <= order; k += 2) count += " or fresnel{" + std::to_string(k) + "}";
+    if (order > 2) count = "(" + count + ")";
+    return count + " and not scatter and not tir and detector(" + detector + ")";
+}
+
 std::string nominalCriterion(const std::string& detector) {
     return "not fresnel and not scatter and not tir and detector(" + detector + ")";
 }
@@ -732,9 +739,18 @@ GhostMonteCarlo runGhostMonteCarlo(const SceneSetup& setup, const TraceSetup& tr
     const NameTable names = criterionNames(setup.scene, trace.transport);
     std::vector<std::string> texts{analysis.nominal.path.criterion};
     for (const GhostEstimate& g : analysis.ghosts) texts.push_back(g.path.criterion);
+    int maxOrder = 2;
+    for (const GhostEstimate& g : analysis.ghosts) maxOrder = std::max(maxOrder, g.path.order());
+    texts.push_back(allGhostsCriterion(maxOrder, setup.scene.object(
+                                                     setup.detectors[0].object).name));
+    for (const DetectorGeometry& d : setup.detectors)
+        if (d.name == analysis.detector)
+            texts.back() = allGhostsCriterion(maxOrder, setup.scene.object(d.object).name);
     std::vector<CompiledCriterion> compiled;
     for (size_t i = 0; i < texts.size(); ++i) {
-        const std::string source = i == 0 ? "nominal" : "ghost " + analysis.ghosts[i - 1].path.label;
+        const std::string source = i == 0                     ? "nominal"
+                                   : i == texts.size() - 1    ? "all ghosts"
+                                                              : "ghost " + analysis.ghosts[i - 1].path.label;
         compiled.push_back(compile(parseCriterion(texts[i], source), names, source));
     }
     GhostMonteCarlo mc;

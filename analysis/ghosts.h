@@ -78,6 +78,8 @@ std::vector<int> ghostSurfaces(const SequentialModel& model);
 std::string ghostCriterion(const std::vector<std::string>& reflectionNames,
                            const std::string& detector);
 std::string nominalCriterion(const std::string& detector);
+// Every ghost of the given order or less (2 or 4) together: the sum of the ghost criteria.
+std::string allGhostsCriterion(int order, const std::string& detector);
 
 struct GhostOptions {
     int order = 2;                           // 2, or 4 (two- and four-reflection ghosts)
@@ -246,7 +248,8 @@ struct GhostMonteCarlo {
     uint64_t emittedRays = 0;  // all sources
     double seconds = 0.0;
     FluxBudget budget;
-    // images->images()[0][d]: the nominal image; [1 + g][d]: ghost g of the analysis order.
+    // images->images()[0][d]: the nominal image; [1 + g][d]: ghost g of the analysis order;
+    // [1 + ghosts][d]: all ghosts together (allGhostsCriterion), with its own error bars.
     std::unique_ptr<CriterionImages> images;
     double flux(size_t layer, int detector) const;
     double relativeError(size_t layer, int detector) const;  // of flux (1 sigma)

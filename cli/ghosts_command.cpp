@@ -22,6 +22,7 @@
 #include <iomanip>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <numeric>
 #include <sstream>
 
 #include "analysis/ghosts.h"
@@ -207,7 +208,13 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
     j["nominal"] = {{"flux", a.nominal.flux()},
                     {"mc_flux", haveMc ? num(mcNominal) : nlohmann::json()},
                     {"mc_relative_error", haveMc ? num(mc.relativeError(0, det)) : nlohmann::json()}};
+    j["all_ghosts"] = {{"flux", std::accumulate(a.ghosts.begin(), a.ghosts.end(), 0.0,
+                                                 [](double f, const GhostEstimate& g) {
+                                                     return f + g.flux();
+                                                 })}};
     if (haveMc) {
+        j["all_ghosts"]["mc_flux"] = mc.flux(a.ghosts.size() + 1, det);
+        j["all_ghosts"]["mc_relative_error"] = num(mc.relativeError(a.ghosts.size() + 1, det));
         j["monte_carlo"] = {{"rays_per_source", static_cast<uint64_t>(o.mcRays)},
                             {"emitted_rays", mc.emittedRays},
                             {"seed", o.seed},
@@ -256,7 +263,8 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
 
     // CSV and Markdown.
     std::ostringstream csv, md;
-    csv << "rank,ghost,flux_" << unit << ",relative_flux,mc_relative_flux,mc_relative_error,"
+    csv << "rank,ghost,flux_" << unit << ",relative_flux,mc_flux_" << unit
+        << ",mc_relative_flux,mc_relative_error,"
         << "focus_mm,footprint_mm,peak_irradiance_" << unit << "_per_mm2,relative_irradiance,"
         << "near_focus,focus_in_glass,baseline_rank,criterion\n";
     md << "# Ghosts of " << (setup.prescription.system.name.empty() ? o.file : setup.prescription.system.name)
@@ -272,24 +280,27 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
         for (const std::string& c : changes) md << "- " << c << "\n";
         md << "\n";
     }
-    md << "| rank | ghost | flux / nominal | Monte Carlo / nominal | focus - detector (mm) | "
-          "footprint (mm) | peak irradiance (" << unit << "/mm²) | peak / nominal peak | flags |"
-       << (changes.empty() ? "" : " was |") << "\n|---|---|---|---|---|---|---|---|---|"
-       << (changes.empty() ? "" : "---|") << "\n";
+    md << "| rank | ghost | flux (" << unit << ") | Monte Carlo (" << unit
+       << ") | flux / nominal | focus - detector (mm) | footprint (mm) | peak irradiance (" << unit
+       << "/mm²) | peak / nominal peak | flags |" << (changes.empty() ? "" : " was |")
+       << "\n|---|---|---|---|---|---|---|---|---|---|" << (changes.empty() ? "" : "---|") << "\n";
     for (size_t r = 0; r < a.ghosts.size(); ++r) {
         const GhostEstimate& g = a.ghosts[r];
         const GhostSourceResult& w = worst(g);
         const double mcRel = haveMc && mcNominal > 0 ? mc.flux(r + 1, det) / mcNominal : NAN;
+        const double mcFlux = haveMc ? mc.flux(r + 1, det) : NAN;
         const double mcErr = haveMc ? mc.relativeError(r + 1, det) : NAN;
         const auto base = baseline.find(g.path.label);
         csv << r + 1 << ",\"" << g.path.label << "\"," << g.flux() << "," << g.relativeFlux()
-            << "," << (haveMc ? sci(mcRel, 6) : "") << "," << (haveMc ? sci(mcErr, 3) : "") << ","
+            << "," << (haveMc ? sci(mcFlux, 6) : "") << "," << (haveMc ? sci(mcRel, 6) : "")
+            << "," << (haveMc ? sci(mcErr, 3) : "") << ","
             << w.focusMm << "," << w.footprintMm << "," << g.peakIrradiance() << ","
             << g.relativeIrradiance() << "," << (g.nearFocus() ? 1 : 0) << ",\"" << g.glassFocus()
             << "\"," << (base != baseline.end() ? std::to_string(base->second.first) : "")
             << ",\"" << g.path.criterion << "\"\n";
-        md << "| " << r + 1 << " | " << g.path.label << " | " << sci(g.relativeFlux()) << " | "
-           << (haveMc ? sci(mcRel) + " ± " + fix(100.0 * mcErr, 1) + " %" : "-") << " | "
+        md << "| " << r + 1 << " | " << g.path.label << " | " << sci(g.flux()) << " | "
+           << (haveMc ? sci(mc.flux(r + 1, det)) + " ± " + fix(100.0 * mcErr, 1) + " %" : "-")
+           << " | " << (a.nominal.flux() > 0 ? sci(g.relativeFlux()) : "-") << " | "
            << fix(w.focusMm, 2) << " | " << fix(w.footprintMm, 3) << " | "
            << sci(g.peakIrradiance()) << " | " << sci(g.relativeIrradiance()) << " | " << flags(g)
            << (g.glassFocus().empty() ? "" : " (" + g.glassFocus() + ")") << " |";
@@ -316,10 +327,9 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
         PreviewOptions po;
         po.fluxUnit = unit;
         po.emittedRays = mc.emittedRays;
-        DetectorImage sum(layers[0][det].geometry());
+        const DetectorImage& sum = layers[a.ghosts.size() + 1][det];
         for (size_t r = 0; r < a.ghosts.size(); ++r) {
             const DetectorImage& img = layers[r + 1][det];
-            sum.merge(img);
             std::ostringstream stem;
             stem << "ghost_" << std::setw(2) << std::setfill('0') << r + 1;
             writeDetectorExr(out / "images" / (stem.str() + ".exr"), img, info);
@@ -365,8 +375,7 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
             stem << "ghost_" << std::setw(2) << std::setfill('0') << r + 1;
             draw(a.ghosts[r].path.criterion, out / "paths" / stem.str());
         }
-        draw("fresnel{" + std::to_string(o.order) + "} and not scatter and not tir and detector(" +
-                 setup.scene.object(tracer.detector().object).name + ")",
+        draw(allGhostsCriterion(o.order, setup.scene.object(tracer.detector().object).name),
              out / "paths" / "all_ghosts");
     }
 
@@ -383,25 +392,34 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
               << " s";
     if (haveMc)
         std::cout << "; Monte Carlo " << mc.emittedRays << " rays in " << fix(mc.seconds, 1) << " s";
+    std::cout << "\n  nominal image " << sci(a.nominal.flux()) << " " << unit;
+    if (haveMc)
+        std::cout << " (Monte Carlo " << sci(mcNominal) << " +-"
+                  << fix(100.0 * mc.relativeError(0, det), 1) << "%)";
+    std::cout << "; all ghosts " << sci(j["all_ghosts"]["flux"].get<double>()) << " " << unit;
+    if (haveMc)
+        std::cout << " (Monte Carlo " << sci(mc.flux(a.ghosts.size() + 1, det)) << " +-"
+                  << fix(100.0 * mc.relativeError(a.ghosts.size() + 1, det), 1) << "%)";
     std::cout << "\n";
     for (const std::string& c : changes) std::cout << "  coating what-if: " << c << "\n";
-    std::cout << "\n" << std::left << std::setw(5) << "rank" << std::setw(34) << "ghost"
-              << std::right << std::setw(11) << "flux/nom" << std::setw(22) << "Monte Carlo"
-              << std::setw(11) << "focus mm" << std::setw(11) << "foot mm" << std::setw(11)
-              << "peak/nom" << "  flags" << (changes.empty() ? "" : "  (was)") << "\n";
+    std::cout << "\n" << std::left << std::setw(5) << "rank" << std::setw(30) << "ghost"
+              << std::right << std::setw(11) << "flux " + unit << std::setw(20) << "Monte Carlo"
+              << std::setw(10) << "flux/nom" << std::setw(10) << "focus mm" << std::setw(9)
+              << "foot mm" << std::setw(11) << "peak/mm2" << "  flags"
+              << (changes.empty() ? "" : "  (was)") << "\n";
     const size_t rows = o.top > 0 ? std::min<size_t>(o.top, a.ghosts.size()) : a.ghosts.size();
     for (size_t r = 0; r < rows; ++r) {
         const GhostEstimate& g = a.ghosts[r];
         const GhostSourceResult& w = worst(g);
         std::string mcText = "-";
-        if (haveMc && mcNominal > 0)
-            mcText = sci(mc.flux(r + 1, det) / mcNominal) + " +-" +
+        if (haveMc)
+            mcText = sci(mc.flux(r + 1, det)) + " +-" +
                      fix(100.0 * mc.relativeError(r + 1, det), 1) + "%";
-        std::cout << std::left << std::setw(5) << r + 1 << std::setw(34) << g.path.label
-                  << std::right << std::setw(11) << sci(g.relativeFlux()) << std::setw(22)
-                  << mcText << std::setw(11) << fix(w.focusMm, 2) << std::setw(11)
-                  << fix(w.footprintMm, 3) << std::setw(11) << sci(g.relativeIrradiance()) << "  "
-                  << flags(g);
+        std::cout << std::left << std::setw(5) << r + 1 << std::setw(30) << g.path.label
+                  << std::right << std::setw(11) << sci(g.flux()) << std::setw(20) << mcText
+                  << std::setw(10) << (a.nominal.flux() > 0 ? sci(g.relativeFlux()) : "-")
+                  << std::setw(10) << fix(w.focusMm, 1) << std::setw(9) << fix(w.footprintMm, 2)
+                  << std::setw(11) << sci(g.peakIrradiance()) << "  " << flags(g);
         if (auto it = baseline.find(g.path.label); it != baseline.end())
             std::cout << "  (" << it->second.first << ")";
         std::cout << "\n";

@@ -18,7 +18,7 @@ struct GhostsOptions {
     bool json = false;
     std::string output = "ghosts";
     int grid = 64;
-    double mcRays = 20000;
+    double mcRays = 10000;
     int paths = 200;
     uint64_t seed = 1;
     int threads = 0;

@@ -192,6 +192,10 @@ TEST(Ghosts, SequentialAndMonteCarloAgreeForTheTopTenDoubleGaussGhostsUncoated) 
         const double sigma = mc.relativeError(0, d) * mc.flux(0, d);
         EXPECT_LT(std::abs(mc.flux(0, d) - a.nominal.flux()), 3 * sigma);
     }
+    // The all-ghosts layer is the sum of the ghost layers (the criteria partition it).
+    double sum = 0.0;
+    for (size_t g = 0; g < a.ghosts.size(); ++g) sum += mc.flux(g + 1, d);
+    EXPECT_NEAR(mc.flux(a.ghosts.size() + 1, d), sum, 1e-12 * sum);
     for (size_t r = 0; r < 10; ++r) {
         const GhostEstimate& ghost = a.ghosts[r];
         const double m = mc.flux(r + 1, d);
