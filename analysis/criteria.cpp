@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cctype>
 #include <sstream>
 
@@ -528,6 +529,18 @@ struct Compiler {
 CompiledCriterion compile(const Criterion& c, const NameTable& names, std::string_view source) {
     Compiler compiler{names, source, {}};
     compiler.add(c, -1, 0);
+    CompiledCriterion& out = compiler.out;
+    // conjunctive[n]: only and/seq nodes above n. Preorder puts every parent before its
+    // children, so one pass suffices.
+    std::vector<bool> conjunctive(out.nodes.size(), true);
+    for (size_t n = 1; n < out.nodes.size(); ++n) {
+        const int32_t p = out.nodes[n].parent;
+        const Criterion::Kind k = out.nodes[p].kind;
+        conjunctive[n] = conjunctive[p] && (k == Criterion::Kind::And || k == Criterion::Kind::Seq);
+    }
+    for (size_t i = 0; i < out.leaves.size(); ++i)
+        if (conjunctive[out.leaves[i].node] && out.leaves[i].count.min >= 1)
+            out.required.push_back(static_cast<int32_t>(i));
     return std::move(compiler.out);
 }
 
@@ -633,6 +646,60 @@ bool matches(const CompiledCriterion& c, std::span<const PathEvent> events) {
     for (const PathEvent& e : events)
         if (ev.push(e) != CriterionState::Undefined) return ev.state() == CriterionState::True;
     return ev.finish() == CriterionState::True;
+}
+
+// Necessary-Condition Prefilter
+void PathSummary::IdSet::insert(int32_t id) {
+    const size_t word = static_cast<size_t>(id) / 64;
+    if (word >= bits.size()) bits.resize(word + 1, 0);
+    bits[word] |= uint64_t{1} << (id % 64);
+    used = std::max(used, word + 1);
+}
+
+bool PathSummary::IdSet::intersects(const std::vector<uint64_t>& set) const {
+    const size_t n = std::min(used, set.size());
+    for (size_t w = 0; w < n; ++w)
+        if (bits[w] & set[w]) return true;
+    return false;
+}
+
+void PathSummary::IdSet::clear() {
+    std::fill_n(bits.begin(), used, uint64_t{0});
+    used = 0;
+}
+
+void PathSummary::reset() {
+    types_ = mediumTypes_ = 0;
+    for (int t = 0; t < kEventTypeCount; ++t) {
+        objects_[t].clear();
+        media_[t].clear();
+    }
+}
+
+void PathSummary::add(const PathEvent& e) {
+    const auto t = static_cast<unsigned>(e.type);
+    types_ |= static_cast<uint16_t>(1u << t);
+    if (e.object >= 0) objects_[t].insert(e.object);
+    if (e.mediumBefore != e.mediumAfter) {
+        mediumTypes_ |= static_cast<uint16_t>(1u << t);
+        if (e.mediumAfter >= 0) media_[t].insert(e.mediumAfter);
+    }
+}
+
+// Whether some event of the path matches the leaf, exactly as Leaf::matches decides it.
+bool PathSummary::satisfiable(const CompiledCriterion::Leaf& leaf) const {
+    const uint16_t seen = (leaf.useMedium ? mediumTypes_ : types_) & leaf.typeMask;
+    if (leaf.anyObject) return seen != 0;
+    const IdSet* ids = leaf.useMedium ? media_ : objects_;
+    for (unsigned m = seen; m != 0; m &= m - 1)
+        if (ids[std::countr_zero(m)].intersects(leaf.set)) return true;
+    return false;
+}
+
+bool PathSummary::mayMatch(const CompiledCriterion& c) const {
+    for (int32_t i : c.required)
+        if (!satisfiable(c.leaves[i])) return false;
+    return true;
 }
 
 // Direct Evaluator

@@ -127,6 +127,10 @@ struct CompiledCriterion {
     };
     std::vector<Node> nodes;
     std::vector<Leaf> leaves;
+    // Leaves every matching path must match at least once (indices into leaves): count.min
+    // >= 1 and only and/seq nodes above them, so the root cannot be true unless they are,
+    // and a true leaf has counted min matching events. PathSummary::mayMatch tests them.
+    std::vector<int32_t> required;
 };
 
 // Resolves every pattern. A pattern that matches nothing is a ParseError naming it, at its
@@ -166,6 +170,36 @@ class StreamingEvaluator {
 
 // Evaluates a whole path (streaming, stopping early); true if it matches.
 bool matches(const CompiledCriterion& c, std::span<const PathEvent> events);
+
+// Necessary-Condition Prefilter
+// Which (event type, object) and (event type, medium entered) pairs occur in one path, so
+// that many criteria can be rejected without running an evaluator: mayMatch is false only if
+// a required leaf matches no event of the path, and then the criterion is false on it.
+// It ignores order and counts, so true decides nothing. One summary per thread; reset()
+// before every path (memory is reused).
+class PathSummary {
+  public:
+    void reset();
+    void add(const PathEvent& e);
+    bool mayMatch(const CompiledCriterion& c) const;
+
+  private:
+    // The ids (objects or media) seen with one event type. Words from `used` on are zero, so
+    // clear() touches only the ones a path set.
+    struct IdSet {
+        std::vector<uint64_t> bits;
+        size_t used = 0;
+        void insert(int32_t id);
+        bool intersects(const std::vector<uint64_t>& set) const;
+        void clear();
+    };
+    bool satisfiable(const CompiledCriterion::Leaf& leaf) const;
+
+    uint16_t types_ = 0;        // bit t: an event of type t, any object (-1 included)
+    uint16_t mediumTypes_ = 0;  // bit t: an event of type t that changes the medium
+    IdSet objects_[kEventTypeCount];
+    IdSet media_[kEventTypeCount];  // mediumAfter of the medium-changing events
+};
 
 // Direct Evaluation (test oracle)
 // The recursive definition of docs/criteria.md, independent of StreamingEvaluator. Returns the

@@ -20,6 +20,7 @@ void CriterionImages::collect(uint64_t ray, const PathHistory& h) {
     std::vector<NodeIndex> chain;
     std::vector<PathEvent> events;
     thread_local std::vector<StreamingEvaluator> evaluators;
+    thread_local PathSummary summary;
     evaluators.clear();
     for (const CompiledCriterion& c : criteria_) evaluators.emplace_back(c);
     for (size_t i = 0; i < h.size(); ++i) {
@@ -34,9 +35,16 @@ void CriterionImages::collect(uint64_t ray, const PathHistory& h) {
         if (!pixel) continue;
         const PathView view = h.path(leaf, chain);
         events.clear();
-        for (size_t k = 0; k < view.size(); ++k) events.push_back(view.event(k));
+        summary.reset();
+        for (size_t k = 0; k < view.size(); ++k) {
+            events.push_back(view.event(k));
+            summary.add(events.back());
+        }
         bool any = false;
         for (size_t c = 0; c < criteria_.size(); ++c) {
+            // Most criteria (one per ghost) need an event this path lacks: skip their
+            // evaluator, whose answer would be false.
+            if (!summary.mayMatch(criteria_[c])) continue;
             StreamingEvaluator& ev = evaluators[c];
             ev.reset();
             for (size_t k = 0; k < events.size() && !ev.decided(); ++k) ev.push(events[k]);

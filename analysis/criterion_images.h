@@ -2,11 +2,11 @@
 // Detector images split by path criteria, in the same run as the plain images.
 //
 // Every complete path of every ray (root to leaf, tracer/path_history.h) that ends in a
-// detector hit is tested against each criterion; its flux goes into that criterion's image
-// of that detector when it matches, and into the "rest" image when it matches none. Images
-// are filled in ray order after the trace, so they are the same for any thread count, and
-// each ray's contributions are added once per image (per-ray statistics, like the plain
-// images).
+// detector hit is tested against each criterion (skipping those a PathSummary of the path
+// rules out, analysis/criteria.h); its flux goes into that criterion's image of that detector
+// when it matches, and into the "rest" image when it matches none. Images are filled in ray
+// order after the trace, so they are the same for any thread count, and each ray's
+// contributions are added once per image (per-ray statistics, like the plain images).
 
 #include <map>
 #include <mutex>

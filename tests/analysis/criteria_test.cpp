@@ -1,10 +1,12 @@
-// Ray path criteria: the parsers, name resolution, hand-made paths (the seed's figure 3) and
-// the streaming evaluator against the direct recursive oracle on random criteria and paths.
+// Ray path criteria: the parsers, name resolution, hand-made paths (the seed's figure 3), the
+// streaming evaluator against the direct recursive oracle on random criteria and paths, and
+// the PathSummary prefilter against the oracle.
 
 #include "analysis/criteria.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <random>
 
@@ -262,6 +264,98 @@ TEST(CriteriaEval, GhostsCountsAndEarlyDecision) {
     EXPECT_EQ(s1.finish(), S::False);
 }
 
+// Prefilter
+std::vector<int32_t> requiredOf(const std::string& text) {
+    return compile(parseCriterion(text), lensNames()).required;
+}
+
+bool mayMatch(const std::string& text, const std::vector<PathEvent>& path) {
+    PathSummary summary;
+    summary.reset();
+    for (const PathEvent& e : path) summary.add(e);
+    return summary.mayMatch(compile(parseCriterion(text), lensNames()));
+}
+
+TEST(CriteriaPrefilter, RequiredLeaves) {
+    // Leaves in preorder: fresnel(L4.back), fresnel(L4.front), fresnel{2}, scatter, detector.
+    EXPECT_EQ(requiredOf("seq(fresnel(L4.back), fresnel(L4.front)) and fresnel{2} and not "
+                         "scatter and detector(sensor)"),
+              (std::vector<int32_t>{0, 1, 2, 4}));
+    EXPECT_TRUE(requiredOf("hit(L4.front) or exit").empty());
+    EXPECT_TRUE(requiredOf("not exit").empty());
+    EXPECT_TRUE(requiredOf("reflect{,2}").empty());
+    EXPECT_EQ(requiredOf("exit"), (std::vector<int32_t>{0}));
+    EXPECT_EQ(requiredOf("reflect{,2} and seq(emit, medium(N-BK7){1,2})"),
+              (std::vector<int32_t>{1, 2}));
+    EXPECT_EQ(requiredOf("seq(exit or tir, not fresnel, refract) and hit(sensor)"),
+              (std::vector<int32_t>{3, 4}));
+}
+
+TEST(CriteriaPrefilter, MayMatchTestsRequiredLeavesOnly) {
+    const std::vector<PathEvent> ghost = {ev(EventType::Emit, 0),
+                                          ev(EventType::Refract, 0, 0, 1),
+                                          ev(EventType::FresnelReflect, 1, 1, 1),
+                                          ev(EventType::FresnelReflect, 0, 1, 1),
+                                          ev(EventType::Refract, 1, 1, 0),
+                                          ev(EventType::DetectorHit, 7)};
+    const std::string pair =
+        "seq(fresnel(L4.back), fresnel(L4.front)) and fresnel{2} and not scatter and "
+        "detector(sensor)";
+    EXPECT_TRUE(run(pair, ghost));
+    EXPECT_TRUE(mayMatch(pair, ghost));
+    // The summary ignores order and counts: true says nothing.
+    EXPECT_FALSE(run("seq(fresnel(L4.front), fresnel(L4.back)) and fresnel{3}", ghost));
+    EXPECT_TRUE(mayMatch("seq(fresnel(L4.front), fresnel(L4.back)) and fresnel{3}", ghost));
+    EXPECT_FALSE(mayMatch("fresnel(L4.edge) and detector", ghost));
+    EXPECT_FALSE(mayMatch("seq(emit(lamp), hit(sensor))", ghost));
+    EXPECT_TRUE(mayMatch("emit(sun)", ghost));
+    // Types and objects are paired: there is a Refract at L4.front but no reflection.
+    EXPECT_TRUE(mayMatch("refract(L4.front) and fresnel(L4.back)", ghost));
+    EXPECT_FALSE(mayMatch("reflect(L4.back | L4.edge) and refract(sensor)", ghost));
+    // Media: entered N-BK7 (id 1) from air, never N-SF6; a reflection keeps the medium.
+    EXPECT_TRUE(mayMatch("medium(N-BK7)", ghost));
+    EXPECT_TRUE(mayMatch("medium(air)", ghost));
+    EXPECT_FALSE(mayMatch("medium(N-SF6)", ghost));
+    EXPECT_TRUE(mayMatch("fresnel(L4.front)", {ghost[3]}));
+    EXPECT_FALSE(mayMatch("medium", {ghost[3]}));
+    EXPECT_TRUE(mayMatch("medium", {ghost[1]}));
+    // Not required: under or, not, or with count min 0.
+    EXPECT_TRUE(mayMatch("tir or exit", ghost));
+    EXPECT_TRUE(mayMatch("not tir and not scatter{,1} and scatter{,1}", ghost));
+
+    // An event without object (-1) matches only leaves that accept any object.
+    const std::vector<PathEvent> lost = {ev(EventType::Emit, 1), ev(EventType::Exit, -1)};
+    EXPECT_TRUE(mayMatch("exit and emit(#1)", lost));
+    EXPECT_TRUE(mayMatch("hit and hit(*)", lost));
+    EXPECT_FALSE(mayMatch("hit(#0 | #1 | #2 | #3 | #4 | #5 | #6 | #7)", lost));
+    EXPECT_FALSE(mayMatch("emit(#0)", lost));
+}
+
+TEST(CriteriaPrefilter, ResetForgetsThePreviousPath) {
+    // Ids beyond the first 64-bit word, and a summary reused across paths.
+    NameTable names;
+    for (int i = 0; i < 200; ++i) names.objects.push_back({"o" + std::to_string(i), {}, "", false});
+    names.media = {"m0", "m1"};
+    names.sources = {"s0"};
+    const CompiledCriterion far = compile(parseCriterion("scatter(o150) and hit(o3)"), names);
+    const CompiledCriterion near = compile(parseCriterion("scatter(o3)"), names);
+    PathSummary summary;
+    summary.reset();
+    for (const PathEvent& e :
+         {ev(EventType::Emit, 0), ev(EventType::ScatterReflect, 150), ev(EventType::Refract, 3)})
+        summary.add(e);
+    EXPECT_TRUE(summary.mayMatch(far));
+    EXPECT_FALSE(summary.mayMatch(near));
+    summary.reset();
+    for (const PathEvent& e : {ev(EventType::Emit, 0), ev(EventType::ScatterReflect, 3)})
+        summary.add(e);
+    EXPECT_FALSE(summary.mayMatch(far));
+    EXPECT_TRUE(summary.mayMatch(near));
+    summary.reset();
+    EXPECT_FALSE(summary.mayMatch(near));
+    EXPECT_TRUE(summary.mayMatch(compile(parseCriterion("not exit"), names)));
+}
+
 // Property test: streaming against the oracle
 class RandomCriteria {
   public:
@@ -416,6 +510,64 @@ TEST(CriteriaProperty, StreamingAgreesWithTheOracle) {
     std::cout << "[criteria] " << kCriteria << " criteria x " << kPathsPerCriterion
               << " paths: true " << trueCount << ", decided early " << early << ", " << seconds
               << " s\n";
+}
+
+// The leaves compile() must mark required, read off the tree (leaves numbered in preorder).
+void requiredLeaves(const Criterion& c, bool conjunctive, int32_t& leaf,
+                    std::vector<int32_t>& out) {
+    if (c.kind == K::Leaf) {
+        if (conjunctive && c.count.min >= 1) out.push_back(leaf);
+        ++leaf;
+        return;
+    }
+    for (const Criterion& ch : c.children)
+        requiredLeaves(ch, conjunctive && (c.kind == K::And || c.kind == K::Seq), leaf, out);
+}
+
+TEST(CriteriaProperty, PrefilterIsSound) {
+    const auto start = std::chrono::steady_clock::now();
+    RandomCriteria gen(20261123);
+    const NameTable names = randomNames();
+    constexpr int kCriteria = 20000;
+    constexpr int kPathsPerCriterion = 8;
+    PathSummary summary;  // one for all paths, as in CriterionImages::collect
+    int trueCount = 0, pruned = 0;
+    for (int i = 0; i < kCriteria; ++i) {
+        const Criterion crit = gen.criterion(gen.uniform(1, 30));
+        const CompiledCriterion c = compile(crit, names);
+        std::vector<int32_t> required;
+        int32_t leaves = 0;
+        requiredLeaves(crit, true, leaves, required);
+        ASSERT_EQ(c.required, required) << "criterion " << crit;
+        for (int j = 0; j < kPathsPerCriterion; ++j) {
+            const std::vector<PathEvent> path = gen.path();
+            summary.reset();
+            for (const PathEvent& e : path) summary.add(e);
+            const bool may = summary.mayMatch(c);
+            // Exactly "every required leaf matches some event", by Leaf::matches itself.
+            const bool allSeen = std::all_of(required.begin(), required.end(), [&](int32_t r) {
+                return std::any_of(path.begin(), path.end(),
+                                   [&](const PathEvent& e) { return c.leaves[r].matches(e); });
+            });
+            ASSERT_EQ(may, allSeen)
+                << "criterion " << crit << "\npath " << ::testing::PrintToString(path);
+            const bool value = evaluateDirect(c, path).value;
+            ASSERT_TRUE(may || !value)
+                << "criterion " << crit << "\npath " << ::testing::PrintToString(path);
+            trueCount += value;
+            pruned += !may;
+        }
+    }
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const int total = kCriteria * kPathsPerCriterion;
+    // Both answers occur, and the prefilter rejects a good share of the false cases.
+    EXPECT_GT(trueCount, total / 10);
+    EXPECT_GT(pruned, (total - trueCount) / 3);
+    RecordProperty("cases", total);
+    std::cout << "[criteria] prefilter, " << kCriteria << " criteria x " << kPathsPerCriterion
+              << " paths: true " << trueCount << ", pruned " << pruned << " of "
+              << total - trueCount << " false, " << seconds << " s\n";
 }
 
 }  // namespace
