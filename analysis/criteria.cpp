@@ -545,100 +545,145 @@ CompiledCriterion compile(const Criterion& c, const NameTable& names, std::strin
 }
 
 // Streaming Evaluator
-StreamingEvaluator::StreamingEvaluator(const CompiledCriterion& c) : c_(&c) { reset(); }
-
-void StreamingEvaluator::reset() {
-    state_.assign(c_->nodes.size(), CriterionState::Undefined);
-    leadingTrue_.assign(c_->nodes.size(), 0);
-    count_.assign(c_->leaves.size(), 0);
-}
+// The algorithm works on an EvaluatorStateRef so that StreamingEvaluator (own vectors) and
+// EvaluatorBank (one shared buffer) run the same code.
+namespace {
 
 // Conditions 2 and 3 of the seed: every ancestor undefined, and under each seq ancestor all
 // children left of the branch already true.
-bool StreamingEvaluator::eligible(int32_t node) const {
+bool eligible(const CompiledCriterion& c, EvaluatorStateRef s, int32_t node) {
     int32_t child = node;
-    for (int32_t p = c_->nodes[node].parent; p >= 0; child = p, p = c_->nodes[p].parent) {
-        if (state_[p] != CriterionState::Undefined) return false;
-        if (c_->nodes[p].kind == Criterion::Kind::Seq &&
-            c_->nodes[child].indexInParent != leadingTrue_[p])
+    for (int32_t p = c.nodes[node].parent; p >= 0; child = p, p = c.nodes[p].parent) {
+        if (s.state[p] != CriterionState::Undefined) return false;
+        if (c.nodes[p].kind == Criterion::Kind::Seq &&
+            c.nodes[child].indexInParent != s.leadingTrue[p])
             return false;
     }
     return true;
 }
 
-CriterionState StreamingEvaluator::recompute(int32_t node) const {
-    const CompiledCriterion::Node& n = c_->nodes[node];
+CriterionState recompute(const CompiledCriterion& c, EvaluatorStateRef s, int32_t node) {
+    const CompiledCriterion::Node& n = c.nodes[node];
     using K = Criterion::Kind;
     using S = CriterionState;
     if (n.kind == K::Not) {
-        const S s = state_[n.children[0]];
-        return s == S::True ? S::False : s == S::False ? S::True : S::Undefined;
+        const S st = s.state[n.children[0]];
+        return st == S::True ? S::False : st == S::False ? S::True : S::Undefined;
     }
     const S dominant = n.kind == K::Or ? S::True : S::False;  // decides alone
     bool allOther = true;
     for (int32_t ch : n.children) {
-        if (state_[ch] == dominant) return dominant;
-        if (state_[ch] == S::Undefined) allOther = false;
+        if (s.state[ch] == dominant) return dominant;
+        if (s.state[ch] == S::Undefined) allOther = false;
     }
     if (!allOther) return S::Undefined;
     return dominant == S::True ? S::False : S::True;
 }
 
-void StreamingEvaluator::setState(int32_t node, CriterionState s) {
-    state_[node] = s;
-    const int32_t p = c_->nodes[node].parent;
+void setState(const CompiledCriterion& c, EvaluatorStateRef s, int32_t node, CriterionState st) {
+    s.state[node] = st;
+    const int32_t p = c.nodes[node].parent;
     if (p < 0) return;
-    const CompiledCriterion::Node& parent = c_->nodes[p];
+    const CompiledCriterion::Node& parent = c.nodes[p];
     if (parent.kind == Criterion::Kind::Seq) {
-        int32_t& k = leadingTrue_[p];
+        int32_t& k = s.leadingTrue[p];
         while (k < static_cast<int32_t>(parent.children.size()) &&
-               state_[parent.children[k]] == CriterionState::True)
+               s.state[parent.children[k]] == CriterionState::True)
             ++k;
     }
-    if (state_[p] != CriterionState::Undefined) return;
-    const CriterionState ps = recompute(p);
-    if (ps != CriterionState::Undefined) setState(p, ps);
+    if (s.state[p] != CriterionState::Undefined) return;
+    const CriterionState ps = recompute(c, s, p);
+    if (ps != CriterionState::Undefined) setState(c, s, p, ps);
+}
+
+}  // namespace
+
+StreamingEvaluator::StreamingEvaluator(const CompiledCriterion& c) : c_(&c) { reset(); }
+
+void StreamingEvaluator::reset() {
+    state_.resize(c_->nodes.size());
+    leadingTrue_.resize(c_->nodes.size());
+    count_.resize(c_->leaves.size());
+    reset(*c_, ref());
 }
 
 CriterionState StreamingEvaluator::push(const PathEvent& e) {
-    if (decided()) return state_[0];
-    // Eligibility is judged on the states before this event: one event advances a seq by at
-    // most one step. Changes are applied after all leaves have seen the event.
-    changed_.clear();
-    changedTo_.clear();
-    for (size_t i = 0; i < c_->leaves.size(); ++i) {
-        const CompiledCriterion::Leaf& leaf = c_->leaves[i];
-        if (state_[leaf.node] != CriterionState::Undefined || !leaf.matches(e) ||
-            !eligible(leaf.node))
-            continue;
-        const int32_t n = ++count_[i];
-        if (leaf.count.max == CountRange::kUnbounded) {
-            if (n >= leaf.count.min) {
-                changed_.push_back(leaf.node);
-                changedTo_.push_back(CriterionState::True);
-            }
-        } else if (n > leaf.count.max) {
-            changed_.push_back(leaf.node);
-            changedTo_.push_back(CriterionState::False);
-        }
-    }
-    for (size_t i = 0; i < changed_.size(); ++i) setState(changed_[i], changedTo_[i]);
-    return state_[0];
+    return push(*c_, ref(), e, scratch_);
 }
 
-CriterionState StreamingEvaluator::finish() {
-    if (decided()) return state_[0];
-    changed_.clear();
-    changedTo_.clear();
-    for (size_t i = 0; i < c_->leaves.size(); ++i) {
-        const CompiledCriterion::Leaf& leaf = c_->leaves[i];
-        if (state_[leaf.node] != CriterionState::Undefined) continue;
-        const bool in = count_[i] >= leaf.count.min && count_[i] <= leaf.count.max;
-        changed_.push_back(leaf.node);
-        changedTo_.push_back(in ? CriterionState::True : CriterionState::False);
+CriterionState StreamingEvaluator::finish() { return finish(*c_, ref(), scratch_); }
+
+void StreamingEvaluator::reset(const CompiledCriterion& c, EvaluatorStateRef s) {
+    std::fill_n(s.state, c.nodes.size(), CriterionState::Undefined);
+    std::fill_n(s.leadingTrue, c.nodes.size(), 0);
+    std::fill_n(s.count, c.leaves.size(), 0);
+}
+
+CriterionState StreamingEvaluator::push(const CompiledCriterion& c, EvaluatorStateRef s,
+                                        const PathEvent& e, Scratch& scratch) {
+    if (s.state[0] != CriterionState::Undefined) return s.state[0];
+    // Eligibility is judged on the states before this event: one event advances a seq by at
+    // most one step. Changes are applied after all leaves have seen the event.
+    scratch.changed.clear();
+    scratch.changedTo.clear();
+    for (size_t i = 0; i < c.leaves.size(); ++i) {
+        const CompiledCriterion::Leaf& leaf = c.leaves[i];
+        if (s.state[leaf.node] != CriterionState::Undefined || !leaf.matches(e) ||
+            !eligible(c, s, leaf.node))
+            continue;
+        const int32_t n = ++s.count[i];
+        if (leaf.count.max == CountRange::kUnbounded) {
+            if (n >= leaf.count.min) {
+                scratch.changed.push_back(leaf.node);
+                scratch.changedTo.push_back(CriterionState::True);
+            }
+        } else if (n > leaf.count.max) {
+            scratch.changed.push_back(leaf.node);
+            scratch.changedTo.push_back(CriterionState::False);
+        }
     }
-    for (size_t i = 0; i < changed_.size(); ++i) setState(changed_[i], changedTo_[i]);
-    return state_[0];
+    for (size_t i = 0; i < scratch.changed.size(); ++i)
+        setState(c, s, scratch.changed[i], scratch.changedTo[i]);
+    return s.state[0];
+}
+
+CriterionState StreamingEvaluator::finish(const CompiledCriterion& c, EvaluatorStateRef s,
+                                          Scratch& scratch) {
+    if (s.state[0] != CriterionState::Undefined) return s.state[0];
+    scratch.changed.clear();
+    scratch.changedTo.clear();
+    for (size_t i = 0; i < c.leaves.size(); ++i) {
+        const CompiledCriterion::Leaf& leaf = c.leaves[i];
+        if (s.state[leaf.node] != CriterionState::Undefined) continue;
+        const bool in = s.count[i] >= leaf.count.min && s.count[i] <= leaf.count.max;
+        scratch.changed.push_back(leaf.node);
+        scratch.changedTo.push_back(in ? CriterionState::True : CriterionState::False);
+    }
+    for (size_t i = 0; i < scratch.changed.size(); ++i)
+        setState(c, s, scratch.changed[i], scratch.changedTo[i]);
+    return s.state[0];
+}
+
+// Evaluator Bank
+EvaluatorBank::EvaluatorBank(std::span<const CompiledCriterion> criteria) : criteria_(criteria) {
+    // Per criterion: counts, leading-true counts (int32), then node states (bytes), padded so
+    // the next criterion's int32 arrays stay aligned. Each criterion's state is contiguous.
+    const auto align4 = [](size_t n) { return (n + 3) & ~size_t{3}; };
+    layout_.reserve(criteria.size());
+    for (const CompiledCriterion& c : criteria) {
+        Offsets o;
+        o.count = bytes_;
+        o.leadingTrue = o.count + c.leaves.size() * sizeof(int32_t);
+        o.state = o.leadingTrue + c.nodes.size() * sizeof(int32_t);
+        bytes_ = align4(o.state + c.nodes.size() * sizeof(CriterionState));
+        for (const CompiledCriterion::Leaf& leaf : c.leaves) o.typeMask |= leaf.typeMask;
+        layout_.push_back(o);
+    }
+}
+
+void EvaluatorBank::reset(std::byte* buffer) const {
+    for (size_t c = 0; c < criteria_.size(); ++c)
+        StreamingEvaluator::reset(criteria_[c], ref(c, buffer));
 }
 
 bool matches(const CompiledCriterion& c, std::span<const PathEvent> events) {

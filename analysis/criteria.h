@@ -16,6 +16,7 @@
 // the tree, no automaton) and decides as soon as the events allow it; evaluateDirect is an
 // independent recursive evaluator of the same semantics, used as the tests' oracle.
 
+#include <cstddef>
 #include <cstdint>
 #include <limits>
 #include <ostream>
@@ -142,6 +143,15 @@ CompiledCriterion compile(const Criterion& c, const NameTable& names,
 enum class CriterionState : uint8_t { Undefined, True, False };
 std::ostream& operator<<(std::ostream& os, CriterionState s);
 
+// The state of one streaming evaluator in memory owned by someone else (EvaluatorBank keeps
+// many in one buffer): one entry per node, one leading-true count per node (used by Seq nodes
+// only), one match count per leaf.
+struct EvaluatorStateRef {
+    CriterionState* state;
+    int32_t* leadingTrue;
+    int32_t* count;
+};
+
 // The seed's three-state evaluator. Events are pushed one by one in path order; the answer is
 // known as soon as decided(). Pushing more events after that changes nothing. One evaluator
 // per thread; reset() before every path (memory is reused).
@@ -155,17 +165,71 @@ class StreamingEvaluator {
     bool decided() const { return state_[0] != CriterionState::Undefined; }
     CriterionState state() const { return state_[0]; }
 
+    // The same algorithm on external state (sized for c), for callers that lay out the state
+    // of many evaluators themselves. `scratch` is reused memory, its contents do not matter.
+    struct Scratch {
+        std::vector<int32_t> changed;  // leaves decided by the current event
+        std::vector<CriterionState> changedTo;
+    };
+    static void reset(const CompiledCriterion& c, EvaluatorStateRef s);
+    static CriterionState push(const CompiledCriterion& c, EvaluatorStateRef s,
+                               const PathEvent& e, Scratch& scratch);
+    static CriterionState finish(const CompiledCriterion& c, EvaluatorStateRef s,
+                                 Scratch& scratch);
+
   private:
-    bool eligible(int32_t node) const;
-    void setState(int32_t node, CriterionState s);
-    CriterionState recompute(int32_t node) const;
+    EvaluatorStateRef ref() { return {state_.data(), leadingTrue_.data(), count_.data()}; }
 
     const CompiledCriterion* c_;
     std::vector<CriterionState> state_;  // per node
     std::vector<int32_t> leadingTrue_;   // per Seq node: how many first children are true
     std::vector<int32_t> count_;         // per leaf
-    std::vector<int32_t> changed_;       // scratch: leaves decided by the current event
-    std::vector<CriterionState> changedTo_;
+    Scratch scratch_;
+};
+
+// The streaming evaluators of several criteria with all their state in one flat buffer, laid
+// out by offsets computed once. Copying the buffer copies every evaluator: the online filter
+// (analysis/criterion_images.h) copies a branch's state at every split, and one allocation
+// and memcpy is much cheaper than a vector per criterion and per node array. The criteria
+// must outlive the bank; a buffer holds bufferSize() bytes, suitably aligned (new / vector).
+class EvaluatorBank {
+  public:
+    explicit EvaluatorBank(std::span<const CompiledCriterion> criteria);
+    size_t size() const { return criteria_.size(); }
+    size_t bufferSize() const { return bytes_; }
+    // Every evaluator back to the start of a path.
+    void reset(std::byte* buffer) const;
+    // Criterion c's evaluator (StreamingEvaluator::push / finish / state on its part).
+    CriterionState push(size_t c, std::byte* buffer, const PathEvent& e,
+                        StreamingEvaluator::Scratch& scratch) const {
+        // An event no leaf can match changes nothing: skip the evaluator (most events, with
+        // criteria that look for a few event types).
+        if (!((layout_[c].typeMask >> static_cast<unsigned>(e.type)) & 1u))
+            return state(c, buffer);
+        return StreamingEvaluator::push(criteria_[c], ref(c, buffer), e, scratch);
+    }
+    CriterionState finish(size_t c, std::byte* buffer, StreamingEvaluator::Scratch& scratch) const {
+        return StreamingEvaluator::finish(criteria_[c], ref(c, buffer), scratch);
+    }
+    CriterionState state(size_t c, const std::byte* buffer) const {
+        return *reinterpret_cast<const CriterionState*>(buffer + layout_[c].state);
+    }
+
+  private:
+    struct Offsets {
+        size_t state, leadingTrue, count;  // byte offsets into the buffer
+        uint16_t typeMask = 0;             // the event types some leaf can match
+    };
+    EvaluatorStateRef ref(size_t c, std::byte* buffer) const {
+        const Offsets& o = layout_[c];
+        return {reinterpret_cast<CriterionState*>(buffer + o.state),
+                reinterpret_cast<int32_t*>(buffer + o.leadingTrue),
+                reinterpret_cast<int32_t*>(buffer + o.count)};
+    }
+
+    std::span<const CompiledCriterion> criteria_;
+    std::vector<Offsets> layout_;
+    size_t bytes_ = 0;
 };
 
 // Evaluates a whole path (streaming, stopping early); true if it matches.

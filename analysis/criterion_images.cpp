@@ -80,29 +80,42 @@ namespace {
 
 class CriteriaState : public BranchState {
   public:
-    explicit CriteriaState(const std::vector<CompiledCriterion>& criteria) {
-        for (const CompiledCriterion& c : criteria) evaluators_.emplace_back(c);
+    explicit CriteriaState(const EvaluatorBank& bank)
+        : bank_(&bank), buffer_(bank.bufferSize()) {
+        bank.reset(buffer_.data());
     }
     std::unique_ptr<BranchState> clone() const override {
         return std::make_unique<CriteriaState>(*this);
     }
     bool push(const PathEvent& e) override {
+        // A true criterion stays true, so the branch is wanted whatever follows: the
+        // evaluators are not needed any more, and dropping them makes later clones cheap.
+        if (wanted_) return true;
+        thread_local StreamingEvaluator::Scratch scratch;
         bool any = false;
-        for (StreamingEvaluator& ev : evaluators_) {
-            if (ev.state() == CriterionState::False) continue;
-            if (ev.push(e) != CriterionState::False) any = true;
+        for (size_t c = 0; c < bank_->size(); ++c) {
+            if (bank_->state(c, buffer_.data()) == CriterionState::False) continue;
+            const CriterionState s = bank_->push(c, buffer_.data(), e, scratch);
+            if (s == CriterionState::True) {
+                wanted_ = true;
+                buffer_ = {};
+                return true;
+            }
+            if (s != CriterionState::False) any = true;
         }
         return any;
     }
 
   private:
-    std::vector<StreamingEvaluator> evaluators_;
+    const EvaluatorBank* bank_;
+    std::vector<std::byte> buffer_;  // the state of every criterion's evaluator
+    bool wanted_ = false;            // some criterion is already true
 };
 
 }  // namespace
 
 std::unique_ptr<BranchState> CriteriaFilter::start() const {
-    return std::make_unique<CriteriaState>(criteria_);
+    return std::make_unique<CriteriaState>(bank_);
 }
 
 }  // namespace veil

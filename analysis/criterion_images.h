@@ -61,14 +61,15 @@ class CriterionImages {
 namespace veil {
 
 // Online pruning by criteria (tracer/branch_filter.h): a branch is traced on while at least
-// one criterion may still be true for it, and culled as soon as all are false.
+// one criterion may still be true for it, and culled as soon as all are false. A branch's
+// state is one EvaluatorBank buffer, so the copy at every split is a single allocation.
 class CriteriaFilter : public BranchFilter {
   public:
-    explicit CriteriaFilter(const std::vector<CompiledCriterion>& criteria) : criteria_(criteria) {}
+    explicit CriteriaFilter(const std::vector<CompiledCriterion>& criteria) : bank_(criteria) {}
     std::unique_ptr<BranchState> start() const override;
 
   private:
-    const std::vector<CompiledCriterion>& criteria_;
+    EvaluatorBank bank_;  // refers to the caller's criteria, which must outlive the filter
 };
 
 }  // namespace veil

@@ -75,6 +75,11 @@ void addGhostsCommand(CLI::App& app, GhostsOptions& o) {
                     "to less than this")
         ->capture_default_str();
     sub->add_flag("--no-images", o.noImages, "write the tables only (no EXR, PNG, paths)");
+    sub->add_option("--pixels", o.pixels,
+                    "detector pixels along the longer side for the ghost images (fewer pixels: "
+                    "less Monte Carlo noise per pixel; 0: the scene's)")
+        ->check(CLI::Range(0, 16384))
+        ->capture_default_str();
 }
 
 namespace {
@@ -139,6 +144,15 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
         std::vector<std::pair<double, double>> fields;
         for (size_t k = 0; k < o.fields.size(); ++k) fields.push_back(parseField(o.fields[k], k));
         setFieldSources(file, catalog, fields);
+    }
+    if (o.pixels > 0) {
+        if (file.detectors.empty()) file.detectors.emplace_back();
+        for (DetectorSpec& d : file.detectors) {
+            const double w = d.sizeMm ? d.sizeMm->x : 1.0, h = d.sizeMm ? d.sizeMm->y : 1.0;
+            // Square pixels, o.pixels along the longer side.
+            d.pixelsX = w >= h ? o.pixels : std::max(1, static_cast<int>(std::lround(o.pixels * w / h)));
+            d.pixelsY = h >= w ? o.pixels : std::max(1, static_cast<int>(std::lround(o.pixels * h / w)));
+        }
     }
     const SceneSetup setup = buildScene(file, catalog);
     TraceSetup ts = prepareTrace(file, setup, catalog);

@@ -142,7 +142,9 @@ TEST(Ghosts, CountIsNTimesNMinusOneOverTwoForEveryExampleLens) {
                     seen[s] = true;
                     ++faces;
                 }
-        if (expected > 0) EXPECT_EQ(faces, expected);
+        if (expected > 0) {
+            EXPECT_EQ(faces, expected);
+        }
         const std::vector<GhostPath> paths = tracer.enumerate();
         const size_t n = ghostSurfaces(tracer.model()).size();
         EXPECT_EQ(n, static_cast<size_t>(faces));
