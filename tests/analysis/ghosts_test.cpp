@@ -123,6 +123,37 @@ TEST(Ghosts, PlateFourReflectionGhostCarriesRToTheFourth) {
               "fresnel{4} and not scatter and not tir and detector(sensor)");
 }
 
+TEST(Ghosts, SingletGhostFocusMatchesAHandMadeParaxialTrace) {
+    // The singlet's only ghost, L1.back > L1.front, unfolded by hand in the y, n u form:
+    // refract at the front (power c1 (n - 1)), cross the glass (reduced thickness t / n),
+    // reflect at the back inside the glass (a mirror in glass: power -2 n c2), cross back,
+    // reflect at the front (power 2 n c1), cross again, refract at the back (c2 (1 - n)).
+    GhostScene g(VEIL_SOURCE_DIR "/examples/lenses/singlet.toml");
+    GhostTracer tracer(g.setup, g.trace, g.catalog);
+    const SequentialModel& m = tracer.model();
+    const int w = m.primaryWavelength();
+    const double n = m.index(2, w);  // N-BK7 at the d line
+    const double c1 = 1.0 / 59.26, c2 = 1.0 / -394.56, t = 4.0, toImage = 96.71;
+    double y = 1.0, nu = 0.0;
+    auto refract = [&](double power) { nu -= y * power; };
+    auto transfer = [&](double reduced) { y += reduced * nu; };
+    refract(c1 * (n - 1));
+    transfer(t / n);
+    refract(-2 * n * c2);
+    transfer(t / n);
+    refract(2 * n * c1);
+    transfer(t / n);
+    refract(c2 * (1 - n));
+    const double focusFromBack = -y / nu;  // in air, n u = u
+    const std::vector<GhostPath> paths = tracer.enumerate();
+    ASSERT_EQ(paths.size(), 1u);
+    const auto [focus, glass] = tracer.paraxialFocus(paths[0], 0);
+    EXPECT_NEAR(focus, focusFromBack - toImage, 1e-9);
+    EXPECT_TRUE(glass.empty());
+    // The nominal path: the lens's back focal distance (from veil info: 97.69 mm).
+    EXPECT_NEAR(tracer.paraxialFocus(tracer.nominalPath(), 0).first + toImage, 97.69, 0.01);
+}
+
 TEST(Ghosts, CountIsNTimesNMinusOneOverTwoForEveryExampleLens) {
     // N counted independently: the faces of the lens elements (a cemented face counts once).
     const std::vector<std::pair<std::string, int>> lenses = {
