@@ -388,11 +388,23 @@ bool GhostTracer::land(const RayState& r, int w, DetectorRay& out) const {
     return true;
 }
 
+std::vector<std::pair<Ray, int>> GhostTracer::gridRays(int source) const {
+    std::vector<std::pair<Ray, int>> out;
+    for (int w = 0; w < model_.wavelengthCount(); ++w)
+        for (int iy = 0; iy < options_.gridRays; ++iy)
+            for (int ix = 0; ix < options_.gridRays; ++ix) {
+                RayState r;
+                if (launch(source, w, ix, iy, r)) out.push_back({Ray{r.pos, r.dir}, w});
+            }
+    return out;
+}
+
 std::vector<GhostTracer::DetectorRay> GhostTracer::traceGrid(const GhostPath& path, int source,
                                                             int w, int* traced) const {
     const std::vector<Step> st = steps(path);
     std::vector<DetectorRay> out;
     if (traced) *traced = 0;
+    uint64_t steps = 0;
     const int n = options_.gridRays;
     for (int iy = 0; iy < n; ++iy)
         for (int ix = 0; ix < n; ++ix) {
@@ -400,11 +412,14 @@ std::vector<GhostTracer::DetectorRay> GhostTracer::traceGrid(const GhostPath& pa
             if (!launch(source, w, ix, iy, r)) continue;
             if (traced) ++*traced;
             bool alive = true;
-            for (const Step& step : st)
+            for (const Step& step : st) {
+                ++steps;
                 if (!(alive = advance(r, step, w))) break;
+            }
             DetectorRay d;
-            if (alive && land(r, w, d)) out.push_back(d);
+            if (alive && (++steps, land(r, w, d))) out.push_back(d);
         }
+    steps_ += steps;
     return out;
 }
 
@@ -554,6 +569,11 @@ std::vector<GhostEstimate> GhostTracer::estimatePairs(const std::vector<GhostPat
         std::vector<std::vector<DetectorRay>> rays(paths.size());
         std::vector<RayState> arriving(image);  // forward, arriving at surface k
         int traced = 0;
+        uint64_t steps = 0;
+        auto step = [&](RayState& r, const Step& st, int w) {
+            ++steps;
+            return advance(r, st, w);
+        };
         for (int w = 0; w < model_.wavelengthCount(); ++w) {
             const int n = options_.gridRays;
             for (int iy = 0; iy < n; ++iy)
@@ -565,28 +585,30 @@ std::vector<GhostEstimate> GhostTracer::estimatePairs(const std::vector<GhostPat
                     for (int k = 1; k < image; ++k) {
                         arriving[k] = r;
                         reached = k;
-                        if (!advance(r, nominalStep(k, true), w)) break;
+                        if (!step(r, nominalStep(k, true), w)) break;
                     }
                     for (int i = 1; i <= reached; ++i) {
                         if (!firstSurface[i]) continue;
                         RayState b = arriving[i];
-                        if (!advance(b, ghostStep(i, true), w)) continue;
+                        if (!step(b, ghostStep(i, true), w)) continue;
                         for (int k = i - 1; k >= 1; --k) {
                             if (secondSurface[k]) {
                                 if (auto it = index.find({i, k}); it != index.end()) {
                                     RayState f = b;
-                                    bool alive = advance(f, ghostStep(k, false), w);
+                                    bool alive = step(f, ghostStep(k, false), w);
                                     for (int m = k + 1; alive && m < image; ++m)
-                                        alive = advance(f, nominalStep(m, true), w);
+                                        alive = step(f, nominalStep(m, true), w);
                                     DetectorRay d;
-                                    if (alive && land(f, w, d)) rays[it->second].push_back(d);
+                                    if (alive && (++steps, land(f, w, d)))
+                                        rays[it->second].push_back(d);
                                 }
                             }
-                            if (!advance(b, nominalStep(k, false), w)) break;
+                            if (!step(b, nominalStep(k, false), w)) break;
                         }
                     }
                 }
         }
+        steps_ += steps;
         for (size_t g = 0; g < paths.size(); ++g)
             out[g].sources[s] = summarise(paths[g], static_cast<int>(s), rays[g], traced, nominal);
     });
@@ -599,6 +621,7 @@ std::vector<GhostEstimate> GhostTracer::estimatePairs(const std::vector<GhostPat
 
 GhostAnalysis GhostTracer::analyse() const {
     const auto start = std::chrono::steady_clock::now();
+    const uint64_t steps0 = steps_;
     GhostAnalysis a;
     a.surfaces = ghostSurfaces_;
     for (int s : ghostSurfaces_)
@@ -614,6 +637,7 @@ GhostAnalysis GhostTracer::analyse() const {
                          return x.peakIrradiance() > y.peakIrradiance();
                      });
     a.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    a.raySurfaceSteps = steps_ - steps0;
     return a;
 }
 

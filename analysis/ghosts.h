@@ -49,6 +49,7 @@
 // real focus within a glass gap of the unfolded path: the laser damage risk).
 // Ranking: by the peak irradiance over all sources, brightest first.
 
+#include <atomic>
 #include <optional>
 #include <ostream>
 #include <string>
@@ -129,6 +130,7 @@ struct GhostAnalysis {
     std::vector<GhostEstimate> ghosts;    // ranked: brightest peak irradiance first
     int pruned = 0;                       // four-reflection paths left out by the energy bound
     double seconds = 0.0;                 // time of the sequential estimate
+    uint64_t raySurfaceSteps = 0;         // surface intersections attempted (image included)
 };
 
 // Unfolded-path sequential tracer over a built scene (the setups must outlive it).
@@ -167,6 +169,8 @@ class GhostTracer {
     };
     std::vector<DetectorRay> traceGrid(const GhostPath& path, int source, int wavelength,
                                        int* traced = nullptr) const;
+    // The grid rays of one source as launched (ray, model wavelength index), for baselines.
+    std::vector<std::pair<Ray, int>> gridRays(int source) const;
     // The paraxial focus relative to the detector (see GhostSourceResult::focusMm) and the
     // glass-focus note for one path and source.
     std::pair<double, std::string> paraxialFocus(const GhostPath& path, int source) const;
@@ -202,6 +206,8 @@ class GhostTracer {
     const DetectorGeometry* detector_ = nullptr;
     int detectorIndex_ = 0;
     std::vector<int> ghostSurfaces_;
+    // Surface intersections attempted so far (all threads; for benchmarks and reports).
+    mutable std::atomic<uint64_t> steps_{0};
     std::vector<double> clipRadius_;   // per sequential surface; infinity = no clip
     std::vector<double> holeRadius_;   // per sequential surface
     std::vector<int> propertyOf_;      // per sequential surface: index into properties, -1
@@ -239,9 +245,15 @@ namespace veil {
 // pruned online: a branch is traced only while one of the criteria can still match it.
 struct GhostMonteCarloOptions {
     uint64_t raysPerSource = 20000;
-    TransportOptions transport;  // split mode; minRelativeFlux 1e-9 (pruning bounds the tree)
+    // Split mode; minRelativeFlux 1e-9 (pruning bounds the tree); blocks of 256 rays, so the
+    // few thousand rays a ghost table needs still spread over the cores (the blocks are fixed,
+    // so the result is the same for any thread count).
+    TransportOptions transport;
     std::function<void(uint64_t)> progress;
-    GhostMonteCarloOptions() { transport.minRelativeFlux = 1e-9; }
+    GhostMonteCarloOptions() {
+        transport.minRelativeFlux = 1e-9;
+        transport.raysPerBlock = 256;
+    }
 };
 
 struct GhostMonteCarlo {

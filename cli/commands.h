@@ -5,6 +5,11 @@
 #include <string>
 #include <vector>
 
+#include <tbb/global_control.h>
+
+#include <memory>
+
+#include "analysis/scene_setup.h"
 #include "lensdata/glass_catalog.h"
 
 namespace veil::cli {
@@ -14,6 +19,10 @@ struct CommonOptions {
 };
 // Built-in catalogs, VEIL_GLASS_PATH and every --glass-catalog file.
 GlassCatalog loadCatalog(const CommonOptions& common);
+// Caps the worker threads while the result lives (threads <= 0: all cores, returns null).
+std::unique_ptr<tbb::global_control> limitThreads(int threads);
+// The scene's warnings and errors (import notes, parts left out) on standard error.
+void reportSceneNotes(const SceneSetup& setup);
 
 struct InfoOptions {
     std::string file;

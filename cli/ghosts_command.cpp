@@ -15,8 +15,6 @@
 
 #include "cli/ghosts_command.h"
 
-#include <tbb/global_control.h>
-
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -156,13 +154,9 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
     }
     const SceneSetup setup = buildScene(file, catalog);
     TraceSetup ts = prepareTrace(file, setup, catalog);
-    for (const ImportNote& n : setup.notes)
-        if (n.severity != ImportNote::Severity::Info) std::cerr << "veil: " << n << "\n";
+    reportSceneNotes(setup);
 
-    std::unique_ptr<tbb::global_control> limit;
-    if (o.threads > 0)
-        limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
-                                                      static_cast<size_t>(o.threads));
+    const auto limit = limitThreads(o.threads);
     GhostOptions go;
     go.order = o.order;
     go.gridRays = o.grid;

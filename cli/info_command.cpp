@@ -89,6 +89,17 @@ GlassCatalog loadCatalog(const CommonOptions& common) {
     return catalog;
 }
 
+std::unique_ptr<tbb::global_control> limitThreads(int threads) {
+    if (threads <= 0) return nullptr;
+    return std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                 static_cast<size_t>(threads));
+}
+
+void reportSceneNotes(const SceneSetup& setup) {
+    for (const ImportNote& n : setup.notes)
+        if (n.severity != ImportNote::Severity::Info) std::cerr << "veil: " << n << "\n";
+}
+
 void addInfoCommand(CLI::App& app, CommonOptions& common, InfoOptions& options) {
     CLI::App* sub =
         app.add_subcommand("info", "first-order data, spots and import report of a lens");

@@ -44,8 +44,7 @@ int runLayout(const CommonOptions& common, const LayoutOptions& options) {
     pic.writePng(png, options.widthPx);
     std::cout << "wrote " << options.output << " and " << png.string() << " ("
               << setup.scene.objects().size() << " objects)\n";
-    for (const ImportNote& n : setup.notes)
-        if (n.severity != ImportNote::Severity::Info) std::cerr << "veil: " << n << "\n";
+    reportSceneNotes(setup);
     return 0;
 }
 

@@ -13,8 +13,6 @@
 
 #include "cli/paths_command.h"
 
-#include <tbb/global_control.h>
-
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -65,13 +63,9 @@ int runPaths(const CommonOptions& common, const PathsOptions& o) {
     so.mechanics = !o.noMechanics;
     const SceneSetup setup = buildScene(file, catalog, so);
     const TraceSetup ts = prepareTrace(file, setup, catalog);
-    for (const ImportNote& n : setup.notes)
-        if (n.severity != ImportNote::Severity::Info) std::cerr << "veil: " << n << "\n";
+    reportSceneNotes(setup);
 
-    std::unique_ptr<tbb::global_control> limit;
-    if (o.threads > 0)
-        limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
-                                                      static_cast<size_t>(o.threads));
+    const auto limit = limitThreads(o.threads);
     PathSelectionOptions po;
     po.where = o.where;
     po.count = static_cast<size_t>(o.first);

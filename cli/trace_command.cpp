@@ -9,8 +9,6 @@
 // on standard error shows rays/s and the time left; the closing summary goes to standard
 // output. The same seed gives bitwise the same images with any number of threads.
 
-#include <tbb/global_control.h>
-
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -118,8 +116,7 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
     const SceneFile file = readSceneFile(o.file, catalog);
     const SceneSetup setup = buildScene(file, catalog);
     const TraceSetup ts = prepareTrace(file, setup, catalog);
-    for (const ImportNote& n : setup.notes)
-        if (n.severity != ImportNote::Severity::Info) std::cerr << "veil: " << n << "\n";
+    reportSceneNotes(setup);
 
     TransportOptions options;
     options.mode =
@@ -132,10 +129,7 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
     const auto raysPerSource = static_cast<uint64_t>(o.rays);
     const uint64_t total = raysPerSource * ts.transport.sources.size();
 
-    std::unique_ptr<tbb::global_control> limit;
-    if (o.threads > 0)
-        limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
-                                                      static_cast<size_t>(o.threads));
+    const auto limit = limitThreads(o.threads);
     const auto start = std::chrono::steady_clock::now();
     auto progress = [&](uint64_t done) {
         if (o.quiet) return;
