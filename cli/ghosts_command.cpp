@@ -73,6 +73,9 @@ void addGhostsCommand(CLI::App& app, GhostsOptions& o) {
                     "to less than this")
         ->capture_default_str();
     sub->add_flag("--no-images", o.noImages, "write the tables only (no EXR, PNG, paths)");
+    sub->add_option("--decades", o.decades, "PNG images: decades of the log colour scale")
+        ->check(CLI::Range(0.5, 20.0))
+        ->capture_default_str();
     sub->add_option("--pixels", o.pixels,
                     "detector pixels along the longer side for the ghost images (fewer pixels: "
                     "less Monte Carlo noise per pixel; 0: the scene's)")
@@ -335,6 +338,7 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
         PreviewOptions po;
         po.fluxUnit = unit;
         po.emittedRays = mc.emittedRays;
+        po.decades = o.decades;
         const DetectorImage& sum = layers[a.ghosts.size() + 1][det];
         for (size_t r = 0; r < a.ghosts.size(); ++r) {
             const DetectorImage& img = layers[r + 1][det];

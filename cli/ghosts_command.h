@@ -27,6 +27,7 @@ struct GhostsOptions {
     double nearFocusMm = 0.0;
     double minFourthOrder = 1e-7;
     bool noImages = false;
+    double decades = 3.0;  // PNG log range
     int pixels = 0;  // detector pixels along the longer side for the ghost images; 0 = the scene's
 };
 void addGhostsCommand(CLI::App& app, GhostsOptions& options);
