@@ -155,7 +155,7 @@ class GhostTracer {
     GhostEstimate estimate(const GhostPath& path, const GhostEstimate* nominal) const;
     // The same for many two-reflection paths at once, sharing the traced beginnings (the
     // forward path to the first reflection, the backward path to the second): the same
-    // numbers as estimate() path by path, about four times faster for a 12-surface lens.
+    // numbers as estimate() path by path, about 2.4 times fewer surface steps for a 12-surface lens.
     std::vector<GhostEstimate> estimatePairs(const std::vector<GhostPath>& paths,
                                              const GhostEstimate* nominal) const;
     // All of it: enumerate, estimate, rank.
