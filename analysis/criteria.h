@@ -172,10 +172,9 @@ class StreamingEvaluator {
         std::vector<CriterionState> changedTo;
     };
     static void reset(const CompiledCriterion& c, EvaluatorStateRef s);
-    static CriterionState push(const CompiledCriterion& c, EvaluatorStateRef s,
-                               const PathEvent& e, Scratch& scratch);
-    static CriterionState finish(const CompiledCriterion& c, EvaluatorStateRef s,
-                                 Scratch& scratch);
+    static CriterionState push(const CompiledCriterion& c, EvaluatorStateRef s, const PathEvent& e,
+                               Scratch& scratch);
+    static CriterionState finish(const CompiledCriterion& c, EvaluatorStateRef s, Scratch& scratch);
 
   private:
     EvaluatorStateRef ref() { return {state_.data(), leadingTrue_.data(), count_.data()}; }
@@ -204,8 +203,7 @@ class EvaluatorBank {
                         StreamingEvaluator::Scratch& scratch) const {
         // An event no leaf can match changes nothing: skip the evaluator (most events, with
         // criteria that look for a few event types).
-        if (!((layout_[c].typeMask >> static_cast<unsigned>(e.type)) & 1u))
-            return state(c, buffer);
+        if (!((layout_[c].typeMask >> static_cast<unsigned>(e.type)) & 1u)) return state(c, buffer);
         return StreamingEvaluator::push(criteria_[c], ref(c, buffer), e, scratch);
     }
     CriterionState finish(size_t c, std::byte* buffer, StreamingEvaluator::Scratch& scratch) const {

@@ -80,8 +80,7 @@ namespace {
 
 class CriteriaState : public BranchState {
   public:
-    explicit CriteriaState(const EvaluatorBank& bank)
-        : bank_(&bank), buffer_(bank.bufferSize()) {
+    explicit CriteriaState(const EvaluatorBank& bank) : bank_(&bank), buffer_(bank.bufferSize()) {
         bank.reset(buffer_.data());
     }
     std::unique_ptr<BranchState> clone() const override {

@@ -1,13 +1,13 @@
 #include "analysis/ghosts.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <map>
 #include <numbers>
 #include <sstream>
-
-#include <tbb/parallel_for.h>
 
 #include "geometry/lens_solid.h"
 #include "geometry/mechanics.h"
@@ -51,9 +51,8 @@ std::vector<int> ghostSurfaces(const SequentialModel& model) {
         if (model.surface(s).mirror) continue;
         const double n1 = std::abs(model.index(s - 1, w));
         const double n2 = std::abs(model.index(s, w));
-        if (std::abs(n1 - n2) > 1e-12 ||
-            !(model.prescription().surfaces[s - 1].material ==
-              model.prescription().surfaces[s].material))
+        if (std::abs(n1 - n2) > 1e-12 || !(model.prescription().surfaces[s - 1].material ==
+                                           model.prescription().surfaces[s].material))
             out.push_back(s);
     }
     return out;
@@ -114,8 +113,8 @@ GhostTracer::GhostTracer(const SceneSetup& setup, const TraceSetup& trace,
       model_(SequentialModel::build(setup.prescription, catalog)),
       options_(options) {
     if (options_.order != 2 && options_.order != 4)
-        throw ModelError("ghosts", "ghost order must be 2 or 4, not " +
-                                       std::to_string(options_.order));
+        throw ModelError("ghosts",
+                         "ghost order must be 2 or 4, not " + std::to_string(options_.order));
     if (options_.gridRays < 2)
         throw ModelError("ghosts", "the ray grid needs at least 2 rays across the beam");
     if (setup.detectors.empty()) throw ModelError("ghosts", "the scene has no detector");
@@ -136,7 +135,8 @@ GhostTracer::GhostTracer(const SceneSetup& setup, const TraceSetup& trace,
         detObject.name != "sensor")
         throw ModelError(detector_->name,
                          "the ghost estimate follows the sequential path to the image surface; "
-                         "detector '" + detector_->name + "' does not lie on it");
+                         "detector '" +
+                             detector_->name + "' does not lie on it");
     for (const Source& s : trace.transport.sources)
         if (std::holds_alternative<WindowSource>(s.shape()) ||
             std::holds_alternative<LambertianSource>(s.shape()))
@@ -181,7 +181,8 @@ GhostTracer::GhostTracer(const SceneSetup& setup, const TraceSetup& trace,
             if (media[k].material == m) mediumOfGap_[g] = static_cast<int>(k);
     }
     if (options_.nearFocusMm <= 0.0)
-        options_.nearFocusMm = 10.0 * std::max(detector_->pixelWidthMm(), detector_->pixelHeightMm());
+        options_.nearFocusMm =
+            10.0 * std::max(detector_->pixelWidthMm(), detector_->pixelHeightMm());
 }
 
 std::vector<GhostPath> GhostTracer::enumerate(int* pruned) const {
@@ -253,8 +254,9 @@ std::vector<GhostTracer::Step> GhostTracer::steps(const GhostPath& path) const {
     size_t r = 0;
     while (!(forward && s == image)) {
         if (s < 1 || s >= image)
-            throw ModelError(path.label, "ghost path leaves the lens: reflections must alternate "
-                                         "between later and earlier surfaces");
+            throw ModelError(path.label,
+                             "ghost path leaves the lens: reflections must alternate "
+                             "between later and earlier surfaces");
         Step st;
         st.surface = s;
         st.forwardBefore = forward;
@@ -325,8 +327,7 @@ bool GhostTracer::advance(RayState& r, const Step& step, int w) const {
     const double r2 = hit.x * hit.x + hit.y * hit.y;
     const double clip = clipRadius_[step.surface], hole = holeRadius_[step.surface];
     if (r2 > clip * clip || r2 < hole * hole) return false;
-    const double alpha =
-        trace_->transport.media->absorptionPerMm(mediumOfGap_[step.gapBefore], w);
+    const double alpha = trace_->transport.media->absorptionPerMm(mediumOfGap_[step.gapBefore], w);
     if (alpha > 0.0) r.flux *= std::exp(-alpha * std::max(0.0, *t));
     r.pos = hit + Vec3(0.0, 0.0, s.zMm);
     Vec3 nrm = surfaceNormal(s.shape, hit);
@@ -400,7 +401,7 @@ std::vector<std::pair<Ray, int>> GhostTracer::gridRays(int source) const {
 }
 
 std::vector<GhostTracer::DetectorRay> GhostTracer::traceGrid(const GhostPath& path, int source,
-                                                            int w, int* traced) const {
+                                                             int w, int* traced) const {
     const std::vector<Step> st = steps(path);
     std::vector<DetectorRay> out;
     if (traced) *traced = 0;
@@ -423,8 +424,7 @@ std::vector<GhostTracer::DetectorRay> GhostTracer::traceGrid(const GhostPath& pa
     return out;
 }
 
-std::pair<double, std::string> GhostTracer::paraxialFocus(const GhostPath& path,
-                                                          int source) const {
+std::pair<double, std::string> GhostTracer::paraxialFocus(const GhostPath& path, int source) const {
     const std::vector<Step> st = steps(path);
     const int w = model_.primaryWavelength();
     const Source& src = trace_->transport.sources[source];
@@ -443,7 +443,8 @@ std::pair<double, std::string> GhostTracer::paraxialFocus(const GhostPath& path,
         const Step& step = st[k];
         const SequentialSurface& s = model_.surface(step.surface);
         const double y2 = y + u * (s.zMm - z);
-        if (k > 0 && glass.empty() && y * y2 < 0.0 && !p.surfaces[step.gapBefore].material.isAir()) {
+        if (k > 0 && glass.empty() && y * y2 < 0.0 &&
+            !p.surfaces[step.gapBefore].material.isAir()) {
             const double f = y / (y - y2);
             std::ostringstream os;
             os.precision(4);
@@ -629,7 +630,8 @@ GhostAnalysis GhostTracer::analyse() const {
     a.detector = detector_->name;
     a.nominal = estimate(nominalPath(), nullptr);
     std::vector<GhostPath> pairs, others;
-    for (GhostPath& g : enumerate(&a.pruned)) (g.order() == 2 ? pairs : others).push_back(std::move(g));
+    for (GhostPath& g : enumerate(&a.pruned))
+        (g.order() == 2 ? pairs : others).push_back(std::move(g));
     a.ghosts = estimatePairs(pairs, &a.nominal);
     for (const GhostPath& g : others) a.ghosts.push_back(estimate(g, &a.nominal));
     std::stable_sort(a.ghosts.begin(), a.ghosts.end(),
@@ -652,8 +654,10 @@ std::vector<std::string> applyCoatingOverrides(TraceSetup& trace, const Scene& s
         const std::string where = "--coating " + std::to_string(k + 1);
         const size_t eq = o.find('=');
         if (eq == std::string::npos || eq == 0 || eq + 1 == o.size())
-            throw ParseError({where, 1, 1}, "expected GLOB=PROPERTY (for example 'L3.*=ideal_ar'), "
-                                            "got '" + o + "'");
+            throw ParseError({where, 1, 1},
+                             "expected GLOB=PROPERTY (for example 'L3.*=ideal_ar'), "
+                             "got '" +
+                                 o + "'");
         const std::string glob = o.substr(0, eq), name = o.substr(eq + 1);
         int index = -1;
         for (size_t p = 0; p < trace.transport.properties.size(); ++p)
@@ -663,9 +667,9 @@ std::vector<std::string> applyCoatingOverrides(TraceSetup& trace, const Scene& s
             if (t < 0) {
                 std::vector<std::string> known;
                 for (const OpticalProperty& p : properties.properties()) known.push_back(p.name());
-                throw ParseError({where, 1, static_cast<int>(eq + 2)},
-                                 "unknown optical property '" + name + "' (known: " +
-                                     join(known, ", ") + ")");
+                throw ParseError(
+                    {where, 1, static_cast<int>(eq + 2)},
+                    "unknown optical property '" + name + "' (known: " + join(known, ", ") + ")");
             }
             trace.transport.properties.push_back(properties.property(t));
             index = static_cast<int>(trace.transport.properties.size()) - 1;
@@ -708,7 +712,8 @@ std::vector<Source> fieldSources(const SceneFile& file, const GlassCatalog& cata
             BeamOptions o;
             const Beam beam = beamFillingAperture(ap, d, o);
             // 1 W through the first surface's aperture disk, as [[source]] does by default.
-            const double irradiance = 1.0 / (kPi * beam.apertureRadiusMm * beam.apertureRadiusMm * d.z);
+            const double irradiance =
+                1.0 / (kPi * beam.apertureRadiusMm * beam.apertureRadiusMm * d.z);
             out.emplace_back(name.str(), CollimatedSource{beam}, irradiance * beam.areaMm2(),
                              spectrum);
         } else {
@@ -765,16 +770,17 @@ GhostMonteCarlo runGhostMonteCarlo(const SceneSetup& setup, const TraceSetup& tr
     for (const GhostEstimate& g : analysis.ghosts) texts.push_back(g.path.criterion);
     int maxOrder = 2;
     for (const GhostEstimate& g : analysis.ghosts) maxOrder = std::max(maxOrder, g.path.order());
-    texts.push_back(allGhostsCriterion(maxOrder, setup.scene.object(
-                                                     setup.detectors[0].object).name));
+    texts.push_back(
+        allGhostsCriterion(maxOrder, setup.scene.object(setup.detectors[0].object).name));
     for (const DetectorGeometry& d : setup.detectors)
         if (d.name == analysis.detector)
             texts.back() = allGhostsCriterion(maxOrder, setup.scene.object(d.object).name);
     std::vector<CompiledCriterion> compiled;
     for (size_t i = 0; i < texts.size(); ++i) {
-        const std::string source = i == 0                     ? "nominal"
-                                   : i == texts.size() - 1    ? "all ghosts"
-                                                              : "ghost " + analysis.ghosts[i - 1].path.label;
+        const std::string source = i == 0 ? "nominal"
+                                   : i == texts.size() - 1
+                                       ? "all ghosts"
+                                       : "ghost " + analysis.ghosts[i - 1].path.label;
         compiled.push_back(compile(parseCriterion(texts[i], source), names, source));
     }
     GhostMonteCarlo mc;

@@ -83,11 +83,11 @@ std::string nominalCriterion(const std::string& detector);
 std::string allGhostsCriterion(int order, const std::string& detector);
 
 struct GhostOptions {
-    int order = 2;                           // 2, or 4 (two- and four-reflection ghosts)
-    int gridRays = 64;                       // grid points across a beam's diameter
+    int order = 2;                            // 2, or 4 (two- and four-reflection ghosts)
+    int gridRays = 64;                        // grid points across a beam's diameter
     double minFourthOrderReflectance = 1e-7;  // product of four normal-incidence reflectances
-    double nearFocusMm = 0.0;                // footprint below this: near focus; 0 = 10 pixels
-    std::string detector;                    // detector name; empty = the first detector
+    double nearFocusMm = 0.0;                 // footprint below this: near focus; 0 = 10 pixels
+    std::string detector;                     // detector name; empty = the first detector
 };
 std::ostream& operator<<(std::ostream& os, const GhostOptions& o);
 
@@ -99,10 +99,10 @@ struct GhostSourceResult {
     // Paraxial focus minus the detector position along the axis (mm, + = behind the
     // detector); infinite when the ghost leaves collimated.
     double focusMm = 0.0;
-    double footprintMm = 0.0;  // diameter on the detector
-    Vec2 centroidMm{0.0};      // detector local x, y
-    double peakIrradiance = 0.0;          // unit / mm^2
-    double relativeIrradiance = 0.0;      // / the nominal image's peak irradiance
+    double footprintMm = 0.0;         // diameter on the detector
+    Vec2 centroidMm{0.0};             // detector local x, y
+    double peakIrradiance = 0.0;      // unit / mm^2
+    double relativeIrradiance = 0.0;  // / the nominal image's peak irradiance
     bool nearFocus = false;
     std::string glassFocus;  // where a paraxial focus lies inside glass ("" = none)
     int raysTraced = 0;      // grid rays (all wavelengths)
@@ -123,14 +123,14 @@ struct GhostEstimate {
 };
 
 struct GhostAnalysis {
-    std::vector<int> surfaces;            // ghost surfaces (sequential indices)
+    std::vector<int> surfaces;  // ghost surfaces (sequential indices)
     std::vector<std::string> surfaceNames;
-    std::string detector;                 // its name
-    GhostEstimate nominal;                // the nominal image through the same machinery
-    std::vector<GhostEstimate> ghosts;    // ranked: brightest peak irradiance first
-    int pruned = 0;                       // four-reflection paths left out by the energy bound
-    double seconds = 0.0;                 // time of the sequential estimate
-    uint64_t raySurfaceSteps = 0;         // surface intersections attempted (image included)
+    std::string detector;               // its name
+    GhostEstimate nominal;              // the nominal image through the same machinery
+    std::vector<GhostEstimate> ghosts;  // ranked: brightest peak irradiance first
+    int pruned = 0;                     // four-reflection paths left out by the energy bound
+    double seconds = 0.0;               // time of the sequential estimate
+    uint64_t raySurfaceSteps = 0;       // surface intersections attempted (image included)
 };
 
 // Unfolded-path sequential tracer over a built scene (the setups must outlive it).
@@ -155,7 +155,8 @@ class GhostTracer {
     GhostEstimate estimate(const GhostPath& path, const GhostEstimate* nominal) const;
     // The same for many two-reflection paths at once, sharing the traced beginnings (the
     // forward path to the first reflection, the backward path to the second): the same
-    // numbers as estimate() path by path, about 2.4 times fewer surface steps for a 12-surface lens.
+    // numbers as estimate() path by path, with about 2.4 times fewer surface steps for a
+    // 12-surface lens.
     std::vector<GhostEstimate> estimatePairs(const std::vector<GhostPath>& paths,
                                              const GhostEstimate* nominal) const;
     // All of it: enumerate, estimate, rank.
@@ -208,10 +209,10 @@ class GhostTracer {
     std::vector<int> ghostSurfaces_;
     // Surface intersections attempted so far (all threads; for benchmarks and reports).
     mutable std::atomic<uint64_t> steps_{0};
-    std::vector<double> clipRadius_;   // per sequential surface; infinity = no clip
-    std::vector<double> holeRadius_;   // per sequential surface
-    std::vector<int> propertyOf_;      // per sequential surface: index into properties, -1
-    std::vector<int> mediumOfGap_;     // per gap: scene medium id
+    std::vector<double> clipRadius_;       // per sequential surface; infinity = no clip
+    std::vector<double> holeRadius_;       // per sequential surface
+    std::vector<int> propertyOf_;          // per sequential surface: index into properties, -1
+    std::vector<int> mediumOfGap_;         // per gap: scene medium id
     std::vector<std::string> objectName_;  // per sequential surface ("" = no object)
 };
 

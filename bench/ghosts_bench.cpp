@@ -33,10 +33,10 @@
 // rays_needed (all sources) of the first run that reached 5 %; seconds (that run's own wall
 // time, GhostMonteCarlo::seconds: the cost of a run sized right the first time) and
 // cpu_seconds (that run's CPU time, all threads: equal to the wall time of one thread on an
-// otherwise idle core); search_seconds (all attempts); rel_error reached; rays_per_source_at_5pct (that run's error
-// extrapolated by 1/sqrt(N) to exactly 5 %); segments_per_ray. T = threads; B =
-// TransportOptions::raysPerBlock (0 = GhostMonteCarloOptions' default, 256, as veil ghosts runs it). The label
-// names the top ghost.
+// otherwise idle core); search_seconds (all attempts); rel_error reached; rays_per_source_at_5pct
+// (that run's error extrapolated by 1/sqrt(N) to exactly 5 %); segments_per_ray. T = threads; B =
+// TransportOptions::raysPerBlock (0 = GhostMonteCarloOptions' default, 256, as veil ghosts runs
+// it). The label names the top ghost.
 
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>
@@ -129,7 +129,8 @@ void BM_NominalSequential(benchmark::State& state) {
     double rays = 0, raySurfaces = 0, ok = 0;
     for (auto _ : state) {
         for (size_t k = 0; k < f.gridRays.size(); ++k) {
-            const SequentialRayResult r = traceSequential(model, f.gridWavelength[k], f.gridRays[k]);
+            const SequentialRayResult r =
+                traceSequential(model, f.gridWavelength[k], f.gridRays[k]);
             benchmark::DoNotOptimize(r.ray.origin);
             raySurfaces += r.surface;
             ok += r.ok() ? 1.0 : 0.0;
@@ -158,7 +159,8 @@ void BM_GhostMonteCarloTo5pct(benchmark::State& state) {
             GhostMonteCarloOptions o;
             o.raysPerSource = perSource;
             o.transport.seed = 1;
-            if (state.range(2) > 0) o.transport.raysPerBlock = static_cast<uint64_t>(state.range(2));
+            if (state.range(2) > 0)
+                o.transport.raysPerBlock = static_cast<uint64_t>(state.range(2));
             const double cpu0 = processCpuSeconds();
             const GhostMonteCarlo mc = runGhostMonteCarlo(*f.setup, f.trace, f.analysis, o);
             cpuSeconds = processCpuSeconds() - cpu0;

@@ -1,13 +1,12 @@
 #pragma once
 // Subcommands of the veil executable.
 
-#include <CLI/CLI.hpp>
-#include <string>
-#include <vector>
-
 #include <tbb/global_control.h>
 
+#include <CLI/CLI.hpp>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "analysis/scene_setup.h"
 #include "lensdata/glass_catalog.h"

@@ -151,8 +151,10 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
         for (DetectorSpec& d : file.detectors) {
             const double w = d.sizeMm ? d.sizeMm->x : 1.0, h = d.sizeMm ? d.sizeMm->y : 1.0;
             // Square pixels, o.pixels along the longer side.
-            d.pixelsX = w >= h ? o.pixels : std::max(1, static_cast<int>(std::lround(o.pixels * w / h)));
-            d.pixelsY = h >= w ? o.pixels : std::max(1, static_cast<int>(std::lround(o.pixels * h / w)));
+            d.pixelsX =
+                w >= h ? o.pixels : std::max(1, static_cast<int>(std::lround(o.pixels * w / h)));
+            d.pixelsY =
+                h >= w ? o.pixels : std::max(1, static_cast<int>(std::lround(o.pixels * h / w)));
         }
     }
     const SceneSetup setup = buildScene(file, catalog);
@@ -216,13 +218,13 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
     j["coating_changes"] = changes;
     j["sources"] = nlohmann::json::array();
     for (const Source& s : ts.transport.sources) j["sources"].push_back(s.name());
-    j["nominal"] = {{"flux", a.nominal.flux()},
-                    {"mc_flux", haveMc ? num(mcNominal) : nlohmann::json()},
-                    {"mc_relative_error", haveMc ? num(mc.relativeError(0, det)) : nlohmann::json()}};
-    j["all_ghosts"] = {{"flux", std::accumulate(a.ghosts.begin(), a.ghosts.end(), 0.0,
-                                                 [](double f, const GhostEstimate& g) {
-                                                     return f + g.flux();
-                                                 })}};
+    j["nominal"] = {
+        {"flux", a.nominal.flux()},
+        {"mc_flux", haveMc ? num(mcNominal) : nlohmann::json()},
+        {"mc_relative_error", haveMc ? num(mc.relativeError(0, det)) : nlohmann::json()}};
+    j["all_ghosts"] = {
+        {"flux", std::accumulate(a.ghosts.begin(), a.ghosts.end(), 0.0,
+                                 [](double f, const GhostEstimate& g) { return f + g.flux(); })}};
     if (haveMc) {
         j["all_ghosts"]["mc_flux"] = mc.flux(a.ghosts.size() + 1, det);
         j["all_ghosts"]["mc_relative_error"] = num(mc.relativeError(a.ghosts.size() + 1, det));
@@ -248,7 +250,8 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
         row["focus_in_glass"] = g.glassFocus();
         if (haveMc) {
             row["mc_flux"] = mc.flux(r + 1, det);
-            row["mc_relative_flux"] = mcNominal > 0 ? num(mc.flux(r + 1, det) / mcNominal) : nlohmann::json();
+            row["mc_relative_flux"] =
+                mcNominal > 0 ? num(mc.flux(r + 1, det) / mcNominal) : nlohmann::json();
             row["mc_relative_error"] = num(mc.relativeError(r + 1, det));
         }
         if (auto it = baseline.find(g.path.label); it != baseline.end()) {
@@ -278,13 +281,17 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
         << ",mc_relative_flux,mc_relative_error,"
         << "focus_mm,footprint_mm,peak_irradiance_" << unit << "_per_mm2,relative_irradiance,"
         << "near_focus,focus_in_glass,baseline_rank,criterion\n";
-    md << "# Ghosts of " << (setup.prescription.system.name.empty() ? o.file : setup.prescription.system.name)
-       << "\n\n" << a.ghosts.size() << " " << (o.order == 2 ? "two" : "two- and four")
+    md << "# Ghosts of "
+       << (setup.prescription.system.name.empty() ? o.file : setup.prescription.system.name)
+       << "\n\n"
+       << a.ghosts.size() << " " << (o.order == 2 ? "two" : "two- and four")
        << "-reflection ghosts of " << a.surfaces.size() << " ghost surfaces on detector "
        << a.detector << "; sources:";
     for (const Source& s : ts.transport.sources) md << " " << s.name();
     md << ". Sequential grid " << o.grid << " rays across each beam";
-    if (haveMc) md << "; Monte Carlo " << static_cast<uint64_t>(o.mcRays) << " rays per source, seed " << o.seed;
+    if (haveMc)
+        md << "; Monte Carlo " << static_cast<uint64_t>(o.mcRays) << " rays per source, seed "
+           << o.seed;
     md << ".\n\n";
     if (!changes.empty()) {
         md << "Coating what-if (" << changes.size() << " objects changed):\n\n";
@@ -302,13 +309,13 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
         const double mcFlux = haveMc ? mc.flux(r + 1, det) : NAN;
         const double mcErr = haveMc ? mc.relativeError(r + 1, det) : NAN;
         const auto base = baseline.find(g.path.label);
-        csv << r + 1 << ",\"" << g.path.label << "\"," << g.flux() << "," << g.relativeFlux()
-            << "," << (haveMc ? sci(mcFlux, 6) : "") << "," << (haveMc ? sci(mcRel, 6) : "")
-            << "," << (haveMc ? sci(mcErr, 3) : "") << ","
-            << w.focusMm << "," << w.footprintMm << "," << g.peakIrradiance() << ","
-            << g.relativeIrradiance() << "," << (g.nearFocus() ? 1 : 0) << ",\"" << g.glassFocus()
-            << "\"," << (base != baseline.end() ? std::to_string(base->second.first) : "")
-            << ",\"" << g.path.criterion << "\"\n";
+        csv << r + 1 << ",\"" << g.path.label << "\"," << g.flux() << "," << g.relativeFlux() << ","
+            << (haveMc ? sci(mcFlux, 6) : "") << "," << (haveMc ? sci(mcRel, 6) : "") << ","
+            << (haveMc ? sci(mcErr, 3) : "") << "," << w.focusMm << "," << w.footprintMm << ","
+            << g.peakIrradiance() << "," << g.relativeIrradiance() << "," << (g.nearFocus() ? 1 : 0)
+            << ",\"" << g.glassFocus() << "\","
+            << (base != baseline.end() ? std::to_string(base->second.first) : "") << ",\""
+            << g.path.criterion << "\"\n";
         md << "| " << r + 1 << " | " << g.path.label << " | " << sci(g.flux()) << " | "
            << (haveMc ? sci(mc.flux(r + 1, det)) + " ± " + fix(100.0 * mcErr, 1) + " %" : "-")
            << " | " << (a.nominal.flux() > 0 ? sci(g.relativeFlux()) : "-") << " | "
@@ -316,7 +323,8 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
            << sci(g.peakIrradiance()) << " | " << sci(g.relativeIrradiance()) << " | " << flags(g)
            << (g.glassFocus().empty() ? "" : " (" + g.glassFocus() + ")") << " |";
         if (!changes.empty())
-            md << " " << (base != baseline.end() ? std::to_string(base->second.first) : "-") << " |";
+            md << " " << (base != baseline.end() ? std::to_string(base->second.first) : "-")
+               << " |";
         md << "\n";
     }
     md << "\nCriteria (docs/criteria.md) of the ranked ghosts, usable with veil trace --where and "
@@ -396,14 +404,18 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
         return 0;
     }
     // The terminal table.
-    std::cout << "Ghosts of " << (setup.prescription.system.name.empty() ? o.file : setup.prescription.system.name)
+    std::cout << "Ghosts of "
+              << (setup.prescription.system.name.empty() ? o.file : setup.prescription.system.name)
               << (defaultScene ? " (default scene: collimated sources at the system fields)" : "")
-              << "\n  " << a.surfaces.size() << " ghost surfaces, " << a.ghosts.size()
-              << " ghosts" << (a.pruned ? " (" + std::to_string(a.pruned) + " four-reflection paths below the energy bound)" : "")
+              << "\n  " << a.surfaces.size() << " ghost surfaces, " << a.ghosts.size() << " ghosts"
+              << (a.pruned ? " (" + std::to_string(a.pruned) +
+                                 " four-reflection paths below the energy bound)"
+                           : "")
               << " on detector " << a.detector << "; sequential estimate " << fix(a.seconds, 3)
               << " s";
     if (haveMc)
-        std::cout << "; Monte Carlo " << mc.emittedRays << " rays in " << fix(mc.seconds, 1) << " s";
+        std::cout << "; Monte Carlo " << mc.emittedRays << " rays in " << fix(mc.seconds, 1)
+                  << " s";
     std::cout << "\n  nominal image " << sci(a.nominal.flux()) << " " << unit;
     if (haveMc)
         std::cout << " (Monte Carlo " << sci(mcNominal) << " +-"
@@ -414,11 +426,12 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
                   << fix(100.0 * mc.relativeError(a.ghosts.size() + 1, det), 1) << "%)";
     std::cout << "\n";
     for (const std::string& c : changes) std::cout << "  coating what-if: " << c << "\n";
-    std::cout << "\n" << std::left << std::setw(5) << "rank" << std::setw(30) << "ghost"
-              << std::right << std::setw(11) << "flux " + unit << std::setw(20) << "Monte Carlo"
-              << std::setw(10) << "flux/nom" << std::setw(10) << "focus mm" << std::setw(9)
-              << "foot mm" << std::setw(11) << "peak/mm2" << "  flags"
-              << (changes.empty() ? "" : "  (was)") << "\n";
+    std::cout << "\n"
+              << std::left << std::setw(5) << "rank" << std::setw(30) << "ghost" << std::right
+              << std::setw(11) << "flux " + unit << std::setw(20) << "Monte Carlo" << std::setw(10)
+              << "flux/nom" << std::setw(10) << "focus mm" << std::setw(9) << "foot mm"
+              << std::setw(11) << "peak/mm2"
+              << "  flags" << (changes.empty() ? "" : "  (was)") << "\n";
     const size_t rows = o.top > 0 ? std::min<size_t>(o.top, a.ghosts.size()) : a.ghosts.size();
     for (size_t r = 0; r < rows; ++r) {
         const GhostEstimate& g = a.ghosts[r];

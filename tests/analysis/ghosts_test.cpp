@@ -157,9 +157,9 @@ TEST(Ghosts, SingletGhostFocusMatchesAHandMadeParaxialTrace) {
 TEST(Ghosts, CountIsNTimesNMinusOneOverTwoForEveryExampleLens) {
     // N counted independently: the faces of the lens elements (a cemented face counts once).
     const std::vector<std::pair<std::string, int>> lenses = {
-        {"singlet.toml", 2},          {"achromat.toml", 3},       {"cooke_triplet.toml", 6},
-        {"double_gauss_50mm.toml", 10}, {"longfocus_360mm.toml", 12},
-        {"catadioptric_2000mm.toml", -1}};
+        {"singlet.toml", 2},          {"achromat.toml", 3},
+        {"cooke_triplet.toml", 6},    {"double_gauss_50mm.toml", 10},
+        {"longfocus_360mm.toml", 12}, {"catadioptric_2000mm.toml", -1}};
     for (const auto& [name, expected] : lenses) {
         SCOPED_TRACE(name);
         GhostScene g(std::filesystem::path(VEIL_SOURCE_DIR "/examples/lenses") / name);
@@ -246,9 +246,8 @@ TEST(Ghosts, CoatingOverrideRemovesTheGhostsOfTheCoatedFacesAndSaysWhatChanged) 
     GhostScene g(VEIL_SOURCE_DIR "/examples/lenses/double_gauss_50mm.toml", {{0.0, 0.0}});
     GhostOptions o;
     o.gridRays = 24;
-    const std::vector<std::string> changes =
-        applyCoatingOverrides(g.trace, g.setup.scene, g.file.properties,
-                              {"L1.front=ideal_ar", "L1.back=ideal_ar"});
+    const std::vector<std::string> changes = applyCoatingOverrides(
+        g.trace, g.setup.scene, g.file.properties, {"L1.front=ideal_ar", "L1.back=ideal_ar"});
     EXPECT_EQ(changes, (std::vector<std::string>{"L1.front: uncoated -> ideal_ar",
                                                  "L1.back: uncoated -> ideal_ar"}));
     const GhostAnalysis a = GhostTracer(g.setup, g.trace, g.catalog, o).analyse();
@@ -266,8 +265,9 @@ TEST(Ghosts, CoatingOverrideRemovesTheGhostsOfTheCoatedFacesAndSaysWhatChanged) 
 
     EXPECT_THROW(applyCoatingOverrides(g.trace, g.setup.scene, g.file.properties, {"L1.*"}),
                  ParseError);
-    EXPECT_THROW(applyCoatingOverrides(g.trace, g.setup.scene, g.file.properties, {"L9.*=ideal_ar"}),
-                 ParseError);
+    EXPECT_THROW(
+        applyCoatingOverrides(g.trace, g.setup.scene, g.file.properties, {"L9.*=ideal_ar"}),
+        ParseError);
     EXPECT_THROW(applyCoatingOverrides(g.trace, g.setup.scene, g.file.properties, {"L1.*=golden"}),
                  ParseError);
 }

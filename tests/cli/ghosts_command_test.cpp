@@ -28,8 +28,10 @@ std::string readText(const std::filesystem::path& p) {
 
 TEST(VeilGhosts, BareZemaxLensGetsTheDefaultSceneAndEveryFormat) {
     const std::string out = outDir("ghosts_zmx");
-    const VeilRun r = runVeil("ghosts tests/data/zmx/US00583336-2-scaled.zmx --mc-rays 300 "
-                              "--top 2 --paths 20 --quiet -o " + out);
+    const VeilRun r = runVeil(
+        "ghosts tests/data/zmx/US00583336-2-scaled.zmx --mc-rays 300 "
+        "--top 2 --paths 20 --quiet -o " +
+        out);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_NE(r.out.find("default scene"), std::string::npos) << r.out;
     const nlohmann::json j = nlohmann::json::parse(readText(out + "/ghosts.json"));
@@ -47,9 +49,9 @@ TEST(VeilGhosts, BareZemaxLensGetsTheDefaultSceneAndEveryFormat) {
     const std::string csv = readText(out + "/ghosts.csv");
     EXPECT_EQ(static_cast<size_t>(std::count(csv.begin(), csv.end(), '\n')), n * (n - 1) / 2 + 1);
     EXPECT_NE(readText(out + "/ghosts.md").find("| rank | ghost |"), std::string::npos);
-    for (const char* f : {"/images/ghost_01.exr", "/images/ghost_01.png", "/ghosts_all.exr",
-                          "/ghosts_all.png", "/nominal.png", "/paths/ghost_01.svg",
-                          "/paths/ghost_02.png", "/paths/all_ghosts.png"})
+    for (const char* f :
+         {"/images/ghost_01.exr", "/images/ghost_01.png", "/ghosts_all.exr", "/ghosts_all.png",
+          "/nominal.png", "/paths/ghost_01.svg", "/paths/ghost_02.png", "/paths/all_ghosts.png"})
         EXPECT_TRUE(std::filesystem::exists(out + f)) << f;
     EXPECT_FALSE(std::filesystem::exists(out + "/paths/ghost_03.svg"));
     for (const auto& e : std::filesystem::recursive_directory_iterator(out))
@@ -58,9 +60,10 @@ TEST(VeilGhosts, BareZemaxLensGetsTheDefaultSceneAndEveryFormat) {
 
 TEST(VeilGhosts, JsonOnStandardOutputAndTheCoatingWhatIf) {
     const std::string out = outDir("ghosts_json");
-    const VeilRun r = runVeil("ghosts examples/lenses/double_gauss_50mm.toml --field 0,0 "
-                              "--mc-rays 0 --grid 16 --no-images --json --coating 'L1.front=ideal_ar' -o " +
-                              out);
+    const VeilRun r = runVeil(
+        "ghosts examples/lenses/double_gauss_50mm.toml --field 0,0 "
+        "--mc-rays 0 --grid 16 --no-images --json --coating 'L1.front=ideal_ar' -o " +
+        out);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const nlohmann::json j = nlohmann::json::parse(r.out);
     EXPECT_EQ(j["ghosts"].size(), 45u);
@@ -68,16 +71,17 @@ TEST(VeilGhosts, JsonOnStandardOutputAndTheCoatingWhatIf) {
     EXPECT_EQ(j["coating_changes"][0], "L1.front: uncoated -> ideal_ar");
     for (const auto& g : j["ghosts"]) {
         EXPECT_TRUE(g.contains("baseline_rank"));
-        if (g["ghost"].get<std::string>().find("L1.front") != std::string::npos)
+        if (g["ghost"].get<std::string>().find("L1.front") != std::string::npos) {
             EXPECT_EQ(g["flux"].get<double>(), 0.0) << g["ghost"];
+        }
     }
     EXPECT_EQ(j["sources"].size(), 1u);
 }
 
 TEST(VeilGhosts, BadInputNamesTheOptionAndExitsWithOne) {
     const std::string out = outDir("ghosts_bad");
-    VeilRun r = runVeil("ghosts examples/lenses/singlet.toml --mc-rays 0 --coating 'L1.front' -o " +
-                        out);
+    VeilRun r =
+        runVeil("ghosts examples/lenses/singlet.toml --mc-rays 0 --coating 'L1.front' -o " + out);
     EXPECT_EQ(r.exitCode, 1);
     EXPECT_NE(r.err.find("--coating 1"), std::string::npos) << r.err;
     r = runVeil("ghosts examples/lenses/singlet.toml --mc-rays 0 --coating 'L7.*=ideal_ar' -o " +
