@@ -154,6 +154,32 @@ TEST(Ghosts, SingletGhostFocusMatchesAHandMadeParaxialTrace) {
     EXPECT_NEAR(tracer.paraxialFocus(tracer.nominalPath(), 0).first + toImage, 97.69, 0.01);
 }
 
+TEST(Ghosts, GhostFocusInsideTheGlassIsFlaggedWhereTheHandTraceCrossesTheAxis) {
+    // A thick biconvex lens (n = 1.5, r = +-20, t = 10): the back face, seen from inside, is
+    // a concave mirror that focuses the ghost before the light gets back to the front face.
+    // By hand (y, n u): y = 1 -> refract c1 (n - 1): n u = -0.025; y = 1 - 0.025 t / n =
+    // 0.8333 at the back; reflect (power -2 n c2 = 0.15): n u = -0.15; back at the front
+    // y = 0.8333 - 0.15 t / n = -0.1667: the sign changes inside the glass, at a fraction
+    // 0.8333 / 1.0 of the way back.
+    const std::filesystem::path p = std::filesystem::path(::testing::TempDir()) / "thick.toml";
+    std::ofstream(p) << "[system]\nname = \"thick\"\nwavelengths_nm = [587.5618]\n"
+                        "aperture = { epd_mm = 8.0 }\nfields_deg = [0.0]\nsurfaces = [\n"
+                        "  { stop = true, t = 2.0, sd = 4.0, mech_sd = 9.0 },\n"
+                        "  { r = 20.0, t = 10.0, glass = { nd = 1.5, vd = 0 }, sd = 8.0, "
+                        "mech_sd = 9.0 },\n"
+                        "  { r = -20.0, t = 15.0, sd = 8.0, mech_sd = 9.0 },\n]\n";
+    GhostScene g(p);
+    GhostTracer tracer(g.setup, g.trace, g.catalog);
+    const std::vector<GhostPath> paths = tracer.enumerate();
+    ASSERT_EQ(paths.size(), 1u);
+    const auto [focus, glass] = tracer.paraxialFocus(paths[0], 0);
+    EXPECT_NE(glass.find("between L1.back and L1.front"), std::string::npos) << glass;
+    // z of the crossing: the back vertex (z = 12) minus 0.8333 of the 10 mm.
+    EXPECT_NE(glass.find("(z 3.667 mm)"), std::string::npos) << glass;
+    const GhostAnalysis a = tracer.analyse();
+    EXPECT_EQ(a.ghosts[0].glassFocus(), glass);
+}
+
 TEST(Ghosts, CountIsNTimesNMinusOneOverTwoForEveryExampleLens) {
     // N counted independently: the faces of the lens elements (a cemented face counts once).
     const std::vector<std::pair<std::string, int>> lenses = {
