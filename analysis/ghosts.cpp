@@ -9,6 +9,7 @@
 #include <numbers>
 #include <sstream>
 
+#include "analysis/first_order.h"
 #include "geometry/lens_solid.h"
 #include "geometry/mechanics.h"
 #include "tracer/fresnel.h"
@@ -733,8 +734,20 @@ void setFieldSources(SceneFile& file, const GlassCatalog& catalog,
     file.sources = fieldSources(file, catalog, fieldsDeg);
 }
 
-bool addDefaultGhostScene(SceneFile& file, const GlassCatalog& catalog) {
+bool addDefaultGhostScene(SceneFile& file, const GlassCatalog& catalog, double* imageShiftMm) {
+    if (imageShiftMm) *imageShiftMm = 0.0;
     if (!file.sources.empty()) return false;
+    // The detector at the paraxial image plane of the primary wavelength (an afocal lens
+    // keeps its image surface).
+    {
+        const SequentialModel model = SequentialModel::build(file.prescription, catalog);
+        const double dz =
+            computeFirstOrder(model, model.primaryWavelength()).paraxialImageDistanceMm;
+        if (std::isfinite(dz) && dz != 0.0) {
+            file.prescription.surfaces[model.imageIndex() - 1].thicknessMm += dz;
+            if (imageShiftMm) *imageShiftMm = dz;
+        }
+    }
     std::vector<std::pair<double, double>> fields;
     for (const Field& f : file.prescription.system.fields) fields.emplace_back(f.x, f.y);
     if (fields.empty()) fields.emplace_back(0.0, 0.0);

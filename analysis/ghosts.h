@@ -227,9 +227,12 @@ std::vector<std::string> applyCoatingOverrides(TraceSetup& trace, const Scene& s
 // The default scene of a bare lens file (no [[source]]): one collimated 1 W source per
 // system field (object at infinity) or one point source per field point (finite object),
 // each filling the first surface, at the system wavelengths and weights; an absorbing stop
-// plate (no barrel); the detector on the image surface. Adds to `file` in place; returns
-// false (and does nothing) when the file has sources.
-bool addDefaultGhostScene(SceneFile& file, const GlassCatalog& catalog);
+// plate (no barrel); the image surface moved to the paraxial image plane of the primary
+// wavelength (unless the lens is afocal), with the detector on it. Changes `file` in place;
+// returns false (and does nothing) when the file has sources. `imageShiftMm` (may be null):
+// how far the image surface moved along z.
+bool addDefaultGhostScene(SceneFile& file, const GlassCatalog& catalog,
+                          double* imageShiftMm = nullptr);
 
 // Collimated sources replacing the scene's: one per field (degrees x, y), 1 W each.
 void setFieldSources(SceneFile& file, const GlassCatalog& catalog,

@@ -140,7 +140,8 @@ std::string flags(const GhostEstimate& g) {
 int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
     const GlassCatalog catalog = loadCatalog(common);
     SceneFile file = readSceneFile(o.file, catalog);
-    const bool defaultScene = addDefaultGhostScene(file, catalog);
+    double imageShiftMm = 0.0;
+    const bool defaultScene = addDefaultGhostScene(file, catalog, &imageShiftMm);
     if (!o.fields.empty()) {
         std::vector<std::pair<double, double>> fields;
         for (size_t k = 0; k < o.fields.size(); ++k) fields.push_back(parseField(o.fields[k], k));
@@ -206,6 +207,7 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
     j["scene"] = o.file;
     j["lens"] = setup.prescription.system.name;
     j["default_scene"] = defaultScene;
+    j["image_shift_mm"] = imageShiftMm;  // default scene: lens file image -> paraxial image
     j["order"] = o.order;
     j["detector"] = a.detector;
     j["unit"] = unit;
@@ -406,7 +408,10 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
     // The terminal table.
     std::cout << "Ghosts of "
               << (setup.prescription.system.name.empty() ? o.file : setup.prescription.system.name)
-              << (defaultScene ? " (default scene: collimated sources at the system fields)" : "")
+              << (defaultScene ? " (default scene: collimated sources at the system fields, "
+                                 "detector at the paraxial image plane, " +
+                                     fix(imageShiftMm, 3) + " mm from the file's image surface)"
+                               : "")
               << "\n  " << a.surfaces.size() << " ghost surfaces, " << a.ghosts.size() << " ghosts"
               << (a.pruned ? " (" + std::to_string(a.pruned) +
                                  " four-reflection paths below the energy bound)"
