@@ -322,8 +322,9 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
            << (haveMc ? sci(mc.flux(r + 1, det)) + " ± " + fix(100.0 * mcErr, 1) + " %" : "-")
            << " | " << (a.nominal.flux() > 0 ? sci(g.relativeFlux()) : "-") << " | "
            << fix(w.focusMm, 2) << " | " << fix(w.footprintMm, 3) << " | "
-           << sci(g.peakIrradiance()) << " | " << sci(g.relativeIrradiance()) << " | " << flags(g)
-           << (g.glassFocus().empty() ? "" : " (" + g.glassFocus() + ")") << " |";
+           << sci(g.peakIrradiance()) << " | "
+           << (a.nominal.peakIrradiance() > 0 ? sci(g.relativeIrradiance()) : "-") << " | "
+           << flags(g) << (g.glassFocus().empty() ? "" : " (" + g.glassFocus() + ")") << " |";
         if (!changes.empty())
             md << " " << (base != baseline.end() ? std::to_string(base->second.first) : "-")
                << " |";
