@@ -59,22 +59,46 @@ std::vector<int> ghostSurfaces(const SequentialModel& model) {
     return out;
 }
 
-std::string ghostCriterion(const std::vector<std::string>& names, const std::string& detector) {
-    std::vector<std::string> leaves;
-    for (const std::string& n : names) leaves.push_back("fresnel(" + n + ")");
-    return "seq(" + join(leaves, ", ") + ") and fresnel{" + std::to_string(names.size()) +
-           "} and not scatter and not tir and detector(" + detector + ")";
+namespace {
+
+// The conditions every criterion of a path shares besides its reflections.
+std::string pathConditions(int reflections, int mirrorReflections, const std::string& firstFace,
+                           const std::string& detector) {
+    std::string text = " and not scatter and not tir";
+    if (mirrorReflections > 0)
+        text += " and reflect{" + std::to_string(reflections + mirrorReflections) + "}";
+    if (!firstFace.empty()) text += " and refract(" + firstFace + ")";
+    return text + " and detector(" + detector + ")";
 }
 
-std::string allGhostsCriterion(int order, const std::string& detector) {
+}  // namespace
+
+std::string ghostCriterion(const std::vector<std::string>& names, const std::string& detector,
+                           int mirrorReflections, const std::string& firstFace) {
+    std::vector<std::string> leaves;
+    for (const std::string& n : names) leaves.push_back("fresnel(" + n + ")");
+    const int n = static_cast<int>(names.size());
+    return "seq(" + join(leaves, ", ") + ") and fresnel{" + std::to_string(n) + "}" +
+           pathConditions(n, mirrorReflections, firstFace, detector);
+}
+
+std::string allGhostsCriterion(int order, const std::string& detector,
+                               const std::string& firstFace) {
     std::string count = "fresnel{2}";
     for (int k = 4; k <= order; k += 2) count += " or fresnel{" + std::to_string(k) + "}";
     if (order > 2) count = "(" + count + ")";
-    return count + " and not scatter and not tir and detector(" + detector + ")";
+    return count + pathConditions(0, 0, firstFace, detector);
 }
 
-std::string nominalCriterion(const std::string& detector) {
-    return "not fresnel and not scatter and not tir and detector(" + detector + ")";
+std::string nominalCriterion(const std::string& detector, int mirrorReflections,
+                             const std::string& firstFace) {
+    return "not fresnel" + pathConditions(0, mirrorReflections, firstFace, detector);
+}
+
+int GhostTracer::mirrorReflections(const GhostPath& path) const {
+    int m = 0;
+    for (const Step& st : steps(path)) m += st.reflect && model_.surface(st.surface).mirror;
+    return m;
 }
 
 double GhostEstimate::flux() const {
@@ -173,7 +197,13 @@ GhostTracer::GhostTracer(const SceneSetup& setup, const TraceSetup& trace,
             clipRadius_[s] = sf.clearSemiDiameterMm;
         }
         holeRadius_[s] = sf.innerSemiDiameterMm;
+        if (sf.mirror && std::isfinite(clipRadius_[s])) mirrors_.push_back(s);
     }
+    // Light that fills surface 1 can pass beside the first lens when something (a stop, an
+    // aperture ring) comes before it; the sequential path goes through the lens.
+    if (!ghostSurfaces_.empty() && ghostSurfaces_.front() != 1 &&
+        !objectName_[ghostSurfaces_.front()].empty())
+        firstFace_ = objectName_[ghostSurfaces_.front()];
     mediumOfGap_.assign(n, 0);
     for (int g = 0; g < n; ++g) {
         const Material& m = p.surfaces[g].material;
@@ -195,7 +225,7 @@ std::vector<GhostPath> GhostTracer::enumerate(int* pruned) const {
         for (int s : g.reflections)
             g.names.push_back(objectName_[s].empty() ? model_.surface(s).name : objectName_[s]);
         g.label = join(g.names, " > ");
-        g.criterion = ghostCriterion(g.names, det);
+        g.criterion = ghostCriterion(g.names, det, mirrorReflections(g), firstFace_);
         return g;
     };
     const std::vector<int>& gs = ghostSurfaces_;
@@ -243,7 +273,8 @@ std::vector<GhostPath> GhostTracer::enumerate(int* pruned) const {
 GhostPath GhostTracer::nominalPath() const {
     GhostPath g;
     g.label = "nominal image";
-    g.criterion = nominalCriterion(setup_->scene.object(detector_->object).name);
+    g.criterion = nominalCriterion(setup_->scene.object(detector_->object).name,
+                                   mirrorReflections(g), firstFace_);
     return g;
 }
 
@@ -323,6 +354,7 @@ bool GhostTracer::advance(RayState& r, const Step& step, int w) const {
     const Ray local{r.pos - Vec3(0.0, 0.0, s.zMm), r.dir};
     const std::optional<double> t = intersectSequential(s.shape, local);
     if (!t || *t < -1e-9) return false;  // missed, or behind the ray: not this path
+    if (!mirrors_.empty() && obscured(r, *t, step.surface)) return false;
     const Vec3 hit = local.origin + *t * r.dir;
     // Squared radii: hypot would cost more than the intersection.
     const double r2 = hit.x * hit.x + hit.y * hit.y;
@@ -331,6 +363,7 @@ bool GhostTracer::advance(RayState& r, const Step& step, int w) const {
     const double alpha = trace_->transport.media->absorptionPerMm(mediumOfGap_[step.gapBefore], w);
     if (alpha > 0.0) r.flux *= std::exp(-alpha * std::max(0.0, *t));
     r.pos = hit + Vec3(0.0, 0.0, s.zMm);
+    r.at = step.surface;
     Vec3 nrm = surfaceNormal(s.shape, hit);
     if (glm::dot(nrm, r.dir) > 0.0) nrm = -nrm;
     const double n1 = std::abs(model_.index(step.gapBefore, w));
@@ -369,12 +402,27 @@ bool GhostTracer::advance(RayState& r, const Step& step, int w) const {
     return r.flux > 0.0;
 }
 
+bool GhostTracer::obscured(const RayState& r, double t, int target) const {
+    for (int m : mirrors_) {
+        if (m == r.at || m == target) continue;
+        const SequentialSurface& s = model_.surface(m);
+        const Ray local{r.pos - Vec3(0.0, 0.0, s.zMm), r.dir};
+        const std::optional<ShapeHit> h =
+            intersectFirst(s.shape, local, 0.0, t, clipRadius_[m], false);
+        if (!h) continue;
+        const double hole = holeRadius_[m];
+        if (h->point.x * h->point.x + h->point.y * h->point.y >= hole * hole) return true;
+    }
+    return false;
+}
+
 bool GhostTracer::land(const RayState& r, int w, DetectorRay& out) const {
     const int img = model_.imageIndex();
     const SequentialSurface& image = model_.surface(img);
     const Ray local{r.pos - Vec3(0.0, 0.0, image.zMm), r.dir};
     const std::optional<double> t = intersectSequential(image.shape, local);
     if (!t || *t < -1e-9) return false;
+    if (!mirrors_.empty() && obscured(r, *t, img)) return false;
     double flux = r.flux;
     const double alpha = trace_->transport.media->absorptionPerMm(mediumOfGap_[img - 1], w);
     if (alpha > 0.0) flux *= std::exp(-alpha * *t);
@@ -635,6 +683,19 @@ GhostAnalysis GhostTracer::analyse() const {
         (g.order() == 2 ? pairs : others).push_back(std::move(g));
     a.ghosts = estimatePairs(pairs, &a.nominal);
     for (const GhostPath& g : others) a.ghosts.push_back(estimate(g, &a.nominal));
+    // All ghosts together: one count of Fresnel reflections when no mirror is crossed, else
+    // the ghosts' own criteria (their mirror counts differ).
+    int maxOrder = 2;
+    bool mirrors = mirrorReflections(nominalPath()) > 0;
+    for (const GhostEstimate& g : a.ghosts) maxOrder = std::max(maxOrder, g.path.order());
+    if (!mirrors) {
+        a.allGhostsCriterion =
+            allGhostsCriterion(maxOrder, setup_->scene.object(detector_->object).name, firstFace_);
+    } else {
+        std::vector<std::string> each;
+        for (const GhostEstimate& g : a.ghosts) each.push_back("(" + g.path.criterion + ")");
+        a.allGhostsCriterion = join(each, " or ");
+    }
     std::stable_sort(a.ghosts.begin(), a.ghosts.end(),
                      [](const GhostEstimate& x, const GhostEstimate& y) {
                          return x.peakIrradiance() > y.peakIrradiance();
@@ -781,13 +842,7 @@ GhostMonteCarlo runGhostMonteCarlo(const SceneSetup& setup, const TraceSetup& tr
     const NameTable names = criterionNames(setup.scene, trace.transport);
     std::vector<std::string> texts{analysis.nominal.path.criterion};
     for (const GhostEstimate& g : analysis.ghosts) texts.push_back(g.path.criterion);
-    int maxOrder = 2;
-    for (const GhostEstimate& g : analysis.ghosts) maxOrder = std::max(maxOrder, g.path.order());
-    texts.push_back(
-        allGhostsCriterion(maxOrder, setup.scene.object(setup.detectors[0].object).name));
-    for (const DetectorGeometry& d : setup.detectors)
-        if (d.name == analysis.detector)
-            texts.back() = allGhostsCriterion(maxOrder, setup.scene.object(d.object).name);
+    texts.push_back(analysis.allGhostsCriterion);
     std::vector<CompiledCriterion> compiled;
     for (size_t i = 0; i < texts.size(); ++i) {
         const std::string source = i == 0 ? "nominal"

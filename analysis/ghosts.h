@@ -76,11 +76,20 @@ std::vector<int> ghostSurfaces(const SequentialModel& model);
 
 // The criterion of a ghost path with these reflection names on detector `detector`, and of
 // the nominal image (no Fresnel reflection, scatter or TIR).
+// A path that crosses mirrors (mirrorReflections > 0) also requires exactly that many
+// specular reflections besides its Fresnel ones (reflect{n}), so light that skips the
+// mirrors (through a Cassegrain's central hole) is not counted as that path; `firstFace`
+// (when not empty) requires a refraction at the first lens face, so light that passes beside
+// the lens (when a stop or aperture ring before it is larger) is not counted either.
 std::string ghostCriterion(const std::vector<std::string>& reflectionNames,
-                           const std::string& detector);
-std::string nominalCriterion(const std::string& detector);
-// Every ghost of the given order or less (2 or 4) together: the sum of the ghost criteria.
-std::string allGhostsCriterion(int order, const std::string& detector);
+                           const std::string& detector, int mirrorReflections = 0,
+                           const std::string& firstFace = "");
+std::string nominalCriterion(const std::string& detector, int mirrorReflections = 0,
+                             const std::string& firstFace = "");
+// Every ghost of the given order or less (2 or 4) together: the sum of the ghost criteria
+// (for a lens without mirrors).
+std::string allGhostsCriterion(int order, const std::string& detector,
+                               const std::string& firstFace = "");
 
 struct GhostOptions {
     int order = 2;                            // 2, or 4 (two- and four-reflection ghosts)
@@ -127,6 +136,7 @@ struct GhostAnalysis {
     std::vector<std::string> surfaceNames;
     std::string detector;               // its name
     GhostEstimate nominal;              // the nominal image through the same machinery
+    std::string allGhostsCriterion;     // every enumerated ghost together
     std::vector<GhostEstimate> ghosts;  // ranked: brightest peak irradiance first
     int pruned = 0;                     // four-reflection paths left out by the energy bound
     double seconds = 0.0;               // time of the sequential estimate
@@ -150,6 +160,8 @@ class GhostTracer {
     std::vector<GhostPath> enumerate(int* pruned = nullptr) const;
     // The path with no reflection (the nominal image).
     GhostPath nominalPath() const;
+    // Mirror reflections along a path (0 for a lens without mirrors).
+    int mirrorReflections(const GhostPath& path) const;
     // The sequential estimate of one path (nominal: reflections empty) for every source.
     // `nominal` (may be null) gives the ratios.
     GhostEstimate estimate(const GhostPath& path, const GhostEstimate* nominal) const;
@@ -187,7 +199,11 @@ class GhostTracer {
     struct RayState {
         Vec3 pos{0.0}, dir{0.0, 0.0, 1.0};
         double flux = 0.0;
+        int at = 0;  // the surface the ray is on (0: none yet)
     };
+    // Whether a mirror out of sequence blocks the segment from r.pos to distance t (toward
+    // surface `target`): a Cassegrain's secondary shading the primary, for example.
+    bool obscured(const RayState& r, double t, int target) const;
     // Share of the source's flux at model wavelength w.
     double lineShare(int source, int w) const;
     // Grid ray (ix, iy) of a source at wavelength w; false outside the disk.
@@ -209,8 +225,11 @@ class GhostTracer {
     std::vector<int> ghostSurfaces_;
     // Surface intersections attempted so far (all threads; for benchmarks and reports).
     mutable std::atomic<uint64_t> steps_{0};
-    std::vector<double> clipRadius_;       // per sequential surface; infinity = no clip
-    std::vector<double> holeRadius_;       // per sequential surface
+    std::vector<double> clipRadius_;  // per sequential surface; infinity = no clip
+    std::vector<double> holeRadius_;  // per sequential surface
+    std::vector<int> mirrors_;        // mirror surfaces (obscure segments out of sequence)
+    std::string firstFace_;           // first lens face when surfaces come before it, else ""
+
     std::vector<int> propertyOf_;          // per sequential surface: index into properties, -1
     std::vector<int> mediumOfGap_;         // per gap: scene medium id
     std::vector<std::string> objectName_;  // per sequential surface ("" = no object)

@@ -398,8 +398,7 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
             stem << "ghost_" << std::setw(2) << std::setfill('0') << r + 1;
             draw(a.ghosts[r].path.criterion, out / "paths" / stem.str());
         }
-        draw(allGhostsCriterion(o.order, setup.scene.object(tracer.detector().object).name),
-             out / "paths" / "all_ghosts");
+        draw(a.allGhostsCriterion, out / "paths" / "all_ghosts");
     }
 
     if (o.json) {

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <array>
 #include <cstdio>
@@ -19,7 +20,9 @@ struct VeilRun {
 // Runs veil with the given arguments (a shell fragment) from the source directory.
 // `env` is an optional VAR=value prefix for the command.
 VeilRun runVeil(const std::string& args, const std::string& env = "") {
-    const std::string errFile = ::testing::TempDir() + "veil_cli_stderr.txt";
+    // One file per test process: ctest runs the command-line tests in parallel processes.
+    const std::string errFile =
+        ::testing::TempDir() + "veil_cli_stderr_" + std::to_string(getpid()) + ".txt";
     const std::string cmd = std::string("cd ") + VEIL_SOURCE_DIR + " && " + env + " " + VEIL_EXE +
                             " " + args + " 2>" + errFile;
     VeilRun r;
