@@ -152,12 +152,7 @@ GhostTracer::GhostTracer(const SceneSetup& setup, const TraceSetup& trace,
             throw ModelError(options_.detector, "no detector named '" + options_.detector + "'");
     }
     detector_ = &setup.detectors[detectorIndex_];
-    const SceneObject& detObject = setup.scene.object(detector_->object);
-    const SequentialSurface& image = model_.surface(model_.imageIndex());
-    if (detObject.name != image.name &&
-        std::find(detObject.aliases.begin(), detObject.aliases.end(), image.name) ==
-            detObject.aliases.end() &&
-        detObject.name != "sensor")
+    if (setup.scene.object(detector_->object).sequentialSurface != model_.imageIndex())
         throw ModelError(detector_->name,
                          "the ghost estimate follows the sequential path to the image surface; "
                          "detector '" +
@@ -211,6 +206,14 @@ GhostTracer::GhostTracer(const SceneSetup& setup, const TraceSetup& trace,
         for (size_t k = 0; k < media.size(); ++k)
             if (media[k].material == m) mediumOfGap_[g] = static_cast<int>(k);
     }
+    // Flux of one grid cell per source and wavelength: the source's share of that line over
+    // the cells of the unit disk (cell area h^2 of pi).
+    const double h = 2.0 / options_.gridRays;
+    cellFlux_.assign(trace.transport.sources.size(), std::vector<double>(model_.wavelengthCount()));
+    for (size_t k = 0; k < cellFlux_.size(); ++k)
+        for (int w = 0; w < model_.wavelengthCount(); ++w)
+            cellFlux_[k][w] = trace.transport.sources[k].totalFlux() *
+                              lineShare(static_cast<int>(k), w) * h * h / kPi;
     if (options_.nearFocusMm <= 0.0)
         options_.nearFocusMm =
             10.0 * std::max(detector_->pixelWidthMm(), detector_->pixelHeightMm());
@@ -235,7 +238,7 @@ std::vector<GhostPath> GhostTracer::enumerate(int* pruned) const {
     // Normal-incidence reflectance of each ghost surface at the primary wavelength under its
     // optical property: the energy bound that prunes four-reflection paths.
     const int w = model_.primaryWavelength();
-    std::map<int, double> r0;
+    std::vector<double> r0(model_.surfaceCount(), 0.0);
     for (int s : gs) {
         const double n1 = std::abs(model_.index(s - 1, w)), n2 = std::abs(model_.index(s, w));
         double r = fresnelReflectance(n1, n2, 1.0);
@@ -322,8 +325,9 @@ double GhostTracer::lineShare(int source, int w) const {
 
 bool GhostTracer::launch(int source, int w, int ix, int iy, RayState& r) const {
     const Source& src = trace_->transport.sources[source];
-    const int n = options_.gridRays;
-    const double h = 2.0 / n;  // grid step in the unit disk
+    r.flux = cellFlux_[source][w];
+    if (!(r.flux > 0.0)) return false;
+    const double h = 2.0 / options_.gridRays;  // grid step in the unit disk
     const double a = -1.0 + (ix + 0.5) * h, b = -1.0 + (iy + 0.5) * h;
     const double rr = a * a + b * b;
     if (rr > 1.0) return false;
@@ -345,8 +349,7 @@ bool GhostTracer::launch(int source, int w, int ix, int iy, RayState& r) const {
     } else {
         return false;
     }
-    r.flux = src.totalFlux() * lineShare(source, w) * h * h / kPi;
-    return r.flux > 0.0;
+    return true;
 }
 
 bool GhostTracer::advance(RayState& r, const Step& step, int w) const {
@@ -367,10 +370,10 @@ bool GhostTracer::advance(RayState& r, const Step& step, int w) const {
     Vec3 nrm = surfaceNormal(s.shape, hit);
     if (glm::dot(nrm, r.dir) > 0.0) nrm = -nrm;
     const double n1 = std::abs(model_.index(step.gapBefore, w));
-    // The medium across the surface (for a ghost reflection: the one the ray did not enter).
+    // The medium across the surface: where a refracted ray goes, and the one a ghost
+    // reflection does not enter (a mirror uses n1 on both sides).
     const int across = step.forwardBefore ? step.surface : step.surface - 1;
-    const double n2 = step.reflect && !s.mirror ? std::abs(model_.index(across, w))
-                                                : std::abs(model_.index(step.gapAfter, w));
+    const double n2 = std::abs(model_.index(across, w));
     const int prop = propertyOf_[step.surface];
     Channels ch;
     if (prop >= 0) {
@@ -582,16 +585,16 @@ std::vector<GhostEstimate> GhostTracer::estimatePairs(const std::vector<GhostPat
     // first reflection i backward once, and from each second reflection j forward to the
     // detector. The same steps in the same order as traceGrid, so the same numbers.
     const int image = model_.imageIndex();
-    std::map<std::pair<int, int>, size_t> index;
+    // pathOf[i * image + j]: the path reflecting at i then j, or -1; firstSurface[i]: some
+    // path reflects first at i.
+    std::vector<int> pathOf(static_cast<size_t>(image) * image, -1);
+    std::vector<bool> firstSurface(image, false);
     for (size_t g = 0; g < paths.size(); ++g) {
         if (paths[g].order() != 2)
             throw ModelError(paths[g].label, "estimatePairs takes two-reflection paths only");
-        index[{paths[g].reflections[0], paths[g].reflections[1]}] = g;
-    }
-    std::vector<bool> firstSurface(image, false), secondSurface(image, false);
-    for (const auto& [key, g] : index) {
-        firstSurface[key.first] = true;
-        secondSurface[key.second] = true;
+        const int i = paths[g].reflections[0], j = paths[g].reflections[1];
+        pathOf[static_cast<size_t>(i) * image + j] = static_cast<int>(g);
+        firstSurface[i] = true;
     }
     auto nominalStep = [&](int s, bool forward) {
         Step st;
@@ -642,16 +645,13 @@ std::vector<GhostEstimate> GhostTracer::estimatePairs(const std::vector<GhostPat
                         RayState b = arriving[i];
                         if (!step(b, ghostStep(i, true), w)) continue;
                         for (int k = i - 1; k >= 1; --k) {
-                            if (secondSurface[k]) {
-                                if (auto it = index.find({i, k}); it != index.end()) {
-                                    RayState f = b;
-                                    bool alive = step(f, ghostStep(k, false), w);
-                                    for (int m = k + 1; alive && m < image; ++m)
-                                        alive = step(f, nominalStep(m, true), w);
-                                    DetectorRay d;
-                                    if (alive && (++steps, land(f, w, d)))
-                                        rays[it->second].push_back(d);
-                                }
+                            if (const int g = pathOf[static_cast<size_t>(i) * image + k]; g >= 0) {
+                                RayState f = b;
+                                bool alive = step(f, ghostStep(k, false), w);
+                                for (int m = k + 1; alive && m < image; ++m)
+                                    alive = step(f, nominalStep(m, true), w);
+                                DetectorRay d;
+                                if (alive && (++steps, land(f, w, d))) rays[g].push_back(d);
                             }
                             if (!step(b, nominalStep(k, false), w)) break;
                         }
@@ -824,9 +824,7 @@ bool addDefaultGhostScene(SceneFile& file, const GlassCatalog& catalog, double* 
     return true;
 }
 
-}  // namespace veil
-
-namespace veil {
+// Monte Carlo Verification
 
 double GhostMonteCarlo::flux(size_t layer, int detector) const {
     return images ? images->images()[layer][detector].totalFlux() : 0.0;

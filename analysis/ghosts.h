@@ -55,6 +55,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/criterion_images.h"
 #include "analysis/scene_setup.h"
 #include "analysis/trace_setup.h"
 #include "tracer/sequential_model.h"
@@ -228,7 +229,8 @@ class GhostTracer {
     std::vector<double> clipRadius_;  // per sequential surface; infinity = no clip
     std::vector<double> holeRadius_;  // per sequential surface
     std::vector<int> mirrors_;        // mirror surfaces (obscure segments out of sequence)
-    std::string firstFace_;           // first lens face when surfaces come before it, else ""
+    std::vector<std::vector<double>> cellFlux_;  // [source][wavelength]: one grid cell's flux
+    std::string firstFace_;  // first lens face when surfaces come before it, else ""
 
     std::vector<int> propertyOf_;          // per sequential surface: index into properties, -1
     std::vector<int> mediumOfGap_;         // per gap: scene medium id
@@ -256,12 +258,6 @@ bool addDefaultGhostScene(SceneFile& file, const GlassCatalog& catalog,
 // Collimated sources replacing the scene's: one per field (degrees x, y), 1 W each.
 void setFieldSources(SceneFile& file, const GlassCatalog& catalog,
                      const std::vector<std::pair<double, double>>& fieldsDeg);
-
-}  // namespace veil
-
-#include "analysis/criterion_images.h"
-
-namespace veil {
 
 // Monte Carlo Verification
 // One forward split run binned by the ghosts' criteria (and the nominal image's, first),

@@ -21,31 +21,11 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "lensdata/output_file.h"
+
 namespace veil {
 
 namespace {
-
-// Output Helpers
-
-std::filesystem::path temporaryFor(const std::filesystem::path& path) {
-    std::filesystem::path tmp = path;
-    tmp += ".tmp";
-    return tmp;
-}
-
-void removeQuietly(const std::filesystem::path& p) {
-    std::error_code ec;
-    std::filesystem::remove(p, ec);
-}
-
-void commitFile(const std::filesystem::path& tmp, const std::filesystem::path& path) {
-    std::error_code ec;
-    std::filesystem::rename(tmp, path, ec);
-    if (ec) {
-        removeQuietly(tmp);
-        throw std::runtime_error("cannot write " + path.string() + ": " + ec.message());
-    }
-}
 
 constexpr std::array<const char*, 4> kFields = {"value", "irradiance", "variance", "count"};
 

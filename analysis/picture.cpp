@@ -7,24 +7,11 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "lensdata/output_file.h"
+
 namespace veil {
 
 namespace {
-
-std::filesystem::path temporaryFor(const std::filesystem::path& path) {
-    std::filesystem::path tmp = path;
-    tmp += ".tmp";
-    return tmp;
-}
-
-void commitFile(const std::filesystem::path& tmp, const std::filesystem::path& path) {
-    std::error_code ec;
-    std::filesystem::rename(tmp, path, ec);
-    if (ec) {
-        std::filesystem::remove(tmp, ec);
-        throw std::runtime_error("cannot write " + path.string());
-    }
-}
 
 void setColor(cairo_t* cr, const Color& c) { cairo_set_source_rgba(cr, c.r, c.g, c.b, c.a); }
 

@@ -16,7 +16,6 @@
 #include "cli/ghosts_command.h"
 
 #include <filesystem>
-#include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -27,6 +26,7 @@
 #include "analysis/image_output.h"
 #include "analysis/layout.h"
 #include "analysis/path_picture.h"
+#include "lensdata/output_file.h"
 
 namespace veil::cli {
 
@@ -86,16 +86,6 @@ void addGhostsCommand(CLI::App& app, GhostsOptions& o) {
 namespace {
 
 nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
-
-void writeAtomically(const fs::path& path, const std::string& text) {
-    const fs::path tmp = path.string() + ".tmp";
-    {
-        std::ofstream f(tmp, std::ios::binary);
-        f << text;
-        if (!f) throw std::runtime_error("cannot write " + path.string());
-    }
-    fs::rename(tmp, path);
-}
 
 std::pair<double, double> parseField(const std::string& s, size_t k) {
     std::istringstream in(s);
@@ -337,9 +327,9 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
 
     fs::create_directories(o.output);
     const fs::path out(o.output);
-    writeAtomically(out / "ghosts.json", j.dump(2) + "\n");
-    writeAtomically(out / "ghosts.csv", csv.str());
-    writeAtomically(out / "ghosts.md", md.str());
+    writeTextFile(out / "ghosts.json", j.dump(2) + "\n");
+    writeTextFile(out / "ghosts.csv", csv.str());
+    writeTextFile(out / "ghosts.md", md.str());
 
     // Images (Monte Carlo) and path pictures.
     if (haveMc && !o.noImages) {

@@ -12,7 +12,6 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -23,6 +22,7 @@
 #include "analysis/ray_statistics.h"
 #include "analysis/trace_setup.h"
 #include "cli/commands.h"
+#include "lensdata/output_file.h"
 
 namespace veil::cli {
 
@@ -280,13 +280,7 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
         }
         summary["detectors"].push_back(jd);
     }
-    const std::filesystem::path js = std::filesystem::path(o.output) / "summary.json";
-    {
-        std::ofstream f(js.string() + ".tmp");
-        f << summary.dump(2) << "\n";
-        if (!f) throw std::runtime_error("cannot write " + js.string());
-    }
-    std::filesystem::rename(js.string() + ".tmp", js);
+    writeTextFile(std::filesystem::path(o.output) / "summary.json", summary.dump(2) + "\n");
     return 0;
 }
 

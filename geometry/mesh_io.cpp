@@ -18,6 +18,8 @@
 #include <stdexcept>
 #include <unordered_map>
 
+#include "lensdata/output_file.h"
+
 namespace veil {
 
 namespace {
@@ -801,21 +803,6 @@ glm::dmat3 axisRotation(int axis, double deg) {
 
 // Writing Files
 
-void commitFile(const std::filesystem::path& tmp, const std::filesystem::path& path) {
-    std::error_code ec;
-    std::filesystem::rename(tmp, path, ec);
-    if (ec) {
-        std::filesystem::remove(tmp, ec);
-        throw std::runtime_error("cannot write " + path.string() + ": " + ec.message());
-    }
-}
-
-std::filesystem::path temporaryFor(const std::filesystem::path& path) {
-    std::filesystem::path tmp = path;
-    tmp += ".tmp";
-    return tmp;
-}
-
 // Runs `write` on a stream to path.tmp, then renames it over path.
 template <class WriteFn>
 void writeAtomically(const std::filesystem::path& path, std::ios::openmode mode, WriteFn write) {
@@ -828,8 +815,7 @@ void writeAtomically(const std::filesystem::path& path, std::ios::openmode mode,
         write(out);
         out.close();
         if (!out) {
-            std::error_code ec;
-            std::filesystem::remove(tmp, ec);
+            removeQuietly(tmp);
             throw std::runtime_error("cannot write " + path.string() + ": write failed");
         }
     }

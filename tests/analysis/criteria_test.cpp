@@ -219,13 +219,19 @@ TEST(CriteriaEval, SeedFigure3) {
                            ev(EventType::Refract, 1, 1, 0), ev(EventType::DetectorHit, 7)}));
 }
 
+// The L4 back/front ghost: in through L4.front (object 0) into glass (medium 1), Fresnel
+// reflections at L4.back (1) and L4.front, out through L4.back, onto the sensor (7).
+std::vector<PathEvent> l4Ghost() {
+    return {ev(EventType::Emit, 0),
+            ev(EventType::Refract, 0, 0, 1),
+            ev(EventType::FresnelReflect, 1, 1, 1),
+            ev(EventType::FresnelReflect, 0, 1, 1),
+            ev(EventType::Refract, 1, 1, 0),
+            ev(EventType::DetectorHit, 7)};
+}
+
 TEST(CriteriaEval, GhostsCountsAndEarlyDecision) {
-    const std::vector<PathEvent> ghost = {ev(EventType::Emit, 0),
-                                          ev(EventType::Refract, 0, 0, 1),
-                                          ev(EventType::FresnelReflect, 1, 1, 1),
-                                          ev(EventType::FresnelReflect, 0, 1, 1),
-                                          ev(EventType::Refract, 1, 1, 0),
-                                          ev(EventType::DetectorHit, 7)};
+    const std::vector<PathEvent> ghost = l4Ghost();
     EXPECT_TRUE(run("seq(reflect(L4.back), reflect(L4.front), hit(sensor))", ghost));
     EXPECT_FALSE(run("seq(reflect(L4.front), reflect(L4.back), hit(sensor))", ghost));
     EXPECT_TRUE(run("reflect(*){2}", ghost));
@@ -292,12 +298,7 @@ TEST(CriteriaPrefilter, RequiredLeaves) {
 }
 
 TEST(CriteriaPrefilter, MayMatchTestsRequiredLeavesOnly) {
-    const std::vector<PathEvent> ghost = {ev(EventType::Emit, 0),
-                                          ev(EventType::Refract, 0, 0, 1),
-                                          ev(EventType::FresnelReflect, 1, 1, 1),
-                                          ev(EventType::FresnelReflect, 0, 1, 1),
-                                          ev(EventType::Refract, 1, 1, 0),
-                                          ev(EventType::DetectorHit, 7)};
+    const std::vector<PathEvent> ghost = l4Ghost();
     const std::string pair =
         "seq(fresnel(L4.back), fresnel(L4.front)) and fresnel{2} and not scatter and "
         "detector(sensor)";
@@ -577,7 +578,8 @@ TEST(CriteriaProperty, BankAgreesWithStreamingEvaluatorAcrossCopies) {
             other.insert(other.end(), tail.begin(), tail.end());
             const std::span<const PathEvent> prefix(path.data(), split);
             const std::span<const PathEvent> suffix(path.data() + split, path.size() - split);
-            const std::span<const PathEvent> otherSuffix(other.data() + split, other.size() - split);
+            const std::span<const PathEvent> otherSuffix(other.data() + split,
+                                                         other.size() - split);
 
             // Every criterion fed the prefix in the same buffer, interleaved as in push.
             bank.reset(buffer.data());
