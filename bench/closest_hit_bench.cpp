@@ -21,7 +21,7 @@
 
 #include "analysis/scene_setup.h"
 #include "bench/raw_embree.h"
-#include "geometry/embree_meshes.h"
+#include "geometry/embree_scene.h"
 
 namespace {
 
@@ -30,7 +30,7 @@ using namespace veil;
 struct Fixture {
     SceneSetup setup;
     std::vector<Ray> rays;
-    std::unique_ptr<EmbreeMeshes> raw;
+    std::unique_ptr<EmbreeScene> raw;
 };
 
 // The scene at a given mechanics chord tolerance (um), built once per tolerance.
@@ -57,7 +57,7 @@ const Fixture& longFocus(int chordToleranceUm = 10) {
                          b.lo.z + u(rng) * (b.hi.z - b.lo.z));
             fx.rays.push_back({o, glm::normalize(Vec3(n(rng), n(rng), n(rng)))});
         }
-        fx.raw = std::make_unique<EmbreeMeshes>(fx.setup.scene.meshes());
+        fx.raw = std::make_unique<EmbreeScene>(fx.setup.scene.meshes());
         return fx;
     }());
     return *slot;

@@ -18,7 +18,7 @@
 #include "analysis/criterion_images.h"
 #include "analysis/trace_setup.h"
 #include "bench/raw_embree.h"
-#include "geometry/embree_meshes.h"
+#include "geometry/embree_scene.h"
 
 namespace {
 
@@ -28,7 +28,7 @@ struct Fixture {
     SceneFile file;
     std::unique_ptr<SceneSetup> setup;
     TraceSetup trace;
-    std::unique_ptr<EmbreeMeshes> raw;
+    std::unique_ptr<EmbreeScene> raw;
     std::vector<Ray> rays;
 };
 
@@ -40,7 +40,7 @@ const Fixture& sun7() {
             readSceneFile(VEIL_SOURCE_DIR "/examples/scenes/longfocus_360mm_sun.toml", catalog);
         fx->setup = std::make_unique<SceneSetup>(buildScene(fx->file, catalog));
         fx->trace = prepareTrace(fx->file, *fx->setup, catalog);
-        fx->raw = std::make_unique<EmbreeMeshes>(fx->setup->scene.meshes());
+        fx->raw = std::make_unique<EmbreeScene>(fx->setup->scene.meshes());
         const Bounds3 b = fx->setup->scene.bounds();
         std::mt19937_64 rng(7);
         std::uniform_real_distribution<double> u(0.0, 1.0);

@@ -7,11 +7,11 @@
 #include <limits>
 #include <vector>
 
-#include "geometry/embree_meshes.h"
+#include "geometry/embree_scene.h"
 
 namespace veil::bench {
 
-inline long long rawEmbreeHits(const EmbreeMeshes& meshes, const std::vector<Ray>& rays) {
+inline long long rawEmbreeHits(const EmbreeScene& meshes, const std::vector<Ray>& rays) {
     RTCScene scene = static_cast<RTCScene>(meshes.rawScene());
     long long hits = 0;
     for (const Ray& r : rays) {

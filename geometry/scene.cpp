@@ -3,7 +3,7 @@
 #include <cmath>
 #include <limits>
 
-#include "geometry/embree_meshes.h"
+#include "geometry/embree_scene.h"
 
 namespace veil {
 
@@ -107,14 +107,12 @@ int Scene::addObject(SceneObject o) {
 
 void Scene::commit() {
     exactObjects_.clear();
-    exactBounds_.clear();
     objectOfTriangle_.assign(meshes_.size(), {});
     for (size_t m = 0; m < meshes_.size(); ++m)
         objectOfTriangle_[m].assign(meshes_[m].triangles.size(), -1);
     for (const SceneObject& o : objects_) {
-        if (const FaceGeometry* f = std::get_if<FaceGeometry>(&o.geometry)) {
+        if (std::holds_alternative<FaceGeometry>(o.geometry)) {
             exactObjects_.push_back(o.id);
-            exactBounds_.push_back(transformBounds(o.frame, faceBounds(*f)));
         } else {
             const MeshRef& r = std::get<MeshRef>(o.geometry);
             const uint32_t n = static_cast<uint32_t>(meshes_[r.mesh].triangles.size());
@@ -140,7 +138,10 @@ void Scene::commit() {
             if (objectOfTriangle_[m][t] < 0)
                 throw ModelError("mesh " + std::to_string(m),
                                  "triangle " + std::to_string(t) + " belongs to no object");
-    embree_ = std::make_unique<EmbreeMeshes>(meshes_);
+    std::vector<ExactFaceEntry> faces;
+    for (int id : exactObjects_)
+        faces.push_back({id, objects_[id].frame, std::get<FaceGeometry>(objects_[id].geometry)});
+    embree_ = std::make_unique<EmbreeScene>(meshes_, std::move(faces));
     committed_ = true;
 }
 
@@ -172,77 +173,80 @@ SceneHit Scene::makeHit(int object, int primitive, double t, const Ray& ray,
 std::optional<SceneHit> Scene::closestHit(const Ray& ray, double tMax, int startObject,
                                           int startPrimitive) const {
     if (!committed_) throw ModelError("scene", "closestHit() before commit()");
+    // One BVH over exact faces and meshes (geometry/embree_scene.h). The exact faces are
+    // intersected in double inside the traversal; the nearest one is the first candidate.
+    ExactCandidate exact;
+    exact.t = tMax;
+    EmbreeScene::Skip skips[EmbreeScene::kMaxSkips];
+    int skipCount = 0;
+    const MeshRef* startMesh = startObject >= 0 && startPrimitive >= 0
+                                   ? std::get_if<MeshRef>(&objects_[startObject].geometry)
+                                   : nullptr;
+    if (startMesh) skips[skipCount++] = {startMesh->mesh, startPrimitive};
+    const float tFar = std::isfinite(tMax) ? static_cast<float>(tMax * (1.0 + 1e-5) + 1e-5)
+                                           : std::numeric_limits<float>::infinity();
+    auto candidate = embree_->query(ray, 0.0f, tFar, startObject, skips, skipCount, exact);
+
+    // The triangle candidate (float) gets its t in double from its plane. A candidate whose
+    // double t is not ahead of the origin (a neighbour of the start triangle seen through
+    // float rounding) is skipped and the query repeated beyond it; exact faces the first
+    // query culled behind that candidate are seen by the repeat (`exact` accumulates).
+    double meshT = 0.0;
+    Vec3 meshNormal(0.0);
+    while (candidate) {
+        const TriangleMesh& m = meshes_[candidate->mesh];
+        const auto& tri = m.triangles[candidate->triangle];
+        const Vec3 a = m.vertices[tri[0]];
+        const Vec3 n = glm::cross(m.vertices[tri[1]] - a, m.vertices[tri[2]] - a);
+        const double denom = glm::dot(ray.direction, n);
+        meshT = denom != 0.0 ? glm::dot(a - ray.origin, n) / denom : 0.0;
+        if (meshT > 0.0) {
+            meshNormal = n;
+            break;
+        }
+        if (skipCount == EmbreeScene::kMaxSkips) {
+            candidate.reset();
+            break;
+        }
+        skips[skipCount++] = {candidate->mesh, candidate->triangle};
+        candidate = embree_->query(ray, candidate->t, tFar, startObject, skips, skipCount, exact);
+    }
+
+    // In double, in a fixed order: the nearest exact face, then the start triangle's
+    // neighbours, then the triangle candidate; a later one wins only when strictly nearer.
     int bestObject = -1, bestPrimitive = 0;
     double bestT = tMax;
     Vec3 bestNormal(0.0);
-
-    // Exact faces: analytic, double precision, culled by their global bounds.
-    for (size_t k = 0; k < exactObjects_.size(); ++k) {
-        if (!exactBounds_[k].hitBy(ray, 0.0, bestT)) continue;
-        const SceneObject& o = objects_[exactObjects_[k]];
-        const auto hit = intersectFace(std::get<FaceGeometry>(o.geometry), o.frame.toLocal(ray),
-                                       0.0, bestT, o.id == startObject);
-        if (hit && hit->t < bestT) {
-            bestT = hit->t;
-            bestObject = o.id;
-            bestNormal = o.frame.toGlobalDirection(hit->normal);
+    if (exact.entry >= 0) {
+        const ExactFaceEntry& e = embree_->exactFaces()[exact.entry];
+        bestT = exact.t;
+        bestObject = e.object;
+        bestNormal = e.frame.toGlobalDirection(exact.localNormal);
+    }
+    // A ray leaving a mesh is tested in double against the triangles around its start
+    // triangle, where float candidates are unreliable (a concave corner nanometres away).
+    if (startMesh) {
+        const TriangleMesh& m = meshes_[startMesh->mesh];
+        for (uint32_t v : m.triangles[startPrimitive]) {
+            for (uint32_t t : trianglesOfVertex_[startMesh->mesh][v]) {
+                if (static_cast<int>(t) == startPrimitive) continue;
+                const auto& tri = m.triangles[t];
+                const auto th = intersectTriangle(m.vertices[tri[0]], m.vertices[tri[1]],
+                                                  m.vertices[tri[2]], ray, 0.0, bestT);
+                if (th && *th < bestT) {
+                    bestT = *th;
+                    bestObject = objectOfTriangle_[startMesh->mesh][t];
+                    bestPrimitive = static_cast<int>(t);
+                    bestNormal = m.triangleNormal(t);
+                }
+            }
         }
     }
-
-    // Meshes: Embree finds the candidate triangle in float; its plane gives t in double. A
-    // candidate whose double t is not ahead of the origin (a neighbour of the start
-    // triangle seen through float rounding) is skipped and the query repeated beyond it.
-    if (embree_ && !embree_->empty()) {
-        EmbreeMeshes::Skip skips[EmbreeMeshes::kMaxSkips];
-        int skipCount = 0;
-        if (startObject >= 0 && startPrimitive >= 0) {
-            if (const MeshRef* r = std::get_if<MeshRef>(&objects_[startObject].geometry)) {
-                skips[skipCount++] = {r->mesh, startPrimitive};
-                // The start triangle's neighbourhood, in double.
-                const TriangleMesh& m = meshes_[r->mesh];
-                for (uint32_t v : m.triangles[startPrimitive]) {
-                    for (uint32_t t : trianglesOfVertex_[r->mesh][v]) {
-                        if (static_cast<int>(t) == startPrimitive) continue;
-                        const auto& tri = m.triangles[t];
-                        const auto th = intersectTriangle(m.vertices[tri[0]], m.vertices[tri[1]],
-                                                          m.vertices[tri[2]], ray, 0.0, bestT);
-                        if (th && *th < bestT) {
-                            bestT = *th;
-                            bestObject = objectOfTriangle_[r->mesh][t];
-                            bestPrimitive = static_cast<int>(t);
-                            bestNormal = m.triangleNormal(t);
-                        }
-                    }
-                }
-            }
-        }
-        // Widen the float search a little so a mesh hit that ties with an exact hit in
-        // double is still seen; the double comparison below decides.
-        const float tFar = std::isfinite(bestT) ? static_cast<float>(bestT * (1.0 + 1e-5) + 1e-5)
-                                                : std::numeric_limits<float>::infinity();
-        float tNear = 0.0f;
-        while (true) {
-            const auto eh = embree_->intersect(ray, tNear, tFar, skips, skipCount);
-            if (!eh) break;
-            const TriangleMesh& m = meshes_[eh->mesh];
-            const auto& tri = m.triangles[eh->triangle];
-            const Vec3 a = m.vertices[tri[0]];
-            const Vec3 n = glm::cross(m.vertices[tri[1]] - a, m.vertices[tri[2]] - a);
-            const double denom = glm::dot(ray.direction, n);
-            const double t = denom != 0.0 ? glm::dot(a - ray.origin, n) / denom : 0.0;
-            if (t > 0.0) {
-                if (t < bestT) {
-                    bestT = t;
-                    bestObject = objectOfTriangle_[eh->mesh][eh->triangle];
-                    bestPrimitive = eh->triangle;
-                    bestNormal = glm::normalize(n);
-                }
-                break;
-            }
-            if (skipCount == EmbreeMeshes::kMaxSkips) break;
-            skips[skipCount++] = {eh->mesh, eh->triangle};
-            tNear = eh->t;
-        }
+    if (candidate && meshT < bestT) {
+        bestT = meshT;
+        bestObject = objectOfTriangle_[candidate->mesh][candidate->triangle];
+        bestPrimitive = candidate->triangle;
+        bestNormal = glm::normalize(meshNormal);
     }
     if (bestObject < 0) return std::nullopt;
     return makeHit(bestObject, bestPrimitive, bestT, ray, bestNormal);

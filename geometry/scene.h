@@ -84,7 +84,7 @@ struct SceneHit {
 };
 std::ostream& operator<<(std::ostream& os, const SceneHit& h);
 
-class EmbreeMeshes;  // geometry/embree_meshes.h
+class EmbreeScene;  // geometry/embree_scene.h
 
 class Scene {
   public:
@@ -130,13 +130,12 @@ class Scene {
     std::vector<TriangleMesh> meshes_;
     std::vector<SceneObject> objects_;
     std::vector<int> exactObjects_;                   // ids of objects with FaceGeometry
-    std::vector<Bounds3> exactBounds_;                // global bounds per entry of exactObjects_
     std::vector<std::vector<int>> objectOfTriangle_;  // [mesh][triangle] -> object id
     // [mesh][vertex] -> triangles using it: a ray leaving a mesh is tested in double against
     // the triangles around its start triangle, where float candidates are unreliable (a
     // concave corner a few nanometres away).
     std::vector<std::vector<std::vector<uint32_t>>> trianglesOfVertex_;
-    std::unique_ptr<EmbreeMeshes> embree_;
+    std::unique_ptr<EmbreeScene> embree_;  // meshes and exact faces in one BVH
     bool committed_ = false;
 };
 

@@ -1,0 +1,99 @@
+#pragma once
+// One Embree 3 BVH over everything a ray can hit: the scene's triangle meshes (geomID = mesh
+// index) and its exact faces as user geometry (one geometry after the meshes, primID = index
+// into the exact-face list). RAII owner of the device and the scene; not copyable.
+//
+// Precision. Embree traverses in float. Triangle hits come back as float candidates, which
+// Scene refines in double on the candidate triangle. Exact faces are never intersected in
+// float: the user-geometry callback runs the double-precision intersectFace() on the ray as
+// the caller gave it (carried in the query context), keeps the nearest exact hit in double
+// in the context, and only reports a float t to Embree (rounded up by a relative 1e-5) so
+// the traversal can cull what lies behind it. The bounding box of every exact face is padded
+// (see kBoundsPadRelative) to cover the difference between the float ray Embree traverses
+// and the double ray the face is intersected with.
+//
+//   query(ray, tMax, startObject)
+//     Embree traversal (float) ---- triangle candidates: nearest kept by Embree (float t)
+//                             \---- exact faces: intersectFace() in double, nearest kept
+//                                   in the context (t, face, local normal)
+//     -> ExactCandidate (double) + MeshCandidate (float), compared in double by Scene.
+
+#include <optional>
+#include <vector>
+
+#include "geometry/exact_face.h"
+#include "geometry/triangle_mesh.h"
+
+namespace veil {
+
+// An exact face as the BVH sees it: placement, shape and the scene object it belongs to.
+struct ExactFaceEntry {
+    int object = -1;
+    Frame frame;
+    FaceGeometry face;
+};
+
+struct MeshCandidate {
+    int mesh = -1;
+    int triangle = -1;
+    float t = 0.0f;
+};
+
+struct ExactCandidate {
+    int entry = -1;  // index into the exact-face list; -1 = none
+    double t = 0.0;
+    Vec3 localNormal{0.0};  // in the face's local frame
+};
+
+class EmbreeScene {
+  public:
+    // Meshes only: the benchmarks' raw baseline.
+    explicit EmbreeScene(const std::vector<TriangleMesh>& meshes);
+    // Meshes and exact faces in one BVH.
+    EmbreeScene(const std::vector<TriangleMesh>& meshes, std::vector<ExactFaceEntry> exactFaces);
+    ~EmbreeScene();
+    EmbreeScene(const EmbreeScene&) = delete;
+    EmbreeScene& operator=(const EmbreeScene&) = delete;
+
+    // A triangle to skip: the one a ray starts on, or a candidate already refused.
+    struct Skip {
+        int mesh = -1;
+        int triangle = -1;
+    };
+    static constexpr int kMaxSkips = 4;
+
+    // Box padding of the exact faces: relative to the largest coordinate of the scene (plus an
+    // absolute 1e-4 mm). A float ray deviates from its double original by about 1e-7 of the
+    // coordinates it passes through; 1e-5 leaves a factor of 100. Rays whose origin lies far
+    // outside the scene are moved to it before the float traversal (query()).
+    static constexpr double kBoundsPadRelative = 1e-5;
+
+    // The nearest exact-face hit with t in (0, exact->t] (pass t = tMax, entry = -1; a tie
+    // keeps the face with the lower object id) and the nearest triangle candidate with float
+    // t in [tNear, tFar], skipping up to kMaxSkips triangles. startObject: the scene object
+    // the ray starts on (its own root at t ~ 0 is skipped by intersectFace). `exact` is
+    // updated in place so repeated queries (beyond a refused triangle) keep what they found.
+    std::optional<MeshCandidate> query(const Ray& ray, float tNear, float tFar, int startObject,
+                                       const Skip* skips, int skipCount,
+                                       ExactCandidate& exact) const;
+
+    bool empty() const { return meshCount_ == 0 && exactFaces_.empty(); }
+    const std::vector<ExactFaceEntry>& exactFaces() const { return exactFaces_; }
+
+    // The raw Embree scene handle, for benchmarks that call rtcIntersect1 directly.
+    void* rawScene() const { return scene_; }
+
+  private:
+    void build(const std::vector<TriangleMesh>& meshes);
+
+    void* device_ = nullptr;  // RTCDevice
+    void* scene_ = nullptr;   // RTCScene
+    int meshCount_ = 0;
+    std::vector<ExactFaceEntry> exactFaces_;
+    std::vector<Bounds3> exactBounds_;  // global, padded
+    Bounds3 sceneBox_;                  // everything, padded: far rays are moved onto it
+    double farDistance_ = 0.0;          // origins farther than this from the box are moved
+    void* userData_ = nullptr;          // the exact faces' callback data (owned)
+};
+
+}  // namespace veil
