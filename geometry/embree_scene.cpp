@@ -25,6 +25,12 @@ struct QueryContext {
     int startObject;
     double shift;  // how far the float ray's origin was moved along the ray (query())
     ExactCandidate* exact;
+    // Faces already intersected in this query: a face is several BVH primitives (pieces,
+    // facePieceBounds()) and its double intersection is done once. A ring of the last
+    // kTested faces; a face pushed out of it is only intersected again, never missed.
+    static constexpr int kTested = 8;
+    int tested[kTested];
+    int testedCount;
 };
 
 void skipFilter(const RTCFilterFunctionNArguments* args) {
@@ -40,7 +46,8 @@ void skipFilter(const RTCFilterFunctionNArguments* args) {
 
 struct ExactFaceData {
     const std::vector<ExactFaceEntry>* faces;
-    const std::vector<Bounds3>* bounds;
+    const std::vector<Bounds3>* bounds;  // [piece], global, padded
+    const std::vector<int>* entryOfPiece;
 };
 
 void exactBounds(const RTCBoundsFunctionArguments* args) {
@@ -64,7 +71,12 @@ void exactIntersect(const RTCIntersectFunctionNArguments* args) {
     if (args->N != 1 || args->valid[0] == 0) return;  // rtcIntersect1 only
     const auto* data = static_cast<const ExactFaceData*>(args->geometryUserPtr);
     auto* ctx = reinterpret_cast<QueryContext*>(args->context);
-    const ExactFaceEntry& e = (*data->faces)[args->primID];
+    const int entry = (*data->entryOfPiece)[args->primID];
+    const int n = std::min(ctx->testedCount, QueryContext::kTested);
+    for (int i = 0; i < n; ++i)
+        if (ctx->tested[i] == entry) return;
+    ctx->tested[ctx->testedCount++ % QueryContext::kTested] = entry;
+    const ExactFaceEntry& e = (*data->faces)[entry];
     ExactCandidate& best = *ctx->exact;
     const auto hit = intersectFace(e.face, e.frame.toLocal(*ctx->ray), 0.0, best.t,
                                    e.object == ctx->startObject);
@@ -72,7 +84,7 @@ void exactIntersect(const RTCIntersectFunctionNArguments* args) {
     const bool nearer = hit->t < best.t || best.entry < 0 ||
                         (hit->t == best.t && e.object < (*data->faces)[best.entry].object);
     if (!nearer) return;
-    best.entry = static_cast<int>(args->primID);
+    best.entry = entry;
     best.t = hit->t;
     best.localNormal = hit->normal;
     auto* rh = reinterpret_cast<RTCRayHit*>(args->rayhit);
@@ -144,11 +156,15 @@ void EmbreeScene::build(const std::vector<TriangleMesh>& meshes) {
             extent = std::max({extent, std::abs(all.lo[a]), std::abs(all.hi[a])});
     const double pad = kBoundsPadRelative * extent + 1e-4;
     exactBounds_.clear();
-    for (const ExactFaceEntry& e : exactFaces_) {
-        Bounds3 b = transformBounds(e.frame, faceBounds(e.face));
-        b.lo -= Vec3(pad);
-        b.hi += Vec3(pad);
-        exactBounds_.push_back(b);
+    entryOfPiece_.clear();
+    for (size_t i = 0; i < exactFaces_.size(); ++i) {
+        for (const Bounds3& piece : facePieceBounds(exactFaces_[i].face)) {
+            Bounds3 b = transformBounds(exactFaces_[i].frame, piece);
+            b.lo -= Vec3(pad);
+            b.hi += Vec3(pad);
+            exactBounds_.push_back(b);
+            entryOfPiece_.push_back(static_cast<int>(i));
+        }
     }
     sceneBox_ = all;
     if (!all.empty()) {
@@ -159,10 +175,10 @@ void EmbreeScene::build(const std::vector<TriangleMesh>& meshes) {
 
     if (!exactFaces_.empty()) {
         RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_USER);
-        rtcSetGeometryUserPrimitiveCount(g, static_cast<unsigned>(exactFaces_.size()));
+        rtcSetGeometryUserPrimitiveCount(g, static_cast<unsigned>(exactBounds_.size()));
         // The callbacks' data lives in the geometry's user pointer; it points at members of
         // this object, which is neither copied nor moved (held by unique_ptr in Scene).
-        auto* data = new ExactFaceData{&exactFaces_, &exactBounds_};
+        auto* data = new ExactFaceData{&exactFaces_, &exactBounds_, &entryOfPiece_};
         rtcSetGeometryUserData(g, data);
         rtcSetGeometryBoundsFunction(g, exactBounds, data);
         rtcSetGeometryIntersectFunction(g, exactIntersect);
@@ -196,6 +212,7 @@ std::optional<MeshCandidate> EmbreeScene::query(const Ray& ray, float tNear, flo
     }
     if (ctx.count > 0) ctx.context.filter = skipFilter;
     ctx.ray = &ray;
+    ctx.testedCount = 0;
     ctx.startObject = startObject;
     ctx.exact = &exact;
 

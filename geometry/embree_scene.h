@@ -1,7 +1,10 @@
 #pragma once
 // One Embree 3 BVH over everything a ray can hit: the scene's triangle meshes (geomID = mesh
-// index) and its exact faces as user geometry (one geometry after the meshes, primID = index
-// into the exact-face list). RAII owner of the device and the scene; not copyable.
+// index) and its exact faces as user geometry (one geometry after the meshes). A face is
+// several primitives, one per piece of facePieceBounds() (a butt end as 8 sectors, a curved
+// face as a central disc and rings of sectors), so the boxes hug the faces; the face's
+// double intersection runs once per query whichever of its pieces the traversal meets. RAII owner
+// of the device and the scene; not copyable.
 //
 // Precision. Embree traverses in float. Triangle hits come back as float candidates, which
 // Scene refines in double on the candidate triangle. Exact faces are never intersected in
@@ -55,12 +58,15 @@ class EmbreeScene {
     EmbreeScene(const EmbreeScene&) = delete;
     EmbreeScene& operator=(const EmbreeScene&) = delete;
 
-    // A triangle to skip: the one a ray starts on, or a candidate already refused.
+    // A triangle to skip: the one a ray starts on and its neighbours (which Scene tests in
+    // double), or a candidate already refused.
+    // No default member values: a query keeps an array of kMaxSkips on the stack, and
+    // zeroing it on every call costs more than the rest of the bookkeeping.
     struct Skip {
-        int mesh = -1;
-        int triangle = -1;
+        int mesh;
+        int triangle;
     };
-    static constexpr int kMaxSkips = 4;
+    static constexpr int kMaxSkips = 32;
 
     // Box padding of the exact faces: relative to the largest coordinate of the scene (plus an
     // absolute 1e-4 mm). A float ray deviates from its double original by about 1e-7 of the
@@ -90,7 +96,8 @@ class EmbreeScene {
     void* scene_ = nullptr;   // RTCScene
     int meshCount_ = 0;
     std::vector<ExactFaceEntry> exactFaces_;
-    std::vector<Bounds3> exactBounds_;  // global, padded
+    std::vector<Bounds3> exactBounds_;  // per BVH primitive (face piece): global, padded
+    std::vector<int> entryOfPiece_;     // per BVH primitive: its exact face
     Bounds3 sceneBox_;                  // everything, padded: far rays are moved onto it
     double farDistance_ = 0.0;          // origins farther than this from the box are moved
     void* userData_ = nullptr;          // the exact faces' callback data (owned)

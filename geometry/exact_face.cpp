@@ -524,6 +524,95 @@ Bounds3 faceBounds(const FaceGeometry& face) {
     return b;
 }
 
+namespace {
+
+// The x, y box of the annular sector r in [r0, r1], azimuth in [phi0, phi1] (phi1 - phi0 <=
+// 2 pi): its corners, plus the outer radius where the sector crosses an axis direction.
+void sectorXY(double r0, double r1, double phi0, double phi1, Bounds3& b, double zLo, double zHi) {
+    auto add = [&](double r, double phi) {
+        b.extend(Vec3{r * std::cos(phi), r * std::sin(phi), zLo});
+        b.extend(Vec3{r * std::cos(phi), r * std::sin(phi), zHi});
+    };
+    add(r0, phi0);
+    add(r0, phi1);
+    add(r1, phi0);
+    add(r1, phi1);
+    for (int q = 0; q < 8; ++q) {  // axis directions, from -2 pi to 2 pi
+        const double axis = (q - 4) * (M_PI / 2.0);
+        if (axis > phi0 && axis < phi1) add(r1, axis);
+    }
+}
+
+void padBox(Bounds3& b) {
+    const Vec3 size = b.hi - b.lo;
+    const double pad =
+        1e-9 * (1.0 + std::max({size.x, size.y, size.z, glm::length(b.lo), glm::length(b.hi)}));
+    b.lo -= Vec3(pad);
+    b.hi += Vec3(pad);
+}
+
+}  // namespace
+
+std::vector<Bounds3> facePieceBounds(const FaceGeometry& face) {
+    std::vector<Bounds3> out;
+    const double dPhi = 2.0 * M_PI / kFaceSectors;
+    std::visit(
+        [&](const auto& f) {
+            using F = std::decay_t<decltype(f)>;
+            if constexpr (std::is_same_v<F, SurfacePatch>) {
+                if (std::holds_alternative<RectangularAperture>(f.aperture)) {
+                    out.push_back(faceBounds(face));
+                    return;
+                }
+                double uLo, uHi;
+                apertureRadiusSqRange(f.aperture, uLo, uHi);
+                uHi = std::min(uHi, domainRadiusSq(f.shape));
+                uLo = std::min(uLo, uHi);
+                const double rLo = std::sqrt(uLo), rHi = std::sqrt(uHi);
+                const bool flat = std::holds_alternative<PlaneShape>(f.shape);
+                if (flat && rLo == 0.0) {
+                    out.push_back(faceBounds(face));
+                    return;
+                }
+                // Radial bands: a disc keeps a central piece (no sectors there: every sector
+                // box would reach the axis); the rest is split in rings and sectors.
+                const int rings = flat ? 1 : kFaceRings;
+                std::vector<double> edges;
+                for (int i = 0; i <= rings; ++i) edges.push_back(rLo + (rHi - rLo) * i / rings);
+                edges.back() = rHi;
+                for (int i = 0; i < rings; ++i) {
+                    const double r0 = edges[i], r1 = edges[i + 1];
+                    double zLo, zHi;
+                    sagRange(f.shape, r0 * r0, std::min(r1 * r1, uHi), zLo, zHi);
+                    if (r0 == 0.0) {
+                        Bounds3 b;
+                        b.extend(Vec3{-r1, -r1, zLo});
+                        b.extend(Vec3{r1, r1, zHi});
+                        padBox(b);
+                        out.push_back(b);
+                        continue;
+                    }
+                    for (int k = 0; k < kFaceSectors; ++k) {
+                        Bounds3 b;
+                        sectorXY(r0, r1, k * dPhi, (k + 1) * dPhi, b, zLo, zHi);
+                        padBox(b);
+                        out.push_back(b);
+                    }
+                }
+            } else {
+                for (int k = 0; k < kFaceSectors; ++k) {
+                    Bounds3 b;
+                    sectorXY(f.radiusMm, f.radiusMm, k * dPhi, (k + 1) * dPhi, b, f.zMinMm,
+                             f.zMaxMm);
+                    padBox(b);
+                    out.push_back(b);
+                }
+            }
+        },
+        face);
+    return out;
+}
+
 TriangleMesh tessellateFace(const FaceGeometry& face, double chordToleranceMm) {
     requirePositive(chordToleranceMm);
     return std::visit(

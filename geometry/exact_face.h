@@ -46,6 +46,20 @@ std::optional<ShapeHit> intersectFace(const FaceGeometry& face, const Ray& local
 // for planes, spheres and conics, whose sag is monotone in r; an interval enclosure over
 // 1024 radial pieces for aspheres), padded by a relative 1e-9 to hold edge hits.
 Bounds3 faceBounds(const FaceGeometry& face);
+// Boxes whose union holds the face, each much tighter than faceBounds(): what a BVH should
+// see, so a ray near the axis does not meet the box of a butt end or a flat shoulder, nor
+// the whole sag range of a curved face. Local frame, padded as faceBounds().
+//   disc (circular aperture)   a central disc of radius rMax / kFaceRings, then
+//                              kFaceRings - 1 rings of equal width, each in kFaceSectors
+//                              azimuthal sectors; a flat disc is one box
+//   annulus                    kFaceSectors sectors (rings too when curved)
+//   rectangle                  one box (faceBounds)
+//   cylinder                   kFaceSectors sectors over its full height
+// z ranges come from the same enclosure of the sag as faceBounds() (exact for conics, an
+// interval bound for aspheres); x, y from the sector's corners and the axis crossings.
+constexpr int kFaceRings = 4;
+constexpr int kFaceSectors = 8;
+std::vector<Bounds3> facePieceBounds(const FaceGeometry& face);
 // A triangle mesh for display and export whose chord error (distance between the exact
 // face and its triangles) stays below chordToleranceMm. Local frame; triangles face along
 // the face's normal. The rule (M = bound on the sag's curvature over the aperture, exact for

@@ -182,7 +182,23 @@ std::optional<SceneHit> Scene::closestHit(const Ray& ray, double tMax, int start
     const MeshRef* startMesh = startObject >= 0 && startPrimitive >= 0
                                    ? std::get_if<MeshRef>(&objects_[startObject].geometry)
                                    : nullptr;
-    if (startMesh) skips[skipCount++] = {startMesh->mesh, startPrimitive};
+    if (startMesh) {
+        // The start triangle and the triangles around its vertices: Embree would see them in
+        // float at t ~ 0 (a candidate to refuse and a repeated query); they are tested in
+        // double below instead. A fan too large for the list is partly left to Embree, whose
+        // candidates are refined and refused as needed: slower, never wrong.
+        skips[skipCount++] = {startMesh->mesh, startPrimitive};
+        const TriangleMesh& m = meshes_[startMesh->mesh];
+        for (uint32_t v : m.triangles[startPrimitive]) {
+            for (uint32_t t : trianglesOfVertex_[startMesh->mesh][v]) {
+                if (skipCount == EmbreeScene::kMaxSkips - 4) break;  // room for refusals
+                bool known = false;
+                for (int k = 0; k < skipCount && !known; ++k)
+                    known = skips[k].triangle == static_cast<int>(t);
+                if (!known) skips[skipCount++] = {startMesh->mesh, static_cast<int>(t)};
+            }
+        }
+    }
     const float tFar = std::isfinite(tMax) ? static_cast<float>(tMax * (1.0 + 1e-5) + 1e-5)
                                            : std::numeric_limits<float>::infinity();
     auto candidate = embree_->query(ray, 0.0f, tFar, startObject, skips, skipCount, exact);
