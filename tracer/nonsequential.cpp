@@ -24,7 +24,7 @@ std::ostream& operator<<(std::ostream& os, const TransportOptions& o) {
 }
 
 double FluxBudget::imbalance() const {
-    return (emitted + rouletteGain) - (detected + absorbed() + escaped + culled);
+    return (emitted + rouletteGain) - (detected + absorbed() + escaped + culled + dropped);
 }
 
 void FluxBudget::merge(const FluxBudget& o) {
@@ -34,7 +34,9 @@ void FluxBudget::merge(const FluxBudget& o) {
     absorbedVolume += o.absorbedVolume;
     escaped += o.escaped;
     culled += o.culled;
+    dropped += o.dropped;
     rouletteGain += o.rouletteGain;
+    for (int r = 0; r < kDropReasons; ++r) droppedBranches[r] += o.droppedBranches[r];
     rays += o.rays;
     segments += o.segments;
     branches += o.branches;
@@ -44,7 +46,10 @@ std::ostream& operator<<(std::ostream& os, const FluxBudget& b) {
     return os << "FluxBudget{emitted " << b.emitted << ", detected " << b.detected << ", absorbed "
               << b.absorbed() << " (surface " << b.absorbedSurface << ", volume "
               << b.absorbedVolume << "), escaped " << b.escaped << ", culled " << b.culled
-              << ", roulette gain " << b.rouletteGain << ", imbalance " << b.imbalance() << "}";
+              << ", dropped " << b.dropped << " (" << b.droppedBranches[0] << " "
+              << DropReason::NoRefractedDirection << ", " << b.droppedBranches[1] << " "
+              << DropReason::NoScatterDirection << "), roulette gain " << b.rouletteGain
+              << ", imbalance " << b.imbalance() << "}";
 }
 
 namespace {
@@ -60,11 +65,6 @@ struct Branch {
     NodeIndex node = kNoNode;             // its last event in the history (when recorded)
     std::shared_ptr<BranchState> filter;  // online pruning state (copied on write at splits)
 };
-
-bool isOpaque(ObjectKind k) {
-    return k == ObjectKind::Mechanics || k == ObjectKind::Stop || k == ObjectKind::ImportedMesh ||
-           k == ObjectKind::MirrorFace || k == ObjectKind::Detector;
-}
 
 // Per-block accumulation: the budget and one image per detector.
 struct Accumulator {
@@ -173,6 +173,51 @@ class RayTracer {
         return r.origin + std::max(0.0, tFar) * r.direction;
     }
 
+    // Moves a branch onto child k of an interaction at `hit`: its direction (drawn now for a
+    // scattered child), medium, history node and filter state. False when the branch ends
+    // here (no direction: dropped; the filter refuses it: culled).
+    bool continueAs(Branch& br, const Interaction& in, int k, const SceneHit& hit, NodeIndex parent,
+                    double arriving, CounterRng& rng, FluxBudget& b) {
+        const InteractionChild& child = in.children[k];
+        const std::optional<Vec3> d = in.direction(k, rng);
+        if (!d) {
+            b.dropped += br.flux;
+            ++b.droppedBranches[static_cast<int>(DropReason::NoScatterDirection)];
+            return false;
+        }
+        br.ray = {hit.point, *d};
+        br.medium = child.medium;
+        br.startObject = hit.object;
+        br.startPrimitive = hit.primitive;
+        br.node = record(parent, child.event, hit.point, *d, arriving, hit.object, hit.primitive,
+                         br.medium);
+        if (!wanted(br, child.event, hit.object, hit.primitive, hit.mediumFrom, br.medium,
+                    arriving)) {
+            cull(br, CullReason::Criterion, b);
+            return false;
+        }
+        return true;
+    }
+
+    // The branch's flux against the cull threshold and Russian roulette, after every bounce.
+    bool survives(Branch& br, double cullFlux, double rouletteFlux, CounterRng& rng,
+                  FluxBudget& b) {
+        if (br.flux < cullFlux) {
+            cull(br, CullReason::MinFlux, b);
+            return false;
+        }
+        if (rouletteFlux > 0.0 && br.flux < rouletteFlux) {
+            if (rng.uniform() * rouletteFlux < br.flux) {
+                b.rouletteGain += rouletteFlux - br.flux;
+                br.flux = rouletteFlux;
+            } else {
+                cull(br, CullReason::RussianRoulette, b);
+                return false;
+            }
+        }
+        return true;
+    }
+
     void follow(Branch br, int w, double wavelengthNm, double cullFlux, double rouletteFlux,
                 CounterRng& rng, Accumulator& acc) {
         FluxBudget& b = acc.budget;
@@ -198,7 +243,6 @@ class RayTracer {
                 b.absorbedVolume += br.flux - kept;
                 br.flux = kept;
             }
-            const SceneObject& obj = scene.object(hit->object);
             const int det = ts_.detectorOfObject[hit->object];
             if (det >= 0) {
                 const auto pixel = acc.images[det].pixelOf(hit->point);
@@ -213,135 +257,52 @@ class RayTracer {
                        br.medium);
                 return;
             }
-            const OpticalProperty& prop = ts_.properties[ts_.propertyOfObject[hit->object]];
-            SurfaceContext ctx;
-            ctx.direction = br.ray.direction;
-            ctx.normal = hit->fromFront ? hit->normal : -hit->normal;
-            ctx.n1 = ts_.media->index(hit->mediumFrom, w);
-            ctx.n2 = ts_.media->index(hit->mediumTo, w);
-            ctx.wavelengthNm = wavelengthNm;
-            ctx.opaque = isOpaque(obj.kind);
-            const Channels ch = prop.channels(ctx);
 
-            // Children: (share, direction, medium) for every channel that carries flux.
-            struct Child {
-                double share;
-                Vec3 direction;  // specular children; scattered ones are sampled when used
-                int medium;
-                bool scatter;
-                bool transmit;
-                EventType event;
-            };
-            // A reflection at an interface that also refracts is a ghost's first step.
-            const EventType specularEvent =
-                ch.tir ? EventType::TotalInternalReflection
-                : (obj.kind == ObjectKind::LensFace && !ctx.opaque && ctx.n1 != ctx.n2)
-                    ? EventType::FresnelReflect
-                    : EventType::SpecularReflect;
-            Child children[4];
-            int n = 0;
-            double total = 0.0;
-            if (ch.specularReflect > 0.0)
-                children[n++] = {ch.specularReflect,
-                                 reflect(br.ray.direction, ctx.normal),
-                                 hit->mediumFrom,
-                                 false,
-                                 false,
-                                 specularEvent};
-            if (ch.specularTransmit > 0.0) {
-                if (const auto t = refract(br.ray.direction, ctx.normal, ctx.n1, ctx.n2))
-                    children[n++] = {ch.specularTransmit, *t, hit->mediumTo, false, true,
-                                     EventType::Refract};
+            const Interaction in = interact(ts_, *hit, br.ray.direction, w, wavelengthNm);
+            b.absorbedSurface += br.flux * in.absorbed;
+            if (in.dropped > 0.0) {
+                b.dropped += br.flux * in.dropped;
+                ++b.droppedBranches[static_cast<int>(in.dropReason)];
             }
-            if (ch.scatterReflect > 0.0)
-                children[n++] = {ch.scatterReflect,        Vec3(0.0), hit->mediumFrom, true, false,
-                                 EventType::ScatterReflect};
-            if (ch.scatterTransmit > 0.0)
-                children[n++] = {ch.scatterTransmit,        Vec3(0.0), hit->mediumTo, true, true,
-                                 EventType::ScatterTransmit};
-            for (int k = 0; k < n; ++k) total += children[k].share;
-            b.absorbedSurface += br.flux * std::max(0.0, 1.0 - total);
-            if (n == 0) {
+            if (in.count == 0) {
                 record(br.node, EventType::SurfaceAbsorb, hit->point, br.ray.direction, br.flux,
                        hit->object, hit->primitive, br.medium);
                 return;
             }
             const double arriving = br.flux;
             const NodeIndex parent = br.node;
-
-            auto direction = [&](int k) {
-                if (!children[k].scatter) return children[k].direction;
-                const double u1 = rng.uniform(), u2 = rng.uniform();
-                return prop.sampleScatter(ctx, children[k].transmit, u1, u2).direction;
-            };
-
-            if (o_.mode == TransportOptions::Mode::Random || n == 1) {
-                int k = 0;
-                if (n > 1) {
-                    const double u = rng.uniform() * total;
-                    double c = 0.0;
-                    for (k = 0; k < n - 1; ++k) {
-                        c += children[k].share;
-                        if (u < c) break;
-                    }
-                }
-                br.flux *= total;
-                br.ray = {hit->point, direction(k)};
-                br.medium = children[k].medium;
-                br.node = record(parent, children[k].event, hit->point, br.ray.direction, arriving,
-                                 hit->object, hit->primitive, br.medium);
-                if (!wanted(br, children[k].event, hit->object, hit->primitive, hit->mediumFrom,
-                            br.medium, arriving)) {
-                    cull(br, CullReason::Criterion, b);
-                    return;
-                }
+            if (o_.mode == TransportOptions::Mode::Random || in.count == 1) {
+                // One child carries the whole non-absorbed flux.
+                const int k = in.count > 1 ? chooseChild(in, rng.uniform()) : 0;
+                br.flux *= in.total;
+                if (!continueAs(br, in, k, *hit, parent, arriving, rng, b)) return;
             } else {
                 if (br.depth >= o_.maxSplitDepth) {
-                    br.flux *= total;
+                    br.flux *= in.total;
                     cull(br, CullReason::MaxSplitDepth, b);
                     return;
                 }
-                // Push all but the first child; continue with the first.
-                for (int k = n - 1; k >= 1; --k) {
+                // Every child its share: push all but the first, continue with the first.
+                for (int k = in.count - 1; k >= 1; --k) {
                     Branch c = br;
                     if (br.filter) c.filter = br.filter->clone();
-                    c.flux = br.flux * children[k].share;
+                    c.flux = br.flux * in.children[k].share;
                     c.depth = br.depth + 1;
-                    c.ray = {hit->point, direction(k)};
-                    c.medium = children[k].medium;
-                    c.startObject = hit->object;
-                    c.startPrimitive = hit->primitive;
-                    c.node = record(parent, children[k].event, hit->point, c.ray.direction,
-                                    arriving, hit->object, hit->primitive, c.medium);
-                    if (!wanted(c, children[k].event, hit->object, hit->primitive, hit->mediumFrom,
-                                c.medium, arriving)) {
-                        cull(c, CullReason::Criterion, b);
-                        continue;
-                    }
+                    if (!continueAs(c, in, k, *hit, parent, arriving, rng, b)) continue;
                     if (c.flux < cullFlux) {
                         cull(c, CullReason::MinFlux, b);
                         continue;
                     }
-                    stack_.push_back(c);
+                    stack_.push_back(std::move(c));
                 }
-                br.flux *= children[0].share;
+                br.flux *= in.children[0].share;
                 br.depth += 1;
-                br.ray = {hit->point, direction(0)};
-                br.medium = children[0].medium;
-                br.node = record(parent, children[0].event, hit->point, br.ray.direction, arriving,
-                                 hit->object, hit->primitive, br.medium);
-                if (!wanted(br, children[0].event, hit->object, hit->primitive, hit->mediumFrom,
-                            br.medium, arriving)) {
-                    cull(br, CullReason::Criterion, b);
-                    return;
-                }
+                if (!continueAs(br, in, 0, *hit, parent, arriving, rng, b)) return;
                 if (br.flux < cullFlux) {
                     cull(br, CullReason::MinFlux, b);
                     return;
                 }
             }
-            br.startObject = hit->object;
-            br.startPrimitive = hit->primitive;
             if (rouletteFlux > 0.0 && br.flux < rouletteFlux) {
                 if (rng.uniform() * rouletteFlux < br.flux) {
                     b.rouletteGain += rouletteFlux - br.flux;

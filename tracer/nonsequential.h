@@ -13,9 +13,14 @@
 // Below rouletteRelativeFlux a branch plays unbiased Russian roulette: it survives with
 // probability flux / (threshold), carrying the threshold flux, or is culled.
 //
-// Bookkeeping: emitted = detected + absorbed + escaped + culled, exactly (up to rounding)
-// when roulette is off; with roulette the survivors' gain is reported separately so the
-// balance still closes: emitted + rouletteGain = detected + absorbed + escaped + culled.
+// Every surface interaction is the shared step of tracer/interaction.h; this pass carries
+// flux forward and records the events.
+//
+// Bookkeeping: emitted = detected + absorbed + escaped + culled + dropped, exactly (up to
+// rounding) when roulette is off; with roulette the survivors' gain is reported separately so
+// the balance still closes: emitted + rouletteGain = detected + absorbed + escaped + culled +
+// dropped. Dropped flux (a channel with no direction, tracer/interaction.h) is counted by
+// reason and never booked as absorbed: a lossless scene absorbs exactly nothing.
 //
 // Determinism: ray i draws its random numbers from CounterRng(seed, i), and per-ray results
 // are reduced over fixed blocks of rays in a fixed order (tbb::parallel_deterministic_reduce),
@@ -29,6 +34,7 @@
 #include "geometry/scene.h"
 #include "tracer/branch_filter.h"
 #include "tracer/detector.h"
+#include "tracer/interaction.h"
 #include "tracer/media.h"
 #include "tracer/optical_property.h"
 #include "tracer/path_history.h"
@@ -61,26 +67,18 @@ struct FluxBudget {
     double absorbedVolume = 0.0;
     double escaped = 0.0;
     double culled = 0.0;
+    double dropped = 0.0;  // channels without a direction (tracer/interaction.h)
     double rouletteGain = 0.0;
+    uint64_t droppedBranches[kDropReasons] = {};  // by DropReason
     uint64_t rays = 0;
     uint64_t segments = 0;
     uint64_t branches = 0;
     double absorbed() const { return absorbedSurface + absorbedVolume; }
-    // (emitted + rouletteGain) - (detected + absorbed + escaped + culled)
+    // (emitted + rouletteGain) - (detected + absorbed + escaped + culled + dropped)
     double imbalance() const;
     void merge(const FluxBudget& o);
 };
 std::ostream& operator<<(std::ostream& os, const FluxBudget& b);
-
-// What the transport needs, resolved once.
-struct TransportScene {
-    const Scene* scene = nullptr;
-    const MediaOptics* media = nullptr;
-    std::vector<OpticalProperty> properties;  // distinct properties
-    std::vector<int> propertyOfObject;        // [object id] -> index into properties
-    std::vector<int> detectorOfObject;        // [object id] -> detector index, or -1
-    std::vector<Source> sources;
-};
 
 struct TraceResult {
     FluxBudget budget;
