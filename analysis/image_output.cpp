@@ -33,8 +33,42 @@ std::string channelName(const std::string& layer, const char* field) {
     return layer.empty() ? std::string(field) : layer + "." + field;
 }
 
-std::string attributeName(const std::string& layer, const char* what) {
-    return layer.empty() ? std::string("veil.") + what : "veil." + layer + "." + what;
+std::string attributeName(const std::string& layer, const std::string& what) {
+    return layer.empty() ? "veil." + what : "veil." + layer + "." + what;
+}
+
+// Stored Scales (rules in the header comment)
+
+// The exponent k of the scale 2^k a channel is divided by before it becomes float. Zero and
+// non-finite values take no part; an empty channel gets k = 0.
+int scaleExponent(const std::vector<double>& x) {
+    double largest = 0.0, smallest = std::numeric_limits<double>::infinity();
+    for (double v : x) {
+        const double a = std::abs(v);
+        if (!(a > 0.0) || !std::isfinite(a)) continue;
+        largest = std::max(largest, a);
+        smallest = std::min(smallest, a);
+    }
+    if (largest == 0.0) return 0;
+    int eLargest = 0, eSmallest = 0;  // a value lies in [2^(e-1), 2^e)
+    std::frexp(largest, &eLargest);
+    std::frexp(smallest, &eSmallest);
+    // Largest in [0.5, 1) (k = eLargest), unless the smallest would then fall below float's
+    // normal range: it stays >= 2^-126 for k <= eSmallest + 125, and the largest stays
+    // < 2^127 (finite after rounding) for k >= eLargest - 127.
+    const int k = std::max(eLargest - 127, std::min(eLargest, eSmallest + 125));
+    // 2^k must be a finite, non-zero double for the header attribute.
+    return std::clamp(k, std::numeric_limits<double>::min_exponent - 53,
+                      std::numeric_limits<double>::max_exponent - 1);
+}
+
+// x / 2^k as float; a non-zero x that underflows becomes the smallest positive float (of
+// its sign), so a pixel with flux never reads back as empty.
+float storedValue(double x, int k) {
+    const float f = static_cast<float>(std::ldexp(x, -k));
+    if (f == 0.0f && x != 0.0)
+        return std::copysign(std::numeric_limits<float>::denorm_min(), static_cast<float>(x));
+    return f;
 }
 
 // The Viridis Colour Map
@@ -125,33 +159,39 @@ void writeDetectorExr(const std::filesystem::path& path, const std::vector<Image
     Imf::addComments(header, "veil detector image: value = flux per pixel [" + info.fluxUnit +
                                  "], irradiance = value / pixel area [" + info.fluxUnit +
                                  "/mm^2], variance = variance of value [" + info.fluxUnit +
-                                 "^2], count = rays per pixel");
+                                 "^2], count = rays per pixel; value, irradiance and variance "
+                                 "are stored divided by veil[.layer].<channel>Scale");
 
     // Float copies of every channel, kept alive until writePixels() is done.
     std::vector<std::vector<float>> data;
     data.reserve(layers.size() * kFields.size());
     Imf::FrameBuffer frame;
+    std::vector<double> x(n);
     for (const ImageLayer& l : layers) {
         const DetectorImage& im = *l.image;
         header.insert(attributeName(l.name, "totalFlux"), Imf::DoubleAttribute(im.totalFlux()));
         header.insert(attributeName(l.name, "totalRelativeError"),
                       Imf::DoubleAttribute(im.totalRelativeError(info.emittedRays)));
         for (const char* field : kFields) {
-            std::vector<float>& v = data.emplace_back(n);
             const std::string f = field;
             for (size_t i = 0; i < n; ++i) {
                 const int p = static_cast<int>(i);
-                double x = 0.0;
                 if (f == "value")
-                    x = im.flux(p);
+                    x[i] = im.flux(p);
                 else if (f == "irradiance")
-                    x = im.irradiance(p);
+                    x[i] = im.irradiance(p);
                 else if (f == "variance")
-                    x = im.pixelVariance(p, info.emittedRays);
+                    x[i] = im.pixelVariance(p, info.emittedRays);
                 else
-                    x = static_cast<double>(im.count(p));
-                v[i] = static_cast<float>(x);
+                    x[i] = static_cast<double>(im.count(p));
             }
+            // Counts are integers, exact as floats up to 2^24: stored unscaled.
+            const int k = f == "count" ? 0 : scaleExponent(x);
+            if (f != "count")
+                header.insert(attributeName(l.name, f + "Scale"),
+                              Imf::DoubleAttribute(std::ldexp(1.0, k)));
+            std::vector<float>& v = data.emplace_back(n);
+            for (size_t i = 0; i < n; ++i) v[i] = storedValue(x[i], k);
             const std::string channel = channelName(l.name, field);
             header.channels().insert(channel, Imf::Channel(Imf::FLOAT));
             frame.insert(channel, Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(v.data()),
@@ -225,6 +265,10 @@ DetectorExr readDetectorExr(const std::filesystem::path& path) {
         }
         const size_t n = static_cast<size_t>(out.width) * out.height;
         out.layers.reserve(found.size());
+        // The floats as stored, kFields.size() channels per layer in layer order; reserved,
+        // so the buffers handed to the frame buffer never move.
+        std::vector<std::vector<float>> stored;
+        stored.reserve(found.size() * kFields.size());
         Imf::FrameBuffer frame;
         for (const auto& [layer, fields] : found) {
             if (fields.size() != kFields.size())
@@ -234,17 +278,38 @@ DetectorExr readDetectorExr(const std::filesystem::path& path) {
             l.name = layer;
             l.totalFlux = number(attributeName(layer, "totalFlux"));
             l.totalRelativeError = number(attributeName(layer, "totalRelativeError"));
-            for (std::vector<float>* v : {&l.value, &l.irradiance, &l.variance, &l.count})
-                v->assign(n, 0.0f);
-            const std::array<std::vector<float>*, 4> targets = {&l.value, &l.irradiance,
-                                                                &l.variance, &l.count};
-            for (size_t f = 0; f < kFields.size(); ++f)
+            // Files written before the scales existed hold physical values: scale 1.
+            auto scale = [&](const char* what) {
+                const double s = number(attributeName(layer, what));
+                return std::isnan(s) ? 1.0 : s;
+            };
+            l.valueScale = scale("valueScale");
+            l.irradianceScale = scale("irradianceScale");
+            l.varianceScale = scale("varianceScale");
+            for (size_t f = 0; f < kFields.size(); ++f) {
+                std::vector<float>& v = stored.emplace_back(n, 0.0f);
                 frame.insert(channelName(layer, kFields[f]),
-                             Imf::Slice::Make(Imf::FLOAT, targets[f]->data(), dw, sizeof(float),
+                             Imf::Slice::Make(Imf::FLOAT, v.data(), dw, sizeof(float),
                                               sizeof(float) * out.width));
+            }
         }
         file.setFrameBuffer(frame);
         file.readPixels(dw.min.y, dw.max.y);
+
+        // Physical values: the scales are powers of two, so the products are exact.
+        for (size_t i = 0; i < out.layers.size(); ++i) {
+            ExrLayer& l = out.layers[i];
+            const std::array<std::vector<double>*, 4> targets = {&l.value, &l.irradiance,
+                                                                 &l.variance, &l.count};
+            const std::array<double, 4> scales = {l.valueScale, l.irradianceScale, l.varianceScale,
+                                                  1.0};
+            for (size_t f = 0; f < kFields.size(); ++f) {
+                const std::vector<float>& v = stored[i * kFields.size() + f];
+                targets[f]->resize(n);
+                for (size_t p = 0; p < n; ++p)
+                    (*targets[f])[p] = static_cast<double>(v[p]) * scales[f];
+            }
+        }
     } catch (const std::exception& e) {
         throw std::runtime_error("cannot read " + path.string() + ": " + e.what());
     }

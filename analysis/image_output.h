@@ -12,6 +12,20 @@
 //               emittedRays N of the run; the variance of irradiance is this / area^2
 //   count       rays that contributed to the pixel (exact up to 2^24 as a float)
 //
+// Stored scaled. Dark runs (0.1 % mounts, many bounces) give fluxes of 1e-25 W and
+// variances of 1e-50 W^2, below float's smallest value (1.4e-45), so value, irradiance and
+// variance are each stored divided by a power of two of their own, per layer:
+//
+//   physical = stored * veil[.layer].<channel>Scale      (count is stored as is)
+//
+// The scale puts the channel's largest value in [0.5, 1), where an image viewer shows it
+// near white; when that would push its smallest non-zero value below float's normal range
+// (more than ~38 decades below), the scale is lowered as far as the largest value allows,
+// so any channel spanning up to 2^253 (~76 decades) keeps float precision (relative 2^-24)
+// in every pixel. Beyond that (never seen in practice), a non-zero value too small for the
+// float is stored as the smallest positive float: it reads back non-zero, as an upper bound.
+// Readers of files without the scale attributes (written before them) take scale 1.
+//
 // Header attributes besides the standard ones (pixelAspectRatio = pixel width / height):
 //
 //   veil.detector          string   detector name
@@ -22,6 +36,9 @@
 //   veil.pixelSizeMm       v2d      pixel width, height
 //   veil[.layer].totalFlux           double   the layer's total flux
 //   veil[.layer].totalRelativeError  double   its relative standard error (inf if no flux)
+//   veil[.layer].valueScale          double   power of two, stored value -> fluxUnit
+//   veil[.layer].irradianceScale     double   power of two, stored irradiance -> fluxUnit/mm^2
+//   veil[.layer].varianceScale       double   power of two, stored variance -> fluxUnit^2
 //
 // PNG preview: the chosen quantity in false colour on a log scale spanning `decades` below
 // the maximum (values below the range take the lowest colour, zero is black), detector
@@ -64,12 +81,16 @@ void writeDetectorExr(const std::filesystem::path& path, const std::vector<Image
 void writeDetectorExr(const std::filesystem::path& path, const DetectorImage& image,
                       const ExrInfo& info);
 
-// A file written by writeDetectorExr(), read back.
+// A file written by writeDetectorExr(), read back in physical units: the stored floats
+// times their scales, as doubles (a variance of 1e-60 W^2 is no float).
 struct ExrLayer {
     std::string name;
-    std::vector<float> value, irradiance, variance, count;  // row-major, row 0 at the top
+    // Row-major, row 0 at the top: fluxUnit, fluxUnit/mm^2, fluxUnit^2, rays.
+    std::vector<double> value, irradiance, variance, count;
     double totalFlux = 0.0;
     double totalRelativeError = 0.0;
+    // The scales found in the file (1 when absent).
+    double valueScale = 1.0, irradianceScale = 1.0, varianceScale = 1.0;
 };
 struct DetectorExr {
     int width = 0, height = 0;  // pixels

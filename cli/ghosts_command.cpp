@@ -20,12 +20,14 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <numeric>
+#include <optional>
 #include <sstream>
 
 #include "analysis/ghosts.h"
 #include "analysis/image_output.h"
 #include "analysis/layout.h"
 #include "analysis/path_picture.h"
+#include "cli/progress.h"
 #include "lensdata/output_file.h"
 
 namespace veil::cli {
@@ -181,13 +183,13 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
         mo.raysPerSource = static_cast<uint64_t>(o.mcRays);
         mo.transport.seed = o.seed;
         const uint64_t total = mo.raysPerSource * ts.transport.sources.size();
-        if (!o.quiet && !o.json)
-            mo.progress = [total](uint64_t done) {
-                std::cerr << "\rMonte Carlo: " << std::fixed << std::setprecision(1)
-                          << (total ? 100.0 * done / total : 100.0) << "%   " << std::flush;
-            };
+        std::optional<ProgressReporter> reporter;
+        if (!o.quiet && !o.json) {
+            reporter.emplace("Monte Carlo", total);
+            mo.progress = [&reporter](uint64_t done) { reporter->update(done); };
+        }
         mc = runGhostMonteCarlo(setup, ts, a, mo);
-        if (mo.progress) std::cerr << "\n";
+        if (reporter) reporter->finish();
     }
     const bool haveMc = mc.images != nullptr;
     const double mcNominal = haveMc ? mc.flux(0, det) : 0.0;

@@ -4,10 +4,12 @@
 //   veil trace scene.toml -n 1e6 --threads 2 --seed 7 --mode random --roulette 1e-4 -o out/
 //
 // Writes, for every detector, DIR/<name>.exr (float channels value, irradiance, variance,
-// count) and DIR/<name>.png (false-colour log preview with a colour bar), and DIR/summary.json
-// (the flux budget and every detector's total flux with its relative error). A progress bar
-// on standard error shows rays/s and the time left; the closing summary goes to standard
-// output. The same seed gives bitwise the same images with any number of threads.
+// count; the first three scaled by header attributes, analysis/image_output.h) and
+// DIR/<name>.png (false-colour log preview with a colour bar), and DIR/summary.json (the flux
+// budget and every detector's total flux with its relative error). Progress goes to standard
+// error (cli/progress.h: a bar with rays/s and the time left on a terminal, a few plain lines
+// in a log; none with --quiet); the closing summary goes to standard output. The same seed
+// gives bitwise the same images with any number of threads.
 
 #include <chrono>
 #include <cmath>
@@ -15,6 +17,7 @@
 #include <iomanip>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 
 #include "analysis/criterion_images.h"
@@ -22,6 +25,7 @@
 #include "analysis/ray_statistics.h"
 #include "analysis/trace_setup.h"
 #include "cli/commands.h"
+#include "cli/progress.h"
 #include "lensdata/output_file.h"
 
 namespace veil::cli {
@@ -99,14 +103,6 @@ int runRays(const CommonOptions&, const RaysOptions& o) {
 
 namespace {
 
-std::string duration(double s) {
-    std::ostringstream os;
-    if (s >= 3600) os << static_cast<int>(s / 3600) << "h";
-    if (s >= 60) os << static_cast<int>(std::fmod(s, 3600) / 60) << "m";
-    os << static_cast<int>(std::fmod(s, 60)) << "s";
-    return os.str();
-}
-
 nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
 
 }  // namespace
@@ -131,20 +127,8 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
 
     const auto limit = limitThreads(o.threads);
     const auto start = std::chrono::steady_clock::now();
-    auto progress = [&](uint64_t done) {
-        if (o.quiet) return;
-        const double s =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        const double rate = s > 0 ? done / s : 0.0;
-        const double left = rate > 0 ? (total - done) / rate : 0.0;
-        const int width = 30;
-        const int filled =
-            total ? static_cast<int>(width * static_cast<double>(done) / total) : width;
-        std::cerr << "\r[" << std::string(filled, '#') << std::string(width - filled, ' ') << "] "
-                  << std::setw(5) << std::fixed << std::setprecision(1)
-                  << (total ? 100.0 * done / total : 100.0) << "%  " << std::setprecision(0) << rate
-                  << " rays/s  ETA " << duration(left) << "   " << std::flush;
-    };
+    std::optional<ProgressReporter> reporter;
+    if (!o.quiet) reporter.emplace("trace", total);
     // Criteria are parsed and resolved before any ray is traced: a typo costs nothing.
     std::unique_ptr<CriterionImages> split;
     if (!o.where.empty()) {
@@ -184,9 +168,10 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
             if (db) db->add(i, h);
         };
     }
-    const TraceResult result = traceNonsequential(
-        ts.transport, ts.images, raysPerSource, options,
-        o.quiet ? std::function<void(uint64_t)>{} : std::function<void(uint64_t)>(progress), onRay);
+    std::function<void(uint64_t)> progress;
+    if (reporter) progress = [&reporter](uint64_t done) { reporter->update(done); };
+    const TraceResult result =
+        traceNonsequential(ts.transport, ts.images, raysPerSource, options, progress, onRay);
     if (db) {
         db->setEmittedRays(total);
         db->close();
@@ -194,7 +179,7 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
     if (split) split->finish();
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    if (!o.quiet) std::cerr << "\n";
+    if (reporter) reporter->finish();
 
     std::filesystem::create_directories(o.output);
     const std::string unit = ts.transport.sources.front().unit() == FluxUnit::Lumen ? "lm" : "W";

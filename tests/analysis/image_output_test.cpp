@@ -1,5 +1,6 @@
-// Detector images on disk: EXR round trips that are exact for float values, PNG previews that
-// decode to the expected size and colours, and no file left under a temporary name.
+// Detector images on disk: EXR round trips that are exact for float values and keep float
+// precision far below float's range (dark runs), PNG previews that decode to the expected
+// size and colours, and no file left under a temporary name.
 
 #include "analysis/image_output.h"
 
@@ -113,6 +114,119 @@ TEST(DetectorExr, LayersKeepTheirNames) {
         EXPECT_EQ(g->count[p], static_cast<float>(ghosts.count(p)));
     }
     EXPECT_EQ(filesIn(dir), std::vector<std::string>{"layers.exr"});
+}
+
+// Every pixel with rays reads back non-zero and within float rounding of the double it was
+// written from (round to nearest is off by 2^-24 relative at most; we allow epsilon, 2^-23):
+// value, irradiance and variance. Empty pixels read back 0.
+void expectFloatPrecision(const ExrLayer& l, const DetectorImage& im, uint64_t n) {
+    const double tolerance = std::numeric_limits<float>::epsilon();
+    const double area = im.geometry().pixelAreaMm2();
+    int hits = 0;
+    for (int p = 0; p < im.pixelCount(); ++p) {
+        EXPECT_EQ(l.count[p], static_cast<double>(im.count(p))) << p;
+        if (im.count(p) == 0) {
+            EXPECT_EQ(l.value[p], 0.0) << p;
+            continue;
+        }
+        ++hits;
+        const double value = im.flux(p), variance = im.pixelVariance(p, n);
+        ASSERT_GT(value, 0.0) << p;
+        ASSERT_GT(variance, 0.0) << p;
+        EXPECT_NEAR(l.value[p], value, tolerance * value) << p;
+        EXPECT_NEAR(l.irradiance[p], value / area, tolerance * value / area) << p;
+        EXPECT_NEAR(l.variance[p], variance, tolerance * variance) << p;
+    }
+    EXPECT_GT(hits, 0);
+}
+
+bool isPowerOfTwo(double s) {
+    int e = 0;
+    return s > 0.0 && std::frexp(s, &e) == 0.5;
+}
+
+// A 0.1 %-mount run: fluxes around 1e-30 W, variances around 1e-60 W^2. As plain floats the
+// variances (below float's 1.4e-45) would all be 0; scaled, every pixel keeps its digits.
+TEST(DetectorExr, DarkImagesKeepEveryHitToFloatPrecision) {
+    const std::filesystem::path dir = scratchDir();
+    const uint64_t n = 100000;
+    DetectorImage im(grid());
+    for (uint64_t i = 0; i < 600; ++i) {
+        CounterRng rng(4, i);
+        const int pixel = static_cast<int>(rng.next32() % 30);  // pixels 30..34 stay empty
+        im.add(pixel, 1e-30 * (0.5 + rng.uniform()));
+    }
+    for (int p = 0; p < 30; ++p) {
+        ASSERT_GT(im.count(p), 0u) << p;
+        // The data really is out of float's reach without a scale.
+        ASSERT_EQ(static_cast<float>(im.pixelVariance(p, n)), 0.0f) << p;
+    }
+    const std::filesystem::path path = dir / "dark.exr";
+    writeDetectorExr(path, {{"direct", &im}, {"ghosts", &im}}, {"W", n});
+    const DetectorExr e = readDetectorExr(path);
+    ASSERT_EQ(e.layers.size(), 2u);
+    for (const ExrLayer& l : e.layers) {
+        expectFloatPrecision(l, im, n);
+        // The scales are powers of two putting each channel's largest value in [0.5, 1).
+        for (auto [scale, channel] :
+             {std::pair{l.valueScale, &l.value}, std::pair{l.irradianceScale, &l.irradiance},
+              std::pair{l.varianceScale, &l.variance}}) {
+            EXPECT_TRUE(isPowerOfTwo(scale)) << scale;
+            const double stored = *std::max_element(channel->begin(), channel->end()) / scale;
+            EXPECT_GE(stored, 0.5);
+            EXPECT_LT(stored, 1.0);
+        }
+        EXPECT_LT(l.varianceScale, 1e-55);
+    }
+}
+
+// Twelve decades in one layer, at a dark level (1e-18 .. 1e-30 W, variances down to 1e-60
+// W^2), and 60 decades (1 W next to 1e-60 W) where a scale that only puts the largest value
+// near 1 would lose the smallest: each keeps float precision.
+TEST(DetectorExr, WideDynamicRangesKeepFloatPrecision) {
+    const std::filesystem::path dir = scratchDir();
+    const uint64_t n = 1000;
+    DetectorImage mixed(grid());
+    for (int p = 0; p < 30; ++p) {
+        const double decade = -18.0 - 12.0 * p / 29.0;
+        mixed.add(p, std::pow(10.0, decade));
+        mixed.add(p, 0.3 * std::pow(10.0, decade));  // a second ray: a variance below S1^2
+    }
+    EXPECT_NEAR(mixed.flux(0) / mixed.flux(29), 1e12, 1e-3 * 1e12);
+    DetectorImage extreme(grid());
+    extreme.add(0, 1.0);
+    extreme.add(1, 1e-60);
+    extreme.add(2, 3e-35);
+    const std::filesystem::path path = dir / "wide.exr";
+    writeDetectorExr(path, {{"mixed", &mixed}, {"extreme", &extreme}}, {"W", n});
+    const DetectorExr e = readDetectorExr(path);
+    const ExrLayer* m = e.layer("mixed");
+    const ExrLayer* x = e.layer("extreme");
+    ASSERT_TRUE(m && x);
+    expectFloatPrecision(*m, mixed, n);
+    const double tolerance = std::numeric_limits<float>::epsilon();
+    for (int p : {0, 1, 2})
+        EXPECT_NEAR(x->value[p], extreme.flux(p), tolerance * extreme.flux(p)) << p;
+    EXPECT_EQ(x->value[3], 0.0);
+}
+
+// Beyond float's whole range (here 120 decades) the smallest value cannot keep its digits,
+// but a pixel with rays still reads back as non-empty (the smallest float, an upper bound).
+TEST(DetectorExr, ValuesBeyondFloatRangeStayNonZero) {
+    const std::filesystem::path dir = scratchDir();
+    DetectorImage im(grid());
+    im.add(0, 1e10);
+    im.add(1, 1e-110);
+    const std::filesystem::path path = dir / "beyond.exr";
+    writeDetectorExr(path, im, {"W", 10});
+    const DetectorExr e = readDetectorExr(path);
+    ASSERT_EQ(e.layers.size(), 1u);
+    const ExrLayer& l = e.layers[0];
+    EXPECT_NEAR(l.value[0], 1e10, 1e10 * std::numeric_limits<float>::epsilon());
+    EXPECT_GT(l.value[1], 0.0);
+    EXPECT_LT(l.value[1], 1e-60);  // the smallest float: ~83 decades below the maximum
+    EXPECT_GT(l.variance[1], 0.0);
+    EXPECT_EQ(l.value[2], 0.0);
 }
 
 TEST(DetectorExr, BadRequestsAndUnwritablePathsThrowAndLeaveNothing) {

@@ -1,0 +1,81 @@
+// Progress reports in a log (cli/progress.h): runVeil sends standard error to a file, which is
+// no terminal, so veil must write a few whole lines there and never the terminal's '\r'.
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "run_veil.h"
+
+namespace {
+
+std::string outDir(const std::string& name) {
+    const std::filesystem::path p = std::filesystem::path(::testing::TempDir()) / name;
+    std::filesystem::remove_all(p);
+    return p.string();
+}
+
+// The lines of standard error that start with `label` followed by ':'.
+std::vector<std::string> reportLines(const std::string& err, const std::string& label) {
+    std::vector<std::string> lines;
+    std::istringstream in(err);
+    for (std::string line; std::getline(in, line);)
+        if (line.rfind(label + ":", 0) == 0) lines.push_back(line);
+    return lines;
+}
+
+// 3000 rays take about a second on one thread: the tracer asks for a report every 200 ms,
+// so a reporter that wrote a line per call would exceed the five allowed here.
+TEST(VeilProgress, TraceLogGetsAFewWholeLinesAndNoCarriageReturn) {
+    const std::string dir = outDir("veil_progress_trace");
+    const VeilRun r = runVeil(
+        "trace examples/scenes/longfocus_360mm_sun.toml -n 3000 "
+        "--threads 1 -o " +
+        dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_EQ(r.err.find('\r'), std::string::npos) << r.err;
+    const std::vector<std::string> lines = reportLines(r.err, "trace");
+    ASSERT_GE(lines.size(), 1u) << r.err;
+    EXPECT_LE(lines.size(), 5u) << r.err;
+    // Every line is whole and carries the rate; the last one says done with the ray count
+    // and the elapsed time, the others their share and elapsed time.
+    for (const std::string& l : lines) EXPECT_NE(l.find(" rays/s"), std::string::npos) << l;
+    EXPECT_EQ(lines.back().rfind("trace: done, 3000 rays in ", 0), 0u) << lines.back();
+    for (size_t i = 0; i + 1 < lines.size(); ++i) {
+        EXPECT_NE(lines[i].find(" of 3000 rays)"), std::string::npos) << lines[i];
+        EXPECT_NE(lines[i].find(" elapsed"), std::string::npos) << lines[i];
+    }
+    EXPECT_EQ(std::count_if(lines.begin(), lines.end(),
+                            [](const std::string& l) { return l.find("done") != l.npos; }),
+              1);
+}
+
+TEST(VeilProgress, QuietSilencesTheTraceReport) {
+    const std::string dir = outDir("veil_progress_quiet");
+    const VeilRun r = runVeil(
+        "trace examples/scenes/longfocus_360mm_sun.toml -n 300 --threads 1 --quiet -o " + dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_TRUE(reportLines(r.err, "trace").empty()) << r.err;
+    EXPECT_EQ(r.err.find("rays/s"), std::string::npos) << r.err;
+}
+
+// veil ghosts' Monte Carlo uses the same reporter: 3 fields x 300 rays.
+TEST(VeilProgress, GhostsMonteCarloLogGetsWholeLines) {
+    const std::string out = outDir("veil_progress_ghosts");
+    const VeilRun r = runVeil(
+        "ghosts tests/data/zmx/US00583336-2-scaled.zmx --mc-rays 300 --top 1 --paths 5 "
+        "--no-images -o " +
+        out);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_EQ(r.err.find('\r'), std::string::npos) << r.err;
+    const std::vector<std::string> lines = reportLines(r.err, "Monte Carlo");
+    ASSERT_GE(lines.size(), 1u) << r.err;
+    EXPECT_LE(lines.size(), 5u) << r.err;
+    EXPECT_EQ(lines.back().rfind("Monte Carlo: done, 900 rays in ", 0), 0u) << lines.back();
+}
+
+}  // namespace

@@ -1,0 +1,61 @@
+// The EXR images `veil trace` writes, read back with readDetectorExr(): the scaled channels
+// (analysis/image_output.h) come back in physical units and add up to summary.json's flux.
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <numeric>
+#include <string>
+
+#include "analysis/image_output.h"
+#include "run_veil.h"
+
+namespace {
+
+TEST(VeilTrace, ExrImagesReadBackToTheSummaryFlux) {
+    const std::filesystem::path dir =
+        std::filesystem::path(::testing::TempDir()) / "veil_trace_images";
+    std::filesystem::remove_all(dir);
+    const VeilRun r = runVeil(
+        "trace examples/scenes/longfocus_360mm_sun.toml -n 400 "
+        "--threads 1 --quiet -o " +
+        dir.string());
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    std::ifstream js(dir / "summary.json");
+    const nlohmann::json j = nlohmann::json::parse(js);
+    ASSERT_EQ(j["detectors"].size(), 1u);
+    const std::string name = j["detectors"][0]["name"].get<std::string>();
+    const double summaryFlux = j["detectors"][0]["flux"].get<double>();
+    ASSERT_GT(summaryFlux, 0.0);
+
+    const veil::DetectorExr e = veil::readDetectorExr(dir / (name + ".exr"));
+    ASSERT_EQ(e.layers.size(), 1u) << e;
+    const veil::ExrLayer& l = e.layers[0];
+    EXPECT_EQ(e.fluxUnit, "W");
+    EXPECT_EQ(e.emittedRays, 400.0);
+    EXPECT_DOUBLE_EQ(l.totalFlux, summaryFlux);
+    // Each pixel is off by float rounding (2^-24 relative) at most, so the sum is too.
+    const double sum = std::accumulate(l.value.begin(), l.value.end(), 0.0);
+    EXPECT_NEAR(sum, summaryFlux, summaryFlux * std::numeric_limits<float>::epsilon());
+    const double areaMm2 = e.pixelSizeMm.x * e.pixelSizeMm.y;
+    for (size_t p = 0; p < l.value.size(); ++p) {
+        EXPECT_NEAR(l.irradiance[p] * areaMm2, l.value[p], 1e-6 * l.value[p]) << p;
+        if (l.count[p] > 0) {
+            EXPECT_GT(l.value[p], 0.0) << p;
+            EXPECT_GT(l.variance[p], 0.0) << p;
+        }
+    }
+    // The stored value channel peaks in [0.5, 1): the file holds value / valueScale.
+    int exponent = 0;
+    EXPECT_EQ(std::frexp(l.valueScale, &exponent), 0.5) << l.valueScale;
+    const double peak = *std::max_element(l.value.begin(), l.value.end());
+    EXPECT_GE(peak / l.valueScale, 0.5);
+    EXPECT_LT(peak / l.valueScale, 1.0);
+}
+
+}  // namespace
