@@ -46,7 +46,8 @@ void addPathsCommand(CLI::App& app, PathsOptions& o) {
         ->check(CLI::IsMember({"split", "random"}))
         ->capture_default_str();
     sub->add_option("--min-flux", o.minRelativeFlux,
-                    "split mode: cull branches below this share of their ray's flux")
+                    "cull a branch below this share of its ray's emitted flux, after every bounce "
+                    "(both modes)")
         ->capture_default_str();
     sub->add_option("--seed", o.seed, "random seed")->capture_default_str();
     sub->add_option("--threads", o.threads, "worker threads (0: all cores)")->capture_default_str();

@@ -43,7 +43,8 @@ void addTraceCommand(CLI::App& app, TraceOptions& o) {
         ->check(CLI::IsMember({"split", "random"}))
         ->capture_default_str();
     sub->add_option("--min-flux", o.minRelativeFlux,
-                    "split mode: cull branches below this share of their ray's flux")
+                    "cull a branch below this share of its ray's emitted flux, after every bounce "
+                    "(both modes)")
         ->capture_default_str();
     sub->add_option("--max-split-depth", o.maxSplitDepth, "split mode: deepest split followed")
         ->capture_default_str();
@@ -196,6 +197,10 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
                          {"absorbed_volume", b.absorbedVolume},
                          {"escaped", b.escaped},
                          {"culled", b.culled},
+                         {"dropped", b.dropped},
+                         {"dropped_branches",
+                          {{"no_refracted_direction", b.droppedBranches[0]},
+                           {"no_scatter_direction", b.droppedBranches[1]}}},
                          {"roulette_gain", b.rouletteGain},
                          {"imbalance", b.imbalance()},
                          {"segments", b.segments},
@@ -212,6 +217,11 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
     line("absorbed", b.absorbed());
     line("escaped", b.escaped);
     line("culled", b.culled);
+    if (b.dropped > 0 || b.droppedBranches[0] + b.droppedBranches[1] > 0) {
+        line("dropped", b.dropped);
+        std::cout << "    (" << b.droppedBranches[0] << " " << DropReason::NoRefractedDirection
+                  << ", " << b.droppedBranches[1] << " " << DropReason::NoScatterDirection << ")\n";
+    }
     if (b.rouletteGain > 0) line("roulette gain", b.rouletteGain);
     std::cout << "  imbalance " << std::scientific << b.imbalance() << " (relative "
               << (b.emitted > 0 ? b.imbalance() / b.emitted : 0.0) << ")\n";

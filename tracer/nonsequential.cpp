@@ -298,20 +298,10 @@ class RayTracer {
                 br.flux *= in.children[0].share;
                 br.depth += 1;
                 if (!continueAs(br, in, 0, *hit, parent, arriving, rng, b)) return;
-                if (br.flux < cullFlux) {
-                    cull(br, CullReason::MinFlux, b);
-                    return;
-                }
             }
-            if (rouletteFlux > 0.0 && br.flux < rouletteFlux) {
-                if (rng.uniform() * rouletteFlux < br.flux) {
-                    b.rouletteGain += rouletteFlux - br.flux;
-                    br.flux = rouletteFlux;
-                } else {
-                    cull(br, CullReason::RussianRoulette, b);
-                    return;
-                }
-            }
+            // After every bounce, whichever way the branch went on (a split, a chosen
+            // channel, or the single channel of an opaque diffuse part).
+            if (!survives(br, cullFlux, rouletteFlux, rng, b)) return;
         }
     }
 
