@@ -670,5 +670,332 @@ TEST(CriteriaProperty, PrefilterIsSound) {
               << total - trueCount << " false, " << seconds << " s\n";
 }
 
+// Hand Cases for Every Leaf Kind and Count Form
+// Leaf::matches and compile() serve both evaluators, so the property tests above cannot see
+// their mistakes. Every expectation below is worked out by hand from docs/criteria.md on the
+// lens of lensNames(): objects 0 L4.front, 1 L4.back (alias L5.front), 2 L4.edge, 3 spacer1,
+// 4 spacer2, 5 barrel, 6 stop, 7 sensor (a detector); properties ar_coat (0, 1), black
+// (2, 3, 4, 6), black_anodized (5), none (7); media 0 air, 1 N-BK7, 2 N-SF6; sources 0 sun,
+// 1 lamp.
+
+// Every leaf kind against one event of every type. The events carry object 1 (source 1 for
+// Emit, object 7 for the detector row) and change the medium from air to N-BK7, so only the
+// event type decides. Columns: emit, refract, specular_reflect, fresnel_reflect, tir,
+// scatter_reflect, scatter_transmit, surface_absorb, volume_absorb, exit, detector_hit, culled.
+TEST(CriteriaLeaves, EveryKindMatchesExactlyItsEventTypes) {
+    struct Row {
+        const char* leaf;
+        int object;
+        const char* types;  // '1' where the event type matches
+    };
+    const Row rows[] = {
+        {"emit(lamp)", 1, "100000000000"},
+        {"hit(L4.back)", 1, "011111111111"},  // anything at the object, detector hit included
+        {"detector(sensor)", 7, "000000000010"},
+        {"property(ar_coat)", 1, "011111111111"},
+        {"medium(N-BK7)", 1, "011111111111"},  // any event that enters N-BK7
+        {"reflect(L4.back)", 1, "001100000000"},
+        {"fresnel(L4.back)", 1, "000100000000"},
+        {"tir(L4.back)", 1, "000010000000"},
+        {"refract(L4.back)", 1, "010000000000"},
+        {"scatter(L4.back)", 1, "000001100000"},
+        {"scatter_reflect(L4.back)", 1, "000001000000"},
+        {"scatter_transmit(L4.back)", 1, "000000100000"},
+        {"absorb(L4.back)", 1, "000000011000"},
+        {"exit", 1, "000000000100"},
+    };
+    static_assert(kLeafKindCount == 14 && kEventTypeCount == 12, "a new kind needs its row");
+    bool kindSeen[kLeafKindCount] = {};
+    for (const Row& row : rows) {
+        const Criterion c = parseCriterion(row.leaf);
+        kindSeen[static_cast<int>(c.leaf)] = true;
+        const CompiledCriterion cc = compile(c, lensNames());
+        ASSERT_EQ(cc.leaves.size(), 1u);
+        for (int t = 0; t < kEventTypeCount; ++t) {
+            const PathEvent e = ev(static_cast<EventType>(t), row.object, 0, 1);
+            EXPECT_EQ(cc.leaves[0].matches(e), row.types[t] == '1')
+                << row.leaf << " on " << static_cast<EventType>(t);
+        }
+    }
+    for (int k = 0; k < kLeafKindCount; ++k) EXPECT_TRUE(kindSeen[k]) << static_cast<LeafKind>(k);
+}
+
+// The object (source, medium, property) test of every kind: the right event type at the
+// right and at the wrong object, aliases, globs, ids and events without an object (-1).
+TEST(CriteriaLeaves, EveryKindSelectsItsObjects) {
+    struct Case {
+        const char* leaf;
+        PathEvent event;
+        bool expected;
+    };
+    using E = EventType;
+    const Case cases[] = {
+        // emit: the object of an Emit event is the source index.
+        {"emit(sun)", ev(E::Emit, 0), true},
+        {"emit(sun)", ev(E::Emit, 1), false},
+        {"emit(#1)", ev(E::Emit, 1), true},
+        {"emit(s*)", ev(E::Emit, 1), false},  // lamp
+        {"emit", ev(E::Emit, 1), true},
+        // hit: names, aliases, globs (* spans dots, ? is one character), ids.
+        {"hit(L4.back)", ev(E::Refract, 0), false},
+        {"hit(L5.front)", ev(E::Refract, 1), true},  // L4.back's alias
+        {"hit(L4.*)", ev(E::ScatterReflect, 2), true},
+        {"hit(L4.*)", ev(E::ScatterReflect, 3), false},
+        {"hit(L?.front)", ev(E::FresnelReflect, 1), true},  // through the alias L5.front
+        {"hit(L?.front)", ev(E::FresnelReflect, 2), false},
+        {"hit(spacer?)", ev(E::SurfaceAbsorb, 4), true},
+        {"hit(spacer?)", ev(E::SurfaceAbsorb, 5), false},
+        {"hit(#7)", ev(E::DetectorHit, 7), true},
+        {"hit(#3 | #5)", ev(E::ScatterReflect, 5), true},
+        {"hit(#3 | #5)", ev(E::ScatterReflect, 4), false},
+        {"hit(*)", ev(E::Exit, -1), true},  // "any object" includes none
+        {"hit", ev(E::VolumeAbsorb, -1), true},
+        {"hit(L4.*)", ev(E::Exit, -1), false},
+        // detector: detector objects only.
+        {"detector(sensor)", ev(E::DetectorHit, 7), true},
+        {"detector", ev(E::DetectorHit, 7), true},
+        {"detector(#7)", ev(E::DetectorHit, 7), true},
+        {"detector", ev(E::DetectorHit, 1), false},  // object 1 is not a detector
+        // property: the object's optical property name; objects without one never match.
+        {"property(black)", ev(E::ScatterReflect, 2), true},
+        {"property(black)", ev(E::ScatterReflect, 5), false},  // black_anodized
+        {"property(black*)", ev(E::ScatterReflect, 5), true},
+        {"property(ar_coat)", ev(E::Refract, 1), true},
+        {"property(*)", ev(E::DetectorHit, 7), false},  // the sensor has no property
+        {"property", ev(E::Exit, -1), false},
+        // medium: the medium entered, and only when the event changes it.
+        {"medium(N-BK7)", ev(E::Refract, 0, 0, 1), true},
+        {"medium(N-BK7)", ev(E::Refract, 1, 1, 0), false},
+        {"medium(N-BK7)", ev(E::FresnelReflect, 1, 1, 1), false},
+        {"medium(N-BK7)", ev(E::Refract, 1, 2, 1), true},
+        {"medium(air)", ev(E::Refract, 1, 1, 0), true},
+        {"medium(N-*)", ev(E::ScatterTransmit, 0, 0, 2), true},
+        {"medium(#2)", ev(E::Refract, 0, 1, 2), true},
+        {"medium", ev(E::Refract, 0, 1, 2), true},
+        {"medium", ev(E::Refract, 0, 2, 2), false},
+        // The event kinds at the right and the wrong object.
+        {"reflect(L4.back | L4.front)", ev(E::SpecularReflect, 0), true},
+        {"reflect(L4.back | L4.front)", ev(E::FresnelReflect, 1), true},
+        {"reflect(L4.back | L4.front)", ev(E::FresnelReflect, 2), false},
+        {"fresnel(L4.?ront)", ev(E::FresnelReflect, 0), true},
+        {"fresnel(L4.?ront)", ev(E::FresnelReflect, 1), false},  // L4.back is not L4.?ront
+        {"tir(L4.edge)", ev(E::TotalInternalReflection, 2), true},
+        {"tir(L4.edge)", ev(E::TotalInternalReflection, 1), false},
+        {"refract(#0)", ev(E::Refract, 0), true},
+        {"refract(#0)", ev(E::Refract, 1), false},
+        {"scatter(spacer* | barrel)", ev(E::ScatterReflect, 3), true},
+        {"scatter(spacer* | barrel)", ev(E::ScatterTransmit, 5), true},
+        {"scatter(spacer* | barrel)", ev(E::ScatterReflect, 6), false},
+        {"scatter_reflect(stop)", ev(E::ScatterReflect, 6), true},
+        {"scatter_reflect(stop)", ev(E::ScatterReflect, 5), false},
+        {"scatter_transmit(stop)", ev(E::ScatterTransmit, 6), true},
+        {"scatter_transmit(stop)", ev(E::ScatterTransmit, 3), false},
+        {"absorb", ev(E::VolumeAbsorb, -1), true},
+        {"absorb(L4.*)", ev(E::VolumeAbsorb, -1), false},
+        {"absorb(spacer?)", ev(E::SurfaceAbsorb, 4), true},
+        {"absorb(spacer?)", ev(E::SurfaceAbsorb, 5), false},
+        {"exit", ev(E::Exit, -1), true},
+        {"exit(*)", ev(E::Exit, -1), true},
+        {"exit(#3)", ev(E::Exit, -1), false},
+    };
+    for (const Case& c : cases) {
+        const CompiledCriterion cc = compile(parseCriterion(c.leaf), lensNames());
+        ASSERT_EQ(cc.leaves.size(), 1u);
+        EXPECT_EQ(cc.leaves[0].matches(c.event), c.expected) << c.leaf << " on " << c.event;
+    }
+    // Names are case-sensitive: no object is called l4.front.
+    EXPECT_THROW(compile(parseCriterion("hit(l4.front)"), lensNames()), ParseError);
+    EXPECT_THROW(compile(parseCriterion("property(Black)"), lensNames()), ParseError);
+}
+
+// Every count form on a path for every leaf kind. Each path was written to hold exactly the
+// listed matching events among near misses (the right type at another object, another type
+// at the right object, the same source id in an Emit); the answers for 0, 1 and 2 matches
+// and the event that decides them follow from docs/criteria.md's rules 3 and 5: {n,} is
+// true at its n-th match, a finite maximum is false at the match that exceeds it, everything
+// else waits for the end of the path.
+enum class When { First, Second, End };  // the first or second match, or the end of the path
+struct Expected {
+    bool value;
+    When when;
+};
+struct CountForm {
+    const char* suffix;
+    Expected byMatches[3];  // for paths with 0, 1, 2 matching events
+};
+const CountForm kCountForms[] = {
+    {"", {{false, When::End}, {true, When::First}, {true, When::First}}},  // {1,}
+    {"{1}", {{false, When::End}, {true, When::End}, {false, When::Second}}},
+    {"{2}", {{false, When::End}, {false, When::End}, {true, When::End}}},
+    {"{3}", {{false, When::End}, {false, When::End}, {false, When::End}}},
+    {"{2,}", {{false, When::End}, {false, When::End}, {true, When::Second}}},
+    {"{3,}", {{false, When::End}, {false, When::End}, {false, When::End}}},
+    {"{,0}", {{true, When::End}, {false, When::First}, {false, When::First}}},
+    {"{,1}", {{true, When::End}, {true, When::End}, {false, When::Second}}},
+    {"{,2}", {{true, When::End}, {true, When::End}, {true, When::End}}},
+    {"{1,2}", {{false, When::End}, {true, When::End}, {true, When::End}}},
+    {"{2,3}", {{false, When::End}, {false, When::End}, {true, When::End}}},
+    {"{3,4}", {{false, When::End}, {false, When::End}, {false, When::End}}},
+};
+
+TEST(CriteriaLeaves, EveryCountFormOnEveryKind) {
+    using E = EventType;
+    struct Case {
+        const char* leaf;
+        std::vector<PathEvent> path;
+        std::vector<size_t> matchAt;  // hand-counted
+    };
+    // The L4 ghost emitted by the lamp (source 1, the same number as L4.back).
+    std::vector<PathEvent> lampGhost = l4Ghost();
+    lampGhost[0].object = 1;
+    const std::vector<PathEvent> barrelScatter = {ev(E::Emit, 0), ev(E::ScatterReflect, 5),
+                                                  ev(E::ScatterTransmit, 5),
+                                                  ev(E::ScatterReflect, 5), ev(E::Exit, -1)};
+    const Case cases[] = {
+        {"emit(lamp)", lampGhost, {0}},
+        {"emit(sun)", lampGhost, {}},
+        {"hit(L4.back)", lampGhost, {2, 4}},
+        {"hit(spacer*)", lampGhost, {}},
+        {"detector(sensor)",
+         {ev(E::Emit, 0), ev(E::Refract, 0, 0, 1), ev(E::Refract, 1, 1, 0),
+          ev(E::ScatterReflect, 7), ev(E::DetectorHit, 7)},
+         {4}},
+        {"property(black)",
+         {ev(E::Emit, 0), ev(E::ScatterReflect, 5), ev(E::ScatterReflect, 3), ev(E::Refract, 1),
+          ev(E::SurfaceAbsorb, 6)},
+         {2, 4}},
+        {"medium(N-BK7)",
+         {ev(E::Emit, 0), ev(E::Refract, 0, 0, 1), ev(E::FresnelReflect, 1, 1, 1),
+          ev(E::Refract, 0, 1, 0), ev(E::ScatterTransmit, 2, 0, 1), ev(E::VolumeAbsorb, -1, 1, 1)},
+         {1, 4}},
+        {"reflect(L4.*)",
+         {ev(E::Emit, 0), ev(E::Refract, 0, 0, 1), ev(E::SpecularReflect, 1),
+          ev(E::TotalInternalReflection, 2), ev(E::FresnelReflect, 0), ev(E::ScatterReflect, 1),
+          ev(E::Exit, -1)},
+         {2, 4}},
+        {"fresnel(L4.back)",
+         {ev(E::Emit, 0), ev(E::Refract, 0, 0, 1), ev(E::SpecularReflect, 1),
+          ev(E::FresnelReflect, 1), ev(E::FresnelReflect, 0), ev(E::FresnelReflect, 1),
+          ev(E::DetectorHit, 7)},
+         {3, 5}},
+        {"tir(L4.edge)",
+         {ev(E::Emit, 0), ev(E::Refract, 0, 0, 1), ev(E::TotalInternalReflection, 2),
+          ev(E::FresnelReflect, 2), ev(E::TotalInternalReflection, 1),
+          ev(E::TotalInternalReflection, 2), ev(E::Refract, 1, 1, 0)},
+         {2, 5}},
+        {"refract(L4.front)",
+         {ev(E::Emit, 0), ev(E::Refract, 0, 0, 1), ev(E::Refract, 1, 1, 0),
+          ev(E::ScatterTransmit, 0), ev(E::Refract, 0, 0, 1), ev(E::FresnelReflect, 0)},
+         {1, 4}},
+        {"scatter(barrel)",
+         {ev(E::Emit, 0), ev(E::ScatterReflect, 5), ev(E::ScatterReflect, 3),
+          ev(E::SpecularReflect, 5), ev(E::ScatterTransmit, 5), ev(E::SurfaceAbsorb, 5)},
+         {1, 4}},
+        {"scatter_reflect(barrel)", barrelScatter, {1, 3}},
+        {"scatter_transmit(barrel)", barrelScatter, {2}},
+        {"absorb", {ev(E::Emit, 0), ev(E::Refract, 0, 0, 1), ev(E::VolumeAbsorb, -1, 1, 1)}, {2}},
+        {"absorb(stop)", {ev(E::Emit, 0), ev(E::ScatterReflect, 6), ev(E::SurfaceAbsorb, 6)}, {2}},
+        {"exit",
+         {ev(E::Emit, 0), ev(E::Refract, 0, 0, 1), ev(E::Refract, 1, 1, 0), ev(E::Exit, -1)},
+         {3}},
+        {"exit", lampGhost, {}},
+    };
+    bool kindSeen[kLeafKindCount] = {};
+    for (const Case& c : cases) {
+        // The leaf alone: matches exactly at the hand-counted events.
+        const CompiledCriterion bare = compile(parseCriterion(c.leaf), lensNames());
+        kindSeen[static_cast<int>(parseCriterion(c.leaf).leaf)] = true;
+        for (size_t i = 0; i < c.path.size(); ++i) {
+            const bool listed = std::find(c.matchAt.begin(), c.matchAt.end(), i) != c.matchAt.end();
+            EXPECT_EQ(bare.leaves[0].matches(c.path[i]), listed) << c.leaf << " event " << i;
+        }
+        ASSERT_LE(c.matchAt.size(), 2u);
+        for (const CountForm& f : kCountForms) {
+            const std::string text = std::string(c.leaf) + f.suffix;
+            const Expected want = f.byMatches[c.matchAt.size()];
+            const size_t at = want.when == When::First    ? c.matchAt.at(0)
+                              : want.when == When::Second ? c.matchAt.at(1)
+                                                          : c.path.size();
+            const CompiledCriterion cc = compile(parseCriterion(text), lensNames());
+            const Outcome streaming = runEvaluator(cc, c.path);
+            EXPECT_EQ(streaming.value, want.value ? S::True : S::False) << text;
+            EXPECT_EQ(streaming.decidedAt, at) << text;
+            const DirectResult direct = evaluateDirect(cc, c.path);
+            EXPECT_EQ(direct.value, want.value) << text;
+            EXPECT_EQ(direct.decidedAt, at) << text;
+        }
+    }
+    for (int k = 0; k < kLeafKindCount; ++k) EXPECT_TRUE(kindSeen[k]) << static_cast<LeafKind>(k);
+}
+
+// Globs, aliases and ids counted along the L4 ghost: emitted by the sun, in at L4.front (0)
+// into N-BK7, Fresnel at L4.back (1, alias L5.front) and L4.front, out at L4.back, sensor (7).
+TEST(CriteriaLeaves, GlobsAliasesAndIdsCountAlongAPath) {
+    const std::vector<PathEvent> g = l4Ghost();
+    EXPECT_TRUE(run("hit(L4.?ront){2}", g));  // object 0 at events 1 and 3
+    EXPECT_TRUE(run("hit(L?.front){4}", g));  // objects 0 and 1 (alias): events 1 to 4
+    EXPECT_FALSE(run("hit(L?.front){2}", g));
+    EXPECT_TRUE(run("hit(*.back){2}", g));  // object 1 at events 2 and 4
+    EXPECT_TRUE(run("hit(L4*){4}", g));     // * spans the dot
+    EXPECT_TRUE(run("hit(#0 | #7){3}", g));
+    EXPECT_TRUE(run("reflect(L5.front){1}", g));
+    EXPECT_TRUE(run("emit(#0) and not emit(#1)", g));
+    EXPECT_TRUE(run("emit(s?n)", g));
+    EXPECT_FALSE(run("emit(l*)", g));
+    EXPECT_TRUE(run("medium(#1){1} and medium(air){1}", g));  // into N-BK7, back into air
+    EXPECT_FALSE(run("medium(N-SF6)", g));
+    EXPECT_TRUE(run("property(ar_*){4}", g));  // L4.front and L4.back are both ar_coat
+    EXPECT_FALSE(run("property(ar_coat){5}", g));
+    EXPECT_TRUE(run("detector(s*){1}", g));
+    EXPECT_FALSE(run("property(black*)", g));
+}
+
+// OpticStudio filter strings, letter by letter, on one path: emitted by the sun, refract at
+// L4.front (0), Fresnel at L4.back (1), TIR at L4.edge (2), scatter through spacer1 (3),
+// refract at L4.back, detector hit at the sensor (7).
+TEST(CriteriaZemax, EveryLetterAndOperatorOnAHandPath) {
+    using E = EventType;
+    const std::vector<PathEvent> path = {ev(E::Emit, 0),
+                                         ev(E::Refract, 0, 0, 1),
+                                         ev(E::FresnelReflect, 1, 1, 1),
+                                         ev(E::TotalInternalReflection, 2, 1, 1),
+                                         ev(E::ScatterTransmit, 3, 1, 1),
+                                         ev(E::Refract, 1, 1, 0),
+                                         ev(E::DetectorHit, 7)};
+    const NameTable names = lensNames();
+    auto filter = [&](const char* text) {
+        const CompiledCriterion c = compile(parseZemaxFilter(text), names);
+        const bool value = matches(c, path);
+        EXPECT_EQ(value, evaluateDirect(c, path).value) << text;
+        return value;
+    };
+    EXPECT_TRUE(filter("H2"));  // TIR at 2 is an event at 2
+    EXPECT_TRUE(filter("h7"));  // the detector hit too; letters are case-insensitive
+    EXPECT_FALSE(filter("H4"));
+    EXPECT_TRUE(filter("R1"));   // Fresnel reflection
+    EXPECT_FALSE(filter("R2"));  // TIR is not R
+    EXPECT_FALSE(filter("r0"));  // refraction is not R
+    EXPECT_TRUE(filter("T0"));
+    EXPECT_TRUE(filter("t1"));
+    EXPECT_FALSE(filter("T3"));  // scatter through is S, not T
+    EXPECT_TRUE(filter("S3"));
+    EXPECT_FALSE(filter("s2"));
+    EXPECT_FALSE(filter("!S3"));
+    EXPECT_TRUE(filter("!R2"));
+    EXPECT_TRUE(filter("H7 & R1"));
+    EXPECT_FALSE(filter("H7 & R2"));
+    EXPECT_TRUE(filter("R2 | S3"));
+    EXPECT_FALSE(filter("R2 | S2"));
+    // Precedence: & before |, ! before both; the other grouping gives the other answer.
+    EXPECT_TRUE(filter("R2 & S2 | T0"));
+    EXPECT_FALSE(filter("R2 & (S2 | T0)"));
+    EXPECT_TRUE(filter("!R1 | T0"));
+    EXPECT_FALSE(filter("!(R1 | T0)"));
+    // H is never the Emit event: the lamp (source 1) emitting does not hit object 1.
+    const std::vector<PathEvent> lamp = {ev(E::Emit, 1), ev(E::Refract, 0, 0, 1), ev(E::Exit, -1)};
+    EXPECT_FALSE(matches(compile(parseZemaxFilter("H1"), names), lamp));
+    EXPECT_TRUE(matches(compile(parseZemaxFilter("H0"), names), lamp));
+}
+
 }  // namespace
 }  // namespace veil

@@ -12,7 +12,6 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <iostream>
 #include <limits>
@@ -873,8 +872,9 @@ TEST(SurfaceShape, FirstHitSkipsFarSheetAndRespectsRange) {
     EXPECT_NEAR(inner->t, double(roots[1]), 1e-12);
 }
 
+// Work per ray is bounded, so these end (a hang fails the test by its timeout). What each
+// costs is measured in bench/kernels_bench.cpp (BM_PathologicalAsphere), not asserted here.
 TEST(SurfaceShape, PathologicalAspheresEndWithoutLooping) {
-    const auto start = std::chrono::steady_clock::now();
     const Ray ray{{0.3, 0.2, -10}, glm::normalize(Vec3(0.1, 0.05, 1.0))};
     EvenAsphereShape nan{0.01, 0.0, {}};
     nan.coefficients[2] = std::numeric_limits<double>::quiet_NaN();
@@ -883,16 +883,22 @@ TEST(SurfaceShape, PathologicalAspheresEndWithoutLooping) {
     // Huge coefficients and infinite ranges must still end (found or not).
     EvenAsphereShape wild{0.01, -1.0, {}};
     wild.coefficients = {1e3, -1e6, 1e9, -1e12, 1e15, -1e18, 1e21, -1e24, 1e27, -1e30};
-    (void)intersectSequential(wild, ray);
-    (void)intersectFirst(wild, ray, -kInf, kInf, kInf, false);
-    // A ray touching the asphere tangentially at the vertex.
+    // Whatever they return must be a point of the surface (today both give up: no hit).
+    const RefShape wildRef = refShape(SurfaceShape{wild});
+    if (const std::optional<double> t = intersectSequential(wild, ray))
+        EXPECT_LT(surfaceDistance(wildRef, ray.origin + *t * ray.direction), 1e-6) << *t;
+    if (const std::optional<ShapeHit> h = intersectFirst(wild, ray, -kInf, kInf, kInf, false))
+        EXPECT_LT(surfaceDistance(wildRef, h->point), 1e-6) << h->t;
+    // A ray touching the quartic bowl z = 1e-3 r^4 at its vertex: a contact of order four,
+    // with no sign change to bracket. The vertex is the only common point, so a hit must be
+    // there; with f = 1e-3 (t - 5)^4, t is resolved to about 1e-3 mm.
     EvenAsphereShape bowl{0.0, 0.0, {}};
     bowl.coefficients[1] = 1e-3;
-    (void)intersectSequential(bowl, {{-5, 0, 0}, {1, 0, 0}});
-    (void)intersectFirst(bowl, {{-5, 0, 0}, {1, 0, 0}}, 0.0, kInf, kInf, false);
-    const double seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    EXPECT_LT(seconds, 0.5);
+    const Ray touching{{-5, 0, 0}, {1, 0, 0}};
+    if (const std::optional<double> t = intersectSequential(bowl, touching))
+        EXPECT_NEAR(*t, 5.0, 1e-3);
+    if (const std::optional<ShapeHit> h = intersectFirst(bowl, touching, 0.0, kInf, kInf, false))
+        EXPECT_NEAR(h->t, 5.0, 1e-3);
 }
 
 TEST(SurfaceShape, PrintsItself) {

@@ -5,7 +5,6 @@
 
 #include <gtest/gtest.h>
 
-#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
@@ -56,23 +55,24 @@ TEST(GlassCatalog, BuiltInIsParsedOnceForAllThreads) {
     for (const GlassCatalog* c : seen) EXPECT_EQ(c, &GlassCatalog::builtIn());
 }
 
-// Parsing the embedded text happens at every program start. The bound is loose (a Debug
-// build on a slow machine must pass); the measured time is printed and recorded.
-TEST(GlassCatalog, BuiltInParsesQuickly) {
-    double bestMs = 1e9;
-    for (int run = 0; run < 5; ++run) {
-        const auto start = std::chrono::steady_clock::now();
-        GlassCatalog c;
-        c.loadAgfText(std::string_view(detail::kBuiltinGlassData, detail::kBuiltinGlassDataSize),
-                      "<built-in glass data>", "BUILTIN");
-        const auto stop = std::chrono::steady_clock::now();
-        ASSERT_EQ(c.size(), 742u);
-        bestMs = std::min(bestMs, std::chrono::duration<double, std::milli>(stop - start).count());
+// Parsing the embedded text again gives the catalog builtIn() holds, glass by glass (the
+// parse depends on nothing but the text). What the parse costs at every program start is
+// measured in bench/kernels_bench.cpp (BM_ParseBuiltInGlassCatalog), not asserted here.
+TEST(GlassCatalog, BuiltInTextParsesToTheBuiltInCatalog) {
+    GlassCatalog c;
+    c.loadAgfText(std::string_view(detail::kBuiltinGlassData, detail::kBuiltinGlassDataSize),
+                  "<built-in glass data>", "BUILTIN");
+    const GlassCatalog& builtIn = GlassCatalog::builtIn();
+    ASSERT_EQ(c.size(), 742u);
+    ASSERT_EQ(c.catalogNames(), builtIn.catalogNames());
+    for (const std::string& name : builtIn.catalogNames()) {
+        const std::vector<const Glass*> a = c.glasses(name), b = builtIn.glasses(name);
+        ASSERT_EQ(a.size(), b.size()) << name;
+        for (size_t i = 0; i < a.size(); ++i) {
+            EXPECT_EQ(a[i]->name(), b[i]->name()) << name << " " << i;
+            EXPECT_EQ(a[i]->index(587.56), b[i]->index(587.56)) << a[i]->name();
+        }
     }
-    std::cout << "built-in glass catalog: " << detail::kBuiltinGlassDataSize << " bytes parsed in "
-              << bestMs << " ms (best of 5)\n";
-    RecordProperty("builtin_parse_ms", std::to_string(bestMs));
-    EXPECT_LT(bestMs, 1000.0);
 }
 
 // Data sheet values: Schott N-BK7 nd = 1.51680, vd = 64.17; Ohara S-BSL7 nd = 1.51633,
