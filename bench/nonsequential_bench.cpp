@@ -13,6 +13,7 @@
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>
 
+#include <mutex>
 #include <random>
 
 #include "analysis/criterion_images.h"
@@ -30,6 +31,10 @@ struct Fixture {
     TraceSetup trace;
     std::unique_ptr<EmbreeScene> raw;
     std::vector<Ray> rays;
+    // The rays of the tracer's own segments (from recorded histories of 200 emitted rays),
+    // with the object and triangle each starts on.
+    std::vector<Ray> segmentRays;
+    std::vector<std::pair<int, int>> segmentStarts;
 };
 
 const Fixture& sun7() {
@@ -50,6 +55,23 @@ const Fixture& sun7() {
                          b.lo.z + u(rng) * (b.hi.z - b.lo.z));
             fx->rays.push_back({o, glm::normalize(Vec3(n(rng), n(rng), n(rng)))});
         }
+        TransportOptions o;
+        o.recordHistories = true;
+        o.seed = 99;
+        std::mutex m;
+        traceNonsequential(
+            fx->trace.transport, fx->trace.images, 200, o, {}, [&](uint64_t, const PathHistory& h) {
+                std::lock_guard lock(m);
+                for (const PathNode& node : h.nodes()) {
+                    const EventType t = node.type;
+                    if (t == EventType::Exit || t == EventType::DetectorHit ||
+                        t == EventType::SurfaceAbsorb || t == EventType::Culled)
+                        continue;
+                    fx->segmentRays.push_back({node.position, node.direction});
+                    fx->segmentStarts.emplace_back(t == EventType::Emit ? -1 : node.object,
+                                                   t == EventType::Emit ? -1 : node.face);
+                }
+            });
         return fx;
     }();
     return *f;
@@ -116,5 +138,42 @@ void BM_RawEmbree(benchmark::State& state) {
 BENCHMARK(BM_RawEmbree)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
+
+// The tracer's own segment rays (starting on the surface they left): Scene::closestHit as
+// the tracer calls it, and raw rtcIntersect1 on the mechanics meshes alone for the same rays.
+// Their ratio is the price of the exact faces and the double-precision refinement on the
+// rays that matter; segments/s of BM_TraceSun7 over this closestHit rate is the share of
+// the tracer's time spent outside the closest hit.
+void BM_SegmentRaysClosestHit(benchmark::State& state) {
+    const Fixture& f = sun7();
+    const Scene& scene = f.setup->scene;
+    long long rays = 0, hits = 0;
+    for (auto _ : state) {
+        for (size_t i = 0; i < f.segmentRays.size(); ++i) {
+            const auto h = scene.closestHit(f.segmentRays[i], kInfinity, f.segmentStarts[i].first,
+                                            f.segmentStarts[i].second);
+            hits += h.has_value();
+        }
+        rays += static_cast<long long>(f.segmentRays.size());
+    }
+    state.counters["rays_per_s"] =
+        benchmark::Counter(static_cast<double>(rays), benchmark::Counter::kIsRate);
+    state.counters["hit_fraction"] = static_cast<double>(hits) / static_cast<double>(rays);
+    state.counters["rays"] = static_cast<double>(f.segmentRays.size());
+}
+BENCHMARK(BM_SegmentRaysClosestHit)->Unit(benchmark::kMillisecond);
+
+void BM_SegmentRaysRawEmbree(benchmark::State& state) {
+    const Fixture& f = sun7();
+    long long rays = 0, hits = 0;
+    for (auto _ : state) {
+        hits += bench::rawEmbreeHits(*f.raw, f.segmentRays);
+        rays += static_cast<long long>(f.segmentRays.size());
+    }
+    state.counters["rays_per_s"] =
+        benchmark::Counter(static_cast<double>(rays), benchmark::Counter::kIsRate);
+    state.counters["hit_fraction"] = static_cast<double>(hits) / static_cast<double>(rays);
+}
+BENCHMARK(BM_SegmentRaysRawEmbree)->Unit(benchmark::kMillisecond);
 
 BENCHMARK_MAIN();

@@ -183,9 +183,15 @@ void EmbreeScene::build(const std::vector<TriangleMesh>& meshes) {
         rtcSetGeometryBoundsFunction(g, exactBounds, data);
         rtcSetGeometryIntersectFunction(g, exactIntersect);
         rtcCommitGeometry(g);
-        rtcAttachGeometryByID(scene, g, static_cast<unsigned>(meshCount_));
+        RTCScene faces = rtcNewScene(device);
+        if (!faces) fail(device, "rtcNewScene");
+        faceScene_ = faces;
+        rtcSetSceneFlags(faces, RTC_SCENE_FLAG_ROBUST);
+        rtcSetSceneBuildQuality(faces, RTC_BUILD_QUALITY_HIGH);
+        rtcAttachGeometryByID(faces, g, 0);
         rtcReleaseGeometry(g);
         userData_ = data;
+        rtcCommitScene(faces);
     }
     rtcCommitScene(scene);
     if (rtcGetDeviceError(device) != RTC_ERROR_NONE) fail(device, "rtcCommitScene");
@@ -193,6 +199,7 @@ void EmbreeScene::build(const std::vector<TriangleMesh>& meshes) {
 
 EmbreeScene::~EmbreeScene() {
     if (scene_) rtcReleaseScene(static_cast<RTCScene>(scene_));
+    if (faceScene_) rtcReleaseScene(static_cast<RTCScene>(faceScene_));
     if (device_) rtcReleaseDevice(static_cast<RTCDevice>(device_));
     delete static_cast<ExactFaceData*>(userData_);
 }
@@ -243,23 +250,38 @@ std::optional<MeshCandidate> EmbreeScene::query(const Ray& ray, float tNear, flo
     }
     ctx.shift = shift;
 
-    RTCRayHit rh{};
-    rh.ray.org_x = static_cast<float>(origin.x);
-    rh.ray.org_y = static_cast<float>(origin.y);
-    rh.ray.org_z = static_cast<float>(origin.z);
-    rh.ray.dir_x = static_cast<float>(ray.direction.x);
-    rh.ray.dir_y = static_cast<float>(ray.direction.y);
-    rh.ray.dir_z = static_cast<float>(ray.direction.z);
-    rh.ray.tnear = std::max(0.0f, static_cast<float>(tNear - shift));
-    rh.ray.tfar = static_cast<float>(static_cast<double>(tFar) - shift);
-    rh.ray.mask = std::numeric_limits<unsigned>::max();
-    rh.ray.flags = 0;
-    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    auto floatRay = [&](float tFarMoved) {
+        RTCRayHit rh{};
+        rh.ray.org_x = static_cast<float>(origin.x);
+        rh.ray.org_y = static_cast<float>(origin.y);
+        rh.ray.org_z = static_cast<float>(origin.z);
+        rh.ray.dir_x = static_cast<float>(ray.direction.x);
+        rh.ray.dir_y = static_cast<float>(ray.direction.y);
+        rh.ray.dir_z = static_cast<float>(ray.direction.z);
+        rh.ray.tnear = std::max(0.0f, static_cast<float>(tNear - shift));
+        rh.ray.tfar = tFarMoved;
+        rh.ray.mask = std::numeric_limits<unsigned>::max();
+        rh.ray.flags = 0;
+        rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+        rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+        return rh;
+    };
+    float tFarMoved = static_cast<float>(static_cast<double>(tFar) - shift);
+    // Exact faces first, in their own small BVH: a scene that mixes user geometry into the
+    // triangle BVH costs Embree about three times the triangle-only traversal. A repeated
+    // query (tNear > 0, beyond a refused triangle) has seen every face already.
+    if (faceScene_ && tNear == 0.0f) {
+        RTCRayHit rf = floatRay(tFarMoved);
+        rtcIntersect1(static_cast<RTCScene>(faceScene_), &ctx.context, &rf);
+    }
+    if (meshCount_ == 0) return std::nullopt;
+    // Then the triangles, no farther than the nearest exact face (rounded up: a triangle at a
+    // near tie still reaches Scene's double comparison).
+    if (exact.entry >= 0)
+        tFarMoved = std::min(tFarMoved, static_cast<float>(exact.t * (1.0 + 1e-5) + 1e-5 - shift));
+    RTCRayHit rh = floatRay(tFarMoved);
     rtcIntersect1(static_cast<RTCScene>(scene_), &ctx.context, &rh);
-    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID ||
-        rh.hit.geomID >= static_cast<unsigned>(meshCount_))
-        return std::nullopt;
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
     return MeshCandidate{static_cast<int>(rh.hit.geomID), static_cast<int>(rh.hit.primID),
                          static_cast<float>(rh.ray.tfar + shift)};
 }
