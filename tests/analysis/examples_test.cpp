@@ -5,10 +5,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
+#include <vector>
 
 #include "analysis/first_order.h"
 #include "analysis/spot.h"
 #include "lensdata/lens_file.h"
+#include "tracer/sequential_trace.h"
 
 namespace veil {
 namespace {
@@ -133,6 +136,159 @@ TEST(Examples, CatadioptricIsTheSeedsSecondSystem) {
     ASSERT_EQ(m1.name, "M1");
     EXPECT_EQ(m1.innerSemiDiameterMm, 29.2);
     EXPECT_LT(onAxisRmsUm(l, 1 + 6 + 12), 15.0);
+}
+
+// The Numbers examples/README.md Quotes
+// Each lens's paragraph quotes what `veil info` reports: EFL, F/#, BFL and total track at the
+// primary wavelength, and the RMS spot radius about the centroid at F, d and C (8 hexapolar
+// rings, real aiming, apertures clipping) on axis and at one field. These are design results
+// (no outside truth exists for a lens designed here), so the check is that the README says
+// what the files and the tracer give: every number to half a unit in the last digit it
+// prints. A change that moves one fails here, and the README is corrected with it.
+
+// |actual - printed| within half a unit of the printed number's last digit.
+void expectPrinted(double actual, double printed, int decimals, const std::string& what) {
+    const double halfUnit = 0.5 * std::pow(10.0, -decimals);
+    EXPECT_LE(std::abs(actual - printed), halfUnit * (1.0 + 1e-9))
+        << what << ": veil gives " << actual << ", the README prints " << printed;
+}
+
+struct QuotedLens {
+    std::string file;
+    double efl;  // mm
+    int eflDecimals;
+    double fNumber;
+    double bfl;  // mm
+    int bflDecimals;
+    double track;  // mm
+    int trackDecimals;
+    double axisSpotUm[3];  // F, d, C; one decimal
+    int field;             // the other quoted field (index into the file's fields)
+    double fieldSpotUm[3];
+};
+
+TEST(Examples, ReadmeQuotesWhatVeilInfoReports) {
+    // One lens per row, as the README's paragraphs quote them.
+    // clang-format off
+    const std::vector<QuotedLens> lenses = {
+        {"singlet.toml", 99.994, 3, 5.0, 97.69, 2, 101.71, 2, {66.7, 26.1, 56.2}, 2,
+         {143.8, 67.9, 41.2}},
+        {"achromat.toml", 99.997, 3, 5.0, 96.46, 2, 105.02, 2, {6.3, 2.7, 5.0}, 2,
+         {33.4, 30.1, 24.1}},
+        {"cooke_triplet.toml", 50.005, 3, 3.465, 38.256, 3, 57.562, 3, {12.8, 12.8, 9.9}, 2,
+         {23.7, 20.7, 16.5}},
+        {"double_gauss_50mm.toml", 50.007, 3, 2.0, 35.722, 3, 67.76, 2, {17.0, 14.8, 18.3}, 3,
+         {57.6, 58.2, 61.9}},
+        {"longfocus_360mm.toml", 359.97, 2, 7.0, 196.08, 2, 305.97, 2, {2.3, 4.8, 11.7}, 2,
+         {2.1, 12.4, 3.6}},
+        {"catadioptric_2000mm.toml", 2000.23, 2, 10.0, 236.09, 2, 710.30, 2, {13.7, 8.9, 6.9}, 2,
+         {8.2, 12.2, 14.5}},
+    };
+    // clang-format on
+    for (const QuotedLens& q : lenses) {
+        SCOPED_TRACE(q.file);
+        const Loaded l = load(q.file);
+        const FirstOrderData& d = l.firstOrder.primaryData();
+        expectPrinted(d.eflMm, q.efl, q.eflDecimals, "EFL");
+        EXPECT_NEAR(d.imageSpaceFNumber, q.fNumber, 1e-9);
+        expectPrinted(d.bflMm, q.bfl, q.bflDecimals, "BFL");
+        expectPrinted(d.totalTrackMm, q.track, q.trackDecimals, "total track");
+        const RayAimer aimer(l.model, AimMode::Real);
+        ASSERT_EQ(l.model.wavelengthCount(), 3);
+        for (int w = 0; w < 3; ++w) {
+            const std::string line = " at " + std::to_string(l.model.wavelengthNm(w)) + " nm";
+            expectPrinted(1000.0 * computeSpot(l.model, aimer, 0, w).rmsRadiusMm, q.axisSpotUm[w],
+                          1, "RMS spot on axis" + line);
+            expectPrinted(1000.0 * computeSpot(l.model, aimer, q.field, w).rmsRadiusMm,
+                          q.fieldSpotUm[w], 1,
+                          "RMS spot at field " + std::to_string(q.field) + line);
+        }
+    }
+}
+
+// Share of the entrance pupil's area that does not reach the image at field f, wavelength w:
+// a hexapolar grid of 100 rings (30301 rays) samples the disk with nearly uniform density,
+// to 0.3 % of the area (the same share from 200 rings).
+double pupilShareLost(const Loaded& l, int f, int w, int rings = 100) {
+    SpotOptions o;
+    o.rings = rings;
+    const SpotResult s = computeSpot(l.model, RayAimer(l.model, AimMode::Real), f, w, o);
+    return 1.0 - static_cast<double>(s.raysLanded) / s.raysTraced;
+}
+
+// The vignetting the README quotes: the Cooke triplet's and the double Gauss's published
+// apertures cut the off-axis beams (the share of the pupil's area, and of the 217 spot rays,
+// whose outer ring weighs more); the long-focus lens vignettes nothing at any field,
+// wavelength or corner.
+TEST(Examples, ReadmeVignettingIsThePupilAreaLost) {
+    const Loaded cooke = load("cooke_triplet.toml");
+    const int d = cooke.model.primaryWavelength();
+    expectPrinted(100.0 * pupilShareLost(cooke, 2, d), 43.0, 0, "Cooke, area at 11.86 deg");
+    const SpotResult cs = computeSpot(cooke.model, RayAimer(cooke.model), 2, d);
+    expectPrinted(100.0 * (cs.raysTraced - cs.raysLanded) / cs.raysTraced, 49.0, 0,
+                  "Cooke, spot rays at 11.86 deg");
+    const Loaded dg = load("double_gauss_50mm.toml");
+    expectPrinted(100.0 * pupilShareLost(dg, 3, d), 71.0, 0, "double Gauss, area at 22 deg");
+    const SpotResult ds = computeSpot(dg.model, RayAimer(dg.model), 3, d);
+    expectPrinted(100.0 * (ds.raysTraced - ds.raysLanded) / ds.raysTraced, 73.0, 0,
+                  "double Gauss, spot rays at 22 deg");
+    const Loaded lf = load("longfocus_360mm.toml");
+    for (int f = 0; f < static_cast<int>(lf.prescription.system.fields.size()); ++f)
+        for (int w = 0; w < 3; ++w) EXPECT_EQ(pupilShareLost(lf, f, w, 24), 0.0) << f << " " << w;
+}
+
+// The singlet started from the thin-lens best form for an object at infinity,
+// q = 2 (n^2 - 1) / (n + 2) (Kingslake, Lens Design Fundamentals, 4.3) = 0.740 for N-BK7;
+// real-ray refinement moved its radii, not far: q = (r2 + r1) / (r2 - r1) of the file.
+TEST(Examples, SingletHasTheBestFormShapeFactor) {
+    const double n = 1.51680;
+    expectPrinted(2.0 * (n * n - 1.0) / (n + 2.0), 0.740, 3, "best-form shape factor");
+    const Loaded l = load("singlet.toml");
+    const double r1 = l.prescription.surfaces[2].radiusMm(),
+                 r2 = l.prescription.surfaces[3].radiusMm();
+    EXPECT_NEAR((r2 + r1) / (r2 - r1), 0.740, 0.002);
+}
+
+// The catadioptric's obscuration numbers: the secondary's sd is 38.6 % of the aperture's
+// (15 % of its area); on axis the primary's hole vignettes 8 % of the pupil's area in the
+// sequential model; the light returning from M2 crosses the primary's sphere within
+// 28.21 mm (real rays over the full pupil at F, d and C, fields 0 to 0.625 deg, no
+// apertures), and the hole is that plus 1 mm.
+TEST(Examples, CatadioptricHoleAndObscurationAreTheQuotedSizes) {
+    const Loaded l = load("catadioptric_2000mm.toml");
+    const Prescription& p = l.prescription;
+    const double eps = p.surfaces[5].clearSemiDiameterMm / p.surfaces[1].clearSemiDiameterMm;
+    expectPrinted(100.0 * eps, 38.6, 1, "obscuration, diameter");
+    expectPrinted(100.0 * eps * eps, 15.0, 0, "obscuration, area");
+    expectPrinted(100.0 * pupilShareLost(l, 0, l.model.primaryWavelength()), 8.0, 0,
+                  "hole, on axis");
+    // Where the ray after M2 meets M1's sphere (vertex z0, radius R; the crossing nearer the
+    // vertex), by hand.
+    const SequentialSurface& m1 = l.model.surface(4);
+    const double radius = p.surfaces[4].radiusMm();
+    const Vec3 centre(0.0, 0.0, m1.zMm + radius);
+    const RayAimer aimer(l.model, AimMode::Real);
+    SequentialTraceOptions o;
+    o.clipApertures = false;
+    o.recordPath = true;
+    double widest = 0.0;
+    for (const Field& f : p.system.fields)
+        for (int w = 0; w < 3; ++w)
+            for (const Vec2& pupil : hexapolarPupil(24)) {
+                const AimedRay a = aimer.aim(f, pupil.x, pupil.y, w);
+                ASSERT_EQ(a.status, RayStatus::Ok);
+                const SequentialRayResult r = traceSequential(l.model, w, a.ray, o);
+                ASSERT_TRUE(r.ok()) << r;
+                const Ray& afterM2 = r.path[5 - o.firstSurface];
+                const Vec3 oc = afterM2.origin - centre;
+                const double b = glm::dot(oc, afterM2.direction);
+                const double c = glm::dot(oc, oc) - radius * radius;
+                const double t = -b + std::sqrt(b * b - c);  // M2 lies inside M1's sphere
+                const Vec3 x = afterM2.origin + t * afterM2.direction;
+                widest = std::max(widest, std::hypot(x.x, x.y));
+            }
+    expectPrinted(widest, 28.21, 2, "returning beam on M1");
+    EXPECT_NEAR(p.surfaces[4].innerSemiDiameterMm - widest, 1.0, 0.01);
 }
 
 }  // namespace
