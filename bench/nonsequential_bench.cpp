@@ -95,6 +95,27 @@ void BM_TraceSun7(benchmark::State& state) {
 }
 BENCHMARK(BM_TraceSun7)->Unit(benchmark::kMillisecond);
 
+// The same trace on 1 and 2 threads (argument), wall time: 1024 rays per iteration in blocks
+// of 128 so both threads get work (the result is the same for any thread count).
+void BM_TraceSun7Threads(benchmark::State& state) {
+    const Fixture& f = sun7();
+    tbb::global_control threads(tbb::global_control::max_allowed_parallelism,
+                                static_cast<size_t>(state.range(0)));
+    TransportOptions o;
+    o.raysPerBlock = 128;
+    uint64_t seed = 1;
+    double rays = 0, segments = 0;
+    for (auto _ : state) {
+        o.seed = seed++;
+        const TraceResult r = traceNonsequential(f.trace.transport, f.trace.images, 1024, o);
+        rays += static_cast<double>(r.budget.rays);
+        segments += static_cast<double>(r.budget.segments);
+    }
+    state.counters["rays_per_s"] = benchmark::Counter(rays, benchmark::Counter::kIsRate);
+    state.counters["segments_per_s"] = benchmark::Counter(segments, benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_TraceSun7Threads)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
+
 // Online pruning for a ghost analysis that ignores scatter: `fresnel{2} and not scatter`
 // (two-reflection ghosts without any diffuse event). Argument 0: the criterion evaluated on
 // the histories after each ray (every branch traced); 1: branches culled as soon as the
