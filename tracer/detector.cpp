@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <numbers>
 #include <stdexcept>
 
 #include "lensdata/toml_document.h"
@@ -353,6 +354,92 @@ std::ostream& operator<<(std::ostream& os, const DetectorImage& image) {
     return os << "DetectorImage{'" << image.geometry().name << "', " << image.pixelsX() << " x "
               << image.pixelsY() << " pixels, total flux " << image.totalFlux() << " from "
               << image.totalCount() << " rays}";
+}
+
+// Detector Emission
+
+double ExitAperture::areaMm2() const { return std::numbers::pi * radiusMm * radiusMm; }
+
+std::ostream& operator<<(std::ostream& os, const ExitAperture& a) {
+    return os << "ExitAperture{centre " << a.centerMm << " mm, normal " << a.normal << ", radius "
+              << a.radiusMm << " mm}";
+}
+
+std::ostream& operator<<(std::ostream& os, const PixelRay& r) {
+    return os << "PixelRay{pixel " << r.pixel << ", " << r.ray << ", to " << r.aperturePointMm
+              << " at " << r.distanceMm << " mm, cos " << r.cosPixel << " / " << r.cosAperture
+              << ", pdf " << r.pdf << " /(mm^2 sr), W_e " << r.importance << "}";
+}
+
+namespace {
+
+// Unit vectors perpendicular to unit n, (u, v, n) right-handed.
+void apertureBasis(const Vec3& n, Vec3& u, Vec3& v) {
+    const Vec3 ref = std::abs(n.x) < 0.9 ? Vec3(1.0, 0.0, 0.0) : Vec3(0.0, 1.0, 0.0);
+    u = glm::normalize(ref - glm::dot(ref, n) * n);
+    v = glm::cross(n, u);
+}
+
+// The density of a pixel ray from its geometry (see the header comment).
+double pixelRayDensity(const DetectorImage& image, const ExitAperture& a, double distanceMm,
+                       double cosAperture) {
+    if (!(cosAperture > 0.0)) return 0.0;
+    return distanceMm * distanceMm / (image.geometry().pixelAreaMm2() * a.areaMm2() * cosAperture);
+}
+
+}  // namespace
+
+PixelRay samplePixelRay(const DetectorImage& image, int pixel, const ExitAperture& aperture,
+                        CounterRng& rng) {
+    std::array<double, kPixelRayUniforms> u;
+    for (double& x : u) x = rng.uniform();
+    const DetectorGeometry& g = image.geometry();
+    const int column = pixel % g.pixelsX, row = pixel / g.pixelsX;
+    // Between the pixel's edges, so that the point belongs to it by the boundary rule (the
+    // lower x edge and the upper y edge are the pixel's own).
+    const double x = image.xEdge(column) + u[0] * (image.xEdge(column + 1) - image.xEdge(column));
+    const double y = image.yEdge(row) - u[1] * (image.yEdge(row) - image.yEdge(row + 1));
+    PixelRay r;
+    r.pixel = pixel;
+    r.ray.origin = g.frame.toGlobalPoint(Vec3(x, y, 0.0));
+    Vec3 au, av;
+    apertureBasis(aperture.normal, au, av);
+    const double rho = aperture.radiusMm * std::sqrt(u[2]), phi = 2.0 * std::numbers::pi * u[3];
+    r.aperturePointMm = aperture.centerMm + rho * std::cos(phi) * au + rho * std::sin(phi) * av;
+    const Vec3 d = r.aperturePointMm - r.ray.origin;
+    r.distanceMm = glm::length(d);
+    r.ray.direction = d / r.distanceMm;
+    r.cosPixel = glm::dot(r.ray.direction, g.normal());
+    r.cosAperture = std::abs(glm::dot(r.ray.direction, aperture.normal));
+    r.pdf = pixelRayDensity(image, aperture, r.distanceMm, r.cosAperture);
+    r.importance = r.cosPixel > 0.0 ? 1.0 : 0.0;
+    return r;
+}
+
+double pixelRayPdf(const DetectorImage& image, int pixel, const ExitAperture& aperture,
+                   const Ray& ray) {
+    if (image.pixelOf(ray.origin) != pixel) return 0.0;
+    const double along = glm::dot(ray.direction, aperture.normal);
+    if (along == 0.0) return 0.0;
+    const double t = glm::dot(aperture.centerMm - ray.origin, aperture.normal) / along;
+    if (!(t > 0.0)) return 0.0;
+    const Vec3 q = ray.origin + t * ray.direction - aperture.centerMm;
+    if (glm::dot(q, q) > aperture.radiusMm * aperture.radiusMm) return 0.0;
+    return pixelRayDensity(image, aperture, t, std::abs(along));
+}
+
+double pixelImportance(const DetectorImage& image, int pixel, const Ray& ray) {
+    if (image.pixelOf(ray.origin) != pixel) return 0.0;
+    return glm::dot(ray.direction, image.geometry().normal()) > 0.0 ? 1.0 : 0.0;
+}
+
+std::array<Vec3, 4> pixelCornersGlobal(const DetectorImage& image, int pixel) {
+    const DetectorGeometry& g = image.geometry();
+    const int c = pixel % g.pixelsX, r = pixel / g.pixelsX;
+    auto corner = [&](int k, int j) {
+        return g.frame.toGlobalPoint(Vec3(image.xEdge(k), image.yEdge(j), 0.0));
+    };
+    return {corner(c, r), corner(c + 1, r), corner(c + 1, r + 1), corner(c, r + 1)};
 }
 
 double sumEstimatorVariance(double sum, double sumSquares, uint64_t n) {

@@ -45,6 +45,7 @@
 // a fixed order (for example tbb::parallel_deterministic_reduce over ray indices with a
 // fixed grain size), never in completion order.
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <ostream>
@@ -55,6 +56,7 @@
 #include "geometry/frame.h"
 #include "geometry/scene.h"
 #include "lensdata/errors.h"
+#include "tracer/rng.h"
 
 namespace veil {
 
@@ -213,6 +215,69 @@ class DetectorImage {
     uint64_t totalCount_ = 0;
 };
 std::ostream& operator<<(std::ostream& os, const DetectorImage& image);
+
+// Detector Emission
+//
+// For the backward and bidirectional passes the detector is an endpoint that emits importance
+// (DESIGN.md, "Endpoints"): a pixel sends rays toward the exit aperture of the lens, from a
+// point uniform in the pixel toward a point uniform on the aperture disk.
+//
+// Importance. A pixel records flux (DetectorImage sums W or lm per pixel), so its importance
+// is W_e(x, w) = 1 for x in the pixel and w leaving the sensitive side (dot(w, normal()) > 0,
+// w pointing back along the arriving light), 0 otherwise: dimensionless, and the flux the
+// pixel records is
+//     Phi_pixel = integral over the pixel of integral over the hemisphere of
+//                 W_e(x, w) L(x, -w) cos(theta_pixel) dw dA,
+// L the radiance arriving at x travelling along -w. (For irradiance divide by
+// pixelAreaMm2(), as DetectorImage::irradiance() does.) A backward ray estimates it as
+// W_e L cos(theta_pixel) / pdf.
+//
+// Measure. pdf is per mm^2 of the pixel times per steradian at the pixel point:
+//     pdf = 1 / A_pixel * 1 / A_aperture * d^2 / cos(theta_aperture),
+// d the distance from the pixel point to the aperture point and theta_aperture the angle
+// between the ray and the aperture's normal (the area-to-solid-angle Jacobian). The etendue
+// of the pixel through the disk is then the expectation of cos(theta_pixel) / pdf.
+
+// A disk the pixel rays aim at (global mm): typically the clear aperture of the last lens
+// element. The side the normal points to does not matter.
+struct ExitAperture {
+    Vec3 centerMm{0.0};
+    Vec3 normal{0.0, 0.0, 1.0};  // unit
+    double radiusMm = 0.0;
+    double areaMm2() const;
+};
+std::ostream& operator<<(std::ostream& os, const ExitAperture& a);
+
+struct PixelRay {
+    Ray ray;  // global: origin in the pixel, unit direction toward aperturePointMm
+    int pixel = 0;
+    Vec3 aperturePointMm{0.0};
+    double distanceMm = 0.0;   // from the origin to aperturePointMm
+    double cosPixel = 0.0;     // dot(direction, normal()); <= 0: aperture behind the detector
+    double cosAperture = 0.0;  // |dot(direction, aperture normal)|
+    double pdf = 0.0;          // per mm^2 per sr (see above); 0 when cosAperture = 0
+    double importance = 0.0;   // W_e: 1 when cosPixel > 0, else 0
+};
+std::ostream& operator<<(std::ostream& os, const PixelRay& r);
+
+// Uniforms samplePixelRay() draws from the stream: two for the pixel point, two for the
+// aperture point, in that order.
+inline constexpr int kPixelRayUniforms = 4;
+
+// A ray from `pixel` of the image's grid (0 <= pixel < pixelCount()) through the aperture.
+PixelRay samplePixelRay(const DetectorImage& image, int pixel, const ExitAperture& aperture,
+                        CounterRng& rng);
+// The pdf samplePixelRay() gives `ray` (origin on the detector plane, unit direction): 0 when
+// the origin is not in `pixel` or the ray misses the aperture disk.
+double pixelRayPdf(const DetectorImage& image, int pixel, const ExitAperture& aperture,
+                   const Ray& ray);
+// W_e of a ray leaving the detector (see above) for `pixel`: 1 when its origin falls in that
+// pixel (pixelOf) and it leaves the sensitive side, else 0.
+double pixelImportance(const DetectorImage& image, int pixel, const Ray& ray);
+// The pixel's corners in global coordinates: (xEdge(c), yEdge(r)), (xEdge(c + 1), yEdge(r)),
+// (xEdge(c + 1), yEdge(r + 1)), (xEdge(c), yEdge(r + 1)) for column c and row r, i.e. top
+// left, top right, bottom right, bottom left as the image is shown.
+std::array<Vec3, 4> pixelCornersGlobal(const DetectorImage& image, int pixel);
 
 // Variance of the sum estimator F = sum x_i over n samples from S1 = sum x_i and
 // S2 = sum x_i^2: n / (n - 1) * (S2 - S1^2 / n), clamped at 0 against rounding. With fewer

@@ -636,6 +636,42 @@ double OpticalProperty::scatterPdf(const SurfaceContext& c, const Vec3& out) con
         scatter_);
 }
 
+// Transport Modes
+
+std::ostream& operator<<(std::ostream& os, TransportMode m) {
+    return os << (m == TransportMode::Flux ? "flux" : "importance");
+}
+
+SurfaceContext reverseContext(const SurfaceContext& c, const Vec3& out) {
+    SurfaceContext r = c;
+    r.direction = -out;
+    if (glm::dot(out, c.normal) < 0.0) {  // across the surface: the light comes from there
+        r.normal = -c.normal;
+        r.n1 = c.n2;
+        r.n2 = c.n1;
+    }
+    return r;
+}
+
+double OpticalProperty::bsdf(const SurfaceContext& c, const Vec3& out, TransportMode mode) const {
+    if (mode == TransportMode::Flux) return bsdf(c, out);
+    return bsdf(reverseContext(c, out), -c.direction);
+}
+
+double OpticalProperty::specularReflectWeight(const SurfaceContext& c, TransportMode mode) const {
+    if (mode == TransportMode::Flux) return channels(c).specularReflect;
+    return channels(reverseContext(c, reflect(c.direction, c.normal))).specularReflect;
+}
+
+double OpticalProperty::specularTransmitWeight(const SurfaceContext& c, TransportMode mode) const {
+    if (mode == TransportMode::Flux) return channels(c).specularTransmit;
+    if (c.opaque) return 0.0;
+    const std::optional<Vec3> t = refract(c.direction, c.normal, c.n1, c.n2);
+    if (!t) return 0.0;
+    const double ratio = c.n1 / c.n2;
+    return channels(reverseContext(c, *t)).specularTransmit * ratio * ratio;
+}
+
 std::ostream& operator<<(std::ostream& os, const OpticalProperty& p) {
     return os << "OpticalProperty{'" << p.name() << "', specular " << p.specular() << ", scatter "
               << p.scatter() << "}";

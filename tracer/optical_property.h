@@ -76,6 +76,43 @@
 // steradian and includes the channel fraction: bsdf(out) cos(theta_out) dw is the fraction of
 // the incident flux scattered into dw. It is the "flux" BSDF: no n^2 radiance factors on
 // transmission. It holds only the scatter part (the specular part is a delta).
+//
+// Transport modes (Veach's thesis, ch. 5: non-symmetric scattering and the adjoint BSDF, and
+// ch. 6: generalised reciprocity; pbrt-v4's TransportMode, named here by what the path
+// carries, see below). A pass walks a path either as light travels or against it, and the
+// SurfaceContext always describes the walk: `direction` is the path's own incoming direction, `out`
+// its outgoing one.
+//   Flux        the path follows the light (forward photons from a source). bsdf(c, out,
+//               Flux) is the flux BSDF above, f(d_in -> d_out), light going d_in -> d_out:
+//               a photon's flux is multiplied by f cos(theta_out) / pdf(out), or by the
+//               channel fraction for a specular child. Flux is conserved across a refracting
+//               boundary, so there is no n^2 factor here.
+//   Importance  the path runs against the light (backward rays from detector pixels): it
+//               carries importance, and what it finally multiplies is radiance. bsdf(c, out,
+//               Importance) is the adjoint BSDF f*(d_in -> d_out) = f(-d_out -> -d_in): the
+//               flux BSDF of the light that arrives along -out and leaves along
+//               -c.direction, evaluated in that light's own context (reverseContext()). A
+//               backward path's weight is multiplied by f* cos(theta_out) / pdf(out).
+// pbrt-v4 names the mode after the quantity the path computes: its Radiance mode is a path
+// from the camera (our Importance), its Importance mode a path from a light (our Flux).
+//
+// Where the n^2 rule lives. Radiance is not invariant across a refracting boundary: light
+// refracted from medium a into medium b has L_b = (n_b / n_a)^2 T L_a, because the projected
+// solid angle shrinks by (n_a / n_b)^2 while the flux is kept. A backward path stepping from
+// a (its incident medium, n1 of its context) into b (n2) meets light that goes b -> a, so its
+// specular transmission weight is T (n1 / n2)^2 (specularTransmitWeight(c, Importance)); a
+// forward photon's is T. For scatter the factor is not added by hand: the adjoint is
+// evaluated by reversal, which is exact for any model. A physical BSDF obeys Veach's
+// generalised reciprocity n_in^2 f(d_in -> d_out) = n_out^2 f(-d_out -> -d_in) (n_in the
+// index on the side the light arrives from), so for it f* = (n1 / n2)^2 f in the path's
+// context: the shortcut pbrt takes. The scatter models here are defined by how they split the
+// incident flux and are not all reciprocal: Lambertian transmission has T / pi from both
+// sides, and the Gaussian lobe (an intensity distribution renormalised per incidence angle)
+// has f(d_in -> d_out) / f(-d_out -> -d_in) = cos(theta_in) M(theta_out) / (cos(theta_out)
+// M(theta_in)), M the lobe's mass above the horizon, even in reflection. Lambertian and ABg
+// reflection (A / (B + |beta - beta0|^g), symmetric in the two directions) are reciprocal;
+// the ABg transmission lobe is not (beta0 carries n1 / n2). Evaluating the adjoint by reversal
+// keeps the backward passes consistent with the forward photons whatever the model.
 
 #include <memory>
 #include <optional>
@@ -116,6 +153,15 @@ struct Channels {
     double absorbed() const { return 1.0 - sum(); }
 };
 std::ostream& operator<<(std::ostream& os, const Channels& c);
+
+// Which way a pass walks a path (see the header comment).
+enum class TransportMode { Flux, Importance };
+std::ostream& operator<<(std::ostream& os, TransportMode m);  // "flux", "importance"
+
+// The context of the light that a path walking against it meets: the light arrives along
+// -out and leaves along -c.direction. Same normal and indices when out is on the incident
+// side (reflection), flipped normal and swapped indices when it is across (transmission).
+SurfaceContext reverseContext(const SurfaceContext& c, const Vec3& out);
 
 struct ScatterSample {
     Vec3 direction{0.0};
@@ -259,6 +305,15 @@ class OpticalProperty {
     double scatterPdf(const SurfaceContext& c, const Vec3& out) const;
     // Scatter bsdf per steradian including the channel fraction (see the header comment).
     double bsdf(const SurfaceContext& c, const Vec3& out) const;
+    // The same for a path walked in `mode`: the flux BSDF (Flux) or its adjoint
+    // (Importance), per steradian of `out`.
+    double bsdf(const SurfaceContext& c, const Vec3& out, TransportMode mode) const;
+    // The factor of a path's weight along the specular reflection and transmission of c:
+    // Flux, the channel fractions; Importance, the light's channel fraction (its own
+    // context, reverseContext()) and, for transmission, (n1 / n2)^2 (0 where c has no
+    // refracted direction).
+    double specularReflectWeight(const SurfaceContext& c, TransportMode mode) const;
+    double specularTransmitWeight(const SurfaceContext& c, TransportMode mode) const;
 
   private:
     std::string name_;

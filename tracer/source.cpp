@@ -416,6 +416,176 @@ EmittedRay Source::emit(CounterRng& rng, uint64_t rayCount) const {
     return out;
 }
 
+// Source Evaluation
+
+namespace {
+
+// Tolerances of emits(): how far off its plane (relative to the source's size) and past its
+// rim (relative) an origin may lie, how far (rad) from a beam's direction a direction may
+// point, and the relative slack on a cone's 1 - cos: rounding in emit() (normalize, the
+// frame transform) stays well inside them.
+constexpr double kPlaneTolerance = 1e-9;
+constexpr double kRimTolerance = 1e-12;
+constexpr double kBeamDirectionTolerance = 1e-9;
+constexpr double kConeTolerance = 1e-9;
+
+// Whether unit w lies within angle a of unit axis (a >= pi: every direction).
+bool inCone(const Vec3& w, const Vec3& axis, double a) {
+    if (a >= kPi) return true;
+    const Vec3 d = w - axis;
+    return 0.5 * glm::dot(d, d) <= oneMinusCos(a) * (1.0 + kConeTolerance);
+}
+
+// Origin on a beam's start disk.
+bool onStartDisk(const Beam& b, const Vec3& p) {
+    const Vec3 o = p - b.startCenterMm;
+    const double along = glm::dot(o, b.direction);
+    const double scale = b.radiusMm + glm::length(b.startCenterMm);
+    if (!(std::abs(along) <= kPlaneTolerance * scale)) return false;
+    const Vec3 across = o - along * b.direction;
+    return glm::dot(across, across) <= b.radiusMm * b.radiusMm * (1.0 + kRimTolerance);
+}
+
+bool onArea(const AreaEmitter& e, const Vec3& p) {
+    const Vec3 local = e.frame.toLocalPoint(p);
+    const double size =
+        e.shape == AreaEmitter::Shape::Disk ? e.radiusMm : std::max(e.sizeMm.x, e.sizeMm.y);
+    if (!(std::abs(local.z) <= kPlaneTolerance * (size + glm::length(e.frame.translation))))
+        return false;
+    if (e.shape == AreaEmitter::Shape::Disk)
+        return local.x * local.x + local.y * local.y <=
+               e.radiusMm * e.radiusMm * (1.0 + kRimTolerance);
+    return std::abs(local.x) <= 0.5 * e.sizeMm.x * (1.0 + kRimTolerance) &&
+           std::abs(local.y) <= 0.5 * e.sizeMm.y * (1.0 + kRimTolerance);
+}
+
+// cos(theta) of a global direction about the area's normal; <= 0 when it is not emitted.
+double areaCos(const AreaEmitter& e, const Vec3& w) {
+    const Vec3 local = e.frame.toLocalDirection(w);
+    if (!(local.z > 0.0)) return 0.0;
+    const double s = std::sin(e.coneHalfAngleRad);
+    if (local.x * local.x + local.y * local.y > s * s * (1.0 + kConeTolerance)) return 0.0;
+    return local.z;
+}
+
+double coneSolidAngleSr(double halfAngleRad) { return 2.0 * kPi * oneMinusCos(halfAngleRad); }
+
+}  // namespace
+
+Source::Delta Source::delta() const {
+    if (std::holds_alternative<CollimatedSource>(shape_)) return Delta::Direction;
+    if (std::holds_alternative<PointSource>(shape_)) return Delta::Position;
+    return Delta::None;
+}
+
+bool Source::emits(const Ray& ray) const {
+    const Vec3& w = ray.direction;
+    return std::visit(
+        [&](const auto& k) -> bool {
+            using T = std::decay_t<decltype(k)>;
+            if constexpr (std::is_same_v<T, CollimatedSource>) {
+                return onStartDisk(k.beam, ray.origin) &&
+                       glm::length(w - k.beam.direction) <= kBeamDirectionTolerance;
+            } else if constexpr (std::is_same_v<T, SunSource>) {
+                return onStartDisk(k.beam, ray.origin) &&
+                       inCone(w, k.beam.direction, k.beam.halfAngleRad);
+            } else if constexpr (std::is_same_v<T, PointSource>) {
+                const double scale = 1.0 + glm::length(k.positionMm);
+                return glm::length(ray.origin - k.positionMm) <= kPlaneTolerance * scale &&
+                       inCone(w, k.axis, k.halfAngleRad);
+            } else {
+                return onArea(k.area, ray.origin) && areaCos(k.area, w) > 0.0;
+            }
+        },
+        shape_);
+}
+
+double Source::emittingAreaMm2() const {
+    return std::visit(
+        [](const auto& k) -> double {
+            using T = std::decay_t<decltype(k)>;
+            if constexpr (std::is_same_v<T, CollimatedSource> || std::is_same_v<T, SunSource>)
+                return k.beam.areaMm2();
+            else if constexpr (std::is_same_v<T, PointSource>)
+                return 0.0;
+            else
+                return k.area.areaMm2();
+        },
+        shape_);
+}
+
+double Source::emittingSolidAngleSr() const {
+    return std::visit(
+        [](const auto& k) -> double {
+            using T = std::decay_t<decltype(k)>;
+            if constexpr (std::is_same_v<T, CollimatedSource>)
+                return 0.0;
+            else if constexpr (std::is_same_v<T, SunSource>)
+                return coneSolidAngleSr(k.beam.halfAngleRad);
+            else if constexpr (std::is_same_v<T, PointSource>)
+                return k.solidAngleSr();
+            else
+                return coneSolidAngleSr(k.area.coneHalfAngleRad);
+        },
+        shape_);
+}
+
+double Source::emitted(const Vec3& pointMm, const Vec3& direction) const {
+    if (!emits({pointMm, direction})) return 0.0;
+    return std::visit(
+        [&](const auto& k) -> double {
+            using T = std::decay_t<decltype(k)>;
+            if constexpr (std::is_same_v<T, CollimatedSource>) {
+                return totalFlux_ / k.beam.areaMm2();
+            } else if constexpr (std::is_same_v<T, SunSource>) {
+                const double cosT = glm::dot(direction, k.beam.direction);
+                return totalFlux_ /
+                       (k.beam.areaMm2() * coneSolidAngleSr(k.beam.halfAngleRad) * cosT);
+            } else if constexpr (std::is_same_v<T, PointSource>) {
+                return totalFlux_ / k.solidAngleSr();
+            } else {
+                return totalFlux_ / (k.area.areaMm2() * k.area.projectedSolidAngleSr());
+            }
+        },
+        shape_);
+}
+
+double Source::emitted(const Vec3& pointMm, const Vec3& direction, int line) const {
+    return spectrum_.share(line) * emitted(pointMm, direction);
+}
+
+double Source::pdf(const Ray& ray) const {
+    if (!emits(ray)) return 0.0;
+    return std::visit(
+        [&](const auto& k) -> double {
+            using T = std::decay_t<decltype(k)>;
+            if constexpr (std::is_same_v<T, CollimatedSource>) {
+                return 1.0 / k.beam.areaMm2();
+            } else if constexpr (std::is_same_v<T, SunSource>) {
+                return 1.0 / (k.beam.areaMm2() * coneSolidAngleSr(k.beam.halfAngleRad));
+            } else if constexpr (std::is_same_v<T, PointSource>) {
+                return 1.0 / k.solidAngleSr();
+            } else {
+                // Uniform in area, cosine law within the cone (areaRay()).
+                return areaCos(k.area, ray.direction) /
+                       (k.area.areaMm2() * k.area.projectedSolidAngleSr());
+            }
+        },
+        shape_);
+}
+
+std::ostream& operator<<(std::ostream& os, Source::Delta d) {
+    switch (d) {
+        case Source::Delta::None:
+            return os << "none";
+        case Source::Delta::Direction:
+            return os << "direction";
+        case Source::Delta::Position:
+            return os << "position";
+    }
+    return os << "?";
+}
+
 std::ostream& operator<<(std::ostream& os, const Source& s) {
     return os << "Source{" << s.name() << ": " << s.shape() << ", " << s.totalFlux() << " "
               << s.unit() << ", " << s.spectrum() << "}";

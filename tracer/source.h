@@ -27,6 +27,34 @@
 // direction spread draw and ignore them), so the draws that follow are the same for every
 // kind.
 //
+// Evaluation (for the backward and bidirectional passes: next-event estimation toward a
+// source, a backward ray that reaches one). Every kind emits from a surface S (a disk, a
+// rectangle, or a point) into a set of directions, and emit() draws the ray's origin and
+// direction independently of its line. With x the ray's origin, w its direction (global,
+// unit) and theta the angle between w and the surface's normal:
+//
+//   kind        S and its normal           emitted(x, w)                 pdf(ray), measure
+//   collimated  start disk, beam direction E = Phi / A   (unit/mm^2)     1 / A      per mm^2
+//   sun         start disk, beam direction L = Phi / (A Omega cos th)    1 / (A Omega)
+//                                                    (unit/(mm^2 sr))               per mm^2 sr
+//   point       the point, cone axis       I = Phi / Omega   (unit/sr)   1 / Omega  per sr
+//   window,     disk or rectangle, its +z  L = Phi / (A pi sin^2 c)      cos th / (A pi sin^2 c)
+//   lambertian                                       (unit/(mm^2 sr))               per mm^2 sr
+//
+// (A the area of S, Omega the solid angle of the direction cone, c the emission cone's
+// half-angle, Phi = totalFlux(); 0 outside the support.) Collimated and point sources are
+// delta distributions: a beam's radiance is E delta(w - d) (a delta in direction; emitted()
+// gives its weight, the irradiance on a plane perpendicular to the beam), a point's is
+// I delta(x - p) (a delta in position; emitted() gives the intensity, as pbrt's PointLight::I).
+// The sun draws directions uniform in solid angle over the solar disk with equal flux, so its
+// radiance carries 1 / cos th (at most 1 + 1.1e-5 for 0.533 deg): it is exactly what emit()
+// does. In every case Phi = integral over S and the directions of emitted(x, w) cos th
+// (E A for a beam, I Omega for a point), and for every ray emit() produces
+// emitted(x, w) cos th / pdf(ray) = Phi (cos th = 1 for the two delta kinds): the flux of an
+// emitted ray (per ray of a run of one, before the spectral weight). Per line i, the
+// radiance is share(i) times the total (emitted(x, w, i)) and the line is drawn with
+// probability spectrum().probability(i), independent of the ray.
+//
 // The scene keys of [[source]] are documented in docs/format.md.
 
 #include <cstdint>
@@ -182,6 +210,28 @@ class Source {
     // One ray of a run of rayCount rays (> 0): flux = totalFlux / rayCount * spectral weight.
     EmittedRay emit(CounterRng& rng, uint64_t rayCount) const;
 
+    // Source Evaluation (measures and units in the header comment)
+    // Which factor of the emitted radiance is a delta distribution.
+    enum class Delta { None, Direction, Position };
+    Delta delta() const;
+    // Whether emit() can produce this ray: its origin lies on the emitting surface (within
+    // 1e-9 of the source's size off its plane, 1e-12 relative past its rim) and its unit
+    // direction lies in the emitted set (1e-9 rad for a beam's single direction).
+    bool emits(const Ray& ray) const;
+    // Radiance (unit/(mm^2 sr)) from the point along the direction, summed over the lines;
+    // for a collimated beam the irradiance E (unit/mm^2), for a point the intensity I
+    // (unit/sr). 0 when emits({pointMm, direction}) is false.
+    double emitted(const Vec3& pointMm, const Vec3& direction) const;
+    // The same for line i alone: share(i) * emitted(pointMm, direction).
+    double emitted(const Vec3& pointMm, const Vec3& direction, int line) const;
+    // Density with which emit() produces the ray (origin and direction; the line is drawn
+    // independently), in the kind's measure; 0 when emits(ray) is false.
+    double pdf(const Ray& ray) const;
+    // Area of the emitting surface (mm^2; 0 for a point) and solid angle of its directions
+    // (sr; 0 for a collimated beam).
+    double emittingAreaMm2() const;
+    double emittingSolidAngleSr() const;
+
   private:
     std::string name_;
     SourceShape shape_;
@@ -190,6 +240,7 @@ class Source {
     FileLoc loc_;
 };
 std::ostream& operator<<(std::ostream& os, const Source& s);
+std::ostream& operator<<(std::ostream& os, Source::Delta d);  // "none", "direction", ...
 
 // Reads every [[source]] table of the scene (none: an empty list). The wavelengths are the
 // model's, weighted as in [system] (equal weights if the model was built at other

@@ -1,6 +1,7 @@
 // Detectors: the pixel rule at edges and corners, accumulation and reductions against serial
 // sums, the variance formula against a direct computation, and z-scores of Monte Carlo
-// estimates of known fluxes (with and without ray splitting). Fixed seeds throughout.
+// estimates of known fluxes (with and without ray splitting), and the detector as an emitter
+// (pixel rays through an exit aperture: coverage, pdf, etendue). Fixed seeds throughout.
 
 #include "tracer/detector.h"
 
@@ -528,6 +529,185 @@ TEST(PlaceDetectors, ErrorsNameTheObjectOrTheEntry) {
     EXPECT_NO_THROW(placeDetector(edge, scene));
 
     EXPECT_THROW(placeDetectors({}, Scene()), ModelError);
+}
+
+}  // namespace
+}  // namespace veil
+
+namespace veil {
+namespace {
+
+// Detector Emission Tests
+//
+// Pixel rays against independent truths: Pearson's chi-square of where they cross the
+// aperture (bins equally probable under uniform area: r^2 and angle), the pdf recomputed here
+// from the ray's own intersection with the aperture plane, and the etendue of a small pixel
+// through a coaxial disk, A pi sin^2(alpha).
+
+constexpr double kPiD = 3.14159265358979323846;
+
+// A tilted, shifted detector frame and an aperture 40 mm in front of its sensitive side.
+Frame tiltedFrame() {
+    const Vec3 z = glm::normalize(Vec3(0.1, -0.2, 1.0));
+    const Vec3 x = glm::normalize(glm::cross(Vec3(0, 1, 0), z));
+    return {glm::dmat3(x, glm::cross(z, x), z), Vec3(3.0, -1.0, 120.0)};
+}
+ExitAperture apertureBefore(const Frame& f) {
+    ExitAperture a;
+    a.centerMm = f.toGlobalPoint(Vec3(0.5, -0.3, -40.0));
+    a.normal = glm::normalize(f.toGlobalDirection(Vec3(0.15, 0.05, 1.0)));
+    a.radiusMm = 6.0;
+    return a;
+}
+
+// Pearson's chi-square of counts against equal expectations; limit mean + 5 sigma.
+struct EqualBins {
+    explicit EqualBins(int n) : counts(n, 0) {}
+    std::vector<int64_t> counts;
+    int64_t total = 0;
+    void add(int bin) {
+        ++counts.at(bin);
+        ++total;
+    }
+    double statistic() const {
+        const double e = static_cast<double>(total) / counts.size();
+        double chi = 0.0;
+        for (int64_t k : counts) chi += (k - e) * (k - e) / e;
+        return chi;
+    }
+    double limit() const {
+        const double dof = counts.size() - 1.0;
+        return dof + 5.0 * std::sqrt(2.0 * dof);
+    }
+};
+
+TEST(DetectorEmission, RaysLeaveThePixelUniformlyAndCoverTheApertureUniformly) {
+    const Frame f = tiltedFrame();
+    const DetectorImage im(unitGrid(f));
+    const ExitAperture a = apertureBefore(f);
+    const int pixel = im.pixelIndex(2, 1);
+    // The test's own basis on the aperture (any: uniform area is uniform in angle).
+    const Vec3 e1 = glm::normalize(glm::cross(a.normal, Vec3(0.3, 1.0, 0.2)));
+    const Vec3 e2 = glm::cross(a.normal, e1);
+    EqualBins aperture(10 * 8), footprint(16);
+    const int n = 100000;
+    for (int i = 0; i < n; ++i) {
+        CounterRng rng(404, static_cast<uint64_t>(i));
+        const PixelRay r = samplePixelRay(im, pixel, a, rng);
+        ASSERT_EQ(im.pixelOf(r.ray.origin), pixel) << r;
+        const Vec3 q = r.aperturePointMm - a.centerMm;
+        ASSERT_NEAR(glm::dot(q, a.normal), 0.0, 1e-12);
+        ASSERT_NEAR(glm::length(r.ray.origin + r.distanceMm * r.ray.direction - r.aperturePointMm),
+                    0.0, 1e-11);
+        const double s = glm::dot(q, q) / (a.radiusMm * a.radiusMm);
+        ASSERT_LE(s, 1.0);
+        double phi = std::atan2(glm::dot(q, e2), glm::dot(q, e1));
+        if (phi < 0.0) phi += 2.0 * kPiD;
+        aperture.add(std::min(9, static_cast<int>(s * 10)) * 8 +
+                     std::min(7, static_cast<int>(phi / (2.0 * kPiD) * 8)));
+        const Vec3 local = f.toLocalPoint(r.ray.origin);
+        const int ix = std::min(3, static_cast<int>((local.x - im.xEdge(2)) * 4));
+        const int iy = std::min(3, static_cast<int>((im.yEdge(1) - local.y) * 4));
+        footprint.add(ix * 4 + iy);
+        ASSERT_EQ(r.importance, 1.0);  // the aperture is in front of the sensitive side
+    }
+    EXPECT_LT(aperture.statistic(), aperture.limit()) << "aperture, 80 bins";
+    EXPECT_LT(footprint.statistic(), footprint.limit()) << "pixel, 16 bins";
+}
+
+TEST(DetectorEmission, PdfIsTheAreaProductTimesTheSolidAngleJacobian) {
+    const Frame f = tiltedFrame();
+    const DetectorImage im(unitGrid(f));
+    const ExitAperture a = apertureBefore(f);
+    for (int i = 0; i < 2000; ++i) {
+        CounterRng rng(405, static_cast<uint64_t>(i));
+        const int pixel = i % im.pixelCount();
+        const PixelRay r = samplePixelRay(im, pixel, a, rng);
+        // Independently: where the ray meets the aperture plane, and the formula
+        // pdf = 1 / A_pixel * 1 / (pi R^2) * t^2 / cos.
+        const double cosA = std::abs(glm::dot(r.ray.direction, a.normal));
+        const double t =
+            glm::dot(a.centerMm - r.ray.origin, a.normal) / glm::dot(r.ray.direction, a.normal);
+        const double expected = t * t / (1.0 * kPiD * 36.0 * cosA);  // 1 mm^2 pixels
+        ASSERT_NEAR(r.pdf, expected, 1e-12 * expected) << r;
+        ASSERT_NEAR(pixelRayPdf(im, pixel, a, r.ray), expected, 1e-12 * expected) << r;
+        EXPECT_EQ(pixelImportance(im, pixel, r.ray), 1.0);
+        // Another pixel, or a ray that misses the disk, was not sampled.
+        EXPECT_EQ(pixelRayPdf(im, (pixel + 1) % im.pixelCount(), a, r.ray), 0.0);
+        EXPECT_EQ(pixelImportance(im, (pixel + 1) % im.pixelCount(), r.ray), 0.0);
+        const Ray wide{
+            r.ray.origin,
+            glm::normalize(a.centerMm + 6.5 * glm::normalize(glm::cross(a.normal, Vec3(1, 0, 0))) -
+                           r.ray.origin)};
+        EXPECT_EQ(pixelRayPdf(im, pixel, a, wide), 0.0);
+        // Leaving through the back of the detector carries no importance.
+        EXPECT_EQ(pixelImportance(im, pixel, {r.ray.origin, -r.ray.direction}), 0.0);
+    }
+}
+
+TEST(DetectorEmission, EtendueOfASmallPixelThroughACoaxialDisk) {
+    // A 10 um pixel on the axis of a disk of radius 10 mm, 50 mm in front of its sensitive
+    // side: G = A pi sin^2(alpha), sin^2(alpha) = R^2 / (R^2 + D^2); the finite pixel changes
+    // it by ~(10 um / 50 mm)^2.
+    DetectorGeometry g;
+    g.name = "pixel";
+    g.frame = tiltedFrame();
+    g.widthMm = g.heightMm = 0.01;
+    g.pixelsX = g.pixelsY = 1;
+    const DetectorImage im(g);
+    ExitAperture a;
+    a.centerMm = g.frame.toGlobalPoint(Vec3(0.0, 0.0, -50.0));
+    a.normal = g.frame.toGlobalDirection(Vec3(0.0, 0.0, 1.0));
+    a.radiusMm = 10.0;
+    const double sin2 = 100.0 / (100.0 + 2500.0);
+    const double etendue = 1e-4 * kPiD * sin2;
+    const int n = 100000;
+    double s1 = 0.0, s2 = 0.0;
+    for (int i = 0; i < n; ++i) {
+        CounterRng rng(406, static_cast<uint64_t>(i));
+        const PixelRay r = samplePixelRay(im, 0, a, rng);
+        const double x = r.importance * r.cosPixel / r.pdf;
+        s1 += x;
+        s2 += x * x;
+    }
+    const double mean = s1 / n;
+    const double sigma = std::sqrt((s2 / n - mean * mean) / (n - 1));
+    EXPECT_LT(std::abs(mean - etendue) / sigma, 4.0)
+        << mean << " +- " << sigma << " vs " << etendue;
+    EXPECT_LT(sigma, 0.01 * etendue);
+}
+
+TEST(DetectorEmission, PixelCornersBoundThePixel) {
+    const Frame f = tiltedFrame();
+    const DetectorImage im(unitGrid(f));
+    for (int p = 0; p < im.pixelCount(); ++p) {
+        const std::array<Vec3, 4> c = pixelCornersGlobal(im, p);
+        // The centre of the four is the pixel centre, and the sides are the pitch.
+        EXPECT_EQ(im.pixelOf(0.25 * (c[0] + c[1] + c[2] + c[3])), p);
+        const Vec2 centre = im.pixelCentreLocal(p);
+        EXPECT_NEAR(
+            glm::length(0.25 * (c[0] + c[1] + c[2] + c[3]) - f.toGlobalPoint(Vec3(centre, 0.0))),
+            0.0, 1e-12);
+        EXPECT_NEAR(glm::length(c[1] - c[0]), im.geometry().pixelWidthMm(), 1e-12);
+        EXPECT_NEAR(glm::length(c[3] - c[0]), im.geometry().pixelHeightMm(), 1e-12);
+        EXPECT_NEAR(glm::dot(glm::cross(c[1] - c[0], c[3] - c[0]), im.geometry().normal()),
+                    im.geometry().pixelAreaMm2(), 1e-12);  // top-left, top-right, bottom-left
+    }
+    // Without rotation the corners are exact: the top-left one belongs to the pixel by the
+    // boundary rule, the others to its right, lower and lower-right neighbours (or nobody
+    // past the outer edges, which are inside).
+    const DetectorImage flat(unitGrid());
+    const std::array<Vec3, 4> c = pixelCornersGlobal(flat, at(flat, 3, 1));
+    EXPECT_EQ(flat.pixelOf(c[0]), at(flat, 3, 1));
+    EXPECT_EQ(flat.pixelOf(c[1]), at(flat, 4, 1));
+    EXPECT_EQ(flat.pixelOf(c[2]), at(flat, 4, 2));
+    EXPECT_EQ(flat.pixelOf(c[3]), at(flat, 3, 2));
+    std::ostringstream os;
+    os << apertureBefore(f);
+    CounterRng rng(1, 1);
+    os << samplePixelRay(im, 0, apertureBefore(f), rng);
+    EXPECT_NE(os.str().find("ExitAperture{"), std::string::npos);
+    EXPECT_NE(os.str().find("PixelRay{pixel 0"), std::string::npos);
 }
 
 }  // namespace

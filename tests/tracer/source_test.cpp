@@ -1,6 +1,8 @@
 // Sources: emitted positions and directions against their analytic distributions
 // (Pearson's chi-square, fixed seeds, thresholds at mean + 5 sigma), beam coverage of the
-// front lens, flux bookkeeping, and the [[source]] reader's keys and errors.
+// front lens, flux bookkeeping, evaluation (radiance integrated over independently sampled
+// positions and directions against the total flux, z-scores; emit() against pdf() by
+// chi-square), and the [[source]] reader's keys and errors.
 
 #include "tracer/source.h"
 
@@ -628,6 +630,366 @@ kind = "sun"
     std::ostringstream ray;
     ray << s.only().emit(rng, 1);
     EXPECT_NE(ray.str().find("EmittedRay{"), std::string::npos);
+}
+
+// Source Evaluation
+//
+// emitted() and pdf() against independent truths: Monte Carlo integrals of the radiance over
+// (position, direction) pairs drawn by the test itself (uniform over a box around the
+// emitting surface, uniform over the sphere or a cone wider than the emission cone), and
+// Pearson's chi-square of emit()'s rays against bin probabilities integrated from pdf().
+
+// Sources of every kind with finite radiance (and the two delta kinds), one per table.
+const std::string kEvaluatedSources = R"(
+[[source]]
+name = "sun"
+kind = "sun"
+field_deg = [2.0, 7.0]
+[[source]]
+name = "window"
+kind = "window"
+cone_deg = 3.25
+flux = 0.079833
+unit = "lm"
+[[source]]
+name = "disk"
+kind = "lambertian"
+position_mm = [1, -2, -20]
+normal = [0.2, 0, 1]
+radius_mm = 3
+radiance_w_mm2_sr = 0.5
+[[source]]
+name = "disk_cone"
+kind = "lambertian"
+position_mm = [0, 0, -20]
+radius_mm = 3
+cone_deg = 30
+luminance_cd_mm2 = 2
+[[source]]
+name = "panel"
+kind = "lambertian"
+position_mm = [1, 2, -30]
+normal = [0, 1, 1]
+x_axis = [1, 0, 0]
+size_mm = [4, 2]
+radiance_w_mm2_sr = 0.5
+[[source]]
+name = "panel_cone"
+kind = "lambertian"
+position_mm = [1, 2, -30]
+normal = [0, -1, 3]
+size_mm = [4, 2]
+cone_deg = 12
+flux = 3
+[[source]]
+name = "beam"
+kind = "collimated"
+field_deg = [0.0, 5.0]
+[[source]]
+name = "lamp"
+kind = "point"
+position_mm = [0, 3, -50]
+[[source]]
+name = "bulb"
+kind = "point"
+position_mm = [0, 0, -50]
+half_angle_deg = 60
+axis = [0, 1, 1]
+)";
+
+// The emitting surface and the direction cone of a source, in its own axes: positions
+// centre + x u + y v, directions about n (azimuth from u toward v).
+struct EmissionChart {
+    enum class Surface { Point, Disk, Rectangle };
+    Surface surface = Surface::Point;
+    Vec3 centre{0.0}, u{1, 0, 0}, v{0, 1, 0}, n{0, 0, 1};
+    double radiusMm = 0.0;
+    Vec2 sizeMm{0.0};
+    bool deltaDirection = false;
+    double coneRad = 0.0;
+
+    double areaMm2() const {
+        return surface == Surface::Disk ? kPi * radiusMm * radiusMm : sizeMm.x * sizeMm.y;
+    }
+    Vec3 point(double x, double y) const { return centre + x * u + y * v; }
+    Vec3 direction(double theta, double psi) const {
+        return std::sin(theta) * (std::cos(psi) * u + std::sin(psi) * v) + std::cos(theta) * n;
+    }
+};
+
+EmissionChart chartOf(const Source& s) {
+    EmissionChart c;
+    std::visit(
+        [&](const auto& k) {
+            using T = std::decay_t<decltype(k)>;
+            if constexpr (std::is_same_v<T, CollimatedSource> || std::is_same_v<T, SunSource>) {
+                c.surface = EmissionChart::Surface::Disk;
+                c.centre = k.beam.startCenterMm;
+                c.u = k.beam.axisU;
+                c.v = k.beam.axisV;
+                c.n = k.beam.direction;
+                c.radiusMm = k.beam.radiusMm;
+                c.deltaDirection = std::is_same_v<T, CollimatedSource>;
+                c.coneRad = k.beam.halfAngleRad;
+            } else if constexpr (std::is_same_v<T, PointSource>) {
+                c.centre = k.positionMm;
+                c.u = k.axisU;
+                c.v = k.axisV;
+                c.n = k.axis;
+                c.coneRad = k.halfAngleRad;
+            } else {
+                const AreaEmitter& e = k.area;
+                c.surface = e.shape == AreaEmitter::Shape::Disk ? EmissionChart::Surface::Disk
+                                                                : EmissionChart::Surface::Rectangle;
+                c.centre = e.frame.translation;
+                c.u = e.frame.toGlobalDirection(Vec3(1, 0, 0));
+                c.v = e.frame.toGlobalDirection(Vec3(0, 1, 0));
+                c.n = e.frame.toGlobalDirection(Vec3(0, 0, 1));
+                c.radiusMm = e.radiusMm;
+                c.sizeMm = e.sizeMm;
+                c.coneRad = e.coneHalfAngleRad;
+            }
+        },
+        s.shape());
+    return c;
+}
+
+// Mean and standard error of a Monte Carlo estimate.
+struct Estimate {
+    double mean = 0.0, sigma = 0.0;
+    double z(double truth) const { return (mean - truth) / sigma; }
+};
+std::ostream& operator<<(std::ostream& os, const Estimate& e) {
+    return os << e.mean << " +- " << e.sigma << " (" << 100.0 * e.sigma / e.mean << " %)";
+}
+template <class F>
+Estimate monteCarlo(int n, F&& sample) {
+    double s1 = 0.0, s2 = 0.0;
+    for (int i = 0; i < n; ++i) {
+        const double x = sample(i);
+        s1 += x;
+        s2 += x * x;
+    }
+    const double mean = s1 / n;
+    return {mean, std::sqrt(std::max(0.0, s2 / n - mean * mean) / (n - 1))};
+}
+
+// The integral of emitted(x, w) cos(theta) over the surface (area measure) and the
+// directions (solid angle), from n pairs drawn uniformly over a box 10 % (rectangle) or
+// 2.2 radii (disk) wide around the surface and uniformly over the sphere (hemispherical
+// emitters) or over a cone 1.5 times as wide as the emission cone. Independent of emit().
+Estimate integratedRadiance(const Source& s, int n, uint64_t seed) {
+    const EmissionChart c = chartOf(s);
+    const Vec2 box =
+        c.surface == EmissionChart::Surface::Disk ? Vec2(2.2 * c.radiusMm) : 1.1 * c.sizeMm;
+    const bool sphere = c.coneRad >= 0.5 * kPi;
+    const double wide = std::min(kPi, 1.5 * c.coneRad);
+    const double solidAngle = sphere ? 4.0 * kPi : 2.0 * kPi * (1.0 - std::cos(wide));
+    return monteCarlo(n, [&](int i) {
+        CounterRng rng(seed, static_cast<uint64_t>(i));
+        const Vec3 x = c.point((rng.uniform() - 0.5) * box.x, (rng.uniform() - 0.5) * box.y);
+        const double cosT =
+            sphere ? 1.0 - 2.0 * rng.uniform() : 1.0 - rng.uniform() * (1.0 - std::cos(wide));
+        const Vec3 w = c.direction(std::acos(cosT), 2.0 * kPi * rng.uniform());
+        return s.emitted(x, w) * glm::dot(w, c.n) * box.x * box.y * solidAngle;
+    });
+}
+
+TEST(SourceEvaluation, RadianceIntegratesToTheTotalFlux) {
+    const Scene s(kEvaluatedSources);
+    uint64_t seed = 77;  // a stream per source, so that their errors are independent
+    for (const Source& src : s.sources) {
+        if (src.delta() != Source::Delta::None) continue;
+        const Estimate e = integratedRadiance(src, 200000, ++seed);
+        EXPECT_LT(std::abs(e.z(src.totalFlux())), 4.0) << src << ": " << e;
+        EXPECT_LT(e.sigma, 0.01 * src.totalFlux()) << src << ": " << e;
+        // Per line: the shares of the spectral sampler.
+        const EmissionChart c = chartOf(src);
+        const Vec3 x = c.centre, w = c.n;
+        double sum = 0.0;
+        for (int i = 0; i < src.spectrum().size(); ++i) sum += src.emitted(x, w, i);
+        EXPECT_NEAR(sum, src.emitted(x, w), 1e-14 * src.emitted(x, w)) << src;
+    }
+}
+
+TEST(SourceEvaluation, DeltaKindsGiveIrradianceAndIntensity) {
+    const Scene s(kEvaluatedSources);
+    int checked = 0;
+    for (const Source& src : s.sources) {
+        const EmissionChart c = chartOf(src);
+        if (src.delta() == Source::Delta::Direction) {
+            // Beam: E A = flux analytically, and the integral of E over a box around the
+            // start disk (Monte Carlo, positions only: the direction is a delta).
+            EXPECT_NEAR(src.emitted(c.centre, c.n) * src.emittingAreaMm2(), src.totalFlux(),
+                        1e-12 * src.totalFlux());
+            EXPECT_EQ(src.emittingSolidAngleSr(), 0.0);
+            const double side = 2.2 * c.radiusMm;
+            const Estimate e = monteCarlo(100000, [&](int i) {
+                CounterRng rng(31, static_cast<uint64_t>(i));
+                const Vec3 x = c.point((rng.uniform() - 0.5) * side, (rng.uniform() - 0.5) * side);
+                return src.emitted(x, c.n) * side * side;
+            });
+            EXPECT_LT(std::abs(e.z(src.totalFlux())), 4.0) << src << ": " << e;
+            EXPECT_LT(e.sigma, 0.01 * src.totalFlux()) << e;
+            // Any other direction carries nothing.
+            EXPECT_EQ(src.emitted(c.centre, glm::normalize(c.n + 1e-6 * c.u)), 0.0);
+            ++checked;
+        } else if (src.delta() == Source::Delta::Position) {
+            // Point: I Omega = flux analytically, and the integral of I over the sphere.
+            EXPECT_NEAR(src.emitted(c.centre, c.n) * src.emittingSolidAngleSr(), src.totalFlux(),
+                        1e-12 * src.totalFlux());
+            EXPECT_EQ(src.emittingAreaMm2(), 0.0);
+            const double wide = std::min(kPi, 1.5 * c.coneRad);
+            const double omega = 2.0 * kPi * (1.0 - std::cos(wide));
+            const Estimate e = monteCarlo(100000, [&](int i) {
+                CounterRng rng(37, static_cast<uint64_t>(i));
+                const double cosT = 1.0 - rng.uniform() * (1.0 - std::cos(wide));
+                const Vec3 w = c.direction(std::acos(cosT), 2.0 * kPi * rng.uniform());
+                return src.emitted(c.centre, w) * omega;
+            });
+            EXPECT_LT(std::abs(e.z(src.totalFlux())), 4.0) << src << ": " << e;
+            EXPECT_LT(e.sigma, 0.01 * src.totalFlux()) << e;
+            EXPECT_EQ(src.emitted(c.centre + 1e-3 * c.u, c.n), 0.0);  // only from the point
+            ++checked;
+        }
+    }
+    EXPECT_EQ(checked, 3);
+}
+
+TEST(SourceEvaluation, EveryEmittedRayIsEvaluatedConsistently) {
+    const Scene s(kEvaluatedSources);
+    for (const Source& src : s.sources) {
+        const EmissionChart c = chartOf(src);
+        for (const EmittedRay& r : emitRays(src, 2000, 11)) {
+            ASSERT_TRUE(src.emits(r.ray)) << src << " " << r;
+            // radiance cos / pdf = flux of a ray of a run of one (before the line's weight).
+            const double cosT =
+                src.delta() == Source::Delta::None ? glm::dot(r.ray.direction, c.n) : 1.0;
+            const double flux = src.emitted(r.ray.origin, r.ray.direction) * cosT / src.pdf(r.ray);
+            ASSERT_NEAR(flux, src.totalFlux(), 1e-9 * src.totalFlux()) << src << " " << r;
+            // Moved off the surface, or turned out of the cone, it is not emitted.
+            const double size = std::max(c.radiusMm, std::max(c.sizeMm.x, c.sizeMm.y)) + 1.0;
+            const Ray off{r.ray.origin + 1e-6 * size * c.n, r.ray.direction};
+            EXPECT_FALSE(src.emits(off)) << src;
+            EXPECT_EQ(src.pdf(off), 0.0);
+            if (c.coneRad < kPi) {
+                const Vec3 out = c.direction(c.coneRad * 1.001 + 1e-6, 1.0);
+                EXPECT_FALSE(src.emits({r.ray.origin, out})) << src;
+                EXPECT_EQ(src.emitted(r.ray.origin, out), 0.0);
+            }
+        }
+    }
+}
+
+// Bins of emit()'s rays: position (rings x 2 half-disks, or a 3 x 3 grid) times direction
+// (6 equal polar angles up to the cone x 2 half-turns); each bin's probability integrated
+// from pdf() with a midpoint rule of 6 points per coordinate.
+class EmissionBins {
+  public:
+    explicit EmissionBins(const EmissionChart& c) : c_(c) {
+        positionBins_ = c.surface == EmissionChart::Surface::Point ? 1 : 8;
+        if (c.surface == EmissionChart::Surface::Rectangle) positionBins_ = 9;
+        directionBins_ = c.deltaDirection ? 1 : 12;
+    }
+    int bins() const { return positionBins_ * directionBins_; }
+
+    int binOf(const Ray& r) const {
+        int p = 0, d = 0;
+        const Vec3 o = r.origin - c_.centre;
+        const double x = glm::dot(o, c_.u), y = glm::dot(o, c_.v);
+        if (c_.surface == EmissionChart::Surface::Disk) {
+            const int ring = std::min(3, static_cast<int>(std::hypot(x, y) / c_.radiusMm * 4));
+            p = ring * 2 + (y < 0.0 ? 1 : 0);
+        } else if (c_.surface == EmissionChart::Surface::Rectangle) {
+            const int i = std::clamp(static_cast<int>((x / c_.sizeMm.x + 0.5) * 3), 0, 2);
+            const int j = std::clamp(static_cast<int>((y / c_.sizeMm.y + 0.5) * 3), 0, 2);
+            p = i * 3 + j;
+        }
+        if (!c_.deltaDirection) {
+            const Vec3 w = r.direction;
+            const double theta = std::atan2(glm::length(glm::cross(w, c_.n)), glm::dot(w, c_.n));
+            const int ring = std::min(5, static_cast<int>(theta / c_.coneRad * 6));
+            d = ring * 2 + (glm::dot(w, c_.v) < 0.0 ? 1 : 0);
+        }
+        return p * directionBins_ + d;
+    }
+
+    // Probability of every bin: the integral of pdf() over it (area x solid angle).
+    std::vector<double> probabilities(const Source& s) const {
+        constexpr int m = 6;
+        std::vector<double> prob(bins(), 0.0);
+        std::vector<std::pair<Vec3, double>> points;  // position, area weight
+        if (c_.surface == EmissionChart::Surface::Point) {
+            points.push_back({c_.centre, 1.0});
+        } else if (c_.surface == EmissionChart::Surface::Disk) {
+            const int nr = 4 * m, na = 2 * m;
+            const double dr = c_.radiusMm / nr, da = 2.0 * kPi / na;
+            for (int i = 0; i < nr; ++i)
+                for (int j = 0; j < na; ++j) {
+                    const double r = (i + 0.5) * dr, a = (j + 0.5) * da;
+                    points.push_back({c_.point(r * std::cos(a), r * std::sin(a)), r * dr * da});
+                }
+        } else {
+            const int n = 3 * m;
+            const double dx = c_.sizeMm.x / n, dy = c_.sizeMm.y / n;
+            for (int i = 0; i < n; ++i)
+                for (int j = 0; j < n; ++j)
+                    points.push_back({c_.point(-0.5 * c_.sizeMm.x + (i + 0.5) * dx,
+                                               -0.5 * c_.sizeMm.y + (j + 0.5) * dy),
+                                      dx * dy});
+        }
+        std::vector<std::pair<Vec3, double>> dirs;  // direction, solid angle weight
+        if (c_.deltaDirection) {
+            dirs.push_back({c_.n, 1.0});
+        } else {
+            const int nt = 6 * m, np = 2 * m;
+            const double dt = c_.coneRad / nt, dp = 2.0 * kPi / np;
+            for (int i = 0; i < nt; ++i)
+                for (int j = 0; j < np; ++j) {
+                    const double t = (i + 0.5) * dt, p = (j + 0.5) * dp;
+                    dirs.push_back({c_.direction(t, p), std::sin(t) * dt * dp});
+                }
+        }
+        for (const auto& [x, wa] : points)
+            for (const auto& [w, wd] : dirs) {
+                const Ray r{x, w};
+                prob[binOf(r)] += s.pdf(r) * wa * wd;
+            }
+        return prob;
+    }
+
+  private:
+    EmissionChart c_;
+    int positionBins_ = 1, directionBins_ = 1;
+};
+
+TEST(SourceEvaluation, EmitFollowsThePdf) {
+    const Scene s(kEvaluatedSources);
+    for (const Source& src : s.sources) {
+        const EmissionBins bins(chartOf(src));
+        const std::vector<double> prob = bins.probabilities(src);
+        double total = 0.0;
+        for (double p : prob) total += p;
+        EXPECT_NEAR(total, 1.0, 2e-3) << src;  // pdf() is normalised (midpoint rule error)
+        const int n = 100000;
+        std::vector<int64_t> counts(bins.bins(), 0);
+        for (const EmittedRay& r : emitRays(src, n, 2026)) ++counts[bins.binOf(r.ray)];
+        double chi = 0.0;
+        for (int b = 0; b < bins.bins(); ++b) {
+            const double e = n * prob[b] / total;
+            ASSERT_GT(e, 20.0) << src << " bin " << b;
+            chi += (counts[b] - e) * (counts[b] - e) / e;
+        }
+        const double dof = bins.bins() - 1;
+        EXPECT_LT(chi, dof + 5.0 * std::sqrt(2.0 * dof))
+            << src << ": chi2 " << chi << " over " << bins.bins() << " bins";
+    }
+}
+
+TEST(SourceEvaluation, DeltaKindPrints) {
+    std::ostringstream os;
+    os << Source::Delta::Direction << " " << Source::Delta::Position << " " << Source::Delta::None;
+    EXPECT_EQ(os.str(), "direction position none");
 }
 
 // Reading [[source]]
