@@ -9,6 +9,7 @@
 #include <numbers>
 #include <sstream>
 
+#include "analysis/criterion_names.h"
 #include "analysis/first_order.h"
 #include "geometry/lens_solid.h"
 #include "geometry/mechanics.h"

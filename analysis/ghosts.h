@@ -56,8 +56,8 @@
 #include <vector>
 
 #include "analysis/criterion_images.h"
-#include "analysis/scene_setup.h"
-#include "analysis/trace_setup.h"
+#include "tracer/scene_setup.h"
+#include "tracer/trace_setup.h"
 #include "tracer/sequential_model.h"
 
 namespace veil {

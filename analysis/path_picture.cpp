@@ -10,8 +10,9 @@
 #include <mutex>
 #include <sstream>
 
+#include "analysis/criterion_names.h"
 #include "analysis/image_output.h"  // falseColour
-#include "analysis/trace_setup.h"
+#include "tracer/trace_setup.h"
 
 namespace veil {
 

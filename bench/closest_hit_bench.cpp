@@ -19,7 +19,7 @@
 #include <memory>
 #include <random>
 
-#include "analysis/scene_setup.h"
+#include "tracer/scene_setup.h"
 #include "bench/raw_embree.h"
 #include "geometry/embree_scene.h"
 

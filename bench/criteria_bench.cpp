@@ -19,7 +19,8 @@
 #include <random>
 
 #include "analysis/criteria.h"
-#include "analysis/trace_setup.h"
+#include "analysis/criterion_names.h"
+#include "tracer/trace_setup.h"
 
 namespace {
 

@@ -47,8 +47,8 @@
 #include <memory>
 
 #include "analysis/ghosts.h"
-#include "analysis/scene_setup.h"
-#include "analysis/trace_setup.h"
+#include "tracer/scene_setup.h"
+#include "tracer/trace_setup.h"
 #include "tracer/sequential_trace.h"
 
 namespace {

@@ -29,7 +29,7 @@
 #include <string_view>
 #include <vector>
 
-#include "analysis/trace_setup.h"
+#include "tracer/trace_setup.h"
 #include "geometry/surface_shape.h"
 #include "lensdata/glass_catalog.h"
 #include "tracer/path_history.h"

@@ -17,9 +17,10 @@
 #include <random>
 
 #include "analysis/criterion_images.h"
-#include "analysis/trace_setup.h"
+#include "analysis/criterion_names.h"
 #include "bench/raw_embree.h"
 #include "geometry/embree_scene.h"
+#include "tracer/trace_setup.h"
 
 namespace {
 

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "analysis/scene_setup.h"
+#include "tracer/scene_setup.h"
 #include "lensdata/glass_catalog.h"
 
 namespace veil::cli {

@@ -23,6 +23,7 @@
 #include <optional>
 #include <sstream>
 
+#include "analysis/criterion_names.h"
 #include "analysis/ghosts.h"
 #include "analysis/image_output.h"
 #include "analysis/layout.h"

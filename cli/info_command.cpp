@@ -14,7 +14,7 @@
 #include <sstream>
 
 #include "analysis/first_order.h"
-#include "analysis/scene_setup.h"
+#include "tracer/scene_setup.h"
 #include "analysis/spot.h"
 #include "cli/commands.h"
 #include "tracer/sequential_model.h"

@@ -10,7 +10,7 @@
 #include <iostream>
 
 #include "analysis/layout.h"
-#include "analysis/scene_setup.h"
+#include "tracer/scene_setup.h"
 #include "cli/commands.h"
 #include "geometry/mesh_io.h"
 

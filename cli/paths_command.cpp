@@ -19,7 +19,7 @@
 
 #include "analysis/layout.h"
 #include "analysis/path_picture.h"
-#include "analysis/trace_setup.h"
+#include "tracer/trace_setup.h"
 
 namespace veil::cli {
 

@@ -21,12 +21,13 @@
 #include <sstream>
 
 #include "analysis/criterion_images.h"
+#include "analysis/criterion_names.h"
 #include "analysis/image_output.h"
 #include "analysis/ray_statistics.h"
-#include "analysis/trace_setup.h"
 #include "cli/commands.h"
 #include "cli/progress.h"
 #include "lensdata/output_file.h"
+#include "tracer/trace_setup.h"
 
 namespace veil::cli {
 

@@ -33,7 +33,7 @@
 
 namespace veil {
 
-// What the transport needs of a scene, resolved once (analysis/trace_setup.h fills it).
+// What the transport needs of a scene, resolved once (tracer/trace_setup.h fills it).
 struct TransportScene {
     const Scene* scene = nullptr;
     const MediaOptics* media = nullptr;

@@ -17,8 +17,9 @@
 #include <tuple>
 
 #include "analysis/criterion_images.h"
+#include "analysis/criterion_names.h"
 #include "analysis/first_order.h"
-#include "analysis/trace_setup.h"
+#include "tracer/trace_setup.h"
 
 namespace veil {
 namespace {

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "analysis/criterion_images.h"
+#include "analysis/criterion_names.h"
 #include "analysis/first_order.h"
 #include "analysis/ghosts.h"
 

@@ -15,6 +15,7 @@
 #include <numbers>
 #include <string>
 
+#include "analysis/criterion_names.h"
 #include "lensdata/errors.h"
 
 namespace veil {

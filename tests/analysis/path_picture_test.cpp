@@ -14,6 +14,7 @@
 #include <mutex>
 #include <utility>
 
+#include "analysis/criterion_names.h"
 #include "analysis/layout.h"
 #include "tests/analysis/prepared_scene.h"
 

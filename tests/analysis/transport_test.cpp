@@ -12,11 +12,12 @@
 #include <variant>
 
 #include "analysis/criterion_images.h"
+#include "analysis/criterion_names.h"
 #include "analysis/ray_statistics.h"
-#include "analysis/trace_setup.h"
 #include "tests/analysis/prepared_scene.h"
 #include "tracer/ray_aiming.h"
 #include "tracer/sequential_trace.h"
+#include "tracer/trace_setup.h"
 
 namespace veil {
 namespace {

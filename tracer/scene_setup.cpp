@@ -1,10 +1,10 @@
-#include "analysis/scene_setup.h"
+#include "tracer/scene_setup.h"
 
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 
-#include "analysis/auto_apertures.h"
+#include "tracer/auto_apertures.h"
 #include "geometry/lens_solid.h"
 #include "lensdata/lens_file.h"
 #include "lensdata/toml_reader.h"

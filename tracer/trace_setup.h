@@ -6,9 +6,8 @@
 #include <memory>
 #include <vector>
 
-#include "analysis/criteria.h"
-#include "analysis/scene_setup.h"
 #include "tracer/nonsequential.h"
+#include "tracer/scene_setup.h"
 
 namespace veil {
 
@@ -17,10 +16,6 @@ struct TraceSetup {
     TransportScene transport;  // points into the SceneSetup and into media
     std::vector<DetectorImage> images;
 };
-
-// What criteria may name in this scene: objects (with aliases, resolved optical property and
-// whether they are detectors), media and sources, indexed as in the path histories.
-NameTable criterionNames(const Scene& scene, const TransportScene& transport);
 
 // The SceneSetup must outlive the result. Throws ModelError when the scene has no source.
 TraceSetup prepareTrace(const SceneFile& file, const SceneSetup& setup,

@@ -7,7 +7,7 @@
 // optical properties). A bare lens file (.toml or .zmx) is a scene without mechanics.
 //
 // Building the scene: clear semi-diameters the file leaves open are computed from real rays
-// (analysis/auto_apertures.h), lens solids are added with their exact faces, mechanics are
+// (tracer/auto_apertures.h), lens solids are added with their exact faces, mechanics are
 // built and checked with CGAL, meshes are imported, and the image surface becomes the
 // detector `sensor` (alias `image`).
 
@@ -28,7 +28,7 @@ namespace veil {
 struct SceneFile {
     std::filesystem::path path;
     // The lens with every clear semi-diameter set (automatic ones traced, see
-    // analysis/auto_apertures.h): the sizes sources, solids and mechanics are built from.
+    // tracer/auto_apertures.h): the sizes sources, solids and mechanics are built from.
     Prescription prescription;
     std::optional<MechanicsSpec> mechanics;
     std::vector<MeshImportSpec> meshes;

@@ -1,4 +1,4 @@
-#include "analysis/auto_apertures.h"
+#include "tracer/auto_apertures.h"
 
 #include <cmath>
 

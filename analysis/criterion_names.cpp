@@ -1,0 +1,22 @@
+#include "analysis/criterion_names.h"
+
+namespace veil {
+
+NameTable criterionNames(const Scene& scene, const TransportScene& transport) {
+    NameTable t;
+    for (const SceneObject& o : scene.objects()) {
+        NameTable::Object n;
+        n.name = o.name;
+        n.aliases = o.aliases;
+        if (o.id < static_cast<int>(transport.propertyOfObject.size()))
+            n.property = transport.properties[transport.propertyOfObject[o.id]].name();
+        n.detector = o.id < static_cast<int>(transport.detectorOfObject.size()) &&
+                     transport.detectorOfObject[o.id] >= 0;
+        t.objects.push_back(std::move(n));
+    }
+    for (const Medium& m : scene.media()) t.media.push_back(m.name);
+    for (const Source& s : transport.sources) t.sources.push_back(s.name());
+    return t;
+}
+
+}  // namespace veil
