@@ -136,7 +136,7 @@ GhostTracer::GhostTracer(const SceneSetup& setup, const TraceSetup& trace,
                          const GlassCatalog& catalog, const GhostOptions& options)
     : setup_(&setup),
       trace_(&trace),
-      model_(SequentialModel::build(setup.prescription, catalog)),
+      model_(setup.model ? *setup.model : SequentialModel::build(setup.prescription, catalog)),
       options_(options) {
     if (options_.order != 2 && options_.order != 4)
         throw ModelError("ghosts",
@@ -761,7 +761,11 @@ namespace {
 
 std::vector<Source> fieldSources(const SceneFile& file, const GlassCatalog& catalog,
                                  const std::vector<std::pair<double, double>>& fields) {
-    const SequentialModel model = SequentialModel::build(file.prescription, catalog);
+    const std::shared_ptr<const SequentialModel> built =
+        file.model ? file.model
+                   : std::make_shared<const SequentialModel>(
+                         SequentialModel::build(file.prescription, catalog));
+    const SequentialModel& model = *built;
     const EntranceAperture ap = entranceAperture(file.prescription, model);
     std::vector<Wavelength> lines = file.prescription.system.wavelengths;
     if (lines.empty()) lines.push_back({kLineD, 1.0});
@@ -802,11 +806,17 @@ bool addDefaultGhostScene(SceneFile& file, const GlassCatalog& catalog, double* 
     // The detector at the paraxial image plane of the primary wavelength (an afocal lens
     // keeps its image surface).
     {
-        const SequentialModel model = SequentialModel::build(file.prescription, catalog);
+        if (!file.model)
+            file.model = std::make_shared<const SequentialModel>(
+                SequentialModel::build(file.prescription, catalog));
+        const SequentialModel& model = *file.model;
         const double dz =
             computeFirstOrder(model, model.primaryWavelength()).paraxialImageDistanceMm;
         if (std::isfinite(dz) && dz != 0.0) {
             file.prescription.surfaces[model.imageIndex() - 1].thicknessMm += dz;
+            // The prescription changed: its model is built anew, once.
+            file.model = std::make_shared<const SequentialModel>(
+                SequentialModel::build(file.prescription, catalog));
             if (imageShiftMm) *imageShiftMm = dz;
         }
     }

@@ -4,10 +4,10 @@
 #include <cctype>
 #include <cmath>
 
-#include "tracer/auto_apertures.h"
 #include "geometry/lens_solid.h"
 #include "lensdata/lens_file.h"
 #include "lensdata/toml_reader.h"
+#include "tracer/auto_apertures.h"
 #include "tracer/sequential_model.h"
 
 namespace veil {
@@ -21,9 +21,22 @@ std::string lowerExtension(const std::filesystem::path& p) {
     return ext;
 }
 
-// Every surface gets a clear semi-diameter (traced where the file leaves it open).
-Prescription sized(const Prescription& p, const GlassCatalog& catalog) {
-    return withAutomaticSemiDiameters(SequentialModel::build(p, catalog));
+// Every surface gets a clear semi-diameter (traced where the file leaves it open), and the
+// file its sequential model: built once, or twice when semi-diameters had to be traced (the
+// model clips at them).
+void size(SceneFile& f, const Prescription& p, const GlassCatalog& catalog) {
+    auto model = std::make_shared<const SequentialModel>(SequentialModel::build(p, catalog));
+    bool open = false;
+    for (size_t i = 1; i < p.surfaces.size(); ++i)
+        open |= !(p.surfaces[i].clearSemiDiameterMm > 0.0);
+    if (!open) {
+        f.prescription = p;
+        f.model = std::move(model);
+        return;
+    }
+    f.prescription = withAutomaticSemiDiameters(*model);
+    f.model =
+        std::make_shared<const SequentialModel>(SequentialModel::build(f.prescription, catalog));
 }
 
 }  // namespace
@@ -32,7 +45,7 @@ SceneFile readSceneFile(const std::filesystem::path& path, const GlassCatalog& c
     SceneFile f;
     f.path = path;
     if (lowerExtension(path) != ".toml") {
-        f.prescription = sized(readLensFile(path, catalog), catalog);
+        size(f, readLensFile(path, catalog), catalog);
         return f;
     }
     if (!std::filesystem::exists(path)) throw ParseError({path.string(), 0, 0}, "no such file");
@@ -46,14 +59,13 @@ SceneFile readSceneFile(const std::filesystem::path& path, const GlassCatalog& c
         const std::filesystem::path lensPath = path.parent_path() / lens->asString();
         if (!std::filesystem::exists(lensPath))
             lens->fail("lens file '" + lensPath.string() + "' does not exist");
-        f.prescription = readLensFile(lensPath, catalog);
+        size(f, readLensFile(lensPath, catalog), catalog);
     } else {
-        f.prescription = readTomlPrescription(doc, catalog);
+        size(f, readTomlPrescription(doc, catalog), catalog);
     }
-    f.prescription = sized(f.prescription, catalog);
     f.mechanics = readMechanics(doc);
     f.meshes = readMeshImports(doc);
-    f.sources = readSources(doc, f.prescription, SequentialModel::build(f.prescription, catalog));
+    f.sources = readSources(doc, f.prescription, *f.model);
     f.detectors = readDetectors(doc);
     f.properties = PropertyTable::read(doc);
     doc.checkAllUsed();
@@ -63,7 +75,10 @@ SceneFile readSceneFile(const std::filesystem::path& path, const GlassCatalog& c
 SceneSetup buildScene(const SceneFile& file, const GlassCatalog& catalog,
                       const SceneOptions& options) {
     SceneSetup s;
-    const SequentialModel model = SequentialModel::build(file.prescription, catalog);
+    s.model = file.model ? file.model
+                         : std::make_shared<const SequentialModel>(
+                               SequentialModel::build(file.prescription, catalog));
+    const SequentialModel& model = *s.model;
     s.prescription = file.prescription;
     s.notes = s.prescription.report;
     const Prescription& p = s.prescription;

@@ -12,6 +12,7 @@
 // detector `sensor` (alias `image`).
 
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <vector>
 
@@ -21,6 +22,7 @@
 #include "lensdata/glass_catalog.h"
 #include "tracer/detector.h"
 #include "tracer/property_table.h"
+#include "tracer/sequential_model.h"
 #include "tracer/source.h"
 
 namespace veil {
@@ -30,6 +32,10 @@ struct SceneFile {
     // The lens with every clear semi-diameter set (automatic ones traced, see
     // tracer/auto_apertures.h): the sizes sources, solids and mechanics are built from.
     Prescription prescription;
+    // The sequential model of `prescription`, built once here and shared by everything that
+    // needs it (sources, the scene, the ghost tracer); whoever edits the prescription (the
+    // default ghost scene moves the image) builds it anew.
+    std::shared_ptr<const SequentialModel> model;
     std::optional<MechanicsSpec> mechanics;
     std::vector<MeshImportSpec> meshes;
     std::vector<Source> sources;          // [[source]]
@@ -46,13 +52,15 @@ struct SceneOptions {
 };
 
 struct SceneSetup {
-    Prescription prescription;  // with automatic semi-diameters filled in
-    Scene scene;                // committed
+    Prescription prescription;                     // with automatic semi-diameters filled in
+    std::shared_ptr<const SequentialModel> model;  // the SceneFile's, not rebuilt
+    Scene scene;                                   // committed
     std::vector<MechanicalPart> mechanicalParts;
     std::vector<DetectorGeometry> detectors;  // placed; their objects are in the scene
     std::vector<ImportNote> notes;            // import report, parts left out, mesh warnings
 };
 
+// Uses file.model (builds one when a hand-made SceneFile has none).
 SceneSetup buildScene(const SceneFile& file, const GlassCatalog& catalog,
                       const SceneOptions& options = {});
 

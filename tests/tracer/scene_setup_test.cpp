@@ -1,0 +1,44 @@
+// Scene assembly builds the sequential model once: the scene file's model (of the sized
+// prescription) is the one the scene, the sources and the ghost tracer use.
+
+#include "tracer/scene_setup.h"
+
+#include <gtest/gtest.h>
+
+namespace veil {
+namespace {
+
+void expectModelOf(const SequentialModel& model, const Prescription& p) {
+    const Prescription& m = model.prescription();
+    ASSERT_EQ(m.surfaces.size(), p.surfaces.size());
+    for (size_t i = 0; i < p.surfaces.size(); ++i) {
+        EXPECT_EQ(m.surfaces[i].clearSemiDiameterMm, p.surfaces[i].clearSemiDiameterMm) << i;
+        EXPECT_EQ(m.surfaces[i].thicknessMm, p.surfaces[i].thicknessMm) << i;
+    }
+}
+
+TEST(SceneSetup, OneSequentialModelServesTheFileAndTheScene) {
+    const GlassCatalog& catalog = GlassCatalog::builtIn();
+    // The 360 mm lens leaves semi-diameters to be traced: the model is of the sized lens.
+    const SceneFile file =
+        readSceneFile(VEIL_SOURCE_DIR "/examples/scenes/longfocus_360mm_sun.toml", catalog);
+    ASSERT_TRUE(file.model);
+    bool automatic = false;
+    for (const Surface& s : file.prescription.surfaces) automatic |= s.semiDiameterAutomatic;
+    EXPECT_TRUE(automatic);
+    expectModelOf(*file.model, file.prescription);
+    const SceneSetup setup = buildScene(file, catalog);
+    EXPECT_EQ(setup.model.get(), file.model.get());
+}
+
+TEST(SceneSetup, HandMadeSceneFileGetsAModel) {
+    const GlassCatalog& catalog = GlassCatalog::builtIn();
+    SceneFile file = readSceneFile(VEIL_SOURCE_DIR "/examples/lenses/singlet.toml", catalog);
+    file.model.reset();
+    const SceneSetup setup = buildScene(file, catalog);
+    ASSERT_TRUE(setup.model);
+    expectModelOf(*setup.model, file.prescription);
+}
+
+}  // namespace
+}  // namespace veil
