@@ -30,6 +30,7 @@
 #include "analysis/path_picture.h"
 #include "cli/progress.h"
 #include "lensdata/output_file.h"
+#include "tracer/prepared_scene.h"
 
 namespace veil::cli {
 
@@ -151,8 +152,9 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
                 h >= w ? o.pixels : std::max(1, static_cast<int>(std::lround(o.pixels * h / w)));
         }
     }
-    const SceneSetup setup = buildScene(file, catalog);
-    TraceSetup ts = prepareTrace(file, setup, catalog);
+    const std::unique_ptr<PreparedScene> prepared = PreparedScene::build(std::move(file), catalog);
+    const SceneSetup& setup = prepared->setup();
+    TraceSetup& ts = prepared->trace();
     reportSceneNotes(setup);
 
     const auto limit = limitThreads(o.threads);
@@ -171,7 +173,7 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
         for (size_t r = 0; r < before.ghosts.size(); ++r)
             baseline[before.ghosts[r].path.label] = {static_cast<int>(r) + 1,
                                                      before.ghosts[r].relativeFlux()};
-        changes = applyCoatingOverrides(ts, setup.scene, file.properties, o.coatings);
+        changes = applyCoatingOverrides(ts, setup.scene, prepared->file().properties, o.coatings);
     }
     const GhostTracer tracer(setup, ts, catalog, go);
     const GhostAnalysis a = tracer.analyse();

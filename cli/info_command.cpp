@@ -14,9 +14,9 @@
 #include <sstream>
 
 #include "analysis/first_order.h"
-#include "tracer/scene_setup.h"
 #include "analysis/spot.h"
 #include "cli/commands.h"
+#include "tracer/scene_setup.h"
 #include "tracer/sequential_model.h"
 
 namespace veil::cli {

@@ -10,9 +10,9 @@
 #include <iostream>
 
 #include "analysis/layout.h"
-#include "tracer/scene_setup.h"
 #include "cli/commands.h"
 #include "geometry/mesh_io.h"
+#include "tracer/prepared_scene.h"
 
 namespace veil::cli {
 
@@ -30,10 +30,11 @@ void addLayoutCommand(CLI::App& app, LayoutOptions& options) {
 
 int runLayout(const CommonOptions& common, const LayoutOptions& options) {
     const GlassCatalog catalog = loadCatalog(common);
-    const SceneFile file = readSceneFile(options.file, catalog);
     SceneOptions so;
     so.mechanics = !options.noMechanics;
-    const SceneSetup setup = buildScene(file, catalog, so);
+    const std::unique_ptr<const PreparedScene> prepared =
+        PreparedScene::read(options.file, catalog, so);
+    const SceneSetup& setup = prepared->setup();
     veil::LayoutOptions lo;
     lo.title =
         setup.prescription.system.name.empty() ? options.file : setup.prescription.system.name;
@@ -62,10 +63,11 @@ void addExportCommand(CLI::App& app, ExportOptions& options) {
 
 int runExport(const CommonOptions& common, const ExportOptions& options) {
     const GlassCatalog catalog = loadCatalog(common);
-    const SceneFile file = readSceneFile(options.file, catalog);
     SceneOptions so;
     so.mechanics = !options.noMechanics;
-    const SceneSetup setup = buildScene(file, catalog, so);
+    const std::unique_ptr<const PreparedScene> prepared =
+        PreparedScene::read(options.file, catalog, so);
+    const SceneSetup& setup = prepared->setup();
     std::vector<int> objectOfTriangle;
     const TriangleMesh mesh = setup.scene.tessellate(options.chordToleranceMm, &objectOfTriangle);
     std::vector<std::string> names;

@@ -19,7 +19,7 @@
 
 #include "analysis/layout.h"
 #include "analysis/path_picture.h"
-#include "tracer/trace_setup.h"
+#include "tracer/prepared_scene.h"
 
 namespace veil::cli {
 
@@ -59,11 +59,11 @@ void addPathsCommand(CLI::App& app, PathsOptions& o) {
 
 int runPaths(const CommonOptions& common, const PathsOptions& o) {
     const GlassCatalog catalog = loadCatalog(common);
-    const SceneFile file = readSceneFile(o.file, catalog);
     SceneOptions so;
     so.mechanics = !o.noMechanics;
-    const SceneSetup setup = buildScene(file, catalog, so);
-    const TraceSetup ts = prepareTrace(file, setup, catalog);
+    const std::unique_ptr<const PreparedScene> prepared = PreparedScene::read(o.file, catalog, so);
+    const SceneSetup& setup = prepared->setup();
+    const TraceSetup& ts = prepared->trace();
     reportSceneNotes(setup);
 
     const auto limit = limitThreads(o.threads);

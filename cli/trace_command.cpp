@@ -27,7 +27,7 @@
 #include "cli/commands.h"
 #include "cli/progress.h"
 #include "lensdata/output_file.h"
-#include "tracer/trace_setup.h"
+#include "tracer/prepared_scene.h"
 
 namespace veil::cli {
 
@@ -111,9 +111,9 @@ nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlo
 
 int runTrace(const CommonOptions& common, const TraceOptions& o) {
     const GlassCatalog catalog = loadCatalog(common);
-    const SceneFile file = readSceneFile(o.file, catalog);
-    const SceneSetup setup = buildScene(file, catalog);
-    const TraceSetup ts = prepareTrace(file, setup, catalog);
+    const std::unique_ptr<const PreparedScene> prepared = PreparedScene::read(o.file, catalog);
+    const SceneSetup& setup = prepared->setup();
+    const TraceSetup& ts = prepared->trace();
     reportSceneNotes(setup);
 
     TransportOptions options;

@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include "tracer/prepared_scene.h"
+
 namespace veil {
 namespace {
 
@@ -38,6 +40,41 @@ TEST(SceneSetup, HandMadeSceneFileGetsAModel) {
     const SceneSetup setup = buildScene(file, catalog);
     ASSERT_TRUE(setup.model);
     expectModelOf(*setup.model, file.prescription);
+}
+
+}  // namespace
+}  // namespace veil
+
+namespace veil {
+namespace {
+
+TEST(PreparedScene, OneOwnerForTheSceneAndTheTransport) {
+    const GlassCatalog& catalog = GlassCatalog::builtIn();
+    const auto prepared =
+        PreparedScene::read(VEIL_SOURCE_DIR "/examples/scenes/longfocus_360mm_sun.toml", catalog);
+    ASSERT_TRUE(prepared->hasSources());
+    const TraceSetup& t = prepared->trace();
+    // The transport points into the same (pinned) object, and the model is the file's.
+    EXPECT_EQ(t.transport.scene, &prepared->scene());
+    EXPECT_EQ(t.transport.media, t.media.get());
+    EXPECT_EQ(&prepared->model(), prepared->file().model.get());
+    EXPECT_EQ(t.transport.propertyOfObject.size(), prepared->scene().objects().size());
+    EXPECT_EQ(t.images.size(), prepared->setup().detectors.size());
+}
+
+TEST(PreparedScene, SceneWithoutSourcesHasNoTransportAndSaysWhichFile) {
+    const GlassCatalog& catalog = GlassCatalog::builtIn();
+    const std::string path = VEIL_SOURCE_DIR "/examples/scenes/double_gauss_50mm.toml";
+    const auto prepared = PreparedScene::read(path, catalog);
+    EXPECT_FALSE(prepared->hasSources());
+    EXPECT_GT(prepared->scene().objects().size(), 10u);  // built all the same (layout, export)
+    try {
+        prepared->trace();
+        FAIL() << "expected a ModelError";
+    } catch (const ModelError& e) {
+        EXPECT_EQ(e.object(), path);
+        EXPECT_NE(std::string(e.what()).find("no [[source]]"), std::string::npos) << e.what();
+    }
 }
 
 }  // namespace
