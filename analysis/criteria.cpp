@@ -810,4 +810,9 @@ DirectResult evaluateDirect(const CompiledCriterion& c, std::span<const PathEven
     return direct(c, 0, 0, events);
 }
 
+CompiledCriterion compileCriterion(std::string_view text, const NameTable& names,
+                                   std::string_view source) {
+    return compile(parseCriterion(text, source), names, source);
+}
+
 }  // namespace veil

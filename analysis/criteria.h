@@ -138,6 +138,11 @@ struct CompiledCriterion {
 // column in `source`.
 CompiledCriterion compile(const Criterion& c, const NameTable& names,
                           std::string_view source = "<criterion>");
+// Text to compiled criterion in one step, the one way commands and analyses read criteria:
+// parseCriterion() then compile(), both errors naming `source` (the option, "--where 2", or
+// the ghost the text belongs to) and the column.
+CompiledCriterion compileCriterion(std::string_view text, const NameTable& names,
+                                   std::string_view source = "<criterion>");
 
 // Streaming Evaluation
 enum class CriterionState : uint8_t { Undefined, True, False };

@@ -858,7 +858,7 @@ GhostMonteCarlo runGhostMonteCarlo(const SceneSetup& setup, const TraceSetup& tr
                                    : i == texts.size() - 1
                                        ? "all ghosts"
                                        : "ghost " + analysis.ghosts[i - 1].path.label;
-        compiled.push_back(compile(parseCriterion(texts[i], source), names, source));
+        compiled.push_back(compileCriterion(texts[i], names, source));
     }
     GhostMonteCarlo mc;
     mc.images = std::make_unique<CriterionImages>(texts, std::move(compiled), trace.images,

@@ -83,7 +83,7 @@ class FirstMatches {
 PathSelection selectPaths(const TransportScene& ts, const std::vector<DetectorImage>& detectors,
                           const PathSelectionOptions& options) {
     const CompiledCriterion compiled =
-        compile(parseCriterion(options.where), criterionNames(*ts.scene, ts), "<criterion>");
+        compileCriterion(options.where, criterionNames(*ts.scene, ts));
     PathSelection result;
     result.criterion = options.where;
     result.requested = options.count;

@@ -371,7 +371,7 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
         pp.clipZY = std::array<double, 4>{b.lo.z - pad, b.hi.z + pad, b.lo.y - pad, b.hi.y + pad};
         const NameTable names = criterionNames(setup.scene, ts.transport);
         auto draw = [&](const std::string& criterion, const fs::path& stem) {
-            const CompiledCriterion c = compile(parseCriterion(criterion), names);
+            const CompiledCriterion c = compileCriterion(criterion, names);
             const std::vector<CompiledCriterion> one{c};
             const CriteriaFilter filter(one);
             PathSelectionOptions so;

@@ -138,7 +138,7 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
         std::vector<CompiledCriterion> compiled;
         for (size_t i = 0; i < o.where.size(); ++i) {
             const std::string source = "--where " + std::to_string(i + 1);
-            compiled.push_back(compile(parseCriterion(o.where[i], source), names, source));
+            compiled.push_back(compileCriterion(o.where[i], names, source));
         }
         split = std::make_unique<CriterionImages>(o.where, std::move(compiled), ts.images,
                                                   ts.transport.detectorOfObject);

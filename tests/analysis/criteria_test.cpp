@@ -999,3 +999,39 @@ TEST(CriteriaZemax, EveryLetterAndOperatorOnAHandPath) {
 
 }  // namespace
 }  // namespace veil
+
+namespace veil {
+namespace {
+
+// The one-step reader every command uses: the same tree as parse + compile, and both kinds of
+// error name the source and the column.
+TEST(CompileCriterion, ParsesAndResolvesInOneStepWithErrorsAtTheSource) {
+    const NameTable names = lensNames();
+    const std::string text = "seq(fresnel(L4.back), fresnel(L4.front)) and not scatter";
+    const CompiledCriterion one = compileCriterion(text, names, "--where 1");
+    const CompiledCriterion two = compile(parseCriterion(text), names);
+    ASSERT_EQ(one.nodes.size(), two.nodes.size());
+    ASSERT_EQ(one.leaves.size(), two.leaves.size());
+    for (size_t i = 0; i < one.leaves.size(); ++i) {
+        EXPECT_EQ(one.leaves[i].set, two.leaves[i].set) << i;
+        EXPECT_EQ(one.leaves[i].typeMask, two.leaves[i].typeMask) << i;
+    }
+    EXPECT_EQ(one.required, two.required);
+    try {
+        compileCriterion("hit(L9.front)", names, "--where 2");
+        FAIL() << "an unknown object must be an error";
+    } catch (const ParseError& e) {
+        EXPECT_EQ(e.loc().file, "--where 2");
+        EXPECT_EQ(e.loc().column, 5);  // the pattern, after "hit("
+    }
+    try {
+        compileCriterion("hit(L1.front", names, "--where 3");
+        FAIL() << "a missing parenthesis must be an error";
+    } catch (const ParseError& e) {
+        EXPECT_EQ(e.loc().file, "--where 3");
+        EXPECT_GT(e.loc().column, 1);
+    }
+}
+
+}  // namespace
+}  // namespace veil
