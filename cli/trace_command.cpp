@@ -24,6 +24,7 @@
 #include "analysis/criterion_names.h"
 #include "analysis/image_output.h"
 #include "analysis/ray_statistics.h"
+#include "analysis/stray_light_run.h"
 #include "cli/commands.h"
 #include "cli/progress.h"
 #include "lensdata/output_file.h"
@@ -115,8 +116,12 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
     const SceneSetup& setup = prepared->setup();
     const TraceSetup& ts = prepared->trace();
     reportSceneNotes(setup);
+    if (o.prune && o.where.empty())
+        throw ParseError({o.file, 0, 0}, "--prune needs at least one --where");
 
-    TransportOptions options;
+    StrayLightSpec spec;
+    spec.raysPerSource = static_cast<uint64_t>(o.rays);
+    TransportOptions& options = spec.transport;
     options.mode =
         o.mode == "random" ? TransportOptions::Mode::Random : TransportOptions::Mode::Split;
     options.minRelativeFlux = o.minRelativeFlux;
@@ -124,71 +129,42 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
     options.rouletteRelativeFlux = o.roulette;
     options.maxSegments = o.maxSegments;
     options.seed = o.seed;
-    const auto raysPerSource = static_cast<uint64_t>(o.rays);
-    const uint64_t total = raysPerSource * ts.transport.sources.size();
+    spec.where = o.where;
+    spec.prune = o.prune;
+    const uint64_t total = spec.raysPerSource * ts.transport.sources.size();
 
-    const auto limit = limitThreads(o.threads);
-    const auto start = std::chrono::steady_clock::now();
-    std::optional<ProgressReporter> reporter;
-    if (!o.quiet) reporter.emplace("trace", total);
-    // Criteria are parsed and resolved before any ray is traced: a typo costs nothing.
-    std::unique_ptr<CriterionImages> split;
-    if (!o.where.empty()) {
-        const NameTable names = criterionNames(setup.scene, ts.transport);
-        std::vector<CompiledCriterion> compiled;
-        for (size_t i = 0; i < o.where.size(); ++i) {
-            const std::string source = "--where " + std::to_string(i + 1);
-            compiled.push_back(compileCriterion(o.where[i], names, source));
-        }
-        split = std::make_unique<CriterionImages>(o.where, std::move(compiled), ts.images,
-                                                  ts.transport.detectorOfObject);
-    }
-    std::filesystem::create_directories(o.output);
+    // The ray database opens its file only once the run's spec has been checked.
     std::unique_ptr<RayDatabaseWriter> db;
-    RayCallback onRay;
     if (!o.saveRays.empty()) {
-        RayDatabaseInfo info = describeScene(setup.scene, o.file);
-        info.seed = o.seed;
-        info.fluxUnit = ts.transport.sources.front().unit() == FluxUnit::Lumen ? "lm" : "W";
-        for (const Source& src : ts.transport.sources) info.sources.push_back(src.name());
-        const std::filesystem::path dbParent = std::filesystem::path(o.saveRays).parent_path();
-        if (!dbParent.empty()) std::filesystem::create_directories(dbParent);
-        db = std::make_unique<RayDatabaseWriter>(o.saveRays, info);
-        options.recordHistories = true;
-    }
-    std::unique_ptr<CriteriaFilter> filter;
-    if (o.prune) {
-        if (!split) throw ParseError({o.file, 0, 0}, "--prune needs at least one --where");
-        filter = std::make_unique<CriteriaFilter>(split->criteria());
-        options.filter = filter.get();
-    }
-    if (db || split) {
-        options.recordHistories = true;
-        RayCallback splitCallback = split ? split->callback() : RayCallback{};
-        onRay = [&, splitCallback](uint64_t i, const PathHistory& h) {
-            if (splitCallback) splitCallback(i, h);
-            if (db) db->add(i, h);
+        spec.openConsumer = [&]() -> RayCallback {
+            RayDatabaseInfo info = describeScene(setup.scene, o.file);
+            info.seed = o.seed;
+            info.fluxUnit = ts.transport.sources.front().unit() == FluxUnit::Lumen ? "lm" : "W";
+            for (const Source& src : ts.transport.sources) info.sources.push_back(src.name());
+            const std::filesystem::path parent = std::filesystem::path(o.saveRays).parent_path();
+            if (!parent.empty()) std::filesystem::create_directories(parent);
+            db = std::make_unique<RayDatabaseWriter>(o.saveRays, info);
+            return [&db](uint64_t i, const PathHistory& h) { db->add(i, h); };
         };
     }
-    std::function<void(uint64_t)> progress;
-    if (reporter) progress = [&reporter](uint64_t done) { reporter->update(done); };
-    const TraceResult result =
-        traceNonsequential(ts.transport, ts.images, raysPerSource, options, progress, onRay);
+    const auto limit = limitThreads(o.threads);
+    std::optional<ProgressReporter> reporter;
+    if (!o.quiet) reporter.emplace("trace", total);
+    if (reporter) spec.progress = [&reporter](uint64_t done) { reporter->update(done); };
+    const StrayLightResult result = runStrayLight(*prepared, spec);
     if (db) {
         db->setEmittedRays(total);
         db->close();
     }
-    if (split) split->finish();
-    const double seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (reporter) reporter->finish();
 
     std::filesystem::create_directories(o.output);
-    const std::string unit = ts.transport.sources.front().unit() == FluxUnit::Lumen ? "lm" : "W";
+    const std::string& unit = result.fluxUnit;
+    const double seconds = result.seconds;
     nlohmann::json summary;
     const FluxBudget& b = result.budget;
     summary["scene"] = o.file;
-    summary["rays_per_source"] = raysPerSource;
+    summary["rays_per_source"] = spec.raysPerSource;
     summary["seed"] = o.seed;
     summary["seconds"] = seconds;
     summary["unit"] = unit;
@@ -229,54 +205,62 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
     std::cout << std::fixed << std::setprecision(1) << "  " << total << " rays, " << b.segments
               << " segments in " << seconds << " s (" << std::setprecision(0)
               << total / std::max(seconds, 1e-9) << " rays/s)\n\nDetectors\n";
-    summary["detectors"] = nlohmann::json::array();
-    for (size_t d = 0; d < result.detectors.size(); ++d) {
-        const DetectorImage& img = result.detectors[d];
+
+    // Images: one EXR per detector (the total and its criterion layers), PNG previews.
+    const std::filesystem::path dir(o.output);
+    for (size_t d = 0; d < result.images.size(); ++d) {
+        const DetectorImage& img = result.images[d];
         const std::string name = img.geometry().name;
-        const std::filesystem::path dir(o.output);
         ExrInfo info{unit, total};
-        std::vector<ImageLayer> layers{{split ? "all" : "", &img}};
-        if (split) {
-            for (size_t c = 0; c <= split->criterionCount(); ++c)
-                layers.push_back(
-                    {c < split->criterionCount() ? "where" + std::to_string(c + 1) : "rest",
-                     &split->images()[c][d]});
+        std::vector<ImageLayer> layers{{result.layers ? "all" : "", &img}};
+        if (result.layers) {
+            const size_t n = result.layers->criterionCount();
+            for (size_t c = 0; c <= n; ++c)
+                layers.push_back({c < n ? "where" + std::to_string(c + 1) : "rest",
+                                  &result.layers->images()[c][d]});
         }
         writeDetectorExr(dir / (name + ".exr"), layers, info);
         PreviewOptions po;
         po.fluxUnit = unit;
         po.emittedRays = total;
         writeDetectorPng(dir / (name + ".png"), img, po);
-        const double rel = img.totalRelativeError(total);
-        std::cout << "  " << name << ": " << std::scientific << std::setprecision(6)
-                  << img.totalFlux() << " " << unit << " +- " << std::fixed << std::setprecision(3)
-                  << 100.0 * rel << " %\n";
-        nlohmann::json jd{{"name", name}, {"flux", img.totalFlux()}, {"relative_error", num(rel)}};
-        if (split) {
-            jd["by_criterion"] = nlohmann::json::array();
-            for (size_t c = 0; c <= split->criterionCount(); ++c) {
-                const DetectorImage& layer = split->images()[c][d];
-                const std::string tag =
-                    c < split->criterionCount() ? "where" + std::to_string(c + 1) : "rest";
-                const std::string text =
-                    c < split->criterionCount() ? split->text(c) : "none of the above";
+        if (result.layers) {
+            const size_t n = result.layers->criterionCount();
+            for (size_t c = 0; c <= n; ++c) {
+                const std::string tag = c < n ? "where" + std::to_string(c + 1) : "rest";
                 PreviewOptions lp = po;
-                lp.title = name + ": " + text;
-                writeDetectorPng(dir / (name + "." + tag + ".png"), layer, lp);
-                const double lrel = layer.totalRelativeError(total);
-                std::cout << "    " << std::left << std::setw(8) << tag << std::right
-                          << std::scientific << std::setprecision(6) << layer.totalFlux() << " "
-                          << unit << " +- " << std::fixed << std::setprecision(3) << 100.0 * lrel
-                          << " %  " << text << "\n";
-                jd["by_criterion"].push_back({{"layer", tag},
-                                              {"criterion", text},
-                                              {"flux", layer.totalFlux()},
-                                              {"relative_error", num(lrel)}});
+                lp.title = name + ": " + (c < n ? result.layers->text(c) : "none of the above");
+                writeDetectorPng(dir / (name + "." + tag + ".png"), result.layers->images()[c][d],
+                                 lp);
             }
         }
-        summary["detectors"].push_back(jd);
     }
-    writeTextFile(std::filesystem::path(o.output) / "summary.json", summary.dump(2) + "\n");
+
+    // The report: the same rows on the terminal and in summary.json.
+    summary["detectors"] = nlohmann::json::array();
+    for (const StrayLightRow& row : result.report()) {
+        if (row.layer.empty()) {
+            std::cout << "  " << row.detector << ": " << std::scientific << std::setprecision(6)
+                      << row.flux << " " << unit << " +- " << std::fixed << std::setprecision(3)
+                      << 100.0 * row.relativeError << " %\n";
+            nlohmann::json jd{{"name", row.detector},
+                              {"flux", row.flux},
+                              {"relative_error", num(row.relativeError)}};
+            if (result.layers) jd["by_criterion"] = nlohmann::json::array();
+            summary["detectors"].push_back(jd);
+            continue;
+        }
+        std::cout << "    " << std::left << std::setw(8) << row.layer << std::right
+                  << std::scientific << std::setprecision(6) << row.flux << " " << unit << " +- "
+                  << std::fixed << std::setprecision(3) << 100.0 * row.relativeError << " %  "
+                  << row.criterion << "\n";
+        summary["detectors"].back()["by_criterion"].push_back(
+            {{"layer", row.layer},
+             {"criterion", row.criterion},
+             {"flux", row.flux},
+             {"relative_error", num(row.relativeError)}});
+    }
+    writeTextFile(dir / "summary.json", summary.dump(2) + "\n");
     return 0;
 }
 

@@ -1,0 +1,71 @@
+#include "analysis/stray_light_run.h"
+
+#include <chrono>
+
+#include "analysis/criterion_names.h"
+
+namespace veil {
+
+std::vector<StrayLightRow> StrayLightResult::report() const {
+    std::vector<StrayLightRow> rows;
+    for (size_t d = 0; d < images.size(); ++d) {
+        const DetectorImage& img = images[d];
+        const std::string name = img.geometry().name;
+        rows.push_back({name, "", "", img.totalFlux(), img.totalRelativeError(emittedRays)});
+        if (!layers) continue;
+        for (size_t c = 0; c <= layers->criterionCount(); ++c) {
+            const DetectorImage& layer = layers->images()[c][d];
+            const bool rest = c == layers->criterionCount();
+            rows.push_back({name, rest ? "rest" : "where" + std::to_string(c + 1),
+                            rest ? "none of the above" : layers->text(c), layer.totalFlux(),
+                            layer.totalRelativeError(emittedRays)});
+        }
+    }
+    return rows;
+}
+
+StrayLightResult runStrayLight(const PreparedScene& scene, const StrayLightSpec& spec) {
+    const TraceSetup& ts = scene.trace();
+    StrayLightResult result;
+    result.emittedRays = spec.raysPerSource * ts.transport.sources.size();
+    result.fluxUnit = ts.transport.sources.front().unit() == FluxUnit::Lumen ? "lm" : "W";
+    if (spec.prune && spec.where.empty())
+        throw ModelError(scene.file().path.string(), "pruning needs at least one criterion");
+
+    TransportOptions options = spec.transport;
+    if (!spec.where.empty()) {
+        const NameTable names = criterionNames(scene.scene(), ts.transport);
+        std::vector<CompiledCriterion> compiled;
+        for (size_t i = 0; i < spec.where.size(); ++i)
+            compiled.push_back(
+                compileCriterion(spec.where[i], names, "--where " + std::to_string(i + 1)));
+        result.layers = std::make_unique<CriterionImages>(spec.where, std::move(compiled),
+                                                          ts.images, ts.transport.detectorOfObject);
+    }
+    std::unique_ptr<CriteriaFilter> filter;
+    if (spec.prune) {
+        filter = std::make_unique<CriteriaFilter>(result.layers->criteria());
+        options.filter = filter.get();
+    }
+    const RayCallback extra = spec.openConsumer ? spec.openConsumer() : RayCallback{};
+    RayCallback onRay;
+    if (result.layers || extra) {
+        options.recordHistories = true;
+        RayCallback layerCallback = result.layers ? result.layers->callback() : RayCallback{};
+        onRay = [layerCallback, extra](uint64_t i, const PathHistory& h) {
+            if (layerCallback) layerCallback(i, h);
+            if (extra) extra(i, h);
+        };
+    }
+    const auto start = std::chrono::steady_clock::now();
+    TraceResult traced = traceNonsequential(ts.transport, ts.images, spec.raysPerSource, options,
+                                            spec.progress, onRay);
+    if (result.layers) result.layers->finish();
+    result.seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    result.budget = traced.budget;
+    result.images = std::move(traced.detectors);
+    return result;
+}
+
+}  // namespace veil
