@@ -24,6 +24,7 @@
 #include <sstream>
 
 #include "analysis/criterion_names.h"
+#include "analysis/ghost_report.h"
 #include "analysis/ghosts.h"
 #include "analysis/image_output.h"
 #include "analysis/layout.h"
@@ -89,8 +90,6 @@ void addGhostsCommand(CLI::App& app, GhostsOptions& o) {
 
 namespace {
 
-nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
-
 std::pair<double, double> parseField(const std::string& s, size_t k) {
     std::istringstream in(s);
     double x = 0, y = 0;
@@ -99,34 +98,6 @@ std::pair<double, double> parseField(const std::string& s, size_t k) {
         throw ParseError({"--field " + std::to_string(k + 1), 1, 1},
                          "expected x,y (two numbers separated by a comma), got '" + s + "'");
     return {x, y};
-}
-
-std::string sci(double v, int digits = 3) {
-    if (!std::isfinite(v)) return "-";
-    std::ostringstream os;
-    os << std::scientific << std::setprecision(digits - 1) << v;
-    return os.str();
-}
-std::string fix(double v, int digits = 3) {
-    if (!std::isfinite(v)) return "inf";
-    std::ostringstream os;
-    os << std::fixed << std::setprecision(digits) << v;
-    return os.str();
-}
-
-// The source where the ghost's peak irradiance is highest.
-const GhostSourceResult& worst(const GhostEstimate& g) {
-    size_t best = 0;
-    for (size_t s = 1; s < g.sources.size(); ++s)
-        if (g.sources[s].peakIrradiance > g.sources[best].peakIrradiance) best = s;
-    return g.sources[best];
-}
-
-std::string flags(const GhostEstimate& g) {
-    std::string f;
-    if (g.nearFocus()) f += "near-focus";
-    if (!g.glassFocus().empty()) f += std::string(f.empty() ? "" : " ") + "focus-in-glass";
-    return f;
 }
 
 }  // namespace
@@ -195,146 +166,27 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
         if (reporter) reporter->finish();
     }
     const bool haveMc = mc.images != nullptr;
-    const double mcNominal = haveMc ? mc.flux(0, det) : 0.0;
 
-    // The table, as JSON first (every other format is written from the same rows).
-    nlohmann::json j;
-    j["scene"] = o.file;
-    j["lens"] = setup.prescription.system.name;
-    j["default_scene"] = defaultScene;
-    j["image_shift_mm"] = imageShiftMm;  // default scene: lens file image -> paraxial image
-    j["order"] = o.order;
-    j["detector"] = a.detector;
-    j["unit"] = unit;
-    j["ghost_surfaces"] = a.surfaceNames;
-    j["ghost_count"] = a.ghosts.size();
-    j["pruned_fourth_order"] = a.pruned;
-    j["grid_rays"] = o.grid;
-    j["sequential_seconds"] = a.seconds;
-    j["coating_overrides"] = o.coatings;
-    j["coating_changes"] = changes;
-    j["sources"] = nlohmann::json::array();
-    for (const Source& s : ts.transport.sources) j["sources"].push_back(s.name());
-    j["nominal"] = {
-        {"flux", a.nominal.flux()},
-        {"mc_flux", haveMc ? num(mcNominal) : nlohmann::json()},
-        {"mc_relative_error", haveMc ? num(mc.relativeError(0, det)) : nlohmann::json()}};
-    j["all_ghosts"] = {
-        {"flux", std::accumulate(a.ghosts.begin(), a.ghosts.end(), 0.0,
-                                 [](double f, const GhostEstimate& g) { return f + g.flux(); })}};
-    if (haveMc) {
-        j["all_ghosts"]["mc_flux"] = mc.flux(a.ghosts.size() + 1, det);
-        j["all_ghosts"]["mc_relative_error"] = num(mc.relativeError(a.ghosts.size() + 1, det));
-        j["monte_carlo"] = {{"rays_per_source", static_cast<uint64_t>(o.mcRays)},
-                            {"emitted_rays", mc.emittedRays},
-                            {"seed", o.seed},
-                            {"seconds", mc.seconds},
-                            {"segments", mc.budget.segments}};
-    }
-    j["ghosts"] = nlohmann::json::array();
-    for (size_t r = 0; r < a.ghosts.size(); ++r) {
-        const GhostEstimate& g = a.ghosts[r];
-        nlohmann::json row;
-        row["rank"] = r + 1;
-        row["ghost"] = g.path.label;
-        row["surfaces"] = g.path.names;
-        row["criterion"] = g.path.criterion;
-        row["flux"] = g.flux();
-        row["relative_flux"] = g.relativeFlux();
-        row["peak_irradiance"] = g.peakIrradiance();
-        row["relative_irradiance"] = g.relativeIrradiance();
-        row["near_focus"] = g.nearFocus();
-        row["focus_in_glass"] = g.glassFocus();
-        if (haveMc) {
-            row["mc_flux"] = mc.flux(r + 1, det);
-            row["mc_relative_flux"] =
-                mcNominal > 0 ? num(mc.flux(r + 1, det) / mcNominal) : nlohmann::json();
-            row["mc_relative_error"] = num(mc.relativeError(r + 1, det));
-        }
-        if (auto it = baseline.find(g.path.label); it != baseline.end()) {
-            row["baseline_rank"] = it->second.first;
-            row["baseline_relative_flux"] = it->second.second;
-        }
-        row["per_source"] = nlohmann::json::array();
-        for (const GhostSourceResult& s : g.sources)
-            row["per_source"].push_back({{"source", s.source},
-                                         {"flux", s.flux},
-                                         {"relative_flux", s.relativeFlux},
-                                         {"focus_mm", num(s.focusMm)},
-                                         {"footprint_mm", s.footprintMm},
-                                         {"centroid_mm", {s.centroidMm.x, s.centroidMm.y}},
-                                         {"peak_irradiance", s.peakIrradiance},
-                                         {"relative_irradiance", s.relativeIrradiance},
-                                         {"near_focus", s.nearFocus},
-                                         {"focus_in_glass", s.glassFocus},
-                                         {"rays_traced", s.raysTraced},
-                                         {"rays_arrived", s.raysArrived}});
-        j["ghosts"].push_back(row);
-    }
-
-    // CSV and Markdown.
-    std::ostringstream csv, md;
-    csv << "rank,ghost,flux_" << unit << ",relative_flux,mc_flux_" << unit
-        << ",mc_relative_flux,mc_relative_error,"
-        << "focus_mm,footprint_mm,peak_irradiance_" << unit << "_per_mm2,relative_irradiance,"
-        << "near_focus,focus_in_glass,baseline_rank,criterion\n";
-    md << "# Ghosts of "
-       << (setup.prescription.system.name.empty() ? o.file : setup.prescription.system.name)
-       << "\n\n"
-       << a.ghosts.size() << " " << (o.order == 2 ? "two" : "two- and four")
-       << "-reflection ghosts of " << a.surfaces.size() << " ghost surfaces on detector "
-       << a.detector << "; sources:";
-    for (const Source& s : ts.transport.sources) md << " " << s.name();
-    md << ". Sequential grid " << o.grid << " rays across each beam";
-    if (haveMc)
-        md << "; Monte Carlo " << static_cast<uint64_t>(o.mcRays) << " rays per source, seed "
-           << o.seed;
-    md << ".\n\n";
-    if (!changes.empty()) {
-        md << "Coating what-if (" << changes.size() << " objects changed):\n\n";
-        for (const std::string& c : changes) md << "- " << c << "\n";
-        md << "\n";
-    }
-    md << "| rank | ghost | flux (" << unit << ") | Monte Carlo (" << unit
-       << ") | flux / nominal | focus - detector (mm) | footprint (mm) | peak irradiance (" << unit
-       << "/mm²) | peak / nominal peak | flags |" << (changes.empty() ? "" : " was |")
-       << "\n|---|---|---|---|---|---|---|---|---|---|" << (changes.empty() ? "" : "---|") << "\n";
-    for (size_t r = 0; r < a.ghosts.size(); ++r) {
-        const GhostEstimate& g = a.ghosts[r];
-        const GhostSourceResult& w = worst(g);
-        const double mcRel = haveMc && mcNominal > 0 ? mc.flux(r + 1, det) / mcNominal : NAN;
-        const double mcFlux = haveMc ? mc.flux(r + 1, det) : NAN;
-        const double mcErr = haveMc ? mc.relativeError(r + 1, det) : NAN;
-        const auto base = baseline.find(g.path.label);
-        csv << r + 1 << ",\"" << g.path.label << "\"," << g.flux() << "," << g.relativeFlux() << ","
-            << (haveMc ? sci(mcFlux, 6) : "") << "," << (haveMc ? sci(mcRel, 6) : "") << ","
-            << (haveMc ? sci(mcErr, 3) : "") << "," << w.focusMm << "," << w.footprintMm << ","
-            << g.peakIrradiance() << "," << g.relativeIrradiance() << "," << (g.nearFocus() ? 1 : 0)
-            << ",\"" << g.glassFocus() << "\","
-            << (base != baseline.end() ? std::to_string(base->second.first) : "") << ",\""
-            << g.path.criterion << "\"\n";
-        md << "| " << r + 1 << " | " << g.path.label << " | " << sci(g.flux()) << " | "
-           << (haveMc ? sci(mc.flux(r + 1, det)) + " ± " + fix(100.0 * mcErr, 1) + " %" : "-")
-           << " | " << (a.nominal.flux() > 0 ? sci(g.relativeFlux()) : "-") << " | "
-           << fix(w.focusMm, 2) << " | " << fix(w.footprintMm, 3) << " | "
-           << sci(g.peakIrradiance()) << " | "
-           << (a.nominal.peakIrradiance() > 0 ? sci(g.relativeIrradiance()) : "-") << " | "
-           << flags(g) << (g.glassFocus().empty() ? "" : " (" + g.glassFocus() + ")") << " |";
-        if (!changes.empty())
-            md << " " << (base != baseline.end() ? std::to_string(base->second.first) : "-")
-               << " |";
-        md << "\n";
-    }
-    md << "\nCriteria (docs/criteria.md) of the ranked ghosts, usable with veil trace --where and "
-          "veil paths --where:\n\n";
-    for (size_t r = 0; r < a.ghosts.size(); ++r)
-        md << r + 1 << ". `" << a.ghosts[r].path.criterion << "`\n";
+    // The table: one set of rows, every format written from it (analysis/ghost_report.h).
+    GhostReportSpec rs;
+    rs.scene = o.file;
+    rs.defaultScene = defaultScene;
+    rs.imageShiftMm = imageShiftMm;
+    rs.order = o.order;
+    rs.gridRays = o.grid;
+    rs.coatingOverrides = o.coatings;
+    rs.coatingChanges = changes;
+    rs.baseline = baseline;
+    rs.mcRaysPerSource = haveMc ? static_cast<uint64_t>(o.mcRays) : 0;
+    rs.seed = o.seed;
+    const GhostReport report = makeGhostReport(rs, setup, ts, a, haveMc ? &mc : nullptr, det);
+    const nlohmann::json j = report.json();
 
     fs::create_directories(o.output);
     const fs::path out(o.output);
     writeTextFile(out / "ghosts.json", j.dump(2) + "\n");
-    writeTextFile(out / "ghosts.csv", csv.str());
-    writeTextFile(out / "ghosts.md", md.str());
+    writeTextFile(out / "ghosts.csv", report.csv());
+    writeTextFile(out / "ghosts.md", report.markdown());
 
     // Images (Monte Carlo) and path pictures.
     if (haveMc && !o.noImages) {
@@ -400,58 +252,11 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
         std::cout << j.dump(2) << "\n";
         return 0;
     }
-    // The terminal table.
-    std::cout << "Ghosts of "
-              << (setup.prescription.system.name.empty() ? o.file : setup.prescription.system.name)
-              << (defaultScene ? " (default scene: collimated sources at the system fields, "
-                                 "detector at the paraxial image plane, " +
-                                     fix(imageShiftMm, 3) + " mm from the file's image surface)"
-                               : "")
-              << "\n  " << a.surfaces.size() << " ghost surfaces, " << a.ghosts.size() << " ghosts"
-              << (a.pruned ? " (" + std::to_string(a.pruned) +
-                                 " four-reflection paths below the energy bound)"
-                           : "")
-              << " on detector " << a.detector << "; sequential estimate " << fix(a.seconds, 3)
-              << " s";
-    if (haveMc)
-        std::cout << "; Monte Carlo " << mc.emittedRays << " rays in " << fix(mc.seconds, 1)
-                  << " s";
-    std::cout << "\n  nominal image " << sci(a.nominal.flux()) << " " << unit;
-    if (haveMc)
-        std::cout << " (Monte Carlo " << sci(mcNominal) << " +-"
-                  << fix(100.0 * mc.relativeError(0, det), 1) << "%)";
-    std::cout << "; all ghosts " << sci(j["all_ghosts"]["flux"].get<double>()) << " " << unit;
-    if (haveMc)
-        std::cout << " (Monte Carlo " << sci(mc.flux(a.ghosts.size() + 1, det)) << " +-"
-                  << fix(100.0 * mc.relativeError(a.ghosts.size() + 1, det), 1) << "%)";
-    std::cout << "\n";
-    for (const std::string& c : changes) std::cout << "  coating what-if: " << c << "\n";
-    std::cout << "\n"
-              << std::left << std::setw(5) << "rank" << std::setw(30) << "ghost" << std::right
-              << std::setw(11) << "flux " + unit << std::setw(20) << "Monte Carlo" << std::setw(10)
-              << "flux/nom" << std::setw(10) << "focus mm" << std::setw(9) << "foot mm"
-              << std::setw(11) << "peak/mm2"
-              << "  flags" << (changes.empty() ? "" : "  (was)") << "\n";
-    const size_t rows = o.top > 0 ? std::min<size_t>(o.top, a.ghosts.size()) : a.ghosts.size();
-    for (size_t r = 0; r < rows; ++r) {
-        const GhostEstimate& g = a.ghosts[r];
-        const GhostSourceResult& w = worst(g);
-        std::string mcText = "-";
-        if (haveMc)
-            mcText = sci(mc.flux(r + 1, det)) + " +-" +
-                     fix(100.0 * mc.relativeError(r + 1, det), 1) + "%";
-        std::cout << std::left << std::setw(5) << r + 1 << std::setw(30) << g.path.label
-                  << std::right << std::setw(11) << sci(g.flux()) << std::setw(20) << mcText
-                  << std::setw(10) << (a.nominal.flux() > 0 ? sci(g.relativeFlux()) : "-")
-                  << std::setw(10) << fix(w.focusMm, 1) << std::setw(9) << fix(w.footprintMm, 2)
-                  << std::setw(11) << sci(g.peakIrradiance()) << "  " << flags(g);
-        if (auto it = baseline.find(g.path.label); it != baseline.end())
-            std::cout << "  (" << it->second.first << ")";
-        std::cout << "\n";
-    }
-    std::cout << "\nwrote " << (out / "ghosts.md").string() << ", ghosts.csv, ghosts.json"
-              << (haveMc && !o.noImages ? ", images/, ghosts_all.png" : "")
-              << (!o.noImages && o.top > 0 ? ", paths/" : "") << "\n";
+    std::ostringstream footer;
+    footer << "\nwrote " << (out / "ghosts.md").string() << ", ghosts.csv, ghosts.json"
+           << (haveMc && !o.noImages ? ", images/, ghosts_all.png" : "")
+           << (!o.noImages && o.top > 0 ? ", paths/" : "") << "\n";
+    std::cout << report.terminal(o.top > 0 ? static_cast<size_t>(o.top) : 0, footer.str());
     return 0;
 }
 
