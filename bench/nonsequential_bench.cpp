@@ -78,15 +78,19 @@ const Fixture& sun7() {
     return *f;
 }
 
-void BM_TraceSun7(benchmark::State& state) {
+// The timed loop of the Sun traces: `raysPerIteration` rays with a new seed each iteration
+// on `threads` threads, rates as counters.
+void traceSun7(benchmark::State& state, size_t threads, uint64_t raysPerIteration,
+               const TransportOptions& options) {
     const Fixture& f = sun7();
-    tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
-    TransportOptions o;
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    TransportOptions o = options;
     uint64_t seed = 1;
     double rays = 0, segments = 0;
     for (auto _ : state) {
         o.seed = seed++;
-        const TraceResult r = traceNonsequential(f.trace.transport, f.trace.images, 500, o);
+        const TraceResult r =
+            traceNonsequential(f.trace.transport, f.trace.images, raysPerIteration, o);
         rays += static_cast<double>(r.budget.rays);
         segments += static_cast<double>(r.budget.segments);
     }
@@ -94,26 +98,16 @@ void BM_TraceSun7(benchmark::State& state) {
     state.counters["segments_per_s"] = benchmark::Counter(segments, benchmark::Counter::kIsRate);
     state.counters["segments_per_ray"] = segments / std::max(rays, 1.0);
 }
+
+void BM_TraceSun7(benchmark::State& state) { traceSun7(state, 1, 500, TransportOptions{}); }
 BENCHMARK(BM_TraceSun7)->Unit(benchmark::kMillisecond);
 
 // The same trace on 1 and 2 threads (argument), wall time: 1024 rays per iteration in blocks
 // of 128 so both threads get work (the result is the same for any thread count).
 void BM_TraceSun7Threads(benchmark::State& state) {
-    const Fixture& f = sun7();
-    tbb::global_control threads(tbb::global_control::max_allowed_parallelism,
-                                static_cast<size_t>(state.range(0)));
     TransportOptions o;
     o.raysPerBlock = 128;
-    uint64_t seed = 1;
-    double rays = 0, segments = 0;
-    for (auto _ : state) {
-        o.seed = seed++;
-        const TraceResult r = traceNonsequential(f.trace.transport, f.trace.images, 1024, o);
-        rays += static_cast<double>(r.budget.rays);
-        segments += static_cast<double>(r.budget.segments);
-    }
-    state.counters["rays_per_s"] = benchmark::Counter(rays, benchmark::Counter::kIsRate);
-    state.counters["segments_per_s"] = benchmark::Counter(segments, benchmark::Counter::kIsRate);
+    traceSun7(state, static_cast<size_t>(state.range(0)), 1024, o);
 }
 BENCHMARK(BM_TraceSun7Threads)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
 

@@ -77,6 +77,14 @@ class EmbreeScene {
     // outside the scene are moved to it before the float traversal (query()).
     static constexpr double kBoundsPadRelative = 1e-5;
 
+    // A double distance as a float bound for Embree, rounded up by a relative 1e-5 (plus
+    // 1e-5 mm): Embree then culls only what lies certainly beyond it, and a triangle at a near
+    // tie still reaches the double comparison. `shift`: how far the float ray's origin was
+    // moved along the ray (query()).
+    static float floatBeyond(double t, double shift = 0.0) {
+        return static_cast<float>(t * (1.0 + 1e-5) + 1e-5 - shift);
+    }
+
     // The nearest exact-face hit with t in (0, exact->t] (pass t = tMax, entry = -1; a tie
     // keeps the face with the lower object id) and the nearest triangle candidate with float
     // t in [tNear, tFar], skipping up to kMaxSkips triangles. startObject: the scene object

@@ -21,7 +21,7 @@ void Bounds3::extend(const Bounds3& b) {
     extend(b.hi);
 }
 
-bool Bounds3::hitBy(const Ray& r, double tMin, double tMax) const {
+bool Bounds3::clip(const Ray& r, double& tMin, double& tMax) const {
     if (empty()) return false;
     for (int a = 0; a < 3; ++a) {
         const double inv = 1.0 / r.direction[a];  // +-inf for axis-parallel rays: fine

@@ -19,7 +19,9 @@ struct Frame {
     // The rotation is orthonormal: its inverse is its transpose.
     Vec3 toLocalPoint(const Vec3& p) const { return glm::transpose(rotation) * (p - translation); }
     Vec3 toLocalDirection(const Vec3& d) const { return glm::transpose(rotation) * d; }
-    Ray toLocal(const Ray& r) const { return {toLocalPoint(r.origin), toLocalDirection(r.direction)}; }
+    Ray toLocal(const Ray& r) const {
+        return {toLocalPoint(r.origin), toLocalDirection(r.direction)};
+    }
 };
 std::ostream& operator<<(std::ostream& os, const Frame& f);
 
@@ -30,8 +32,9 @@ struct Bounds3 {
     void extend(const Vec3& p);
     void extend(const Bounds3& b);
     bool empty() const { return lo.x > hi.x; }
-    // Slab test: does the ray meet the box for some t in [tMin, tMax]?
-    bool hitBy(const Ray& r, double tMin, double tMax) const;
+    // Slab test: narrows [tMin, tMax] to the part of the ray inside the box; false when the
+    // ray does not meet the box there (tMin, tMax are then left in an unspecified state).
+    bool clip(const Ray& r, double& tMin, double& tMax) const;
 };
 std::ostream& operator<<(std::ostream& os, const Bounds3& b);
 // Bounds of a local box after placement.

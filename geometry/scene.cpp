@@ -199,7 +199,7 @@ std::optional<SceneHit> Scene::closestHit(const Ray& ray, double tMax, int start
             }
         }
     }
-    const float tFar = std::isfinite(tMax) ? static_cast<float>(tMax * (1.0 + 1e-5) + 1e-5)
+    const float tFar = std::isfinite(tMax) ? EmbreeScene::floatBeyond(tMax)
                                            : std::numeric_limits<float>::infinity();
     auto candidate = embree_->query(ray, 0.0f, tFar, startObject, skips, skipCount, exact);
 
