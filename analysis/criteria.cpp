@@ -518,7 +518,24 @@ struct Compiler {
                             break;
                         }
             }
-            if (!found) fail(p, what + " pattern '" + p.text + "' matches no " + what);
+            if (!found) {
+                // Name what there is to choose from.
+                std::string known;
+                size_t listed = 0, total = 0;
+                for (const auto& names : candidates) {
+                    if (names.empty()) continue;
+                    ++total;
+                    if (listed < 40) {
+                        known += (listed ? ", " : "") + std::string(names.front());
+                        ++listed;
+                    }
+                }
+                if (total > listed) known += ", ... (" + std::to_string(total) + " in all)";
+                fail(p, what + " pattern '" + p.text + "' matches no " + what +
+                            (total ? "; the scene's " + what + (total == 1 ? " is " : "s are ") +
+                                         known
+                                   : "; the scene has none"));
+            }
         }
         return leaf;
     }

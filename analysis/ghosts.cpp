@@ -800,6 +800,16 @@ void setFieldSources(SceneFile& file, const GlassCatalog& catalog,
     file.sources = fieldSources(file, catalog, fieldsDeg);
 }
 
+std::vector<std::pair<double, double>> addSystemFieldSources(SceneFile& file,
+                                                             const GlassCatalog& catalog) {
+    if (!file.sources.empty()) return {};
+    std::vector<std::pair<double, double>> fields;
+    for (const Field& f : file.prescription.system.fields) fields.emplace_back(f.x, f.y);
+    if (fields.empty()) fields.emplace_back(0.0, 0.0);
+    file.sources = fieldSources(file, catalog, fields);
+    return fields;
+}
+
 bool addDefaultGhostScene(SceneFile& file, const GlassCatalog& catalog, double* imageShiftMm) {
     if (imageShiftMm) *imageShiftMm = 0.0;
     if (!file.sources.empty()) return false;

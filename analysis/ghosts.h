@@ -255,6 +255,12 @@ std::vector<std::string> applyCoatingOverrides(TraceSetup& trace, const Scene& s
 bool addDefaultGhostScene(SceneFile& file, const GlassCatalog& catalog,
                           double* imageShiftMm = nullptr);
 
+// A scene without [[source]] gets one collimated (or point) 1 W source per system field, as
+// setFieldSources() makes them, and nothing else changes; returns the fields used, empty
+// (and does nothing) when the file has sources.
+std::vector<std::pair<double, double>> addSystemFieldSources(SceneFile& file,
+                                                             const GlassCatalog& catalog);
+
 // Collimated sources replacing the scene's: one per field (degrees x, y), 1 W each.
 void setFieldSources(SceneFile& file, const GlassCatalog& catalog,
                      const std::vector<std::pair<double, double>>& fieldsDeg);

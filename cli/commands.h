@@ -8,8 +8,9 @@
 #include <string>
 #include <vector>
 
-#include "tracer/scene_setup.h"
 #include "lensdata/glass_catalog.h"
+#include "tracer/prepared_scene.h"
+#include "tracer/scene_setup.h"
 
 namespace veil::cli {
 
@@ -22,22 +23,30 @@ GlassCatalog loadCatalog(const CommonOptions& common);
 std::unique_ptr<tbb::global_control> limitThreads(int threads);
 // The scene's warnings and errors (import notes, parts left out) on standard error.
 void reportSceneNotes(const SceneSetup& setup);
+// The scene of a command that traces: its sources replaced by one beam per --field when
+// given; a scene without [[source]] gets one beam per system field (said on standard error).
+std::unique_ptr<PreparedScene> prepareTracedScene(const std::string& file,
+                                                  const std::vector<std::string>& fields,
+                                                  const GlassCatalog& catalog,
+                                                  const SceneOptions& options = {});
 
 struct InfoOptions {
     std::string file;
     bool json = false;
+    bool quiet = false;
     std::string aim = "real";
     int rings = 8;
 };
-void addInfoCommand(CLI::App& app, CommonOptions& common, InfoOptions& options);
+void addInfoCommand(CLI::App& app, InfoOptions& options);
 int runInfo(const CommonOptions& common, const InfoOptions& options);
 
 struct LayoutOptions {
     std::string file;
-    std::string output = "layout.svg";
-    std::string png;  // default: the output with .png
+    std::string output;  // folder: layout.svg, layout.png
     int widthPx = 2000;
     bool noMechanics = false;
+    bool json = false;
+    bool quiet = false;
 };
 void addLayoutCommand(CLI::App& app, LayoutOptions& options);
 int runLayout(const CommonOptions& common, const LayoutOptions& options);
@@ -47,14 +56,17 @@ struct ExportOptions {
     std::string output = "scene.obj";
     double chordToleranceMm = 0.01;
     bool noMechanics = false;
+    bool json = false;
+    bool quiet = false;
 };
 void addExportCommand(CLI::App& app, ExportOptions& options);
 int runExport(const CommonOptions& common, const ExportOptions& options);
 
 struct TraceOptions {
     std::string file;
-    double rays = 0;
-    std::string output;
+    uint64_t rays = 0;
+    std::string output;  // folder; default ./trace
+    std::vector<std::string> fields;
     int threads = 0;
     uint64_t seed = 1;
     std::string mode = "split";
@@ -62,6 +74,7 @@ struct TraceOptions {
     int maxSplitDepth = 64;
     double roulette = 0.0;
     int maxSegments = 1000;
+    bool json = false;
     bool quiet = false;
     std::string saveRays;            // ray database file to write
     std::vector<std::string> where;  // path criteria: one image per criterion plus the rest
@@ -73,6 +86,7 @@ int runTrace(const CommonOptions& common, const TraceOptions& options);
 struct RaysOptions {
     std::string file;
     bool json = false;
+    bool quiet = false;
 };
 void addRaysCommand(CLI::App& app, RaysOptions& options);
 int runRays(const CommonOptions& common, const RaysOptions& options);

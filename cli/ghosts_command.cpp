@@ -7,7 +7,8 @@
 //
 // A bare lens file (no [[source]]) gets the default scene of analysis/ghosts.h: a collimated
 // 1 W beam per system field filling the first surface, an absorbing stop plate, the detector
-// on the image surface. Writes to the output folder: ghosts.csv, ghosts.json, ghosts.md (the
+// on the image surface. Writes to the output folder (default ./ghosts; with --json only when
+// -o is given): ghosts.csv, ghosts.json, ghosts.md (the
 // whole ranked table), images/ghost_RR.exr|png per ghost (RR = rank, Monte Carlo), their sum
 // ghosts_all.exr|png and nominal.png, and paths/ghost_RR.svg|png for the top K ghosts plus
 // paths/all_ghosts.svg|png. The terminal shows the top K rows; --json prints the whole table
@@ -29,6 +30,7 @@
 #include "analysis/image_output.h"
 #include "analysis/layout.h"
 #include "analysis/path_picture.h"
+#include "cli/options.h"
 #include "cli/progress.h"
 #include "lensdata/output_file.h"
 #include "tracer/prepared_scene.h"
@@ -48,26 +50,20 @@ void addGhostsCommand(CLI::App& app, GhostsOptions& o) {
     sub->add_option("--top", o.top, "rows shown and ghosts drawn (0: all rows, no drawings)")
         ->check(CLI::Range(0, 100000))
         ->capture_default_str();
-    sub->add_option("--field", o.fields,
-                    "field x,y (degrees; object mm for a finite object), repeatable: collimated "
-                    "(or point) 1 W sources replacing the scene's");
+    addFields(sub, o.fields);
     sub->add_option("--coating", o.coatings,
                     "what-if GLOB=PROPERTY (e.g. 'L3.*=ideal_ar'), repeatable: re-ranks and "
                     "shows what changed");
-    sub->add_flag("--json", o.json, "print the whole table as JSON on standard output");
-    sub->add_option("-o,--output", o.output, "output folder")->capture_default_str();
+    addOutputFolder(sub, o.output, "ghosts");
     sub->add_option("--grid", o.grid, "sequential estimate: grid rays across each beam")
         ->check(CLI::Range(2, 4096))
         ->capture_default_str();
-    sub->add_option("--mc-rays", o.mcRays, "Monte Carlo rays per source (0: sequential only)")
-        ->check(CLI::Range(0.0, 1e12))
-        ->capture_default_str();
+    addRays(sub, o.rays, "Monte Carlo rays per source (0: the sequential estimate only)", 0);
     sub->add_option("--paths", o.paths, "paths per ghost path picture")
         ->check(CLI::Range(1, 100000))
         ->capture_default_str();
-    sub->add_option("--seed", o.seed, "random seed")->capture_default_str();
-    sub->add_option("--threads", o.threads, "worker threads (0: all cores)")->capture_default_str();
-    sub->add_flag("--quiet", o.quiet, "no progress bar");
+    addRunControls(sub, o.threads, o.seed);
+    addReportFlags(sub, o.json, o.quiet);
     sub->add_option("--detector", o.detector, "detector name (default: the first)");
     sub->add_option("--near-focus", o.nearFocusMm,
                     "footprint diameter (mm) below which a ghost counts as focused on the "
@@ -88,29 +84,13 @@ void addGhostsCommand(CLI::App& app, GhostsOptions& o) {
         ->capture_default_str();
 }
 
-namespace {
-
-std::pair<double, double> parseField(const std::string& s, size_t k) {
-    std::istringstream in(s);
-    double x = 0, y = 0;
-    char comma = 0;
-    if (!(in >> x >> comma >> y) || comma != ',' || !(in >> std::ws).eof())
-        throw ParseError({"--field " + std::to_string(k + 1), 1, 1},
-                         "expected x,y (two numbers separated by a comma), got '" + s + "'");
-    return {x, y};
-}
-
-}  // namespace
-
 int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
     const GlassCatalog catalog = loadCatalog(common);
     SceneFile file = readSceneFile(o.file, catalog);
     double imageShiftMm = 0.0;
     const bool defaultScene = addDefaultGhostScene(file, catalog, &imageShiftMm);
     if (!o.fields.empty()) {
-        std::vector<std::pair<double, double>> fields;
-        for (size_t k = 0; k < o.fields.size(); ++k) fields.push_back(parseField(o.fields[k], k));
-        setFieldSources(file, catalog, fields);
+        setFieldSources(file, catalog, parseFields(o.fields));
     }
     if (o.pixels > 0) {
         if (file.detectors.empty()) file.detectors.emplace_back();
@@ -152,13 +132,13 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
     const std::string unit = ts.transport.sources.front().unit() == FluxUnit::Lumen ? "lm" : "W";
 
     GhostMonteCarlo mc;
-    if (o.mcRays >= 1) {
+    if (o.rays >= 1) {
         GhostMonteCarloOptions mo;
-        mo.raysPerSource = static_cast<uint64_t>(o.mcRays);
+        mo.raysPerSource = o.rays;
         mo.transport.seed = o.seed;
         const uint64_t total = mo.raysPerSource * ts.transport.sources.size();
         std::optional<ProgressReporter> reporter;
-        if (!o.quiet && !o.json) {
+        if (!o.quiet) {
             reporter.emplace("Monte Carlo", total);
             mo.progress = [&reporter](uint64_t done) { reporter->update(done); };
         }
@@ -177,19 +157,23 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
     rs.coatingOverrides = o.coatings;
     rs.coatingChanges = changes;
     rs.baseline = baseline;
-    rs.mcRaysPerSource = haveMc ? static_cast<uint64_t>(o.mcRays) : 0;
+    rs.mcRaysPerSource = haveMc ? o.rays : 0;
     rs.seed = o.seed;
     const GhostReport report = makeGhostReport(rs, setup, ts, a, haveMc ? &mc : nullptr, det);
     const nlohmann::json j = report.json();
 
-    fs::create_directories(o.output);
-    const fs::path out(o.output);
-    writeTextFile(out / "ghosts.json", j.dump(2) + "\n");
-    writeTextFile(out / "ghosts.csv", report.csv());
-    writeTextFile(out / "ghosts.md", report.markdown());
+    const fs::path out = outputFolder(o.output, "ghosts", o.json);
+    WrittenFiles written;
+    if (!out.empty()) {
+        fs::create_directories(out);
+        writeTextFile(out / "ghosts.json", j.dump(2) + "\n");
+        writeTextFile(out / "ghosts.csv", report.csv());
+        writeTextFile(out / "ghosts.md", report.markdown());
+        for (const char* f : {"ghosts.json", "ghosts.csv", "ghosts.md"}) written.add(out / f);
+    }
 
     // Images (Monte Carlo) and path pictures.
-    if (haveMc && !o.noImages) {
+    if (!out.empty() && haveMc && !o.noImages) {
         fs::create_directories(out / "images");
         const auto& layers = mc.images->images();
         ExrInfo info{unit, mc.emittedRays};
@@ -205,14 +189,18 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
             writeDetectorExr(out / "images" / (stem.str() + ".exr"), img, info);
             po.title = "#" + std::to_string(r + 1) + " " + a.ghosts[r].path.label;
             writeDetectorPng(out / "images" / (stem.str() + ".png"), img, po);
+            written.add(out / "images" / (stem.str() + ".exr"));
+            written.add(out / "images" / (stem.str() + ".png"));
         }
         writeDetectorExr(out / "ghosts_all.exr", sum, info);
         po.title = "all " + std::to_string(a.ghosts.size()) + " ghosts";
         writeDetectorPng(out / "ghosts_all.png", sum, po);
         po.title = "nominal image";
         writeDetectorPng(out / "nominal.png", layers[0][det], po);
+        for (const char* f : {"ghosts_all.exr", "ghosts_all.png", "nominal.png"})
+            written.add(out / f);
     }
-    if (!o.noImages && o.top > 0) {
+    if (!out.empty() && !o.noImages && o.top > 0) {
         fs::create_directories(out / "paths");
         veil::LayoutOptions lo;
         lo.title = setup.prescription.system.name.empty() ? o.file : setup.prescription.system.name;
@@ -238,6 +226,8 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
             const Picture pic = drawPaths(base, sel, pp);
             pic.writeSvg(stem.string() + ".svg");
             pic.writePng(stem.string() + ".png", 2000);
+            written.add(stem.string() + ".svg");
+            written.add(stem.string() + ".png");
         };
         const size_t k = std::min<size_t>(static_cast<size_t>(o.top), a.ghosts.size());
         for (size_t r = 0; r < k; ++r) {
@@ -249,13 +239,16 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
     }
 
     if (o.json) {
-        std::cout << j.dump(2) << "\n";
+        nlohmann::json jj = j;
+        jj["files"] = written.json();
+        std::cout << jj.dump(2) << "\n";
         return 0;
     }
     std::ostringstream footer;
-    footer << "\nwrote " << (out / "ghosts.md").string() << ", ghosts.csv, ghosts.json"
-           << (haveMc && !o.noImages ? ", images/, ghosts_all.png" : "")
-           << (!o.noImages && o.top > 0 ? ", paths/" : "") << "\n";
+    if (!o.quiet && !written.files().empty()) {
+        footer << "\n";
+        written.print(footer);
+    }
     std::cout << report.terminal(o.top > 0 ? static_cast<size_t>(o.top) : 0, footer.str());
     return 0;
 }

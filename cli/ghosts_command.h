@@ -16,9 +16,9 @@ struct GhostsOptions {
     std::vector<std::string> fields;    // "x,y" degrees (or object mm for a finite object)
     std::vector<std::string> coatings;  // GLOB=PROPERTY
     bool json = false;
-    std::string output = "ghosts";
+    std::string output;  // folder; default ./ghosts
     int grid = 64;
-    double mcRays = 10000;
+    uint64_t rays = 10000;  // Monte Carlo rays per source; 0: sequential estimate only
     int paths = 200;
     uint64_t seed = 1;
     int threads = 0;

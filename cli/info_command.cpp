@@ -16,6 +16,7 @@
 #include "analysis/first_order.h"
 #include "analysis/spot.h"
 #include "cli/commands.h"
+#include "cli/options.h"
 #include "tracer/scene_setup.h"
 #include "tracer/sequential_model.h"
 
@@ -100,11 +101,11 @@ void reportSceneNotes(const SceneSetup& setup) {
         if (n.severity != ImportNote::Severity::Info) std::cerr << "veil: " << n << "\n";
 }
 
-void addInfoCommand(CLI::App& app, CommonOptions& common, InfoOptions& options) {
+void addInfoCommand(CLI::App& app, InfoOptions& options) {
     CLI::App* sub =
         app.add_subcommand("info", "first-order data, spots and import report of a lens");
     sub->add_option("file", options.file, "lens or scene file (.toml or .zmx)")->required();
-    sub->add_flag("--json", options.json, "print JSON on standard output");
+    addReportFlags(sub, options.json, options.quiet);
     sub->add_option("--aim", options.aim, "ray aiming: real (to the real stop) or paraxial")
         ->check(CLI::IsMember({"real", "paraxial"}));
     sub->add_option("--rings", options.rings, "hexapolar rings for the spot diagrams")

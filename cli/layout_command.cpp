@@ -1,16 +1,21 @@
-// veil layout SCENE -o layout.svg: the y-z section of the lens with its mechanics, stop and
-// detector, as SVG and PNG (the PNG beside the SVG unless --png names it).
+// veil layout SCENE -o DIR: the y-z section of the lens with its mechanics, stop, detector
+// and sources, as DIR/layout.svg and DIR/layout.png (DIR defaults to ./layout).
 //
-//   veil layout examples/scenes/double_gauss_50mm.toml -o dg.svg          # dg.svg, dg.png
-//   veil layout lens.zmx -o lens.svg --png preview.png --width-px 3000
+//   veil layout examples/scenes/double_gauss_50mm.toml -o out/dg      # out/dg/layout.svg, .png
+//   veil layout lens.zmx --width-px 3000
 //
 // veil export SCENE -o scene.obj|scene.ply: every object as triangles for viewing in other
 // tools (exact faces tessellated with --chord-tolerance, display only), grouped by object.
 
+#include <algorithm>
+#include <cctype>
 #include <iostream>
+#include <nlohmann/json.hpp>
 
 #include "analysis/layout.h"
 #include "cli/commands.h"
+#include "cli/options.h"
+#include "lensdata/errors.h"
 #include "geometry/mesh_io.h"
 #include "tracer/prepared_scene.h"
 
@@ -18,14 +23,14 @@ namespace veil::cli {
 
 void addLayoutCommand(CLI::App& app, LayoutOptions& options) {
     CLI::App* sub =
-        app.add_subcommand("layout", "2D section of lens, mechanics, stop and detector");
+        app.add_subcommand("layout", "2D section of lens, mechanics, stop, detector and sources");
     sub->add_option("scene", options.file, "scene or lens file (.toml or .zmx)")->required();
-    sub->add_option("-o,--output", options.output, "SVG file to write")->capture_default_str();
-    sub->add_option("--png", options.png, "PNG file (default: the SVG name with .png)");
+    addOutputFolder(sub, options.output, "layout");
     sub->add_option("--width-px", options.widthPx, "PNG width in pixels")
         ->check(CLI::Range(200, 20000))
         ->capture_default_str();
     sub->add_flag("--no-mechanics", options.noMechanics, "leave the [mechanics] section out");
+    addReportFlags(sub, options.json, options.quiet);
 }
 
 int runLayout(const CommonOptions& common, const LayoutOptions& options) {
@@ -35,52 +40,83 @@ int runLayout(const CommonOptions& common, const LayoutOptions& options) {
     const std::unique_ptr<const PreparedScene> prepared =
         PreparedScene::read(options.file, catalog, so);
     const SceneSetup& setup = prepared->setup();
+    reportSceneNotes(setup);
     veil::LayoutOptions lo;
     lo.title =
         setup.prescription.system.name.empty() ? options.file : setup.prescription.system.name;
     const Picture pic = drawLayout(setup.scene, lo);
-    std::filesystem::path png = options.png;
-    if (png.empty()) png = std::filesystem::path(options.output).replace_extension(".png");
-    pic.writeSvg(options.output);
-    pic.writePng(png, options.widthPx);
-    std::cout << "wrote " << options.output << " and " << png.string() << " ("
-              << setup.scene.objects().size() << " objects)\n";
-    reportSceneNotes(setup);
+    const std::filesystem::path dir = outputFolder(options.output, "layout", options.json);
+    WrittenFiles written;
+    if (!dir.empty()) {
+        std::filesystem::create_directories(dir);
+        pic.writeSvg(dir / "layout.svg");
+        written.add(dir / "layout.svg");
+        pic.writePng(dir / "layout.png", options.widthPx);
+        written.add(dir / "layout.png");
+    }
+    if (options.json) {
+        nlohmann::json j;
+        j["scene"] = options.file;
+        j["objects"] = nlohmann::json::array();
+        for (const SceneObject& o : setup.scene.objects())
+            j["objects"].push_back({{"name", o.name}, {"kind", std::string(toString(o.kind))}});
+        j["files"] = written.json();
+        std::cout << j.dump(2) << "\n";
+        return 0;
+    }
+    std::cout << setup.scene.objects().size() << " objects\n";
+    if (!options.quiet) written.print(std::cout);
     return 0;
 }
 
 void addExportCommand(CLI::App& app, ExportOptions& options) {
     CLI::App* sub = app.add_subcommand("export", "the scene as OBJ or PLY triangles for viewing");
     sub->add_option("scene", options.file, "scene or lens file (.toml or .zmx)")->required();
-    sub->add_option("-o,--output", options.output, "OBJ or PLY file to write")
-        ->capture_default_str();
+    addOutputFile(sub, options.output, "OBJ or PLY file to write (folders created as needed)");
     sub->add_option("--chord-tolerance", options.chordToleranceMm,
                     "display tessellation of exact faces, mm")
         ->check(CLI::Range(1e-6, 10.0))
         ->capture_default_str();
     sub->add_flag("--no-mechanics", options.noMechanics, "leave the [mechanics] section out");
+    addReportFlags(sub, options.json, options.quiet);
 }
 
 int runExport(const CommonOptions& common, const ExportOptions& options) {
+    const std::filesystem::path out(options.output);
+    std::string ext = out.extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    if (ext != ".ply" && ext != ".obj")
+        throw ParseError({"-o " + options.output, 0, 0}, "export writes .obj or .ply files");
     const GlassCatalog catalog = loadCatalog(common);
     SceneOptions so;
     so.mechanics = !options.noMechanics;
     const std::unique_ptr<const PreparedScene> prepared =
         PreparedScene::read(options.file, catalog, so);
     const SceneSetup& setup = prepared->setup();
+    reportSceneNotes(setup);
     std::vector<int> objectOfTriangle;
     const TriangleMesh mesh = setup.scene.tessellate(options.chordToleranceMm, &objectOfTriangle);
     std::vector<std::string> names;
     for (const SceneObject& o : setup.scene.objects()) names.push_back(o.name);
-    const std::string ext = std::filesystem::path(options.output).extension().string();
-    if (ext == ".ply" || ext == ".PLY")
-        writeMeshPly(options.output, mesh, objectOfTriangle);
-    else if (ext == ".obj" || ext == ".OBJ")
-        writeMeshObj(options.output, mesh, objectOfTriangle, names);
+    if (!out.parent_path().empty()) std::filesystem::create_directories(out.parent_path());
+    if (ext == ".ply")
+        writeMeshPly(out, mesh, objectOfTriangle);
     else
-        throw ParseError({options.output, 0, 0}, "export writes .obj or .ply files");
-    std::cout << "wrote " << options.output << " (" << mesh.triangles.size() << " triangles, "
-              << names.size() << " objects)\n";
+        writeMeshObj(out, mesh, objectOfTriangle, names);
+    WrittenFiles written;
+    written.add(out);
+    if (options.json) {
+        nlohmann::json j;
+        j["scene"] = options.file;
+        j["triangles"] = mesh.triangles.size();
+        j["objects"] = names;
+        j["files"] = written.json();
+        std::cout << j.dump(2) << "\n";
+        return 0;
+    }
+    std::cout << mesh.triangles.size() << " triangles, " << names.size() << " objects\n";
+    if (!options.quiet) written.print(std::cout);
     return 0;
 }
 

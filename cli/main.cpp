@@ -3,16 +3,42 @@
 //   0 success, 1 bad input or model (message names file:line:col or the object), 2 usage.
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <iostream>
+#include <string>
+#include <vector>
 
 #include "cli/commands.h"
 #include "cli/ghosts_command.h"
 #include "cli/paths_command.h"
 #include "lensdata/errors.h"
 
+namespace {
+
+// Edit distance, for "did you mean" on a mistyped command.
+size_t distance(const std::string& a, const std::string& b) {
+    std::vector<size_t> row(b.size() + 1);
+    for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+    for (size_t i = 1; i <= a.size(); ++i) {
+        size_t diagonal = row[0];
+        row[0] = i;
+        for (size_t j = 1; j <= b.size(); ++j) {
+            const size_t up = row[j];
+            row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] != b[j - 1])});
+            diagonal = up;
+        }
+    }
+    return row[b.size()];
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
     CLI::App app{"veil: optical design kernel for stray light and ghost analysis"};
     app.require_subcommand(1);
+    // Options a subcommand does not know (--glass-catalog) are the main command's, wherever
+    // they stand on the line.
+    app.fallthrough();
     app.set_version_flag("--version", "veil 0.1.0");
     veil::cli::CommonOptions common;
     app.add_option("--glass-catalog", common.glassCatalogs,
@@ -20,7 +46,7 @@ int main(int argc, char** argv) {
         ->check(CLI::ExistingFile);
 
     veil::cli::InfoOptions info;
-    veil::cli::addInfoCommand(app, common, info);
+    veil::cli::addInfoCommand(app, info);
     veil::cli::LayoutOptions layout;
     veil::cli::addLayoutCommand(app, layout);
     veil::cli::ExportOptions exportOptions;
@@ -34,6 +60,27 @@ int main(int argc, char** argv) {
     veil::cli::GhostsOptions ghostsOptions;
     veil::cli::addGhostsCommand(app, ghostsOptions);
 
+    // A first word that is no command and no option: name the nearest command.
+    if (argc > 1 && argv[1][0] != '-') {
+        const std::string word = argv[1];
+        std::string best;
+        size_t bestDistance = 3;  // at most two edits away
+        bool known = false;
+        for (const CLI::App* sub : app.get_subcommands({})) {
+            known |= sub->get_name() == word;
+            const size_t d = distance(word, sub->get_name());
+            if (d < bestDistance) {
+                bestDistance = d;
+                best = sub->get_name();
+            }
+        }
+        if (!known) {
+            std::cerr << "veil: error: unknown command '" << word << "'";
+            if (!best.empty()) std::cerr << "; did you mean '" << best << "'?";
+            std::cerr << "\nRun veil --help for the commands.\n";
+            return 2;
+        }
+    }
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

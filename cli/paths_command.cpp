@@ -1,43 +1,41 @@
-// veil paths SCENE --where EXPR --first N -o paths.svg: traces rays with path histories and
-// draws the first N paths (in ray order) that satisfy the criterion over the y-z section of
-// lens, mechanics, stop and detector, as SVG and PNG (the PNG beside the SVG unless --png).
+// veil paths SCENE --where EXPR --first N -o DIR: traces rays with path histories and draws
+// the first N paths (in ray order) that satisfy the criterion over the y-z section of lens,
+// mechanics, stop and detector, as DIR/paths.svg and DIR/paths.png (DIR defaults to ./paths).
 //
 //   veil paths examples/scenes/longfocus_360mm_sun.toml --where "emit(sun)" --first 300
-//       -o all.svg
+//       -o out/all
 //   veil paths scene.toml --where "seq(fresnel(L4.back), fresnel(L4.front), hit(sensor))"
-//       --first 50 --rays 2e6 --colour event -o ghost.svg
+//       --first 50 -n 2M --colour event -o out/ghost
 //
 // Rays are traced in batches of --batch rays per source (batch b with seed --seed + b) until
-// N paths are found or --rays are traced; the same seed gives the same paths with any number
-// of threads. The criterion syntax is docs/criteria.md; an error names its column.
+// N paths are found or -n rays per source are traced; the same seed gives the same paths with
+// any number of threads. The criterion syntax is docs/criteria.md; an error names its column.
 
 #include "cli/paths_command.h"
 
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <nlohmann/json.hpp>
 
 #include "analysis/layout.h"
 #include "analysis/path_picture.h"
+#include "cli/options.h"
 #include "tracer/prepared_scene.h"
 
 namespace veil::cli {
 
 void addPathsCommand(CLI::App& app, PathsOptions& o) {
     CLI::App* sub = app.add_subcommand("paths", "draw the first N ray paths matching a criterion");
-    sub->add_option("scene", o.file, "scene file (.toml) with [[source]]")->required();
+    sub->add_option("scene", o.file, "scene or lens file (.toml or .zmx)")->required();
     sub->add_option("--where", o.where, "path criterion (docs/criteria.md)")->required();
     sub->add_option("--first", o.first, "number of paths to draw")
         ->check(CLI::Range(1, 1000000))
         ->capture_default_str();
-    sub->add_option("-o,--output", o.output, "SVG file to write")->capture_default_str();
-    sub->add_option("--png", o.png, "PNG file (default: the SVG name with .png)");
-    sub->add_option("--rays", o.rays, "emitted rays to trace at most (all sources)")
-        ->check(CLI::Range(1.0, 1e13))
-        ->capture_default_str();
-    sub->add_option("--batch", o.batch, "rays per source per batch")
-        ->check(CLI::Range(1.0, 1e9))
-        ->capture_default_str();
+    addRays(sub, o.rays, "emitted rays per source to trace at most");
+    addOutputFolder(sub, o.output, "paths");
+    addFields(sub, o.fields);
+    addCount(sub, "--batch", o.batch, "rays per source per batch");
     sub->add_option("--colour,--color", o.colour, "segment colour: flux (log) or event type")
         ->check(CLI::IsMember({"flux", "event"}))
         ->capture_default_str();
@@ -48,20 +46,22 @@ void addPathsCommand(CLI::App& app, PathsOptions& o) {
     sub->add_option("--min-flux", o.minRelativeFlux,
                     "cull a branch below this share of its ray's emitted flux, after every bounce "
                     "(both modes)")
+        ->check(CLI::Range(0.0, 1.0))
         ->capture_default_str();
-    sub->add_option("--seed", o.seed, "random seed")->capture_default_str();
-    sub->add_option("--threads", o.threads, "worker threads (0: all cores)")->capture_default_str();
+    addRunControls(sub, o.threads, o.seed);
     sub->add_option("--width-px", o.widthPx, "PNG width in pixels")
         ->check(CLI::Range(200, 20000))
         ->capture_default_str();
     sub->add_flag("--no-mechanics", o.noMechanics, "leave the [mechanics] section out");
+    addReportFlags(sub, o.json, o.quiet);
 }
 
 int runPaths(const CommonOptions& common, const PathsOptions& o) {
     const GlassCatalog catalog = loadCatalog(common);
     SceneOptions so;
     so.mechanics = !o.noMechanics;
-    const std::unique_ptr<const PreparedScene> prepared = PreparedScene::read(o.file, catalog, so);
+    const std::unique_ptr<const PreparedScene> prepared =
+        prepareTracedScene(o.file, o.fields, catalog, so);
     const SceneSetup& setup = prepared->setup();
     const TraceSetup& ts = prepared->trace();
     reportSceneNotes(setup);
@@ -70,8 +70,8 @@ int runPaths(const CommonOptions& common, const PathsOptions& o) {
     PathSelectionOptions po;
     po.where = o.where;
     po.count = static_cast<size_t>(o.first);
-    po.maxRays = static_cast<uint64_t>(o.rays);
-    po.batchRays = static_cast<uint64_t>(o.batch);
+    po.maxRays = o.rays * ts.transport.sources.size();
+    po.batchRays = o.batch;
     po.transport.seed = o.seed;
     po.transport.mode =
         o.mode == "random" ? TransportOptions::Mode::Random : TransportOptions::Mode::Split;
@@ -89,19 +89,35 @@ int runPaths(const CommonOptions& common, const PathsOptions& o) {
     pp.clipZY = std::array<double, 4>{b.lo.z - pad, b.hi.z + pad, b.lo.y - pad, b.hi.y + pad};
     const Picture pic = drawPaths(base, sel, pp);
 
-    std::filesystem::path png = o.png;
-    if (png.empty()) png = std::filesystem::path(o.output).replace_extension(".png");
-    const std::filesystem::path parent = std::filesystem::path(o.output).parent_path();
-    if (!parent.empty()) std::filesystem::create_directories(parent);
-    pic.writeSvg(o.output);
-    pic.writePng(png, o.widthPx);
-    std::cout << "found " << sel.paths.size() << " of " << o.first << " paths matching '" << o.where
-              << "' in " << sel.raysTraced << " rays (" << sel.pathsMatched << " of "
-              << sel.pathsEvaluated << " paths matched)\n"
-              << "wrote " << o.output << " and " << png.string() << "\n";
+    const std::filesystem::path dir = outputFolder(o.output, "paths", o.json);
+    WrittenFiles written;
+    if (!dir.empty()) {
+        std::filesystem::create_directories(dir);
+        pic.writeSvg(dir / "paths.svg");
+        written.add(dir / "paths.svg");
+        pic.writePng(dir / "paths.png", o.widthPx);
+        written.add(dir / "paths.png");
+    }
     if (sel.paths.size() < static_cast<size_t>(o.first))
         std::cerr << "veil: only " << sel.paths.size() << " matching paths in " << sel.raysTraced
-                  << " rays; raise --rays to find more\n";
+                  << " rays; raise -n to find more\n";
+    if (o.json) {
+        nlohmann::json j{{"scene", o.file},
+                         {"where", o.where},
+                         {"requested", o.first},
+                         {"found", sel.paths.size()},
+                         {"rays_traced", sel.raysTraced},
+                         {"paths_evaluated", sel.pathsEvaluated},
+                         {"paths_matched", sel.pathsMatched},
+                         {"seed", o.seed},
+                         {"files", written.json()}};
+        std::cout << j.dump(2) << "\n";
+        return 0;
+    }
+    std::cout << "found " << sel.paths.size() << " of " << o.first << " paths matching '" << o.where
+              << "' in " << sel.raysTraced << " rays (" << sel.pathsMatched << " of "
+              << sel.pathsEvaluated << " paths matched)\n";
+    if (!o.quiet) written.print(std::cout);
     return 0;
 }
 

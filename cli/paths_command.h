@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "cli/commands.h"
 
@@ -13,17 +14,19 @@ struct PathsOptions {
     std::string file;
     std::string where;
     int first = 300;
-    std::string output = "paths.svg";
-    std::string png;  // default: the output with .png
-    double rays = 1e6;
+    std::string output;  // folder: paths.svg, paths.png; default ./paths
+    std::vector<std::string> fields;
+    uint64_t rays = 1000000;  // per source, at most
     std::string colour = "flux";
     uint64_t seed = 1;
     int threads = 0;
     int widthPx = 2000;
-    double batch = 20000;
+    uint64_t batch = 20000;
     std::string mode = "split";
     double minRelativeFlux = 1e-4;
     bool noMechanics = false;
+    bool json = false;
+    bool quiet = false;
 };
 void addPathsCommand(CLI::App& app, PathsOptions& options);
 int runPaths(const CommonOptions& common, const PathsOptions& options);

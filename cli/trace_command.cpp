@@ -25,7 +25,9 @@
 #include "analysis/image_output.h"
 #include "analysis/ray_statistics.h"
 #include "analysis/stray_light_run.h"
+#include "analysis/ghosts.h"
 #include "cli/commands.h"
+#include "cli/options.h"
 #include "cli/progress.h"
 #include "lensdata/output_file.h"
 #include "tracer/prepared_scene.h"
@@ -34,28 +36,30 @@ namespace veil::cli {
 
 void addTraceCommand(CLI::App& app, TraceOptions& o) {
     CLI::App* sub = app.add_subcommand("trace", "forward nonsequential Monte Carlo ray trace");
-    sub->add_option("scene", o.file, "scene file (.toml) with [[source]]")->required();
-    sub->add_option("-n,--rays", o.rays, "rays per source")
-        ->required()
-        ->check(CLI::Range(1.0, 1e13));
-    sub->add_option("-o,--output", o.output, "output folder")->required();
-    sub->add_option("--threads", o.threads, "worker threads (0: all cores)")->capture_default_str();
-    sub->add_option("--seed", o.seed, "random seed")->capture_default_str();
+    sub->add_option("scene", o.file, "scene or lens file (.toml or .zmx)")->required();
+    addRays(sub, o.rays, "emitted rays per source")->required();
+    addOutputFolder(sub, o.output, "trace");
+    addFields(sub, o.fields);
+    addRunControls(sub, o.threads, o.seed);
     sub->add_option("--mode", o.mode, "split (every Fresnel branch) or random (one branch)")
         ->check(CLI::IsMember({"split", "random"}))
         ->capture_default_str();
     sub->add_option("--min-flux", o.minRelativeFlux,
                     "cull a branch below this share of its ray's emitted flux, after every bounce "
                     "(both modes)")
+        ->check(CLI::Range(0.0, 1.0))
         ->capture_default_str();
     sub->add_option("--max-split-depth", o.maxSplitDepth, "split mode: deepest split followed")
+        ->check(CLI::Range(1, 100000))
         ->capture_default_str();
     sub->add_option("--roulette", o.roulette,
                     "Russian roulette below this share of the ray's flux (0: off)")
+        ->check(CLI::Range(0.0, 1.0))
         ->capture_default_str();
     sub->add_option("--max-segments", o.maxSegments, "segments per branch before it is culled")
+        ->check(CLI::Range(1, 100000000))
         ->capture_default_str();
-    sub->add_flag("--quiet", o.quiet, "no progress bar");
+    addReportFlags(sub, o.json, o.quiet);
     sub->add_option("--where", o.where,
                     "path criterion (docs/criteria.md); repeatable: one image per criterion plus "
                     "the rest, and the detector flux split by criterion");
@@ -70,7 +74,7 @@ void addTraceCommand(CLI::App& app, TraceOptions& o) {
 void addRaysCommand(CLI::App& app, RaysOptions& o) {
     CLI::App* sub = app.add_subcommand("rays", "summarise a ray database without tracing again");
     sub->add_option("file", o.file, "ray database written by veil trace --save-rays")->required();
-    sub->add_flag("--json", o.json, "print JSON on standard output");
+    addReportFlags(sub, o.json, o.quiet);
 }
 
 int runRays(const CommonOptions&, const RaysOptions& o) {
@@ -110,17 +114,39 @@ nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlo
 
 }  // namespace
 
+std::unique_ptr<PreparedScene> prepareTracedScene(const std::string& path,
+                                                  const std::vector<std::string>& fields,
+                                                  const GlassCatalog& catalog,
+                                                  const SceneOptions& options) {
+    SceneFile file = readSceneFile(path, catalog);
+    if (!fields.empty()) {
+        setFieldSources(file, catalog, parseFields(fields));
+    } else if (file.sources.empty()) {
+        const auto used = addSystemFieldSources(file, catalog);
+        const bool angle = file.prescription.system.fieldKind == SystemData::FieldKind::AngleDeg;
+        std::cerr << "veil: note: " << path << " has no [[source]]: tracing one "
+                  << (angle ? "collimated beam" : "point source") << " per system field (";
+        for (size_t k = 0; k < used.size(); ++k)
+            std::cerr << (k ? "; " : "") << used[k].first << "," << used[k].second;
+        std::cerr << (angle ? " deg" : " mm")
+                  << "; 1 W through the first surface); add [[source]] (docs/format.md) or --field "
+                     "X,Y to choose\n";
+    }
+    return PreparedScene::build(std::move(file), catalog, options);
+}
+
 int runTrace(const CommonOptions& common, const TraceOptions& o) {
     const GlassCatalog catalog = loadCatalog(common);
-    const std::unique_ptr<const PreparedScene> prepared = PreparedScene::read(o.file, catalog);
+    const std::unique_ptr<const PreparedScene> prepared =
+        prepareTracedScene(o.file, o.fields, catalog);
     const SceneSetup& setup = prepared->setup();
     const TraceSetup& ts = prepared->trace();
     reportSceneNotes(setup);
     if (o.prune && o.where.empty())
-        throw ParseError({o.file, 0, 0}, "--prune needs at least one --where");
+        throw ParseError({"--prune", 0, 0}, "--prune needs at least one --where");
 
     StrayLightSpec spec;
-    spec.raysPerSource = static_cast<uint64_t>(o.rays);
+    spec.raysPerSource = o.rays;
     TransportOptions& options = spec.transport;
     options.mode =
         o.mode == "random" ? TransportOptions::Mode::Random : TransportOptions::Mode::Split;
@@ -132,6 +158,8 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
     spec.where = o.where;
     spec.prune = o.prune;
     const uint64_t total = spec.raysPerSource * ts.transport.sources.size();
+    const std::filesystem::path dir = outputFolder(o.output, "trace", o.json);
+    WrittenFiles written;
 
     // The ray database opens its file only once the run's spec has been checked.
     std::unique_ptr<RayDatabaseWriter> db;
@@ -155,10 +183,10 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
     if (db) {
         db->setEmittedRays(total);
         db->close();
+        written.add(o.saveRays);
     }
     if (reporter) reporter->finish();
 
-    std::filesystem::create_directories(o.output);
     const std::string& unit = result.fluxUnit;
     const double seconds = result.seconds;
     nlohmann::json summary;
@@ -182,12 +210,13 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
                          {"imbalance", b.imbalance()},
                          {"segments", b.segments},
                          {"branches", b.branches}};
-    std::cout << "Flux budget (" << unit << ")\n";
+    std::ostringstream text;
+    text << "Flux budget (" << unit << ")\n";
     auto line = [&](const char* what, double v) {
-        std::cout << "  " << std::left << std::setw(18) << what << std::right << std::setw(16)
-                  << std::scientific << std::setprecision(6) << v << "  " << std::fixed
-                  << std::setprecision(3) << std::setw(8)
-                  << (b.emitted > 0 ? 100.0 * v / b.emitted : 0.0) << " %\n";
+        text << "  " << std::left << std::setw(18) << what << std::right << std::setw(16)
+             << std::scientific << std::setprecision(6) << v << "  " << std::fixed
+             << std::setprecision(3) << std::setw(8)
+             << (b.emitted > 0 ? 100.0 * v / b.emitted : 0.0) << " %\n";
     };
     line("emitted", b.emitted);
     line("detected", b.detected);
@@ -196,42 +225,48 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
     line("culled", b.culled);
     if (b.dropped > 0 || b.droppedBranches[0] + b.droppedBranches[1] > 0) {
         line("dropped", b.dropped);
-        std::cout << "    (" << b.droppedBranches[0] << " " << DropReason::NoRefractedDirection
-                  << ", " << b.droppedBranches[1] << " " << DropReason::NoScatterDirection << ")\n";
+        text << "    (" << b.droppedBranches[0] << " " << DropReason::NoRefractedDirection << ", "
+             << b.droppedBranches[1] << " " << DropReason::NoScatterDirection << ")\n";
     }
     if (b.rouletteGain > 0) line("roulette gain", b.rouletteGain);
-    std::cout << "  imbalance " << std::scientific << b.imbalance() << " (relative "
-              << (b.emitted > 0 ? b.imbalance() / b.emitted : 0.0) << ")\n";
-    std::cout << std::fixed << std::setprecision(1) << "  " << total << " rays, " << b.segments
-              << " segments in " << seconds << " s (" << std::setprecision(0)
-              << total / std::max(seconds, 1e-9) << " rays/s)\n\nDetectors\n";
+    text << "  imbalance " << std::scientific << b.imbalance() << " (relative "
+         << (b.emitted > 0 ? b.imbalance() / b.emitted : 0.0) << ")\n";
+    text << std::fixed << std::setprecision(1) << "  " << total << " rays, " << b.segments
+         << " segments in " << seconds << " s (" << std::setprecision(0)
+         << total / std::max(seconds, 1e-9) << " rays/s)\n\nDetectors\n";
 
     // Images: one EXR per detector (the total and its criterion layers), PNG previews.
-    const std::filesystem::path dir(o.output);
-    for (size_t d = 0; d < result.images.size(); ++d) {
-        const DetectorImage& img = result.images[d];
-        const std::string name = img.geometry().name;
-        ExrInfo info{unit, total};
-        std::vector<ImageLayer> layers{{result.layers ? "all" : "", &img}};
-        if (result.layers) {
-            const size_t n = result.layers->criterionCount();
-            for (size_t c = 0; c <= n; ++c)
-                layers.push_back({c < n ? "where" + std::to_string(c + 1) : "rest",
-                                  &result.layers->images()[c][d]});
-        }
-        writeDetectorExr(dir / (name + ".exr"), layers, info);
-        PreviewOptions po;
-        po.fluxUnit = unit;
-        po.emittedRays = total;
-        writeDetectorPng(dir / (name + ".png"), img, po);
-        if (result.layers) {
-            const size_t n = result.layers->criterionCount();
-            for (size_t c = 0; c <= n; ++c) {
-                const std::string tag = c < n ? "where" + std::to_string(c + 1) : "rest";
-                PreviewOptions lp = po;
-                lp.title = name + ": " + (c < n ? result.layers->text(c) : "none of the above");
-                writeDetectorPng(dir / (name + "." + tag + ".png"), result.layers->images()[c][d],
-                                 lp);
+    if (!dir.empty()) {
+        std::filesystem::create_directories(dir);
+        for (size_t d = 0; d < result.images.size(); ++d) {
+            const DetectorImage& img = result.images[d];
+            const std::string name = img.geometry().name;
+            ExrInfo info{unit, total};
+            std::vector<ImageLayer> layers{{result.layers ? "all" : "", &img}};
+            if (result.layers) {
+                const size_t n = result.layers->criterionCount();
+                for (size_t c = 0; c <= n; ++c)
+                    layers.push_back({c < n ? "where" + std::to_string(c + 1) : "rest",
+                                      &result.layers->images()[c][d]});
+            }
+            writeDetectorExr(dir / (name + ".exr"), layers, info);
+            written.add(dir / (name + ".exr"));
+            PreviewOptions po;
+            po.fluxUnit = unit;
+            po.emittedRays = total;
+            writeDetectorPng(dir / (name + ".png"), img, po);
+            written.add(dir / (name + ".png"));
+            if (result.layers) {
+                const size_t n = result.layers->criterionCount();
+                for (size_t c = 0; c <= n; ++c) {
+                    const std::string tag = c < n ? "where" + std::to_string(c + 1) : "rest";
+                    PreviewOptions lp = po;
+                    lp.title =
+                        name + ": " + (c < n ? result.layers->text(c) : "none of the above");
+                    const std::filesystem::path png = dir / (name + "." + tag + ".png");
+                    writeDetectorPng(png, result.layers->images()[c][d], lp);
+                    written.add(png);
+                }
             }
         }
     }
@@ -240,9 +275,8 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
     summary["detectors"] = nlohmann::json::array();
     for (const StrayLightRow& row : result.report()) {
         if (row.layer.empty()) {
-            std::cout << "  " << row.detector << ": " << std::scientific << std::setprecision(6)
-                      << row.flux << " " << unit << " +- " << std::fixed << std::setprecision(3)
-                      << 100.0 * row.relativeError << " %\n";
+            text << "  " << row.detector << ": " << formatFlux(row.flux, row.relativeError, unit)
+                 << "\n";
             nlohmann::json jd{{"name", row.detector},
                               {"flux", row.flux},
                               {"relative_error", num(row.relativeError)}};
@@ -250,17 +284,28 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
             summary["detectors"].push_back(jd);
             continue;
         }
-        std::cout << "    " << std::left << std::setw(8) << row.layer << std::right
-                  << std::scientific << std::setprecision(6) << row.flux << " " << unit << " +- "
-                  << std::fixed << std::setprecision(3) << 100.0 * row.relativeError << " %  "
-                  << row.criterion << "\n";
+        text << "    " << std::left << std::setw(8) << row.layer << std::right
+             << formatFlux(row.flux, row.relativeError, unit) << "  " << row.criterion << "\n";
         summary["detectors"].back()["by_criterion"].push_back(
             {{"layer", row.layer},
              {"criterion", row.criterion},
              {"flux", row.flux},
              {"relative_error", num(row.relativeError)}});
     }
-    writeTextFile(dir / "summary.json", summary.dump(2) + "\n");
+    if (!dir.empty()) {
+        writeTextFile(dir / "summary.json", summary.dump(2) + "\n");
+        written.add(dir / "summary.json");
+    }
+    if (o.json) {
+        summary["files"] = written.json();
+        std::cout << summary.dump(2) << "\n";
+        return 0;
+    }
+    std::cout << text.str();
+    if (!o.quiet) {
+        std::cout << "\n";
+        written.print(std::cout);
+    }
     return 0;
 }
 

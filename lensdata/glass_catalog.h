@@ -26,6 +26,10 @@
 
 namespace veil {
 
+// What to tell a user whose file names a glass no loaded catalog has.
+inline constexpr const char* kGlassCatalogHint =
+    "load a catalog that has it with --glass-catalog FILE.AGF or VEIL_GLASS_PATH=FILE_OR_FOLDER";
+
 class GlassCatalog {
   public:
     GlassCatalog() = default;

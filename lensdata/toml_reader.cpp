@@ -316,7 +316,7 @@ Material LensReader::readMaterial(const TomlValue& value) const {
         const std::vector<std::string> suggestions = catalog_.suggestions(name);
         if (!suggestions.empty())
             message += " (did you mean " + quotedList(suggestions, " or ") + "?)";
-        value.fail(message);
+        value.fail(message + "; " + kGlassCatalogHint);
     }
     if (value.isTable()) {
         const TomlTable model = value.asTable();

@@ -451,10 +451,10 @@ bool ZmxParser::headerCommand(const std::string& tag, const Line& line) {
             const bool loaded = std::any_of(known.begin(), known.end(),
                                             [&](const auto& k) { return upper(k) == name; });
             if (!loaded)
-                note(Severity::Info, locOf(line, line.tokens[i]),
+                note(Severity::Warning, locOf(line, line.tokens[i]),
                      "glass catalog " + name +
-                         " named by GCAT is not loaded; glasses are "
-                         "looked up in the other catalogs");
+                         " named by GCAT is not loaded; glasses are looked up in the other "
+                         "catalogs (" + kGlassCatalogHint + ")");
         }
     } else if (tag == "FTYP") {
         // FTYP <type> <object telecentric> <field count> <wavelength count> <?> <?> <afocal>
@@ -706,7 +706,7 @@ void ZmxParser::resolveGlasses() {
             note(Severity::Error, g.loc,
                  msg +
                      "; the file stores no usable nd/Vd, so the name is kept and the glass "
-                     "must be supplied in a catalog before tracing");
+                     "must be supplied in a catalog before tracing: " + kGlassCatalogHint);
         }
     }
 }

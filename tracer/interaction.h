@@ -40,6 +40,7 @@ struct TransportScene {
     std::vector<OpticalProperty> properties;  // distinct properties
     std::vector<int> propertyOfObject;        // [object id] -> index into properties
     std::vector<int> detectorOfObject;        // [object id] -> detector index, or -1
+    std::vector<std::string> detectorNames;   // [detector index] -> its name ([detector] name)
     std::vector<Source> sources;
 };
 

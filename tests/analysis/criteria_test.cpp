@@ -195,12 +195,17 @@ TEST(CriteriaNames, GlobsAliasesAndErrors) {
         }
         return {-1, ""};
     };
+    // An unknown name lists what the scene has.
     EXPECT_EQ(error("hit(sensor) and scatter(spacer9 | baffle*)"),
-              std::make_pair(25, std::string("object pattern 'spacer9' matches no object")));
+              std::make_pair(25, std::string("object pattern 'spacer9' matches no object; the "
+                                             "scene's objects are L4.front, L4.back, L4.edge, "
+                                             "spacer1, spacer2, barrel, stop, sensor")));
     EXPECT_EQ(error("detector(barrel)"),
-              std::make_pair(10, std::string("detector pattern 'barrel' matches no detector")));
+              std::make_pair(10, std::string("detector pattern 'barrel' matches no detector; "
+                                             "the scene's detector is sensor")));
     EXPECT_EQ(error("medium(air) or medium(CaF2)").first, 23);
-    EXPECT_EQ(error("emit(moon)").second, "source pattern 'moon' matches no source");
+    EXPECT_EQ(error("emit(moon)").second,
+              "source pattern 'moon' matches no source; the scene's sources are sun, lamp");
     EXPECT_EQ(error("property(gold)").first, 10);
     EXPECT_EQ(error("hit(#8)").first, 5);
     EXPECT_EQ(error("hit(#7)").first, -1);

@@ -29,7 +29,7 @@ std::string readText(const std::filesystem::path& p) {
 TEST(VeilGhosts, BareZemaxLensGetsTheDefaultSceneAndEveryFormat) {
     const std::string out = outDir("ghosts_zmx");
     const VeilRun r = runVeil(
-        "ghosts tests/data/zmx/US00583336-2-scaled.zmx --mc-rays 300 "
+        "ghosts tests/data/zmx/US00583336-2-scaled.zmx -n 300 "
         "--top 2 --paths 20 --quiet -o " +
         out);
     ASSERT_EQ(r.exitCode, 0) << r.err;
@@ -62,7 +62,7 @@ TEST(VeilGhosts, JsonOnStandardOutputAndTheCoatingWhatIf) {
     const std::string out = outDir("ghosts_json");
     const VeilRun r = runVeil(
         "ghosts examples/lenses/double_gauss_50mm.toml --field 0,0 "
-        "--mc-rays 0 --grid 16 --no-images --json --coating 'L1.front=ideal_ar' -o " +
+        "-n 0 --grid 16 --no-images --json --coating 'L1.front=ideal_ar' -o " +
         out);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const nlohmann::json j = nlohmann::json::parse(r.out);
@@ -81,17 +81,17 @@ TEST(VeilGhosts, JsonOnStandardOutputAndTheCoatingWhatIf) {
 TEST(VeilGhosts, BadInputNamesTheOptionAndExitsWithOne) {
     const std::string out = outDir("ghosts_bad");
     VeilRun r =
-        runVeil("ghosts examples/lenses/singlet.toml --mc-rays 0 --coating 'L1.front' -o " + out);
+        runVeil("ghosts examples/lenses/singlet.toml -n 0 --coating 'L1.front' -o " + out);
     EXPECT_EQ(r.exitCode, 1);
     EXPECT_NE(r.err.find("--coating 1"), std::string::npos) << r.err;
-    r = runVeil("ghosts examples/lenses/singlet.toml --mc-rays 0 --coating 'L7.*=ideal_ar' -o " +
+    r = runVeil("ghosts examples/lenses/singlet.toml -n 0 --coating 'L7.*=ideal_ar' -o " +
                 out);
     EXPECT_EQ(r.exitCode, 1);
     EXPECT_NE(r.err.find("matches no object"), std::string::npos) << r.err;
-    r = runVeil("ghosts examples/lenses/singlet.toml --mc-rays 0 --field 3 -o " + out);
+    r = runVeil("ghosts examples/lenses/singlet.toml -n 0 --field 3 -o " + out);
     EXPECT_EQ(r.exitCode, 1);
     EXPECT_NE(r.err.find("--field 1"), std::string::npos) << r.err;
-    r = runVeil("ghosts examples/scenes/catadioptric_2000mm_window.toml --mc-rays 0 -o " + out);
+    r = runVeil("ghosts examples/scenes/catadioptric_2000mm_window.toml -n 0 -o " + out);
     EXPECT_EQ(r.exitCode, 1);
     EXPECT_NE(r.err.find("window"), std::string::npos) << r.err;
     r = runVeil("ghosts examples/lenses/singlet.toml --order 3 -o " + out);

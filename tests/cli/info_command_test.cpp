@@ -112,6 +112,10 @@ TEST(VeilInfo, UserGlassCatalogFromOptionAndEnvironment) {
     const VeilRun without = runVeil("info " + lens + " --json");
     EXPECT_EQ(without.exitCode, 1);
     EXPECT_NE(without.err.find("TESTSELL"), std::string::npos) << without.err;
+    // The error points at the glass in the file and at the fix.
+    EXPECT_NE(without.err.find(lens + ":4:"), std::string::npos) << without.err;
+    EXPECT_NE(without.err.find("--glass-catalog"), std::string::npos) << without.err;
+    EXPECT_NE(without.err.find("VEIL_GLASS_PATH"), std::string::npos) << without.err;
 
     const VeilRun option =
         runVeil("--glass-catalog tests/data/glass/sample.agf info " + lens + " --json");
@@ -119,6 +123,11 @@ TEST(VeilInfo, UserGlassCatalogFromOptionAndEnvironment) {
     const VeilRun env =
         runVeil("info " + lens + " --json", "VEIL_GLASS_PATH=tests/data/glass/sample.agf");
     ASSERT_EQ(env.exitCode, 0) << env.err;
+    // The option works after the command too.
+    const VeilRun after =
+        runVeil("info " + lens + " --json --glass-catalog tests/data/glass/sample.agf");
+    ASSERT_EQ(after.exitCode, 0) << after.err;
+    EXPECT_EQ(after.out, option.out);
     // Same glass, same answer; and it is TESTSELL's nd 1.62004 at work: a thick lens
     // R = +-50, t = 5 has f = 1 / ((n-1)(2/50 - (n-1) 5 / (n 2500))).
     const double n = 1.62004;
@@ -126,6 +135,16 @@ TEST(VeilInfo, UserGlassCatalogFromOptionAndEnvironment) {
     const double efl = nlohmann::json::parse(option.out)["efl_mm"].get<double>();
     EXPECT_NEAR(efl, fExpected, 1e-4);
     EXPECT_EQ(efl, nlohmann::json::parse(env.out)["efl_mm"].get<double>());
+}
+
+// A .zmx glass that no loaded catalog has, with no nd/Vd to fall back on: the error names
+// the file, line and column of its GLAS line and the two ways to supply a catalog.
+TEST(VeilInfo, UnknownZmxGlassNamesItsLineAndTheFix) {
+    const VeilRun r = runVeil("info tests/data/zmx/unknown_glass.zmx");
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_NE(r.err.find("tests/data/zmx/unknown_glass.zmx:26:"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("unknown glass 'UNOBTAINIUM'"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("--glass-catalog"), std::string::npos) << r.err;
 }
 
 }  // namespace
@@ -139,12 +158,14 @@ TEST(VeilLayout, WritesSvgAndPngOfASceneWithMechanics) {
     std::filesystem::remove_all(dir);
     std::filesystem::create_directories(dir);
     const VeilRun r =
-        runVeil("layout examples/scenes/double_gauss_50mm.toml -o " + dir + "/dg.svg");
+        runVeil("layout examples/scenes/double_gauss_50mm.toml -o " + dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
-    std::ifstream svg(dir + "/dg.svg");
+    EXPECT_NE(r.out.find("wrote 2 files in " + dir + ": layout.svg, layout.png"), std::string::npos)
+        << r.out;
+    std::ifstream svg(dir + "/layout.svg");
     const std::string text((std::istreambuf_iterator<char>(svg)), std::istreambuf_iterator<char>());
     EXPECT_NE(text.find("<svg"), std::string::npos);
-    std::ifstream png(dir + "/dg.png", std::ios::binary);
+    std::ifstream png(dir + "/layout.png", std::ios::binary);
     char magic[8] = {};
     png.read(magic, 8);
     EXPECT_EQ(std::string(magic + 1, 3), "PNG");
@@ -175,7 +196,7 @@ TEST(VeilLayout, CollidingMechanicsNameBothParts) {
             "barrel = { clearance_mm = 0.001 }\n",
             VEIL_SOURCE_DIR);
     fclose(f);
-    const VeilRun r = runVeil("layout " + path + " -o " + ::testing::TempDir() + "collide.svg");
+    const VeilRun r = runVeil("layout " + path + " -o " + ::testing::TempDir() + "collide");
     EXPECT_EQ(r.exitCode, 1);
     EXPECT_NE(r.err.find("barrel: collides with L"), std::string::npos) << r.err;
 }
@@ -233,13 +254,41 @@ TEST(VeilTrace, WhereSplitsTheDetectorFluxByCriterion) {
                                 dir + " --where 'hit(L9.front)'");
     EXPECT_EQ(bad.exitCode, 1);
     EXPECT_NE(bad.err.find("--where 1:1:5"), std::string::npos) << bad.err;
+    EXPECT_NE(bad.err.find("the scene's objects are L1.front, L1.flat1"), std::string::npos)
+        << bad.err;
+    // The detector's own name ([detector] name = "sensor_image") names its object, as the
+    // report shows it; the same flux as by the object's name.
+    const VeilRun byDetector = runVeil("trace examples/scenes/longfocus_360mm_sun.toml -n 100 "
+                                       "--json --where 'detector(sensor_image)'");
+    const VeilRun byObject = runVeil("trace examples/scenes/longfocus_360mm_sun.toml -n 100 "
+                                     "--json --where 'detector(sensor)'");
+    ASSERT_EQ(byDetector.exitCode, 0) << byDetector.err;
+    ASSERT_EQ(byObject.exitCode, 0) << byObject.err;
+    const auto flux = [](const VeilRun& run) {
+        return nlohmann::json::parse(run.out)["detectors"][0]["by_criterion"][0]["flux"]
+            .get<double>();
+    };
+    EXPECT_GT(flux(byDetector), 0.0);
+    EXPECT_EQ(flux(byDetector), flux(byObject));
 }
 
-TEST(VeilTrace, SceneWithoutSourceIsAnError) {
-    const VeilRun r = runVeil("trace examples/scenes/double_gauss_50mm.toml -n 10 -o " +
-                              ::testing::TempDir() + "nosrc");
-    EXPECT_EQ(r.exitCode, 1);
-    EXPECT_NE(r.err.find("no [[source]]"), std::string::npos) << r.err;
+// A scene without [[source]] is traced with one beam per system field, and says so.
+TEST(VeilTrace, SceneWithoutSourceTracesTheSystemFields) {
+    const VeilRun r = runVeil("trace examples/scenes/double_gauss_50mm.toml -n 20 --json");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.err.find("has no [[source]]: tracing one collimated beam per system field "
+                         "(0,0; 0,10; 0,15; 0,22 deg"),
+              std::string::npos)
+        << r.err;
+    const nlohmann::json j = nlohmann::json::parse(r.out);
+    EXPECT_GT(j["detectors"][0]["flux"].get<double>(), 0.0);
+    // --field replaces them, without the note.
+    const VeilRun f =
+        runVeil("trace examples/scenes/double_gauss_50mm.toml -n 20 --json --field 0,5");
+    ASSERT_EQ(f.exitCode, 0) << f.err;
+    EXPECT_EQ(f.err.find("no [[source]]"), std::string::npos) << f.err;
+    const double one = nlohmann::json::parse(f.out)["budget"]["emitted"].get<double>();
+    EXPECT_LT(one, 0.5 * j["budget"]["emitted"].get<double>());
 }
 
 }  // namespace

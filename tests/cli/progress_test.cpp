@@ -67,7 +67,7 @@ TEST(VeilProgress, QuietSilencesTheTraceReport) {
 TEST(VeilProgress, GhostsMonteCarloLogGetsWholeLines) {
     const std::string out = outDir("veil_progress_ghosts");
     const VeilRun r = runVeil(
-        "ghosts tests/data/zmx/US00583336-2-scaled.zmx --mc-rays 300 --top 1 --paths 5 "
+        "ghosts tests/data/zmx/US00583336-2-scaled.zmx -n 300 --top 1 --paths 5 "
         "--no-images -o " +
         out);
     ASSERT_EQ(r.exitCode, 0) << r.err;

@@ -1,0 +1,186 @@
+#include "cli/options.h"
+
+#include <algorithm>
+#include <iterator>
+#include <cmath>
+#include <cstdlib>
+#include <iomanip>
+#include <sstream>
+
+#include "lensdata/errors.h"
+
+namespace veil::cli {
+
+namespace {
+
+constexpr double kMaxCount = 1e13;
+
+CLI::Validator countValidator(uint64_t min) {
+    // A transform: the text is rewritten to the plain integer CLI11 then converts.
+    return CLI::Validator(
+        [min](std::string& text) -> std::string {
+            std::string error;
+            const std::optional<uint64_t> n = parseCount(text, &error);
+            if (!n) return error;
+            if (*n < min)
+                return "'" + text + "' is less than " + std::to_string(min);
+            text = std::to_string(*n);
+            return {};
+        },
+        "N (20000, 2e4, 20k, 2M)", "count");
+}
+
+}  // namespace
+
+std::optional<uint64_t> parseCount(const std::string& text, std::string* error) {
+    auto fail = [&](const std::string& why) -> std::optional<uint64_t> {
+        if (error) *error = "'" + text + "' " + why;
+        return std::nullopt;
+    };
+    if (text.empty()) return fail("is not a number");
+    std::string digits = text;
+    double scale = 1.0;
+    switch (digits.back()) {
+        case 'k':
+        case 'K':
+            scale = 1e3;
+            break;
+        case 'M':
+            scale = 1e6;
+            break;
+        case 'G':
+            scale = 1e9;
+            break;
+        default:
+            break;
+    }
+    if (scale != 1.0) digits.pop_back();
+    if (digits.empty() || digits.find_first_not_of("0123456789.eE+") != std::string::npos)
+        return fail("is not a whole number of rays (write 20000, 2e4, 20k or 2M)");
+    char* end = nullptr;
+    const double mantissa = std::strtod(digits.c_str(), &end);
+    if (end != digits.c_str() + digits.size() || !std::isfinite(mantissa))
+        return fail("is not a number (write 20000, 2e4, 20k or 2M)");
+    const double value = mantissa * scale;
+    if (value > kMaxCount) return fail("is more than 1e13");
+    if (value != std::floor(value)) return fail("is not a whole number");
+    return static_cast<uint64_t>(value);
+}
+
+CLI::Option* addCount(CLI::App* sub, const std::string& name, uint64_t& value,
+                      const std::string& help, uint64_t min) {
+    return sub->add_option(name, value, help)->transform(countValidator(min))->capture_default_str();
+}
+
+CLI::Option* addRays(CLI::App* sub, uint64_t& rays, const std::string& help, uint64_t min) {
+    return addCount(sub, "-n,--rays", rays, help, min);
+}
+
+void addRunControls(CLI::App* sub, int& threads, uint64_t& seed) {
+    sub->add_option("--threads", threads, "worker threads (0: all cores)")
+        ->check(CLI::Range(0, 4096))
+        ->capture_default_str();
+    sub->add_option("--seed", seed, "random seed (the same seed gives the same result with any "
+                                    "number of threads)")
+        ->capture_default_str();
+}
+
+CLI::Option* addOutputFolder(CLI::App* sub, std::string& folder, const std::string& defaultName) {
+    return sub->add_option("-o,--output", folder,
+                           "output folder, created as needed (default: ./" + defaultName +
+                               "; with --json, files are written only when -o is given)");
+}
+
+CLI::Option* addOutputFile(CLI::App* sub, std::string& file, const std::string& what) {
+    return sub->add_option("-o,--output", file, what)->capture_default_str();
+}
+
+void addReportFlags(CLI::App* sub, bool& json, bool& quiet) {
+    sub->add_flag("--json", json, "print the report as JSON on standard output");
+    sub->add_flag("--quiet", quiet,
+                  "no progress and no list of written files (warnings and errors remain)");
+}
+
+CLI::Option* addFields(CLI::App* sub, std::vector<std::string>& fields) {
+    return sub->add_option("--field", fields,
+                           "field X,Y in degrees (object mm for a finite object), repeatable: a "
+                           "collimated (or point) 1 W source per field, replacing the scene's");
+}
+
+std::vector<std::pair<double, double>> parseFields(const std::vector<std::string>& fields) {
+    std::vector<std::pair<double, double>> out;
+    for (size_t k = 0; k < fields.size(); ++k) {
+        std::istringstream in(fields[k]);
+        double x = 0, y = 0;
+        char comma = 0;
+        if (!(in >> x >> comma >> y) || comma != ',' || !(in >> std::ws).eof() ||
+            !std::isfinite(x) || !std::isfinite(y))
+            throw ParseError({"--field " + std::to_string(k + 1), 1, 1},
+                             "expected X,Y (two numbers separated by a comma), got '" +
+                                 fields[k] + "'");
+        out.emplace_back(x, y);
+    }
+    return out;
+}
+
+std::string formatFlux(double flux, double relativeError, const std::string& unit) {
+    std::ostringstream os;
+    if (flux == 0.0) {
+        os << "0 " << unit << " (no hits)";
+        return os.str();
+    }
+    os << std::scientific << std::setprecision(6) << flux << " " << unit << " +- ";
+    if (std::isfinite(relativeError))
+        os << std::fixed << std::setprecision(3) << 100.0 * relativeError << " %";
+    else
+        os << "? %";
+    return os.str();
+}
+
+std::filesystem::path outputFolder(const std::string& given, const std::string& defaultName,
+                                   bool json) {
+    if (!given.empty()) return given;
+    if (json) return {};
+    return defaultName;
+}
+
+void WrittenFiles::print(std::ostream& os) const {
+    if (files_.empty()) return;
+    // The folder every file shares, if any: listed once.
+    auto under = [](const std::filesystem::path& p, const std::filesystem::path& base) {
+        return std::mismatch(base.begin(), base.end(), p.begin(), p.end()).first == base.end();
+    };
+    std::filesystem::path common = files_.front().parent_path();
+    for (const auto& f : files_)
+        while (!common.empty() && !under(f.parent_path(), common)) common = common.parent_path();
+    os << "wrote " << files_.size() << (files_.size() == 1 ? " file" : " files");
+    if (!common.empty()) os << " in " << common.string();
+    os << ":";
+    // Files in the shared folder by name; those in subfolders as "images/ (40 files)".
+    std::vector<std::pair<std::string, size_t>> entries;
+    for (const auto& f : files_) {
+        const std::filesystem::path rel = common.empty() ? f : f.lexically_relative(common);
+        const bool nested = std::distance(rel.begin(), rel.end()) > 1;
+        const std::string name = nested ? rel.begin()->string() + "/" : rel.string();
+        auto it = std::find_if(entries.begin(), entries.end(),
+                               [&](const auto& e) { return e.first == name; });
+        if (it == entries.end())
+            entries.emplace_back(name, 1);
+        else
+            ++it->second;
+    }
+    for (size_t k = 0; k < entries.size(); ++k) {
+        os << (k ? ", " : " ") << entries[k].first;
+        if (entries[k].first.back() == '/')
+            os << " (" << entries[k].second << (entries[k].second == 1 ? " file)" : " files)");
+    }
+    os << "\n";
+}
+
+nlohmann::json WrittenFiles::json() const {
+    nlohmann::json j = nlohmann::json::array();
+    for (const auto& f : files_) j.push_back(f.string());
+    return j;
+}
+
+}  // namespace veil::cli

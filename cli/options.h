@@ -1,0 +1,74 @@
+#pragma once
+// The conventions every subcommand follows (docs/cli.md), in one place so that a new command
+// is born with them and tests/cli/conventions_test.cpp can hold every command to them:
+//
+//   -n, --rays N    emitted rays per source; N is a whole number written 20000, 2e4, 20k or
+//                   2M (k = 1e3, M = 1e6, G = 1e9); 1.5 or 0.5k is an error, not 1 ray
+//   --threads N     worker threads (0: all cores)        } every command that traces
+//   --seed N        random seed                          }
+//   --field X,Y     collimated 1 W beam per field, replacing the scene's sources (repeatable)
+//   -o, --output    a folder for commands that write several files (created as needed, by
+//                   default named after the command), a file for those that write one
+//   --json          the report as JSON on standard output instead of text; files are then
+//                   written only when -o is given
+//   --quiet         no progress and no closing list of files (warnings and errors remain)
+//
+// Every run ends by listing what it wrote (WrittenFiles), in text or under "files" in JSON.
+
+#include <CLI/CLI.hpp>
+#include <cstdint>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <ostream>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace veil::cli {
+
+// "20000", "2e4", "20k", "2M" -> the count; nullopt with *error set for anything else
+// (fractions, negatives, words, more than 1e13).
+std::optional<uint64_t> parseCount(const std::string& text, std::string* error);
+
+// -n/--rays bound to `rays`, checked by parseCount and at least `min`.
+CLI::Option* addRays(CLI::App* sub, uint64_t& rays, const std::string& help, uint64_t min = 1);
+// A count option of another name (--batch, ...), written like --rays.
+CLI::Option* addCount(CLI::App* sub, const std::string& name, uint64_t& value,
+                      const std::string& help, uint64_t min = 1);
+// --threads and --seed.
+void addRunControls(CLI::App* sub, int& threads, uint64_t& seed);
+// -o/--output as a folder (default shown: ./<defaultName>) or as one file.
+CLI::Option* addOutputFolder(CLI::App* sub, std::string& folder, const std::string& defaultName);
+CLI::Option* addOutputFile(CLI::App* sub, std::string& file, const std::string& what);
+// --json and --quiet.
+void addReportFlags(CLI::App* sub, bool& json, bool& quiet);
+// --field X,Y (repeatable).
+CLI::Option* addFields(CLI::App* sub, std::vector<std::string>& fields);
+// The --field values as (x, y); a malformed one is a ParseError naming it.
+std::vector<std::pair<double, double>> parseFields(const std::vector<std::string>& fields);
+
+// A Monte Carlo flux with its relative standard error: "1.234560e-03 W +- 0.512 %"; a flux
+// of exactly zero (no ray arrived) reads "0 W (no hits)", not "+- inf %".
+std::string formatFlux(double flux, double relativeError, const std::string& unit);
+
+// Where a command writes its files: the -o folder given, else the default folder, else
+// (with --json and no -o) nowhere: empty.
+std::filesystem::path outputFolder(const std::string& given, const std::string& defaultName,
+                                   bool json);
+
+// The files a run wrote, in order, for its closing list.
+class WrittenFiles {
+  public:
+    void add(const std::filesystem::path& file) { files_.push_back(file); }
+    const std::vector<std::filesystem::path>& files() const { return files_; }
+    // "wrote 3 files in out/sun7: sensor.exr, sensor.png, summary.json" (paths relative to
+    // the folder they share, if any).
+    void print(std::ostream& os) const;
+    nlohmann::json json() const;
+
+  private:
+    std::vector<std::filesystem::path> files_;
+};
+
+}  // namespace veil::cli
