@@ -114,18 +114,23 @@ struct UnusedKey {
 };
 
 void collectUnused(const detail::TomlDocumentState& doc, const toml::node& node,
-                   const std::string& path, std::vector<UnusedKey>& out);
+                   const std::string& path, std::vector<UnusedKey>& out, bool openedOnly);
 
+// openedOnly: report unused keys only inside tables some reader opened below the root (the
+// readers that would open the others may not have run yet).
 void collectUnusedInTable(const detail::TomlDocumentState& doc, const toml::table& table,
-                          const std::string& path, std::vector<UnusedKey>& out) {
+                          const std::string& path, std::vector<UnusedKey>& out,
+                          bool openedOnly) {
     const auto it = doc.tables.find(&table);
     const detail::TableUse* use = it == doc.tables.end() ? nullptr : &it->second;
+    if (openedOnly && !use) return;
     for (auto&& [key, value] : table) {
         const std::string name(key.str());
         if (use && use->used.contains(name)) {
-            collectUnused(doc, value, joinPath(path, name), out);
+            collectUnused(doc, value, joinPath(path, name), out, openedOnly);
             continue;
         }
+        if (openedOnly && path.empty()) continue;
         std::string message;
         const toml::table* sub = value.as_table();
         const toml::array* arr = value.as_array();
@@ -148,12 +153,13 @@ void collectUnusedInTable(const detail::TomlDocumentState& doc, const toml::tabl
 }
 
 void collectUnused(const detail::TomlDocumentState& doc, const toml::node& node,
-                   const std::string& path, std::vector<UnusedKey>& out) {
+                   const std::string& path, std::vector<UnusedKey>& out, bool openedOnly) {
     if (const toml::table* table = node.as_table()) {
-        collectUnusedInTable(doc, *table, path, out);
+        collectUnusedInTable(doc, *table, path, out, openedOnly);
     } else if (const toml::array* array = node.as_array()) {
         for (size_t i = 0; i < array->size(); ++i)
-            collectUnused(doc, (*array)[i], path + "[" + std::to_string(i + 1) + "]", out);
+            collectUnused(doc, (*array)[i], path + "[" + std::to_string(i + 1) + "]", out,
+                          openedOnly);
     }
 }
 
@@ -359,9 +365,13 @@ const std::string& TomlDocument::fileName() const { return state_->fileName; }
 
 TomlTable TomlDocument::root() const { return TomlTable(state_.get(), &state_->root, ""); }
 
-void TomlDocument::checkAllUsed() const {
+void TomlDocument::checkAllUsed() const { check(false); }
+
+void TomlDocument::checkUsedInOpenedTables() const { check(true); }
+
+void TomlDocument::check(bool openedOnly) const {
     std::vector<UnusedKey> unused;
-    collectUnusedInTable(*state_, state_->root, "", unused);
+    collectUnusedInTable(*state_, state_->root, "", unused, openedOnly);
     if (unused.empty()) return;
     const auto first =
         std::min_element(unused.begin(), unused.end(), [](const UnusedKey& a, const UnusedKey& b) {

@@ -187,8 +187,12 @@ class TomlDocument {
     // when a key a reader asked for in the same table is close in spelling. Keys inside a
     // table nobody opened are not listed separately: the table's own key is reported.
     void checkAllUsed() const;
+    // The same for the tables below the root that some reader opened only: for a reader that
+    // failed part way, whose error a misspelt key in what was read may explain.
+    void checkUsedInOpenedTables() const;
 
   private:
+    void check(bool openedOnly) const;
     explicit TomlDocument(std::unique_ptr<detail::TomlDocumentState> state);
     std::unique_ptr<detail::TomlDocumentState> state_;
 };

@@ -73,11 +73,18 @@ SceneFile readSceneFile(const std::filesystem::path& path, const GlassCatalog& c
     } else {
         size(f, readTomlPrescription(doc, catalog), catalog);
     }
-    f.mechanics = readMechanics(doc);
-    f.meshes = readMeshImports(doc);
-    f.sources = readSources(doc, f.prescription, *f.model);
-    f.detectors = readDetectors(doc);
-    f.properties = PropertyTable::read(doc);
+    // A misspelt key explains more than the validation error it may cause in a later
+    // section (a default used in its place): on any error, unknown keys are reported first.
+    try {
+        f.mechanics = readMechanics(doc);
+        f.meshes = readMeshImports(doc);
+        f.sources = readSources(doc, f.prescription, *f.model);
+        f.detectors = readDetectors(doc);
+        f.properties = PropertyTable::read(doc);
+    } catch (const std::exception&) {
+        doc.checkUsedInOpenedTables();
+        throw;
+    }
     doc.checkAllUsed();
     return f;
 }

@@ -79,3 +79,32 @@ TEST(PreparedScene, SceneWithoutSourcesHasNoTransportAndSaysWhichFile) {
 
 }  // namespace
 }  // namespace veil
+
+namespace veil {
+namespace {
+
+// A misspelt key in a section that then fails its own check is reported first: the typo is
+// the cause, the missing value its consequence. Sections not read yet are not reported.
+TEST(SceneFile, MisspeltKeyIsReportedBeforeTheErrorItCauses) {
+    const std::string path = ::testing::TempDir() + "veil_typo_scene.toml";
+    FILE* f = fopen(path.c_str(), "w");
+    ASSERT_TRUE(f);
+    fprintf(f,
+            "lens = \"%s/examples/lenses/singlet.toml\"\n"
+            "[[source]]\nname = \"lamp\"\nkind = \"point\"\npositon_mm = [0.0, 1.0, -100.0]\n"
+            "[detector]\nname = \"det\"\n",
+            VEIL_SOURCE_DIR);
+    fclose(f);
+    try {
+        readSceneFile(path, GlassCatalog::builtIn());
+        FAIL() << "expected a ParseError";
+    } catch (const ParseError& e) {
+        const std::string what = e.what();
+        EXPECT_NE(what.find(path + ":5:1"), std::string::npos) << what;
+        EXPECT_NE(what.find("unknown key 'positon_mm'"), std::string::npos) << what;
+        EXPECT_NE(what.find("did you mean 'position_mm'?"), std::string::npos) << what;
+    }
+}
+
+}  // namespace
+}  // namespace veil
