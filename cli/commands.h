@@ -21,8 +21,9 @@ struct CommonOptions {
 GlassCatalog loadCatalog(const CommonOptions& common);
 // Caps the worker threads while the result lives (threads <= 0: all cores, returns null).
 std::unique_ptr<tbb::global_control> limitThreads(int threads);
-// The scene's warnings and errors (import notes, parts left out) on standard error.
-void reportSceneNotes(const SceneSetup& setup);
+// The scene's warnings and errors on standard error: import notes, parts left out, and a
+// detector that looks misplaced (analysis/detector_checks.h).
+void reportSceneNotes(const PreparedScene& scene);
 // The scene of a command that traces: its sources replaced by one beam per --field when
 // given; a scene without [[source]] gets one beam per system field (said on standard error).
 std::unique_ptr<PreparedScene> prepareTracedScene(const std::string& file,

@@ -106,7 +106,7 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
     const std::unique_ptr<PreparedScene> prepared = PreparedScene::build(std::move(file), catalog);
     const SceneSetup& setup = prepared->setup();
     TraceSetup& ts = prepared->trace();
-    reportSceneNotes(setup);
+    reportSceneNotes(*prepared);
 
     const auto limit = limitThreads(o.threads);
     GhostOptions go;

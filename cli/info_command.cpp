@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "analysis/detector_checks.h"
 #include "analysis/first_order.h"
 #include "analysis/spot.h"
 #include "cli/commands.h"
@@ -96,9 +97,11 @@ std::unique_ptr<tbb::global_control> limitThreads(int threads) {
                                                  static_cast<size_t>(threads));
 }
 
-void reportSceneNotes(const SceneSetup& setup) {
-    for (const ImportNote& n : setup.notes)
+void reportSceneNotes(const PreparedScene& scene) {
+    for (const ImportNote& n : scene.setup().notes)
         if (n.severity != ImportNote::Severity::Info) std::cerr << "veil: " << n << "\n";
+    for (const ImportNote& n : detectorPlacementWarnings(scene.file(), scene.setup()))
+        std::cerr << "veil: " << n << "\n";
 }
 
 void addInfoCommand(CLI::App& app, InfoOptions& options) {

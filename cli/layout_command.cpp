@@ -40,7 +40,7 @@ int runLayout(const CommonOptions& common, const LayoutOptions& options) {
     const std::unique_ptr<const PreparedScene> prepared =
         PreparedScene::read(options.file, catalog, so);
     const SceneSetup& setup = prepared->setup();
-    reportSceneNotes(setup);
+    reportSceneNotes(*prepared);
     veil::LayoutOptions lo;
     lo.title =
         setup.prescription.system.name.empty() ? options.file : setup.prescription.system.name;
@@ -94,7 +94,7 @@ int runExport(const CommonOptions& common, const ExportOptions& options) {
     const std::unique_ptr<const PreparedScene> prepared =
         PreparedScene::read(options.file, catalog, so);
     const SceneSetup& setup = prepared->setup();
-    reportSceneNotes(setup);
+    reportSceneNotes(*prepared);
     std::vector<int> objectOfTriangle;
     const TriangleMesh mesh = setup.scene.tessellate(options.chordToleranceMm, &objectOfTriangle);
     std::vector<std::string> names;

@@ -64,7 +64,7 @@ int runPaths(const CommonOptions& common, const PathsOptions& o) {
         prepareTracedScene(o.file, o.fields, catalog, so);
     const SceneSetup& setup = prepared->setup();
     const TraceSetup& ts = prepared->trace();
-    reportSceneNotes(setup);
+    reportSceneNotes(*prepared);
 
     const auto limit = limitThreads(o.threads);
     PathSelectionOptions po;

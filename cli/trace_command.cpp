@@ -141,7 +141,7 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
         prepareTracedScene(o.file, o.fields, catalog);
     const SceneSetup& setup = prepared->setup();
     const TraceSetup& ts = prepared->trace();
-    reportSceneNotes(setup);
+    reportSceneNotes(*prepared);
     if (o.prune && o.where.empty())
         throw ParseError({"--prune", 0, 0}, "--prune needs at least one --where");
 
