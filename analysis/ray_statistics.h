@@ -8,6 +8,9 @@
 #include <map>
 #include <string>
 
+#include <vector>
+
+#include "analysis/criteria.h"
 #include "tracer/path_history.h"
 #include "tracer/ray_database.h"
 
@@ -22,5 +25,22 @@ struct RayStatistics {
 };
 
 RayStatistics rayStatistics(RayDatabaseReader& reader);
+
+// What criteria may name in a ray database: its objects (detectors are the objects of kind
+// Detector), media and sources.
+NameTable criterionNames(const RayDatabaseInfo& info);
+
+// The detector flux of the paths each criterion holds for, re-evaluated on the saved
+// histories (the same split as `veil trace --where`, up to the float32 rounding of stored
+// fluxes), plus the rest (paths no criterion holds for). Errors name "--where K" and the
+// column, before any record is read.
+struct CriterionFlux {
+    std::string criterion;  // the text; "" for the rest
+    uint64_t paths = 0;     // complete paths it holds for, wherever they end
+    std::map<std::string, double> detectedFlux;   // detector object name -> flux
+    std::map<std::string, double> relativeError;  // its standard error over the flux
+};
+std::vector<CriterionFlux> criterionFluxes(RayDatabaseReader& reader,
+                                           const std::vector<std::string>& where);
 
 }  // namespace veil

@@ -78,6 +78,7 @@ struct TraceOptions {
     bool json = false;
     bool quiet = false;
     std::string saveRays;            // ray database file to write
+    bool eventsOnly = false;         // the database without positions and directions
     std::vector<std::string> where;  // path criteria: one image per criterion plus the rest
     bool prune = false;              // cull branches once every --where criterion is false
 };
@@ -86,6 +87,7 @@ int runTrace(const CommonOptions& common, const TraceOptions& options);
 
 struct RaysOptions {
     std::string file;
+    std::vector<std::string> where;  // criteria re-evaluated on the saved histories
     bool json = false;
     bool quiet = false;
 };

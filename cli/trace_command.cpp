@@ -16,16 +16,17 @@
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <sstream>
 
 #include "analysis/criterion_images.h"
 #include "analysis/criterion_names.h"
+#include "analysis/ghosts.h"
 #include "analysis/image_output.h"
 #include "analysis/ray_statistics.h"
 #include "analysis/stray_light_run.h"
-#include "analysis/ghosts.h"
 #include "cli/commands.h"
 #include "cli/options.h"
 #include "cli/progress.h"
@@ -66,21 +67,31 @@ void addTraceCommand(CLI::App& app, TraceOptions& o) {
     sub->add_flag("--prune", o.prune,
                   "with --where: stop tracing a branch as soon as no criterion can match it "
                   "(faster; then only the criterion images are complete)");
-    sub->add_option(
-        "--save-rays", o.saveRays,
-        "write every ray's path history to this ray database file (docs/ray-database.md)");
+    sub->add_option("--save-rays", o.saveRays,
+                    "write every ray's path history to this ray database file "
+                    "(docs/ray-database.md); its size is estimated before tracing");
+    sub->add_flag("--events-only", o.eventsOnly,
+                  "with --save-rays: store events and fluxes without positions and directions "
+                  "(about a quarter of the size; enough for criteria and fluxes, not for path "
+                  "pictures)");
 }
 
 void addRaysCommand(CLI::App& app, RaysOptions& o) {
     CLI::App* sub = app.add_subcommand("rays", "summarise a ray database without tracing again");
     sub->add_option("file", o.file, "ray database written by veil trace --save-rays")->required();
+    sub->add_option("--where", o.where,
+                    "path criterion (docs/criteria.md) re-evaluated on the saved histories, "
+                    "repeatable: the detector flux split by criterion, as trace --where");
     addReportFlags(sub, o.json, o.quiet);
 }
 
 int runRays(const CommonOptions&, const RaysOptions& o) {
     RayDatabaseReader reader(o.file);
-    const RayStatistics s = rayStatistics(reader);
     const RayDatabaseInfo& info = reader.info();
+    // Criteria are compiled (and their errors raised) before any record is read.
+    std::vector<CriterionFlux> split;
+    if (!o.where.empty()) split = criterionFluxes(reader, o.where);
+    const RayStatistics s = rayStatistics(reader);
     if (o.json) {
         nlohmann::json j;
         j["scene"] = info.sceneName;
@@ -89,15 +100,33 @@ int runRays(const CommonOptions&, const RaysOptions& o) {
         j["rays"] = s.rays;
         j["paths"] = s.paths;
         j["events"] = s.events;
+        j["geometry"] = info.encoding.positions;
         for (int t = 0; t < kEventTypeCount; ++t)
             j["events_by_type"][std::string(toString(static_cast<EventType>(t)))] =
                 s.eventsByType[t];
         for (const auto& [name, flux] : s.detectedFlux) j["detected_flux"][name] = flux;
+        if (!split.empty()) {
+            j["by_criterion"] = nlohmann::json::array();
+            for (size_t k = 0; k < split.size(); ++k) {
+                nlohmann::json c{{"layer", k + 1 < split.size() ? "where" + std::to_string(k + 1)
+                                                                : std::string("rest")},
+                                 {"criterion", split[k].criterion},
+                                 {"paths", split[k].paths},
+                                 {"detected_flux", nlohmann::json::object()},
+                                 {"relative_error", nlohmann::json::object()}};
+                for (const auto& [name, flux] : split[k].detectedFlux) {
+                    c["detected_flux"][name] = flux;
+                    c["relative_error"][name] = split[k].relativeError.at(name);
+                }
+                j["by_criterion"].push_back(c);
+            }
+        }
         std::cout << j.dump(2) << "\n";
         return 0;
     }
     std::cout << o.file << ": scene " << info.sceneName << ", seed " << info.seed << "\n  "
-              << s.rays << " rays, " << s.paths << " paths, " << s.events << " events\n";
+              << s.rays << " rays, " << s.paths << " paths, " << s.events << " events"
+              << (info.encoding.positions ? "" : " (events only, no geometry)") << "\n";
     for (int t = 0; t < kEventTypeCount; ++t)
         if (s.eventsByType[t])
             std::cout << "  " << std::left << std::setw(18) << toString(static_cast<EventType>(t))
@@ -105,12 +134,76 @@ int runRays(const CommonOptions&, const RaysOptions& o) {
     for (const auto& [name, flux] : s.detectedFlux)
         std::cout << "  detected on " << name << ": " << std::scientific << std::setprecision(6)
                   << flux << " " << info.fluxUnit << "\n";
+    for (size_t k = 0; k < split.size(); ++k) {
+        const bool rest = k + 1 == split.size();
+        std::cout << "  " << std::left << std::setw(8)
+                  << (rest ? std::string("rest") : "where" + std::to_string(k + 1)) << std::right
+                  << split[k].paths << " paths  "
+                  << (rest ? std::string("none of the above") : split[k].criterion) << "\n";
+        for (const auto& [name, flux] : split[k].detectedFlux)
+            std::cout << "      on " << name << ": "
+                      << formatFlux(flux, split[k].relativeError.at(name), info.fluxUnit) << "\n";
+    }
     return 0;
 }
 
 namespace {
 
 nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
+
+}  // namespace
+
+namespace {
+
+// The size of the ray database a run will write, from the first rays of the same run (ray i
+// is the same ray in any run with the same seed), said before tracing; a run whose database
+// would not fit on its disk stops here.
+void checkRayDatabaseSize(const TransportScene& ts, const std::vector<DetectorImage>& images,
+                          const TransportOptions& options, uint64_t raysPerSource,
+                          const PathEncoding& encoding, const std::string& path, bool quiet) {
+    const uint64_t sample = std::min<uint64_t>(raysPerSource, 200);
+    TransportOptions o = options;
+    o.recordHistories = true;
+    std::mutex m;
+    uint64_t bytes = 0, events = 0;
+    traceNonsequential(ts, images, sample, o, {}, [&](uint64_t, const PathHistory& h) {
+        std::vector<uint8_t> buffer;
+        encodeHistory(h, encoding, buffer);
+        std::lock_guard lock(m);
+        bytes += buffer.size();
+        events += h.size();
+    });
+    const double perRay = static_cast<double>(bytes) / static_cast<double>(sample * ts.sources.size());
+    const double total = perRay * static_cast<double>(raysPerSource * ts.sources.size());
+    auto size = [](double b) {
+        std::ostringstream os;
+        os << std::setprecision(3);
+        if (b >= 1e9) os << b / 1e9 << " GB";
+        else if (b >= 1e6) os << b / 1e6 << " MB";
+        else os << b / 1e3 << " kB";
+        return os.str();
+    };
+    std::filesystem::path folder = std::filesystem::path(path).parent_path();
+    if (folder.empty()) folder = ".";
+    while (!std::filesystem::exists(folder) && folder.has_parent_path() && folder != folder.parent_path())
+        folder = folder.parent_path();
+    std::error_code ec;
+    const std::filesystem::space_info space = std::filesystem::space(folder, ec);
+    if (!ec && total > 0.95 * static_cast<double>(space.available))
+        throw ParseError({"--save-rays " + path, 0, 0},
+                         "the ray database would take about " + size(total) + " (" +
+                             size(perRay) + " per ray, " +
+                             std::to_string(events / std::max<uint64_t>(1, sample * ts.sources.size())) +
+                             " events per ray) and " + folder.string() + " has " +
+                             size(static_cast<double>(space.available)) +
+                             " free: trace fewer rays, add --events-only, or save elsewhere");
+    if (!quiet)
+        std::cerr << "veil: --save-rays: about " << size(total) << " for "
+                  << raysPerSource * ts.sources.size() << " rays (" << size(perRay)
+                  << " per ray, from the first " << sample * ts.sources.size() << " rays"
+                  << (encoding.positions ? "; --events-only stores about a quarter" : ", events only")
+                  << ") to " << path << "\n";
+}
 
 }  // namespace
 
@@ -161,11 +254,25 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
     const std::filesystem::path dir = outputFolder(o.output, "trace", o.json);
     WrittenFiles written;
 
+    if (o.eventsOnly && o.saveRays.empty())
+        throw ParseError({"--events-only", 0, 0}, "--events-only needs --save-rays FILE");
+    PathEncoding encoding{.positions = true, .directions = true, .doublePrecision = false};
+    if (o.eventsOnly) encoding = PathEncoding{};
+    if (!o.saveRays.empty())
+        checkRayDatabaseSize(ts.transport, ts.images, options, spec.raysPerSource, encoding,
+                             o.saveRays, o.quiet);
+
     // The ray database opens its file only once the run's spec has been checked.
     std::unique_ptr<RayDatabaseWriter> db;
     if (!o.saveRays.empty()) {
         spec.openConsumer = [&]() -> RayCallback {
             RayDatabaseInfo info = describeScene(setup.scene, o.file);
+            info.encoding = encoding;
+            // A detector's own name names its object in criteria on the saved rays too.
+            for (size_t d = 0; d < setup.detectors.size(); ++d) {
+                RayDatabaseObject& obj = info.objects[setup.detectors[d].object];
+                if (setup.detectors[d].name != obj.name) obj.aliases.push_back(setup.detectors[d].name);
+            }
             info.seed = o.seed;
             info.fluxUnit = ts.transport.sources.front().unit() == FluxUnit::Lumen ? "lm" : "W";
             for (const Source& src : ts.transport.sources) info.sources.push_back(src.name());
