@@ -25,6 +25,15 @@ std::string fix(double v, int digits = 3) {
     return os.str();
 }
 
+// A Monte Carlo flux and its relative error; a flux of exactly zero (no ray) says so instead
+// of an infinite error.
+std::string mcText(double flux, double relativeError, const char* pm = " +-",
+                   const char* percent = "%") {
+    if (flux == 0.0) return "0 (no hits)";
+    return sci(flux) + pm + (std::isfinite(relativeError) ? fix(100.0 * relativeError, 1) : "?") +
+           percent;
+}
+
 // The source where the ghost's peak irradiance is highest.
 const GhostSourceResult& worst(const GhostEstimate& g) {
     size_t best = 0;
@@ -92,8 +101,9 @@ GhostReport makeGhostReport(const GhostReportSpec& spec, const SceneSetup& setup
         row.relativeFlux = g.relativeFlux();
         row.peakIrradiance = g.peakIrradiance();
         row.relativeIrradiance = g.relativeIrradiance();
-        row.nearFocus = g.nearFocus();
-        row.glassFocus = g.glassFocus();
+        row.source = w.source;
+        row.nearFocus = w.nearFocus;
+        row.glassFocus = w.glassFocus;
         row.focusMm = w.focusMm;
         row.footprintMm = w.footprintMm;
         row.perSource = g.sources;
@@ -150,6 +160,7 @@ nlohmann::json GhostReport::json() const {
         row["relative_flux"] = g.relativeFlux;
         row["peak_irradiance"] = g.peakIrradiance;
         row["relative_irradiance"] = g.relativeIrradiance;
+        row["source"] = g.source;
         row["near_focus"] = g.nearFocus;
         row["focus_in_glass"] = g.glassFocus;
         if (haveMc) {
@@ -185,7 +196,7 @@ std::string GhostReport::csv() const {
     csv << "rank,ghost,flux_" << unit << ",relative_flux,mc_flux_" << unit
         << ",mc_relative_flux,mc_relative_error,"
         << "focus_mm,footprint_mm,peak_irradiance_" << unit << "_per_mm2,relative_irradiance,"
-        << "near_focus,focus_in_glass,baseline_rank,criterion\n";
+        << "near_focus,focus_in_glass,baseline_rank,criterion,source\n";
     for (const GhostReportRow& g : rows) {
         csv << g.rank << ",\"" << g.label << "\"," << g.flux << "," << g.relativeFlux << ","
             << (haveMc ? sci(g.mcFlux, 6) : "") << "," << (haveMc ? sci(g.mcRelativeFlux, 6) : "")
@@ -193,7 +204,7 @@ std::string GhostReport::csv() const {
             << g.footprintMm << "," << g.peakIrradiance << "," << g.relativeIrradiance << ","
             << (g.nearFocus ? 1 : 0) << ",\"" << g.glassFocus << "\","
             << (g.baselineRank > 0 ? std::to_string(g.baselineRank) : "") << ",\"" << g.criterion
-            << "\"\n";
+            << "\",\"" << g.source << "\"\n";
     }
     return csv.str();
 }
@@ -207,6 +218,11 @@ std::string GhostReport::markdown() const {
     md << ". Sequential grid " << gridRays << " rays across each beam";
     if (haveMc) md << "; Monte Carlo " << mcRaysPerSource << " rays per source, seed " << seed;
     md << ".\n\n";
+    const bool several = sources.size() > 1;
+    if (several)
+        md << "Flux and Monte Carlo columns sum all " << sources.size()
+           << " sources; focus, footprint, peak irradiance and flags are those of the source "
+              "named in the last column, where the ghost's peak irradiance is highest.\n\n";
     if (!coatingChanges.empty()) {
         md << "Coating what-if (" << coatingChanges.size() << " objects changed):\n\n";
         for (const std::string& c : coatingChanges) md << "- " << c << "\n";
@@ -216,16 +232,18 @@ std::string GhostReport::markdown() const {
     md << "| rank | ghost | flux (" << unit << ") | Monte Carlo (" << unit
        << ") | flux / nominal | focus - detector (mm) | footprint (mm) | peak irradiance (" << unit
        << "/mm²) | peak / nominal peak | flags |" << (whatIf ? " was |" : "")
-       << "\n|---|---|---|---|---|---|---|---|---|---|" << (whatIf ? "---|" : "") << "\n";
+       << (several ? " source |" : "") << "\n|---|---|---|---|---|---|---|---|---|---|"
+       << (whatIf ? "---|" : "") << (several ? "---|" : "") << "\n";
     for (const GhostReportRow& g : rows) {
         md << "| " << g.rank << " | " << g.label << " | " << sci(g.flux) << " | "
-           << (haveMc ? sci(g.mcFlux) + " ± " + fix(100.0 * g.mcRelativeError, 1) + " %" : "-")
+           << (haveMc ? mcText(g.mcFlux, g.mcRelativeError, " ± ", " %") : "-")
            << " | " << (nominalFlux > 0 ? sci(g.relativeFlux) : "-") << " | " << fix(g.focusMm, 2)
            << " | " << fix(g.footprintMm, 3) << " | " << sci(g.peakIrradiance) << " | "
            << (nominalPeak > 0 ? sci(g.relativeIrradiance) : "-") << " | " << g.flags()
            << (g.glassFocus.empty() ? "" : " (" + g.glassFocus + ")") << " |";
         if (whatIf)
             md << " " << (g.baselineRank > 0 ? std::to_string(g.baselineRank) : "-") << " |";
+        if (several) md << " " << g.source << " |";
         md << "\n";
     }
     md << "\nCriteria (docs/criteria.md) of the ranked ghosts, usable with veil trace --where and "
@@ -251,30 +269,34 @@ std::string GhostReport::terminal(size_t topRows, const std::string& footer) con
         out << "; Monte Carlo " << mcEmittedRays << " rays in " << fix(mcSeconds, 1) << " s";
     out << "\n  nominal image " << sci(nominalFlux) << " " << unit;
     if (haveMc)
-        out << " (Monte Carlo " << sci(mcNominalFlux) << " +-" << fix(100.0 * mcNominalError, 1)
-            << "%)";
+        out << " (Monte Carlo " << mcText(mcNominalFlux, mcNominalError) << ")";
     out << "; all ghosts " << sci(allGhostsFlux) << " " << unit;
     if (haveMc)
-        out << " (Monte Carlo " << sci(mcAllGhostsFlux) << " +-" << fix(100.0 * mcAllGhostsError, 1)
-            << "%)";
+        out << " (Monte Carlo " << mcText(mcAllGhostsFlux, mcAllGhostsError) << ")";
     out << "\n";
     for (const std::string& c : coatingChanges) out << "  coating what-if: " << c << "\n";
+    const bool several = sources.size() > 1;
+    if (several)
+        out << "  flux sums all " << sources.size()
+            << " sources; focus, footprint, peak and flags are of the source where the ghost "
+               "peaks (source column)\n";
     out << "\n"
         << std::left << std::setw(5) << "rank" << std::setw(30) << "ghost" << std::right
         << std::setw(11) << "flux " + unit << std::setw(20) << "Monte Carlo" << std::setw(10)
         << "flux/nom" << std::setw(10) << "focus mm" << std::setw(9) << "foot mm" << std::setw(11)
-        << "peak/mm2"
-        << "  flags" << (coatingChanges.empty() ? "" : "  (was)") << "\n";
+        << "peak/mm2" << (several ? "  source  " : "") << "  flags"
+        << (coatingChanges.empty() ? "" : "  (was)") << "\n";
     const size_t n = topRows > 0 ? std::min(topRows, rows.size()) : rows.size();
     for (size_t k = 0; k < n; ++k) {
         const GhostReportRow& g = rows[k];
-        std::string mcText = "-";
-        if (haveMc) mcText = sci(g.mcFlux) + " +-" + fix(100.0 * g.mcRelativeError, 1) + "%";
+        std::string mc = "-";
+        if (haveMc) mc = mcText(g.mcFlux, g.mcRelativeError);
         out << std::left << std::setw(5) << g.rank << std::setw(30) << g.label << std::right
-            << std::setw(11) << sci(g.flux) << std::setw(20) << mcText << std::setw(10)
+            << std::setw(11) << sci(g.flux) << std::setw(20) << mc << std::setw(10)
             << (nominalFlux > 0 ? sci(g.relativeFlux) : "-") << std::setw(10) << fix(g.focusMm, 1)
-            << std::setw(9) << fix(g.footprintMm, 2) << std::setw(11) << sci(g.peakIrradiance)
-            << "  " << g.flags();
+            << std::setw(9) << fix(g.footprintMm, 2) << std::setw(11) << sci(g.peakIrradiance);
+        if (several) out << "  " << std::left << std::setw(8) << g.source << std::right;
+        out << "  " << g.flags();
         if (g.baselineRank > 0) out << "  (" << g.baselineRank << ")";
         out << "\n";
     }

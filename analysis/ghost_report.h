@@ -30,9 +30,12 @@ struct GhostReportRow {
     double relativeFlux = 0.0;        // over the nominal image's flux
     double peakIrradiance = 0.0;      // largest over sources
     double relativeIrradiance = 0.0;  // over the nominal image's peak
+    // The source where the peak irradiance is highest (`source`): its focus, footprint,
+    // near-focus flag and focus in glass, so that one row never mixes sources. The flux sums
+    // all sources; perSource has each.
+    std::string source;
     bool nearFocus = false;
     std::string glassFocus;  // where a ghost focuses inside glass, if it does
-    // The source where the peak irradiance is highest: its focus and footprint.
     double focusMm = 0.0;
     double footprintMm = 0.0;
     std::vector<GhostSourceResult> perSource;

@@ -182,20 +182,24 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
         po.emittedRays = mc.emittedRays;
         po.decades = o.decades;
         const DetectorImage& sum = layers[a.ghosts.size() + 1][det];
+        // Every image sums the sources (fields): said in its title when there are several.
+        const size_t nSources = ts.transport.sources.size();
+        const std::string allSources =
+            nSources > 1 ? " (sum of " + std::to_string(nSources) + " sources)" : "";
         for (size_t r = 0; r < a.ghosts.size(); ++r) {
             const DetectorImage& img = layers[r + 1][det];
             std::ostringstream stem;
             stem << "ghost_" << std::setw(2) << std::setfill('0') << r + 1;
             writeDetectorExr(out / "images" / (stem.str() + ".exr"), img, info);
-            po.title = "#" + std::to_string(r + 1) + " " + a.ghosts[r].path.label;
+            po.title = "#" + std::to_string(r + 1) + " " + a.ghosts[r].path.label + allSources;
             writeDetectorPng(out / "images" / (stem.str() + ".png"), img, po);
             written.add(out / "images" / (stem.str() + ".exr"));
             written.add(out / "images" / (stem.str() + ".png"));
         }
         writeDetectorExr(out / "ghosts_all.exr", sum, info);
-        po.title = "all " + std::to_string(a.ghosts.size()) + " ghosts";
+        po.title = "all " + std::to_string(a.ghosts.size()) + " ghosts" + allSources;
         writeDetectorPng(out / "ghosts_all.png", sum, po);
-        po.title = "nominal image";
+        po.title = "nominal image" + allSources;
         writeDetectorPng(out / "nominal.png", layers[0][det], po);
         for (const char* f : {"ghosts_all.exr", "ghosts_all.png", "nominal.png"})
             written.add(out / f);

@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <limits>
 #include <sstream>
 
 #include "tracer/prepared_scene.h"
@@ -72,6 +74,49 @@ TEST(GhostReport, EveryFormatShowsTheSameRows) {
     }
     EXPECT_EQ(j["nominal"]["flux"].get<double>(), a.nominal.flux());
     EXPECT_EQ(j["all_ghosts"]["flux"].get<double>(), r.allGhostsFlux);
+
+    // Several sources (the triplet's three fields): a row's focus, footprint, flags and peak
+    // are all of one source, the one where the ghost peaks, and every format names it.
+    ASSERT_EQ(prepared->trace().transport.sources.size(), 3u);
+    bool sourcesDiffer = false;
+    for (size_t k = 0; k < r.rows.size(); ++k) {
+        const GhostReportRow& row = r.rows[k];
+        const auto it = std::find_if(row.perSource.begin(), row.perSource.end(),
+                                     [&](const GhostSourceResult& s) { return s.source == row.source; });
+        ASSERT_NE(it, row.perSource.end()) << row.label;
+        for (const GhostSourceResult& s : row.perSource)
+            EXPECT_LE(s.peakIrradiance, it->peakIrradiance) << row.label;
+        EXPECT_EQ(row.peakIrradiance, it->peakIrradiance);
+        EXPECT_EQ(row.footprintMm, it->footprintMm);
+        EXPECT_EQ(row.focusMm, it->focusMm);
+        EXPECT_EQ(row.nearFocus, it->nearFocus);
+        EXPECT_EQ(row.glassFocus, it->glassFocus);
+        EXPECT_EQ(j["ghosts"][k]["source"], row.source);
+        EXPECT_NE(csv[k + 1].find(",\"" + row.source + "\""), std::string::npos);
+        sourcesDiffer |= row.source != r.rows[0].source;
+    }
+    EXPECT_TRUE(sourcesDiffer);  // the test means something: ghosts peak in different fields
+    EXPECT_NE(md.find("sum all 3 sources"), std::string::npos);
+    EXPECT_NE(term.find("flux sums all 3 sources"), std::string::npos);
+}
+
+// A Monte Carlo flux of exactly zero reads "0 (no hits)", never "+-inf%".
+TEST(GhostReport, ZeroMonteCarloFluxSaysNoHits) {
+    GhostReport r;
+    r.haveMc = true;
+    r.unit = "W";
+    r.sources = {"sun"};
+    GhostReportRow row;
+    row.rank = 1;
+    row.label = "L2.back > L1.front";
+    row.flux = 1e-6;
+    row.mcFlux = 0.0;
+    row.mcRelativeError = std::numeric_limits<double>::infinity();
+    r.rows.push_back(row);
+    const std::string term = r.terminal(0, "");
+    EXPECT_NE(term.find("0 (no hits)"), std::string::npos) << term;
+    EXPECT_EQ(term.find("inf"), std::string::npos) << term;
+    EXPECT_NE(r.markdown().find("0 (no hits)"), std::string::npos);
 }
 
 }  // namespace
