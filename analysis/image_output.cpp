@@ -101,6 +101,39 @@ std::string unitOf(PreviewQuantity q, const std::string& fluxUnit) {
     return q == PreviewQuantity::Irradiance ? fluxUnit + "/mm\u00b2" : fluxUnit + " per pixel";
 }
 
+// Text centred on (x, y) and turned a quarter turn counter-clockwise (reading upward).
+void showUpward(cairo_t* cr, double x, double y, const std::string& text) {
+    cairo_text_extents_t ext;
+    cairo_text_extents(cr, text.c_str(), &ext);
+    cairo_save(cr);
+    cairo_translate(cr, x, y);
+    cairo_rotate(cr, -0.5 * M_PI);
+    cairo_move_to(cr, -0.5 * ext.x_advance, 0.0);
+    cairo_show_text(cr, text.c_str());
+    cairo_restore(cr);
+}
+
+// Text with its anchor at (x, baseline y): 0 left, 0.5 centre, 1 right.
+void showAnchored(cairo_t* cr, double x, double y, const std::string& text, double anchor) {
+    cairo_text_extents_t ext;
+    cairo_text_extents(cr, text.c_str(), &ext);
+    cairo_move_to(cr, x - anchor * ext.x_advance, y);
+    cairo_show_text(cr, text.c_str());
+}
+
+void arrowTo(cairo_t* cr, double x0, double y0, double x1, double y1) {
+    const double dx = x1 - x0, dy = y1 - y0, len = std::hypot(dx, dy);
+    const double ux = dx / len, uy = dy / len, head = 7.0;
+    cairo_move_to(cr, x0, y0);
+    cairo_line_to(cr, x1 - 0.9 * head * ux, y1 - 0.9 * head * uy);
+    cairo_stroke(cr);
+    cairo_move_to(cr, x1, y1);
+    cairo_line_to(cr, x1 - head * ux - 0.4 * head * uy, y1 - head * uy + 0.4 * head * ux);
+    cairo_line_to(cr, x1 - head * ux + 0.4 * head * uy, y1 - head * uy - 0.4 * head * ux);
+    cairo_close_path(cr);
+    cairo_fill(cr);
+}
+
 std::string formatNumber(double v) {
     char buf[32];
     std::snprintf(buf, sizeof buf, "%.4g", v);
@@ -109,12 +142,21 @@ std::string formatNumber(double v) {
 
 // PNG layout constants (PNG pixels).
 constexpr double kMargin = 20.0;
-constexpr double kTitleSpace = 40.0;
-constexpr double kFooterSpace = 40.0;
+constexpr double kYAxisSpace = 62.0;  // rotated "y (mm)" and the y tick labels
+constexpr double kTitleSpace = 44.0;
+constexpr double kXAxisSpace = 50.0;   // x tick labels and "x (mm)" below the image
+constexpr double kMarkSpace = 76.0;    // the orientation mark below the colour bar
+constexpr double kFooterSpace = 52.0;  // two lines of notes
 constexpr double kBarGap = 30.0;
 constexpr double kBarWidth = 24.0;
-constexpr double kLabelSpace = 110.0;
+constexpr double kLabelSpace = 96.0;  // tick labels and the rotated quantity label
 constexpr double kMinBarHeight = 200.0;
+constexpr double kTickLength = 5.0;
+constexpr double kLabelSize = 12.0;
+constexpr double kNoteSize = 12.0;
+constexpr double kTitleSize = 15.0;
+
+double textWidth(const std::string& s, double sizePx) { return Picture::textWidthPt(s, sizePx); }
 
 }  // namespace
 
@@ -337,6 +379,11 @@ double previewValue(const DetectorImage& image, int pixel, PreviewQuantity quant
     return quantity == PreviewQuantity::Irradiance ? image.irradiance(pixel) : image.flux(pixel);
 }
 
+std::string previewLabel(PreviewQuantity quantity, const std::string& fluxUnit) {
+    return quantity == PreviewQuantity::Irradiance ? "irradiance (" + fluxUnit + "/mm\u00b2)"
+                                                   : "flux per pixel (" + fluxUnit + ")";
+}
+
 PreviewLayout previewLayout(const DetectorImage& image, const PreviewOptions& options) {
     if (!(options.decades > 0.0))
         throw std::invalid_argument("writeDetectorPng: decades must be > 0");
@@ -352,17 +399,47 @@ PreviewLayout previewLayout(const DetectorImage& image, const PreviewOptions& op
         l.imageH = size;
         l.imageW = std::max(1.0, std::round(size * g.widthMm / g.heightMm));
     }
-    l.imageX = kMargin;
+    l.imageX = kMargin + kYAxisSpace;
     l.imageY = kTitleSpace;
     l.barX = l.imageX + l.imageW + kBarGap;
     l.barY = l.imageY;
     l.barW = kBarWidth;
     l.barH = std::max(l.imageH, kMinBarHeight);
     l.widthPx = static_cast<int>(l.barX + l.barW + kLabelSpace);
-    l.heightPx = static_cast<int>(l.imageY + l.barH + kFooterSpace);
+    l.markX = l.barX + 10.0;
+    l.markY = l.barY + l.barH + 50.0;
+    const double content =
+        std::max(l.imageY + l.imageH + kXAxisSpace, l.barY + l.barH + kMarkSpace);
+    l.heightPx = static_cast<int>(content + kFooterSpace);
+    l.title = options.title.empty() ? "Detector " + g.name : options.title;
+    // Axes: at most one tick per 55 px.
+    l.widthMm = g.widthMm;
+    l.heightMm = g.heightMm;
+    l.xTicks = niceTicks(-0.5 * g.widthMm, 0.5 * g.widthMm, std::max(2, int(l.imageW / 55.0)));
+    l.yTicks = niceTicks(-0.5 * g.heightMm, 0.5 * g.heightMm, std::max(2, int(l.imageH / 55.0)));
     for (int p = 0; p < image.pixelCount(); ++p)
         l.maxValue = std::max(l.maxValue, previewValue(image, p, options.quantity));
     l.minValue = l.maxValue * std::pow(10.0, -options.decades);
+
+    // Notes below: the grid and the values, then the view; the page widens to hold them.
+    std::ostringstream values;
+    values << formatNumber(g.widthMm) << " x " << formatNumber(g.heightMm) << " mm, "
+           << image.pixelsX() << " x " << image.pixelsY() << " pixels; ";
+    if (l.maxValue > 0.0)
+        values << "max " << formatNumber(l.maxValue) << " "
+               << unitOf(options.quantity, options.fluxUnit) << ", " << options.decades
+               << " decades";
+    else
+        values << "no flux";
+    if (options.emittedRays > 0)
+        values << "; total " << formatNumber(image.totalFlux()) << " " << options.fluxUnit
+               << " \u00b1 " << formatNumber(100.0 * image.totalRelativeError(options.emittedRays))
+               << " %";
+    l.notes = {values.str(),
+               "Seen from behind the detector (from its local +z side), looking back at the lens"};
+    double widest = textWidth(l.title, kTitleSize);
+    for (const std::string& n : l.notes) widest = std::max(widest, textWidth(n, kNoteSize));
+    l.widthPx = std::max(l.widthPx, static_cast<int>(std::ceil(2.0 * kMargin + widest)));
     return l;
 }
 
@@ -408,7 +485,51 @@ void writeDetectorPng(const std::filesystem::path& path, const DetectorImage& im
     cairo_rectangle(cr, l.imageX - 0.5, l.imageY - 0.5, l.imageW + 1.0, l.imageH + 1.0);
     cairo_stroke(cr);
 
+    // Axes in detector-local mm: ticks outside the image, labels, axis names.
+    cairo_set_source_rgb(cr, 0.0, 0.0, 0.0);
+    cairo_set_line_width(cr, 1.0);
+    cairo_set_font_size(cr, kLabelSize);
+    const double bottom = l.imageY + l.imageH, left = l.imageX;
+    for (double x : l.xTicks.values) {
+        const double px = std::round(l.xPx(x)) + 0.5;
+        cairo_move_to(cr, px, bottom + 0.5);
+        cairo_line_to(cr, px, bottom + 0.5 + kTickLength);
+        cairo_stroke(cr);
+        showAnchored(cr, px, bottom + kTickLength + 14.0, l.xTicks.label(x), 0.5);
+    }
+    for (double y : l.yTicks.values) {
+        const double py = std::round(l.yPx(y)) + 0.5;
+        cairo_move_to(cr, left - 0.5, py);
+        cairo_line_to(cr, left - 0.5 - kTickLength, py);
+        cairo_stroke(cr);
+        showAnchored(cr, left - kTickLength - 4.0, py + 0.36 * kLabelSize, l.yTicks.label(y), 1.0);
+    }
+    showAnchored(cr, l.imageX + 0.5 * l.imageW, bottom + kTickLength + 36.0, "x (mm)", 0.5);
+    showUpward(cr, kMargin + 8.0, l.imageY + 0.5 * l.imageH, "y (mm)");
+
+    // Orientation mark: +x right, +y up, +z toward the viewer (a dot in a circle).
+    {
+        const double x0 = l.markX, y0 = l.markY, len = 34.0;
+        cairo_set_line_width(cr, 1.5);
+        arrowTo(cr, x0, y0, x0 + len, y0);
+        arrowTo(cr, x0, y0, x0, y0 - len);
+        cairo_set_line_width(cr, 1.2);
+        cairo_new_path(cr);
+        cairo_arc(cr, x0, y0, 4.5, 0.0, 2.0 * M_PI);
+        cairo_set_source_rgb(cr, 1.0, 1.0, 1.0);
+        cairo_fill_preserve(cr);
+        cairo_set_source_rgb(cr, 0.0, 0.0, 0.0);
+        cairo_stroke(cr);
+        cairo_arc(cr, x0, y0, 1.5, 0.0, 2.0 * M_PI);
+        cairo_fill(cr);
+        cairo_set_font_size(cr, kLabelSize);
+        showAnchored(cr, x0 + len + 4.0, y0 + 0.36 * kLabelSize, "+x", 0.0);
+        showAnchored(cr, x0 + 6.0, y0 - len + 6.0, "+y", 0.0);
+        showAnchored(cr, x0 - 6.0, y0 + 19.0, "+z toward you", 0.0);
+    }
+
     // Colour bar: one row of PNG pixels per step, top = maximum.
+    cairo_set_line_width(cr, 1.0);
     const int barRows = static_cast<int>(l.barH);
     for (int i = 0; i < barRows; ++i) {
         const Color c = falseColour(1.0 - (i + 0.5) / barRows);
@@ -421,7 +542,8 @@ void writeDetectorPng(const std::filesystem::path& path, const DetectorImage& im
     cairo_stroke(cr);
 
     // Ticks at the powers of ten inside [minValue, maxValue].
-    const double labelSize = 12.0;
+    const double labelSize = kLabelSize;
+    cairo_set_line_width(cr, 1.0);
     if (l.maxValue > 0.0) {
         const double top = std::log10(l.maxValue);
         const int kHi = static_cast<int>(std::floor(top));
@@ -446,34 +568,21 @@ void writeDetectorPng(const std::filesystem::path& path, const DetectorImage& im
             cairo_show_text(cr, formatNumber(l.maxValue).c_str());
         }
     }
-    // Unit above the bar.
+    // The quantity and its unit along the bar, reading upward.
     cairo_set_source_rgb(cr, 0.0, 0.0, 0.0);
-    cairo_set_font_size(cr, labelSize);
-    cairo_move_to(cr, l.barX, l.barY - 10.0);
-    cairo_show_text(cr, unitOf(options.quantity, options.fluxUnit).c_str());
+    cairo_set_font_size(cr, 13.0);
+    showUpward(cr, l.barX + l.barW + kLabelSpace - 20.0, l.barY + 0.5 * l.barH,
+               previewLabel(options.quantity, options.fluxUnit));
 
-    // Title and footer.
-    const DetectorGeometry& g = image.geometry();
-    const std::string title = options.title.empty() ? "Detector " + g.name : options.title;
-    cairo_set_font_size(cr, 15.0);
-    cairo_move_to(cr, l.imageX, 25.0);
-    cairo_show_text(cr, title.c_str());
-    std::ostringstream footer;
-    footer << formatNumber(g.widthMm) << " x " << formatNumber(g.heightMm) << " mm, " << nx << " x "
-           << ny << " pixels; ";
-    if (l.maxValue > 0.0)
-        footer << "max " << formatNumber(l.maxValue) << " "
-               << unitOf(options.quantity, options.fluxUnit) << ", " << options.decades
-               << " decades";
-    else
-        footer << "no flux";
-    if (options.emittedRays > 0)
-        footer << "; total " << formatNumber(image.totalFlux()) << " " << options.fluxUnit
-               << " \u00b1 " << formatNumber(100.0 * image.totalRelativeError(options.emittedRays))
-               << " %";
-    cairo_set_font_size(cr, 12.0);
-    cairo_move_to(cr, l.imageX, l.imageY + l.barH + 25.0);
-    cairo_show_text(cr, footer.str().c_str());
+    // Title and notes.
+    cairo_set_font_size(cr, kTitleSize);
+    cairo_move_to(cr, kMargin, 27.0);
+    cairo_show_text(cr, l.title.c_str());
+    cairo_set_font_size(cr, kNoteSize);
+    for (size_t i = 0; i < l.notes.size(); ++i) {
+        cairo_move_to(cr, kMargin, l.heightPx - kFooterSpace + 20.0 + 17.0 * i);
+        cairo_show_text(cr, l.notes[i].c_str());
+    }
 
     cairo_destroy(cr);
     cairo_surface_destroy(pixels);

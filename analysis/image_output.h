@@ -42,10 +42,22 @@
 //
 // PNG preview: the chosen quantity in false colour on a log scale spanning `decades` below
 // the maximum (values below the range take the lowest colour, zero is black), detector
-// pixels drawn as blocks in their physical aspect, a colour bar with ticks at powers of ten
-// and the unit. The colour map is viridis (van der Walt and Smith, matplotlib) sampled at 9
-// anchors and interpolated linearly: perceptually ordered, its lightness rises monotonically
-// from dark violet to yellow, and it stays distinct from the black of empty pixels.
+// pixels drawn as blocks in their physical aspect, axes ticked in detector-local mm (round
+// steps, niceTicks) and labelled "x (mm)" and "y (mm)", a colour bar with ticks at powers of
+// ten labelled with the quantity and its unit ("irradiance (W/mm²)" or "flux per pixel
+// (W)"), an orientation mark (+x right, +y up, +z toward the viewer), and notes below: the
+// grid, the maximum, the total with its relative error, and the view.
+//
+// Orientation: the image is drawn as the detector's local frame is laid out (tracer/
+// detector.h): column 0 (local x = -width/2) at the left, row 0 (local y = +height/2) at the
+// top, so +x points right and +y up, and with a right-handed frame local +z points out of
+// the picture toward the viewer. The sensitive side faces local -z, toward the lens, so the
+// picture shows the detector as seen from behind it (from its +z side), looking back toward
+// the lens (seen from the lens, left and right would swap).
+//
+// The colour map is viridis (van der Walt and Smith, matplotlib) sampled at 9 anchors and
+// interpolated linearly: perceptually ordered, its lightness rises monotonically from dark
+// violet to yellow, and it stays distinct from the black of empty pixels.
 //
 // Both are written to "<path>.tmp" and renamed, so a failed write never leaves a partial
 // file under the final name; the temporary is removed on failure.
@@ -125,13 +137,22 @@ struct PreviewOptions {
 };
 
 // Where things are in the PNG, in PNG pixels (origin top left): the detector area, the
-// colour bar, and the value range shown.
+// colour bar, the axis ticks, the orientation mark, and the value range shown.
 struct PreviewLayout {
     int widthPx = 0, heightPx = 0;
     double imageX = 0, imageY = 0, imageW = 0, imageH = 0;
     double barX = 0, barY = 0, barW = 0, barH = 0;
     double maxValue = 0.0;  // the largest value of the quantity; 0 for an empty image
     double minValue = 0.0;  // maxValue * 10^-decades: the bottom of the colour bar
+    double widthMm = 0.0, heightMm = 0.0;  // the detector
+    Ticks xTicks, yTicks;                  // detector-local mm
+    double markX = 0, markY = 0;           // origin of the orientation mark's arrows
+    std::string title;                     // at the top
+    std::vector<std::string> notes;        // lines below: grid and values, the view
+    // The PNG position of a detector-local coordinate (mm): x = -width/2 at the image's
+    // left edge, y = +height/2 at its top edge.
+    double xPx(double xMm) const { return imageX + (xMm / widthMm + 0.5) * imageW; }
+    double yPx(double yMm) const { return imageY + (0.5 - yMm / heightMm) * imageH; }
 };
 PreviewLayout previewLayout(const DetectorImage& image, const PreviewOptions& options = {});
 
@@ -147,5 +168,7 @@ Color falseColour(double t);
 Color previewColour(double value, double maxValue, double decades);
 // The displayed quantity of one pixel.
 double previewValue(const DetectorImage& image, int pixel, PreviewQuantity quantity);
+// The colour bar's label: "irradiance (W/mm²)" or "flux per pixel (W)".
+std::string previewLabel(PreviewQuantity quantity, const std::string& fluxUnit);
 
 }  // namespace veil

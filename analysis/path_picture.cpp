@@ -83,10 +83,11 @@ class FirstMatches {
 PathSelection selectPaths(const TransportScene& ts, const std::vector<DetectorImage>& detectors,
                           const PathSelectionOptions& options) {
     const CompiledCriterion compiled =
-        compileCriterion(options.where, criterionNames(*ts.scene, ts));
+        compileCriterion(options.where, criterionNames(*ts.scene, ts), options.whereSource);
     PathSelection result;
     result.criterion = options.where;
     result.requested = options.count;
+    if (!ts.sources.empty()) result.fluxUnit = unitSymbol(ts.sources.front().unit());
     if (options.count == 0 || ts.sources.empty()) return result;
 
     const uint64_t sources = ts.sources.size();
@@ -131,6 +132,7 @@ PathSelection selectPaths(const TransportScene& ts, const std::vector<DetectorIm
         };
         traceNonsequential(ts, detectors, perSource, to, {}, onRay);
         result.raysTraced += perSource * sources;
+        if (options.progress) options.progress(result.raysTraced);
         if (first.stored() >= options.count) break;
     }
     result.paths = first.take();
@@ -159,34 +161,6 @@ Color eventColour(EventType t) {
     }
 }
 
-namespace {
-
-// Liang-Barsky: clips the segment a-b to the rectangle; false if nothing is left.
-bool clip(Vec2& a, Vec2& b, const std::array<double, 4>& r) {
-    double t0 = 0.0, t1 = 1.0;
-    const Vec2 d = b - a;
-    const double p[4] = {-d.x, d.x, -d.y, d.y};
-    const double q[4] = {a.x - r[0], r[1] - a.x, a.y - r[2], r[3] - a.y};
-    for (int i = 0; i < 4; ++i) {
-        if (p[i] == 0.0) {
-            if (q[i] < 0.0) return false;
-            continue;
-        }
-        const double t = q[i] / p[i];
-        if (p[i] < 0.0)
-            t0 = std::max(t0, t);
-        else
-            t1 = std::min(t1, t);
-        if (t0 > t1) return false;
-    }
-    const Vec2 a0 = a;
-    a = a0 + t0 * d;
-    b = a0 + t1 * d;
-    return true;
-}
-
-}  // namespace
-
 Picture drawPaths(const Picture& base, const PathSelection& selection,
                   const PathPictureOptions& options) {
     Picture pic = base;
@@ -204,11 +178,14 @@ Picture drawPaths(const Picture& base, const PathSelection& selection,
         double flux;
         EventType event;
     };
+    const std::array<double, 4> frame =
+        options.clipZY ? *options.clipZY
+                       : std::array<double, 4>{base.zMin(), base.zMax(), base.yMin(), base.yMax()};
     std::vector<Line> lines;
     for (const SelectedPath& p : selection.paths) {
         for (size_t k = 1; k < p.points.size(); ++k) {
             Vec2 a(p.points[k - 1].z, p.points[k - 1].y), b(p.points[k].z, p.points[k].y);
-            if (options.clipZY && !clip(a, b, *options.clipZY)) continue;
+            if (!clipSegment(a, b, frame[0], frame[1], frame[2], frame[3])) continue;
             lines.push_back({a, b, p.flux[k], p.events[k].type});
         }
     }
@@ -241,22 +218,28 @@ Picture drawPaths(const Picture& base, const PathSelection& selection,
         for (const auto& [label, t] : keys) {
             pic.overlayLine(kx, ky - 3.5, kx + 18.0, ky - 3.5, eventColour(t), 2.0);
             pic.overlayText(kx + 22.0, ky, label, Color::hex(0x000000), 10.0);
-            kx += 30.0 + 6.0 * std::string(label).size();
+            kx += 22.0 + Picture::textWidthPt(label, 10.0) + 16.0;
         }
     } else {
-        // Colour bar: max 10^-decades ... max.
+        // Colour bar from max 10^-decades (left) to max (right), its ends in the unit.
         const int steps = 60;
         const double w = 180.0;
-        pic.overlayText(x, ky, "segment flux:", Color::hex(0x000000), 10.0);
-        const double bx = x + 72.0;
+        const std::string unit = selection.fluxUnit;
+        const std::string what = "segment flux, " + unit + " per traced ray (log):";
+        pic.overlayText(x, ky, what, Color::hex(0x000000), 10.0);
+        auto number = [&](double v) {
+            std::ostringstream os;
+            os << std::scientific << std::setprecision(1) << v << " " << unit;
+            return os.str();
+        };
+        const std::string lo = number(maxFlux * std::pow(10.0, -decades));
+        double bx = x + Picture::textWidthPt(what, 10.0) + 10.0;
+        pic.overlayText(bx, ky, lo, Color::hex(0x000000), 10.0);
+        bx += Picture::textWidthPt(lo, 10.0) + 6.0;
         for (int i = 0; i < steps; ++i)
             pic.overlayRect(bx + w * i / steps, ky - 8.0, w / steps + 0.3, 9.0,
                             falseColour((i + 0.5) / steps));
-        std::ostringstream lo, hi;
-        lo << std::scientific << std::setprecision(1) << maxFlux * std::pow(10.0, -decades);
-        hi << std::scientific << std::setprecision(1) << maxFlux;
-        pic.overlayText(bx + w + 6.0, ky, lo.str() + " ... " + hi.str() + " (log)",
-                        Color::hex(0x000000), 10.0);
+        pic.overlayText(bx + w + 6.0, ky, number(maxFlux), Color::hex(0x000000), 10.0);
     }
     return pic;
 }

@@ -13,6 +13,7 @@
 // b * batchRays * sources + r (batch 0 is exactly `veil trace --seed seed`).
 
 #include <array>
+#include <functional>
 #include <cstdint>
 #include <optional>
 #include <ostream>
@@ -44,6 +45,10 @@ struct PathSelectionOptions {
     uint64_t maxRays = 1000000;  // emitted rays (all sources) to trace at most
     uint64_t batchRays = 20000;  // rays per source per batch
     TransportOptions transport;  // recordHistories is forced on; seed is the base seed
+    // How errors in `where` name it ("--where": "--where:1:13").
+    std::string whereSource = "--where";
+    // Called with the emitted rays traced so far (all sources), after each batch; may be empty.
+    std::function<void(uint64_t)> progress;
 };
 
 struct PathSelection {
@@ -52,6 +57,7 @@ struct PathSelection {
     uint64_t raysTraced = 0;          // emitted rays (all sources)
     uint64_t pathsEvaluated = 0;      // complete paths seen
     uint64_t pathsMatched = 0;        // of those, matching (can exceed paths.size())
+    std::string fluxUnit = "W";       // of SelectedPath::flux: the (first) source's, W or lm
     bool complete() const { return !paths.empty() && paths.size() >= requested; }
     size_t requested = 0;
 };
@@ -71,8 +77,8 @@ struct PathPictureOptions {
     PathColouring colouring = PathColouring::LogFlux;
     double decades = 6.0;  // LogFlux: the colour ramp spans [max 10^-decades, max]
     double lineWidthPt = 0.5;
-    // Segments are clipped to this y-z rectangle (mm) when set: {zMin, zMax, yMin, yMax}.
-    // Exit segments run to the scene's far bounds; the layout's frame keeps the picture tidy.
+    // Segments are clipped to this y-z rectangle (mm): {zMin, zMax, yMin, yMax}; unset, to
+    // the base picture's frame. Exit segments run to the scene's far bounds.
     std::optional<std::array<double, 4>> clipZY;
 };
 
@@ -84,6 +90,12 @@ Color eventColour(EventType t);
 // `base` (from drawLayout) with every path's segments projected to the y-z plane (a point
 // (x, y, z) is drawn at (z, y)) and a legend: the criterion, the number of paths and the
 // colour key.
+//
+// LogFlux colours a segment by the flux the traced ray (or its split branch) carries along
+// it, in the sources' unit (W or lm): absolute, per traced ray, so it scales with 1 / the
+// rays per source of the batch. The colour is log10(flux / brightest segment drawn) over
+// `decades` decades (the brightest is usually a ray as emitted); the key shows that range
+// as the colour bar with its two ends in W or lm.
 Picture drawPaths(const Picture& base, const PathSelection& selection,
                   const PathPictureOptions& options = {});
 

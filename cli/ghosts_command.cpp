@@ -208,11 +208,9 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
         fs::create_directories(out / "paths");
         veil::LayoutOptions lo;
         lo.title = setup.prescription.system.name.empty() ? o.file : setup.prescription.system.name;
+        lo.sources = layoutSources(ts.transport.sources, setup.scene);
         const Picture base = drawLayout(setup.scene, lo);
-        PathPictureOptions pp;
-        const Bounds3 b = setup.scene.bounds();
-        const double pad = 0.06 * std::max(b.hi.z - b.lo.z, b.hi.y - b.lo.y);
-        pp.clipZY = std::array<double, 4>{b.lo.z - pad, b.hi.z + pad, b.lo.y - pad, b.hi.y + pad};
+        const PathPictureOptions pp;  // clipped to the layout's frame
         const NameTable names = criterionNames(setup.scene, ts.transport);
         auto draw = [&](const std::string& criterion, const fs::path& stem) {
             const CompiledCriterion c = compileCriterion(criterion, names);

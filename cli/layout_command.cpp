@@ -44,6 +44,8 @@ int runLayout(const CommonOptions& common, const LayoutOptions& options) {
     veil::LayoutOptions lo;
     lo.title =
         setup.prescription.system.name.empty() ? options.file : setup.prescription.system.name;
+    if (prepared->hasSources())
+        lo.sources = layoutSources(prepared->trace().transport.sources, setup.scene);
     const Picture pic = drawLayout(setup.scene, lo);
     const std::filesystem::path dir = outputFolder(options.output, "layout", options.json);
     WrittenFiles written;

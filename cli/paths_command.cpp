@@ -16,11 +16,13 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <nlohmann/json.hpp>
 
 #include "analysis/layout.h"
 #include "analysis/path_picture.h"
 #include "cli/options.h"
+#include "cli/progress.h"
 #include "tracer/prepared_scene.h"
 
 namespace veil::cli {
@@ -76,18 +78,22 @@ int runPaths(const CommonOptions& common, const PathsOptions& o) {
     po.transport.mode =
         o.mode == "random" ? TransportOptions::Mode::Random : TransportOptions::Mode::Split;
     po.transport.minRelativeFlux = o.minRelativeFlux;
+    // Progress by batch; the run ends early once --first paths are found.
+    std::optional<ProgressReporter> reporter;
+    if (!o.quiet) {
+        reporter.emplace("paths", po.maxRays);
+        po.progress = [&reporter](uint64_t done) { reporter->update(done); };
+    }
     const PathSelection sel = selectPaths(ts.transport, ts.images, po);
+    if (reporter) reporter->finishAt(sel.raysTraced);
 
     veil::LayoutOptions lo;
     lo.title = setup.prescription.system.name.empty() ? o.file : setup.prescription.system.name;
+    lo.sources = layoutSources(ts.transport.sources, setup.scene);
     const Picture base = drawLayout(setup.scene, lo);
     PathPictureOptions pp;
     pp.colouring = o.colour == "event" ? PathColouring::EventType : PathColouring::LogFlux;
-    // Keep exit segments inside the scene's frame (the layout's padding, a little wider).
-    const Bounds3 b = setup.scene.bounds();
-    const double pad = 0.06 * std::max(b.hi.z - b.lo.z, b.hi.y - b.lo.y);
-    pp.clipZY = std::array<double, 4>{b.lo.z - pad, b.hi.z + pad, b.lo.y - pad, b.hi.y + pad};
-    const Picture pic = drawPaths(base, sel, pp);
+    const Picture pic = drawPaths(base, sel, pp);  // clipped to the layout's frame
 
     const std::filesystem::path dir = outputFolder(o.output, "paths", o.json);
     WrittenFiles written;

@@ -37,6 +37,11 @@ class ProgressReporter {
     void update(uint64_t doneRays);
     // The closing report ("done" line, or the full bar and a newline); once.
     void finish();
+    // A run that ended early (paths found before the budget): done after `done` rays.
+    void finishAt(uint64_t done) {
+        totalRays_ = done;
+        finish();
+    }
 
     bool terminal() const { return terminal_; }
     friend std::ostream& operator<<(std::ostream& os, const ProgressReporter& p);

@@ -293,6 +293,11 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
         written.add(o.saveRays);
     }
     if (reporter) reporter->finish();
+    if (o.prune && result.budget.prunedBranches == 0)
+        std::cerr << "veil: warning: --prune stopped no branch: no --where criterion turned false "
+                     "before its path ended (seq(...), hit(...) and counts without an upper "
+                     "bound can only fail when a path ends; not, {0,1}-style counts and "
+                     "detector(...) can end a branch early), so the run cost the same\n";
 
     const std::string& unit = result.fluxUnit;
     const double seconds = result.seconds;
@@ -316,7 +321,8 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
                          {"roulette_gain", b.rouletteGain},
                          {"imbalance", b.imbalance()},
                          {"segments", b.segments},
-                         {"branches", b.branches}};
+                         {"branches", b.branches},
+                         {"pruned_branches", b.prunedBranches}};
     std::ostringstream text;
     text << "Flux budget (" << unit << ")\n";
     auto line = [&](const char* what, double v) {
@@ -336,6 +342,7 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
              << b.droppedBranches[1] << " " << DropReason::NoScatterDirection << ")\n";
     }
     if (b.rouletteGain > 0) line("roulette gain", b.rouletteGain);
+    if (o.prune) text << "  pruned " << b.prunedBranches << " branches (--prune)\n";
     text << "  imbalance " << std::scientific << b.imbalance() << " (relative "
          << (b.emitted > 0 ? b.imbalance() / b.emitted : 0.0) << ")\n";
     text << std::fixed << std::setprecision(1) << "  " << total << " rays, " << b.segments

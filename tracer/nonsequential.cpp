@@ -37,6 +37,7 @@ void FluxBudget::merge(const FluxBudget& o) {
     dropped += o.dropped;
     rouletteGain += o.rouletteGain;
     for (int r = 0; r < kDropReasons; ++r) droppedBranches[r] += o.droppedBranches[r];
+    prunedBranches += o.prunedBranches;
     rays += o.rays;
     segments += o.segments;
     branches += o.branches;
@@ -144,6 +145,7 @@ class RayTracer {
     }
     void cull(Branch& br, CullReason why, FluxBudget& b) {
         b.culled += br.flux;
+        if (why == CullReason::Criterion) ++b.prunedBranches;
         record(br.node, EventType::Culled, br.ray.origin, br.ray.direction, br.flux, -1, 0,
                br.medium, static_cast<uint8_t>(why));
     }

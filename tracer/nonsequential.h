@@ -74,6 +74,7 @@ struct FluxBudget {
     double dropped = 0.0;  // channels without a direction (tracer/interaction.h)
     double rouletteGain = 0.0;
     uint64_t droppedBranches[kDropReasons] = {};  // by DropReason
+    uint64_t prunedBranches = 0;  // culled by the online filter (CullReason::Criterion)
     uint64_t rays = 0;
     uint64_t segments = 0;
     uint64_t branches = 0;

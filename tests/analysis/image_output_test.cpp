@@ -358,6 +358,75 @@ TEST(DetectorPng, DecodesToTheLayoutWithTheExpectedColours) {
     cairo_surface_destroy(s);
 }
 
+bool dark(const Rgb& c) { return c.r < 100 && c.g < 100 && c.b < 100; }
+bool white(const Rgb& c) { return c.r > 240 && c.g > 240 && c.b > 240; }
+
+TEST(DetectorPng, AxesAreTickedInDetectorMillimetres) {
+    const std::filesystem::path dir = scratchDir();
+    DetectorGeometry g = grid();  // 3.5 x 2 mm
+    DetectorImage im(g);
+    im.add(im.pixelIndex(3, 2), 1.0);
+    PreviewOptions o;
+    const PreviewLayout l = previewLayout(im, o);
+    // Round steps (niceTicks) over the detector's local extent, x across, y down.
+    EXPECT_EQ(l.xTicks.step, 0.5);
+    EXPECT_EQ(l.xTicks.values.front(), -1.5);
+    EXPECT_EQ(l.xTicks.values.back(), 1.5);
+    EXPECT_EQ(l.yTicks.values.front(), -1.0);
+    EXPECT_EQ(l.yTicks.values.back(), 1.0);
+    // Local x = -width/2 at the image's left edge, y = +height/2 at its top (row 0).
+    EXPECT_DOUBLE_EQ(l.xPx(-1.75), l.imageX);
+    EXPECT_DOUBLE_EQ(l.xPx(1.75), l.imageX + l.imageW);
+    EXPECT_DOUBLE_EQ(l.yPx(1.0), l.imageY);
+    EXPECT_DOUBLE_EQ(l.yPx(-1.0), l.imageY + l.imageH);
+
+    const std::filesystem::path path = dir / "ticks.png";
+    writeDetectorPng(path, im, o);
+    cairo_surface_t* s = cairo_image_surface_create_from_png(path.c_str());
+    ASSERT_EQ(cairo_surface_status(s), CAIRO_STATUS_SUCCESS);
+    cairo_surface_flush(s);
+    // A tick mark just outside the image at every tick, white half way between ticks.
+    const double below = l.imageY + l.imageH + 3.0, left = l.imageX - 3.0;
+    for (double x : l.xTicks.values) {
+        EXPECT_TRUE(dark(pixelAt(s, std::round(l.xPx(x)), below))) << "x tick " << x;
+        EXPECT_TRUE(white(pixelAt(s, std::round(l.xPx(x + 0.5 * l.xTicks.step)), below)))
+            << "between x ticks " << x;
+    }
+    for (double y : l.yTicks.values) {
+        EXPECT_TRUE(dark(pixelAt(s, left, std::round(l.yPx(y))))) << "y tick " << y;
+        if (y < l.yTicks.values.back()) {
+            EXPECT_TRUE(white(pixelAt(s, left, std::round(l.yPx(y + 0.5 * l.yTicks.step)))))
+                << "between y ticks " << y;
+        }
+    }
+    // The orientation mark: arrows from its origin toward +x (right) and +y (up).
+    EXPECT_TRUE(dark(pixelAt(s, l.markX + 20.0, l.markY)));
+    EXPECT_TRUE(dark(pixelAt(s, l.markX, l.markY - 20.0)));
+    EXPECT_TRUE(white(pixelAt(s, l.markX - 20.0, l.markY)));
+    EXPECT_TRUE(white(pixelAt(s, l.markX, l.markY + 28.0)));
+    EXPECT_LT(l.markY + 30.0, l.heightPx);
+    EXPECT_LT(l.markX + 60.0, l.widthPx);
+    cairo_surface_destroy(s);
+}
+
+TEST(DetectorPng, TheColourBarNamesTheQuantityAndItsUnit) {
+    EXPECT_EQ(previewLabel(PreviewQuantity::Irradiance, "W"), "irradiance (W/mm\u00b2)");
+    EXPECT_EQ(previewLabel(PreviewQuantity::Irradiance, "lm"), "irradiance (lm/mm\u00b2)");
+    EXPECT_EQ(previewLabel(PreviewQuantity::Flux, "W"), "flux per pixel (W)");
+    // The notes state the view and the values with their unit; the page is wide enough.
+    DetectorImage im(grid());
+    im.add(0, 0.2);
+    PreviewOptions o;
+    o.fluxUnit = "lm";
+    o.emittedRays = 10;
+    const PreviewLayout l = previewLayout(im, o);
+    ASSERT_EQ(l.notes.size(), 2u);
+    EXPECT_NE(l.notes[0].find("max 1 lm/mm\u00b2"), std::string::npos) << l.notes[0];
+    EXPECT_NE(l.notes[1].find("behind the detector"), std::string::npos);
+    EXPECT_EQ(l.title, "Detector sensor");
+    for (const std::string& n : l.notes) EXPECT_GT(l.widthPx, Picture::textWidthPt(n, 12.0));
+}
+
 TEST(DetectorPng, EmptyImagesAndOptions) {
     const std::filesystem::path dir = scratchDir();
     DetectorGeometry tall = grid();

@@ -9,9 +9,11 @@
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <fstream>
 #include <iterator>
 #include <mutex>
+#include <regex>
 #include <utility>
 
 #include "analysis/criterion_names.h"
@@ -139,11 +141,75 @@ TEST(PathPicture, WritesSvgAndPng) {
         std::ifstream s(svg);
         const std::string text((std::istreambuf_iterator<char>(s)), {});
         EXPECT_NE(text.find("<svg"), std::string::npos) << colouring;
+        // The criterion as text; the flux key names its unit.
+        EXPECT_NE(text.find(">" + xmlEscape(kGhosts) + " "), std::string::npos) << colouring;
+        const std::string key = colouring == PathColouring::LogFlux
+                                    ? ">segment flux, W per traced ray (log):</text>"
+                                    : ">TIR</text>";
+        EXPECT_NE(text.find(key), std::string::npos) << colouring;
         std::ifstream p(png, std::ios::binary);
         char sig[8] = {};
         p.read(sig, 8);
         EXPECT_EQ(std::string(sig, 8), std::string("\x89PNG\r\n\x1a\n", 8)) << colouring;
     }
+}
+
+TEST(PathPicture, TheFluxKeyIsInTheSourcesUnitAndSpansTheSegmentsDrawn) {
+    const Prepared r = prepare(VEIL_SOURCE_DIR "/examples/scenes/catadioptric_2000mm_window.toml");
+    PathSelectionOptions o;
+    o.where = "emit(window)";
+    o.count = 5;
+    o.batchRays = 50;
+    o.maxRays = 50;
+    const PathSelection sel = selectPaths(r.trace.transport, r.trace.images, o);
+    EXPECT_EQ(sel.fluxUnit, "lm");
+    ASSERT_FALSE(sel.paths.empty());
+    double maxFlux = 0.0;
+    for (const SelectedPath& p : sel.paths)
+        for (size_t k = 1; k < p.flux.size(); ++k) maxFlux = std::max(maxFlux, p.flux[k]);
+    const Picture pic = drawPaths(drawLayout(r.setup->scene, {}), sel, {});
+    const std::string svg = pic.svg();
+    EXPECT_NE(svg.find(">segment flux, lm per traced ray (log):</text>"), std::string::npos);
+    // Ends of the bar: the brightest segment and 6 decades below, in lm.
+    char hi[32], lo[32];
+    std::snprintf(hi, sizeof hi, ">%.1e lm</text>", maxFlux);
+    std::snprintf(lo, sizeof lo, ">%.1e lm</text>", maxFlux * 1e-6);
+    EXPECT_NE(svg.find(hi), std::string::npos) << hi;
+    EXPECT_NE(svg.find(lo), std::string::npos) << lo;
+}
+
+TEST(PathPicture, SegmentsStayInsideTheLayoutFrame) {
+    const Prepared r = prepare(kSunScene);
+    PathSelectionOptions o = ghostOptions();
+    o.where = "exit";  // every exit segment runs past the scene's bounds
+    o.count = 20;
+    const PathSelection sel = selectPaths(r.trace.transport, r.trace.images, o);
+    ASSERT_FALSE(sel.paths.empty());
+    const Picture base = drawLayout(r.setup->scene, {});
+    PathPictureOptions po;
+    po.lineWidthPt = 0.37;  // a width nothing else in the picture uses
+    const std::string svg = drawPaths(base, sel, po).svg();
+    const Vec2 topLeft = base.pagePoint(Vec2(base.zMin(), base.yMax()));
+    const Vec2 bottomRight = base.pagePoint(Vec2(base.zMax(), base.yMin()));
+    const std::regex path("<path d=\"([^\"]*)\"[^>]*stroke-width=\"0.37\"");
+    const std::regex number("-?[0-9.]+");
+    size_t points = 0;
+    for (auto it = std::sregex_iterator(svg.begin(), svg.end(), path); it != std::sregex_iterator();
+         ++it) {
+        const std::string d = (*it)[1];
+        std::vector<double> xy;
+        for (auto n = std::sregex_iterator(d.begin(), d.end(), number); n != std::sregex_iterator();
+             ++n)
+            xy.push_back(std::stod(n->str()));
+        ASSERT_EQ(xy.size() % 2, 0u);
+        for (size_t k = 0; k < xy.size(); k += 2, ++points) {
+            EXPECT_GE(xy[k], topLeft.x - 0.01);
+            EXPECT_LE(xy[k], bottomRight.x + 0.01);
+            EXPECT_GE(xy[k + 1], topLeft.y - 0.01);
+            EXPECT_LE(xy[k + 1], bottomRight.y + 0.01);
+        }
+    }
+    EXPECT_GT(points, 20u);
 }
 
 TEST(PathPicture, EventPaletteFollowsTheLegend) {

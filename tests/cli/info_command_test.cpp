@@ -272,6 +272,23 @@ TEST(VeilTrace, WhereSplitsTheDetectorFluxByCriterion) {
     EXPECT_EQ(flux(byDetector), flux(byObject));
 }
 
+// --prune says how many branches it stopped, and warns when it stopped none (a criterion
+// that can only fail when a path ends prunes nothing and costs the same).
+TEST(VeilTrace, PruneSaysWhatItPruned) {
+    const VeilRun none = runVeil(
+        "trace examples/scenes/longfocus_360mm_sun.toml -n 100 --json --prune "
+        "--where 'seq(fresnel(L4.back), fresnel(L4.front), hit(sensor))'");
+    ASSERT_EQ(none.exitCode, 0) << none.err;
+    EXPECT_EQ(nlohmann::json::parse(none.out)["budget"]["pruned_branches"].get<int>(), 0);
+    EXPECT_NE(none.err.find("warning: --prune stopped no branch"), std::string::npos) << none.err;
+    const VeilRun some = runVeil(
+        "trace examples/scenes/longfocus_360mm_sun.toml -n 100 --json --prune "
+        "--where 'fresnel{2} and not scatter'");
+    ASSERT_EQ(some.exitCode, 0) << some.err;
+    EXPECT_GT(nlohmann::json::parse(some.out)["budget"]["pruned_branches"].get<int>(), 100);
+    EXPECT_EQ(some.err.find("--prune stopped no branch"), std::string::npos) << some.err;
+}
+
 // A scene without [[source]] is traced with one beam per system field, and says so.
 TEST(VeilTrace, SceneWithoutSourceTracesTheSystemFields) {
     const VeilRun r = runVeil("trace examples/scenes/double_gauss_50mm.toml -n 20 --json");
