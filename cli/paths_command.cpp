@@ -71,6 +71,7 @@ int runPaths(const CommonOptions& common, const PathsOptions& o) {
     const auto limit = limitThreads(o.threads);
     PathSelectionOptions po;
     po.where = o.where;
+    po.whereSource = "--where 1";  // as trace names its criteria
     po.count = static_cast<size_t>(o.first);
     po.maxRays = o.rays * ts.transport.sources.size();
     po.batchRays = o.batch;

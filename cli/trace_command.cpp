@@ -387,11 +387,20 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
 
     // The report: the same rows on the terminal and in summary.json.
     summary["detectors"] = nlohmann::json::array();
+    // A detector named apart from its object is shown with it: "sensor_image (on sensor)",
+    // the object name veil rays and criteria use as well.
+    auto objectOf = [&](const std::string& detector) -> std::string {
+        for (const DetectorGeometry& g : setup.detectors)
+            if (g.name == detector) return setup.scene.object(g.object).name;
+        return detector;
+    };
     for (const StrayLightRow& row : result.report()) {
         if (row.layer.empty()) {
-            text << "  " << row.detector << ": " << formatFlux(row.flux, row.relativeError, unit)
-                 << "\n";
+            const std::string object = objectOf(row.detector);
+            text << "  " << row.detector << (object != row.detector ? " (on " + object + ")" : "")
+                 << ": " << formatFlux(row.flux, row.relativeError, unit) << "\n";
             nlohmann::json jd{{"name", row.detector},
+                              {"object", object},
                               {"flux", row.flux},
                               {"relative_error", num(row.relativeError)}};
             if (result.layers) jd["by_criterion"] = nlohmann::json::array();

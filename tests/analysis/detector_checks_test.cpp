@@ -87,6 +87,26 @@ TEST(DetectorChecks, DetectorBesideTheImageCircle) {
         << notes[0].message;
 }
 
+// A single concave mirror images toward -z: the light reaches the sensor (sensitive side
+// toward -z) from behind.
+TEST(DetectorChecks, LightArrivingOnTheBackIsSaid) {
+    const std::string path = ::testing::TempDir() + "veil_mirror_detector.toml";
+    FILE* f = fopen(path.c_str(), "w");
+    ASSERT_TRUE(f);
+    fputs("[system]\nname = \"f/5 mirror\"\naperture = { f_number = 5.0 }\n"
+          "fields_deg = [0.0, 0.5]\nsurfaces = [\n"
+          "  { stop = true, r = -1000.0, t = -500.0, mirror = true, sd = 60.0 },\n]\n",
+          f);
+    fclose(f);
+    const GlassCatalog& catalog = GlassCatalog::builtIn();
+    const SceneFile file = readSceneFile(path, catalog);
+    const SceneSetup setup = buildScene(file, catalog);
+    const auto notes = detectorPlacementWarnings(file, setup);
+    ASSERT_EQ(notes.size(), 1u) << text(notes);
+    EXPECT_NE(notes[0].message.find("faces away from the image-space light"), std::string::npos)
+        << notes[0].message;
+}
+
 TEST(DetectorChecks, ExampleScenesAreQuiet) {
     const GlassCatalog& catalog = GlassCatalog::builtIn();
     for (const auto& e :

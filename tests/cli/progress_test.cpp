@@ -79,3 +79,22 @@ TEST(VeilProgress, GhostsMonteCarloLogGetsWholeLines) {
 }
 
 }  // namespace
+
+namespace {
+
+// paths reports by batch, and a run that finds its paths early says how many rays it took.
+TEST(VeilProgress, PathsReportsItsBatchesAndTheRaysItTook) {
+    const std::string dir = outDir("veil_progress_paths");
+    const VeilRun r = runVeil(
+        "paths examples/scenes/longfocus_360mm_sun.toml --where 'emit(sun)' --first 5 -n 10k "
+        "--batch 100 -o " +
+        dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_EQ(r.err.find('\r'), std::string::npos) << r.err;
+    const std::vector<std::string> lines = reportLines(r.err, "paths");
+    ASSERT_GE(lines.size(), 1u) << r.err;
+    // Five paths are in the first batch of 100 rays: done after 100, not the 10k budget.
+    EXPECT_EQ(lines.back().rfind("paths: done, 100 rays in ", 0), 0u) << lines.back();
+}
+
+}  // namespace

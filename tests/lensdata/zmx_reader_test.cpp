@@ -644,6 +644,24 @@ TEST(ZmxReader, UnknownGlassIsReportedWithItsLine) {
     EXPECT_EQ(rx.surfaces[2].material, Material::catalog("UNOBTAINIUM"));
 }
 
+// GCAT naming a catalog veil has not loaded explains every glass that falls back: a warning,
+// with the way to load it, not an info line among the others.
+TEST(ZmxReader, UnloadedGcatCatalogIsAWarningWithTheFix) {
+    const std::string text =
+        "GCAT HOYA\nENPD 10\nSURF 0\n DISZ INFINITY\nSURF 1\n STOP\n CURV 0.02\n DISZ 2\n"
+        " GLAS BACD5 0 0 1.58913 61.25 0 0 0 0 0 0\nSURF 2\n DISZ 40\nSURF 3\n";
+    const Prescription rx = readZmxText(text, "hoya.zmx", GlassCatalog::builtIn());
+    const ImportNote* gcat = findNote(rx, "glass catalog HOYA named by GCAT is not loaded");
+    ASSERT_NE(gcat, nullptr) << reportText(rx);
+    EXPECT_EQ(gcat->severity, ImportNote::Severity::Warning);
+    EXPECT_EQ(gcat->loc.line, 1);
+    EXPECT_NE(gcat->message.find("--glass-catalog"), std::string::npos) << gcat->message;
+    const ImportNote* glass = findNote(rx, "unknown glass 'BACD5'");
+    ASSERT_NE(glass, nullptr) << reportText(rx);
+    EXPECT_EQ(glass->severity, ImportNote::Severity::Warning);
+    EXPECT_EQ(rx.surfaces[1].material, Material::model(1.58913, 61.25));
+}
+
 TEST(ZmxReader, ConstantIndexModelGlassHasNoDispersion) {
     // Vd = 0 is Zemax's constant index; nd 1 / Vd 0 is air; nd < 1 is reported.
     const std::string text =
