@@ -37,7 +37,7 @@ bool isOpaqueKind(ObjectKind k) {
 }
 
 Interaction interact(const TransportScene& ts, const SceneHit& hit, const Vec3& direction, int w,
-                     double wavelengthNm) {
+                     double wavelengthNm, TransportMode mode) {
     Interaction in;
     const SceneObject& obj = ts.scene->object(hit.object);
     const OpticalProperty& prop = ts.properties[ts.propertyOfObject[hit.object]];
@@ -61,12 +61,14 @@ Interaction interact(const TransportScene& ts, const SceneHit& hit, const Vec3& 
                    EventType event) {
         in.children[in.count++] = {share, d, medium, scatter, transmit, event};
     };
+    const bool importance = mode == TransportMode::Importance;
     if (ch.specularReflect > 0.0)
-        add(ch.specularReflect, reflect(direction, ctx.normal), hit.mediumFrom, false, false,
-            specularEvent);
+        add(importance ? prop.specularReflectWeight(ctx, mode) : ch.specularReflect,
+            reflect(direction, ctx.normal), hit.mediumFrom, false, false, specularEvent);
     if (ch.specularTransmit > 0.0) {
         if (const auto t = refract(direction, ctx.normal, ctx.n1, ctx.n2)) {
-            add(ch.specularTransmit, *t, hit.mediumTo, false, true, EventType::Refract);
+            add(importance ? prop.specularTransmitWeight(ctx, mode) : ch.specularTransmit, *t,
+                hit.mediumTo, false, true, EventType::Refract);
         } else {
             in.dropped += ch.specularTransmit;
             in.dropReason = DropReason::NoRefractedDirection;

@@ -86,8 +86,15 @@ bool isOpaqueKind(ObjectKind k);
 // The interaction of a ray travelling along `direction` with the surface it hit, at
 // wavelength index w of the media (wavelengthNm for the coatings). Not for detector objects:
 // those absorb and record, which is the pass's business.
+//
+// mode: Flux (a forward photon) gives the shares above. Importance (a backward ray from a
+// pixel, tracer/optical_property.h) gives the specular children the weights of the adjoint,
+// specularReflectWeight / specularTransmitWeight (the n^2 rule at refraction), so they no
+// longer add up with `absorbed` to 1; scatter children keep their flux fractions, and a
+// backward pass that continues through scatter weights each sampled direction by
+// bsdf(..., Importance) cos / pdf itself.
 Interaction interact(const TransportScene& ts, const SceneHit& hit, const Vec3& direction, int w,
-                     double wavelengthNm);
+                     double wavelengthNm, TransportMode mode = TransportMode::Flux);
 
 // One child chosen with probability proportional to its share, from one uniform u in [0, 1).
 // The chosen child then carries the whole non-absorbed flux (total): unbiased.

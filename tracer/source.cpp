@@ -500,6 +500,30 @@ bool Source::emits(const Ray& ray) const {
         shape_);
 }
 
+std::optional<double> Source::crossing(const Ray& ray, double tMax) const {
+    // The plane of S: a point on it and its normal.
+    Vec3 centre(0.0), normal(0.0);
+    if (const auto* sun = std::get_if<SunSource>(&shape_)) {
+        centre = sun->beam.startCenterMm;
+        normal = sun->beam.direction;
+    } else if (const auto* w = std::get_if<WindowSource>(&shape_)) {
+        centre = w->area.frame.translation;
+        normal = w->area.frame.toGlobalDirection(Vec3(0.0, 0.0, 1.0));
+    } else if (const auto* l = std::get_if<LambertianSource>(&shape_)) {
+        centre = l->area.frame.translation;
+        normal = l->area.frame.toGlobalDirection(Vec3(0.0, 0.0, 1.0));
+    } else {
+        return std::nullopt;  // delta kinds
+    }
+    const double along = glm::dot(ray.direction, normal);
+    if (along == 0.0) return std::nullopt;
+    const double t = glm::dot(centre - ray.origin, normal) / along;
+    if (!(t > 0.0 && t <= tMax)) return std::nullopt;
+    const Ray light{ray.origin + t * ray.direction, -ray.direction};
+    if (!emits(light)) return std::nullopt;
+    return t;
+}
+
 double Source::emittingAreaMm2() const {
     return std::visit(
         [](const auto& k) -> double {

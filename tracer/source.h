@@ -58,6 +58,7 @@
 // The scene keys of [[source]] are documented in docs/format.md.
 
 #include <cstdint>
+#include <optional>
 #include <ostream>
 #include <string>
 #include <utility>
@@ -227,6 +228,12 @@ class Source {
     // Density with which emit() produces the ray (origin and direction; the line is drawn
     // independently), in the kind's measure; 0 when emits(ray) is false.
     double pdf(const Ray& ray) const;
+    // Where a ray walking against the light (a backward ray) meets the emitting surface: the
+    // distance t in (0, tMax] at which it crosses S with -ray.direction an emitted direction
+    // there (emits({origin + t direction, -direction})). None for the delta kinds (collimated,
+    // point: no backward ray meets them) and when it misses. The emitter is not an object of
+    // the scene: it neither blocks nor reflects, as for the forward rays it starts.
+    std::optional<double> crossing(const Ray& ray, double tMax) const;
     // Area of the emitting surface (mm^2; 0 for a point) and solid angle of its directions
     // (sr; 0 for a collimated beam).
     double emittingAreaMm2() const;

@@ -1,0 +1,78 @@
+#pragma once
+// The backward pass of the bidirectional renderer (the seed's section 3, figure 7, first
+// stage): rays leave every detector pixel toward the exit aperture and are traced against
+// the light through the specular chain (refraction, Fresnel and mirror reflection, TIR),
+// carrying importance in TransportMode::Importance (the n^2 rule at refraction,
+// tracer/optical_property.h). Two things come out:
+//
+//   visible    where a backward ray reaches a light source through specular events only, the
+//              source's radiance toward the ray, times the ray's weight: the flux each pixel
+//              receives from sources it sees through the lens (the seed's "visible luminance
+//              of light sources"); a DetectorImage whose per-pixel statistics use
+//              n = raysPerPixel samples
+//   viewPoints where a backward ray meets a surface that scatters, a view point (the seed's
+//              integration sphere centre): the point, the object, the direction the light must
+//              leave toward the detector, the pixel and the weight that multiplies the radiance
+//              leaving there; the direct, caustic and secondary components are gathered at
+//              these points by the later stages
+//
+// Weights. A pixel ray from samplePixelRay() starts with W_e cos(theta_pixel) / pdf (mm^2 sr:
+// the pixel's etendue through the aperture, in expectation), divided by raysPerPixel, times
+// the number of model wavelengths (one is drawn per ray, uniformly). Each specular event
+// multiplies it by the child's Importance weight; glass absorbs exp(-alpha t). So a ray that
+// sees radiance L (unit / (mm^2 sr)) adds weight x L (unit) to its pixel, and the pixel's sum
+// estimates the flux it receives.
+//
+// Splitting: in split mode every specular child is followed (a Fresnel interface gives two
+// branches), down to minRelativeWeight of the ray's starting weight; in random mode one child
+// is chosen by weight. Determinism: ray k of pixel p uses CounterRng(seed, p * raysPerPixel +
+// k); pixels run in parallel and are merged in pixel order, so any thread count gives the same
+// bits.
+
+#include <cstdint>
+#include <ostream>
+#include <vector>
+
+#include "tracer/detector.h"
+#include "tracer/interaction.h"
+
+namespace veil {
+
+struct BackwardOptions {
+    uint64_t raysPerPixel = 16;
+    uint64_t seed = 1;
+    bool split = true;               // every specular child, or one chosen by weight
+    int maxSpecularDepth = 64;       // specular events followed along a branch
+    double minRelativeWeight = 1e-6;  // split mode: branches below this share of the ray end
+};
+std::ostream& operator<<(std::ostream& os, const BackwardOptions& o);
+
+struct ViewPoint {
+    Vec3 positionMm{0.0};
+    Vec3 normal{0.0};      // the object's orientation (SceneHit::normal)
+    Vec3 toDetector{0.0};  // unit: the direction light leaves toward the pixel
+    int object = -1;
+    int primitive = 0;
+    int pixel = 0;
+    int wavelength = 0;  // model wavelength index
+    int medium = 0;      // where the light leaving toward the detector travels
+    double weight = 0.0;  // multiplies the radiance leaving along toDetector (unit/(mm^2 sr))
+};
+std::ostream& operator<<(std::ostream& os, const ViewPoint& v);
+
+struct BackwardResult {
+    DetectorImage visible;
+    std::vector<ViewPoint> viewPoints;  // in pixel order, then ray order
+    uint64_t rays = 0;
+    uint64_t segments = 0;
+    // The visible image's total flux variance: the sum of its pixels' (independent) ones.
+    double visibleTotalVariance(uint64_t raysPerPixel) const;
+};
+
+// Traces raysPerPixel backward rays from every pixel of `detector` (its geometry; the image's
+// sums are not used) through `aperture`. The detector's own object ends a ray that returns to
+// it. Throws std::invalid_argument for raysPerPixel = 0 or an aperture of no area.
+BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& detector,
+                             const ExitAperture& aperture, const BackwardOptions& options);
+
+}  // namespace veil
