@@ -19,7 +19,10 @@ namespace {
 
 // The double Gauss with one [detector] given by `detector` (TOML lines).
 std::vector<ImportNote> warningsFor(const std::string& detector) {
-    const std::string path = ::testing::TempDir() + "veil_detector_check.toml";
+    // One file per test: ctest runs the tests of this file in parallel processes.
+    const std::string path = ::testing::TempDir() + "veil_detector_check_" +
+                             ::testing::UnitTest::GetInstance()->current_test_info()->name() +
+                             ".toml";
     FILE* f = fopen(path.c_str(), "w");
     EXPECT_TRUE(f);
     fprintf(f, "lens = \"%s/examples/lenses/double_gauss_50mm.toml\"\n[detector]\n%s\n",

@@ -25,7 +25,10 @@ namespace {
 // 0.2 mm detector on its image surface, and a Lambertian disk of radius 500 mm 200 mm in
 // front, emitting toward the lens: every ray through the lens from the pixel meets it.
 std::unique_ptr<PreparedScene> plateScene(const std::string& coating) {
-    const std::string path = ::testing::TempDir() + "veil_backward_" + coating + ".toml";
+    // One file per test: ctest runs this file's tests in parallel processes.
+    const std::string path = ::testing::TempDir() + "veil_backward_" +
+                             ::testing::UnitTest::GetInstance()->current_test_info()->name() +
+                             ".toml";
     FILE* f = fopen(path.c_str(), "w");
     EXPECT_TRUE(f);
     fprintf(f,
