@@ -226,10 +226,7 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
             so.transport.filter = &filter;
             const PathSelection sel = selectPaths(ts.transport, ts.images, so);
             const Picture pic = drawPaths(base, sel, pp);
-            pic.writeSvg(stem.string() + ".svg");
-            pic.writePng(stem.string() + ".png", 2000);
-            written.add(stem.string() + ".svg");
-            written.add(stem.string() + ".png");
+            writePicture(pic, stem, 2000, written);
         };
         const size_t k = std::min<size_t>(static_cast<size_t>(o.top), a.ghosts.size());
         for (size_t r = 0; r < k; ++r) {

@@ -51,10 +51,7 @@ int runLayout(const CommonOptions& common, const LayoutOptions& options) {
     WrittenFiles written;
     if (!dir.empty()) {
         std::filesystem::create_directories(dir);
-        pic.writeSvg(dir / "layout.svg");
-        written.add(dir / "layout.svg");
-        pic.writePng(dir / "layout.png", options.widthPx);
-        written.add(dir / "layout.png");
+        writePicture(pic, dir / "layout", options.widthPx, written);
     }
     if (options.json) {
         nlohmann::json j;

@@ -7,6 +7,7 @@
 #include <iomanip>
 #include <sstream>
 
+#include "analysis/picture.h"
 #include "lensdata/errors.h"
 
 namespace veil::cli {
@@ -175,6 +176,15 @@ void WrittenFiles::print(std::ostream& os) const {
             os << " (" << entries[k].second << (entries[k].second == 1 ? " file)" : " files)");
     }
     os << "\n";
+}
+
+void writePicture(const Picture& picture, const std::filesystem::path& stem, int widthPx,
+                  WrittenFiles& written) {
+    const std::filesystem::path svg = stem.string() + ".svg", png = stem.string() + ".png";
+    picture.writeSvg(svg);
+    written.add(svg);
+    picture.writePng(png, widthPx);
+    written.add(png);
 }
 
 nlohmann::json WrittenFiles::json() const {

@@ -25,6 +25,10 @@
 #include <utility>
 #include <vector>
 
+namespace veil {
+class Picture;
+}
+
 namespace veil::cli {
 
 // "20000", "2e4", "20k", "2M" -> the count; nullopt with *error set for anything else
@@ -70,5 +74,9 @@ class WrittenFiles {
   private:
     std::vector<std::filesystem::path> files_;
 };
+
+// A picture as `stem`.svg and `stem`.png (widthPx wide), both listed in `written`.
+void writePicture(const Picture& picture, const std::filesystem::path& stem, int widthPx,
+                  WrittenFiles& written);
 
 }  // namespace veil::cli

@@ -100,10 +100,7 @@ int runPaths(const CommonOptions& common, const PathsOptions& o) {
     WrittenFiles written;
     if (!dir.empty()) {
         std::filesystem::create_directories(dir);
-        pic.writeSvg(dir / "paths.svg");
-        written.add(dir / "paths.svg");
-        pic.writePng(dir / "paths.png", o.widthPx);
-        written.add(dir / "paths.png");
+        writePicture(pic, dir / "paths", o.widthPx, written);
     }
     if (sel.paths.size() < static_cast<size_t>(o.first))
         std::cerr << "veil: only " << sel.paths.size() << " matching paths in " << sel.raysTraced

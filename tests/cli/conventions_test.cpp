@@ -18,13 +18,6 @@
 
 namespace {
 
-std::string readText(const std::string& path) {
-    std::ifstream in(path);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
-
 std::vector<std::string> subcommands() {
     const VeilRun r = runVeil("--help");
     EXPECT_EQ(r.exitCode, 0);

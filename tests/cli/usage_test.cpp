@@ -15,14 +15,9 @@
 #include <string>
 #include <vector>
 
-namespace {
+#include "tests/cli/run_veil.h"
 
-std::string readText(const std::string& path) {
-    std::ifstream in(path);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+namespace {
 
 // The `veil ...` lines of the first sh block after "## Usage", without their trailing
 // comments (a '#' outside quotes after a space).
