@@ -11,6 +11,7 @@
 #include "cli/commands.h"
 #include "cli/ghosts_command.h"
 #include "cli/paths_command.h"
+#include "cli/render_command.h"
 #include "lensdata/errors.h"
 
 namespace {
@@ -59,6 +60,8 @@ int main(int argc, char** argv) {
     veil::cli::addPathsCommand(app, pathsOptions);
     veil::cli::GhostsOptions ghostsOptions;
     veil::cli::addGhostsCommand(app, ghostsOptions);
+    veil::cli::RenderCommandOptions renderOptions;
+    veil::cli::addRenderCommand(app, renderOptions);
 
     // A first word that is no command and no option: name the nearest command.
     if (argc > 1 && argv[1][0] != '-') {
@@ -95,6 +98,7 @@ int main(int argc, char** argv) {
             if (sub->get_name() == "rays") return veil::cli::runRays(common, raysOptions);
             if (sub->get_name() == "paths") return veil::cli::runPaths(common, pathsOptions);
             if (sub->get_name() == "ghosts") return veil::cli::runGhosts(common, ghostsOptions);
+            if (sub->get_name() == "render") return veil::cli::runRender(common, renderOptions);
         }
     } catch (const veil::ParseError& e) {
         std::cerr << "veil: error: " << e.what() << "\n";

@@ -19,7 +19,10 @@ namespace {
 constexpr double kRedrawSeconds = 0.18;
 constexpr int kBarWidth = 30;
 
-// "1h2m3s", "4m5s", "6s": the time left on the bar.
+double rate(uint64_t rays, double seconds) { return seconds > 0.0 ? rays / seconds : 0.0; }
+
+}  // namespace
+
 std::string duration(double s) {
     std::ostringstream os;
     if (s >= 3600) os << static_cast<int>(s / 3600) << "h";
@@ -28,17 +31,12 @@ std::string duration(double s) {
     return os.str();
 }
 
-// Elapsed time in the log lines: tenths of a second for short runs, h/m/s beyond a minute.
 std::string elapsed(double s) {
     if (s >= 60.0) return duration(s);
     std::ostringstream os;
     os << std::fixed << std::setprecision(1) << s << " s";
     return os.str();
 }
-
-double rate(uint64_t rays, double seconds) { return seconds > 0.0 ? rays / seconds : 0.0; }
-
-}  // namespace
 
 ProgressReporter::ProgressReporter(std::string label, uint64_t totalRays)
     : label_(std::move(label)),

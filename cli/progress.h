@@ -22,6 +22,11 @@
 
 namespace veil::cli {
 
+// "1h2m3s", "4m5s", "6s": a time left.
+std::string duration(double seconds);
+// Elapsed time: tenths of a second for short runs ("12.3 s"), h/m/s beyond a minute.
+std::string elapsed(double seconds);
+
 class ProgressReporter {
   public:
     // `label` starts every report ("trace", "Monte Carlo"); `totalRays` is the run's size.

@@ -27,6 +27,114 @@ double BackwardResult::visibleTotalVariance(uint64_t raysPerPixel) const {
     return v;
 }
 
+double BackwardResult::directTotalVariance(uint64_t raysPerPixel) const {
+    double v = 0.0;
+    for (int p = 0; p < direct.pixelCount(); ++p) v += direct.pixelVariance(p, raysPerPixel);
+    return v;
+}
+
+SurfaceContext lightContext(const TransportScene& ts, const ViewPoint& v,
+                            const Vec3& lightDirection, double wavelengthNm) {
+    SurfaceContext c;
+    c.direction = lightDirection;
+    const bool fromNormalSide = glm::dot(lightDirection, v.normal) < 0.0;
+    c.normal = fromNormalSide ? v.normal : -v.normal;
+    // Medium on the normal's side and on the other.
+    const int front = v.fromFront ? v.medium : v.otherMedium;
+    const int back = v.fromFront ? v.otherMedium : v.medium;
+    c.n1 = ts.media->index(fromNormalSide ? front : back, v.wavelength);
+    c.n2 = ts.media->index(fromNormalSide ? back : front, v.wavelength);
+    c.wavelengthNm = wavelengthNm;
+    c.opaque = isOpaqueKind(ts.scene->object(v.object).kind);
+    return c;
+}
+
+namespace {
+
+// The context of the backward walk arriving at the view point (from the detector's side).
+SurfaceContext walkContext(const TransportScene& ts, const ViewPoint& v, double wavelengthNm) {
+    SurfaceContext c;
+    c.direction = -v.toDetector;
+    c.normal = v.fromFront ? v.normal : -v.normal;
+    c.n1 = ts.media->index(v.medium, v.wavelength);
+    c.n2 = ts.media->index(v.otherMedium, v.wavelength);
+    c.wavelengthNm = wavelengthNm;
+    c.opaque = isOpaqueKind(ts.scene->object(v.object).kind);
+    return c;
+}
+
+}  // namespace
+
+double directAt(const TransportScene& ts, const ViewPoint& v, double wavelengthNm,
+                CounterRng& rng) {
+    const OpticalProperty& prop = ts.properties[ts.propertyOfObject[v.object]];
+    const Scene& scene = *ts.scene;
+    // Scatter sampling from the detector's side: which channel (by its fraction), then the
+    // direction; its density per sr of a direction w is P(w's side) * scatterPdf.
+    const SurfaceContext walk = walkContext(ts, v, wavelengthNm);
+    const Channels ch = prop.channels(walk);
+    const double scatterSum = ch.scatterReflect + ch.scatterTransmit;
+    auto scatterPdf = [&](const Vec3& w) {
+        if (!(scatterSum > 0.0)) return 0.0;
+        const bool transmit = glm::dot(w, walk.normal) < 0.0;
+        const double p = (transmit ? ch.scatterTransmit : ch.scatterReflect) / scatterSum;
+        return p > 0.0 ? p * prop.scatterPdf(walk, w) : 0.0;
+    };
+    // The medium light crosses to reach the point from direction toLight, and what it keeps.
+    auto kept = [&](const Vec3& toLight, double distanceMm) {
+        const bool normalSide = glm::dot(toLight, v.normal) > 0.0;
+        const int medium = normalSide == v.fromFront ? v.medium : v.otherMedium;
+        const double alpha = ts.media->absorptionPerMm(medium, v.wavelength);
+        return alpha > 0.0 ? std::exp(-alpha * distanceMm) : 1.0;
+    };
+    auto flux = [&](const Vec3& toLight) {  // f cos: light from toLight scattered to the pixel
+        const double f = prop.bsdf(lightContext(ts, v, -toLight, wavelengthNm), v.toDetector);
+        return f * std::abs(glm::dot(toLight, v.normal));
+    };
+    double sum = 0.0;
+    // Light sampling: one direction per source, weighed by the balance heuristic against the
+    // scatter sampling below (weight 1 for the delta kinds, which scatter sampling never hits).
+    for (const Source& s : ts.sources) {
+        const double u1 = rng.uniform(), u2 = rng.uniform();
+        const auto in = s.sampleIncident(v.positionMm, v.wavelength, u1, u2);
+        if (!in) continue;
+        const double fc = flux(in->toSource);
+        if (!(fc > 0.0)) continue;
+        if (scene.closestHit({v.positionMm, in->toSource}, in->distanceMm, v.object, v.primitive))
+            continue;  // blocked
+        const double mis = in->pdfSr > 0.0 ? in->pdfSr / (in->pdfSr + scatterPdf(in->toSource))
+                                           : 1.0;
+        sum += fc * in->value * kept(in->toSource, in->distanceMm) * mis;
+    }
+    // Scatter sampling: one direction, checked against every source it reaches unblocked.
+    const double u0 = rng.uniform(), u1 = rng.uniform(), u2 = rng.uniform();
+    if (scatterSum > 0.0) {
+        const bool transmit = u0 * scatterSum < ch.scatterTransmit;
+        const ScatterSample ss = prop.sampleScatter(walk, transmit, u1, u2);
+        if (ss.pdf > 0.0) {
+            const Vec3 w = ss.direction;
+            const double pdf = scatterPdf(w);
+            const double fc = flux(w);
+            if (pdf > 0.0 && fc > 0.0) {
+                const Ray ray{v.positionMm, w};
+                const auto hit = scene.closestHit(ray, kInfinity, v.object, v.primitive);
+                const double tHit = hit ? hit->t : kInfinity;
+                for (const Source& s : ts.sources) {
+                    if (s.delta() != Source::Delta::None) continue;
+                    const auto t = s.crossing(ray, tHit);
+                    if (!t) continue;
+                    const Vec3 q = v.positionMm + *t * w;
+                    const double radiance = s.emitted(q, -w, v.wavelength);
+                    if (!(radiance > 0.0)) continue;
+                    const double lightPdf = s.incidentPdf(v.positionMm, q, w);
+                    sum += fc * radiance * kept(w, *t) / (pdf + lightPdf);
+                }
+            }
+        }
+    }
+    return sum * v.weight;
+}
+
 namespace {
 
 struct Branch {
@@ -41,6 +149,7 @@ struct Branch {
 // What the rays of one pixel produced, merged in pixel order afterwards.
 struct PixelOutput {
     std::vector<double> visible;  // per ray, its visible-source flux
+    std::vector<double> direct;   // per ray, its direct flux
     std::vector<ViewPoint> viewPoints;
     uint64_t segments = 0;
 };
@@ -66,6 +175,7 @@ BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& dete
         for (int p = r.begin(); p != r.end(); ++p) {
             PixelOutput& po = out[static_cast<size_t>(p)];
             po.visible.assign(perPixel, 0.0);
+            po.direct.assign(perPixel, 0.0);
             for (uint64_t k = 0; k < perPixel; ++k) {
                 CounterRng rng(options.seed, static_cast<uint64_t>(p) * perPixel + k);
                 const PixelRay pr = samplePixelRay(detector, p, aperture, rng);
@@ -75,7 +185,7 @@ BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& dete
                 const double wavelengthNm = media.wavelengthNm(w);
                 const double start = pr.importance * pr.cosPixel / pr.pdf /
                                      static_cast<double>(perPixel) * wavelengths;
-                double seen = 0.0;
+                double seen = 0.0, direct = 0.0;
                 stack.clear();
                 stack.push_back({pr.ray, start, detectorObject, -1, 0, 0});
                 while (!stack.empty()) {
@@ -86,7 +196,10 @@ BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& dete
                     const double tHit = hit ? hit->t : kInfinity;
                     // Sources seen along the segment (they block nothing).
                     const double alpha = media.absorptionPerMm(br.medium, w);
-                    for (const Source& s : ts.sources) {
+                    for (size_t si = 0; si < ts.sources.size(); ++si) {
+                        if (!options.visibleSources.empty() && !options.visibleSources[si])
+                            continue;
+                        const Source& s = ts.sources[si];
                         const auto t = s.crossing(br.ray, tHit);
                         if (!t) continue;
                         const Vec3 x = br.ray.origin + *t * br.ray.direction;
@@ -107,7 +220,17 @@ BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& dete
                         scatters |= in.children[c].scatter;
                         if (!in.children[c].scatter) specular += in.children[c].share;
                     }
-                    if (scatters) {
+                    bool store = scatters;
+                    double vpWeight = br.weight;
+                    if (scatters && options.viewPointRelativeWeight > 0.0) {
+                        const double floor = options.viewPointRelativeWeight * start;
+                        const double u = rng.uniform();  // drawn at every scattering hit
+                        if (vpWeight < floor) {
+                            store = u * floor < vpWeight;
+                            vpWeight = floor;
+                        }
+                    }
+                    if (store) {
                         ViewPoint v;
                         v.positionMm = hit->point;
                         v.normal = hit->normal;
@@ -117,7 +240,10 @@ BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& dete
                         v.pixel = p;
                         v.wavelength = w;
                         v.medium = hit->mediumFrom;
-                        v.weight = br.weight;
+                        v.otherMedium = hit->mediumTo;
+                        v.fromFront = hit->fromFront;
+                        v.weight = vpWeight;
+                        if (options.direct) direct += directAt(ts, v, wavelengthNm, rng);
                         po.viewPoints.push_back(v);
                     }
                     if (!(specular > 0.0) || br.depth >= options.maxSpecularDepth) continue;
@@ -154,16 +280,20 @@ BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& dete
                     }
                 }
                 po.visible[k] = seen;
+                po.direct[k] = direct;
             }
         }
     });
 
     BackwardResult result;
     result.visible = DetectorImage(detector.geometry());
+    result.direct = DetectorImage(detector.geometry());
     for (int p = 0; p < pixels; ++p) {
         PixelOutput& po = out[static_cast<size_t>(p)];
         for (double v : po.visible)
             if (v != 0.0) result.visible.add(p, v);
+        for (double v : po.direct)
+            if (v != 0.0) result.direct.add(p, v);
         result.viewPoints.insert(result.viewPoints.end(), po.viewPoints.begin(),
                                  po.viewPoints.end());
         result.segments += po.segments;

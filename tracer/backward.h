@@ -13,8 +13,13 @@
 //   viewPoints where a backward ray meets a surface that scatters, a view point (the seed's
 //              integration sphere centre): the point, the object, the direction the light must
 //              leave toward the detector, the pixel and the weight that multiplies the radiance
-//              leaving there; the direct, caustic and secondary components are gathered at
-//              these points by the later stages
+//              leaving there; the caustic and secondary components are gathered at these
+//              points by the photon pass (tracer/render.h)
+//   direct     at every view point, next-event estimation toward each source (one sample per
+//              source, Source::sampleIncident, a shadow ray that any object blocks): the
+//              seed's "direct luminance", light that reaches the scattering surface from the
+//              source with nothing in between, times the view point's weight and the flux
+//              BSDF toward the detector; a DetectorImage like `visible`
 //
 // Weights. A pixel ray from samplePixelRay() starts with W_e cos(theta_pixel) / pdf (mm^2 sr:
 // the pixel's etendue through the aperture, in expectation), divided by raysPerPixel, times
@@ -44,6 +49,16 @@ struct BackwardOptions {
     bool split = true;               // every specular child, or one chosen by weight
     int maxSpecularDepth = 64;       // specular events followed along a branch
     double minRelativeWeight = 1e-6;  // split mode: branches below this share of the ray end
+    bool direct = true;              // next-event estimation at the view points
+    // View point roulette: a view point whose weight is below this share of its ray's
+    // starting weight is stored with probability weight / (share * start) and then carries
+    // share * start (unbiased). Keeps the weak split branches (ghost reflections) from
+    // flooding the photon gathering with view points that carry little. 0 = store all.
+    double viewPointRelativeWeight = 0.0;
+    // Which sources the visible image counts (by index in the scene's sources; empty: all).
+    // The renderer counts the sun and the delta kinds with its photons instead (light tracing
+    // finds a 0.5 degree sun far better than rays searching for it from the pixels).
+    std::vector<bool> visibleSources;
 };
 std::ostream& operator<<(std::ostream& os, const BackwardOptions& o);
 
@@ -56,17 +71,21 @@ struct ViewPoint {
     int pixel = 0;
     int wavelength = 0;  // model wavelength index
     int medium = 0;      // where the light leaving toward the detector travels
+    int otherMedium = 0;  // the medium across the surface
+    bool fromFront = true;  // toDetector points to the side `normal` points to
     double weight = 0.0;  // multiplies the radiance leaving along toDetector (unit/(mm^2 sr))
 };
 std::ostream& operator<<(std::ostream& os, const ViewPoint& v);
 
 struct BackwardResult {
     DetectorImage visible;
+    DetectorImage direct;  // empty sums when options.direct is false
     std::vector<ViewPoint> viewPoints;  // in pixel order, then ray order
     uint64_t rays = 0;
     uint64_t segments = 0;
     // The visible image's total flux variance: the sum of its pixels' (independent) ones.
     double visibleTotalVariance(uint64_t raysPerPixel) const;
+    double directTotalVariance(uint64_t raysPerPixel) const;
 };
 
 // Traces raysPerPixel backward rays from every pixel of `detector` (its geometry; the image's
@@ -74,5 +93,18 @@ struct BackwardResult {
 // it. Throws std::invalid_argument for raysPerPixel = 0 or an aperture of no area.
 BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& detector,
                              const ExitAperture& aperture, const BackwardOptions& options);
+
+// The context of light travelling along `lightDirection` (unit) onto the view point's
+// surface: normal toward the light's side, n1 the index there (media at wavelength index
+// v.wavelength), opaque by the object's kind. With it, bsdf(context, v.toDetector) is the
+// flux BSDF from that light toward the detector.
+SurfaceContext lightContext(const TransportScene& ts, const ViewPoint& v,
+                            const Vec3& lightDirection, double wavelengthNm);
+
+// The direct component at one view point: one sample per source toward it, each with its
+// shadow ray, two uniforms per source from rng (in source order, drawn whether or not the
+// sample counts). The radiance leaving toward the detector times v.weight.
+double directAt(const TransportScene& ts, const ViewPoint& v, double wavelengthNm,
+                CounterRng& rng);
 
 }  // namespace veil

@@ -318,6 +318,36 @@ void DetectorImage::merge(const DetectorImage& other) {
     totalCount_ += other.totalCount_;
 }
 
+DetectorImage DetectorImage::scaled(double factor) const {
+    DetectorImage out = *this;
+    for (size_t i = 0; i < flux_.size(); ++i) {
+        out.flux_[i] *= factor;
+        out.flux2_[i] *= factor * factor;
+    }
+    out.totalFlux_ *= factor;
+    out.totalFlux2_ *= factor * factor;
+    return out;
+}
+
+DetectorImage DetectorImage::fromSums(DetectorGeometry geometry, std::vector<double> flux,
+                                      std::vector<double> fluxSquared,
+                                      std::vector<uint64_t> counts, double totalFlux,
+                                      double totalFluxSquared, uint64_t totalCount) {
+    DetectorImage out(std::move(geometry));
+    const size_t n = out.flux_.size();
+    if (flux.size() != n || fluxSquared.size() != n || counts.size() != n)
+        throw std::invalid_argument("DetectorImage::fromSums: " + std::to_string(flux.size()) +
+                                    " sums for " + std::to_string(n) + " pixels of '" +
+                                    out.geometry_.name + "'");
+    out.flux_ = std::move(flux);
+    out.flux2_ = std::move(fluxSquared);
+    out.count_ = std::move(counts);
+    out.totalFlux_ = totalFlux;
+    out.totalFlux2_ = totalFluxSquared;
+    out.totalCount_ = totalCount;
+    return out;
+}
+
 void DetectorImage::clear() {
     std::fill(flux_.begin(), flux_.end(), 0.0);
     std::fill(flux2_.begin(), flux2_.end(), 0.0);

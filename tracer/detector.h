@@ -183,6 +183,15 @@ class DetectorImage {
     // Element-wise sum. Throws std::invalid_argument when the pixel grids differ.
     void merge(const DetectorImage& other);
     void clear();
+    // Every flux times factor, every squared flux times factor^2, counts kept: the image of
+    // the estimator factor * F (a mean over n passes: factor 1 / n, variances with N = n are
+    // then those of the mean).
+    DetectorImage scaled(double factor) const;
+    // An image with the given sums (a checkpoint read back). Throws std::invalid_argument
+    // when a vector's size is not the geometry's pixel count.
+    static DetectorImage fromSums(DetectorGeometry geometry, std::vector<double> flux,
+                                  std::vector<double> fluxSquared, std::vector<uint64_t> counts,
+                                  double totalFlux, double totalFluxSquared, uint64_t totalCount);
 
     // DetectorImage Sums
     double flux(int pixel) const { return flux_[pixel]; }

@@ -524,6 +524,84 @@ std::optional<double> Source::crossing(const Ray& ray, double tMax) const {
     return t;
 }
 
+std::optional<Source::IncidentSample> Source::sampleIncident(const Vec3& pointMm, int line,
+                                                             double u1, double u2) const {
+    const double share = spectrum_.share(line);
+    if (!(share > 0.0)) return std::nullopt;
+    // A beam: the point must lie downstream of the start disk, within its rim, along -d.
+    auto beamSample = [&](const Beam& b, const Vec3& d) -> std::optional<IncidentSample> {
+        const double along = glm::dot(d, b.direction);
+        if (!(along > 0.0)) return std::nullopt;
+        const double t = glm::dot(pointMm - b.startCenterMm, b.direction) / along;
+        if (!(t > 0.0)) return std::nullopt;
+        const Vec3 q = pointMm - t * d;
+        const double value = emitted(q, d, line);
+        if (!(value > 0.0)) return std::nullopt;
+        return IncidentSample{-d, t, value, 0.0};
+    };
+    return std::visit(
+        [&](const auto& k) -> std::optional<IncidentSample> {
+            using T = std::decay_t<decltype(k)>;
+            if constexpr (std::is_same_v<T, CollimatedSource>) {
+                return beamSample(k.beam, k.beam.direction);
+            } else if constexpr (std::is_same_v<T, SunSource>) {
+                const Beam& b = k.beam;
+                const double omc = oneMinusCos(b.halfAngleRad);
+                const Vec3 d = coneDirection(b.direction, b.axisU, b.axisV, u1 * omc, 2.0 * kPi * u2);
+                auto s = beamSample(b, d);
+                if (s) {
+                    s->value *= coneSolidAngleSr(b.halfAngleRad);
+                    s->pdfSr = 1.0 / coneSolidAngleSr(b.halfAngleRad);
+                }
+                return s;
+            } else if constexpr (std::is_same_v<T, PointSource>) {
+                const Vec3 to = k.positionMm - pointMm;
+                const double d2 = glm::dot(to, to);
+                if (!(d2 > 0.0)) return std::nullopt;
+                const double d = std::sqrt(d2);
+                const Vec3 w = to / d;
+                const double value = emitted(k.positionMm, -w, line) / d2;
+                if (!(value > 0.0)) return std::nullopt;
+                return IncidentSample{w, d, value, 0.0};
+            } else {
+                const AreaEmitter& e = k.area;
+                const Ray r = areaRay(e, u1, u2, 0.0, 0.0);  // the point; its direction unused
+                const Vec3 to = r.origin - pointMm;
+                const double d2 = glm::dot(to, to);
+                if (!(d2 > 0.0)) return std::nullopt;
+                const double d = std::sqrt(d2);
+                const Vec3 w = to / d;
+                const double cosS = areaCos(e, -w);
+                if (!(cosS > 0.0)) return std::nullopt;
+                const double pdf = d2 / (cosS * e.areaMm2());
+                const double value = emitted(r.origin, -w, line) / pdf;
+                if (!(value > 0.0)) return std::nullopt;
+                return IncidentSample{w, d, value, pdf};
+            }
+        },
+        shape_);
+}
+
+double Source::incidentPdf(const Vec3& pointMm, const Vec3& emitterPointMm,
+                           const Vec3& toSource) const {
+    return std::visit(
+        [&](const auto& k) -> double {
+            using T = std::decay_t<decltype(k)>;
+            if constexpr (std::is_same_v<T, SunSource>) {
+                return 1.0 / coneSolidAngleSr(k.beam.halfAngleRad);
+            } else if constexpr (std::is_same_v<T, WindowSource> ||
+                                 std::is_same_v<T, LambertianSource>) {
+                const double cosS = areaCos(k.area, -toSource);
+                if (!(cosS > 0.0)) return 0.0;
+                const Vec3 d = emitterPointMm - pointMm;
+                return glm::dot(d, d) / (cosS * k.area.areaMm2());
+            } else {
+                return 0.0;
+            }
+        },
+        shape_);
+}
+
 double Source::emittingAreaMm2() const {
     return std::visit(
         [](const auto& k) -> double {

@@ -234,6 +234,35 @@ class Source {
     // point: no backward ray meets them) and when it misses. The emitter is not an object of
     // the scene: it neither blocks nor reflects, as for the forward rays it starts.
     std::optional<double> crossing(const Ray& ray, double tMax) const;
+    // Next-event estimation: light of line `line` arriving at pointMm straight from the
+    // source (nothing in between is checked: the caller casts the shadow ray), sampled with
+    // two uniforms. toSource is the unit direction from the point toward the source and
+    // distanceMm the shadow ray's length (to the emitting surface; for a beam, to its start
+    // disk). value is the arriving radiance divided by the pdf of toSource per steradian, so
+    // bsdf * |cos| * value estimates the light scattered at the point (unit/mm^2):
+    //   collimated  E, when the point lies downstream of the start disk and inside its rim
+    //   sun         L Omega, the direction drawn uniformly over the solar disk
+    //   point       I / d^2, inside the emission cone
+    //   window,     L cos(theta_s) A / d^2, the point on S drawn uniformly
+    //   lambertian
+    // None when the sample carries nothing (outside the beam or cone, behind the emitter).
+    // pdfSr is the density of toSource per steradian (0 for the delta kinds, collimated and
+    // point), for weighing the sample against a BSDF-sampled direction (multiple importance
+    // sampling).
+    struct IncidentSample {
+        Vec3 toSource{0.0};
+        double distanceMm = 0.0;
+        double value = 0.0;
+        double pdfSr = 0.0;
+    };
+    std::optional<IncidentSample> sampleIncident(const Vec3& pointMm, int line, double u1,
+                                                 double u2) const;
+    // The density per steradian with which sampleIncident() draws the direction toSource from
+    // pointMm, reaching the emitting surface at emitterPointMm (a point where it emits toward
+    // pointMm, as crossing() finds): d^2 / (A cos theta_s) for the area kinds, 1 / Omega for
+    // the sun, 0 for the delta kinds.
+    double incidentPdf(const Vec3& pointMm, const Vec3& emitterPointMm,
+                       const Vec3& toSource) const;
     // Area of the emitting surface (mm^2; 0 for a point) and solid angle of its directions
     // (sr; 0 for a collimated beam).
     double emittingAreaMm2() const;

@@ -14,7 +14,7 @@
 namespace {
 
 // A whole text file ("" when it cannot be read).
-std::string readText(const std::string& path) {
+[[maybe_unused]] std::string readText(const std::string& path) {
     std::ifstream in(path);
     std::stringstream s;
     s << in.rdbuf();

@@ -1,0 +1,393 @@
+// veil render SCENE -o DIR: progressive bidirectional rendering of the stray light a detector
+// receives (tracer/render.h; the method and every knob in docs/render.md).
+//
+//   veil render examples/scenes/longfocus_360mm_sun.toml -o out/render
+//   veil render scene.toml --target-error 0.02 --time-limit 30m -o out/r
+//   veil render scene.toml --resume out/r --passes 200
+//
+// Writes DIR/<detector>.exr (layers total, visible, direct, caustic, secondary: the mean flux
+// per pixel over the passes with the variance of the mean), DIR/<detector>.png and
+// DIR/<detector>.<component>.png (false colour, log scale), DIR/summary.json, and
+// DIR/render.checkpoint after every pass (atomically), from which --resume continues.
+
+#include "cli/render_command.h"
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <sstream>
+#include <unistd.h>
+
+#include "analysis/image_output.h"
+#include "cli/options.h"
+#include "cli/progress.h"
+#include "lensdata/errors.h"
+#include "lensdata/output_file.h"
+#include "tracer/render.h"
+
+namespace veil::cli {
+
+namespace {
+
+constexpr const char* kCheckpoint = "render.checkpoint";
+
+nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
+
+// FNV-1a over the text that determines a run's numbers: the scene as the renderer sees it and
+// the options that change what a pass computes.
+uint64_t fingerprint(const TransportScene& ts, const DetectorGeometry& g, const ExitAperture& a,
+                     const RenderOptions& o) {
+    std::ostringstream os;
+    os << std::setprecision(17);
+    for (const SceneObject& obj : ts.scene->objects()) os << obj << "\n";
+    os << ts.scene->bounds() << "\n";
+    for (const OpticalProperty& p : ts.properties) os << p << "\n";
+    for (int p : ts.propertyOfObject) os << p << ",";
+    for (const Source& s : ts.sources) os << s << "\n";
+    os << g << "\n" << a << "\n";
+    os << o.raysPerPixel << " " << o.photonsPerPass << " " << o.initialRadiusMm << " " << o.alpha
+       << " " << o.seed << " " << o.splitBackward << " " << o.minRelativeWeight << " "
+       << o.maxSpecularDepth << " " << o.viewPointRelativeWeight << " " << o.rouletteRelativeFlux << " " << o.maxPhotonSegments;
+    const std::string text = os.str();
+    uint64_t h = 1469598103934665603ull;
+    for (unsigned char c : text) {
+        h ^= c;
+        h *= 1099511628211ull;
+    }
+    return h;
+}
+
+double emittedFlux(const TransportScene& ts) {
+    double f = 0.0;
+    for (const Source& s : ts.sources) f += s.totalFlux();
+    return f;
+}
+
+}  // namespace
+
+std::optional<double> parseDuration(const std::string& text) {
+    if (text == "none" || text == "0") return kInfinity;
+    if (text.empty()) return std::nullopt;
+    double total = 0.0;
+    size_t i = 0;
+    bool any = false;
+    while (i < text.size()) {
+        size_t j = i;
+        while (j < text.size() && (std::isdigit(static_cast<unsigned char>(text[j])) || text[j] == '.'))
+            ++j;
+        if (j == i) return std::nullopt;
+        double v = 0.0;
+        try {
+            v = std::stod(text.substr(i, j - i));
+        } catch (...) {
+            return std::nullopt;
+        }
+        double unit = 1.0;
+        if (j < text.size()) {
+            const char u = text[j];
+            if (u == 'h') unit = 3600.0;
+            else if (u == 'm') unit = 60.0;
+            else if (u == 's') unit = 1.0;
+            else return std::nullopt;
+            ++j;
+        } else if (any) {
+            return std::nullopt;  // "1h30": the unit of 30 is unclear
+        }
+        total += v * unit;
+        any = true;
+        i = j;
+    }
+    if (!(total > 0.0) || !std::isfinite(total)) return std::nullopt;
+    return total;
+}
+
+void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
+    CLI::App* sub = app.add_subcommand(
+        "render", "stray light image by bidirectional photon mapping (progressive, docs/render.md)");
+    sub->add_option("scene", o.file, "scene or lens file (.toml or .zmx)")->required();
+    addOutputFolder(sub, o.output, "render");
+    sub->add_option("--target-error", o.targetError,
+                    "stop when the mean relative error of the lit pixels falls below this")
+        ->check(CLI::Range(1e-6, 1.0))
+        ->capture_default_str();
+    sub->add_option("--time-limit", o.timeLimit,
+                    "stop after this long: 90s, 10m, 1h30m ('none': no limit)")
+        ->capture_default_str();
+    sub->add_option("--passes", o.passes, "stop after this many passes in all (0: no limit)")
+        ->check(CLI::Range(0, 100000000))
+        ->capture_default_str();
+    sub->add_option("--resume", o.resume,
+                    "continue the run in this folder (its render.checkpoint); same scene and "
+                    "options");
+    sub->add_option("--detector", o.detector, "the detector to render (default: the first)");
+    addCount(sub, "--photons", o.photons, "photons per source per pass");
+    addCount(sub, "--rays-per-pixel", o.raysPerPixel, "backward rays per pixel per pass");
+    sub->add_option("--radius", o.radiusMm,
+                    "initial gathering radius r1 in mm (0: 1 % of the scattering parts' size)")
+        ->check(CLI::Range(0.0, 1e6))
+        ->capture_default_str();
+    sub->add_option("--alpha", o.alpha, "radius reduction per pass, in (0, 1)")
+        ->check(CLI::Range(0.01, 0.99))
+        ->capture_default_str();
+    sub->add_option("--roulette", o.roulette,
+                    "photons below this share of their emitted flux play Russian roulette (0: off)")
+        ->check(CLI::Range(0.0, 1.0))
+        ->capture_default_str();
+    sub->add_option("--backward", o.backward,
+                    "backward rays: split (every specular child) or random (one by weight)")
+        ->check(CLI::IsMember({"split", "random"}))
+        ->capture_default_str();
+    sub->add_option("--min-weight", o.minWeight,
+                    "split backward rays: end branches below this share of the ray's weight")
+        ->check(CLI::Range(0.0, 0.5))
+        ->capture_default_str();
+    addFields(sub, o.fields);
+    addRunControls(sub, o.threads, o.seed);
+    addReportFlags(sub, o.json, o.quiet);
+}
+
+int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
+    const std::optional<double> timeLimit = parseDuration(o.timeLimit);
+    if (!timeLimit)
+        throw ParseError({"--time-limit", 1, 1},
+                         "'" + o.timeLimit + "' is no duration: write 90s, 10m, 1h30m or none");
+    if (!std::isfinite(*timeLimit) && o.passes == 0 && o.targetError <= 0.0)
+        throw ParseError({"--time-limit", 1, 1}, "the run would never stop");
+
+    const GlassCatalog catalog = loadCatalog(common);
+    const std::unique_ptr<const PreparedScene> prepared =
+        prepareTracedScene(o.file, o.fields, catalog);
+    const TraceSetup& trace = prepared->trace();
+    const TransportScene& ts = trace.transport;
+    reportSceneNotes(*prepared);
+    if (ts.sources.empty()) throw ModelError(o.file, "the scene has no light source to render");
+    if (trace.images.empty()) throw ModelError(o.file, "the scene has no detector to render");
+    size_t det = 0;
+    if (!o.detector.empty()) {
+        det = trace.images.size();
+        std::string names;
+        for (size_t d = 0; d < trace.images.size(); ++d) {
+            names += (d ? ", " : "") + trace.images[d].geometry().name;
+            if (trace.images[d].geometry().name == o.detector) det = d;
+        }
+        if (det == trace.images.size())
+            throw ParseError({"--detector", 1, 1},
+                             "no detector '" + o.detector + "' in the scene (it has " + names + ")");
+    }
+    const DetectorImage& detector = trace.images[det];
+    const DetectorGeometry& geometry = detector.geometry();
+
+    RenderOptions ro;
+    ro.raysPerPixel = o.raysPerPixel;
+    ro.photonsPerPass = o.photons;
+    ro.alpha = o.alpha;
+    ro.seed = o.seed;
+    ro.rouletteRelativeFlux = o.roulette;
+    ro.splitBackward = o.backward == "split";
+    ro.minRelativeWeight = o.minWeight;
+    ro.initialRadiusMm = o.radiusMm > 0.0 ? o.radiusMm : defaultInitialRadius(ts);
+    ro.check();
+    const ExitAperture aperture = exitApertureFor(*ts.scene, geometry);
+    const Renderer renderer(ts, detector, aperture, ro);
+    const uint64_t print = fingerprint(ts, geometry, aperture, ro);
+
+    // Where the run lives: -o, else the --resume folder, else ./render.
+    std::filesystem::path dir;
+    if (!o.output.empty()) dir = o.output;
+    else if (!o.resume.empty()) dir = o.resume;
+    else dir = "render";
+    RenderState state(geometry, ro.initialRadiusMm, ro.alpha);
+    if (!o.resume.empty()) {
+        const std::filesystem::path cp = std::filesystem::path(o.resume) / kCheckpoint;
+        if (!std::filesystem::exists(cp))
+            throw ParseError({"--resume", 1, 1},
+                             o.resume + " holds no " + kCheckpoint + " to continue");
+        state = RenderState::read(cp, print, geometry);
+    }
+    if (o.passes > 0 && state.passes() >= o.passes && !o.quiet)
+        std::cerr << "veil: the run already has " << state.passes()
+                  << " passes (--passes " << o.passes << "): writing its images\n";
+    std::filesystem::create_directories(dir);
+
+    const auto limit = limitThreads(o.threads);
+    const bool terminal = !o.quiet && isatty(fileno(stderr));
+    const auto start = std::chrono::steady_clock::now();
+    auto seconds = [&] {
+        return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    };
+    const int startPasses = state.passes();
+    uint64_t photons = 0, gathers = 0, viewPoints = 0;
+    double backwardSeconds = 0.0, photonSeconds = 0.0;
+    double lastLine = -1e9;
+    std::string stopReason;
+    WrittenFiles written;
+    while (true) {
+        const double error = state.meanRelativeError();
+        if (state.passes() >= 2 && error <= o.targetError) {
+            stopReason = "target error reached";
+            break;
+        }
+        if (o.passes > 0 && state.passes() >= o.passes) {
+            stopReason = "pass limit reached";
+            break;
+        }
+        if (seconds() >= *timeLimit) {
+            stopReason = "time limit reached";
+            break;
+        }
+        const RenderPass pass = renderer.runPass(state.passes() + 1, state.radiusMm());
+        state.add(pass);
+        state.write(dir / kCheckpoint, print);
+        photons += pass.photons;
+        gathers += pass.gathers;
+        viewPoints += pass.viewPoints;
+        backwardSeconds += pass.backwardSeconds;
+        photonSeconds += pass.photonSeconds;
+        if (o.quiet) continue;
+        const double t = seconds();
+        const double err = state.meanRelativeError();
+        const int done = state.passes() - startPasses;
+        // Passes still needed: the error falls as n^(-alpha / 2).
+        std::string eta = "-";
+        if (std::isfinite(err) && err > o.targetError) {
+            const double need = state.passes() * std::pow(err / o.targetError, 2.0 / ro.alpha);
+            eta = duration((need - state.passes()) * t / done);
+        } else if (std::isfinite(err)) {
+            eta = "0s";
+        }
+        std::ostringstream line;
+        line << "render: pass " << state.passes() << ", error "
+             << (std::isfinite(err) ? std::to_string(100.0 * err).substr(0, 5) + " %" : "-")
+             << ", radius " << std::setprecision(3) << pass.radiusMm << " mm, " << std::fixed
+             << std::setprecision(0) << photons / std::max(t, 1e-9) << " photons/s, ETA " << eta;
+        if (terminal) {
+            std::cerr << "\r" << line.str() << "\033[K" << std::flush;
+        } else if (t - lastLine >= 10.0) {
+            std::cerr << line.str() << "\n";
+            lastLine = t;
+        }
+    }
+    if (terminal) std::cerr << "\n";
+    const double runSeconds = seconds();
+    if (state.passes() == 0)
+        throw ModelError(o.file, "no pass finished (--time-limit " + o.timeLimit + ")");
+
+    // Images and summary.
+    const std::string unit = ts.sources.front().unit() == FluxUnit::Lumen ? "lm" : "W";
+    const std::string name = geometry.name;
+    const DetectorImage total = state.total();
+    std::vector<DetectorImage> components;
+    for (int c = 0; c < kRenderComponents; ++c)
+        components.push_back(state.component(static_cast<RenderComponent>(c)));
+    const uint64_t n = static_cast<uint64_t>(state.passes());
+    ExrInfo info{unit, n};
+    std::vector<ImageLayer> layers{{"total", &total}};
+    for (int c = 0; c < kRenderComponents; ++c)
+        layers.push_back({std::string(toString(static_cast<RenderComponent>(c))), &components[c]});
+    writeDetectorExr(dir / (name + ".exr"), layers, info);
+    written.add(dir / (name + ".exr"));
+    PreviewOptions po;
+    po.fluxUnit = unit;
+    po.emittedRays = n;
+    po.title = name + ": stray light, " + std::to_string(n) + " passes";
+    writeDetectorPng(dir / (name + ".png"), total, po);
+    written.add(dir / (name + ".png"));
+    for (int c = 0; c < kRenderComponents; ++c) {
+        const std::string comp(toString(static_cast<RenderComponent>(c)));
+        if (components[c].totalFlux() == 0.0) continue;
+        PreviewOptions cp = po;
+        cp.title = name + ": " + comp + " component, " + std::to_string(n) + " passes";
+        writeDetectorPng(dir / (name + "." + comp + ".png"), components[c], cp);
+        written.add(dir / (name + "." + comp + ".png"));
+    }
+
+    const double emitted = emittedFlux(ts);
+    const double error = state.meanRelativeError();
+    nlohmann::json summary;
+    summary["scene"] = o.file;
+    summary["detector"] = name;
+    summary["unit"] = unit;
+    summary["passes"] = state.passes();
+    summary["passes_this_run"] = state.passes() - startPasses;
+    summary["seconds_this_run"] = runSeconds;
+    summary["stopped"] = stopReason;
+    summary["seed"] = o.seed;
+    summary["options"] = {{"rays_per_pixel", ro.raysPerPixel},
+                          {"photons_per_source_per_pass", ro.photonsPerPass},
+                          {"initial_radius_mm", ro.initialRadiusMm},
+                          {"alpha", ro.alpha},
+                          {"roulette", ro.rouletteRelativeFlux}};
+    summary["final_radius_mm"] = state.radiusMm();
+    summary["exit_aperture"] = {{"center_mm", {aperture.centerMm.x, aperture.centerMm.y,
+                                               aperture.centerMm.z}},
+                                {"radius_mm", aperture.radiusMm}};
+    summary["mean_relative_error"] = num(error);
+    summary["target_error"] = o.targetError;
+    summary["lit_pixels"] = state.litPixels();
+    summary["emitted_flux"] = emitted;
+    auto fluxJson = [&](const DetectorImage& img) {
+        const double f = img.totalFlux();
+        const double rel = f != 0.0 ? std::sqrt(img.totalVariance(n)) / std::abs(f) : kInfinity;
+        return nlohmann::json{{"flux", f}, {"relative_error", num(rel)},
+                              {"transmittance", emitted > 0.0 ? f / emitted : 0.0}};
+    };
+    summary["total"] = fluxJson(total);
+    for (int c = 0; c < kRenderComponents; ++c) {
+        const auto rc = static_cast<RenderComponent>(c);
+        nlohmann::json j = fluxJson(components[c]);
+        j["mean_relative_error"] = num(state.meanRelativeError(rc));
+        summary["components"][std::string(toString(rc))] = j;
+    }
+    summary["photons_this_run"] = photons;
+    summary["view_points_this_run"] = viewPoints;
+    summary["gathers_this_run"] = gathers;
+    summary["backward_seconds_this_run"] = backwardSeconds;
+    summary["photon_seconds_this_run"] = photonSeconds;
+    writeTextFile(dir / "summary.json", summary.dump(2) + "\n");
+    written.add(dir / "summary.json");
+    written.add(dir / kCheckpoint);
+
+    if (o.json) {
+        summary["files"] = written.json();
+        std::cout << summary.dump(2) << "\n";
+        return 0;
+    }
+    std::ostringstream text;
+    auto rel = [&](const DetectorImage& img) {
+        return img.totalFlux() != 0.0 ? std::sqrt(img.totalVariance(n)) / std::abs(img.totalFlux())
+                                      : kInfinity;
+    };
+    text << "Stray light on " << name << " (" << unit << ", mean of " << n << " passes)\n";
+    text << "  total       " << formatFlux(total.totalFlux(), rel(total), unit)
+         << "   transmittance " << std::scientific << std::setprecision(3)
+         << (emitted > 0 ? total.totalFlux() / emitted : 0.0) << "\n";
+    for (int c = 0; c < kRenderComponents; ++c) {
+        const std::string comp(toString(static_cast<RenderComponent>(c)));
+        text << "  " << std::left << std::setw(11) << comp << " " << std::right
+             << formatFlux(components[c].totalFlux(), rel(components[c]), unit) << "\n";
+    }
+    text << std::defaultfloat << std::setprecision(4) << "  " << state.passes() << " passes ("
+         << state.passes() - startPasses << " this run, " << elapsed(runSeconds) << "), "
+         << stopReason << "; mean pixel error "
+         << (std::isfinite(error) ? std::to_string(100.0 * error).substr(0, 5) + " %" : "unknown")
+         << " over " << state.litPixels() << " lit pixels (target "
+         << 100.0 * o.targetError << " %)\n";
+    text << "  radius " << ro.initialRadiusMm << " mm -> " << state.radiusMm() << " mm, "
+         << ro.photonsPerPass << " photons per source and " << ro.raysPerPixel
+         << " rays per pixel per pass\n";
+    if (stopReason != "target error reached" && std::isfinite(error) && error > o.targetError)
+        text << "  the target error was not reached: continue with --resume " << dir.string()
+             << "\n";
+    std::cout << text.str();
+    if (!o.quiet) {
+        std::cout << "\n";
+        written.print(std::cout);
+    }
+    return 0;
+}
+
+}  // namespace veil::cli

@@ -1,0 +1,43 @@
+#pragma once
+// veil render: diffuse stray light images by bidirectional stochastic ray tracing with photon
+// maps, progressive until a target error, a time limit or a pass count (tracer/render.h,
+// docs/render.md).
+
+#include <CLI/CLI.hpp>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "cli/commands.h"
+
+namespace veil::cli {
+
+struct RenderCommandOptions {
+    std::string file;
+    std::string output;  // folder; default ./render (or the --resume folder)
+    std::string resume;  // folder of a run to continue
+    double targetError = 0.05;
+    std::string timeLimit = "10m";
+    int passes = 0;  // 0: no pass limit
+    std::string detector;
+    uint64_t photons = 100000;  // per source per pass
+    uint64_t raysPerPixel = 16;
+    double radiusMm = 0.0;  // 0: automatic
+    double alpha = 2.0 / 3.0;
+    double roulette = 0.1;
+    std::string backward = "random";
+    double minWeight = 1e-4;
+    std::vector<std::string> fields;
+    int threads = 0;
+    uint64_t seed = 1;
+    bool json = false;
+    bool quiet = false;
+};
+void addRenderCommand(CLI::App& app, RenderCommandOptions& options);
+int runRender(const CommonOptions& common, const RenderCommandOptions& options);
+
+// "90s", "10m", "1h30m", "2h", "45" (seconds) -> seconds; "0" or "none": no limit (infinity).
+// nullopt for anything else.
+std::optional<double> parseDuration(const std::string& text);
+
+}  // namespace veil::cli

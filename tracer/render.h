@@ -1,0 +1,171 @@
+#pragma once
+// Diffuse stray light images by bidirectional stochastic ray tracing with photon maps (the
+// seed's section 3, figure 7), made progressive and consistent.
+//
+// One pass (Renderer::runPass):
+//   1. Backward (tracer/backward.h): raysPerPixel rays from every pixel through the exit
+//      aperture, through the specular chain. They give the visible component of extended
+//      sources (window, lambertian) seen through the lens, store view points where they meet
+//      scattering surfaces, and at every view point next-event estimation toward each source
+//      gives the direct component.
+//   2. Forward: photonsPerPass photons per source, the same transport (tracer/interaction.h,
+//      flux mode). Until its first scatter a photon splits at every interface (every Fresnel
+//      branch, culled below photonMinRelativeFlux); then it follows one child chosen by
+//      weight, with Russian roulette. A photon of the sun or of a collimated or point source
+//      that reaches the detector without scattering adds its flux to its pixel: the visible
+//      component of those sources (their ghosts, or their image in the field), which a
+//      backward ray would have to hit a 0.5 degree disk to find. At every hit on a scattering
+//      surface after at least one event, the photon is gathered by the view points within
+//      the pass radius r on the same object and side, at the same wavelength, through a
+//      spatial hash: each adds weight * flux * bsdf(photon -> detector) / (pi r^2) to its
+//      pixel, the caustic component when the photon has seen only specular events, the
+//      secondary one when it scattered before. (A photon's first hit is the direct light,
+//      which step 1 counts.)
+// The pass's four images estimate the flux per pixel; visible and direct without bias, the
+// two gathered ones with the bias of averaging the radiance over a disk of radius r.
+//
+// Progressive and consistent (Knaus and Zwicker, "Progressive photon mapping: a
+// probabilistic approach", 2011): passes are independent, pass k uses the radius
+//     r_{k+1}^2 = r_k^2 (k + alpha) / (k + 1),   r_1 the initial radius,
+// so r_k^2 ~ k^(alpha - 1), and the image is the mean of the passes. The variance of the
+// mean falls as n^-alpha and the bias as n^(alpha - 1): both vanish, and alpha = 2/3
+// balances them. Errors come from the spread of the independent passes (RenderState): the
+// variance of the mean over n passes from the per-pixel sums of the pass estimates and of
+// their squares (n >= 2), the same formula as a forward run's per-ray statistics with a pass
+// in the role of a ray (tracer/detector.h).
+//
+// Determinism: pass k draws its backward rays and photons from streams keyed by (seed, k),
+// blocks are reduced in a fixed order, and the state after pass k holds exact sums: a run
+// resumed from a checkpoint after pass k gives bitwise the images of an uninterrupted one,
+// for any thread count.
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <ostream>
+#include <string_view>
+#include <vector>
+
+#include "tracer/backward.h"
+#include "tracer/detector.h"
+#include "tracer/interaction.h"
+
+namespace veil {
+
+enum class RenderComponent { Visible = 0, Direct = 1, Caustic = 2, Secondary = 3 };
+inline constexpr int kRenderComponents = 4;
+std::string_view toString(RenderComponent c);  // "visible", "direct", "caustic", "secondary"
+std::ostream& operator<<(std::ostream& os, RenderComponent c);
+
+struct RenderOptions {
+    uint64_t raysPerPixel = 16;       // backward rays per pixel per pass
+    uint64_t photonsPerPass = 100000;  // per source
+    double initialRadiusMm = 0.0;     // r_1; 0: defaultInitialRadius()
+    double alpha = 2.0 / 3.0;         // radius reduction, in (0, 1)
+    uint64_t seed = 1;
+    bool splitBackward = false;        // backward: every specular child, or one by weight
+    double minRelativeWeight = 1e-4;   // backward split: branches below this share end
+    double viewPointRelativeWeight = 0.05;  // view point roulette (BackwardOptions)
+    int maxSpecularDepth = 64;         // backward specular events per branch
+    double rouletteRelativeFlux = 0.1;  // photons below this share of their emitted flux
+                                        // play Russian roulette; 0 = off
+    int maxPhotonSegments = 1000;
+    // Photons split at every interface until their first scatter (every Fresnel branch, as
+    // veil trace does); branches below this share of the photon's flux are culled there.
+    double photonMinRelativeFlux = 1e-4;
+    // Throws std::invalid_argument naming the option when a value is out of range.
+    void check() const;
+};
+std::ostream& operator<<(std::ostream& os, const RenderOptions& o);
+
+// What one pass estimated: the flux per pixel of each component (the pass's estimate, not yet
+// averaged), and what it cost.
+struct RenderPass {
+    std::array<std::vector<double>, kRenderComponents> pixels;
+    double radiusMm = 0.0;
+    uint64_t backwardRays = 0, backwardSegments = 0, viewPoints = 0;
+    uint64_t photons = 0, photonSegments = 0, gathers = 0;
+    double backwardSeconds = 0.0, photonSeconds = 0.0;  // wall clock of the two stages
+};
+
+// The exit aperture pixel rays aim at, from the scene: a disk on the detector's axis,
+// parallel to it, at the object point nearest to it (in front of its sensitive side), wide
+// enough that every straight line from a pixel to any point of any other object crosses it
+// (the radius of the farthest object point or detector corner from the axis; exact faces
+// by their bounding boxes). Light from every object of the scene thus reaches the pixels
+// through it. Throws ModelError naming an object that lies beside or behind the detector
+// (then no such disk exists).
+ExitAperture exitApertureFor(const Scene& scene, const DetectorGeometry& detector);
+
+// r_1 when none is given: 1 % of the diagonal of the bounding box of the scene's objects
+// that scatter (those with a scatter model). ModelError when no object scatters.
+double defaultInitialRadius(const TransportScene& ts);
+
+// The progressive accumulators: per component and for the total, the sums over passes of
+// each pixel's estimate and of its square (DetectorImage sums, one pass as one sample).
+class RenderState {
+  public:
+    RenderState() = default;
+    RenderState(const DetectorGeometry& geometry, double initialRadiusMm, double alpha);
+
+    int passes() const { return passes_; }
+    double radiusMm() const { return radiusMm_; }  // of the next pass
+    double initialRadiusMm() const { return initialRadiusMm_; }
+    double alpha() const { return alpha_; }
+    // Adds a pass's estimates and shrinks the radius for the next.
+    void add(const RenderPass& pass);
+
+    // The mean over the passes (flux per pixel) with the variance of the mean: read
+    // pixelVariance(p, passes()) and totalVariance(passes()).
+    DetectorImage component(RenderComponent c) const;
+    DetectorImage total() const;
+    // The mean relative standard error of the total over the lit pixels: those whose mean
+    // is at least litFraction of the image's mean pixel value. Infinity before two passes or
+    // when nothing is lit.
+    static constexpr double kLitFraction = 0.01;
+    double meanRelativeError() const;
+    int litPixels() const;
+    // The same for one component's image (its own lit pixels).
+    double meanRelativeError(RenderComponent c) const;
+
+    // Atomic write (a temporary renamed), with a fingerprint of the scene and options that
+    // read() checks. std::runtime_error naming the path on failure, or when the file is not a
+    // checkpoint of this fingerprint and grid.
+    void write(const std::filesystem::path& path, uint64_t fingerprint) const;
+    static RenderState read(const std::filesystem::path& path, uint64_t fingerprint,
+                            const DetectorGeometry& geometry);
+    bool sameSums(const RenderState& o) const;
+
+  private:
+    std::array<DetectorImage, kRenderComponents + 1> sums_;  // components, then the total
+    int passes_ = 0;
+    double radiusMm_ = 0.0, initialRadiusMm_ = 0.0, alpha_ = 2.0 / 3.0;
+};
+
+class Renderer {
+  public:
+    // `detector` gives the pixel grid (its sums are not used). Checks the options.
+    Renderer(const TransportScene& ts, const DetectorImage& detector, ExitAperture aperture,
+             RenderOptions options);
+    const ExitAperture& aperture() const { return aperture_; }
+    const RenderOptions& options() const { return options_; }
+    // Pass k (1, 2, ...) at radius radiusMm.
+    RenderPass runPass(int k, double radiusMm) const;
+    // The backward stage of pass k.
+    BackwardOptions backwardOptions(int k) const;
+
+  private:
+    const TransportScene& ts_;
+    DetectorImage detector_;
+    ExitAperture aperture_;
+    RenderOptions options_;
+};
+
+// Whether the photons, rather than the backward rays, count a source's visible component:
+// the sun and the delta kinds (collimated, point), which a backward ray cannot find.
+bool photonsSeeSource(const Source& s);
+
+// The seed of stream family `purpose` of pass k: distinct for every (seed, k, purpose).
+uint64_t passSeed(uint64_t seed, uint64_t pass, uint32_t purpose);
+
+}  // namespace veil
