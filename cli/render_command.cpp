@@ -12,6 +12,8 @@
 
 #include "cli/render_command.h"
 
+#include <unistd.h>
+
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -20,9 +22,10 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <sstream>
-#include <unistd.h>
 
+#include "analysis/criterion_names.h"
 #include "analysis/image_output.h"
+#include "analysis/render_criteria.h"
 #include "cli/options.h"
 #include "cli/progress.h"
 #include "lensdata/errors.h"
@@ -40,7 +43,7 @@ nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlo
 // FNV-1a over the text that determines a run's numbers: the scene as the renderer sees it and
 // the options that change what a pass computes.
 uint64_t fingerprint(const TransportScene& ts, const DetectorGeometry& g, const ExitAperture& a,
-                     const RenderOptions& o) {
+                     const RenderOptions& o, const std::vector<std::string>& where) {
     std::ostringstream os;
     os << std::setprecision(17);
     for (const SceneObject& obj : ts.scene->objects()) os << obj << "\n";
@@ -51,7 +54,9 @@ uint64_t fingerprint(const TransportScene& ts, const DetectorGeometry& g, const 
     os << g << "\n" << a << "\n";
     os << o.raysPerPixel << " " << o.photonsPerPass << " " << o.initialRadiusMm << " " << o.alpha
        << " " << o.seed << " " << o.splitBackward << " " << o.minRelativeWeight << " "
-       << o.maxSpecularDepth << " " << o.viewPointRelativeWeight << " " << o.rouletteRelativeFlux << " " << o.maxPhotonSegments;
+       << o.maxSpecularDepth << " " << o.detectorRadiusPixels << " " << o.viewPointRelativeWeight
+       << " " << o.rouletteRelativeFlux << " " << o.maxPhotonSegments << " " << o.prune;
+    for (const std::string& w : where) os << "\nwhere " << w;
     const std::string text = os.str();
     uint64_t h = 1469598103934665603ull;
     for (unsigned char c : text) {
@@ -77,7 +82,8 @@ std::optional<double> parseDuration(const std::string& text) {
     bool any = false;
     while (i < text.size()) {
         size_t j = i;
-        while (j < text.size() && (std::isdigit(static_cast<unsigned char>(text[j])) || text[j] == '.'))
+        while (j < text.size() &&
+               (std::isdigit(static_cast<unsigned char>(text[j])) || text[j] == '.'))
             ++j;
         if (j == i) return std::nullopt;
         double v = 0.0;
@@ -89,10 +95,14 @@ std::optional<double> parseDuration(const std::string& text) {
         double unit = 1.0;
         if (j < text.size()) {
             const char u = text[j];
-            if (u == 'h') unit = 3600.0;
-            else if (u == 'm') unit = 60.0;
-            else if (u == 's') unit = 1.0;
-            else return std::nullopt;
+            if (u == 'h')
+                unit = 3600.0;
+            else if (u == 'm')
+                unit = 60.0;
+            else if (u == 's')
+                unit = 1.0;
+            else
+                return std::nullopt;
             ++j;
         } else if (any) {
             return std::nullopt;  // "1h30": the unit of 30 is unclear
@@ -107,7 +117,8 @@ std::optional<double> parseDuration(const std::string& text) {
 
 void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
     CLI::App* sub = app.add_subcommand(
-        "render", "stray light image by bidirectional photon mapping (progressive, docs/render.md)");
+        "render",
+        "stray light image by bidirectional photon mapping (progressive, docs/render.md)");
     sub->add_option("scene", o.file, "scene or lens file (.toml or .zmx)")->required();
     addOutputFolder(sub, o.output, "render");
     sub->add_option("--target-error", o.targetError,
@@ -145,6 +156,12 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
                     "split backward rays: end branches below this share of the ray's weight")
         ->check(CLI::Range(0.0, 0.5))
         ->capture_default_str();
+    sub->add_option("--where", o.where,
+                    "path criterion on the joined path, photon events then the backward ones "
+                    "(docs/criteria.md); repeatable: one image per criterion beside the total");
+    sub->add_flag("--prune", o.prune,
+                  "with --where: stop photons and backward rays as soon as no criterion can "
+                  "match their path (faster; the total then holds only matching light)");
     addFields(sub, o.fields);
     addRunControls(sub, o.threads, o.seed);
     addReportFlags(sub, o.json, o.quiet);
@@ -157,6 +174,9 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
                          "'" + o.timeLimit + "' is no duration: write 90s, 10m, 1h30m or none");
     if (!std::isfinite(*timeLimit) && o.passes == 0 && o.targetError <= 0.0)
         throw ParseError({"--time-limit", 1, 1}, "the run would never stop");
+    if (o.prune && o.where.empty())
+        throw ParseError({"--prune", 0, 0}, "--prune needs at least one --where");
+    if (o.where.size() > 64) throw ParseError({"--where", 0, 0}, "at most 64 criteria");
 
     const GlassCatalog catalog = loadCatalog(common);
     const std::unique_ptr<const PreparedScene> prepared =
@@ -175,8 +195,8 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
             if (trace.images[d].geometry().name == o.detector) det = d;
         }
         if (det == trace.images.size())
-            throw ParseError({"--detector", 1, 1},
-                             "no detector '" + o.detector + "' in the scene (it has " + names + ")");
+            throw ParseError({"--detector", 1, 1}, "no detector '" + o.detector +
+                                                       "' in the scene (it has " + names + ")");
     }
     const DetectorImage& detector = trace.images[det];
     const DetectorGeometry& geometry = detector.geometry();
@@ -191,16 +211,41 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
     ro.minRelativeWeight = o.minWeight;
     ro.initialRadiusMm = o.radiusMm > 0.0 ? o.radiusMm : defaultInitialRadius(ts);
     ro.check();
+    ro.prune = o.prune;
+    std::unique_ptr<RenderCriteria> criteria;
+    if (!o.where.empty()) {
+        const NameTable names = criterionNames(*ts.scene, ts);
+        std::vector<CompiledCriterion> compiled;
+        for (size_t i = 0; i < o.where.size(); ++i)
+            compiled.push_back(
+                compileCriterion(o.where[i], names, "--where " + std::to_string(i + 1)));
+        criteria = std::make_unique<RenderCriteria>(std::move(compiled), names);
+    }
+    const int criterionCount = static_cast<int>(o.where.size());
     const ExitAperture aperture = exitApertureFor(*ts.scene, geometry);
-    const Renderer renderer(ts, detector, aperture, ro);
-    const uint64_t print = fingerprint(ts, geometry, aperture, ro);
+    const Renderer renderer(ts, detector, aperture, ro, criteria.get());
+    const uint64_t print = fingerprint(ts, geometry, aperture, ro, o.where);
 
-    // Where the run lives: -o, else the --resume folder, else ./render.
+    // Where the run lives: -o, else the --resume folder, else ./render; with --json and
+    // neither, a temporary folder removed at the end (--json writes files only with -o).
     std::filesystem::path dir;
-    if (!o.output.empty()) dir = o.output;
-    else if (!o.resume.empty()) dir = o.resume;
-    else dir = "render";
-    RenderState state(geometry, ro.initialRadiusMm, ro.alpha);
+    const bool scratchRun = o.json && o.output.empty() && o.resume.empty();
+    if (!o.output.empty())
+        dir = o.output;
+    else if (!o.resume.empty())
+        dir = o.resume;
+    else if (scratchRun)
+        dir = std::filesystem::temp_directory_path() / ("veil_render_" + std::to_string(getpid()));
+    else
+        dir = "render";
+    struct RemoveAtEnd {
+        std::filesystem::path dir;
+        ~RemoveAtEnd() {
+            std::error_code ec;
+            if (!dir.empty()) std::filesystem::remove_all(dir, ec);
+        }
+    } removeAtEnd{scratchRun ? dir : std::filesystem::path()};
+    RenderState state(geometry, ro.initialRadiusMm, ro.alpha, criterionCount);
     if (!o.resume.empty()) {
         const std::filesystem::path cp = std::filesystem::path(o.resume) / kCheckpoint;
         if (!std::filesystem::exists(cp))
@@ -209,8 +254,8 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
         state = RenderState::read(cp, print, geometry);
     }
     if (o.passes > 0 && state.passes() >= o.passes && !o.quiet)
-        std::cerr << "veil: the run already has " << state.passes()
-                  << " passes (--passes " << o.passes << "): writing its images\n";
+        std::cerr << "veil: the run already has " << state.passes() << " passes (--passes "
+                  << o.passes << "): writing its images\n";
     std::filesystem::create_directories(dir);
 
     const auto limit = limitThreads(o.threads);
@@ -220,7 +265,7 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
         return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     };
     const int startPasses = state.passes();
-    uint64_t photons = 0, gathers = 0, viewPoints = 0;
+    uint64_t photons = 0, gathers = 0, viewPoints = 0, prunedBranches = 0, prunedPhotons = 0;
     double backwardSeconds = 0.0, photonSeconds = 0.0;
     double lastLine = -1e9;
     std::string stopReason;
@@ -245,6 +290,8 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
         photons += pass.photons;
         gathers += pass.gathers;
         viewPoints += pass.viewPoints;
+        prunedBranches += pass.prunedBranches;
+        prunedPhotons += pass.prunedPhotons;
         backwardSeconds += pass.backwardSeconds;
         photonSeconds += pass.photonSeconds;
         if (o.quiet) continue;
@@ -272,6 +319,9 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
         }
     }
     if (terminal) std::cerr << "\n";
+    if (o.prune && prunedBranches + prunedPhotons == 0 && state.passes() > startPasses)
+        std::cerr << "veil: warning: --prune stopped no branch: no --where criterion turned "
+                     "false on any path, so pruning saved nothing\n";
     const double runSeconds = seconds();
     if (state.passes() == 0)
         throw ModelError(o.file, "no pass finished (--time-limit " + o.timeLimit + ")");
@@ -284,15 +334,31 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
     for (int c = 0; c < kRenderComponents; ++c)
         components.push_back(state.component(static_cast<RenderComponent>(c)));
     const uint64_t n = static_cast<uint64_t>(state.passes());
+    // Criterion k: its total, then its components.
+    std::vector<std::vector<DetectorImage>> byCriterion(static_cast<size_t>(criterionCount));
+    for (int k = 0; k < criterionCount; ++k) {
+        byCriterion[k].push_back(state.criterionTotal(k));
+        for (int c = 0; c < kRenderComponents; ++c)
+            byCriterion[k].push_back(state.criterionComponent(k, static_cast<RenderComponent>(c)));
+    }
+    auto layerName = [](int k) { return "where" + std::to_string(k + 1); };
     ExrInfo info{unit, n};
     std::vector<ImageLayer> layers{{"total", &total}};
     for (int c = 0; c < kRenderComponents; ++c)
         layers.push_back({std::string(toString(static_cast<RenderComponent>(c))), &components[c]});
+    for (int k = 0; k < criterionCount; ++k) {
+        layers.push_back({layerName(k), &byCriterion[k][0]});
+        for (int c = 0; c < kRenderComponents; ++c)
+            layers.push_back(
+                {layerName(k) + "." + std::string(toString(static_cast<RenderComponent>(c))),
+                 &byCriterion[k][c + 1]});
+    }
     writeDetectorExr(dir / (name + ".exr"), layers, info);
     written.add(dir / (name + ".exr"));
     PreviewOptions po;
     po.fluxUnit = unit;
     po.emittedRays = n;
+    po.decades = 3.0;  // stray light spans a few decades; 6 would flatten it
     po.title = name + ": stray light, " + std::to_string(n) + " passes";
     writeDetectorPng(dir / (name + ".png"), total, po);
     written.add(dir / (name + ".png"));
@@ -303,6 +369,13 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
         cp.title = name + ": " + comp + " component, " + std::to_string(n) + " passes";
         writeDetectorPng(dir / (name + "." + comp + ".png"), components[c], cp);
         written.add(dir / (name + "." + comp + ".png"));
+    }
+    for (int k = 0; k < criterionCount; ++k) {
+        PreviewOptions cp = po;
+        cp.title = name + ": " + o.where[k] + ", " + std::to_string(n) + " passes";
+        const std::filesystem::path png = dir / (name + "." + layerName(k) + ".png");
+        writeDetectorPng(png, byCriterion[k][0], cp);
+        written.add(png);
     }
 
     const double emitted = emittedFlux(ts);
@@ -322,9 +395,9 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
                           {"alpha", ro.alpha},
                           {"roulette", ro.rouletteRelativeFlux}};
     summary["final_radius_mm"] = state.radiusMm();
-    summary["exit_aperture"] = {{"center_mm", {aperture.centerMm.x, aperture.centerMm.y,
-                                               aperture.centerMm.z}},
-                                {"radius_mm", aperture.radiusMm}};
+    summary["exit_aperture"] = {
+        {"center_mm", {aperture.centerMm.x, aperture.centerMm.y, aperture.centerMm.z}},
+        {"radius_mm", aperture.radiusMm}};
     summary["mean_relative_error"] = num(error);
     summary["target_error"] = o.targetError;
     summary["lit_pixels"] = state.litPixels();
@@ -332,7 +405,8 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
     auto fluxJson = [&](const DetectorImage& img) {
         const double f = img.totalFlux();
         const double rel = f != 0.0 ? std::sqrt(img.totalVariance(n)) / std::abs(f) : kInfinity;
-        return nlohmann::json{{"flux", f}, {"relative_error", num(rel)},
+        return nlohmann::json{{"flux", f},
+                              {"relative_error", num(rel)},
                               {"transmittance", emitted > 0.0 ? f / emitted : 0.0}};
     };
     summary["total"] = fluxJson(total);
@@ -341,6 +415,22 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
         nlohmann::json j = fluxJson(components[c]);
         j["mean_relative_error"] = num(state.meanRelativeError(rc));
         summary["components"][std::string(toString(rc))] = j;
+    }
+    summary["criteria"] = nlohmann::json::array();
+    for (int k = 0; k < criterionCount; ++k) {
+        nlohmann::json j = fluxJson(byCriterion[k][0]);
+        j["layer"] = layerName(k);
+        j["where"] = o.where[k];
+        j["mean_relative_error"] = num(state.criterionMeanRelativeError(k));
+        for (int c = 0; c < kRenderComponents; ++c)
+            j["components"][std::string(toString(static_cast<RenderComponent>(c)))] =
+                fluxJson(byCriterion[k][c + 1]);
+        summary["criteria"].push_back(j);
+    }
+    summary["prune"] = o.prune;
+    if (o.prune) {
+        summary["pruned_backward_branches_this_run"] = prunedBranches;
+        summary["pruned_photon_branches_this_run"] = prunedPhotons;
     }
     summary["photons_this_run"] = photons;
     summary["view_points_this_run"] = viewPoints;
@@ -352,7 +442,7 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
     written.add(dir / kCheckpoint);
 
     if (o.json) {
-        summary["files"] = written.json();
+        summary["files"] = scratchRun ? nlohmann::json::array() : written.json();
         std::cout << summary.dump(2) << "\n";
         return 0;
     }
@@ -361,7 +451,8 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
         return img.totalFlux() != 0.0 ? std::sqrt(img.totalVariance(n)) / std::abs(img.totalFlux())
                                       : kInfinity;
     };
-    text << "Stray light on " << name << " (" << unit << ", mean of " << n << " passes)\n";
+    text << "Stray light on " << name << " (" << unit << ", mean of " << n << " passes)"
+         << (o.prune ? ": only light whose path matches a --where (--prune)" : "") << "\n";
     text << "  total       " << formatFlux(total.totalFlux(), rel(total), unit)
          << "   transmittance " << std::scientific << std::setprecision(3)
          << (emitted > 0 ? total.totalFlux() / emitted : 0.0) << "\n";
@@ -370,12 +461,20 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
         text << "  " << std::left << std::setw(11) << comp << " " << std::right
              << formatFlux(components[c].totalFlux(), rel(components[c]), unit) << "\n";
     }
+    for (int k = 0; k < criterionCount; ++k) {
+        const DetectorImage& img = byCriterion[k][0];
+        text << "  " << std::left << std::setw(11) << layerName(k) << " " << std::right
+             << formatFlux(img.totalFlux(), rel(img), unit) << "   " << o.where[k] << "\n";
+    }
+    if (o.prune)
+        text << "  pruned " << prunedBranches << " backward and " << prunedPhotons
+             << " photon branches (--prune)\n";
     text << std::defaultfloat << std::setprecision(4) << "  " << state.passes() << " passes ("
          << state.passes() - startPasses << " this run, " << elapsed(runSeconds) << "), "
          << stopReason << "; mean pixel error "
          << (std::isfinite(error) ? std::to_string(100.0 * error).substr(0, 5) + " %" : "unknown")
-         << " over " << state.litPixels() << " lit pixels (target "
-         << 100.0 * o.targetError << " %)\n";
+         << " over " << state.litPixels() << " lit pixels (target " << 100.0 * o.targetError
+         << " %)\n";
     text << "  radius " << ro.initialRadiusMm << " mm -> " << state.radiusMm() << " mm, "
          << ro.photonsPerPass << " photons per source and " << ro.raysPerPixel
          << " rays per pixel per pass\n";

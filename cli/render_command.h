@@ -27,6 +27,8 @@ struct RenderCommandOptions {
     double roulette = 0.1;
     std::string backward = "random";
     double minWeight = 1e-4;
+    std::vector<std::string> where;  // path criteria: one image per criterion
+    bool prune = false;              // stop paths no criterion can match
     std::vector<std::string> fields;
     int threads = 0;
     uint64_t seed = 1;

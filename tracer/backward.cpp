@@ -4,6 +4,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <stdexcept>
 
@@ -67,6 +68,17 @@ SurfaceContext walkContext(const TransportScene& ts, const ViewPoint& v, double 
 
 double directAt(const TransportScene& ts, const ViewPoint& v, double wavelengthNm,
                 CounterRng& rng) {
+    return directAt(ts, v, wavelengthNm, rng, {});
+}
+
+double directAt(const TransportScene& ts, const ViewPoint& v, double wavelengthNm, CounterRng& rng,
+                std::span<double> perSourceSide) {
+    // Where a contribution from direction toLight goes when split by source and side.
+    auto book = [&](size_t source, const Vec3& toLight, double value) {
+        if (perSourceSide.empty()) return;
+        const bool sameSide = glm::dot(toLight, v.normal) * glm::dot(v.toDetector, v.normal) > 0.0;
+        perSourceSide[2 * source + (sameSide ? 0 : 1)] += value * v.weight;
+    };
     const OpticalProperty& prop = ts.properties[ts.propertyOfObject[v.object]];
     const Scene& scene = *ts.scene;
     // Scatter sampling from the detector's side: which channel (by its fraction), then the
@@ -94,7 +106,8 @@ double directAt(const TransportScene& ts, const ViewPoint& v, double wavelengthN
     double sum = 0.0;
     // Light sampling: one direction per source, weighed by the balance heuristic against the
     // scatter sampling below (weight 1 for the delta kinds, which scatter sampling never hits).
-    for (const Source& s : ts.sources) {
+    for (size_t si = 0; si < ts.sources.size(); ++si) {
+        const Source& s = ts.sources[si];
         const double u1 = rng.uniform(), u2 = rng.uniform();
         const auto in = s.sampleIncident(v.positionMm, v.wavelength, u1, u2);
         if (!in) continue;
@@ -102,9 +115,11 @@ double directAt(const TransportScene& ts, const ViewPoint& v, double wavelengthN
         if (!(fc > 0.0)) continue;
         if (scene.closestHit({v.positionMm, in->toSource}, in->distanceMm, v.object, v.primitive))
             continue;  // blocked
-        const double mis = in->pdfSr > 0.0 ? in->pdfSr / (in->pdfSr + scatterPdf(in->toSource))
-                                           : 1.0;
-        sum += fc * in->value * kept(in->toSource, in->distanceMm) * mis;
+        const double mis =
+            in->pdfSr > 0.0 ? in->pdfSr / (in->pdfSr + scatterPdf(in->toSource)) : 1.0;
+        const double value = fc * in->value * kept(in->toSource, in->distanceMm) * mis;
+        sum += value;
+        book(si, in->toSource, value);
     }
     // Scatter sampling: one direction, checked against every source it reaches unblocked.
     const double u0 = rng.uniform(), u1 = rng.uniform(), u2 = rng.uniform();
@@ -119,7 +134,8 @@ double directAt(const TransportScene& ts, const ViewPoint& v, double wavelengthN
                 const Ray ray{v.positionMm, w};
                 const auto hit = scene.closestHit(ray, kInfinity, v.object, v.primitive);
                 const double tHit = hit ? hit->t : kInfinity;
-                for (const Source& s : ts.sources) {
+                for (size_t si = 0; si < ts.sources.size(); ++si) {
+                    const Source& s = ts.sources[si];
                     if (s.delta() != Source::Delta::None) continue;
                     const auto t = s.crossing(ray, tHit);
                     if (!t) continue;
@@ -127,7 +143,9 @@ double directAt(const TransportScene& ts, const ViewPoint& v, double wavelengthN
                     const double radiance = s.emitted(q, -w, v.wavelength);
                     if (!(radiance > 0.0)) continue;
                     const double lightPdf = s.incidentPdf(v.positionMm, q, w);
-                    sum += fc * radiance * kept(w, *t) / (pdf + lightPdf);
+                    const double value = fc * radiance * kept(w, *t) / (pdf + lightPdf);
+                    sum += value;
+                    book(si, w, value);
                 }
             }
         }
@@ -144,6 +162,7 @@ struct Branch {
     int startPrimitive = -1;
     int medium = 0;
     int depth = 0;
+    int node = 0;  // with criteria: its last event in the ray's EventTree
 };
 
 // What the rays of one pixel produced, merged in pixel order afterwards.
@@ -151,8 +170,41 @@ struct PixelOutput {
     std::vector<double> visible;  // per ray, its visible-source flux
     std::vector<double> direct;   // per ray, its direct flux
     std::vector<ViewPoint> viewPoints;
+    std::vector<PathEvent> events;  // the view points' suffixes (firstEvent local to here)
+    std::vector<double> visibleBy, directBy;  // [criterion]: the pixel's sums
     uint64_t segments = 0;
+    uint64_t pruned = 0;
 };
+
+// The backward events of one pixel ray, as a tree: node 0 is the detector hit, every later
+// node the forward-order event of a specular interaction with a link toward the detector.
+// Walking from a node to the root gives the path from there to the detector in the order
+// light travels it.
+struct EventTree {
+    struct Node {
+        PathEvent event;
+        int next = -1;  // toward the detector
+    };
+    std::vector<Node> nodes;
+    void start(const PathEvent& detectorHit) { nodes.assign(1, {detectorHit, -1}); }
+    int add(const PathEvent& e, int next) {
+        nodes.push_back({e, next});
+        return static_cast<int>(nodes.size()) - 1;
+    }
+    // The events from `node` to the detector, appended to `out`.
+    void suffix(int node, std::vector<PathEvent>& out) const {
+        for (int n = node; n >= 0; n = nodes[static_cast<size_t>(n)].next)
+            out.push_back(nodes[static_cast<size_t>(n)].event);
+    }
+};
+
+// What one judged contribution adds: to the plain image unless pruning drops it, and to
+// every criterion it matches.
+double bookByCriteria(uint64_t matched, bool prune, double value, std::vector<double>& by) {
+    for (uint64_t m = matched; m != 0; m &= m - 1)
+        by[static_cast<size_t>(std::countr_zero(m))] += value;
+    return prune && matched == 0 ? 0.0 : value;
+}
 
 }  // namespace
 
@@ -169,134 +221,228 @@ BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& dete
     const uint64_t perPixel = options.raysPerPixel;
     const int pixels = detector.pixelCount();
 
+    const PathJudge* judge = options.judge;
+    const size_t criteria = judge ? static_cast<size_t>(judge->count()) : 0;
+    const bool prune = judge && options.prune;
+    const size_t sources = ts.sources.size();
+
     std::vector<PixelOutput> out(static_cast<size_t>(pixels));
-    tbb::parallel_for(tbb::blocked_range<int>(0, pixels, 64), [&](const tbb::blocked_range<int>& r) {
-        std::vector<Branch> stack;
-        for (int p = r.begin(); p != r.end(); ++p) {
-            PixelOutput& po = out[static_cast<size_t>(p)];
-            po.visible.assign(perPixel, 0.0);
-            po.direct.assign(perPixel, 0.0);
-            for (uint64_t k = 0; k < perPixel; ++k) {
-                CounterRng rng(options.seed, static_cast<uint64_t>(p) * perPixel + k);
-                const PixelRay pr = samplePixelRay(detector, p, aperture, rng);
-                const double u = rng.uniform();  // the wavelength
-                if (!(pr.pdf > 0.0) || !(pr.importance > 0.0) || !(pr.cosPixel > 0.0)) continue;
-                const int w = std::min(wavelengths - 1, static_cast<int>(u * wavelengths));
-                const double wavelengthNm = media.wavelengthNm(w);
-                const double start = pr.importance * pr.cosPixel / pr.pdf /
-                                     static_cast<double>(perPixel) * wavelengths;
-                double seen = 0.0, direct = 0.0;
-                stack.clear();
-                stack.push_back({pr.ray, start, detectorObject, -1, 0, 0});
-                while (!stack.empty()) {
-                    Branch br = stack.back();
-                    stack.pop_back();
-                    const auto hit = scene.closestHit(br.ray, kInfinity, br.startObject,
-                                                      br.startPrimitive);
-                    const double tHit = hit ? hit->t : kInfinity;
-                    // Sources seen along the segment (they block nothing).
-                    const double alpha = media.absorptionPerMm(br.medium, w);
-                    for (size_t si = 0; si < ts.sources.size(); ++si) {
-                        if (!options.visibleSources.empty() && !options.visibleSources[si])
-                            continue;
-                        const Source& s = ts.sources[si];
-                        const auto t = s.crossing(br.ray, tHit);
-                        if (!t) continue;
-                        const Vec3 x = br.ray.origin + *t * br.ray.direction;
-                        const double radiance = s.emitted(x, -br.ray.direction, w);
-                        seen += br.weight * (alpha > 0.0 ? std::exp(-alpha * *t) : 1.0) * radiance;
+    tbb::parallel_for(
+        tbb::blocked_range<int>(0, pixels, 64), [&](const tbb::blocked_range<int>& r) {
+            std::vector<Branch> stack;
+            EventTree tree;
+            std::vector<PathEvent> suffix;
+            std::vector<std::byte> state(judge ? judge->stateBytes() : 0),
+                scratch(judge ? judge->stateBytes() : 0);
+            std::vector<double> perSourceSide(2 * sources);
+            // The criteria the path [Emit(source) head] + suffix matches.
+            auto judged = [&](int source, int medium, const PathEvent* head) {
+                judge->reset(state.data());
+                PathEvent e;
+                e.type = EventType::Emit;
+                e.object = source;
+                e.mediumBefore = e.mediumAfter = static_cast<int16_t>(medium);
+                judge->push(state.data(), e);
+                if (head) judge->push(state.data(), *head);
+                return judge->matches(state.data(), suffix, scratch.data());
+            };
+            for (int p = r.begin(); p != r.end(); ++p) {
+                PixelOutput& po = out[static_cast<size_t>(p)];
+                po.visible.assign(perPixel, 0.0);
+                po.direct.assign(perPixel, 0.0);
+                po.visibleBy.assign(criteria, 0.0);
+                po.directBy.assign(criteria, 0.0);
+                for (uint64_t k = 0; k < perPixel; ++k) {
+                    CounterRng rng(options.seed, static_cast<uint64_t>(p) * perPixel + k);
+                    const PixelRay pr = samplePixelRay(detector, p, aperture, rng);
+                    const double u = rng.uniform();  // the wavelength
+                    if (!(pr.pdf > 0.0) || !(pr.importance > 0.0) || !(pr.cosPixel > 0.0)) continue;
+                    const int w = std::min(wavelengths - 1, static_cast<int>(u * wavelengths));
+                    const double wavelengthNm = media.wavelengthNm(w);
+                    const double start = pr.importance * pr.cosPixel / pr.pdf /
+                                         static_cast<double>(perPixel) * wavelengths;
+                    double seen = 0.0, direct = 0.0;
+                    stack.clear();
+                    stack.push_back({pr.ray, start, detectorObject, -1, 0, 0, 0});
+                    if (judge) {
+                        PathEvent hitEvent;
+                        hitEvent.type = EventType::DetectorHit;
+                        hitEvent.object = detectorObject;
+                        tree.start(hitEvent);
                     }
-                    if (!hit) continue;
-                    ++po.segments;
-                    if (alpha > 0.0) br.weight *= std::exp(-alpha * hit->t);
-                    if (hit->object == detectorObject ||
-                        ts.detectorOfObject[hit->object] >= 0)
-                        continue;  // a detector absorbs
-                    const Interaction in = interact(ts, *hit, br.ray.direction, w, wavelengthNm,
-                                                    TransportMode::Importance);
-                    bool scatters = false;
-                    double specular = 0.0;
-                    for (int c = 0; c < in.count; ++c) {
-                        scatters |= in.children[c].scatter;
-                        if (!in.children[c].scatter) specular += in.children[c].share;
-                    }
-                    bool store = scatters;
-                    double vpWeight = br.weight;
-                    if (scatters && options.viewPointRelativeWeight > 0.0) {
-                        const double floor = options.viewPointRelativeWeight * start;
-                        const double u = rng.uniform();  // drawn at every scattering hit
-                        if (vpWeight < floor) {
-                            store = u * floor < vpWeight;
-                            vpWeight = floor;
+                    while (!stack.empty()) {
+                        Branch br = stack.back();
+                        stack.pop_back();
+                        const auto hit =
+                            scene.closestHit(br.ray, kInfinity, br.startObject, br.startPrimitive);
+                        const double tHit = hit ? hit->t : kInfinity;
+                        // Sources seen along the segment (they block nothing).
+                        const double alpha = media.absorptionPerMm(br.medium, w);
+                        for (size_t si = 0; si < ts.sources.size(); ++si) {
+                            if (!options.visibleSources.empty() && !options.visibleSources[si])
+                                continue;
+                            const Source& s = ts.sources[si];
+                            const auto t = s.crossing(br.ray, tHit);
+                            if (!t) continue;
+                            const Vec3 x = br.ray.origin + *t * br.ray.direction;
+                            const double radiance = s.emitted(x, -br.ray.direction, w);
+                            const double value =
+                                br.weight * (alpha > 0.0 ? std::exp(-alpha * *t) : 1.0) * radiance;
+                            if (!judge) {
+                                seen += value;
+                                continue;
+                            }
+                            suffix.clear();
+                            tree.suffix(br.node, suffix);
+                            seen += bookByCriteria(judged(static_cast<int>(si), br.medium, nullptr),
+                                                   prune, value, po.visibleBy);
                         }
-                    }
-                    if (store) {
-                        ViewPoint v;
-                        v.positionMm = hit->point;
-                        v.normal = hit->normal;
-                        v.toDetector = -br.ray.direction;
-                        v.object = hit->object;
-                        v.primitive = hit->primitive;
-                        v.pixel = p;
-                        v.wavelength = w;
-                        v.medium = hit->mediumFrom;
-                        v.otherMedium = hit->mediumTo;
-                        v.fromFront = hit->fromFront;
-                        v.weight = vpWeight;
-                        if (options.direct) direct += directAt(ts, v, wavelengthNm, rng);
-                        po.viewPoints.push_back(v);
-                    }
-                    if (!(specular > 0.0) || br.depth >= options.maxSpecularDepth) continue;
-                    auto push = [&](const InteractionChild& c, double weight) {
-                        Branch next;
-                        next.ray = {hit->point, c.direction};
-                        next.weight = weight;
-                        next.startObject = hit->object;
-                        next.startPrimitive = hit->primitive;
-                        next.medium = c.medium;
-                        next.depth = br.depth + 1;
-                        stack.push_back(next);
-                    };
-                    if (options.split) {
+                        if (!hit) continue;
+                        ++po.segments;
+                        if (alpha > 0.0) br.weight *= std::exp(-alpha * hit->t);
+                        if (hit->object == detectorObject || ts.detectorOfObject[hit->object] >= 0)
+                            continue;  // a detector absorbs
+                        const Interaction in = interact(ts, *hit, br.ray.direction, w, wavelengthNm,
+                                                        TransportMode::Importance);
+                        bool scatters = false;
+                        double specular = 0.0;
                         for (int c = 0; c < in.count; ++c) {
-                            const InteractionChild& child = in.children[c];
-                            if (child.scatter || !(child.share > 0.0)) continue;
-                            const double weight = br.weight * child.share;
-                            if (weight < options.minRelativeWeight * start) continue;
-                            push(child, weight);
+                            scatters |= in.children[c].scatter;
+                            if (!in.children[c].scatter) specular += in.children[c].share;
                         }
-                    } else {
-                        // One specular child, chosen by weight, carries their sum.
-                        const double x = rng.uniform() * specular;
-                        double sum = 0.0;
-                        int chosen = -1;
-                        for (int c = 0; c < in.count; ++c) {
-                            if (in.children[c].scatter) continue;
-                            chosen = c;
-                            sum += in.children[c].share;
-                            if (x < sum) break;
+                        bool store = scatters;
+                        double vpWeight = br.weight;
+                        if (scatters && options.viewPointRelativeWeight > 0.0) {
+                            const double floor = options.viewPointRelativeWeight * start;
+                            const double u = rng.uniform();  // drawn at every scattering hit
+                            if (vpWeight < floor) {
+                                store = u * floor < vpWeight;
+                                vpWeight = floor;
+                            }
                         }
-                        push(in.children[chosen], br.weight * specular);
+                        if (store) {
+                            ViewPoint v;
+                            v.positionMm = hit->point;
+                            v.normal = hit->normal;
+                            v.toDetector = -br.ray.direction;
+                            v.object = hit->object;
+                            v.primitive = hit->primitive;
+                            v.pixel = p;
+                            v.wavelength = w;
+                            v.medium = hit->mediumFrom;
+                            v.otherMedium = hit->mediumTo;
+                            v.fromFront = hit->fromFront;
+                            v.weight = vpWeight;
+                            if (judge) {
+                                v.firstEvent = static_cast<uint32_t>(po.events.size());
+                                suffix.clear();
+                                tree.suffix(br.node, suffix);
+                                v.eventCount = static_cast<uint32_t>(suffix.size());
+                                po.events.insert(po.events.end(), suffix.begin(), suffix.end());
+                            }
+                            if (options.direct && !judge) {
+                                direct += directAt(ts, v, wavelengthNm, rng);
+                            } else if (options.direct) {
+                                std::fill(perSourceSide.begin(), perSourceSide.end(), 0.0);
+                                directAt(ts, v, wavelengthNm, rng, perSourceSide);
+                                for (size_t k = 0; k < perSourceSide.size(); ++k) {
+                                    if (perSourceSide[k] == 0.0) continue;
+                                    // The light's own scatter event: from its side of the surface.
+                                    const bool crosses = k % 2 == 1;
+                                    PathEvent scatter;
+                                    scatter.type = crosses ? EventType::ScatterTransmit
+                                                           : EventType::ScatterReflect;
+                                    scatter.object = v.object;
+                                    scatter.face = v.primitive;
+                                    scatter.mediumBefore =
+                                        static_cast<int16_t>(crosses ? v.otherMedium : v.medium);
+                                    scatter.mediumAfter = static_cast<int16_t>(v.medium);
+                                    direct += bookByCriteria(judged(static_cast<int>(k / 2),
+                                                                    scatter.mediumBefore, &scatter),
+                                                             prune, perSourceSide[k], po.directBy);
+                                }
+                            }
+                            po.viewPoints.push_back(v);
+                        }
+                        if (!(specular > 0.0) || br.depth >= options.maxSpecularDepth) continue;
+                        auto push = [&](const InteractionChild& c, double weight) {
+                            Branch next;
+                            next.ray = {hit->point, c.direction};
+                            next.weight = weight;
+                            next.startObject = hit->object;
+                            next.startPrimitive = hit->primitive;
+                            next.medium = c.medium;
+                            next.depth = br.depth + 1;
+                            if (judge) {
+                                // Forward, light comes from the child's side and leaves into ours.
+                                PathEvent e;
+                                e.type = c.event;
+                                e.object = hit->object;
+                                e.face = hit->primitive;
+                                e.mediumBefore = static_cast<int16_t>(c.medium);
+                                e.mediumAfter = static_cast<int16_t>(br.medium);
+                                next.node = tree.add(e, br.node);
+                                if (prune) {
+                                    suffix.clear();
+                                    tree.suffix(next.node, suffix);
+                                    if (judge->suffixMayMatch(suffix) == 0) {
+                                        ++po.pruned;
+                                        return;
+                                    }
+                                }
+                            }
+                            stack.push_back(next);
+                        };
+                        if (options.split) {
+                            for (int c = 0; c < in.count; ++c) {
+                                const InteractionChild& child = in.children[c];
+                                if (child.scatter || !(child.share > 0.0)) continue;
+                                const double weight = br.weight * child.share;
+                                if (weight < options.minRelativeWeight * start) continue;
+                                push(child, weight);
+                            }
+                        } else {
+                            // One specular child, chosen by weight, carries their sum.
+                            const double x = rng.uniform() * specular;
+                            double sum = 0.0;
+                            int chosen = -1;
+                            for (int c = 0; c < in.count; ++c) {
+                                if (in.children[c].scatter) continue;
+                                chosen = c;
+                                sum += in.children[c].share;
+                                if (x < sum) break;
+                            }
+                            push(in.children[chosen], br.weight * specular);
+                        }
                     }
+                    po.visible[k] = seen;
+                    po.direct[k] = direct;
                 }
-                po.visible[k] = seen;
-                po.direct[k] = direct;
             }
-        }
-    });
+        });
 
     BackwardResult result;
     result.visible = DetectorImage(detector.geometry());
     result.direct = DetectorImage(detector.geometry());
+    result.visibleByCriterion.assign(criteria, std::vector<double>(static_cast<size_t>(pixels)));
+    result.directByCriterion.assign(criteria, std::vector<double>(static_cast<size_t>(pixels)));
     for (int p = 0; p < pixels; ++p) {
         PixelOutput& po = out[static_cast<size_t>(p)];
         for (double v : po.visible)
             if (v != 0.0) result.visible.add(p, v);
         for (double v : po.direct)
             if (v != 0.0) result.direct.add(p, v);
+        const uint32_t offset = static_cast<uint32_t>(result.events.size());
+        for (ViewPoint& v : po.viewPoints) v.firstEvent += offset;
+        result.events.insert(result.events.end(), po.events.begin(), po.events.end());
         result.viewPoints.insert(result.viewPoints.end(), po.viewPoints.begin(),
                                  po.viewPoints.end());
+        for (size_t k = 0; k < criteria; ++k) {
+            result.visibleByCriterion[k][static_cast<size_t>(p)] = po.visibleBy[k];
+            result.directByCriterion[k][static_cast<size_t>(p)] = po.directBy[k];
+        }
         result.segments += po.segments;
+        result.prunedBranches += po.pruned;
     }
     result.rays = static_cast<uint64_t>(pixels) * perPixel;
     return result;

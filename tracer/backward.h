@@ -36,20 +36,22 @@
 
 #include <cstdint>
 #include <ostream>
+#include <span>
 #include <vector>
 
 #include "tracer/detector.h"
 #include "tracer/interaction.h"
+#include "tracer/path_judge.h"
 
 namespace veil {
 
 struct BackwardOptions {
     uint64_t raysPerPixel = 16;
     uint64_t seed = 1;
-    bool split = true;               // every specular child, or one chosen by weight
-    int maxSpecularDepth = 64;       // specular events followed along a branch
+    bool split = true;                // every specular child, or one chosen by weight
+    int maxSpecularDepth = 64;        // specular events followed along a branch
     double minRelativeWeight = 1e-6;  // split mode: branches below this share of the ray end
-    bool direct = true;              // next-event estimation at the view points
+    bool direct = true;               // next-event estimation at the view points
     // View point roulette: a view point whose weight is below this share of its ray's
     // starting weight is stored with probability weight / (share * start) and then carries
     // share * start (unbiased). Keeps the weak split branches (ghost reflections) from
@@ -59,6 +61,13 @@ struct BackwardOptions {
     // The renderer counts the sun and the delta kinds with its photons instead (light tracing
     // finds a 0.5 degree sun far better than rays searching for it from the pixels).
     std::vector<bool> visibleSources;
+    // Path criteria (tracer/path_judge.h), or none. With them every view point keeps its
+    // backward events (ViewPoint::firstEvent) and the visible and direct light is also split
+    // by criterion (BackwardResult::visibleByCriterion, directByCriterion). With prune, a
+    // branch stops as soon as no photon could make its path match any criterion, and the
+    // plain images count only light that matches at least one.
+    const PathJudge* judge = nullptr;
+    bool prune = false;
 };
 std::ostream& operator<<(std::ostream& os, const BackwardOptions& o);
 
@@ -69,20 +78,30 @@ struct ViewPoint {
     int object = -1;
     int primitive = 0;
     int pixel = 0;
-    int wavelength = 0;  // model wavelength index
-    int medium = 0;      // where the light leaving toward the detector travels
-    int otherMedium = 0;  // the medium across the surface
+    int wavelength = 0;     // model wavelength index
+    int medium = 0;         // where the light leaving toward the detector travels
+    int otherMedium = 0;    // the medium across the surface
     bool fromFront = true;  // toDetector points to the side `normal` points to
-    double weight = 0.0;  // multiplies the radiance leaving along toDetector (unit/(mm^2 sr))
+    double weight = 0.0;    // multiplies the radiance leaving along toDetector (unit/(mm^2 sr))
+    // With criteria: the path from here to the detector as light travels it, the events
+    // after this point's own scatter event up to the detector hit, in
+    // BackwardResult::events[firstEvent, firstEvent + eventCount).
+    uint32_t firstEvent = 0;
+    uint32_t eventCount = 0;
 };
 std::ostream& operator<<(std::ostream& os, const ViewPoint& v);
 
 struct BackwardResult {
     DetectorImage visible;
-    DetectorImage direct;  // empty sums when options.direct is false
+    DetectorImage direct;               // empty sums when options.direct is false
     std::vector<ViewPoint> viewPoints;  // in pixel order, then ray order
+    std::vector<PathEvent> events;      // the view points' backward events (with criteria)
+    // With criteria: [criterion][pixel], the flux of the visible and direct light whose
+    // joined path matches the criterion (sums over the pixel's rays).
+    std::vector<std::vector<double>> visibleByCriterion, directByCriterion;
     uint64_t rays = 0;
     uint64_t segments = 0;
+    uint64_t prunedBranches = 0;  // backward branches stopped by the criteria (prune)
     // The visible image's total flux variance: the sum of its pixels' (independent) ones.
     double visibleTotalVariance(uint64_t raysPerPixel) const;
     double directTotalVariance(uint64_t raysPerPixel) const;
@@ -104,7 +123,11 @@ SurfaceContext lightContext(const TransportScene& ts, const ViewPoint& v,
 // The direct component at one view point: one sample per source toward it, each with its
 // shadow ray, two uniforms per source from rng (in source order, drawn whether or not the
 // sample counts). The radiance leaving toward the detector times v.weight.
-double directAt(const TransportScene& ts, const ViewPoint& v, double wavelengthNm,
-                CounterRng& rng);
+double directAt(const TransportScene& ts, const ViewPoint& v, double wavelengthNm, CounterRng& rng);
+// The same, also adding each contribution to perSourceSide[2 s + side]: source s, side 0 when
+// the light scatters back into the detector's side (ScatterReflect), 1 when it crosses the
+// surface (ScatterTransmit). perSourceSide holds 2 x sources values.
+double directAt(const TransportScene& ts, const ViewPoint& v, double wavelengthNm, CounterRng& rng,
+                std::span<double> perSourceSide);
 
 }  // namespace veil

@@ -4,6 +4,7 @@
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -50,6 +51,8 @@ void RenderOptions::check() const {
     if (maxPhotonSegments < 1) fail("the maximum photon segments must be at least 1");
     if (!(photonMinRelativeFlux >= 0.0 && photonMinRelativeFlux < 1.0))
         fail("the photon cull threshold must lie in [0, 1)");
+    if (!(detectorRadiusPixels >= 0.0 && detectorRadiusPixels <= 1000.0))
+        fail("the detector smoothing radius must lie in [0, 1000] pixels");
 }
 
 std::ostream& operator<<(std::ostream& os, const RenderOptions& o) {
@@ -82,8 +85,8 @@ void forEachBoundingPoint(const Scene& scene, const SceneObject& o, F&& f) {
     }
     const MeshRef& ref = std::get<MeshRef>(o.geometry);
     const TriangleMesh& m = scene.meshes()[ref.mesh];
-    const size_t end = ref.triangleCount == 0 ? m.triangles.size()
-                                              : size_t(ref.firstTriangle) + ref.triangleCount;
+    const size_t end =
+        ref.triangleCount == 0 ? m.triangles.size() : size_t(ref.firstTriangle) + ref.triangleCount;
     for (size_t t = ref.firstTriangle; t < end; ++t)
         for (uint32_t v : m.triangles[t]) f(m.vertices[v]);
 }
@@ -107,8 +110,8 @@ ExitAperture exitApertureFor(const Scene& scene, const DetectorGeometry& detecto
         });
         if (objectZ == -kInfinity) continue;
         if (!(objectZ < 0.0))
-            throw ModelError(o.name, "lies beside or behind detector '" + detector.name +
-                                         "' (" + std::to_string(objectZ) +
+            throw ModelError(o.name, "lies beside or behind detector '" + detector.name + "' (" +
+                                         std::to_string(objectZ) +
                                          " mm past its plane): the renderer needs every object "
                                          "in front of the detector's sensitive side");
         nearestZ = std::max(nearestZ, objectZ);
@@ -131,34 +134,45 @@ double defaultInitialRadius(const TransportScene& ts) {
         forEachBoundingPoint(scene, o, [&](const Vec3& p) { b.extend(p); });
     }
     if (b.empty())
-        throw ModelError("scene", "no surface scatters: there is no diffuse stray light to render "
-                                  "(give mechanics or lens edges a property with a scatter model)");
+        throw ModelError("scene",
+                         "no surface scatters: there is no diffuse stray light to render "
+                         "(give mechanics or lens edges a property with a scatter model)");
     return 0.01 * glm::length(b.hi - b.lo);
 }
 
 // Render State
 
-RenderState::RenderState(const DetectorGeometry& geometry, double initialRadiusMm, double alpha)
+RenderState::RenderState(const DetectorGeometry& geometry, double initialRadiusMm, double alpha,
+                         int criteria)
     : radiusMm_(initialRadiusMm), initialRadiusMm_(initialRadiusMm), alpha_(alpha) {
     for (DetectorImage& s : sums_) s = DetectorImage(geometry);
+    criterionSums_.assign(static_cast<size_t>(std::max(criteria, 0)), sums_);
 }
 
-void RenderState::add(const RenderPass& pass) {
-    const int pixels = sums_[0].pixelCount();
+void RenderState::addTo(Sums& sums, const std::array<std::vector<double>, kRenderComponents>& x) {
+    const int pixels = sums[0].pixelCount();
     RayContribution rc;
     std::vector<double> total(static_cast<size_t>(pixels), 0.0);
     for (int c = 0; c < kRenderComponents; ++c) {
-        const std::vector<double>& x = pass.pixels[c];
         for (int p = 0; p < pixels; ++p) {
-            if (x[p] == 0.0) continue;
-            rc.add(p, x[p]);
-            total[p] += x[p];
+            if (x[c][p] == 0.0) continue;
+            rc.add(p, x[c][p]);
+            total[p] += x[c][p];
         }
-        sums_[c].add(rc);
+        sums[c].add(rc);
     }
     for (int p = 0; p < pixels; ++p)
         if (total[p] != 0.0) rc.add(p, total[p]);
-    sums_[kRenderComponents].add(rc);
+    sums[kRenderComponents].add(rc);
+}
+
+void RenderState::add(const RenderPass& pass) {
+    if (pass.criteria.size() != criterionSums_.size())
+        throw std::invalid_argument("RenderState::add: the pass has " +
+                                    std::to_string(pass.criteria.size()) + " criteria, the state " +
+                                    std::to_string(criterionSums_.size()));
+    addTo(sums_, pass.pixels);
+    for (size_t k = 0; k < criterionSums_.size(); ++k) addTo(criterionSums_[k], pass.criteria[k]);
     ++passes_;
     // Knaus and Zwicker: r_{k+1}^2 = r_k^2 (k + alpha) / (k + 1), k the pass just added.
     const double k = passes_;
@@ -202,6 +216,21 @@ double RenderState::meanRelativeError(RenderComponent c) const {
     return litError(component(c), static_cast<uint64_t>(passes_)).second;
 }
 
+DetectorImage RenderState::criterionComponent(int k, RenderComponent c) const {
+    return criterionSums_.at(static_cast<size_t>(k))[static_cast<int>(c)].scaled(
+        passes_ > 0 ? 1.0 / passes_ : 0.0);
+}
+
+DetectorImage RenderState::criterionTotal(int k) const {
+    return criterionSums_.at(static_cast<size_t>(k))[kRenderComponents].scaled(
+        passes_ > 0 ? 1.0 / passes_ : 0.0);
+}
+
+double RenderState::criterionMeanRelativeError(int k) const {
+    if (passes_ < 2) return kInfinity;
+    return litError(criterionTotal(k), static_cast<uint64_t>(passes_)).second;
+}
+
 int RenderState::litPixels() const {
     if (passes_ < 1) return 0;
     return litError(total(), static_cast<uint64_t>(passes_)).first;
@@ -210,6 +239,10 @@ int RenderState::litPixels() const {
 bool RenderState::sameSums(const RenderState& o) const {
     for (size_t i = 0; i < sums_.size(); ++i)
         if (!sums_[i].sameSums(o.sums_[i])) return false;
+    if (criterionSums_.size() != o.criterionSums_.size()) return false;
+    for (size_t k = 0; k < criterionSums_.size(); ++k)
+        for (size_t i = 0; i < sums_.size(); ++i)
+            if (!criterionSums_[k][i].sameSums(o.criterionSums_[k][i])) return false;
     return passes_ == o.passes_ && radiusMm_ == o.radiusMm_ &&
            initialRadiusMm_ == o.initialRadiusMm_ && alpha_ == o.alpha_;
 }
@@ -217,7 +250,7 @@ bool RenderState::sameSums(const RenderState& o) const {
 namespace {
 
 constexpr char kMagic[8] = {'V', 'E', 'I', 'L', 'R', 'N', 'D', 'R'};
-constexpr uint32_t kVersion = 1;
+constexpr uint32_t kVersion = 2;  // 2: the criteria's sums follow the plain ones
 
 template <class T>
 void put(std::ostream& os, const T& v) {
@@ -256,14 +289,19 @@ void RenderState::write(const std::filesystem::path& path, uint64_t fingerprint)
         put(os, radiusMm_);
         put(os, initialRadiusMm_);
         put(os, alpha_);
-        for (const DetectorImage& s : sums_) {
-            putVector(os, s.fluxes());
-            putVector(os, s.fluxesSquared());
-            putVector(os, s.counts());
-            put(os, s.totalFlux());
-            put(os, s.totalFluxSquared());
-            put(os, s.totalCount());
-        }
+        put(os, int32_t(criterionSums_.size()));
+        auto putSums = [&](const Sums& sums) {
+            for (const DetectorImage& s : sums) {
+                putVector(os, s.fluxes());
+                putVector(os, s.fluxesSquared());
+                putVector(os, s.counts());
+                put(os, s.totalFlux());
+                put(os, s.totalFluxSquared());
+                put(os, s.totalCount());
+            }
+        };
+        putSums(sums_);
+        for (const Sums& sums : criterionSums_) putSums(sums);
         os.flush();
         if (!os) {
             std::error_code ec;
@@ -288,12 +326,12 @@ RenderState RenderState::read(const std::filesystem::path& path, uint64_t finger
     };
     char magic[sizeof kMagic];
     is.read(magic, sizeof magic);
-    if (!is || std::memcmp(magic, kMagic, sizeof kMagic) != 0)
-        fail("not a veil render checkpoint");
+    if (!is || std::memcmp(magic, kMagic, sizeof kMagic) != 0) fail("not a veil render checkpoint");
     if (get<uint32_t>(is) != kVersion) fail("a checkpoint of another veil version");
     if (get<uint64_t>(is) != fingerprint)
-        fail("the checkpoint belongs to another scene or other render options (seed, rays per "
-             "pixel, photons, radius, alpha, roulette, criteria must match)");
+        fail(
+            "the checkpoint belongs to another scene or other render options (seed, rays per "
+            "pixel, photons, radius, alpha, roulette, criteria must match)");
     const int32_t nx = get<int32_t>(is), ny = get<int32_t>(is);
     if (nx != geometry.pixelsX || ny != geometry.pixelsY)
         fail("the checkpoint's detector grid differs from the scene's");
@@ -302,17 +340,24 @@ RenderState RenderState::read(const std::filesystem::path& path, uint64_t finger
     s.radiusMm_ = get<double>(is);
     s.initialRadiusMm_ = get<double>(is);
     s.alpha_ = get<double>(is);
+    const int32_t criteria = get<int32_t>(is);
+    if (!is || criteria < 0 || criteria > 64) fail("the checkpoint is damaged");
     const size_t n = static_cast<size_t>(geometry.pixelCount());
-    for (DetectorImage& img : s.sums_) {
-        auto flux = getVector<double>(is, n);
-        auto flux2 = getVector<double>(is, n);
-        auto counts = getVector<uint64_t>(is, n);
-        const double t = get<double>(is), t2 = get<double>(is);
-        const uint64_t tc = get<uint64_t>(is);
-        if (!is) fail("the checkpoint is truncated");
-        img = DetectorImage::fromSums(geometry, std::move(flux), std::move(flux2),
-                                      std::move(counts), t, t2, tc);
-    }
+    auto getSums = [&](Sums& sums) {
+        for (DetectorImage& img : sums) {
+            auto flux = getVector<double>(is, n);
+            auto flux2 = getVector<double>(is, n);
+            auto counts = getVector<uint64_t>(is, n);
+            const double t = get<double>(is), t2 = get<double>(is);
+            const uint64_t tc = get<uint64_t>(is);
+            if (!is) fail("the checkpoint is truncated");
+            img = DetectorImage::fromSums(geometry, std::move(flux), std::move(flux2),
+                                          std::move(counts), t, t2, tc);
+        }
+    };
+    getSums(s.sums_);
+    s.criterionSums_.resize(static_cast<size_t>(criteria));
+    for (Sums& sums : s.criterionSums_) getSums(sums);
     if (s.passes_ < 0 || !(s.radiusMm_ > 0.0)) fail("the checkpoint is damaged");
     return s;
 }
@@ -320,9 +365,15 @@ RenderState RenderState::read(const std::filesystem::path& path, uint64_t finger
 // Renderer
 
 Renderer::Renderer(const TransportScene& ts, const DetectorImage& detector, ExitAperture aperture,
-                   RenderOptions options)
-    : ts_(ts), detector_(detector.geometry()), aperture_(aperture), options_(options) {
+                   RenderOptions options, const PathJudge* judge)
+    : ts_(ts),
+      detector_(detector.geometry()),
+      aperture_(aperture),
+      options_(options),
+      judge_(judge) {
     options_.check();
+    if (options_.prune && !judge_)
+        throw std::invalid_argument("pruning needs at least one path criterion");
 }
 
 namespace {
@@ -364,8 +415,8 @@ class ViewPointGrid {
   private:
     int64_t cellIndex(double x) const { return static_cast<int64_t>(std::floor(x / cell_)); }
     size_t bucket(int64_t x, int64_t y, int64_t z) const {
-        const uint64_t h = uint64_t(x) * 73856093u ^ uint64_t(y) * 19349663u ^
-                           uint64_t(z) * 83492791u;
+        const uint64_t h =
+            uint64_t(x) * 73856093u ^ uint64_t(y) * 19349663u ^ uint64_t(z) * 83492791u;
         return static_cast<size_t>((h ^ (h >> 29)) & mask_);
     }
     double r_ = 0.0, cell_ = 1.0;
@@ -376,7 +427,9 @@ class ViewPointGrid {
 
 struct PhotonAccumulator {
     std::vector<double> visible, caustic, secondary;
-    uint64_t photons = 0, segments = 0, gathers = 0;
+    // With criteria: [criterion] {visible, caustic, secondary}.
+    std::vector<std::array<std::vector<double>, 3>> by;
+    uint64_t photons = 0, segments = 0, gathers = 0, pruned = 0;
 };
 
 struct PhotonBranch {
@@ -385,6 +438,8 @@ struct PhotonBranch {
     int medium = 0, startObject = -1, startPrimitive = -1;
     bool specular = false, scattered = false;  // the events it has seen
     int segments = 0;
+    size_t state = 0;               // with criteria: its path state's offset in the photon's arena
+    uint64_t alive = ~uint64_t{0};  // criteria its path may still match
 };
 
 }  // namespace
@@ -402,6 +457,8 @@ BackwardOptions Renderer::backwardOptions(int k) const {
     bo.minRelativeWeight = options_.minRelativeWeight;
     bo.direct = true;
     bo.viewPointRelativeWeight = options_.viewPointRelativeWeight;
+    bo.judge = judge_;
+    bo.prune = options_.prune;
     for (const Source& s : ts_.sources) bo.visibleSources.push_back(!photonsSeeSource(s));
     return bo;
 }
@@ -442,14 +499,76 @@ RenderPass Renderer::runPass(int k, double radiusMm) const {
 
     const int renderedObject = detector_.geometry().object;
     const DetectorImage& grid0 = detector_;
+    // The detector's smoothing disk this pass (mm), shrinking with the gathering radius.
+    const DetectorGeometry& dg = grid0.geometry();
+    const double rho = options_.detectorRadiusPixels *
+                       std::max(dg.pixelWidthMm(), dg.pixelHeightMm()) *
+                       (options_.initialRadiusMm > 0.0 ? radiusMm / options_.initialRadiusMm : 1.0);
+    // The pixels that share a deposit landing at `point`: those whose centres lie within rho
+    // (its own pixel alone when none does); none when it misses the grid.
+    auto splatCells = [&](const Vec3& point, std::vector<int>& cells) {
+        cells.clear();
+        const auto own = grid0.pixelOf(point);
+        if (!own) return;
+        if (rho > 0.0) {
+            const Vec3 local = dg.frame.toLocalPoint(point);
+            const double pw = dg.pixelWidthMm(), ph = dg.pixelHeightMm();
+            const int c0 = std::max(0, int(std::floor((local.x - rho + 0.5 * dg.widthMm) / pw)));
+            const int c1 =
+                std::min(dg.pixelsX - 1, int(std::floor((local.x + rho + 0.5 * dg.widthMm) / pw)));
+            const int r0 = std::max(0, int(std::floor((0.5 * dg.heightMm - local.y - rho) / ph)));
+            const int r1 =
+                std::min(dg.pixelsY - 1, int(std::floor((0.5 * dg.heightMm - local.y + rho) / ph)));
+            for (int row = r0; row <= r1; ++row)
+                for (int col = c0; col <= c1; ++col) {
+                    const int p = grid0.pixelIndex(col, row);
+                    const Vec2 c = grid0.pixelCentreLocal(p);
+                    const double dx = c.x - local.x, dy = c.y - local.y;
+                    if (dx * dx + dy * dy <= rho * rho) cells.push_back(p);
+                }
+        }
+        if (cells.empty()) cells.push_back(*own);
+    };
+    auto splat = [](std::vector<double>& image, const std::vector<int>& cells, double flux) {
+        const double share = flux / static_cast<double>(cells.size());
+        for (int p : cells) image[static_cast<size_t>(p)] += share;
+    };
+    // Criteria: photon prefixes stream through the judge; a gather or a deposit judges the
+    // joined path (the photon's events, its scatter at the view point, the view point's
+    // backward events; or the detector hit).
+    const PathJudge* judge = judge_;
+    const size_t criteria = judge ? static_cast<size_t>(judge->count()) : 0;
+    const bool prune = judge && options_.prune;
+    const size_t stateBytes = judge ? judge->stateBytes() : 0;
+    const std::vector<PathEvent>& vpEvents = back.events;
+
     PhotonAccumulator identity;
     identity.visible.assign(static_cast<size_t>(pixels), 0.0);
     identity.caustic.assign(static_cast<size_t>(pixels), 0.0);
     identity.secondary.assign(static_cast<size_t>(pixels), 0.0);
+    identity.by.assign(criteria, {identity.visible, identity.caustic, identity.secondary});
     PhotonAccumulator acc = tbb::parallel_deterministic_reduce(
         tbb::blocked_range<uint64_t>(0, total, block), identity,
         [&](const tbb::blocked_range<uint64_t>& r, PhotonAccumulator a) {
             std::vector<PhotonBranch> stack;
+            std::vector<int> cells;
+            std::vector<std::byte> states, scratch(stateBytes);  // states: per branch
+            std::vector<PathEvent> suffix;
+            // Adds `value` to image slot `slot` (0 visible, 1 caustic, 2 secondary) of the
+            // plain accumulator unless pruning drops it, and of every criterion matched.
+            auto book = [&](int slot, uint64_t matched, const std::vector<int>* spread, int pixel,
+                            double value) {
+                auto into = [&](std::vector<double>& image) {
+                    if (spread)
+                        splat(image, *spread, value);
+                    else
+                        image[static_cast<size_t>(pixel)] += value;
+                };
+                std::vector<double>* plain[3] = {&a.visible, &a.caustic, &a.secondary};
+                if (!prune || matched != 0) into(*plain[slot]);
+                for (uint64_t m = matched; m != 0; m &= m - 1)
+                    into(a.by[static_cast<size_t>(std::countr_zero(m))][static_cast<size_t>(slot)]);
+            };
             for (uint64_t i = r.begin(); i < r.end(); ++i) {
                 const size_t sourceIndex = i / perSource;
                 const Source& source = ts_.sources[sourceIndex];
@@ -462,10 +581,29 @@ RenderPass Renderer::runPass(int k, double radiusMm) const {
                 const double rouletteFlux = options_.rouletteRelativeFlux * e.flux;
                 const double cullFlux = options_.photonMinRelativeFlux * e.flux;
                 stack.clear();
-                stack.push_back({e.ray, e.flux, 0, -1, -1, false, false, 0});
+                PhotonBranch first{e.ray, e.flux, 0, -1, -1, false, false, 0};
+                if (judge) {
+                    states.assign(stateBytes, std::byte{0});
+                    judge->reset(states.data());
+                    PathEvent emit;
+                    emit.type = EventType::Emit;
+                    emit.object = static_cast<int32_t>(sourceIndex);
+                    emit.flux = static_cast<float>(e.flux);
+                    first.alive = judge->push(states.data(), emit);
+                    if (prune && first.alive == 0) {
+                        ++a.pruned;
+                        continue;
+                    }
+                }
+                stack.push_back(first);
                 while (!stack.empty()) {
                     PhotonBranch br = stack.back();
                     stack.pop_back();
+                    // The criteria a path of this branch's events and `suffix` matches.
+                    auto judged = [&] {
+                        if (br.alive == 0) return uint64_t{0};
+                        return judge->matches(states.data() + br.state, suffix, scratch.data());
+                    };
                     for (; br.segments < options_.maxPhotonSegments; ++br.segments) {
                         const auto hit =
                             scene.closestHit(br.ray, kInfinity, br.startObject, br.startPrimitive);
@@ -476,9 +614,22 @@ RenderPass Renderer::runPass(int k, double radiusMm) const {
                         if (ts_.detectorOfObject[hit->object] >= 0) {
                             // Light that scattered nowhere lands here: the visible component
                             // of the sources the photons stand for.
-                            if (deposits && !br.scattered && hit->object == renderedObject)
-                                if (const auto p = grid0.pixelOf(hit->point))
-                                    a.visible[static_cast<size_t>(*p)] += br.flux;
+                            if (deposits && !br.scattered && hit->object == renderedObject) {
+                                splatCells(hit->point, cells);
+                                if (cells.empty()) break;
+                                uint64_t matched = 0;
+                                if (judge) {
+                                    PathEvent d;
+                                    d.type = EventType::DetectorHit;
+                                    d.object = hit->object;
+                                    d.face = hit->primitive;
+                                    d.mediumBefore = d.mediumAfter =
+                                        static_cast<int16_t>(br.medium);
+                                    suffix.assign(1, d);
+                                    matched = judged();
+                                }
+                                book(0, matched, &cells, 0, br.flux);
+                            }
                             break;
                         }
                         const Interaction in = interact(ts_, *hit, br.ray.direction, w,
@@ -486,9 +637,9 @@ RenderPass Renderer::runPass(int k, double radiusMm) const {
                         bool scatters = false;
                         for (int c = 0; c < in.count; ++c) scatters |= in.children[c].scatter;
                         if (scatters && (br.specular || br.scattered)) {
-                            std::vector<double>& target = br.scattered ? a.secondary : a.caustic;
-                            const auto [first, last] = grid.candidates(hit->point);
-                            for (const uint32_t* it = first; it != last; ++it) {
+                            const int slot = br.scattered ? 2 : 1;
+                            const auto [firstVp, lastVp] = grid.candidates(hit->point);
+                            for (const uint32_t* it = firstVp; it != lastVp; ++it) {
                                 const ViewPoint& v = vps[*it];
                                 if (v.object != hit->object || v.wavelength != w) continue;
                                 if (!(glm::dot(v.normal, hit->normal) > 0.0)) continue;
@@ -496,20 +647,54 @@ RenderPass Renderer::runPass(int k, double radiusMm) const {
                                 if (glm::dot(d, d) > r2) continue;
                                 const double f = in.property->bsdf(in.context, v.toDetector);
                                 if (!(f > 0.0)) continue;
-                                target[static_cast<size_t>(v.pixel)] +=
-                                    v.weight * br.flux * f * kernel;
                                 ++a.gathers;
+                                uint64_t matched = 0;
+                                if (judge && br.alive != 0) {
+                                    // The photon's scatter here toward the view point's pixel.
+                                    PathEvent sc;
+                                    const bool back = glm::dot(br.ray.direction, hit->normal) *
+                                                          glm::dot(v.toDetector, hit->normal) <
+                                                      0.0;
+                                    sc.type = back ? EventType::ScatterReflect
+                                                   : EventType::ScatterTransmit;
+                                    sc.object = hit->object;
+                                    sc.face = hit->primitive;
+                                    sc.mediumBefore = static_cast<int16_t>(br.medium);
+                                    sc.mediumAfter = static_cast<int16_t>(v.medium);
+                                    suffix.assign(1, sc);
+                                    suffix.insert(suffix.end(), vpEvents.begin() + v.firstEvent,
+                                                  vpEvents.begin() + v.firstEvent + v.eventCount);
+                                    matched = judged();
+                                }
+                                book(slot, matched, nullptr, v.pixel,
+                                     v.weight * br.flux * f * kernel);
                             }
                         }
                         if (in.count == 0) break;
-                        // Continue as child c with flux `flux`; false when it has no direction.
+                        // Continue as child c with flux `flux`; false when it has no direction
+                        // or no criterion can match its path any more (prune).
                         auto become = [&](PhotonBranch& b, int c, double flux) {
                             const auto dir = in.direction(c, rng);
                             if (!dir) return false;
-                            (in.children[c].scatter ? b.scattered : b.specular) = true;
+                            const InteractionChild& child = in.children[c];
+                            if (judge && b.alive != 0) {
+                                PathEvent ev;
+                                ev.type = child.event;
+                                ev.object = hit->object;
+                                ev.face = hit->primitive;
+                                ev.mediumBefore = static_cast<int16_t>(b.medium);
+                                ev.mediumAfter = static_cast<int16_t>(child.medium);
+                                ev.flux = static_cast<float>(b.flux);
+                                b.alive = judge->push(states.data() + b.state, ev);
+                            }
+                            if (prune && b.alive == 0) {
+                                ++a.pruned;
+                                return false;
+                            }
+                            (child.scatter ? b.scattered : b.specular) = true;
                             b.flux = flux;
                             b.ray = {hit->point, *dir};
-                            b.medium = in.children[c].medium;
+                            b.medium = child.medium;
                             b.startObject = hit->object;
                             b.startPrimitive = hit->primitive;
                             return true;
@@ -524,6 +709,12 @@ RenderPass Renderer::runPass(int k, double radiusMm) const {
                                 if (f < cullFlux) continue;
                                 PhotonBranch child = br;
                                 child.segments = br.segments + 1;
+                                if (judge) {  // its own copy of the path state
+                                    child.state = states.size();
+                                    states.resize(states.size() + stateBytes);
+                                    std::memcpy(states.data() + child.state,
+                                                states.data() + br.state, stateBytes);
+                                }
                                 if (become(child, k, f)) stack.push_back(child);
                             }
                             c = 0;
@@ -546,23 +737,39 @@ RenderPass Renderer::runPass(int k, double radiusMm) const {
             return a;
         },
         [](PhotonAccumulator a, const PhotonAccumulator& b) {
-            for (size_t p = 0; p < a.caustic.size(); ++p) {
-                a.visible[p] += b.visible[p];
-                a.caustic[p] += b.caustic[p];
-                a.secondary[p] += b.secondary[p];
-            }
+            auto addInto = [](std::vector<double>& x, const std::vector<double>& y) {
+                for (size_t p = 0; p < x.size(); ++p) x[p] += y[p];
+            };
+            addInto(a.visible, b.visible);
+            addInto(a.caustic, b.caustic);
+            addInto(a.secondary, b.secondary);
+            for (size_t k = 0; k < a.by.size(); ++k)
+                for (size_t s = 0; s < 3; ++s) addInto(a.by[k][s], b.by[k][s]);
             a.photons += b.photons;
             a.segments += b.segments;
             a.gathers += b.gathers;
+            a.pruned += b.pruned;
             return a;
         });
     std::vector<double>& visible = out.pixels[static_cast<int>(RenderComponent::Visible)];
     for (int p = 0; p < pixels; ++p) visible[static_cast<size_t>(p)] += acc.visible[p];
     out.pixels[static_cast<int>(RenderComponent::Caustic)] = std::move(acc.caustic);
     out.pixels[static_cast<int>(RenderComponent::Secondary)] = std::move(acc.secondary);
+    out.criteria.resize(criteria);
+    for (size_t k = 0; k < criteria; ++k) {
+        auto& x = out.criteria[k];
+        x[static_cast<int>(RenderComponent::Visible)] = std::move(back.visibleByCriterion[k]);
+        x[static_cast<int>(RenderComponent::Direct)] = std::move(back.directByCriterion[k]);
+        std::vector<double>& v = x[static_cast<int>(RenderComponent::Visible)];
+        for (int p = 0; p < pixels; ++p) v[static_cast<size_t>(p)] += acc.by[k][0][p];
+        x[static_cast<int>(RenderComponent::Caustic)] = std::move(acc.by[k][1]);
+        x[static_cast<int>(RenderComponent::Secondary)] = std::move(acc.by[k][2]);
+    }
     out.photons = acc.photons;
     out.photonSegments = acc.segments;
     out.gathers = acc.gathers;
+    out.prunedPhotons = acc.pruned;
+    out.prunedBranches = back.prunedBranches;
     out.photonSeconds = since(t1);
     return out;
 }

@@ -58,21 +58,30 @@ std::string_view toString(RenderComponent c);  // "visible", "direct", "caustic"
 std::ostream& operator<<(std::ostream& os, RenderComponent c);
 
 struct RenderOptions {
-    uint64_t raysPerPixel = 16;       // backward rays per pixel per pass
+    uint64_t raysPerPixel = 16;        // backward rays per pixel per pass
     uint64_t photonsPerPass = 100000;  // per source
-    double initialRadiusMm = 0.0;     // r_1; 0: defaultInitialRadius()
-    double alpha = 2.0 / 3.0;         // radius reduction, in (0, 1)
+    double initialRadiusMm = 0.0;      // r_1; 0: defaultInitialRadius()
+    double alpha = 2.0 / 3.0;          // radius reduction, in (0, 1)
     uint64_t seed = 1;
-    bool splitBackward = false;        // backward: every specular child, or one by weight
-    double minRelativeWeight = 1e-4;   // backward split: branches below this share end
+    bool splitBackward = false;             // backward: every specular child, or one by weight
+    double minRelativeWeight = 1e-4;        // backward split: branches below this share end
     double viewPointRelativeWeight = 0.05;  // view point roulette (BackwardOptions)
-    int maxSpecularDepth = 64;         // backward specular events per branch
-    double rouletteRelativeFlux = 0.1;  // photons below this share of their emitted flux
-                                        // play Russian roulette; 0 = off
+    int maxSpecularDepth = 64;              // backward specular events per branch
+    double rouletteRelativeFlux = 0.1;      // photons below this share of their emitted flux
+                                            // play Russian roulette; 0 = off
     int maxPhotonSegments = 1000;
     // Photons split at every interface until their first scatter (every Fresnel branch, as
     // veil trace does); branches below this share of the photon's flux are culled there.
     double photonMinRelativeFlux = 1e-4;
+    // The photons' visible deposits (the sun's ghosts) are spread evenly over the pixels whose
+    // centres lie within this many pixel pitches of the hit, shrinking with the gathering
+    // radius (rho_k = rho_1 r_k / r_1): density estimation on the detector, consistent as
+    // the passes go on. 0: every deposit in its own pixel (no bias, more noise).
+    double detectorRadiusPixels = 2.0;
+    // With criteria (Renderer's judge): stop photons and backward branches as soon as no
+    // criterion can match their path; the plain images then hold only light that matches at
+    // least one criterion.
+    bool prune = false;
     // Throws std::invalid_argument naming the option when a value is out of range.
     void check() const;
 };
@@ -82,6 +91,10 @@ std::ostream& operator<<(std::ostream& os, const RenderOptions& o);
 // averaged), and what it cost.
 struct RenderPass {
     std::array<std::vector<double>, kRenderComponents> pixels;
+    // With criteria: [criterion][component], the flux per pixel of the light whose joined
+    // path matches the criterion.
+    std::vector<std::array<std::vector<double>, kRenderComponents>> criteria;
+    uint64_t prunedBranches = 0, prunedPhotons = 0;  // stopped by the criteria (prune)
     double radiusMm = 0.0;
     uint64_t backwardRays = 0, backwardSegments = 0, viewPoints = 0;
     uint64_t photons = 0, photonSegments = 0, gathers = 0;
@@ -106,7 +119,8 @@ double defaultInitialRadius(const TransportScene& ts);
 class RenderState {
   public:
     RenderState() = default;
-    RenderState(const DetectorGeometry& geometry, double initialRadiusMm, double alpha);
+    RenderState(const DetectorGeometry& geometry, double initialRadiusMm, double alpha,
+                int criteria = 0);
 
     int passes() const { return passes_; }
     double radiusMm() const { return radiusMm_; }  // of the next pass
@@ -128,6 +142,12 @@ class RenderState {
     // The same for one component's image (its own lit pixels).
     double meanRelativeError(RenderComponent c) const;
 
+    // Criterion k's images (the light whose path matches it), as component() and total().
+    int criteria() const { return static_cast<int>(criterionSums_.size()); }
+    DetectorImage criterionComponent(int k, RenderComponent c) const;
+    DetectorImage criterionTotal(int k) const;
+    double criterionMeanRelativeError(int k) const;
+
     // Atomic write (a temporary renamed), with a fingerprint of the scene and options that
     // read() checks. std::runtime_error naming the path on failure, or when the file is not a
     // checkpoint of this fingerprint and grid.
@@ -137,16 +157,21 @@ class RenderState {
     bool sameSums(const RenderState& o) const;
 
   private:
-    std::array<DetectorImage, kRenderComponents + 1> sums_;  // components, then the total
+    using Sums = std::array<DetectorImage, kRenderComponents + 1>;  // components, then total
+    static void addTo(Sums& sums, const std::array<std::vector<double>, kRenderComponents>& x);
+    Sums sums_;
+    std::vector<Sums> criterionSums_;
     int passes_ = 0;
     double radiusMm_ = 0.0, initialRadiusMm_ = 0.0, alpha_ = 2.0 / 3.0;
 };
 
 class Renderer {
   public:
-    // `detector` gives the pixel grid (its sums are not used). Checks the options.
+    // `detector` gives the pixel grid (its sums are not used). Checks the options. `judge`:
+    // path criteria to split the image by (tracer/path_judge.h), or none; it must outlive
+    // the renderer.
     Renderer(const TransportScene& ts, const DetectorImage& detector, ExitAperture aperture,
-             RenderOptions options);
+             RenderOptions options, const PathJudge* judge = nullptr);
     const ExitAperture& aperture() const { return aperture_; }
     const RenderOptions& options() const { return options_; }
     // Pass k (1, 2, ...) at radius radiusMm.
@@ -159,6 +184,7 @@ class Renderer {
     DetectorImage detector_;
     ExitAperture aperture_;
     RenderOptions options_;
+    const PathJudge* judge_ = nullptr;
 };
 
 // Whether the photons, rather than the backward rays, count a source's visible component:

@@ -75,7 +75,9 @@ TEST(CliConventions, EveryCommandFollowsThemAndIsDocumented) {
             EXPECT_TRUE(options.count("--field"));
         }
         for (const char* old : {"--mc-rays", "--png", "--output-dir"}) EXPECT_FALSE(options.count(old));
-        if (options.count("--output")) EXPECT_EQ(options.at("--output"), "-o");
+        if (options.count("--output")) {
+            EXPECT_EQ(options.at("--output"), "-o");
+        }
         // The command's section in docs/cli.md names each of its own options.
         const size_t at = doc.find("\n## " + c + "\n");
         ASSERT_NE(at, std::string::npos) << "docs/cli.md has no section '## " << c << "'";

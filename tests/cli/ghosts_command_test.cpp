@@ -19,7 +19,7 @@ std::string outDir(const std::string& name) {
     return p.string();
 }
 
-std::string readText(const std::filesystem::path& p) {
+[[maybe_unused]] std::string readText(const std::filesystem::path& p) {
     std::ifstream f(p);
     std::stringstream s;
     s << f.rdbuf();

@@ -29,7 +29,7 @@ struct VeilRun {
 
 // Runs veil with the given arguments (a shell fragment) from the source directory.
 // `env` is an optional VAR=value prefix for the command.
-VeilRun runVeil(const std::string& args, const std::string& env = "") {
+[[maybe_unused]] VeilRun runVeil(const std::string& args, const std::string& env = "") {
     // One file per test process: ctest runs the command-line tests in parallel processes.
     const std::string errFile =
         ::testing::TempDir() + "veil_cli_stderr_" + std::to_string(getpid()) + ".txt";

@@ -1,0 +1,170 @@
+// veil render as a user runs it: the files it writes and lists, the components adding up to
+// the total in summary.json and the EXR, a resumed run equal to a straight one, and bad input
+// refused before any pass with nothing written.
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "analysis/image_output.h"
+#include "tests/cli/run_veil.h"
+
+namespace {
+
+std::string dirFor(const std::string& what) {
+    const std::string d = ::testing::TempDir() + "veil_render_cli_" +
+                          ::testing::UnitTest::GetInstance()->current_test_info()->name() + "_" +
+                          what;
+    std::filesystem::remove_all(d);
+    return d;
+}
+
+const std::string kSun = "examples/scenes/longfocus_360mm_sun.toml";
+const std::string kSmall = " --photons 5k --rays-per-pixel 2 --time-limit none";
+
+TEST(RenderCommand, WritesTheComponentsAndTheyAddUp) {
+    const std::string dir = dirFor("a");
+    const VeilRun r = runVeil("render " + kSun + " --passes 2" + kSmall + " -o " + dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.out.find("wrote 8 files in " + dir + ": sensor_image.exr, sensor_image.png"),
+              std::string::npos)
+        << r.out;
+    EXPECT_NE(r.out.find("pass limit reached"), std::string::npos) << r.out;
+    const nlohmann::json s = nlohmann::json::parse(readText(dir + "/summary.json"));
+    EXPECT_EQ(s["passes"].get<int>(), 2);
+    double sum = 0.0;
+    for (const char* c : {"visible", "direct", "caustic", "secondary"}) {
+        EXPECT_GT(s["components"][c]["flux"].get<double>(), 0.0) << c;
+        sum += s["components"][c]["flux"].get<double>();
+    }
+    const double total = s["total"]["flux"].get<double>();
+    EXPECT_NEAR(sum, total, 1e-12 * total);
+    EXPECT_NEAR(s["total"]["transmittance"].get<double>(), total / s["emitted_flux"].get<double>(),
+                1e-12);
+    // The EXR: five layers, the total's pixels the sum of the components'.
+    const veil::DetectorExr exr = veil::readDetectorExr(dir + "/sensor_image.exr");
+    ASSERT_EQ(exr.layers.size(), 5u);
+    const veil::ExrLayer* t = exr.layer("total");
+    ASSERT_TRUE(t);
+    EXPECT_NEAR(t->totalFlux, total, 1e-9 * total);
+    double worst = 0.0;
+    for (size_t p = 0; p < t->value.size(); ++p) {
+        double px = 0.0;
+        for (const char* c : {"visible", "direct", "caustic", "secondary"})
+            px += exr.layer(c)->value[p];
+        if (t->value[p] > 0.0) worst = std::max(worst, std::abs(px - t->value[p]) / t->value[p]);
+    }
+    EXPECT_LT(worst, 1e-5);  // float storage
+}
+
+// The joined paths split the light exactly as the components do: no scatter on the path is
+// the visible light, some scatter is direct + caustic + secondary; pruning keeps only what
+// matches.
+TEST(RenderCommand, SplitsTheImageByCriteria) {
+    const std::string dir = dirFor("where");
+    VeilRun r = runVeil("render " + kSun + " --passes 2" + kSmall +
+                        " --where 'scatter{,0}' --where scatter --where 'scatter(L*.edge)'"
+                        " --json -o " +
+                        dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const nlohmann::json s = nlohmann::json::parse(r.out);
+    const nlohmann::json& c = s["components"];
+    const nlohmann::json& w = s["criteria"];
+    ASSERT_EQ(w.size(), 3u);
+    const double visible = c["visible"]["flux"].get<double>();
+    const double scattered = c["direct"]["flux"].get<double>() +
+                             c["caustic"]["flux"].get<double>() +
+                             c["secondary"]["flux"].get<double>();
+    EXPECT_EQ(w[0]["layer"], "where1");
+    EXPECT_NEAR(w[0]["flux"].get<double>(), visible, 1e-12 * visible);
+    EXPECT_NEAR(w[1]["flux"].get<double>(), scattered, 1e-12 * scattered);
+    EXPECT_EQ(w[1]["components"]["visible"]["flux"].get<double>(), 0.0);
+    EXPECT_EQ(w[0]["components"]["secondary"]["flux"].get<double>(), 0.0);
+    const double edge = w[2]["flux"].get<double>();
+    EXPECT_GT(edge, 0.0);
+    EXPECT_LT(edge, 0.5 * scattered);
+    const veil::DetectorExr exr = veil::readDetectorExr(dir + "/sensor_image.exr");
+    EXPECT_EQ(exr.layers.size(), 20u);  // 5 plain, 5 per criterion
+    ASSERT_TRUE(exr.layer("where3.caustic"));
+    EXPECT_TRUE(std::filesystem::exists(dir + "/sensor_image.where3.png"));
+
+    // Single scatter with pruning: photons stop at their second scatter; the total is the
+    // criterion's light.
+    r = runVeil("render " + kSun + " --passes 2" + kSmall +
+                " --where 'scatter{1}' --prune --json -o " + dirFor("prune"));
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const nlohmann::json p = nlohmann::json::parse(r.out);
+    EXPECT_GT(p["pruned_photon_branches_this_run"].get<uint64_t>(), 0u);
+    EXPECT_EQ(p["total"]["flux"].get<double>(), p["criteria"][0]["flux"].get<double>());
+    EXPECT_EQ(p["components"]["visible"]["flux"].get<double>(), 0.0);
+    EXPECT_GT(p["total"]["flux"].get<double>(), 0.3 * scattered);
+    EXPECT_LT(p["total"]["flux"].get<double>(), scattered);
+    // --prune alone, or a criterion naming nothing in the scene: refused before any pass.
+    r = runVeil("render " + kSun + " --prune -o " + dirFor("noprune"));
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_NE(r.err.find("--prune needs at least one --where"), std::string::npos) << r.err;
+    r = runVeil("render " + kSun + " --where 'scatter(nosuch)' -o " + dirFor("nosuch"));
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_NE(r.err.find("--where 1:1:9"), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dirFor("nosuch")));
+}
+
+TEST(RenderCommand, ResumingGivesTheStraightRun) {
+    const std::string a = dirFor("straight"), b = dirFor("resumed");
+    VeilRun r = runVeil("render " + kSun + " --passes 3" + kSmall + " --json -o " + a);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const nlohmann::json straight = nlohmann::json::parse(r.out);
+    r = runVeil("render " + kSun + " --passes 2" + kSmall + " --quiet -o " + b);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    r = runVeil("render " + kSun + " --passes 3" + kSmall + " --json --resume " + b);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const nlohmann::json resumed = nlohmann::json::parse(r.out);
+    EXPECT_EQ(resumed["passes"].get<int>(), 3);
+    EXPECT_EQ(resumed["passes_this_run"].get<int>(), 1);
+    EXPECT_EQ(resumed["total"]["flux"].get<double>(), straight["total"]["flux"].get<double>());
+    EXPECT_EQ(resumed["mean_relative_error"].get<double>(),
+              straight["mean_relative_error"].get<double>());
+    // Other options than the checkpoint's: refused, naming the file.
+    r = runVeil("render " + kSun + " --passes 4 --photons 6k --rays-per-pixel 2 --resume " + b);
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_NE(r.err.find("render.checkpoint: the checkpoint belongs to another scene or other "
+                         "render options"),
+              std::string::npos)
+        << r.err;
+}
+
+TEST(RenderCommand, BadInputStopsBeforeAnyPass) {
+    const std::string dir = dirFor("bad");
+    // A singlet whose edge and flats absorb: nothing scatters (a bare lens scatters at its
+    // ground edges and flats, which is stray light to render).
+    const std::string scene = ::testing::TempDir() + "veil_render_cli_no_scatter.toml";
+    {
+        std::ofstream f(scene);
+        f << "lens = \"" << VEIL_SOURCE_DIR << "/examples/lenses/singlet.toml\"\n"
+          << "[[assign]]\nobjects = \"L1.edge\"\nproperty = \"absorber\"\n"
+          << "[[assign]]\nobjects = \"L1.flat*\"\nproperty = \"absorber\"\n";
+    }
+    VeilRun r = runVeil("render " + scene + " --passes 1 -o " + dir);
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_NE(r.err.find("no surface scatters"), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir));
+    r = runVeil("render " + kSun + " --time-limit soon -o " + dir);
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_NE(r.err.find("'soon' is no duration"), std::string::npos) << r.err;
+    r = runVeil("render " + kSun + " --detector nosuch -o " + dir);
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_NE(r.err.find("no detector 'nosuch' in the scene (it has sensor_image)"),
+              std::string::npos)
+        << r.err;
+    r = runVeil("render " + kSun + " --resume " + dir + " -o " + dir);
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_NE(r.err.find("holds no render.checkpoint"), std::string::npos) << r.err;
+    r = runVeil("render " + kSun + " --alpha 1.5 -o " + dir);
+    EXPECT_EQ(r.exitCode, 2);
+    EXPECT_FALSE(std::filesystem::exists(dir));
+}
+
+}  // namespace
