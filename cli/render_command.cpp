@@ -55,7 +55,8 @@ uint64_t fingerprint(const TransportScene& ts, const DetectorGeometry& g, const 
     os << o.raysPerPixel << " " << o.photonsPerPass << " " << o.initialRadiusMm << " " << o.alpha
        << " " << o.seed << " " << o.splitBackward << " " << o.minRelativeWeight << " "
        << o.maxSpecularDepth << " " << o.detectorRadiusPixels << " " << o.viewPointRelativeWeight
-       << " " << o.rouletteRelativeFlux << " " << o.maxPhotonSegments << " " << o.prune;
+       << " " << o.rouletteRelativeFlux << " " << o.maxPhotonSegments << " " << o.prune << " "
+       << o.areaSamples;
     for (const std::string& w : where) os << "\nwhere " << w;
     const std::string text = os.str();
     uint64_t h = 1469598103934665603ull;
@@ -144,6 +145,11 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
     sub->add_option("--alpha", o.alpha, "radius reduction per pass, in (0, 1)")
         ->check(CLI::Range(0.01, 0.99))
         ->capture_default_str();
+    sub->add_option("--area-samples", o.areaSamples,
+                    "probes per view point of the share of its gathering disk on its own "
+                    "object (the rim correction; 0: off)")
+        ->check(CLI::Range(0, 4096))
+        ->capture_default_str();
     sub->add_option("--roulette", o.roulette,
                     "photons below this share of their emitted flux play Russian roulette (0: off)")
         ->check(CLI::Range(0.0, 1.0))
@@ -212,6 +218,7 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
     ro.initialRadiusMm = o.radiusMm > 0.0 ? o.radiusMm : defaultInitialRadius(ts);
     ro.check();
     ro.prune = o.prune;
+    ro.areaSamples = o.areaSamples;
     std::unique_ptr<RenderCriteria> criteria;
     if (!o.where.empty()) {
         const NameTable names = criterionNames(*ts.scene, ts);
@@ -393,7 +400,8 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
                           {"photons_per_source_per_pass", ro.photonsPerPass},
                           {"initial_radius_mm", ro.initialRadiusMm},
                           {"alpha", ro.alpha},
-                          {"roulette", ro.rouletteRelativeFlux}};
+                          {"roulette", ro.rouletteRelativeFlux},
+                          {"area_samples", ro.areaSamples}};
     summary["final_radius_mm"] = state.radiusMm();
     summary["exit_aperture"] = {
         {"center_mm", {aperture.centerMm.x, aperture.centerMm.y, aperture.centerMm.z}},

@@ -25,6 +25,7 @@ struct RenderCommandOptions {
     double radiusMm = 0.0;  // 0: automatic
     double alpha = 2.0 / 3.0;
     double roulette = 0.1;
+    int areaSamples = 16;  // rim correction probes per view point
     std::string backward = "random";
     double minWeight = 1e-4;
     std::vector<std::string> where;  // path criteria: one image per criterion

@@ -4,6 +4,7 @@
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <chrono>
 #include <cmath>
@@ -51,6 +52,8 @@ void RenderOptions::check() const {
     if (maxPhotonSegments < 1) fail("the maximum photon segments must be at least 1");
     if (!(photonMinRelativeFlux >= 0.0 && photonMinRelativeFlux < 1.0))
         fail("the photon cull threshold must lie in [0, 1)");
+    if (areaSamples < 0 || areaSamples > 4096)
+        fail("the area samples per view point must lie in [0, 4096]");
     if (!(detectorRadiusPixels >= 0.0 && detectorRadiusPixels <= 1000.0))
         fail("the detector smoothing radius must lie in [0, 1000] pixels");
 }
@@ -444,6 +447,40 @@ struct PhotonBranch {
 
 }  // namespace
 
+double viewPointAreaShare(const Scene& scene, const ViewPoint& v, double radiusMm, int samples,
+                          double turn) {
+    if (samples <= 0) return 1.0;
+    // The side the view point was seen from, and a tangent basis (Duff et al. 2017).
+    const Vec3 side = v.fromFront ? v.normal : -v.normal;
+    const double sign = std::copysign(1.0, side.z);
+    const double a = -1.0 / (sign + side.z), b = side.x * side.y * a;
+    const Vec3 t1(1.0 + sign * side.x * side.x * a, sign * b, -sign * side.x);
+    const Vec3 t2(b, sign + side.y * side.y * a, -side.y);
+    // Each probe starts just off the tangent plane (a hair on the view point's side, so a flat
+    // face is met ahead of the ray) and looks along the normal both ways, up to r: a face that
+    // curves away from the plane (a sag of rho^2 / 2R) is found below it, one that curves
+    // toward it (a bore seen from inside) above. Only the view point's object, with its
+    // orientation and within r of it, counts; anything else met first blocks the probe.
+    const double hair = std::max(1e-3 * radiusMm, 1e-4);
+    constexpr double kGolden = 2.39996322972865332;  // pi (3 - sqrt 5)
+    auto lands = [&](const std::optional<SceneHit>& hit) {
+        if (!hit || hit->object != v.object) return false;
+        if (!(glm::dot(hit->normal, v.normal) > 0.0)) return false;
+        const Vec3 d = hit->point - v.positionMm;
+        return glm::dot(d, d) <= radiusMm * radiusMm;
+    };
+    int on = 0;
+    for (int i = 0; i < samples; ++i) {
+        const double rho = radiusMm * std::sqrt((i + 0.5) / samples);
+        const double phi = turn + kGolden * i;
+        const Vec3 q = v.positionMm + rho * (std::cos(phi) * t1 + std::sin(phi) * t2) + hair * side;
+        if (lands(scene.closestHit({q, -side}, hair + radiusMm)) ||
+            lands(scene.closestHit({q, side}, radiusMm)))
+            ++on;
+    }
+    return static_cast<double>(std::max(on, 1)) / samples;
+}
+
 bool photonsSeeSource(const Source& s) {
     return s.delta() != Source::Delta::None || std::holds_alternative<SunSource>(s.shape());
 }
@@ -490,6 +527,22 @@ RenderPass Renderer::runPass(int k, double radiusMm) const {
     const ViewPointGrid grid(vps, radiusMm);
     const double r2 = radiusMm * radiusMm;
     const double kernel = 1.0 / (std::numbers::pi * r2);
+    // The rim correction, computed the first time a view point gathers: 1 / its area share.
+    // The value depends on the view point alone (the spiral turned by its index), so threads
+    // racing on it write the same bits.
+    std::vector<std::atomic<float>> inverseShare(vps.size());
+    for (auto& x : inverseShare) x.store(0.0f, std::memory_order_relaxed);
+    auto areaCorrection = [&](uint32_t i) {
+        float c = inverseShare[i].load(std::memory_order_relaxed);
+        if (c == 0.0f) {
+            const double turn =
+                2.0 * std::numbers::pi * CounterRng(passSeed(options_.seed, k, 2), i).uniform();
+            c = static_cast<float>(
+                1.0 / viewPointAreaShare(*ts_.scene, vps[i], radiusMm, options_.areaSamples, turn));
+            inverseShare[i].store(c, std::memory_order_relaxed);
+        }
+        return static_cast<double>(c);
+    };
     const uint64_t perSource = options_.photonsPerPass;
     const uint64_t total = perSource * ts_.sources.size();
     const uint64_t photonSeed = passSeed(options_.seed, static_cast<uint64_t>(k), 1);
@@ -667,7 +720,7 @@ RenderPass Renderer::runPass(int k, double radiusMm) const {
                                     matched = judged();
                                 }
                                 book(slot, matched, nullptr, v.pixel,
-                                     v.weight * br.flux * f * kernel);
+                                     v.weight * br.flux * f * kernel * areaCorrection(*it));
                             }
                         }
                         if (in.count == 0) break;

@@ -78,6 +78,10 @@ struct RenderOptions {
     // radius (rho_k = rho_1 r_k / r_1): density estimation on the detector, consistent as
     // the passes go on. 0: every deposit in its own pixel (no bias, more noise).
     double detectorRadiusPixels = 2.0;
+    // Probes per view point of how much of its gathering disk lies on its own object (the
+    // rim correction, viewPointAreaShare); 0: every disk counts as pi r^2 (biased low within r
+    // of a face's rim).
+    int areaSamples = 16;
     // With criteria (Renderer's judge): stop photons and backward branches as soon as no
     // criterion can match their path; the plain images then hold only light that matches at
     // least one criterion.
@@ -186,6 +190,16 @@ class Renderer {
     RenderOptions options_;
     const PathJudge* judge_ = nullptr;
 };
+
+// The share of view point v's gathering disk (radius r, in its tangent plane) that lies on
+// its own object with the same orientation: `samples` points of the disk (a Fibonacci spiral
+// turned by `turn` radians, equal areas) are projected along the normal onto the scene, and
+// those landing on v's object within r of v count. 1 inside a face, about 1/2 at a straight
+// rim, about 2 w / (pi r) on a strip of width w < r. The photon estimate divides by
+// share x pi r^2, the area photons can land on, instead of pi r^2; at least 1/samples (the
+// view point's own point lies on the object).
+double viewPointAreaShare(const Scene& scene, const ViewPoint& v, double radiusMm, int samples,
+                          double turn);
 
 // Whether the photons, rather than the backward rays, count a source's visible component:
 // the sun and the delta kinds (collimated, point), which a backward ray cannot find.

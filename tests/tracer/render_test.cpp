@@ -24,9 +24,7 @@
 namespace veil {
 namespace {
 
-std::string testName() {
-    return ::testing::UnitTest::GetInstance()->current_test_info()->name();
-}
+std::string testName() { return ::testing::UnitTest::GetInstance()->current_test_info()->name(); }
 
 // A closed box mesh (OFF), outward faces.
 void writeBox(const std::string& path, Vec3 lo, Vec3 hi) {
@@ -91,7 +89,8 @@ double expectedDirect(const PreparedScene& s, const ExitAperture& a) {
                      (kEmitterGap * kEmitterGap + kEmitterRadius * kEmitterRadius);
     const double plateRadiance = kReflectance * E / std::numbers::pi;
     const DetectorGeometry& g = s.trace().images[0].geometry();
-    const double sinTheta = a.radiusMm / std::hypot(a.radiusMm, g.frame.translation.z - a.centerMm.z);
+    const double sinTheta =
+        a.radiusMm / std::hypot(a.radiusMm, g.frame.translation.z - a.centerMm.z);
     return std::numbers::pi * plateRadiance * sinTheta * sinTheta * g.pixelAreaMm2();
 }
 
@@ -107,8 +106,8 @@ TEST(Render, DirectLightOnALambertianPlateObeysTheCameraEquation) {
     const double got = pass.pixels[int(RenderComponent::Direct)][0];
     // The emitter's irradiance varies by < 1e-4 over the patch of plate the pixel sees; the
     // estimate's own spread: one NEE sample per view point, 20000 of them.
-    const BackwardResult back = traceBackward(s->trace().transport, s->trace().images[0], a,
-                                              renderer.backwardOptions(1));
+    const BackwardResult back =
+        traceBackward(s->trace().transport, s->trace().images[0], a, renderer.backwardOptions(1));
     const double sigma = std::sqrt(back.direct.pixelVariance(0, o.raysPerPixel));
     EXPECT_EQ(back.direct.flux(0), got);  // the pass's direct image is the backward pass's
     EXPECT_GT(expected, 0.0);
@@ -123,15 +122,15 @@ TEST(Render, DirectLightOnALambertianPlateObeysTheCameraEquation) {
     EXPECT_EQ(pass.viewPoints, o.raysPerPixel);  // every ray through the lens meets the plate
 }
 
-
 // The caustic scene: a Lambertian plate (reflectance R, front face at z = -50) lit only
 // through a glass window (ideal antireflection, z = 0..5, radius 1200 mm) by a Lambertian
 // emitter disk at z = +60 facing the plate; a free detector at z = -20, facing the plate,
 // views it directly. A black cap just behind the detector keeps the emitter's light off its
-// back (veil trace records both sides of a detector, the renderer its sensitive side). The window blocks every straight line from the plate to the emitter, so
-// all light on the plate has refracted first: the direct component is 0 and the plate's
-// light reaches the pixels as the caustic component. Forward Monte Carlo converges here (7 %
-// of the emitted flux lands on the detector), which makes it the reference.
+// back (veil trace records both sides of a detector, the renderer its sensitive side). The window
+// blocks every straight line from the plate to the emitter, so all light on the plate has refracted
+// first: the direct component is 0 and the plate's light reaches the pixels as the caustic
+// component. Forward Monte Carlo converges here (7 % of the emitted flux lands on the detector),
+// which makes it the reference.
 struct WindowScene {
     double emitterRadius = 30.0;
     double reflectance = 0.3;
@@ -162,14 +161,16 @@ std::unique_ptr<PreparedScene> windowPlateScene(const WindowScene& w) {
             std::filesystem::path(stem + ".off").filename().c_str(),
             w.cap ? "[[mesh]]\nname = \"cap\"\nfile = \"" : "",
             w.cap ? std::filesystem::path(stem + ".cap.off").filename().c_str() : "",
-            w.cap ? "\"\nproperty = \"absorber\"\n" : "", w.reflectance,
-            w.emitterRadius, w.detectorMm, w.detectorMm, w.pixels, w.pixels);
+            w.cap ? "\"\nproperty = \"absorber\"\n" : "", w.reflectance, w.emitterRadius,
+            w.detectorMm, w.detectorMm, w.pixels, w.pixels);
     fclose(f);
     return PreparedScene::read(path, GlassCatalog::builtIn());
 }
 
 // Every direction from the detector down to the plate: a disk just above it, out to its rim.
-ExitAperture plateAperture() { return ExitAperture{Vec3(0.0, 0.0, -49.99), Vec3(0.0, 0.0, 1.0), 620.0}; }
+ExitAperture plateAperture() {
+    return ExitAperture{Vec3(0.0, 0.0, -49.99), Vec3(0.0, 0.0, 1.0), 620.0};
+}
 
 RenderState render(const PreparedScene& s, const RenderOptions& o, int passes,
                    const ExitAperture& a) {
@@ -254,10 +255,85 @@ TEST(Render, AgreesWithForwardMonteCarloInTotalAndPerPixel) {
         const double a = total.flux(p), b = ref.flux(p);
         const double sigma =
             std::hypot(std::sqrt(total.pixelVariance(p, n)), std::sqrt(ref.pixelVariance(p, rays)));
-        EXPECT_LE(std::abs(a - b), 4.0 * sigma + 1e-3 * b) << "pixel " << p << ": " << a << " vs " << b;
+        EXPECT_LE(std::abs(a - b), 4.0 * sigma + 1e-3 * b)
+            << "pixel " << p << ": " << a << " vs " << b;
     }
     EXPECT_EQ(state.component(RenderComponent::Direct).totalFlux(), 0.0);
     EXPECT_GT(state.component(RenderComponent::Caustic).totalFlux(), 0.9 * total.totalFlux());
+}
+
+// Two plates in the open: a 100 mm square ("plate", front face at z = 0, normal +z) and a
+// 0.2 mm wide strip beside it ("strip", front face at z = 0, x from 200 to 200.2).
+std::unique_ptr<PreparedScene> platesScene() {
+    const std::string stem = ::testing::TempDir() + "veil_render_" + testName();
+    writeBox(stem + ".plate.off", Vec3(-50.0, -50.0, -1.0), Vec3(50.0, 50.0, 0.0));
+    writeBox(stem + ".strip.off", Vec3(200.0, -50.0, -1.0), Vec3(200.2, 50.0, 0.0));
+    const std::string path = stem + ".toml";
+    FILE* f = fopen(path.c_str(), "w");
+    EXPECT_TRUE(f);
+    fprintf(f,
+            "[system]\nwavelengths_nm = [550.0]\naperture = { epd_mm = 2.0 }\n"
+            "fields_deg = [0.0]\nsurfaces = [\n"
+            "  { r = 0.0, t = 1.0, glass = { nd = 1.5, vd = 0.0 }, sd = 1.0, stop = true },\n"
+            "  { r = 0.0, t = 10.0, sd = 1.0 },\n]\n"
+            "[[mesh]]\nname = \"plate\"\nfile = \"%s\"\nproperty = \"white\"\n"
+            "[[mesh]]\nname = \"strip\"\nfile = \"%s\"\nproperty = \"white\"\n"
+            "[properties.white]\nscatter = { model = \"lambertian\", reflectance = 0.5 }\n",
+            std::filesystem::path(stem + ".plate.off").filename().c_str(),
+            std::filesystem::path(stem + ".strip.off").filename().c_str());
+    fclose(f);
+    return PreparedScene::read(path, GlassCatalog::builtIn());
+}
+
+// The rim correction: the share of a gathering disk on its own object, against the areas of
+// a disk cut by a straight rim (the circular segment) and by a narrow strip.
+TEST(Render, ViewPointAreaShareMatchesTheDiskGeometry) {
+    const auto s = platesScene();
+    const Scene& scene = s->scene();
+    auto objectNamed = [&](const std::string& name) {
+        for (const SceneObject& o : scene.objects())
+            if (o.name == name) return o.id;
+        ADD_FAILURE() << "no object " << name;
+        return -1;
+    };
+    ViewPoint v;
+    v.normal = Vec3(0.0, 0.0, 1.0);
+    v.toDetector = v.normal;
+    v.fromFront = true;
+    v.object = objectNamed("plate");
+    const double r = 2.0;
+    // Inside the face: every probe lands on it.
+    v.positionMm = Vec3(10.0, -20.0, 0.0);
+    EXPECT_EQ(viewPointAreaShare(scene, v, r, 16, 0.3), 1.0);
+    // A distance d from the rim x = 50: 1 - (r^2 acos(d/r) - d sqrt(r^2 - d^2)) / (pi r^2).
+    for (double d : {0.0, 0.5, 1.0, 1.5}) {
+        v.positionMm = Vec3(50.0 - d - 1e-9, 0.0, 0.0);
+        const double segment = r * r * std::acos(d / r) - d * std::sqrt(r * r - d * d);
+        const double expected = 1.0 - segment / (std::numbers::pi * r * r);
+        EXPECT_NEAR(viewPointAreaShare(scene, v, r, 4096, 0.3), expected, 0.005) << "d " << d;
+        // 16 probes, as the renderer uses them: within 2.5 probes for any turn, and close on
+        // average over the turns (each view point gets its own).
+        double mean = 0.0;
+        for (int t = 0; t < 1000; ++t) {
+            const double share = viewPointAreaShare(scene, v, r, 16, 0.00628 * t);
+            EXPECT_NEAR(share, expected, 2.5 / 16) << "d " << d << ", turn " << t;
+            mean += share / 1000;
+        }
+        EXPECT_NEAR(mean, expected, 0.01) << "d " << d;
+    }
+    // A corner: a quarter of the disk.
+    v.positionMm = Vec3(50.0 - 1e-9, 50.0 - 1e-9, 0.0);
+    EXPECT_NEAR(viewPointAreaShare(scene, v, r, 4096, 0.3), 0.25, 0.005);
+    // The 0.2 mm strip: 2 w sqrt(r^2 - (w/2)^2) / (pi r^2) to first order, 0.0636.
+    v.object = objectNamed("strip");
+    v.positionMm = Vec3(200.1, 0.0, 0.0);
+    EXPECT_NEAR(viewPointAreaShare(scene, v, r, 4096, 0.3),
+                0.2 * 2.0 * r / (std::numbers::pi * r * r), 0.003);
+    // A probe that finds another object first (the strip seen from the plate) does not count,
+    // and the view point's own point keeps the share above zero.
+    v.object = objectNamed("plate");
+    EXPECT_EQ(viewPointAreaShare(scene, v, r, 16, 0.3), 1.0 / 16.0);
+    EXPECT_EQ(viewPointAreaShare(scene, v, r, 0, 0.3), 1.0);  // off
 }
 
 TEST(Render, RadiusShrinksByTheProgressiveRule) {
@@ -307,7 +383,8 @@ TEST(Render, ErrorFallsAtTheProgressivePhotonMappingRate) {
         for (int k = 1; k <= passes; ++k) {
             state.add(renderer.runPass(k, state.radiusMm()));
             for (size_t j = 0; j < at.size(); ++j)
-                if (k == at[j]) means[j].push_back(state.component(RenderComponent::Caustic).flux(0));
+                if (k == at[j])
+                    means[j].push_back(state.component(RenderComponent::Caustic).flux(0));
         }
     }
     auto variance = [](const std::vector<double>& x) {
@@ -378,7 +455,8 @@ TEST(Render, ResumedAndThreadedRunsAreBitwiseTheSame) {
     const Renderer renderer(s->trace().transport, s->trace().images[0], plateAperture(), o);
     const DetectorGeometry& g = s->trace().images[0].geometry();
     auto run = [&](RenderState& state, int passes) {
-        while (state.passes() < passes) state.add(renderer.runPass(state.passes() + 1, state.radiusMm()));
+        while (state.passes() < passes)
+            state.add(renderer.runPass(state.passes() + 1, state.radiusMm()));
     };
     RenderState straight(g, o.initialRadiusMm, o.alpha);
     {
