@@ -21,8 +21,8 @@ knobs=(
   "--radius 0.5"
   "--radius 4"
   "--alpha 0.9"
-  "--roulette 0"
   "--backward split"
+  "--area-samples 0"
 )
 echo "| knob | time (s) | total | visible | caustic | secondary | total flux (W) |"
 echo "| --- | ---: | ---: | ---: | ---: | ---: | --- |"

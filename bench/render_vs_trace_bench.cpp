@@ -1,0 +1,154 @@
+// The renderer against forward Monte Carlo on the image of diffuse stray light: both run for
+// the same wall time on the same scene, the light selected by the same criterion (default
+// `scatter`: every path with a scatter event), and each gives its mean relative pixel error
+// over the pixels the render lights (at least 1 % of its mean pixel value, RenderState's
+// definition; forwardLitError says how forward Monte Carlo's is predicted from its hits).
+// From each method's error rate the time to a target error follows: forward
+// Monte Carlo's error falls as t^-1/2, the progressive renderer's as t^(-alpha/2) (its
+// variance as n^-alpha). The equal-time images are written side by side for the docs.
+//
+//   build/bench/veil_render_vs_trace_bench [scene] [seconds per method] [png folder]
+//
+// Defaults: examples/scenes/longfocus_360mm_sun.toml, 60 s, no images. Results and the command
+// are in docs/performance.md.
+
+#include <tbb/global_control.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <string>
+
+#include "analysis/criterion_names.h"
+#include "analysis/image_output.h"
+#include "analysis/render_criteria.h"
+#include "analysis/stray_light_run.h"
+#include "tracer/render.h"
+
+namespace {
+
+using namespace veil;
+
+double now() {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
+        .count();
+}
+
+// Forward Monte Carlo's mean relative pixel error over the pixels the reference lights (at
+// least 1 % of its mean pixel value), predicted from its hits: a pixel expecting n_p hits of
+// the run's weight spread kappa = <w^2> / <w>^2 has relative error sqrt(kappa / n_p), with
+// n_p = hits x (the reference's share of the flux in p). Pixels the run left empty count
+// with the error their share predicts, not as zero. Treating the hits as independent
+// ignores the branches of one ray landing together: it favours forward Monte Carlo.
+std::pair<double, int> forwardLitError(const DetectorImage& forward, const DetectorImage& ref) {
+    double hits = 0.0, w = 0.0, w2 = 0.0;
+    for (int p = 0; p < forward.pixelCount(); ++p) {
+        hits += static_cast<double>(forward.counts()[static_cast<size_t>(p)]);
+        w += forward.fluxes()[static_cast<size_t>(p)];
+        w2 += forward.fluxesSquared()[static_cast<size_t>(p)];
+    }
+    const double kappa = w2 * hits / (w * w);
+    const int pixels = ref.pixelCount();
+    const double threshold = RenderState::kLitFraction * ref.totalFlux() / pixels;
+    double sum = 0.0;
+    int lit = 0;
+    for (int p = 0; p < pixels; ++p) {
+        const double v = ref.flux(p);
+        if (!(v > 0.0) || v < threshold) continue;
+        sum += std::sqrt(kappa / (hits * v / ref.totalFlux()));
+        ++lit;
+    }
+    return {lit ? sum / lit : INFINITY, lit};
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    const std::string scenePath =
+        argc > 1 ? argv[1]
+                 : std::string(VEIL_SOURCE_DIR) + "/examples/scenes/longfocus_360mm_sun.toml";
+    const double budget = argc > 2 ? std::stod(argv[2]) : 60.0;
+    const std::string pngDir = argc > 3 ? argv[3] : "";
+    const std::string where = "scatter";
+    const double target = 0.05;
+
+    const auto scene = PreparedScene::read(scenePath, GlassCatalog::builtIn());
+    const TraceSetup& trace = scene->trace();
+    const TransportScene& ts = trace.transport;
+    const DetectorImage& detector = trace.images.front();
+
+    // Forward Monte Carlo without bias: split mode, no minimum flux, Russian roulette below
+    // 1 % (veil trace's default cull at 1e-4 drops the scatter of weak ghost branches, a
+    // fifth of the Sun example's scattered light); a short run sizes the one that fills
+    // the budget.
+    StrayLightSpec spec;
+    spec.where = {where};
+    spec.transport.minRelativeFlux = 0.0;
+    spec.transport.rouletteRelativeFlux = 0.01;
+    spec.raysPerSource = 10000;
+    double t0 = now();
+    runStrayLight(*scene, spec);
+    const double perRay = (now() - t0) / spec.raysPerSource;
+    spec.raysPerSource = static_cast<uint64_t>(budget / perRay);
+    t0 = now();
+    const StrayLightResult forward = runStrayLight(*scene, spec);
+    const double forwardSeconds = now() - t0;
+    const DetectorImage& forwardImage = forward.layers->images()[0][0];
+
+    // The renderer, passes until the same budget is spent.
+    const NameTable names = criterionNames(*ts.scene, ts);
+    std::vector<CompiledCriterion> compiled{compileCriterion(where, names)};
+    const RenderCriteria criteria(std::move(compiled), names);
+    RenderOptions ro;
+    ro.initialRadiusMm = defaultInitialRadius(ts);
+    const Renderer renderer(ts, detector, exitApertureFor(*ts.scene, detector.geometry()), ro,
+                            &criteria);
+    RenderState state(detector.geometry(), ro.initialRadiusMm, ro.alpha, 1);
+    t0 = now();
+    while (now() - t0 < budget || state.passes() < 2)
+        state.add(renderer.runPass(state.passes() + 1, state.radiusMm()));
+    const double renderSeconds = now() - t0;
+    const double renderError = state.criterionMeanRelativeError(0);
+    const DetectorImage renderImage = state.criterionTotal(0);
+    const auto [forwardError, forwardLit] = forwardLitError(forwardImage, renderImage);
+
+    const double forwardTo = forwardSeconds * std::pow(forwardError / target, 2.0);
+    const double renderTo = renderSeconds * std::pow(renderError / target, 2.0 / ro.alpha);
+    std::printf("scene %s, light '%s', %d threads; lit pixels: the render's\n", scenePath.c_str(),
+                where.c_str(),
+                static_cast<int>(tbb::global_control::active_value(
+                    tbb::global_control::max_allowed_parallelism)));
+    std::printf(
+        "| method | run | time (s) | flux (W) | mean pixel error | lit pixels | "
+        "time to %.0f %% (extrapolated) |\n| --- | --- | ---: | --- | ---: | ---: | ---: |\n",
+        100 * target);
+    std::printf("| veil trace | %llu rays | %.1f | %.4e +- %.1f %% | %.1f %% | %d | %.3g s |\n",
+                static_cast<unsigned long long>(forward.emittedRays), forwardSeconds,
+                forwardImage.totalFlux(),
+                100 * forwardImage.totalRelativeError(forward.emittedRays), 100 * forwardError,
+                forwardLit, forwardTo);
+    std::printf(
+        "| veil render | %d passes | %.1f | %.4e +- %.1f %% | %.1f %% | %d | %.3g s |\n",
+        state.passes(), renderSeconds, renderImage.totalFlux(),
+        100 * std::sqrt(renderImage.totalVariance(state.passes())) / renderImage.totalFlux(),
+        100 * renderError, state.litPixels(), renderTo);
+    std::printf("render is %.3gx faster to %.0f %% mean pixel error\n", forwardTo / renderTo,
+                100 * target);
+
+    if (!pngDir.empty()) {
+        std::filesystem::create_directories(pngDir);
+        PreviewOptions po;
+        po.decades = 3.0;
+        po.title = "veil trace, " + std::to_string(static_cast<int>(forwardSeconds)) +
+                   " s: scattered light";
+        po.emittedRays = forward.emittedRays;
+        writeDetectorPng(std::filesystem::path(pngDir) / "equal_time_trace.png", forwardImage, po);
+        po.title = "veil render, " + std::to_string(static_cast<int>(renderSeconds)) +
+                   " s: scattered light";
+        po.emittedRays = static_cast<uint64_t>(state.passes());
+        writeDetectorPng(std::filesystem::path(pngDir) / "equal_time_render.png", renderImage, po);
+    }
+    return 0;
+}
