@@ -238,11 +238,7 @@ BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& dete
             // The criteria the path [Emit(source) head] + suffix matches.
             auto judged = [&](int source, int medium, const PathEvent* head) {
                 judge->reset(state.data());
-                PathEvent e;
-                e.type = EventType::Emit;
-                e.object = source;
-                e.mediumBefore = e.mediumAfter = static_cast<int16_t>(medium);
-                judge->push(state.data(), e);
+                judge->push(state.data(), pathEvent(EventType::Emit, source, 0, medium, medium));
                 if (head) judge->push(state.data(), *head);
                 return judge->matches(state.data(), suffix, scratch.data());
             };
@@ -265,10 +261,7 @@ BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& dete
                     stack.clear();
                     stack.push_back({pr.ray, start, detectorObject, -1, 0, 0, 0});
                     if (judge) {
-                        PathEvent hitEvent;
-                        hitEvent.type = EventType::DetectorHit;
-                        hitEvent.object = detectorObject;
-                        tree.start(hitEvent);
+                        tree.start(pathEvent(EventType::DetectorHit, detectorObject, 0, 0, 0));
                     }
                     while (!stack.empty()) {
                         Branch br = stack.back();
@@ -349,14 +342,11 @@ BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& dete
                                     if (perSourceSide[k] == 0.0) continue;
                                     // The light's own scatter event: from its side of the surface.
                                     const bool crosses = k % 2 == 1;
-                                    PathEvent scatter;
-                                    scatter.type = crosses ? EventType::ScatterTransmit
-                                                           : EventType::ScatterReflect;
-                                    scatter.object = v.object;
-                                    scatter.face = v.primitive;
-                                    scatter.mediumBefore =
-                                        static_cast<int16_t>(crosses ? v.otherMedium : v.medium);
-                                    scatter.mediumAfter = static_cast<int16_t>(v.medium);
+                                    const PathEvent scatter =
+                                        pathEvent(crosses ? EventType::ScatterTransmit
+                                                          : EventType::ScatterReflect,
+                                                  v.object, v.primitive,
+                                                  crosses ? v.otherMedium : v.medium, v.medium);
                                     direct += bookByCriteria(judged(static_cast<int>(k / 2),
                                                                     scatter.mediumBefore, &scatter),
                                                              prune, perSourceSide[k], po.directBy);
@@ -375,13 +365,9 @@ BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& dete
                             next.depth = br.depth + 1;
                             if (judge) {
                                 // Forward, light comes from the child's side and leaves into ours.
-                                PathEvent e;
-                                e.type = c.event;
-                                e.object = hit->object;
-                                e.face = hit->primitive;
-                                e.mediumBefore = static_cast<int16_t>(c.medium);
-                                e.mediumAfter = static_cast<int16_t>(br.medium);
-                                next.node = tree.add(e, br.node);
+                                next.node = tree.add(pathEvent(c.event, hit->object, hit->primitive,
+                                                               c.medium, br.medium),
+                                                     br.node);
                                 if (prune) {
                                     suffix.clear();
                                     tree.suffix(next.node, suffix);

@@ -23,6 +23,18 @@
 
 namespace veil {
 
+// The event of type `type` at `object` (a source index for Emit) and `face`, the light going
+// from medium `before` into `after`: how the renderer writes the events it judges.
+inline PathEvent pathEvent(EventType type, int object, int face, int before, int after) {
+    PathEvent e;
+    e.type = type;
+    e.object = object;
+    e.face = face;
+    e.mediumBefore = static_cast<int16_t>(before);
+    e.mediumAfter = static_cast<int16_t>(after);
+    return e;
+}
+
 class PathJudge {
   public:
     virtual ~PathJudge() = default;

@@ -638,11 +638,9 @@ RenderPass Renderer::runPass(int k, double radiusMm) const {
                 if (judge) {
                     states.assign(stateBytes, std::byte{0});
                     judge->reset(states.data());
-                    PathEvent emit;
-                    emit.type = EventType::Emit;
-                    emit.object = static_cast<int32_t>(sourceIndex);
-                    emit.flux = static_cast<float>(e.flux);
-                    first.alive = judge->push(states.data(), emit);
+                    first.alive = judge->push(
+                        states.data(),
+                        pathEvent(EventType::Emit, static_cast<int>(sourceIndex), 0, 0, 0));
                     if (prune && first.alive == 0) {
                         ++a.pruned;
                         continue;
@@ -672,13 +670,9 @@ RenderPass Renderer::runPass(int k, double radiusMm) const {
                                 if (cells.empty()) break;
                                 uint64_t matched = 0;
                                 if (judge) {
-                                    PathEvent d;
-                                    d.type = EventType::DetectorHit;
-                                    d.object = hit->object;
-                                    d.face = hit->primitive;
-                                    d.mediumBefore = d.mediumAfter =
-                                        static_cast<int16_t>(br.medium);
-                                    suffix.assign(1, d);
+                                    suffix.assign(1,
+                                                  pathEvent(EventType::DetectorHit, hit->object,
+                                                            hit->primitive, br.medium, br.medium));
                                     matched = judged();
                                 }
                                 book(0, matched, &cells, 0, br.flux);
@@ -704,17 +698,13 @@ RenderPass Renderer::runPass(int k, double radiusMm) const {
                                 uint64_t matched = 0;
                                 if (judge && br.alive != 0) {
                                     // The photon's scatter here toward the view point's pixel.
-                                    PathEvent sc;
                                     const bool back = glm::dot(br.ray.direction, hit->normal) *
                                                           glm::dot(v.toDetector, hit->normal) <
                                                       0.0;
-                                    sc.type = back ? EventType::ScatterReflect
-                                                   : EventType::ScatterTransmit;
-                                    sc.object = hit->object;
-                                    sc.face = hit->primitive;
-                                    sc.mediumBefore = static_cast<int16_t>(br.medium);
-                                    sc.mediumAfter = static_cast<int16_t>(v.medium);
-                                    suffix.assign(1, sc);
+                                    suffix.assign(1, pathEvent(back ? EventType::ScatterReflect
+                                                                    : EventType::ScatterTransmit,
+                                                               hit->object, hit->primitive,
+                                                               br.medium, v.medium));
                                     suffix.insert(suffix.end(), vpEvents.begin() + v.firstEvent,
                                                   vpEvents.begin() + v.firstEvent + v.eventCount);
                                     matched = judged();
@@ -731,14 +721,10 @@ RenderPass Renderer::runPass(int k, double radiusMm) const {
                             if (!dir) return false;
                             const InteractionChild& child = in.children[c];
                             if (judge && b.alive != 0) {
-                                PathEvent ev;
-                                ev.type = child.event;
-                                ev.object = hit->object;
-                                ev.face = hit->primitive;
-                                ev.mediumBefore = static_cast<int16_t>(b.medium);
-                                ev.mediumAfter = static_cast<int16_t>(child.medium);
-                                ev.flux = static_cast<float>(b.flux);
-                                b.alive = judge->push(states.data() + b.state, ev);
+                                b.alive =
+                                    judge->push(states.data() + b.state,
+                                                pathEvent(child.event, hit->object, hit->primitive,
+                                                          b.medium, child.medium));
                             }
                             if (prune && b.alive == 0) {
                                 ++a.pruned;

@@ -17,10 +17,14 @@
 //      backward ray would have to hit a 0.5 degree disk to find. At every hit on a scattering
 //      surface after at least one event, the photon is gathered by the view points within
 //      the pass radius r on the same object and side, at the same wavelength, through a
-//      spatial hash: each adds weight * flux * bsdf(photon -> detector) / (pi r^2) to its
-//      pixel, the caustic component when the photon has seen only specular events, the
-//      secondary one when it scattered before. (A photon's first hit is the direct light,
-//      which step 1 counts.)
+//      spatial hash: each adds weight * flux * bsdf(photon -> detector) / (share pi r^2) to
+//      its pixel (share: the part of its disk on its own object, viewPointAreaShare), the
+//      caustic component when the photon has seen only specular events, the secondary one
+//      when it scattered before. (A photon's first hit is the direct light, which step 1
+//      counts.)
+//   With path criteria (tracer/path_judge.h), every contribution is also judged on its joined
+//   path (the photon's or the sampled source's events, the scatter at the view point, the
+//   view point's backward events) and added to the images of the criteria it matches.
 // The pass's four images estimate the flux per pixel; visible and direct without bias, the
 // two gathered ones with the bias of averaging the radiance over a disk of radius r.
 //
