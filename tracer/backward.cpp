@@ -4,6 +4,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <stdexcept>
@@ -235,6 +236,7 @@ BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& dete
             std::vector<std::byte> state(judge ? judge->stateBytes() : 0),
                 scratch(judge ? judge->stateBytes() : 0);
             std::vector<double> perSourceSide(2 * sources);
+            std::vector<uint64_t> strata;
             // The criteria the path [Emit(source) head] + suffix matches.
             auto judged = [&](int source, int medium, const PathEvent* head) {
                 judge->reset(state.data());
@@ -248,9 +250,32 @@ BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& dete
                 po.direct.assign(perPixel, 0.0);
                 po.visibleBy.assign(criteria, 0.0);
                 po.directBy.assign(criteria, 0.0);
+                // Stratified pixel rays: the first m^2 rays take one cell each of an m x m
+                // grid over the aperture disk's (equal-area) square and, in a shuffled order,
+                // one of another over the pixel; the rest are independent. Each cell has the
+                // same measure, so the mean stays unbiased; it varies less across the
+                // aperture view, where a pixel's light changes most.
+                const uint64_t m = static_cast<uint64_t>(std::sqrt(static_cast<double>(perPixel)));
+                strata.resize(m * m);
+                for (uint64_t i = 0; i < m * m; ++i) strata[i] = i;
+                CounterRng shuffle(options.seed ^ 0x5354524154554dull /* "STRATUM" */,
+                                   static_cast<uint64_t>(p));
+                for (uint64_t i = m * m; i > 1; --i)
+                    std::swap(
+                        strata[i - 1],
+                        strata[std::min(i - 1, static_cast<uint64_t>(shuffle.uniform() * i))]);
                 for (uint64_t k = 0; k < perPixel; ++k) {
                     CounterRng rng(options.seed, static_cast<uint64_t>(p) * perPixel + k);
-                    const PixelRay pr = samplePixelRay(detector, p, aperture, rng);
+                    std::array<double, kPixelRayUniforms> uk;
+                    for (double& x : uk) x = rng.uniform();
+                    if (k < m * m) {
+                        const uint64_t s = strata[k];
+                        uk[0] = (static_cast<double>(s % m) + uk[0]) / static_cast<double>(m);
+                        uk[1] = (static_cast<double>(s / m) + uk[1]) / static_cast<double>(m);
+                        uk[2] = (static_cast<double>(k % m) + uk[2]) / static_cast<double>(m);
+                        uk[3] = (static_cast<double>(k / m) + uk[3]) / static_cast<double>(m);
+                    }
+                    const PixelRay pr = samplePixelRay(detector, p, aperture, uk);
                     const double u = rng.uniform();  // the wavelength
                     if (!(pr.pdf > 0.0) || !(pr.importance > 0.0) || !(pr.cosPixel > 0.0)) continue;
                     const int w = std::min(wavelengths - 1, static_cast<int>(u * wavelengths));

@@ -330,9 +330,9 @@ DetectorImage DetectorImage::scaled(double factor) const {
 }
 
 DetectorImage DetectorImage::fromSums(DetectorGeometry geometry, std::vector<double> flux,
-                                      std::vector<double> fluxSquared,
-                                      std::vector<uint64_t> counts, double totalFlux,
-                                      double totalFluxSquared, uint64_t totalCount) {
+                                      std::vector<double> fluxSquared, std::vector<uint64_t> counts,
+                                      double totalFlux, double totalFluxSquared,
+                                      uint64_t totalCount) {
     DetectorImage out(std::move(geometry));
     const size_t n = out.flux_.size();
     if (flux.size() != n || fluxSquared.size() != n || counts.size() != n)
@@ -423,6 +423,11 @@ PixelRay samplePixelRay(const DetectorImage& image, int pixel, const ExitApertur
                         CounterRng& rng) {
     std::array<double, kPixelRayUniforms> u;
     for (double& x : u) x = rng.uniform();
+    return samplePixelRay(image, pixel, aperture, u);
+}
+
+PixelRay samplePixelRay(const DetectorImage& image, int pixel, const ExitAperture& aperture,
+                        const std::array<double, kPixelRayUniforms>& u) {
     const DetectorGeometry& g = image.geometry();
     const int column = pixel % g.pixelsX, row = pixel / g.pixelsX;
     // Between the pixel's edges, so that the point belongs to it by the boundary rule (the

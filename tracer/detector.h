@@ -276,6 +276,11 @@ inline constexpr int kPixelRayUniforms = 4;
 // A ray from `pixel` of the image's grid (0 <= pixel < pixelCount()) through the aperture.
 PixelRay samplePixelRay(const DetectorImage& image, int pixel, const ExitAperture& aperture,
                         CounterRng& rng);
+// The same from given uniforms in [0, 1) (the pixel point's two, then the aperture point's:
+// equal areas of the unit square map to equal areas of the pixel and of the disk), so a pass
+// can stratify them; the pdf is the same.
+PixelRay samplePixelRay(const DetectorImage& image, int pixel, const ExitAperture& aperture,
+                        const std::array<double, kPixelRayUniforms>& u);
 // The pdf samplePixelRay() gives `ray` (origin on the detector plane, unit direction): 0 when
 // the origin is not in `pixel` or the ray misses the aperture disk.
 double pixelRayPdf(const DetectorImage& image, int pixel, const ExitAperture& aperture,

