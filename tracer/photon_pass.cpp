@@ -1,0 +1,348 @@
+#include "tracer/photon_pass.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
+
+#include <algorithm>
+#include <atomic>
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <numbers>
+
+namespace veil {
+
+namespace {
+
+// View points in a uniform grid of cells of size 2r, each stored in every cell its sphere
+// overlaps (at most 8), in compressed rows: a photon looks in its own cell only.
+class ViewPointGrid {
+  public:
+    ViewPointGrid(const std::vector<ViewPoint>& vps, double radiusMm) : r_(radiusMm) {
+        cell_ = 2.0 * radiusMm;
+        size_t want = 1;
+        while (want < 2 * vps.size() + 16) want <<= 1;
+        mask_ = want - 1;
+        start_.assign(want + 1, 0);
+        // Count, prefix, fill.
+        auto eachCell = [&](const ViewPoint& v, auto&& f) {
+            int64_t lo[3], hi[3];
+            for (int a = 0; a < 3; ++a) {
+                lo[a] = cellIndex(v.positionMm[a] - r_);
+                hi[a] = cellIndex(v.positionMm[a] + r_);
+            }
+            for (int64_t x = lo[0]; x <= hi[0]; ++x)
+                for (int64_t y = lo[1]; y <= hi[1]; ++y)
+                    for (int64_t z = lo[2]; z <= hi[2]; ++z) f(bucket(x, y, z));
+        };
+        for (const ViewPoint& v : vps) eachCell(v, [&](size_t b) { ++start_[b + 1]; });
+        for (size_t b = 0; b < want; ++b) start_[b + 1] += start_[b];
+        entries_.resize(start_[want]);
+        std::vector<uint32_t> fill(start_.begin(), start_.end() - 1);
+        for (size_t i = 0; i < vps.size(); ++i)
+            eachCell(vps[i], [&](size_t b) { entries_[fill[b]++] = static_cast<uint32_t>(i); });
+    }
+    // The view points whose cells hash to p's bucket (a superset of those within r).
+    std::pair<const uint32_t*, const uint32_t*> candidates(const Vec3& p) const {
+        const size_t b = bucket(cellIndex(p.x), cellIndex(p.y), cellIndex(p.z));
+        return {entries_.data() + start_[b], entries_.data() + start_[b + 1]};
+    }
+
+  private:
+    int64_t cellIndex(double x) const { return static_cast<int64_t>(std::floor(x / cell_)); }
+    size_t bucket(int64_t x, int64_t y, int64_t z) const {
+        const uint64_t h =
+            uint64_t(x) * 73856093u ^ uint64_t(y) * 19349663u ^ uint64_t(z) * 83492791u;
+        return static_cast<size_t>((h ^ (h >> 29)) & mask_);
+    }
+    double r_ = 0.0, cell_ = 1.0;
+    size_t mask_ = 0;
+    std::vector<uint32_t> start_;
+    std::vector<uint32_t> entries_;
+};
+
+struct PhotonBranch {
+    Ray ray;
+    double flux = 0.0;
+    int medium = 0, startObject = -1, startPrimitive = -1;
+    bool specular = false, scattered = false;  // the events it has seen
+    int segments = 0;
+    size_t state = 0;               // with criteria: its path state's offset in the photon's arena
+    uint64_t alive = ~uint64_t{0};  // criteria its path may still match
+};
+
+}  // namespace
+
+PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detector,
+                          const BackwardResult& back, const RenderOptions& options,
+                          const PathJudge* judge, int k, double radiusMm) {
+    const int pixels = detector.pixelCount();
+    const std::vector<ViewPoint>& vps = back.viewPoints;
+    const ViewPointGrid grid(vps, radiusMm);
+    const double r2 = radiusMm * radiusMm;
+    const double kernel = 1.0 / (std::numbers::pi * r2);
+    // The rim correction, computed the first time a view point gathers: 1 / its area share.
+    // The value depends on the view point alone (the spiral turned by its index), so threads
+    // racing on it write the same bits.
+    std::vector<std::atomic<float>> inverseShare(vps.size());
+    for (auto& x : inverseShare) x.store(0.0f, std::memory_order_relaxed);
+    auto areaCorrection = [&](uint32_t i) {
+        float c = inverseShare[i].load(std::memory_order_relaxed);
+        if (c == 0.0f) {
+            const double turn =
+                2.0 * std::numbers::pi * CounterRng(passSeed(options.seed, k, 2), i).uniform();
+            c = static_cast<float>(
+                1.0 / viewPointAreaShare(*ts.scene, vps[i], radiusMm, options.areaSamples, turn));
+            inverseShare[i].store(c, std::memory_order_relaxed);
+        }
+        return static_cast<double>(c);
+    };
+    const uint64_t perSource = options.photonsPerPass;
+    const uint64_t total = perSource * ts.sources.size();
+    const uint64_t photonSeed = passSeed(options.seed, static_cast<uint64_t>(k), 1);
+    const Scene& scene = *ts.scene;
+    const MediaOptics& media = *ts.media;
+    const uint64_t block = 4096;
+
+    const int renderedObject = detector.geometry().object;
+    const DetectorImage& grid0 = detector;
+    // The detector's smoothing disk this pass (mm), shrinking with the gathering radius.
+    const DetectorGeometry& dg = grid0.geometry();
+    const double rho = options.detectorRadiusPixels *
+                       std::max(dg.pixelWidthMm(), dg.pixelHeightMm()) *
+                       (options.initialRadiusMm > 0.0 ? radiusMm / options.initialRadiusMm : 1.0);
+    // The pixels that share a deposit landing at `point`: those whose centres lie within rho
+    // (its own pixel alone when none does); none when it misses the grid.
+    auto splatCells = [&](const Vec3& point, std::vector<int>& cells) {
+        cells.clear();
+        const auto own = grid0.pixelOf(point);
+        if (!own) return;
+        if (rho > 0.0) {
+            const Vec3 local = dg.frame.toLocalPoint(point);
+            const double pw = dg.pixelWidthMm(), ph = dg.pixelHeightMm();
+            const int c0 = std::max(0, int(std::floor((local.x - rho + 0.5 * dg.widthMm) / pw)));
+            const int c1 =
+                std::min(dg.pixelsX - 1, int(std::floor((local.x + rho + 0.5 * dg.widthMm) / pw)));
+            const int r0 = std::max(0, int(std::floor((0.5 * dg.heightMm - local.y - rho) / ph)));
+            const int r1 =
+                std::min(dg.pixelsY - 1, int(std::floor((0.5 * dg.heightMm - local.y + rho) / ph)));
+            for (int row = r0; row <= r1; ++row)
+                for (int col = c0; col <= c1; ++col) {
+                    const int p = grid0.pixelIndex(col, row);
+                    const Vec2 c = grid0.pixelCentreLocal(p);
+                    const double dx = c.x - local.x, dy = c.y - local.y;
+                    if (dx * dx + dy * dy <= rho * rho) cells.push_back(p);
+                }
+        }
+        if (cells.empty()) cells.push_back(*own);
+    };
+    auto splat = [](std::vector<double>& image, const std::vector<int>& cells, double flux) {
+        const double share = flux / static_cast<double>(cells.size());
+        for (int p : cells) image[static_cast<size_t>(p)] += share;
+    };
+    // Criteria: photon prefixes stream through the judge; a gather or a deposit judges the
+    // joined path (the photon's events, its scatter at the view point, the view point's
+    // backward events; or the detector hit).
+    const size_t criteria = judge ? static_cast<size_t>(judge->count()) : 0;
+    const bool prune = judge && options.prune;
+    const size_t stateBytes = judge ? judge->stateBytes() : 0;
+    const std::vector<PathEvent>& vpEvents = back.events;
+
+    PhotonImages identity;
+    identity.visible.assign(static_cast<size_t>(pixels), 0.0);
+    identity.caustic.assign(static_cast<size_t>(pixels), 0.0);
+    identity.secondary.assign(static_cast<size_t>(pixels), 0.0);
+    identity.by.assign(criteria, {identity.visible, identity.caustic, identity.secondary});
+    return tbb::parallel_deterministic_reduce(
+        tbb::blocked_range<uint64_t>(0, total, block), identity,
+        [&](const tbb::blocked_range<uint64_t>& r, PhotonImages a) {
+            std::vector<PhotonBranch> stack;
+            std::vector<int> cells;
+            std::vector<std::byte> states, scratch(stateBytes);  // states: per branch
+            std::vector<PathEvent> suffix;
+            // Adds `value` to image slot `slot` (0 visible, 1 caustic, 2 secondary) of the
+            // plain accumulator unless pruning drops it, and of every criterion matched.
+            auto book = [&](int slot, uint64_t matched, const std::vector<int>* spread, int pixel,
+                            double value) {
+                auto into = [&](std::vector<double>& image) {
+                    if (spread)
+                        splat(image, *spread, value);
+                    else
+                        image[static_cast<size_t>(pixel)] += value;
+                };
+                std::vector<double>* plain[3] = {&a.visible, &a.caustic, &a.secondary};
+                if (!prune || matched != 0) into(*plain[slot]);
+                for (uint64_t m = matched; m != 0; m &= m - 1)
+                    into(a.by[static_cast<size_t>(std::countr_zero(m))][static_cast<size_t>(slot)]);
+            };
+            for (uint64_t i = r.begin(); i < r.end(); ++i) {
+                const size_t sourceIndex = i / perSource;
+                const Source& source = ts.sources[sourceIndex];
+                const bool deposits = photonsSeeSource(source);
+                CounterRng rng(photonSeed, i);
+                const EmittedRay e = source.emit(rng, perSource);
+                ++a.photons;
+                if (!(e.flux > 0.0)) continue;
+                const int w = e.wavelength;
+                const double rouletteFlux = options.rouletteRelativeFlux * e.flux;
+                const double cullFlux = options.photonMinRelativeFlux * e.flux;
+                stack.clear();
+                PhotonBranch first{e.ray, e.flux, 0, -1, -1, false, false, 0};
+                if (judge) {
+                    states.assign(stateBytes, std::byte{0});
+                    judge->reset(states.data());
+                    first.alive = judge->push(
+                        states.data(),
+                        pathEvent(EventType::Emit, static_cast<int>(sourceIndex), 0, 0, 0));
+                    if (prune && first.alive == 0) {
+                        ++a.pruned;
+                        continue;
+                    }
+                }
+                stack.push_back(first);
+                while (!stack.empty()) {
+                    PhotonBranch br = stack.back();
+                    stack.pop_back();
+                    // The criteria a path of this branch's events and `suffix` matches.
+                    auto judged = [&] {
+                        if (br.alive == 0) return uint64_t{0};
+                        return judge->matches(states.data() + br.state, suffix, scratch.data());
+                    };
+                    for (; br.segments < options.maxPhotonSegments; ++br.segments) {
+                        const auto hit =
+                            scene.closestHit(br.ray, kInfinity, br.startObject, br.startPrimitive);
+                        ++a.segments;
+                        if (!hit) break;
+                        const double alpha = media.absorptionPerMm(br.medium, w);
+                        if (alpha > 0.0) br.flux *= std::exp(-alpha * hit->t);
+                        if (ts.detectorOfObject[hit->object] >= 0) {
+                            // Light that scattered nowhere lands here: the visible component
+                            // of the sources the photons stand for.
+                            if (deposits && !br.scattered && hit->object == renderedObject) {
+                                splatCells(hit->point, cells);
+                                if (cells.empty()) break;
+                                uint64_t matched = 0;
+                                if (judge) {
+                                    suffix.assign(1,
+                                                  pathEvent(EventType::DetectorHit, hit->object,
+                                                            hit->primitive, br.medium, br.medium));
+                                    matched = judged();
+                                }
+                                book(0, matched, &cells, 0, br.flux);
+                            }
+                            break;
+                        }
+                        const Interaction in = interact(ts, *hit, br.ray.direction, w,
+                                                        e.wavelengthNm, TransportMode::Flux);
+                        bool scatters = false;
+                        for (int c = 0; c < in.count; ++c) scatters |= in.children[c].scatter;
+                        if (scatters && (br.specular || br.scattered)) {
+                            const int slot = br.scattered ? 2 : 1;
+                            const auto [firstVp, lastVp] = grid.candidates(hit->point);
+                            for (const uint32_t* it = firstVp; it != lastVp; ++it) {
+                                const ViewPoint& v = vps[*it];
+                                if (v.object != hit->object || v.wavelength != w) continue;
+                                if (!(glm::dot(v.normal, hit->normal) > 0.0)) continue;
+                                const Vec3 d = v.positionMm - hit->point;
+                                if (glm::dot(d, d) > r2) continue;
+                                const double f = in.property->bsdf(in.context, v.toDetector);
+                                if (!(f > 0.0)) continue;
+                                ++a.gathers;
+                                uint64_t matched = 0;
+                                if (judge && br.alive != 0) {
+                                    // The photon's scatter here toward the view point's pixel.
+                                    const bool back = glm::dot(br.ray.direction, hit->normal) *
+                                                          glm::dot(v.toDetector, hit->normal) <
+                                                      0.0;
+                                    suffix.assign(1, pathEvent(back ? EventType::ScatterReflect
+                                                                    : EventType::ScatterTransmit,
+                                                               hit->object, hit->primitive,
+                                                               br.medium, v.medium));
+                                    suffix.insert(suffix.end(), vpEvents.begin() + v.firstEvent,
+                                                  vpEvents.begin() + v.firstEvent + v.eventCount);
+                                    matched = judged();
+                                }
+                                book(slot, matched, nullptr, v.pixel,
+                                     v.weight * br.flux * f * kernel * areaCorrection(*it));
+                            }
+                        }
+                        if (in.count == 0) break;
+                        // Continue as child c with flux `flux`; false when it has no direction
+                        // or no criterion can match its path any more (prune).
+                        auto become = [&](PhotonBranch& b, int c, double flux) {
+                            const auto dir = in.direction(c, rng);
+                            if (!dir) return false;
+                            const InteractionChild& child = in.children[c];
+                            if (judge && b.alive != 0) {
+                                b.alive =
+                                    judge->push(states.data() + b.state,
+                                                pathEvent(child.event, hit->object, hit->primitive,
+                                                          b.medium, child.medium));
+                            }
+                            if (prune && b.alive == 0) {
+                                ++a.pruned;
+                                return false;
+                            }
+                            (child.scatter ? b.scattered : b.specular) = true;
+                            b.flux = flux;
+                            b.ray = {hit->point, *dir};
+                            b.medium = child.medium;
+                            b.startObject = hit->object;
+                            b.startPrimitive = hit->primitive;
+                            return true;
+                        };
+                        int c = 0;
+                        double flux = 0.0;
+                        if (!br.scattered && in.count > 1) {
+                            // Before the first scatter every child is followed (the ghosts live
+                            // in the weak reflected branches); then one child by weight.
+                            for (int k = in.count - 1; k >= 1; --k) {
+                                const double f = br.flux * in.children[k].share;
+                                if (f < cullFlux) continue;
+                                PhotonBranch child = br;
+                                child.segments = br.segments + 1;
+                                if (judge) {  // its own copy of the path state
+                                    child.state = states.size();
+                                    states.resize(states.size() + stateBytes);
+                                    std::memcpy(states.data() + child.state,
+                                                states.data() + br.state, stateBytes);
+                                }
+                                if (become(child, k, f)) stack.push_back(child);
+                            }
+                            c = 0;
+                            flux = br.flux * in.children[0].share;
+                            if (flux < cullFlux) break;
+                        } else {
+                            c = in.count > 1 ? chooseChild(in, rng.uniform()) : 0;
+                            flux = br.flux * in.total;
+                        }
+                        if (!become(br, c, flux)) break;
+                        if (rouletteFlux > 0.0 && br.flux < rouletteFlux) {
+                            if (rng.uniform() * rouletteFlux < br.flux)
+                                br.flux = rouletteFlux;
+                            else
+                                break;
+                        }
+                    }
+                }
+            }
+            return a;
+        },
+        [](PhotonImages a, const PhotonImages& b) {
+            auto addInto = [](std::vector<double>& x, const std::vector<double>& y) {
+                for (size_t p = 0; p < x.size(); ++p) x[p] += y[p];
+            };
+            addInto(a.visible, b.visible);
+            addInto(a.caustic, b.caustic);
+            addInto(a.secondary, b.secondary);
+            for (size_t k = 0; k < a.by.size(); ++k)
+                for (size_t s = 0; s < 3; ++s) addInto(a.by[k][s], b.by[k][s]);
+            a.photons += b.photons;
+            a.segments += b.segments;
+            a.gathers += b.gathers;
+            a.pruned += b.pruned;
+            return a;
+        });
+}
+
+}  // namespace veil
