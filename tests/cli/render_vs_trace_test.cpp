@@ -9,8 +9,9 @@
 // Other seeds, measured: with 32 passes seeds 7 and 9 agree (total z 0.62 and 0.79, worst
 // block |z| 2.3 and 2.0), seed 8 does not (total z 3.97: 4.14e-3 W against 3.73e-3 W). Its
 // 32 pass estimates spread evenly (no outlier), 2.5 sigma from seed 7's mean. Nine seeds
-// (7 to 15) average 3.9 % above trace, 3.3 sigma: a bias of the renderer not yet found
-// (docs/render.md says what it is not). This test holds seed 7, within the 2 % bound.
+// (7 to 15) average 3.9 % above trace, 3.3 sigma: the aperture stop's faces give twice
+// trace's light (docs/render.md), a renderer bug found but not yet fixed. This test holds
+// seed 7, within the 2 % bound; once the stop is right it should hold for any seed.
 
 #include <gtest/gtest.h>
 
