@@ -242,7 +242,7 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                             for (const uint32_t* it = firstVp; it != lastVp; ++it) {
                                 const ViewPoint& v = vps[*it];
                                 if (v.object != hit->object || v.wavelength != w) continue;
-                                if (!(glm::dot(v.normal, hit->normal) > 0.0)) continue;
+                                if (!(glm::dot(v.normal, hit->normal) > kGatherNormalCos)) continue;
                                 const Vec3 d = v.positionMm - hit->point;
                                 if (glm::dot(d, d) > r2) continue;
                                 const double f = in.property->bsdf(in.context, v.toDetector);

@@ -392,13 +392,13 @@ double viewPointAreaShare(const Scene& scene, const ViewPoint& v, double radiusM
     // Each probe starts just off the tangent plane (a hair on the view point's side, so a flat
     // face is met ahead of the ray) and looks along the normal both ways, up to r: a face that
     // curves away from the plane (a sag of rho^2 / 2R) is found below it, one that curves
-    // toward it (a bore seen from inside) above. Only the view point's object, with its
-    // orientation and within r of it, counts; anything else met first blocks the probe.
+    // toward it (a bore seen from inside) above. Only the view point's object, with its normal
+    // (kGatherNormalCos) and within r of it, counts; anything else met first blocks the probe.
     const double hair = std::max(1e-3 * radiusMm, 1e-4);
     constexpr double kGolden = 2.39996322972865332;  // pi (3 - sqrt 5)
     auto lands = [&](const std::optional<SceneHit>& hit) {
         if (!hit || hit->object != v.object) return false;
-        if (!(glm::dot(hit->normal, v.normal) > 0.0)) return false;
+        if (!(glm::dot(hit->normal, v.normal) > kGatherNormalCos)) return false;
         const Vec3 d = hit->point - v.positionMm;
         return glm::dot(d, d) <= radiusMm * radiusMm;
     };

@@ -205,6 +205,14 @@ class Renderer {
 double viewPointAreaShare(const Scene& scene, const ViewPoint& v, double radiusMm, int samples,
                           double turn);
 
+// A photon is gathered by a view point, and a probe counts toward its share, only on the same
+// object where the surface normal is within 25.8 degrees of the view point's: the disk stays
+// on the view point's face and does not reach across a sharp edge (a stop's 45 degree knife
+// chamfer gathered the sunlit front's photons into the view points behind it and doubled the
+// stop's light). Gathering and share use the same rule, so a bend within r is left out of
+// both the photons and the area.
+inline constexpr double kGatherNormalCos = 0.9;
+
 // Whether the photons, rather than the backward rays, count a source's visible component:
 // the sun and the delta kinds (collimated, point), which a backward ray cannot find.
 bool photonsSeeSource(const Source& s);

@@ -6,12 +6,9 @@
 // renderer's neighbouring pixels share photons within a pass, so summing their variances
 // would understate a block's.
 //
-// Other seeds, measured: with 32 passes seeds 7 and 9 agree (total z 0.62 and 0.79, worst
-// block |z| 2.3 and 2.0), seed 8 does not (total z 3.97: 4.14e-3 W against 3.73e-3 W). Its
-// 32 pass estimates spread evenly (no outlier), 2.5 sigma from seed 7's mean. Nine seeds
-// (7 to 15) average 3.9 % above trace, 3.3 sigma: the aperture stop's faces give twice
-// trace's light (docs/render.md), a renderer bug found but not yet fixed. This test holds
-// seed 7, within the 2 % bound; once the stop is right it should hold for any seed.
+// Other seeds, measured: nine seeds (7 to 15) average 3.754e-3 W against trace's
+// 3.727e-3 W (+0.7 %, z 0.7); the highest, seed 8, gives +7 % (z 2.5). Before the gathering's
+// normal rule (kGatherNormalCos) they averaged +3.9 %, 3.3 sigma: the stop's knife edge.
 
 #include <gtest/gtest.h>
 
