@@ -10,6 +10,7 @@
 #include <exception>
 #include <thread>
 
+#include "tracer/path_judge.h"
 #include "tracer/rng.h"
 #include "tracer/sequential_trace.h"
 
@@ -153,12 +154,7 @@ class RayTracer {
     bool wanted(Branch& br, EventType type, int object, int face, int mediumBefore, int mediumAfter,
                 double flux) {
         if (!br.filter) return true;
-        PathEvent e;
-        e.type = type;
-        e.object = object;
-        e.face = face;
-        e.mediumBefore = static_cast<int16_t>(mediumBefore);
-        e.mediumAfter = static_cast<int16_t>(mediumAfter);
+        PathEvent e = pathEvent(type, object, face, mediumBefore, mediumAfter);
         e.flux = static_cast<float>(flux);
         return br.filter->push(e);
     }

@@ -24,7 +24,8 @@
 namespace veil {
 
 // The event of type `type` at `object` (a source index for Emit) and `face`, the light going
-// from medium `before` into `after`: how the renderer writes the events it judges.
+// from medium `before` into `after`: how the renderer and the forward tracer's online filter
+// write the events they judge.
 inline PathEvent pathEvent(EventType type, int object, int face, int before, int after) {
     PathEvent e;
     e.type = type;

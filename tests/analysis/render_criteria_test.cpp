@@ -18,12 +18,7 @@ using test::RandomCriteria;
 using test::randomNames;
 
 PathEvent ev(EventType t, int object, int before = 0, int after = 0) {
-    PathEvent e;
-    e.type = t;
-    e.object = object;
-    e.mediumBefore = static_cast<int16_t>(before);
-    e.mediumAfter = static_cast<int16_t>(after);
-    return e;
+    return pathEvent(t, object, 0, before, after);
 }
 
 TEST(RenderCriteria, JoinedPathsGetTheWholePathsVerdict) {
