@@ -103,6 +103,9 @@ int main(int argc, char** argv) {
     const RenderCriteria criteria(std::move(compiled), names);
     RenderOptions ro;
     ro.initialRadiusMm = defaultInitialRadius(ts);
+    // The measured image is scattered light only: the photons that split every branch for the
+    // sources' visible light (--ghost-photons) would cost without adding to it.
+    ro.ghostPhotonsPerPass = 1;
     const Renderer renderer(ts, detector, exitApertureFor(*ts.scene, detector.geometry()), ro,
                             &criteria);
     RenderState state(detector.geometry(), ro.initialRadiusMm, ro.alpha, 1);

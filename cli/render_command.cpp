@@ -56,7 +56,8 @@ uint64_t fingerprint(const TransportScene& ts, const DetectorGeometry& g, const 
        << " " << o.seed << " " << o.splitBackward << " " << o.minRelativeWeight << " "
        << o.maxSpecularDepth << " " << o.detectorRadiusPixels << " " << o.viewPointRelativeWeight
        << " " << o.rouletteRelativeFlux << " " << o.maxPhotonSegments << " " << o.prune << " "
-       << o.areaSamples;
+       << o.areaSamples << " " << o.quasiRandomPhotons << " "
+       << std::min(o.ghostPhotonsPerPass, o.photonsPerPass) << " " << o.photonRescueRelativeFlux;
     for (const std::string& w : where) os << "\nwhere " << w;
     const std::string text = os.str();
     uint64_t h = 1469598103934665603ull;
@@ -137,6 +138,9 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
                     "options");
     sub->add_option("--detector", o.detector, "the detector to render (default: the first)");
     addCount(sub, "--photons", o.photons, "photons per source per pass");
+    addCount(sub, "--ghost-photons", o.ghostPhotons,
+             "of those, how many follow every specular branch and deposit the sources' visible "
+             "light and ghosts (at most --photons)");
     addCount(sub, "--rays-per-pixel", o.raysPerPixel, "backward rays per pixel per pass");
     sub->add_option("--radius", o.radiusMm,
                     "initial gathering radius r1 in mm (0: 1 % of the scattering parts' size)")
@@ -157,6 +161,11 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
     sub->add_option("--backward", o.backward,
                     "backward rays: split (every specular child) or random (one by weight)")
         ->check(CLI::IsMember({"split", "random"}))
+        ->capture_default_str();
+    sub->add_option("--photon-points", o.photonPoints,
+                    "where a pass's photons start: sobol (quasi-random, evenly spread, each "
+                    "pass scrambled anew) or random")
+        ->check(CLI::IsMember({"sobol", "random"}))
         ->capture_default_str();
     sub->add_option("--min-weight", o.minWeight,
                     "split backward rays: end branches below this share of the ray's weight")
@@ -210,10 +219,12 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
     RenderOptions ro;
     ro.raysPerPixel = o.raysPerPixel;
     ro.photonsPerPass = o.photons;
+    ro.ghostPhotonsPerPass = o.ghostPhotons;
     ro.alpha = o.alpha;
     ro.seed = o.seed;
     ro.rouletteRelativeFlux = o.roulette;
     ro.splitBackward = o.backward == "split";
+    ro.quasiRandomPhotons = o.photonPoints == "sobol";
     ro.minRelativeWeight = o.minWeight;
     ro.initialRadiusMm = o.radiusMm > 0.0 ? o.radiusMm : defaultInitialRadius(ts);
     ro.check();
@@ -396,12 +407,15 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
     summary["seconds_this_run"] = runSeconds;
     summary["stopped"] = stopReason;
     summary["seed"] = o.seed;
-    summary["options"] = {{"rays_per_pixel", ro.raysPerPixel},
-                          {"photons_per_source_per_pass", ro.photonsPerPass},
-                          {"initial_radius_mm", ro.initialRadiusMm},
-                          {"alpha", ro.alpha},
-                          {"roulette", ro.rouletteRelativeFlux},
-                          {"area_samples", ro.areaSamples}};
+    summary["options"] = {
+        {"rays_per_pixel", ro.raysPerPixel},
+        {"photons_per_source_per_pass", ro.photonsPerPass},
+        {"ghost_photons_per_source_per_pass", std::min(ro.ghostPhotonsPerPass, ro.photonsPerPass)},
+        {"initial_radius_mm", ro.initialRadiusMm},
+        {"alpha", ro.alpha},
+        {"roulette", ro.rouletteRelativeFlux},
+        {"area_samples", ro.areaSamples},
+        {"photon_points", ro.quasiRandomPhotons ? "sobol" : "random"}};
     summary["final_radius_mm"] = state.radiusMm();
     summary["exit_aperture"] = {
         {"center_mm", {aperture.centerMm.x, aperture.centerMm.y, aperture.centerMm.z}},

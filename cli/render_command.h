@@ -20,13 +20,15 @@ struct RenderCommandOptions {
     std::string timeLimit = "10m";
     int passes = 0;  // 0: no pass limit
     std::string detector;
-    uint64_t photons = 100000;  // per source per pass
+    uint64_t photons = 100000;      // per source per pass
+    uint64_t ghostPhotons = 16384;  // of those, following every specular branch
     uint64_t raysPerPixel = 16;
     double radiusMm = 0.0;  // 0: automatic
     double alpha = 2.0 / 3.0;
     double roulette = 0.1;
     int areaSamples = 16;  // rim correction probes per view point
     std::string backward = "random";
+    std::string photonPoints = "sobol";
     double minWeight = 1e-4;
     std::vector<std::string> where;  // path criteria: one image per criterion
     bool prune = false;              // stop paths no criterion can match

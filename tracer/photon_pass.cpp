@@ -10,6 +10,8 @@
 #include <cstring>
 #include <numbers>
 
+#include "tracer/qmc.h"
+
 namespace veil {
 
 namespace {
@@ -99,7 +101,14 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
     };
     const uint64_t perSource = options.photonsPerPass;
     const uint64_t total = perSource * ts.sources.size();
+    const uint64_t ghostPhotons = std::min(options.ghostPhotonsPerPass, perSource);
+    const double visibleScale = static_cast<double>(perSource) / static_cast<double>(ghostPhotons);
     const uint64_t photonSeed = passSeed(options.seed, static_cast<uint64_t>(k), 1);
+    // Quasi-random emission: one scramble of the Sobol points per source and pass.
+    std::vector<SobolOwen> emission;
+    for (size_t s = 0; s < ts.sources.size(); ++s)
+        emission.emplace_back(passSeed(options.seed, static_cast<uint64_t>(k), 3) ^
+                              (0x9E3779B97F4A7C15ull * (s + 1)));
     const Scene& scene = *ts.scene;
     const MediaOptics& media = *ts.media;
     const uint64_t block = 4096;
@@ -180,12 +189,33 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                 const Source& source = ts.sources[sourceIndex];
                 const bool deposits = photonsSeeSource(source);
                 CounterRng rng(photonSeed, i);
-                const EmittedRay e = source.emit(rng, perSource);
+                EmittedRay e;
+                if (options.quasiRandomPhotons) {
+                    // Sobol dimensions 0 and 1 (the best pair) to the origin, 2 and 3 to the
+                    // direction, 4 to the line.
+                    const SobolOwen& q = emission[sourceIndex];
+                    const uint64_t j = i % perSource;
+                    e = source.emit({q.sample(j, 4), q.sample(j, 0), q.sample(j, 1), q.sample(j, 2),
+                                     q.sample(j, 3)},
+                                    perSource);
+                } else {
+                    e = source.emit(rng, perSource);
+                }
                 ++a.photons;
                 if (!(e.flux > 0.0)) continue;
                 const int w = e.wavelength;
                 const double rouletteFlux = options.rouletteRelativeFlux * e.flux;
                 const double cullFlux = options.photonMinRelativeFlux * e.flux;
+                // Until their first scatter photons split at every interface. The first
+                // ghostPhotons of a source's quasi-random photons follow every branch (below
+                // the cull, roulette at the rescue level) and deposit the visible light, for
+                // all of them; the others' branches play roulette below rouletteFlux, as after
+                // a scatter: their weak ghosts matter only where they scatter.
+                const bool splitAll = i % perSource < ghostPhotons;
+                const bool cheap = !splitAll && rouletteFlux > 0.0;
+                const double lowFlux = cheap ? rouletteFlux : cullFlux;
+                const double keepFlux =
+                    cheap ? rouletteFlux : options.photonRescueRelativeFlux * e.flux;
                 stack.clear();
                 PhotonBranch first{e.ray, e.flux, 0, -1, -1, false, false, 0};
                 if (judge) {
@@ -218,7 +248,8 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                         if (ts.detectorOfObject[hit->object] >= 0) {
                             // Light that scattered nowhere lands here: the visible component
                             // of the sources the photons stand for.
-                            if (deposits && !br.scattered && hit->object == renderedObject) {
+                            if (deposits && splitAll && !br.scattered &&
+                                hit->object == renderedObject) {
                                 splatCells(hit->point, cells);
                                 if (cells.empty()) break;
                                 uint64_t matched = 0;
@@ -228,7 +259,7 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                                                             hit->primitive, br.medium, br.medium));
                                     matched = judged();
                                 }
-                                book(0, matched, &cells, 0, br.flux);
+                                book(0, matched, &cells, 0, br.flux * visibleScale);
                             }
                             break;
                         }
@@ -236,7 +267,20 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                                                         e.wavelengthNm, TransportMode::Flux);
                         bool scatters = false;
                         for (int c = 0; c < in.count; ++c) scatters |= in.children[c].scatter;
-                        if (scatters && (br.specular || br.scattered)) {
+                        // Until its first scatter a branch is followed whatever its flux (its
+                        // ghosts are the visible light, smooth only when every branch of every
+                        // photon lands); where it first meets a scattering surface, the light
+                        // it scatters plays Russian roulette: below rouletteFlux it is kept with
+                        // probability flux / rouletteFlux, at rouletteFlux. The gathering, which
+                        // costs as much for a weak ghost as for the photon itself, and the
+                        // scattered child take that flux; its specular children keep theirs.
+                        double scatterScale = 1.0;
+                        if (scatters && !br.scattered && rouletteFlux > 0.0 &&
+                            br.flux < rouletteFlux)
+                            scatterScale = rng.uniform() * rouletteFlux < br.flux
+                                               ? rouletteFlux / br.flux
+                                               : 0.0;
+                        if (scatters && (br.specular || br.scattered) && scatterScale > 0.0) {
                             const int slot = br.scattered ? 2 : 1;
                             const auto [firstVp, lastVp] = grid.candidates(hit->point);
                             for (const uint32_t* it = firstVp; it != lastVp; ++it) {
@@ -263,7 +307,8 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                                     matched = judged();
                                 }
                                 book(slot, matched, nullptr, v.pixel,
-                                     v.weight * br.flux * f * kernel * areaCorrection(*it));
+                                     v.weight * br.flux * scatterScale * f * kernel *
+                                         areaCorrection(*it));
                             }
                         }
                         if (in.count == 0) break;
@@ -297,8 +342,14 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                             // Before the first scatter every child is followed (the ghosts live
                             // in the weak reflected branches); then one child by weight.
                             for (int k = in.count - 1; k >= 1; --k) {
-                                const double f = br.flux * in.children[k].share;
-                                if (f < cullFlux) continue;
+                                const double f = br.flux * in.children[k].share *
+                                                 (in.children[k].scatter ? scatterScale : 1.0);
+                                if (!(f > 0.0)) continue;
+                                double keep = f;
+                                if (f < lowFlux) {
+                                    if (rng.uniform() * keepFlux >= f) continue;
+                                    keep = keepFlux;
+                                }
                                 PhotonBranch child = br;
                                 child.segments = br.segments + 1;
                                 if (judge) {  // its own copy of the path state
@@ -307,17 +358,24 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                                     std::memcpy(states.data() + child.state,
                                                 states.data() + br.state, stateBytes);
                                 }
-                                if (become(child, k, f)) stack.push_back(child);
+                                if (become(child, k, keep)) stack.push_back(child);
                             }
                             c = 0;
-                            flux = br.flux * in.children[0].share;
-                            if (flux < cullFlux) break;
+                            flux = br.flux * in.children[0].share *
+                                   (in.children[0].scatter ? scatterScale : 1.0);
+                            if (!(flux > 0.0)) break;
+                            if (flux < lowFlux) {
+                                if (rng.uniform() * keepFlux >= flux) break;
+                                flux = keepFlux;
+                            }
                         } else {
                             c = in.count > 1 ? chooseChild(in, rng.uniform()) : 0;
-                            flux = br.flux * in.total;
+                            flux =
+                                br.flux * in.total * (in.children[c].scatter ? scatterScale : 1.0);
+                            if (!(flux > 0.0)) break;
                         }
                         if (!become(br, c, flux)) break;
-                        if (rouletteFlux > 0.0 && br.flux < rouletteFlux) {
+                        if (br.scattered && rouletteFlux > 0.0 && br.flux < rouletteFlux) {
                             if (rng.uniform() * rouletteFlux < br.flux)
                                 br.flux = rouletteFlux;
                             else

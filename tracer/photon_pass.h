@@ -1,19 +1,25 @@
 #pragma once
 // The forward stage of a render pass (tracer/render.h, the seed's figure 7, second stage):
-// photons leave the sources through the interaction step (flux mode). Until their first
-// scatter they split at every interface (every Fresnel branch, culled below
-// RenderOptions::photonMinRelativeFlux of the photon); then one child by weight, with Russian
-// roulette. They add three images:
-//   visible    a photon of the sun, a collimated or a point source that reaches the detector
-//              without scattering, spread over the pixels within the detector smoothing disk
+// photons leave the sources through the interaction step (flux mode). The first
+// RenderOptions::ghostPhotonsPerPass of a source split at every interface until their first
+// scatter (every Fresnel branch; below photonMinRelativeFlux of the photon a branch plays
+// roulette, kept at photonRescueRelativeFlux); the others follow one child by weight. Where a
+// branch first scatters, its scattered light plays roulette below rouletteRelativeFlux; after
+// that one child by weight, with Russian roulette. They add three images:
+//   visible    a splitting photon of the sun, a collimated or a point source that reaches the
+//              detector without scattering (its flux times photons / ghost photons), spread
+//              over the pixels within the detector smoothing disk
 //              (RenderOptions::detectorRadiusPixels, shrinking with the radius)
 //   caustic    gathered at the pass's view points (a spatial hash of cells 2r wide) when the
 //              photon has seen specular events only: weight x flux x bsdf / (share pi r^2),
 //              share the view point's own part of its disk (viewPointAreaShare)
 //   secondary  the same once the photon has scattered before
 // and, with path criteria, the same three per criterion on the joined paths.
-// Deterministic: photon i of pass k draws from CounterRng(passSeed(seed, k, 1), i), blocks of
-// 4096 photons are reduced in a fixed order.
+// Emission: photon j of a source takes point j of an Owen-scrambled Sobol sequence
+// (tracer/qmc.h), scrambled by passSeed(seed, k, 3) and the source, for its origin, direction
+// and line (RenderOptions::quasiRandomPhotons; otherwise its own random numbers).
+// Deterministic: photon i of pass k draws its other choices from
+// CounterRng(passSeed(seed, k, 1), i), blocks of 4096 photons are reduced in a fixed order.
 
 #include <array>
 #include <cstdint>

@@ -53,6 +53,10 @@ void RenderOptions::check() const {
     if (maxPhotonSegments < 1) fail("the maximum photon segments must be at least 1");
     if (!(photonMinRelativeFlux >= 0.0 && photonMinRelativeFlux < 1.0))
         fail("the photon cull threshold must lie in [0, 1)");
+    if (ghostPhotonsPerPass == 0) fail("ghost photons per pass must be at least 1");
+    if (!(photonRescueRelativeFlux > 0.0 && photonRescueRelativeFlux <= 1.0 &&
+          photonRescueRelativeFlux >= photonMinRelativeFlux))
+        fail("the photon rescue level must lie in [cull threshold, 1] and be > 0");
     if (areaSamples < 0 || areaSamples > 4096)
         fail("the area samples per view point must lie in [0, 4096]");
     if (!(detectorRadiusPixels >= 0.0 && detectorRadiusPixels <= 1000.0))
@@ -63,7 +67,8 @@ std::ostream& operator<<(std::ostream& os, const RenderOptions& o) {
     return os << "RenderOptions{" << o.raysPerPixel << " rays per pixel, " << o.photonsPerPass
               << " photons per source per pass, r1 " << o.initialRadiusMm << " mm, alpha "
               << o.alpha << ", seed " << o.seed << (o.splitBackward ? ", split" : ", random")
-              << ", roulette " << o.rouletteRelativeFlux << "}";
+              << ", roulette " << o.rouletteRelativeFlux
+              << (o.quasiRandomPhotons ? ", sobol photons" : ", random photons") << "}";
 }
 
 uint64_t passSeed(uint64_t seed, uint64_t pass, uint32_t purpose) {

@@ -8,11 +8,13 @@
 //      sources (window, lambertian) seen through the lens, store view points where they meet
 //      scattering surfaces, and at every view point next-event estimation toward each source
 //      gives the direct component.
-//   2. Forward: photonsPerPass photons per source, the same transport (tracer/interaction.h,
-//      flux mode). Until its first scatter a photon splits at every interface (every Fresnel
-//      branch, culled below photonMinRelativeFlux); then it follows one child chosen by
-//      weight, with Russian roulette. A photon of the sun or of a collimated or point source
-//      that reaches the detector without scattering adds its flux to its pixel: the visible
+//   2. Forward (tracer/photon_pass.h): photonsPerPass photons per source on quasi-random
+//      points of the emission, the same transport (tracer/interaction.h, flux mode). Until
+//      its first scatter a photon splits at every interface (every Fresnel branch; the first
+//      ghostPhotonsPerPass follow every branch, the others' weak branches play roulette);
+//      then it follows one child chosen by weight, with Russian roulette. A splitting photon
+//      of the sun or of a collimated or point source that reaches the detector without
+//      scattering adds its flux (times photons / ghost photons) to its pixels: the visible
 //      component of those sources (their ghosts, or their image in the field), which a
 //      backward ray would have to hit a 0.5 degree disk to find. At every hit on a scattering
 //      surface after at least one event, the photon is gathered by the view points within
@@ -74,9 +76,16 @@ struct RenderOptions {
     double rouletteRelativeFlux = 0.1;      // photons below this share of their emitted flux
                                             // play Russian roulette; 0 = off
     int maxPhotonSegments = 1000;
-    // Photons split at every interface until their first scatter (every Fresnel branch, as
-    // veil trace does); branches below this share of the photon's flux are culled there.
+    // The first ghostPhotonsPerPass photons of each source (of the quasi-random sequence,
+    // at most photonsPerPass) follow every specular branch until their first scatter (every
+    // Fresnel branch, as veil trace does): they alone deposit the visible light of the sun,
+    // collimated and point sources (their ghosts), for all photons; their branches below
+    // photonMinRelativeFlux of the photon play Russian roulette, kept at
+    // photonRescueRelativeFlux. The others' branches play roulette below
+    // rouletteRelativeFlux (kept at it): they serve the gathered light.
+    uint64_t ghostPhotonsPerPass = 16384;
     double photonMinRelativeFlux = 1e-4;
+    double photonRescueRelativeFlux = 1e-2;
     // The photons' visible deposits (the sun's ghosts) are spread evenly over the pixels whose
     // centres lie within this many pixel pitches of the hit, shrinking with the gathering
     // radius (rho_k = rho_1 r_k / r_1): density estimation on the detector, consistent as
@@ -86,6 +95,10 @@ struct RenderOptions {
     // rim correction, viewPointAreaShare); 0: every disk counts as pi r^2 (biased low within r
     // of a face's rim).
     int areaSamples = 16;
+    // How the photons of a pass spread over each source's emission (its origin, direction and
+    // line): quasi-random points (Owen-scrambled Sobol, one scramble per source and pass:
+    // still unbiased, passes still independent) or independent random ones.
+    bool quasiRandomPhotons = true;
     // With criteria (Renderer's judge): stop photons and backward branches as soon as no
     // criterion can match their path; the plain images then hold only light that matches at
     // least one criterion.

@@ -388,6 +388,10 @@ Ray areaRay(const AreaEmitter& e, double u1, double u2, double u3, double u4) {
 EmittedRay Source::emit(CounterRng& rng, uint64_t rayCount) const {
     std::array<double, kEmitUniforms> u;
     for (double& x : u) x = rng.uniform();
+    return emit(u, rayCount);
+}
+
+EmittedRay Source::emit(const std::array<double, kEmitUniforms>& u, uint64_t rayCount) const {
     const SpectralSampler::Sample line = spectrum_.sample(u[0]);
     EmittedRay out;
     out.wavelength = line.index;
@@ -547,7 +551,8 @@ std::optional<Source::IncidentSample> Source::sampleIncident(const Vec3& pointMm
             } else if constexpr (std::is_same_v<T, SunSource>) {
                 const Beam& b = k.beam;
                 const double omc = oneMinusCos(b.halfAngleRad);
-                const Vec3 d = coneDirection(b.direction, b.axisU, b.axisV, u1 * omc, 2.0 * kPi * u2);
+                const Vec3 d =
+                    coneDirection(b.direction, b.axisU, b.axisV, u1 * omc, 2.0 * kPi * u2);
                 auto s = beamSample(b, d);
                 if (s) {
                     s->value *= coneSolidAngleSr(b.halfAngleRad);

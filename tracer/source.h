@@ -57,6 +57,7 @@
 //
 // The scene keys of [[source]] are documented in docs/format.md.
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <ostream>
@@ -210,6 +211,10 @@ class Source {
 
     // One ray of a run of rayCount rays (> 0): flux = totalFlux / rayCount * spectral weight.
     EmittedRay emit(CounterRng& rng, uint64_t rayCount) const;
+    // The same from given uniforms in [0, 1): u[0] picks the line, u[1], u[2] the origin and
+    // u[3], u[4] the direction (continuous maps, so evenly spread uniforms, such as
+    // quasi-random points, give evenly spread rays).
+    EmittedRay emit(const std::array<double, kEmitUniforms>& u, uint64_t rayCount) const;
 
     // Source Evaluation (measures and units in the header comment)
     // Which factor of the emitted radiance is a delta distribution.
@@ -261,8 +266,7 @@ class Source {
     // pointMm, reaching the emitting surface at emitterPointMm (a point where it emits toward
     // pointMm, as crossing() finds): d^2 / (A cos theta_s) for the area kinds, 1 / Omega for
     // the sun, 0 for the delta kinds.
-    double incidentPdf(const Vec3& pointMm, const Vec3& emitterPointMm,
-                       const Vec3& toSource) const;
+    double incidentPdf(const Vec3& pointMm, const Vec3& emitterPointMm, const Vec3& toSource) const;
     // Area of the emitting surface (mm^2; 0 for a point) and solid angle of its directions
     // (sr; 0 for a collimated beam).
     double emittingAreaMm2() const;

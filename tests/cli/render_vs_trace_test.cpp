@@ -46,12 +46,15 @@ TEST(RenderVsTrace, ScatteredLightAgreesInTotalAndOnBlocks) {
     const std::string rdir = ::testing::TempDir() + "veil_render_vs_trace_r";
     std::filesystem::remove_all(tdir);
     std::filesystem::remove_all(rdir);
-    VeilRun t = runVeil("trace " + scene + " -n 4M --seed 7 --where scatter --quiet -o " + tdir);
+    VeilRun t = runVeil("trace " + scene +
+                        " -n 4M --seed 7 --where scatter --where 'not scatter' --min-flux 0"
+                        " --roulette 0.01 --quiet -o " +
+                        tdir);
     ASSERT_EQ(t.exitCode, 0) << t.err;
     VeilRun r =
         runVeil("render " + scene +
                 " --passes 32 --rays-per-pixel 256 --time-limit none --seed 7 --where scatter"
-                " --quiet -o " +
+                " --where 'not scatter' --quiet -o " +
                 rdir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const veil::DetectorExr te = veil::readDetectorExr(tdir + "/det.exr");
@@ -83,6 +86,19 @@ TEST(RenderVsTrace, ScatteredLightAgreesInTotalAndOnBlocks) {
               << tf << " +- " << ts << " (z " << (rf - tf) / std::hypot(ts, rs)
               << "); worst block |z| " << worst << "\n";
     EXPECT_GE(lit, 8);  // the light spreads over the detector: the blocks test something
+
+    // The light that scattered nowhere (the Sun's image and ghosts): deposited by the
+    // photons that split every branch (--ghost-photons, their flux scaled to all photons),
+    // with the rescue roulette below 1e-4 of a photon; trace without a cull.
+    const veil::ExrLayer* tv = te.layer("where2");
+    const veil::ExrLayer* rv = re.layer("where2");
+    ASSERT_TRUE(tv && rv);
+    const double vf = tv->totalFlux, wf = rv->totalFlux;
+    const double vs = tv->totalRelativeError * vf, ws = rv->totalRelativeError * wf;
+    EXPECT_LE(std::abs(wf - vf), 3.0 * std::hypot(vs, ws))
+        << "render " << wf << " +- " << ws << ", trace " << vf << " +- " << vs;
+    std::cout << "[render vs trace] unscattered light: render " << wf << " +- " << ws << ", trace "
+              << vf << " +- " << vs << " (z " << (wf - vf) / std::hypot(vs, ws) << ")\n";
 }
 
 }  // namespace
