@@ -20,6 +20,7 @@
 #include <filesystem>
 #include <iostream>
 #include <string>
+#include <vector>
 
 #include "analysis/criterion_names.h"
 #include "analysis/image_output.h"
@@ -61,6 +62,67 @@ std::pair<double, int> forwardLitError(const DetectorImage& forward, const Detec
         ++lit;
     }
     return {lit ? sum / lit : INFINITY, lit};
+}
+
+// The renderer's error after n passes, from its passes: a pass's variance is A (the view
+// points' sampling, the same every pass) plus B k^(1 - alpha) (the photon density estimate,
+// growing as the radius shrinks, r_k^2 ~ k^(alpha - 1)), so the mean of n passes has
+// variance A / n + B S_n / n^2 with S_n = sum_{k <= n} k^(1 - alpha). A and B (>= 0) are
+// fitted by least squares to e_n^2 n = A + B S_n / n over the passes from kFirstPass on (the
+// errors of fewer passes are too noisy); the passes to a target error follow. B alone is
+// the t^(-alpha/2) rate; A alone t^(-1/2).
+struct VarianceModel {
+    static constexpr int kFirstPass = 4;
+    double a = 0.0, b = 0.0;
+    static double s(int n, double alpha) {
+        double sum = 0.0;
+        for (int k = 1; k <= n; ++k) sum += std::pow(double(k), 1.0 - alpha);
+        return sum;
+    }
+    double variance(double n, double alpha) const {
+        // S_n for non-integer n by its integral's growth: S_n ~ n^(2 - alpha) / (2 - alpha).
+        const int whole = static_cast<int>(n);
+        const double sn = n < 1e6 ? s(whole, alpha) : std::pow(n, 2.0 - alpha) / (2.0 - alpha);
+        return a / n + b * sn / (n * n);
+    }
+    double passesTo(double target, double alpha) const {
+        double hi = 1.0;
+        while (variance(hi, alpha) > target * target && hi < 1e12) hi *= 2.0;
+        double lo = hi / 2.0;
+        for (int i = 0; i < 60; ++i) {
+            const double mid = 0.5 * (lo + hi);
+            (variance(mid, alpha) > target * target ? lo : hi) = mid;
+        }
+        return hi;
+    }
+};
+
+VarianceModel fitVarianceModel(const std::vector<double>& errors, double alpha) {
+    std::vector<double> x, y;
+    for (int n = VarianceModel::kFirstPass; n <= static_cast<int>(errors.size()); ++n) {
+        x.push_back(VarianceModel::s(n, alpha) / n);
+        y.push_back(errors[static_cast<size_t>(n - 1)] * errors[static_cast<size_t>(n - 1)] * n);
+    }
+    VarianceModel m;
+    const double count = static_cast<double>(x.size());
+    if (count < 2) return m;
+    double sx = 0, sy = 0, sxx = 0, sxy = 0;
+    for (size_t i = 0; i < x.size(); ++i) {
+        sx += x[i];
+        sy += y[i];
+        sxx += x[i] * x[i];
+        sxy += x[i] * y[i];
+    }
+    m.b = (count * sxy - sx * sy) / (count * sxx - sx * sx);
+    m.a = (sy - m.b * sx) / count;
+    if (m.b < 0.0) {  // no growth seen: view points only
+        m.b = 0.0;
+        m.a = sy / count;
+    } else if (m.a < 0.0) {  // photons only
+        m.a = 0.0;
+        m.b = sxy / sxx;
+    }
+    return m;
 }
 
 }  // namespace
@@ -110,17 +172,22 @@ int main(int argc, char** argv) {
                             &criteria);
     RenderState state(detector.geometry(), ro.initialRadiusMm, ro.alpha, 1);
     t0 = now();
-    while (now() - t0 < budget || state.passes() < 2)
+    std::vector<double> errors;  // after pass n (index n - 1)
+    while (now() - t0 < budget || state.passes() < 2) {
         state.add(renderer.runPass(state.passes() + 1, state.radiusMm()));
+        errors.push_back(state.criterionMeanRelativeError(0));
+    }
     const double renderSeconds = now() - t0;
+    const VarianceModel model = fitVarianceModel(errors, ro.alpha);
     const double renderError = state.criterionMeanRelativeError(0);
     const DetectorImage renderImage = state.criterionTotal(0);
     const auto [forwardError, forwardLit] = forwardLitError(forwardImage, renderImage);
 
     const double forwardTo = forwardSeconds * std::pow(forwardError / target, 2.0);
     const double renderTo = renderSeconds * std::pow(renderError / target, 2.0 / ro.alpha);
-    std::printf("scene %s, light '%s', %d threads; lit pixels: the render's\n", scenePath.c_str(),
-                where.c_str(),
+    const double renderModelTo = renderSeconds / state.passes() * model.passesTo(target, ro.alpha);
+    std::printf("scene %s, light '%s', %d threads; lit pixels: the render's image's, for both\n",
+                scenePath.c_str(), where.c_str(),
                 static_cast<int>(tbb::global_control::active_value(
                     tbb::global_control::max_allowed_parallelism)));
     std::printf(
@@ -136,9 +203,16 @@ int main(int argc, char** argv) {
         "| veil render | %d passes | %.1f | %.4e +- %.1f %% | %.1f %% | %d | %.3g s |\n",
         state.passes(), renderSeconds, renderImage.totalFlux(),
         100 * std::sqrt(renderImage.totalVariance(state.passes())) / renderImage.totalFlux(),
-        100 * renderError, state.litPixels(), renderTo);
-    std::printf("render is %.3gx faster to %.0f %% mean pixel error\n", forwardTo / renderTo,
-                100 * target);
+        100 * renderError, forwardLit, renderTo);
+    std::printf("render is %.3gx faster to %.0f %% mean pixel error (the renderer at t^-alpha/2)\n",
+                forwardTo / renderTo, 100 * target);
+    std::printf(
+        "renderer's variance fitted over passes %d..%d as A/n + B S_n/n^2 (S_n = sum k^(1 - "
+        "alpha)): A %.4g, B %.4g; its error at %d passes %.1f %% (measured %.1f %%); time to "
+        "%.0f %% %.3g s: %.3gx faster\n",
+        VarianceModel::kFirstPass, state.passes(), model.a, model.b, state.passes(),
+        100 * std::sqrt(model.variance(state.passes(), ro.alpha)), 100 * renderError, 100 * target,
+        renderModelTo, forwardTo / renderModelTo);
 
     if (!pngDir.empty()) {
         std::filesystem::create_directories(pngDir);
@@ -147,11 +221,11 @@ int main(int argc, char** argv) {
         po.title = "veil trace, " + std::to_string(static_cast<int>(forwardSeconds)) +
                    " s: scattered light";
         po.emittedRays = forward.emittedRays;
-        writeDetectorPng(std::filesystem::path(pngDir) / "equal_time_trace.png", forwardImage, po);
+        writeDetectorPng(std::filesystem::path(pngDir) / "render_equal_time_trace.png", forwardImage, po);
         po.title = "veil render, " + std::to_string(static_cast<int>(renderSeconds)) +
                    " s: scattered light";
         po.emittedRays = static_cast<uint64_t>(state.passes());
-        writeDetectorPng(std::filesystem::path(pngDir) / "equal_time_render.png", renderImage, po);
+        writeDetectorPng(std::filesystem::path(pngDir) / "render_equal_time_render.png", renderImage, po);
     }
     return 0;
 }

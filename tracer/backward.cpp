@@ -8,6 +8,7 @@
 #include <bit>
 #include <cmath>
 #include <stdexcept>
+#include <unordered_map>
 
 namespace veil {
 
@@ -437,15 +438,38 @@ BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& dete
     result.direct = DetectorImage(detector.geometry());
     result.visibleByCriterion.assign(criteria, std::vector<double>(static_cast<size_t>(pixels)));
     result.directByCriterion.assign(criteria, std::vector<double>(static_cast<size_t>(pixels)));
+    std::unordered_map<uint64_t, std::vector<uint32_t>> interned;  // suffix hash -> offsets
     for (int p = 0; p < pixels; ++p) {
         PixelOutput& po = out[static_cast<size_t>(p)];
         for (double v : po.visible)
             if (v != 0.0) result.visible.add(p, v);
         for (double v : po.direct)
             if (v != 0.0) result.direct.add(p, v);
-        const uint32_t offset = static_cast<uint32_t>(result.events.size());
-        for (ViewPoint& v : po.viewPoints) v.firstEvent += offset;
-        result.events.insert(result.events.end(), po.events.begin(), po.events.end());
+        // Identical suffixes (the same specular path to the detector) are stored once, so the
+        // photon pass judges each once per gathering hit (tracer/photon_pass.cpp).
+        for (ViewPoint& v : po.viewPoints) {
+            const auto first = po.events.begin() + v.firstEvent;
+            const auto last = first + v.eventCount;
+            uint64_t h = 1469598103934665603ull ^ v.eventCount;
+            for (auto e = first; e != last; ++e) {
+                const uint64_t parts[] = {
+                    uint64_t(e->type), uint64_t(uint32_t(e->object)), uint64_t(uint32_t(e->face)),
+                    uint64_t(uint16_t(e->mediumBefore)), uint64_t(uint16_t(e->mediumAfter))};
+                for (uint64_t x : parts) h = (h ^ x) * 1099511628211ull;
+            }
+            std::vector<uint32_t>& same = interned[h];
+            const auto found = std::find_if(same.begin(), same.end(), [&](uint32_t o) {
+                return std::equal(first, last, result.events.begin() + o,
+                                  result.events.begin() + o + v.eventCount);
+            });
+            if (found != same.end()) {
+                v.firstEvent = *found;
+            } else {
+                v.firstEvent = static_cast<uint32_t>(result.events.size());
+                same.push_back(v.firstEvent);
+                result.events.insert(result.events.end(), first, last);
+            }
+        }
         result.viewPoints.insert(result.viewPoints.end(), po.viewPoints.begin(),
                                  po.viewPoints.end());
         for (size_t k = 0; k < criteria; ++k) {

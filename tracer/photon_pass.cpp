@@ -16,6 +16,15 @@ namespace veil {
 
 namespace {
 
+// A view point as the grid stores it: where it is (float) and on which object, so that the
+// candidates of a cell are tested from contiguous memory; the full view point is read only
+// for those that pass.
+struct GridEntry {
+    float x = 0.0f, y = 0.0f, z = 0.0f;
+    int32_t object = -1;
+    uint32_t index = 0;
+};
+
 // View points in a uniform grid of cells of size 2r, each stored in every cell its sphere
 // overlaps (at most 8), in compressed rows: a photon looks in its own cell only.
 class ViewPointGrid {
@@ -41,11 +50,16 @@ class ViewPointGrid {
         for (size_t b = 0; b < want; ++b) start_[b + 1] += start_[b];
         entries_.resize(start_[want]);
         std::vector<uint32_t> fill(start_.begin(), start_.end() - 1);
-        for (size_t i = 0; i < vps.size(); ++i)
-            eachCell(vps[i], [&](size_t b) { entries_[fill[b]++] = static_cast<uint32_t>(i); });
+        for (size_t i = 0; i < vps.size(); ++i) {
+            const ViewPoint& v = vps[i];
+            const GridEntry e{
+                static_cast<float>(v.positionMm.x), static_cast<float>(v.positionMm.y),
+                static_cast<float>(v.positionMm.z), v.object, static_cast<uint32_t>(i)};
+            eachCell(v, [&](size_t b) { entries_[fill[b]++] = e; });
+        }
     }
     // The view points whose cells hash to p's bucket (a superset of those within r).
-    std::pair<const uint32_t*, const uint32_t*> candidates(const Vec3& p) const {
+    std::pair<const GridEntry*, const GridEntry*> candidates(const Vec3& p) const {
         const size_t b = bucket(cellIndex(p.x), cellIndex(p.y), cellIndex(p.z));
         return {entries_.data() + start_[b], entries_.data() + start_[b + 1]};
     }
@@ -60,8 +74,19 @@ class ViewPointGrid {
     double r_ = 0.0, cell_ = 1.0;
     size_t mask_ = 0;
     std::vector<uint32_t> start_;
-    std::vector<uint32_t> entries_;
+    std::vector<GridEntry> entries_;
 };
+
+// A judged gather: the verdict of the joined path for view points whose backward suffix is
+// events[firstEvent, + eventCount), scattered toward them on the given side (back: reflect)
+// into the given medium, at one photon hit.
+struct Verdict {
+    uint32_t firstEvent = 0, eventCount = 0;
+    int medium = 0;
+    bool back = false;
+    uint64_t matched = 0;
+};
+constexpr size_t kVerdictCache = 16;
 
 struct PhotonBranch {
     Ray ray;
@@ -169,6 +194,7 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
             std::vector<int> cells;
             std::vector<std::byte> states, scratch(stateBytes);  // states: per branch
             std::vector<PathEvent> suffix;
+            std::vector<Verdict> verdicts;  // this hit's judged suffixes
             // Adds `value` to image slot `slot` (0 visible, 1 caustic, 2 secondary) of the
             // plain accumulator unless pruning drops it, and of every criterion matched.
             auto book = [&](int slot, uint64_t matched, const std::vector<int>* spread, int pixel,
@@ -283,9 +309,23 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                         if (scatters && (br.specular || br.scattered) && scatterScale > 0.0) {
                             const int slot = br.scattered ? 2 : 1;
                             const auto [firstVp, lastVp] = grid.candidates(hit->point);
-                            for (const uint32_t* it = firstVp; it != lastVp; ++it) {
-                                const ViewPoint& v = vps[*it];
-                                if (v.object != hit->object || v.wavelength != w) continue;
+                            verdicts.clear();
+                            // The float pre-test keeps every view point within r: its
+                            // radius is widened by the rounding of the float coordinates.
+                            const float px = static_cast<float>(hit->point.x),
+                                        py = static_cast<float>(hit->point.y),
+                                        pz = static_cast<float>(hit->point.z);
+                            const double wide =
+                                radiusMm * (1.0 + 1e-6) +
+                                1e-6 * (std::abs(hit->point.x) + std::abs(hit->point.y) +
+                                        std::abs(hit->point.z));
+                            const float wide2 = static_cast<float>(wide * wide);
+                            for (const GridEntry* it = firstVp; it != lastVp; ++it) {
+                                if (it->object != hit->object) continue;
+                                const float dx = it->x - px, dy = it->y - py, dz = it->z - pz;
+                                if (dx * dx + dy * dy + dz * dz > wide2) continue;
+                                const ViewPoint& v = vps[it->index];
+                                if (v.wavelength != w) continue;
                                 if (!(glm::dot(v.normal, hit->normal) > kGatherNormalCos)) continue;
                                 const Vec3 d = v.positionMm - hit->point;
                                 if (glm::dot(d, d) > r2) continue;
@@ -298,17 +338,34 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                                     const bool back = glm::dot(br.ray.direction, hit->normal) *
                                                           glm::dot(v.toDetector, hit->normal) <
                                                       0.0;
-                                    suffix.assign(1, pathEvent(back ? EventType::ScatterReflect
-                                                                    : EventType::ScatterTransmit,
-                                                               hit->object, hit->primitive,
-                                                               br.medium, v.medium));
-                                    suffix.insert(suffix.end(), vpEvents.begin() + v.firstEvent,
-                                                  vpEvents.begin() + v.firstEvent + v.eventCount);
-                                    matched = judged();
+                                    // View points with the same suffix (stored once by the
+                                    // backward pass) get the same verdict at this hit.
+                                    const auto known = std::find_if(
+                                        verdicts.begin(), verdicts.end(), [&](const Verdict& x) {
+                                            return x.firstEvent == v.firstEvent &&
+                                                   x.eventCount == v.eventCount && x.back == back &&
+                                                   x.medium == v.medium;
+                                        });
+                                    if (known != verdicts.end()) {
+                                        matched = known->matched;
+                                    } else {
+                                        suffix.assign(
+                                            1, pathEvent(back ? EventType::ScatterReflect
+                                                              : EventType::ScatterTransmit,
+                                                         hit->object, hit->primitive, br.medium,
+                                                         v.medium));
+                                        suffix.insert(
+                                            suffix.end(), vpEvents.begin() + v.firstEvent,
+                                            vpEvents.begin() + v.firstEvent + v.eventCount);
+                                        matched = judged();
+                                        if (verdicts.size() < kVerdictCache)
+                                            verdicts.push_back({v.firstEvent, v.eventCount,
+                                                                v.medium, back, matched});
+                                    }
                                 }
                                 book(slot, matched, nullptr, v.pixel,
                                      v.weight * br.flux * scatterScale * f * kernel *
-                                         areaCorrection(*it));
+                                         areaCorrection(it->index));
                             }
                         }
                         if (in.count == 0) break;
