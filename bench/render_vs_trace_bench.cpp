@@ -221,11 +221,13 @@ int main(int argc, char** argv) {
         po.title = "veil trace, " + std::to_string(static_cast<int>(forwardSeconds)) +
                    " s: scattered light";
         po.emittedRays = forward.emittedRays;
-        writeDetectorPng(std::filesystem::path(pngDir) / "render_equal_time_trace.png", forwardImage, po);
+        writeDetectorPng(std::filesystem::path(pngDir) / "render_equal_time_trace.png",
+                         forwardImage, po);
         po.title = "veil render, " + std::to_string(static_cast<int>(renderSeconds)) +
                    " s: scattered light";
         po.emittedRays = static_cast<uint64_t>(state.passes());
-        writeDetectorPng(std::filesystem::path(pngDir) / "render_equal_time_render.png", renderImage, po);
+        writeDetectorPng(std::filesystem::path(pngDir) / "render_equal_time_render.png",
+                         renderImage, po);
     }
     return 0;
 }

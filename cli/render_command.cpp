@@ -56,8 +56,8 @@ uint64_t fingerprint(const TransportScene& ts, const DetectorGeometry& g, const 
        << " " << o.seed << " " << o.splitBackward << " " << o.minRelativeWeight << " "
        << o.maxSpecularDepth << " " << o.detectorRadiusPixels << " " << o.viewPointRelativeWeight
        << " " << o.rouletteRelativeFlux << " " << o.maxPhotonSegments << " " << o.prune << " "
-       << o.areaSamples << " " << o.quasiRandomPhotons << " "
-       << std::min(o.ghostPhotonsPerPass, o.photonsPerPass) << " " << o.photonRescueRelativeFlux;
+       << o.areaSamples << " " << o.quasiRandomPhotons << " " << o.ghostPhotons() << " "
+       << o.photonRescueRelativeFlux;
     for (const std::string& w : where) os << "\nwhere " << w;
     const std::string text = os.str();
     uint64_t h = 1469598103934665603ull;
@@ -407,15 +407,14 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
     summary["seconds_this_run"] = runSeconds;
     summary["stopped"] = stopReason;
     summary["seed"] = o.seed;
-    summary["options"] = {
-        {"rays_per_pixel", ro.raysPerPixel},
-        {"photons_per_source_per_pass", ro.photonsPerPass},
-        {"ghost_photons_per_source_per_pass", std::min(ro.ghostPhotonsPerPass, ro.photonsPerPass)},
-        {"initial_radius_mm", ro.initialRadiusMm},
-        {"alpha", ro.alpha},
-        {"roulette", ro.rouletteRelativeFlux},
-        {"area_samples", ro.areaSamples},
-        {"photon_points", ro.quasiRandomPhotons ? "sobol" : "random"}};
+    summary["options"] = {{"rays_per_pixel", ro.raysPerPixel},
+                          {"photons_per_source_per_pass", ro.photonsPerPass},
+                          {"ghost_photons_per_source_per_pass", ro.ghostPhotons()},
+                          {"initial_radius_mm", ro.initialRadiusMm},
+                          {"alpha", ro.alpha},
+                          {"roulette", ro.rouletteRelativeFlux},
+                          {"area_samples", ro.areaSamples},
+                          {"photon_points", ro.quasiRandomPhotons ? "sobol" : "random"}};
     summary["final_radius_mm"] = state.radiusMm();
     summary["exit_aperture"] = {
         {"center_mm", {aperture.centerMm.x, aperture.centerMm.y, aperture.centerMm.z}},

@@ -100,4 +100,12 @@ Interaction interact(const TransportScene& ts, const SceneHit& hit, const Vec3& 
 // The chosen child then carries the whole non-absorbed flux (total): unbiased.
 int chooseChild(const Interaction& in, double u);
 
+// Russian roulette: a flux below `below` survives with probability flux / keep (keep >=
+// below) and then carries `keep`; returns the flux to carry on, 0 when it dies. Draws one
+// uniform, only when the flux is below `below`, so a stream is unchanged when it does not.
+inline double playRoulette(double flux, double below, double keep, CounterRng& rng) {
+    if (!(flux < below)) return flux;
+    return rng.uniform() * keep < flux ? keep : 0.0;
+}
+
 }  // namespace veil

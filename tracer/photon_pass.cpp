@@ -126,7 +126,7 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
     };
     const uint64_t perSource = options.photonsPerPass;
     const uint64_t total = perSource * ts.sources.size();
-    const uint64_t ghostPhotons = std::min(options.ghostPhotonsPerPass, perSource);
+    const uint64_t ghostPhotons = options.ghostPhotons();
     const double visibleScale = static_cast<double>(perSource) / static_cast<double>(ghostPhotons);
     const uint64_t photonSeed = passSeed(options.seed, static_cast<uint64_t>(k), 1);
     // Quasi-random emission: one scramble of the Sobol points per source and pass.
@@ -301,11 +301,11 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                         // costs as much for a weak ghost as for the photon itself, and the
                         // scattered child take that flux; its specular children keep theirs.
                         double scatterScale = 1.0;
-                        if (scatters && !br.scattered && rouletteFlux > 0.0 &&
-                            br.flux < rouletteFlux)
-                            scatterScale = rng.uniform() * rouletteFlux < br.flux
-                                               ? rouletteFlux / br.flux
-                                               : 0.0;
+                        if (scatters && !br.scattered) {
+                            const double kept =
+                                playRoulette(br.flux, rouletteFlux, rouletteFlux, rng);
+                            scatterScale = kept > 0.0 ? kept / br.flux : 0.0;
+                        }
                         if (scatters && (br.specular || br.scattered) && scatterScale > 0.0) {
                             const int slot = br.scattered ? 2 : 1;
                             const auto [firstVp, lastVp] = grid.candidates(hit->point);
@@ -402,11 +402,8 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                                 const double f = br.flux * in.children[k].share *
                                                  (in.children[k].scatter ? scatterScale : 1.0);
                                 if (!(f > 0.0)) continue;
-                                double keep = f;
-                                if (f < lowFlux) {
-                                    if (rng.uniform() * keepFlux >= f) continue;
-                                    keep = keepFlux;
-                                }
+                                const double keep = playRoulette(f, lowFlux, keepFlux, rng);
+                                if (!(keep > 0.0)) continue;
                                 PhotonBranch child = br;
                                 child.segments = br.segments + 1;
                                 if (judge) {  // its own copy of the path state
@@ -421,10 +418,8 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                             flux = br.flux * in.children[0].share *
                                    (in.children[0].scatter ? scatterScale : 1.0);
                             if (!(flux > 0.0)) break;
-                            if (flux < lowFlux) {
-                                if (rng.uniform() * keepFlux >= flux) break;
-                                flux = keepFlux;
-                            }
+                            flux = playRoulette(flux, lowFlux, keepFlux, rng);
+                            if (!(flux > 0.0)) break;
                         } else {
                             c = in.count > 1 ? chooseChild(in, rng.uniform()) : 0;
                             flux =
@@ -432,11 +427,9 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                             if (!(flux > 0.0)) break;
                         }
                         if (!become(br, c, flux)) break;
-                        if (br.scattered && rouletteFlux > 0.0 && br.flux < rouletteFlux) {
-                            if (rng.uniform() * rouletteFlux < br.flux)
-                                br.flux = rouletteFlux;
-                            else
-                                break;
+                        if (br.scattered) {
+                            br.flux = playRoulette(br.flux, rouletteFlux, rouletteFlux, rng);
+                            if (!(br.flux > 0.0)) break;
                         }
                     }
                 }

@@ -45,6 +45,7 @@
 // resumed from a checkpoint after pass k gives bitwise the images of an uninterrupted one,
 // for any thread count.
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <filesystem>
@@ -84,6 +85,7 @@ struct RenderOptions {
     // photonRescueRelativeFlux. The others' branches play roulette below
     // rouletteRelativeFlux (kept at it): they serve the gathered light.
     uint64_t ghostPhotonsPerPass = 16384;
+    uint64_t ghostPhotons() const { return std::min(ghostPhotonsPerPass, photonsPerPass); }
     double photonMinRelativeFlux = 1e-4;
     double photonRescueRelativeFlux = 1e-2;
     // The photons' visible deposits (the sun's ghosts) are spread evenly over the pixels whose
