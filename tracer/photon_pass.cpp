@@ -108,22 +108,26 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
     const ViewPointGrid grid(vps, radiusMm);
     const double r2 = radiusMm * radiusMm;
     const double kernel = 1.0 / (std::numbers::pi * r2);
-    // The rim correction, computed the first time a view point gathers: 1 / its area share.
-    // The value depends on the view point alone (the spiral turned by its index), so threads
-    // racing on it write the same bits.
-    std::vector<std::atomic<float>> inverseShare(vps.size());
+    // The rim correction, computed the first time a view point gathers light from a side:
+    // 1 / its area share, negative when the view point lies in a gap on that side. The value
+    // depends on the view point alone (the spiral turned by its index), so threads racing on
+    // it write the same bits.
+    std::vector<std::atomic<float>> inverseShare(2 * vps.size());
     for (auto& x : inverseShare) x.store(0.0f, std::memory_order_relaxed);
-    auto areaCorrection = [&](uint32_t i) {
-        float c = inverseShare[i].load(std::memory_order_relaxed);
+    auto areaCorrection = [&](uint32_t i, bool otherSide) {
+        std::atomic<float>& slot = inverseShare[2 * size_t{i} + (otherSide ? 1 : 0)];
+        float c = slot.load(std::memory_order_relaxed);
         if (c == 0.0f) {
             const double turn =
                 2.0 * std::numbers::pi * CounterRng(passSeed(options.seed, k, 2), i).uniform();
-            c = static_cast<float>(
-                1.0 / viewPointAreaShare(*ts.scene, vps[i], radiusMm, options.areaSamples, turn));
-            inverseShare[i].store(c, std::memory_order_relaxed);
+            const DiskShare d = viewPointAreaShare(*ts.scene, vps[i], radiusMm, options.areaSamples,
+                                                   turn, otherSide);
+            c = static_cast<float>((d.inGap ? -1.0 : 1.0) / d.share);
+            slot.store(c, std::memory_order_relaxed);
         }
         return static_cast<double>(c);
     };
+    const double gapMm = kGapFraction * radiusMm;
     const uint64_t perSource = options.photonsPerPass;
     const uint64_t total = perSource * ts.sources.size();
     const uint64_t ghostPhotons = options.ghostPhotons();
@@ -310,6 +314,7 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                             const int slot = br.scattered ? 2 : 1;
                             const auto [firstVp, lastVp] = grid.candidates(hit->point);
                             verdicts.clear();
+                            int photonInGap = -1;  // not looked at yet
                             // The float pre-test keeps every view point within r: its
                             // radius is widened by the rounding of the float coordinates.
                             const float px = static_cast<float>(hit->point.x),
@@ -331,13 +336,26 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                                 if (glm::dot(d, d) > r2) continue;
                                 const double f = in.property->bsdf(in.context, v.toDetector);
                                 if (!(f > 0.0)) continue;
+                                // The photon's scatter here toward the view point's pixel:
+                                // a reflection when it arrives on the view point's side. It
+                                // counts where both lie in a gap on its side or neither.
+                                const bool back = glm::dot(br.ray.direction, hit->normal) *
+                                                      glm::dot(v.toDetector, hit->normal) <
+                                                  0.0;
+                                const double correction = areaCorrection(it->index, !back);
+                                if (photonInGap < 0) {
+                                    const Vec3 side = glm::dot(br.ray.direction, hit->normal) < 0.0
+                                                          ? hit->normal
+                                                          : -hit->normal;
+                                    photonInGap = inGapAt(scene, hit->point, hit->object,
+                                                          hit->primitive, side, gapMm)
+                                                      ? 1
+                                                      : 0;
+                                }
+                                if ((correction < 0.0) != (photonInGap == 1)) continue;
                                 ++a.gathers;
                                 uint64_t matched = 0;
                                 if (judge && br.alive != 0) {
-                                    // The photon's scatter here toward the view point's pixel.
-                                    const bool back = glm::dot(br.ray.direction, hit->normal) *
-                                                          glm::dot(v.toDetector, hit->normal) <
-                                                      0.0;
                                     // View points with the same suffix (stored once by the
                                     // backward pass) get the same verdict at this hit.
                                     const auto known = std::find_if(
@@ -365,7 +383,7 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                                 }
                                 book(slot, matched, nullptr, v.pixel,
                                      v.weight * br.flux * scatterScale * f * kernel *
-                                         areaCorrection(it->index));
+                                         std::abs(correction));
                             }
                         }
                         if (in.count == 0) break;

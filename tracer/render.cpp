@@ -385,38 +385,70 @@ Renderer::Renderer(const TransportScene& ts, const DetectorImage& detector, Exit
         throw std::invalid_argument("pruning needs at least one path criterion");
 }
 
-double viewPointAreaShare(const Scene& scene, const ViewPoint& v, double radiusMm, int samples,
-                          double turn) {
-    if (samples <= 0) return 1.0;
-    // The side the view point was seen from, and a tangent basis (Duff et al. 2017).
-    const Vec3 side = v.fromFront ? v.normal : -v.normal;
+bool inGapAt(const Scene& scene, const Vec3& point, int object, int primitive, const Vec3& side,
+             double gapMm) {
+    return scene.closestHit({point, side}, gapMm, object, primitive).has_value();
+}
+
+DiskShare viewPointAreaShare(const Scene& scene, const ViewPoint& v, double radiusMm, int samples,
+                             double turn, bool otherSide) {
+    // The side the photons come from (the view point's own, or the other for the light the
+    // face transmits to it), and a tangent basis (Duff et al. 2017).
+    const Vec3 side = v.fromFront != otherSide ? v.normal : -v.normal;
+    const double gap = kGapFraction * radiusMm;
+    DiskShare out;
+    out.inGap = inGapAt(scene, v.positionMm, v.object, v.primitive, side, gap);
+    if (samples <= 0) return out;
     const double sign = std::copysign(1.0, side.z);
     const double a = -1.0 / (sign + side.z), b = side.x * side.y * a;
     const Vec3 t1(1.0 + sign * side.x * side.x * a, sign * b, -sign * side.x);
     const Vec3 t2(b, sign + side.y * side.y * a, -side.y);
-    // Each probe starts just off the tangent plane (a hair on the view point's side, so a flat
-    // face is met ahead of the ray) and looks along the normal both ways, up to r: a face that
-    // curves away from the plane (a sag of rho^2 / 2R) is found below it, one that curves
-    // toward it (a bore seen from inside) above. Only the view point's object, with its normal
-    // (kGatherNormalCos) and within r of it, counts; anything else met first blocks the probe.
-    const double hair = std::max(1e-3 * radiusMm, 1e-4);
+    // Each probe starts a gap's height off the tangent plane on the photons' side and looks
+    // along the normal toward the face, then, if it missed, the other way, up to r: a face
+    // that curves away from the plane (a sag of rho^2 / 2R) is found below it, one that
+    // curves toward it (a bore seen from inside) above. Only the view point's object, with its
+    // normal (kGatherNormalCos), within r of it and in the view point's kind of place (in a
+    // gap on the photons' side or not) counts. Other objects do not block a probe: it passes
+    // through them, since a face is reached through a gap however thin (a lens flat under a
+    // spacer 1 um away), and the last one it crossed within the gap's height of the face puts
+    // the probe's point in a gap, which costs no ray of its own.
+    const double lift = std::max(gap, std::max(1e-3 * radiusMm, 1e-4));
     constexpr double kGolden = 2.39996322972865332;  // pi (3 - sqrt 5)
-    auto lands = [&](const std::optional<SceneHit>& hit) {
-        if (!hit || hit->object != v.object) return false;
-        if (!(glm::dot(hit->normal, v.normal) > kGatherNormalCos)) return false;
-        const Vec3 d = hit->point - v.positionMm;
-        return glm::dot(d, d) <= radiusMm * radiusMm;
+    constexpr int kMaxCrossings = 8;
+    auto lands = [&](Vec3 origin, const Vec3& direction, double reach, bool towardFace) {
+        int skipObject = -1, skipPrimitive = -1;
+        double travelled = 0.0, crossedAt = -kInfinity;
+        for (int crossing = 0; crossing <= kMaxCrossings; ++crossing) {
+            const auto hit =
+                scene.closestHit({origin, direction}, reach, skipObject, skipPrimitive);
+            if (!hit) return false;
+            if (hit->object == v.object) {
+                if (!(glm::dot(hit->normal, v.normal) > kGatherNormalCos)) return false;
+                const Vec3 d = hit->point - v.positionMm;
+                if (glm::dot(d, d) > radiusMm * radiusMm) return false;
+                if (towardFace) return (travelled + hit->t - crossedAt <= gap) == out.inGap;
+                const Vec3 facing = glm::dot(hit->normal, side) > 0.0 ? hit->normal : -hit->normal;
+                return inGapAt(scene, hit->point, hit->object, hit->primitive, facing, gap) ==
+                       out.inGap;
+            }
+            origin = hit->point;
+            reach -= hit->t;
+            travelled += hit->t;
+            crossedAt = travelled;
+            skipObject = hit->object;
+            skipPrimitive = hit->primitive;
+        }
+        return false;
     };
     int on = 0;
     for (int i = 0; i < samples; ++i) {
         const double rho = radiusMm * std::sqrt((i + 0.5) / samples);
         const double phi = turn + kGolden * i;
-        const Vec3 q = v.positionMm + rho * (std::cos(phi) * t1 + std::sin(phi) * t2) + hair * side;
-        if (lands(scene.closestHit({q, -side}, hair + radiusMm)) ||
-            lands(scene.closestHit({q, side}, radiusMm)))
-            ++on;
+        const Vec3 q = v.positionMm + rho * (std::cos(phi) * t1 + std::sin(phi) * t2) + lift * side;
+        if (lands(q, -side, lift + radiusMm, true) || lands(q, side, radiusMm, false)) ++on;
     }
-    return static_cast<double>(std::max(on, 1)) / samples;
+    out.share = static_cast<double>(std::max(on, 1)) / samples;
+    return out;
 }
 
 bool photonsSeeSource(const Source& s) {

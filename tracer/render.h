@@ -210,15 +210,31 @@ class Renderer {
     const PathJudge* judge_ = nullptr;
 };
 
-// The share of view point v's gathering disk (radius r, in its tangent plane) that lies on
-// its own object with the same orientation: `samples` points of the disk (a Fibonacci spiral
-// turned by `turn` radians, equal areas) are projected along the normal onto the scene, and
-// those landing on v's object within r of v count. 1 inside a face, about 1/2 at a straight
-// rim, about 2 w / (pi r) on a strip of width w < r. The photon estimate divides by
-// share x pi r^2, the area photons can land on, instead of pi r^2; at least 1/samples (the
-// view point's own point lies on the object).
-double viewPointAreaShare(const Scene& scene, const ViewPoint& v, double radiusMm, int samples,
-                          double turn);
+// Where photons land around a view point v, for the light that reaches it from one side of
+// its face (its own side: reflected light; the other: transmitted light).
+//   inGap  the view point lies in a gap on that side: another surface within kGapFraction x r
+//          in front of it (a lens flat under a spacer's end 1 um away, an edge 50 um from the
+//          barrel's bore). A photon is gathered only by view points in the same kind of place
+//          as itself: the light in a gap differs by orders of magnitude from the light beside
+//          it, and a disk reaching across the gap's border would carry one into the other.
+//   share  the part of v's gathering disk (radius r, in its tangent plane) where such photons
+//          land: on v's object, with its orientation, in v's kind of place. `samples` points
+//          of the disk (a Fibonacci spiral turned by `turn` radians, equal areas) are projected
+//          along the normal onto v's object, through anything else. 1 inside a face, about
+//          1/2 at a straight rim, about 2 w / (pi r) on a strip of width w < r. The photon
+//          estimate divides by share x pi r^2, the area photons can land on, instead of
+//          pi r^2; at least 1/samples (the view point's own point counts); 1 with samples 0.
+struct DiskShare {
+    double share = 1.0;
+    bool inGap = false;
+};
+inline constexpr double kGapFraction = 0.1;
+DiskShare viewPointAreaShare(const Scene& scene, const ViewPoint& v, double radiusMm, int samples,
+                             double turn, bool otherSide = false);
+// Whether the surface point (on object, primitive) has another surface within gapMm in
+// direction side.
+bool inGapAt(const Scene& scene, const Vec3& point, int object, int primitive, const Vec3& side,
+             double gapMm);
 
 // A photon is gathered by a view point, and a probe counts toward its share, only on the same
 // object where the surface normal is within 25.8 degrees of the view point's: the disk stays

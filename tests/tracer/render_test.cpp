@@ -304,18 +304,18 @@ TEST(Render, ViewPointAreaShareMatchesTheDiskGeometry) {
     const double r = 2.0;
     // Inside the face: every probe lands on it.
     v.positionMm = Vec3(10.0, -20.0, 0.0);
-    EXPECT_EQ(viewPointAreaShare(scene, v, r, 16, 0.3), 1.0);
+    EXPECT_EQ(viewPointAreaShare(scene, v, r, 16, 0.3).share, 1.0);
     // A distance d from the rim x = 50: 1 - (r^2 acos(d/r) - d sqrt(r^2 - d^2)) / (pi r^2).
     for (double d : {0.0, 0.5, 1.0, 1.5}) {
         v.positionMm = Vec3(50.0 - d - 1e-9, 0.0, 0.0);
         const double segment = r * r * std::acos(d / r) - d * std::sqrt(r * r - d * d);
         const double expected = 1.0 - segment / (std::numbers::pi * r * r);
-        EXPECT_NEAR(viewPointAreaShare(scene, v, r, 4096, 0.3), expected, 0.005) << "d " << d;
+        EXPECT_NEAR(viewPointAreaShare(scene, v, r, 4096, 0.3).share, expected, 0.005) << "d " << d;
         // 16 probes, as the renderer uses them: within 2.5 probes for any turn, and close on
         // average over the turns (each view point gets its own).
         double mean = 0.0;
         for (int t = 0; t < 1000; ++t) {
-            const double share = viewPointAreaShare(scene, v, r, 16, 0.00628 * t);
+            const double share = viewPointAreaShare(scene, v, r, 16, 0.00628 * t).share;
             EXPECT_NEAR(share, expected, 2.5 / 16) << "d " << d << ", turn " << t;
             mean += share / 1000;
         }
@@ -323,17 +323,80 @@ TEST(Render, ViewPointAreaShareMatchesTheDiskGeometry) {
     }
     // A corner: a quarter of the disk.
     v.positionMm = Vec3(50.0 - 1e-9, 50.0 - 1e-9, 0.0);
-    EXPECT_NEAR(viewPointAreaShare(scene, v, r, 4096, 0.3), 0.25, 0.005);
+    EXPECT_NEAR(viewPointAreaShare(scene, v, r, 4096, 0.3).share, 0.25, 0.005);
     // The 0.2 mm strip: 2 w sqrt(r^2 - (w/2)^2) / (pi r^2) to first order, 0.0636.
     v.object = objectNamed("strip");
     v.positionMm = Vec3(200.1, 0.0, 0.0);
-    EXPECT_NEAR(viewPointAreaShare(scene, v, r, 4096, 0.3),
+    EXPECT_NEAR(viewPointAreaShare(scene, v, r, 4096, 0.3).share,
                 0.2 * 2.0 * r / (std::numbers::pi * r * r), 0.003);
-    // A probe that finds another object first (the strip seen from the plate) does not count,
-    // and the view point's own point keeps the share above zero.
+    // Probes that find only another object (a plate view point placed over the strip) do not
+    // count, and the view point's own point keeps the share above zero.
     v.object = objectNamed("plate");
-    EXPECT_EQ(viewPointAreaShare(scene, v, r, 16, 0.3), 1.0 / 16.0);
-    EXPECT_EQ(viewPointAreaShare(scene, v, r, 0, 0.3), 1.0);  // off
+    EXPECT_EQ(viewPointAreaShare(scene, v, r, 16, 0.3).share, 1.0 / 16.0);
+    EXPECT_EQ(viewPointAreaShare(scene, v, r, 0, 0.3).share, 1.0);  // off
+}
+
+// A 100 mm square plate (front face at z = 0) with a cover over its half x < 0, 1 um above
+// it: the contact gap veil's mechanics keep between a spacer's end and a lens flat.
+std::unique_ptr<PreparedScene> coveredPlateScene() {
+    const std::string stem = ::testing::TempDir() + "veil_render_" + testName();
+    writeBox(stem + ".plate.off", Vec3(-50.0, -50.0, -1.0), Vec3(50.0, 50.0, 0.0));
+    writeBox(stem + ".cover.off", Vec3(-50.0, -50.0, 0.001), Vec3(0.0, 50.0, 1.0));
+    const std::string path = stem + ".toml";
+    FILE* f = fopen(path.c_str(), "w");
+    EXPECT_TRUE(f);
+    fprintf(f,
+            "[system]\nwavelengths_nm = [550.0]\naperture = { epd_mm = 2.0 }\n"
+            "fields_deg = [0.0]\nsurfaces = [\n"
+            "  { r = 0.0, t = 1.0, glass = { nd = 1.5, vd = 0.0 }, sd = 1.0, stop = true },\n"
+            "  { r = 0.0, t = 10.0, sd = 1.0 },\n]\n"
+            "[[mesh]]\nname = \"plate\"\nfile = \"%s\"\nproperty = \"white\"\n"
+            "[[mesh]]\nname = \"cover\"\nfile = \"%s\"\nproperty = \"white\"\n"
+            "[properties.white]\nscatter = { model = \"lambertian\", reflectance = 0.5 }\n",
+            std::filesystem::path(stem + ".plate.off").filename().c_str(),
+            std::filesystem::path(stem + ".cover.off").filename().c_str());
+    fclose(f);
+    return PreparedScene::read(path, GlassCatalog::builtIn());
+}
+
+// Light in a thin gap is not the light beside it: a view point in the gap and one beside it
+// each count the part of their disk in their own kind of place, and the probes reach the
+// face under the cover through it (they start inside the cover: 1 um is less than their
+// hair off the face).
+TEST(Render, ViewPointAreaShareKeepsGapsApart) {
+    const auto s = coveredPlateScene();
+    const Scene& scene = s->scene();
+    int plate = -1;
+    for (const SceneObject& o : scene.objects())
+        if (o.name == "plate") plate = o.id;
+    ASSERT_GE(plate, 0);
+    ViewPoint v;
+    v.normal = Vec3(0.0, 0.0, 1.0);
+    v.toDetector = v.normal;
+    v.fromFront = true;
+    v.object = plate;
+    const double r = 2.0;
+    ASSERT_LT(1e-3, kGapFraction * r);  // the cover is in a gap at this radius
+    // d = 1 from the cover's border: the disk's part on the view point's side of it.
+    const double segment = r * r * std::acos(1.0 / r) - std::sqrt(r * r - 1.0);
+    const double beside = 1.0 - segment / (std::numbers::pi * r * r);
+    for (const double x : {1.0, -1.0}) {
+        v.positionMm = Vec3(x, 3.0, 0.0);
+        v.primitive = s->scene().closestHit({v.positionMm + v.normal * 1e-4, -v.normal})->primitive;
+        const DiskShare d = viewPointAreaShare(scene, v, r, 4096, 0.3);
+        EXPECT_EQ(d.inGap, x < 0.0) << "x " << x;
+        EXPECT_NEAR(d.share, beside, 0.005) << "x " << x;
+    }
+    // Far inside either part, the whole disk; far from the plate, nothing in front of it.
+    v.positionMm = Vec3(-20.0, 0.0, 0.0);
+    EXPECT_TRUE(viewPointAreaShare(scene, v, r, 256, 0.3).inGap);
+    EXPECT_EQ(viewPointAreaShare(scene, v, r, 256, 0.3).share, 1.0);
+    v.positionMm = Vec3(20.0, 0.0, 0.0);
+    EXPECT_FALSE(viewPointAreaShare(scene, v, r, 256, 0.3).inGap);
+    EXPECT_EQ(viewPointAreaShare(scene, v, r, 256, 0.3).share, 1.0);
+    // A gap wider than kGapFraction r is open space: at r = 0.005 mm the 1 um gap is 0.2 r.
+    v.positionMm = Vec3(-20.0, 0.0, 0.0);
+    EXPECT_FALSE(viewPointAreaShare(scene, v, 0.005, 16, 0.3).inGap);
 }
 
 TEST(Render, RadiusShrinksByTheProgressiveRule) {
