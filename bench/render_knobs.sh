@@ -26,6 +26,8 @@ knobs=(
   "--alpha 0.9"
   "--backward split"
   "--area-samples 0"
+  "--guide 0"
+  "--guide 0.9"
 )
 echo "| knob | time (s) | total | visible | caustic | secondary | total flux (W) |"
 echo "| --- | ---: | ---: | ---: | ---: | ---: | --- |"

@@ -174,7 +174,7 @@ int main(int argc, char** argv) {
     t0 = now();
     std::vector<double> errors;  // after pass n (index n - 1)
     while (now() - t0 < budget || state.passes() < 2) {
-        state.add(renderer.runPass(state.passes() + 1, state.radiusMm()));
+        state.add(renderer.runPass(state.passes() + 1, state.radiusMm(), state.learned()));
         errors.push_back(state.criterionMeanRelativeError(0));
     }
     const double renderSeconds = now() - t0;

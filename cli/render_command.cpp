@@ -57,7 +57,7 @@ uint64_t fingerprint(const TransportScene& ts, const DetectorGeometry& g, const 
        << o.maxSpecularDepth << " " << o.detectorRadiusPixels << " " << o.viewPointRelativeWeight
        << " " << o.rouletteRelativeFlux << " " << o.maxPhotonSegments << " " << o.prune << " "
        << o.areaSamples << " " << o.quasiRandomPhotons << " " << o.ghostPhotons() << " "
-       << o.photonRescueRelativeFlux;
+       << o.photonRescueRelativeFlux << " " << o.guideFraction;
     for (const std::string& w : where) os << "\nwhere " << w;
     const std::string text = os.str();
     uint64_t h = 1469598103934665603ull;
@@ -154,6 +154,11 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
                     "object (the rim correction; 0: off)")
         ->check(CLI::Range(0, 4096))
         ->capture_default_str();
+    sub->add_option("--guide", o.guide,
+                    "share of each pass's pixel rays drawn where the passes before it found "
+                    "light, in [0, 1) (0: uniform over the exit aperture)")
+        ->check(CLI::Range(0.0, 0.99))
+        ->capture_default_str();
     sub->add_option("--roulette", o.roulette,
                     "photons below this share of their emitted flux play Russian roulette (0: off)")
         ->check(CLI::Range(0.0, 1.0))
@@ -230,6 +235,7 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
     ro.check();
     ro.prune = o.prune;
     ro.areaSamples = o.areaSamples;
+    ro.guideFraction = o.guide;
     std::unique_ptr<RenderCriteria> criteria;
     if (!o.where.empty()) {
         const NameTable names = criterionNames(*ts.scene, ts);
@@ -302,7 +308,8 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
             stopReason = "time limit reached";
             break;
         }
-        const RenderPass pass = renderer.runPass(state.passes() + 1, state.radiusMm());
+        const RenderPass pass =
+            renderer.runPass(state.passes() + 1, state.radiusMm(), state.learned());
         state.add(pass);
         state.write(dir / kCheckpoint, print);
         photons += pass.photons;
@@ -414,6 +421,7 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
                           {"alpha", ro.alpha},
                           {"roulette", ro.rouletteRelativeFlux},
                           {"area_samples", ro.areaSamples},
+                          {"guide", ro.guideFraction},
                           {"photon_points", ro.quasiRandomPhotons ? "sobol" : "random"}};
     summary["final_radius_mm"] = state.radiusMm();
     summary["exit_aperture"] = {

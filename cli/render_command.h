@@ -27,6 +27,7 @@ struct RenderCommandOptions {
     double alpha = 2.0 / 3.0;
     double roulette = 0.1;
     int areaSamples = 16;  // rim correction probes per view point
+    double guide = 0.5;    // guided share of the pixel rays (RenderOptions::guideFraction)
     std::string backward = "random";
     std::string photonPoints = "sobol";
     double minWeight = 1e-4;

@@ -171,6 +171,7 @@ struct Branch {
 struct PixelOutput {
     std::vector<double> visible;  // per ray, its visible-source flux
     std::vector<double> direct;   // per ray, its direct flux
+    std::vector<uint8_t> cell;    // per ray, its aperture cell (with a guide)
     std::vector<ViewPoint> viewPoints;
     std::vector<PathEvent> events;  // the view points' suffixes (firstEvent local to here)
     std::vector<double> visibleBy, directBy;  // [criterion]: the pixel's sums
@@ -249,6 +250,7 @@ BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& dete
                 PixelOutput& po = out[static_cast<size_t>(p)];
                 po.visible.assign(perPixel, 0.0);
                 po.direct.assign(perPixel, 0.0);
+                if (options.guide) po.cell.assign(perPixel, 0);
                 po.visibleBy.assign(criteria, 0.0);
                 po.directBy.assign(criteria, 0.0);
                 // Stratified pixel rays: the first m^2 rays take one cell each of an m x m
@@ -276,12 +278,23 @@ BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& dete
                         uk[2] = (static_cast<double>(k % m) + uk[2]) / static_cast<double>(m);
                         uk[3] = (static_cast<double>(k / m) + uk[3]) / static_cast<double>(m);
                     }
+                    // The aperture point's uniforms (uk[2], uk[3]) through the guide.
+                    double density = 1.0;
+                    uint32_t guideBin = 0;
+                    if (options.guide) {
+                        const ApertureGuide::Warped g = options.guide->warp(p, uk[2], uk[3]);
+                        uk[2] = g.u;
+                        uk[3] = g.v;
+                        density = g.density;
+                        po.cell[k] = static_cast<uint8_t>(g.cell);
+                        guideBin = static_cast<uint32_t>(options.guide->bin(p, g.cell));
+                    }
                     const PixelRay pr = samplePixelRay(detector, p, aperture, uk);
                     const double u = rng.uniform();  // the wavelength
                     if (!(pr.pdf > 0.0) || !(pr.importance > 0.0) || !(pr.cosPixel > 0.0)) continue;
                     const int w = std::min(wavelengths - 1, static_cast<int>(u * wavelengths));
                     const double wavelengthNm = media.wavelengthNm(w);
-                    const double start = pr.importance * pr.cosPixel / pr.pdf /
+                    const double start = pr.importance * pr.cosPixel / (pr.pdf * density) /
                                          static_cast<double>(perPixel) * wavelengths;
                     double seen = 0.0, direct = 0.0;
                     stack.clear();
@@ -352,6 +365,7 @@ BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& dete
                             v.otherMedium = hit->mediumTo;
                             v.fromFront = hit->fromFront;
                             v.weight = vpWeight;
+                            v.guideBin = guideBin;
                             if (judge) {
                                 v.firstEvent = static_cast<uint32_t>(po.events.size());
                                 suffix.clear();
@@ -438,9 +452,13 @@ BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& dete
     result.direct = DetectorImage(detector.geometry());
     result.visibleByCriterion.assign(criteria, std::vector<double>(static_cast<size_t>(pixels)));
     result.directByCriterion.assign(criteria, std::vector<double>(static_cast<size_t>(pixels)));
+    if (options.guide) result.learned.assign(options.guide->bins(), 0.0);
     std::unordered_map<uint64_t, std::vector<uint32_t>> interned;  // suffix hash -> offsets
     for (int p = 0; p < pixels; ++p) {
         PixelOutput& po = out[static_cast<size_t>(p)];
+        if (options.guide)
+            for (uint64_t k = 0; k < perPixel; ++k)
+                result.learned[options.guide->bin(p, po.cell[k])] += po.visible[k] + po.direct[k];
         for (double v : po.visible)
             if (v != 0.0) result.visible.add(p, v);
         for (double v : po.direct)

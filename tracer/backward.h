@@ -39,6 +39,7 @@
 #include <span>
 #include <vector>
 
+#include "tracer/aperture_guide.h"
 #include "tracer/detector.h"
 #include "tracer/interaction.h"
 #include "tracer/path_judge.h"
@@ -68,6 +69,11 @@ struct BackwardOptions {
     // plain images count only light that matches at least one.
     const PathJudge* judge = nullptr;
     bool prune = false;
+    // Learned aperture sampling (tracer/aperture_guide.h), or none (uniform over the
+    // aperture). With it, each ray's aperture uniforms go through guide->warp() and its
+    // weight is divided by the warp's density; view points keep their ray's guide bin and
+    // BackwardResult::learned holds the visible and direct light per bin.
+    const ApertureGuide* guide = nullptr;
 };
 std::ostream& operator<<(std::ostream& os, const BackwardOptions& o);
 
@@ -88,6 +94,8 @@ struct ViewPoint {
     // BackwardResult::events[firstEvent, firstEvent + eventCount).
     uint32_t firstEvent = 0;
     uint32_t eventCount = 0;
+    // With a guide: the (pixel block, aperture cell) bin of the ray that stored this point.
+    uint32_t guideBin = 0;
 };
 std::ostream& operator<<(std::ostream& os, const ViewPoint& v);
 
@@ -99,6 +107,8 @@ struct BackwardResult {
     // With criteria: [criterion][pixel], the flux of the visible and direct light whose
     // joined path matches the criterion (sums over the pixel's rays).
     std::vector<std::vector<double>> visibleByCriterion, directByCriterion;
+    // With a guide: the visible and direct light the rays brought back, per guide bin.
+    std::vector<double> learned;
     uint64_t rays = 0;
     uint64_t segments = 0;
     uint64_t prunedBranches = 0;  // backward branches stopped by the criteria (prune)

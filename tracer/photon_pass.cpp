@@ -191,6 +191,7 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
     identity.caustic.assign(static_cast<size_t>(pixels), 0.0);
     identity.secondary.assign(static_cast<size_t>(pixels), 0.0);
     identity.by.assign(criteria, {identity.visible, identity.caustic, identity.secondary});
+    identity.learned.assign(back.learned.size(), 0.0);
     return tbb::parallel_deterministic_reduce(
         tbb::blocked_range<uint64_t>(0, total, block), identity,
         [&](const tbb::blocked_range<uint64_t>& r, PhotonImages a) {
@@ -381,9 +382,10 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                                                                 v.medium, back, matched});
                                     }
                                 }
-                                book(slot, matched, nullptr, v.pixel,
-                                     v.weight * br.flux * scatterScale * f * kernel *
-                                         std::abs(correction));
+                                const double value = v.weight * br.flux * scatterScale * f *
+                                                     kernel * std::abs(correction);
+                                book(slot, matched, nullptr, v.pixel, value);
+                                if (!a.learned.empty()) a.learned[v.guideBin] += value;
                             }
                         }
                         if (in.count == 0) break;
@@ -461,6 +463,7 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
             addInto(a.visible, b.visible);
             addInto(a.caustic, b.caustic);
             addInto(a.secondary, b.secondary);
+            addInto(a.learned, b.learned);
             for (size_t k = 0; k < a.by.size(); ++k)
                 for (size_t s = 0; s < 3; ++s) addInto(a.by[k][s], b.by[k][s]);
             a.photons += b.photons;

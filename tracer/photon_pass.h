@@ -35,6 +35,9 @@ struct PhotonImages {
     std::vector<double> visible, caustic, secondary;  // flux per pixel
     // With criteria: [criterion] {visible, caustic, secondary}.
     std::vector<std::array<std::vector<double>, 3>> by;
+    // With a guide (back.learned not empty): the gathered light per guide bin of its view
+    // points (tracer/aperture_guide.h).
+    std::vector<double> learned;
     uint64_t photons = 0, segments = 0, gathers = 0, pruned = 0;
 };
 

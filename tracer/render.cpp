@@ -61,6 +61,8 @@ void RenderOptions::check() const {
         fail("the area samples per view point must lie in [0, 4096]");
     if (!(detectorRadiusPixels >= 0.0 && detectorRadiusPixels <= 1000.0))
         fail("the detector smoothing radius must lie in [0, 1000] pixels");
+    if (!(guideFraction >= 0.0 && guideFraction < 1.0))
+        fail("the guided fraction of the pixel rays must lie in [0, 1)");
 }
 
 std::ostream& operator<<(std::ostream& os, const RenderOptions& o) {
@@ -68,7 +70,8 @@ std::ostream& operator<<(std::ostream& os, const RenderOptions& o) {
               << " photons per source per pass, r1 " << o.initialRadiusMm << " mm, alpha "
               << o.alpha << ", seed " << o.seed << (o.splitBackward ? ", split" : ", random")
               << ", roulette " << o.rouletteRelativeFlux
-              << (o.quasiRandomPhotons ? ", sobol photons" : ", random photons") << "}";
+              << (o.quasiRandomPhotons ? ", sobol photons" : ", random photons") << ", guide "
+              << o.guideFraction << "}";
 }
 
 uint64_t passSeed(uint64_t seed, uint64_t pass, uint32_t purpose) {
@@ -182,6 +185,14 @@ void RenderState::add(const RenderPass& pass) {
                                     std::to_string(criterionSums_.size()));
     addTo(sums_, pass.pixels);
     for (size_t k = 0; k < criterionSums_.size(); ++k) addTo(criterionSums_[k], pass.criteria[k]);
+    if (!pass.learned.empty()) {
+        if (learned_.empty()) learned_.assign(pass.learned.size(), 0.0);
+        if (learned_.size() != pass.learned.size())
+            throw std::invalid_argument("RenderState::add: the pass's guide has " +
+                                        std::to_string(pass.learned.size()) + " bins, the state " +
+                                        std::to_string(learned_.size()));
+        for (size_t b = 0; b < learned_.size(); ++b) learned_[b] += pass.learned[b];
+    }
     ++passes_;
     // Knaus and Zwicker: r_{k+1}^2 = r_k^2 (k + alpha) / (k + 1), k the pass just added.
     const double k = passes_;
@@ -252,14 +263,14 @@ bool RenderState::sameSums(const RenderState& o) const {
     for (size_t k = 0; k < criterionSums_.size(); ++k)
         for (size_t i = 0; i < sums_.size(); ++i)
             if (!criterionSums_[k][i].sameSums(o.criterionSums_[k][i])) return false;
-    return passes_ == o.passes_ && radiusMm_ == o.radiusMm_ &&
+    return passes_ == o.passes_ && learned_ == o.learned_ && radiusMm_ == o.radiusMm_ &&
            initialRadiusMm_ == o.initialRadiusMm_ && alpha_ == o.alpha_;
 }
 
 namespace {
 
 constexpr char kMagic[8] = {'V', 'E', 'I', 'L', 'R', 'N', 'D', 'R'};
-constexpr uint32_t kVersion = 2;  // 2: the criteria's sums follow the plain ones
+constexpr uint32_t kVersion = 3;  // 2: the criteria's sums follow the plain ones; 3: the guide
 
 template <class T>
 void put(std::ostream& os, const T& v) {
@@ -311,6 +322,8 @@ void RenderState::write(const std::filesystem::path& path, uint64_t fingerprint)
         };
         putSums(sums_);
         for (const Sums& sums : criterionSums_) putSums(sums);
+        put(os, uint64_t(learned_.size()));
+        putVector(os, learned_);
         os.flush();
         if (!os) {
             std::error_code ec;
@@ -367,6 +380,10 @@ RenderState RenderState::read(const std::filesystem::path& path, uint64_t finger
     getSums(s.sums_);
     s.criterionSums_.resize(static_cast<size_t>(criteria));
     for (Sums& sums : s.criterionSums_) getSums(sums);
+    const uint64_t bins = get<uint64_t>(is);
+    if (!is || bins > (uint64_t{1} << 28)) fail("the checkpoint is damaged");
+    s.learned_ = getVector<double>(is, static_cast<size_t>(bins));
+    if (!is) fail("the checkpoint is truncated");
     if (s.passes_ < 0 || !(s.radiusMm_ > 0.0)) fail("the checkpoint is damaged");
     return s;
 }
@@ -470,7 +487,7 @@ BackwardOptions Renderer::backwardOptions(int k) const {
     return bo;
 }
 
-RenderPass Renderer::runPass(int k, double radiusMm) const {
+RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& learned) const {
     if (k < 1) throw std::invalid_argument("Renderer::runPass: passes count from 1");
     if (!(radiusMm > 0.0)) throw std::invalid_argument("Renderer::runPass: radius must be > 0");
     RenderPass out;
@@ -482,7 +499,14 @@ RenderPass Renderer::runPass(int k, double radiusMm) const {
         return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
     };
     // 1. Backward: visible, direct, view points.
-    const BackwardOptions bo = backwardOptions(k);
+    BackwardOptions bo = backwardOptions(k);
+    ApertureGuide guide;
+    if (options_.guideFraction > 0.0) {
+        guide = ApertureGuide(detector_.geometry().pixelsX, detector_.geometry().pixelsY);
+        guide.prepare(learned.empty() ? std::vector<double>(guide.bins(), 0.0) : learned,
+                      options_.guideFraction);
+        bo.guide = &guide;
+    }
     BackwardResult back = traceBackward(ts_, detector_, aperture_, bo);
     out.pixels[static_cast<int>(RenderComponent::Visible)] = back.visible.fluxes();
     out.pixels[static_cast<int>(RenderComponent::Direct)] = back.direct.fluxes();
@@ -508,6 +532,10 @@ RenderPass Renderer::runPass(int k, double radiusMm) const {
         for (int p = 0; p < pixels; ++p) v[static_cast<size_t>(p)] += acc.by[k][0][p];
         x[static_cast<int>(RenderComponent::Caustic)] = std::move(acc.by[k][1]);
         x[static_cast<int>(RenderComponent::Secondary)] = std::move(acc.by[k][2]);
+    }
+    if (bo.guide) {
+        out.learned = std::move(back.learned);
+        for (size_t b = 0; b < out.learned.size(); ++b) out.learned[b] += acc.learned[b];
     }
     out.photons = acc.photons;
     out.photonSegments = acc.segments;

@@ -4,9 +4,10 @@
 //
 // One pass (Renderer::runPass):
 //   1. Backward (tracer/backward.h): raysPerPixel rays from every pixel through the exit
-//      aperture, through the specular chain. They give the visible component of extended
-//      sources (window, lambertian) seen through the lens, store view points where they meet
-//      scattering surfaces, and at every view point next-event estimation toward each source
+//      aperture (drawn partly where the passes before found light: guideFraction,
+//      tracer/aperture_guide.h), through the specular chain. They give the visible component of
+//      extended sources (window, lambertian) seen through the lens, store view points where they
+//      meet scattering surfaces, and at every view point next-event estimation toward each source
 //      gives the direct component.
 //   2. Forward (tracer/photon_pass.h): photonsPerPass photons per source on quasi-random
 //      points of the emission, the same transport (tracer/interaction.h, flux mode). Until
@@ -31,7 +32,8 @@
 // two gathered ones with the bias of averaging the radiance over a disk of radius r.
 //
 // Progressive and consistent (Knaus and Zwicker, "Progressive photon mapping: a
-// probabilistic approach", 2011): passes are independent, pass k uses the radius
+// probabilistic approach", 2011): passes are independent (with the guide: each unbiased given
+// the passes before it, their deviations uncorrelated), pass k uses the radius
 //     r_{k+1}^2 = r_k^2 (k + alpha) / (k + 1),   r_1 the initial radius,
 // so r_k^2 ~ k^(alpha - 1), and the image is the mean of the passes. The variance of the
 // mean falls as n^-alpha and the bias as n^(alpha - 1): both vanish, and alpha = 2/3
@@ -105,6 +107,10 @@ struct RenderOptions {
     // criterion can match their path; the plain images then hold only light that matches at
     // least one criterion.
     bool prune = false;
+    // Learned aperture sampling (tracer/aperture_guide.h): the fraction of each pass's pixel
+    // rays drawn where the passes before it found light, in [0, 1); 0 = uniform over the
+    // aperture (every pass the same distribution).
+    double guideFraction = 0.5;
     // Throws std::invalid_argument naming the option when a value is out of range.
     void check() const;
 };
@@ -122,6 +128,9 @@ struct RenderPass {
     uint64_t backwardRays = 0, backwardSegments = 0, viewPoints = 0;
     uint64_t photons = 0, photonSegments = 0, gathers = 0;
     double backwardSeconds = 0.0, photonSeconds = 0.0;  // wall clock of the two stages
+    // With a guide: the light the pass's pixel rays brought back per guide bin (visible,
+    // direct and gathered), which the passes after it learn from.
+    std::vector<double> learned;
 };
 
 // The exit aperture pixel rays aim at, from the scene: a disk on the detector's axis,
@@ -179,11 +188,16 @@ class RenderState {
                             const DetectorGeometry& geometry);
     bool sameSums(const RenderState& o) const;
 
+    // The light learned per aperture guide bin over the passes (empty before the first pass
+    // and without a guide): what the next pass's guide is prepared from.
+    const std::vector<double>& learned() const { return learned_; }
+
   private:
     using Sums = std::array<DetectorImage, kRenderComponents + 1>;  // components, then total
     static void addTo(Sums& sums, const std::array<std::vector<double>, kRenderComponents>& x);
     Sums sums_;
     std::vector<Sums> criterionSums_;
+    std::vector<double> learned_;
     int passes_ = 0;
     double radiusMm_ = 0.0, initialRadiusMm_ = 0.0, alpha_ = 2.0 / 3.0;
 };
@@ -197,8 +211,9 @@ class Renderer {
              RenderOptions options, const PathJudge* judge = nullptr);
     const ExitAperture& aperture() const { return aperture_; }
     const RenderOptions& options() const { return options_; }
-    // Pass k (1, 2, ...) at radius radiusMm.
-    RenderPass runPass(int k, double radiusMm) const;
+    // Pass k (1, 2, ...) at radius radiusMm, its pixel rays guided by the light learned in the
+    // passes before it (RenderState::learned(); empty: nothing learned yet).
+    RenderPass runPass(int k, double radiusMm, const std::vector<double>& learned = {}) const;
     // The backward stage of pass k.
     BackwardOptions backwardOptions(int k) const;
 

@@ -10,7 +10,7 @@
 namespace veil {
 
 class CounterRng {
-public:
+  public:
     CounterRng(uint64_t seed, uint64_t stream) : key_{uint32_t(seed), uint32_t(seed >> 32)} {
         counter_ = {0u, 0u, uint32_t(stream), uint32_t(stream >> 32)};
     }
@@ -44,7 +44,7 @@ public:
         return c;
     }
 
-private:
+  private:
     std::array<uint32_t, 2> key_;
     std::array<uint32_t, 4> counter_;
     std::array<uint32_t, 4> block_{};

@@ -28,8 +28,7 @@ std::string lowerExtension(const std::filesystem::path& p) {
 // its report) stops the build: the error is raised at its line in the file, with the fix.
 std::shared_ptr<const SequentialModel> modelOf(const Prescription& p, const GlassCatalog& catalog) {
     for (const ImportNote& n : p.report)
-        if (n.severity == ImportNote::Severity::Error &&
-            n.message.rfind("unknown glass", 0) == 0)
+        if (n.severity == ImportNote::Severity::Error && n.message.rfind("unknown glass", 0) == 0)
             throw ParseError(n.loc, n.message);
     return std::make_shared<const SequentialModel>(SequentialModel::build(p, catalog));
 }

@@ -176,7 +176,8 @@ RenderState render(const PreparedScene& s, const RenderOptions& o, int passes,
                    const ExitAperture& a) {
     const Renderer renderer(s.trace().transport, s.trace().images[0], a, o);
     RenderState state(s.trace().images[0].geometry(), o.initialRadiusMm, o.alpha);
-    for (int k = 1; k <= passes; ++k) state.add(renderer.runPass(k, state.radiusMm()));
+    for (int k = 1; k <= passes; ++k)
+        state.add(renderer.runPass(k, state.radiusMm(), state.learned()));
     return state;
 }
 
@@ -447,7 +448,7 @@ TEST(Render, ErrorFallsAtTheProgressivePhotonMappingRate) {
         const Renderer renderer(s->trace().transport, s->trace().images[0], a, ro);
         RenderState state(s->trace().images[0].geometry(), ro.initialRadiusMm, ro.alpha);
         for (int k = 1; k <= passes; ++k) {
-            state.add(renderer.runPass(k, state.radiusMm()));
+            state.add(renderer.runPass(k, state.radiusMm(), state.learned()));
             for (size_t j = 0; j < at.size(); ++j)
                 if (k == at[j])
                     means[j].push_back(state.component(RenderComponent::Caustic).flux(0));
@@ -522,7 +523,7 @@ TEST(Render, ResumedAndThreadedRunsAreBitwiseTheSame) {
     const DetectorGeometry& g = s->trace().images[0].geometry();
     auto run = [&](RenderState& state, int passes) {
         while (state.passes() < passes)
-            state.add(renderer.runPass(state.passes() + 1, state.radiusMm()));
+            state.add(renderer.runPass(state.passes() + 1, state.radiusMm(), state.learned()));
     };
     RenderState straight(g, o.initialRadiusMm, o.alpha);
     {
@@ -545,6 +546,10 @@ TEST(Render, ResumedAndThreadedRunsAreBitwiseTheSame) {
     }
     EXPECT_TRUE(resumed.sameSums(straight));
     EXPECT_GT(straight.total().totalFlux(), 0.0);
+    // The passes after the first were guided by what the ones before them learned, and the
+    // checkpoint carried it.
+    ASSERT_FALSE(straight.learned().empty());
+    EXPECT_EQ(resumed.learned(), straight.learned());
     // A checkpoint of another fingerprint or grid is refused, naming the file.
     EXPECT_THROW(RenderState::read(cp, print + 1, g), std::runtime_error);
     DetectorGeometry other = g;
