@@ -172,6 +172,7 @@ struct PixelOutput {
     std::vector<double> visible;  // per ray, its visible-source flux
     std::vector<double> direct;   // per ray, its direct flux
     std::vector<uint8_t> cell;    // per ray, its aperture cell (with a guide)
+    static_assert(ApertureGuide::kCellCount <= 256, "a cell index must fit in uint8_t");
     std::vector<ViewPoint> viewPoints;
     std::vector<PathEvent> events;  // the view points' suffixes (firstEvent local to here)
     std::vector<double> visibleBy, directBy;  // [criterion]: the pixel's sums

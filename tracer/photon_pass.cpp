@@ -315,7 +315,10 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                             const int slot = br.scattered ? 2 : 1;
                             const auto [firstVp, lastVp] = grid.candidates(hit->point);
                             verdicts.clear();
-                            int photonInGap = -1;  // not looked at yet
+                            // The photon's side of the face, and whether it lies in a gap there
+                            // (looked at once, when a view point first needs it).
+                            const double photonCos = glm::dot(br.ray.direction, hit->normal);
+                            int photonInGap = -1;
                             // The float pre-test keeps every view point within r: its
                             // radius is widened by the rounding of the float coordinates.
                             const float px = static_cast<float>(hit->point.x),
@@ -340,14 +343,11 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                                 // The photon's scatter here toward the view point's pixel:
                                 // a reflection when it arrives on the view point's side. It
                                 // counts where both lie in a gap on its side or neither.
-                                const bool back = glm::dot(br.ray.direction, hit->normal) *
-                                                      glm::dot(v.toDetector, hit->normal) <
-                                                  0.0;
+                                const bool back =
+                                    photonCos * glm::dot(v.toDetector, hit->normal) < 0.0;
                                 const double correction = areaCorrection(it->index, !back);
                                 if (photonInGap < 0) {
-                                    const Vec3 side = glm::dot(br.ray.direction, hit->normal) < 0.0
-                                                          ? hit->normal
-                                                          : -hit->normal;
+                                    const Vec3 side = photonCos < 0.0 ? hit->normal : -hit->normal;
                                     photonInGap = inGapAt(scene, hit->point, hit->object,
                                                           hit->primitive, side, gapMm)
                                                       ? 1

@@ -263,12 +263,12 @@ TEST(Render, AgreesWithForwardMonteCarloInTotalAndPerPixel) {
     EXPECT_GT(state.component(RenderComponent::Caustic).totalFlux(), 0.9 * total.totalFlux());
 }
 
-// Two plates in the open: a 100 mm square ("plate", front face at z = 0, normal +z) and a
-// 0.2 mm wide strip beside it ("strip", front face at z = 0, x from 200 to 200.2).
-std::unique_ptr<PreparedScene> platesScene() {
+// A 100 mm square plate in the open ("plate", front face at z = 0, normal +z) and a second
+// box `name` from lo to hi, both white (Lambertian, 0.5).
+std::unique_ptr<PreparedScene> plateAndBoxScene(const std::string& name, Vec3 lo, Vec3 hi) {
     const std::string stem = ::testing::TempDir() + "veil_render_" + testName();
     writeBox(stem + ".plate.off", Vec3(-50.0, -50.0, -1.0), Vec3(50.0, 50.0, 0.0));
-    writeBox(stem + ".strip.off", Vec3(200.0, -50.0, -1.0), Vec3(200.2, 50.0, 0.0));
+    writeBox(stem + "." + name + ".off", lo, hi);
     const std::string path = stem + ".toml";
     FILE* f = fopen(path.c_str(), "w");
     EXPECT_TRUE(f);
@@ -278,12 +278,18 @@ std::unique_ptr<PreparedScene> platesScene() {
             "  { r = 0.0, t = 1.0, glass = { nd = 1.5, vd = 0.0 }, sd = 1.0, stop = true },\n"
             "  { r = 0.0, t = 10.0, sd = 1.0 },\n]\n"
             "[[mesh]]\nname = \"plate\"\nfile = \"%s\"\nproperty = \"white\"\n"
-            "[[mesh]]\nname = \"strip\"\nfile = \"%s\"\nproperty = \"white\"\n"
+            "[[mesh]]\nname = \"%s\"\nfile = \"%s\"\nproperty = \"white\"\n"
             "[properties.white]\nscatter = { model = \"lambertian\", reflectance = 0.5 }\n",
-            std::filesystem::path(stem + ".plate.off").filename().c_str(),
-            std::filesystem::path(stem + ".strip.off").filename().c_str());
+            std::filesystem::path(stem + ".plate.off").filename().c_str(), name.c_str(),
+            std::filesystem::path(stem + "." + name + ".off").filename().c_str());
     fclose(f);
     return PreparedScene::read(path, GlassCatalog::builtIn());
+}
+
+// The plate and a 0.2 mm wide strip beside it ("strip", front face at z = 0, x from 200 to
+// 200.2).
+std::unique_ptr<PreparedScene> platesScene() {
+    return plateAndBoxScene("strip", Vec3(200.0, -50.0, -1.0), Vec3(200.2, 50.0, 0.0));
 }
 
 // The rim correction: the share of a gathering disk on its own object, against the areas of
@@ -337,27 +343,10 @@ TEST(Render, ViewPointAreaShareMatchesTheDiskGeometry) {
     EXPECT_EQ(viewPointAreaShare(scene, v, r, 0, 0.3).share, 1.0);  // off
 }
 
-// A 100 mm square plate (front face at z = 0) with a cover over its half x < 0, 1 um above
-// it: the contact gap veil's mechanics keep between a spacer's end and a lens flat.
+// The plate with a cover over its half x < 0, 1 um above it: the contact gap veil's mechanics
+// keep between a spacer's end and a lens flat.
 std::unique_ptr<PreparedScene> coveredPlateScene() {
-    const std::string stem = ::testing::TempDir() + "veil_render_" + testName();
-    writeBox(stem + ".plate.off", Vec3(-50.0, -50.0, -1.0), Vec3(50.0, 50.0, 0.0));
-    writeBox(stem + ".cover.off", Vec3(-50.0, -50.0, 0.001), Vec3(0.0, 50.0, 1.0));
-    const std::string path = stem + ".toml";
-    FILE* f = fopen(path.c_str(), "w");
-    EXPECT_TRUE(f);
-    fprintf(f,
-            "[system]\nwavelengths_nm = [550.0]\naperture = { epd_mm = 2.0 }\n"
-            "fields_deg = [0.0]\nsurfaces = [\n"
-            "  { r = 0.0, t = 1.0, glass = { nd = 1.5, vd = 0.0 }, sd = 1.0, stop = true },\n"
-            "  { r = 0.0, t = 10.0, sd = 1.0 },\n]\n"
-            "[[mesh]]\nname = \"plate\"\nfile = \"%s\"\nproperty = \"white\"\n"
-            "[[mesh]]\nname = \"cover\"\nfile = \"%s\"\nproperty = \"white\"\n"
-            "[properties.white]\nscatter = { model = \"lambertian\", reflectance = 0.5 }\n",
-            std::filesystem::path(stem + ".plate.off").filename().c_str(),
-            std::filesystem::path(stem + ".cover.off").filename().c_str());
-    fclose(f);
-    return PreparedScene::read(path, GlassCatalog::builtIn());
+    return plateAndBoxScene("cover", Vec3(-50.0, -50.0, 0.001), Vec3(0.0, 50.0, 1.0));
 }
 
 // Light in a thin gap is not the light beside it: a view point in the gap and one beside it
