@@ -14,23 +14,12 @@ namespace {
 
 // The intersection context of one query: the triangles to skip (the one a ray starts on,
 // candidates already refused; the context filter rejects them, so no epsilon offset is
-// needed), and the double-precision ray and nearest exact hit that the user-geometry callback
-// reads and updates.
+// needed).
 struct QueryContext {
-    RTCIntersectContext context;  // first member: Embree hands this pointer to the callbacks
+    RTCIntersectContext context;  // first member: Embree hands this pointer to the filter
     int count;
     unsigned geom[EmbreeScene::kMaxSkips];
     unsigned prim[EmbreeScene::kMaxSkips];
-    const Ray* ray;  // double, as the caller gave it (not moved)
-    int startObject;
-    double shift;  // how far the float ray's origin was moved along the ray (query())
-    ExactCandidate* exact;
-    // Faces already intersected in this query: a face is several BVH primitives (pieces,
-    // facePieceBounds()) and its double intersection is done once. A ring of the last
-    // kTested faces; a face pushed out of it is only intersected again, never missed.
-    static constexpr int kTested = 8;
-    int tested[kTested];
-    int testedCount;
 };
 
 void skipFilter(const RTCFilterFunctionNArguments* args) {
@@ -44,59 +33,10 @@ void skipFilter(const RTCFilterFunctionNArguments* args) {
     }
 }
 
-struct ExactFaceData {
-    const std::vector<ExactFaceEntry>* faces;
-    const std::vector<Bounds3>* bounds;  // [piece], global, padded
-    const std::vector<int>* entryOfPiece;
-};
-
-void exactBounds(const RTCBoundsFunctionArguments* args) {
-    const auto* data = static_cast<const ExactFaceData*>(args->geometryUserPtr);
-    const Bounds3& b = (*data->bounds)[args->primID];
-    // Round outward: the float box must contain the double one.
-    constexpr float kInf = std::numeric_limits<float>::infinity();
-    RTCBounds* o = args->bounds_o;
-    o->lower_x = std::nextafter(static_cast<float>(b.lo.x), -kInf);
-    o->lower_y = std::nextafter(static_cast<float>(b.lo.y), -kInf);
-    o->lower_z = std::nextafter(static_cast<float>(b.lo.z), -kInf);
-    o->upper_x = std::nextafter(static_cast<float>(b.hi.x), kInf);
-    o->upper_y = std::nextafter(static_cast<float>(b.hi.y), kInf);
-    o->upper_z = std::nextafter(static_cast<float>(b.hi.z), kInf);
-}
-
-// The user-geometry intersection: the face in double on the caller's ray, the nearest exact
-// hit kept in the context; Embree gets a float t rounded up so it culls only what lies
-// certainly behind (triangles at a near tie still reach Scene's double comparison).
-void exactIntersect(const RTCIntersectFunctionNArguments* args) {
-    if (args->N != 1 || args->valid[0] == 0) return;  // rtcIntersect1 only
-    const auto* data = static_cast<const ExactFaceData*>(args->geometryUserPtr);
-    auto* ctx = reinterpret_cast<QueryContext*>(args->context);
-    const int entry = (*data->entryOfPiece)[args->primID];
-    const int n = std::min(ctx->testedCount, QueryContext::kTested);
-    for (int i = 0; i < n; ++i)
-        if (ctx->tested[i] == entry) return;
-    ctx->tested[ctx->testedCount++ % QueryContext::kTested] = entry;
-    const ExactFaceEntry& e = (*data->faces)[entry];
-    ExactCandidate& best = *ctx->exact;
-    const auto hit = intersectFace(e.face, e.frame.toLocal(*ctx->ray), 0.0, best.t,
-                                   e.object == ctx->startObject);
-    if (!hit) return;
-    const bool nearer = hit->t < best.t || best.entry < 0 ||
-                        (hit->t == best.t && e.object < (*data->faces)[best.entry].object);
-    if (!nearer) return;
-    best.entry = entry;
-    best.t = hit->t;
-    best.localNormal = hit->normal;
-    auto* rh = reinterpret_cast<RTCRayHit*>(args->rayhit);
-    // Embree's t is relative to the (possibly moved) float origin.
-    const float tf = EmbreeScene::floatBeyond(hit->t, ctx->shift);
-    if (tf < rh->ray.tfar) {
-        rh->ray.tfar = std::max(tf, rh->ray.tnear);
-        rh->hit.geomID = args->geomID;
-        rh->hit.primID = args->primID;
-        rh->hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-    }
-}
+// Origins farther than this (relative to the scene's extent, plus 1e-4 mm) outside the
+// meshes' box are moved onto it before the float traversal, so the float ray stays within
+// rounding of the double one where the triangles are.
+constexpr double kBoxPadRelative = 1e-5;
 
 [[noreturn]] void fail(RTCDevice device, const char* what) {
     const RTCError e = rtcGetDeviceError(device);
@@ -110,7 +50,7 @@ EmbreeScene::EmbreeScene(const std::vector<TriangleMesh>& meshes) { build(meshes
 
 EmbreeScene::EmbreeScene(const std::vector<TriangleMesh>& meshes,
                          std::vector<ExactFaceEntry> exactFaces)
-    : exactFaces_(std::move(exactFaces)) {
+    : faces_(std::move(exactFaces)) {
     build(meshes);
 }
 
@@ -144,64 +84,27 @@ void EmbreeScene::build(const std::vector<TriangleMesh>& meshes) {
         ++meshCount_;
     }
 
-    // The scene's extent sets the padding of the exact faces' boxes and the distance beyond
-    // which a ray's origin is moved onto the scene before the float traversal.
+    // Far origins are moved onto the meshes' box before the float traversal (query()).
     Bounds3 all;
     for (const TriangleMesh& m : meshes) all.extend(m.bounds());
-    for (const ExactFaceEntry& e : exactFaces_)
-        all.extend(transformBounds(e.frame, faceBounds(e.face)));
     double extent = 0.0;
     if (!all.empty())
         for (int a = 0; a < 3; ++a)
             extent = std::max({extent, std::abs(all.lo[a]), std::abs(all.hi[a])});
-    const double pad = kBoundsPadRelative * extent + 1e-4;
-    exactBounds_.clear();
-    entryOfPiece_.clear();
-    for (size_t i = 0; i < exactFaces_.size(); ++i) {
-        for (const Bounds3& piece : facePieceBounds(exactFaces_[i].face)) {
-            Bounds3 b = transformBounds(exactFaces_[i].frame, piece);
-            b.lo -= Vec3(pad);
-            b.hi += Vec3(pad);
-            exactBounds_.push_back(b);
-            entryOfPiece_.push_back(static_cast<int>(i));
-        }
-    }
+    const double pad = kBoxPadRelative * extent + 1e-4;
     sceneBox_ = all;
     if (!all.empty()) {
         sceneBox_.lo -= Vec3(2.0 * pad);
         sceneBox_.hi += Vec3(2.0 * pad);
     }
     farDistance_ = 4.0 * extent + 1.0;
-
-    if (!exactFaces_.empty()) {
-        RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_USER);
-        rtcSetGeometryUserPrimitiveCount(g, static_cast<unsigned>(exactBounds_.size()));
-        // The callbacks' data lives in the geometry's user pointer; it points at members of
-        // this object, which is neither copied nor moved (held by unique_ptr in Scene).
-        auto* data = new ExactFaceData{&exactFaces_, &exactBounds_, &entryOfPiece_};
-        rtcSetGeometryUserData(g, data);
-        rtcSetGeometryBoundsFunction(g, exactBounds, data);
-        rtcSetGeometryIntersectFunction(g, exactIntersect);
-        rtcCommitGeometry(g);
-        RTCScene faces = rtcNewScene(device);
-        if (!faces) fail(device, "rtcNewScene");
-        faceScene_ = faces;
-        rtcSetSceneFlags(faces, RTC_SCENE_FLAG_ROBUST);
-        rtcSetSceneBuildQuality(faces, RTC_BUILD_QUALITY_HIGH);
-        rtcAttachGeometryByID(faces, g, 0);
-        rtcReleaseGeometry(g);
-        userData_ = data;
-        rtcCommitScene(faces);
-    }
     rtcCommitScene(scene);
     if (rtcGetDeviceError(device) != RTC_ERROR_NONE) fail(device, "rtcCommitScene");
 }
 
 EmbreeScene::~EmbreeScene() {
     if (scene_) rtcReleaseScene(static_cast<RTCScene>(scene_));
-    if (faceScene_) rtcReleaseScene(static_cast<RTCScene>(faceScene_));
     if (device_) rtcReleaseDevice(static_cast<RTCDevice>(device_));
-    delete static_cast<ExactFaceData*>(userData_);
 }
 
 std::optional<MeshCandidate> EmbreeScene::query(const Ray& ray, float tNear, float tFar,
@@ -218,24 +121,23 @@ std::optional<MeshCandidate> EmbreeScene::query(const Ray& ray, float tNear, flo
         ++ctx.count;
     }
     if (ctx.count > 0) ctx.context.filter = skipFilter;
-    ctx.ray = &ray;
-    ctx.testedCount = 0;
-    ctx.startObject = startObject;
-    ctx.exact = &exact;
+    // Exact faces first, in double. A repeated query (tNear > 0, beyond a refused
+    // triangle) has seen every face already.
+    if (tNear == 0.0f) faces_.nearest(ray, startObject, exact);
+    if (meshCount_ == 0) return std::nullopt;
 
     // A far origin (a point source metres away) is moved to where the ray enters the scene's
-    // box, so float rounding of the origin stays within the boxes' padding. `shift` is the
+    // box, so float rounding of the origin stays small where the triangles are. `shift` is the
     // double distance moved; Embree's t values are relative to the moved origin.
     double shift = 0.0;
     Vec3 origin = ray.origin;
     const Vec3 offset = glm::max(sceneBox_.lo - ray.origin, ray.origin - sceneBox_.hi);
     if (std::max({offset.x, offset.y, offset.z}) > farDistance_) {
         double t0 = 0.0, t1 = std::numeric_limits<double>::infinity();
-        if (!sceneBox_.clip(ray, t0, t1)) return std::nullopt;  // misses everything
+        if (!sceneBox_.clip(ray, t0, t1)) return std::nullopt;  // misses every triangle
         shift = t0;
         origin = ray.origin + shift * ray.direction;
     }
-    ctx.shift = shift;
 
     auto floatRay = [&](float tFarMoved) {
         RTCRayHit rh{};
@@ -254,15 +156,7 @@ std::optional<MeshCandidate> EmbreeScene::query(const Ray& ray, float tNear, flo
         return rh;
     };
     float tFarMoved = static_cast<float>(static_cast<double>(tFar) - shift);
-    // Exact faces first, in their own BVH (on the tracer's rays 10 % faster than one BVH mixing
-    // them with the triangles, docs/performance.md). A repeated query (tNear > 0, beyond a
-    // refused triangle) has seen every face already.
-    if (faceScene_ && tNear == 0.0f) {
-        RTCRayHit rf = floatRay(tFarMoved);
-        rtcIntersect1(static_cast<RTCScene>(faceScene_), &ctx.context, &rf);
-    }
-    if (meshCount_ == 0) return std::nullopt;
-    // Then the triangles, no farther than the nearest exact face (rounded up: a triangle at a
+    // The triangles, no farther than the nearest exact face (rounded up: a triangle at a
     // near tie still reaches Scene's double comparison).
     if (exact.entry >= 0) tFarMoved = std::min(tFarMoved, floatBeyond(exact.t, shift));
     RTCRayHit rh = floatRay(tFarMoved);

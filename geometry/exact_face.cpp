@@ -613,6 +613,39 @@ std::vector<Bounds3> facePieceBounds(const FaceGeometry& face) {
     return out;
 }
 
+std::vector<FaceBand> faceBands(const FaceGeometry& face, int bands) {
+    if (bands < 1) throw std::invalid_argument("faceBands: bands must be >= 1");
+    std::vector<FaceBand> out;
+    auto push = [&out](double rLo, double rHi, double zLo, double zHi) {
+        const double pad = 1e-9 * (1.0 + std::max({rHi, std::abs(zLo), std::abs(zHi)}));
+        out.push_back({std::max(0.0, rLo - pad), rHi + pad, zLo - pad, zHi + pad});
+    };
+    std::visit(
+        [&](const auto& f) {
+            using F = std::decay_t<decltype(f)>;
+            if constexpr (std::is_same_v<F, SurfacePatch>) {
+                double uLo, uHi;
+                apertureRadiusSqRange(f.aperture, uLo, uHi);
+                uHi = std::min(uHi, domainRadiusSq(f.shape));
+                uLo = std::min(uLo, uHi);
+                const double rLo = std::sqrt(uLo), rHi = std::sqrt(uHi);
+                const int n = std::holds_alternative<PlaneShape>(f.shape) ? 1 : bands;
+                double r0 = rLo;
+                for (int i = 0; i < n; ++i) {
+                    const double r1 = i + 1 == n ? rHi : rLo + (rHi - rLo) * (i + 1) / n;
+                    double zLo, zHi;
+                    sagRange(f.shape, r0 * r0, std::min(r1 * r1, uHi), zLo, zHi);
+                    push(r0, r1, zLo, zHi);
+                    r0 = r1;
+                }
+            } else {
+                push(f.radiusMm, f.radiusMm, f.zMinMm, f.zMaxMm);
+            }
+        },
+        face);
+    return out;
+}
+
 TriangleMesh tessellateFace(const FaceGeometry& face, double chordToleranceMm) {
     requirePositive(chordToleranceMm);
     return std::visit(

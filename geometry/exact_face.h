@@ -60,6 +60,16 @@ Bounds3 faceBounds(const FaceGeometry& face);
 constexpr int kFaceRings = 4;
 constexpr int kFaceSectors = 8;
 std::vector<Bounds3> facePieceBounds(const FaceGeometry& face);
+// The face as bands of a solid of revolution about its local z axis: every point of the face
+// lies in one band's ring slab rLo <= sqrt(x^2 + y^2) <= rHi, zLo <= z <= zHi (padded as
+// faceBounds()). A curved face in `bands` bands of equal radial width (each with the same
+// sag enclosure as faceBounds()), a flat face or a cylinder in one; a rectangle as the ring
+// of its circumscribed circle. What ExactFaceIndex culls rays with.
+struct FaceBand {
+    double rLo = 0.0, rHi = 0.0;
+    double zLo = 0.0, zHi = 0.0;
+};
+std::vector<FaceBand> faceBands(const FaceGeometry& face, int bands);
 // A triangle mesh for display and export whose chord error (distance between the exact
 // face and its triangles) stays below chordToleranceMm. Local frame; triangles face along
 // the face's normal. The rule (M = bound on the sag's curvature over the aperture, exact for
