@@ -109,6 +109,13 @@ double domainRadiusSq(const SurfaceShape& shape) {
     return std::isfinite(r) ? r * r : std::numeric_limits<double>::infinity();
 }
 
+// The range of u = x^2 + y^2 a patch covers: its aperture's, ending at the shape's rim.
+void patchRadiusSqRange(const SurfacePatch& f, double& uLo, double& uHi) {
+    apertureRadiusSqRange(f.aperture, uLo, uHi);
+    uHi = std::min(uHi, domainRadiusSq(f.shape));
+    uLo = std::min(uLo, uHi);
+}
+
 // Sag at u clamped into the shape's domain (a tessellation or section vertex that rounding or
 // a rectangle's corner puts just beyond a sphere's rim sits on the rim).
 double sagClamped(const SurfaceShape& shape, double u) {
@@ -496,9 +503,7 @@ Bounds3 faceBounds(const FaceGeometry& face) {
             using F = std::decay_t<decltype(f)>;
             if constexpr (std::is_same_v<F, SurfacePatch>) {
                 double uLo, uHi;
-                apertureRadiusSqRange(f.aperture, uLo, uHi);
-                uHi = std::min(uHi, domainRadiusSq(f.shape));
-                uLo = std::min(uLo, uHi);
+                patchRadiusSqRange(f, uLo, uHi);
                 double zLo, zHi;
                 sagRange(f.shape, uLo, uHi, zLo, zHi);
                 double hx, hy;
@@ -565,9 +570,7 @@ std::vector<Bounds3> facePieceBounds(const FaceGeometry& face) {
                     return;
                 }
                 double uLo, uHi;
-                apertureRadiusSqRange(f.aperture, uLo, uHi);
-                uHi = std::min(uHi, domainRadiusSq(f.shape));
-                uLo = std::min(uLo, uHi);
+                patchRadiusSqRange(f, uLo, uHi);
                 const double rLo = std::sqrt(uLo), rHi = std::sqrt(uHi);
                 const bool flat = std::holds_alternative<PlaneShape>(f.shape);
                 if (flat && rLo == 0.0) {
@@ -625,9 +628,7 @@ std::vector<FaceBand> faceBands(const FaceGeometry& face, int bands) {
             using F = std::decay_t<decltype(f)>;
             if constexpr (std::is_same_v<F, SurfacePatch>) {
                 double uLo, uHi;
-                apertureRadiusSqRange(f.aperture, uLo, uHi);
-                uHi = std::min(uHi, domainRadiusSq(f.shape));
-                uLo = std::min(uLo, uHi);
+                patchRadiusSqRange(f, uLo, uHi);
                 const double rLo = std::sqrt(uLo), rHi = std::sqrt(uHi);
                 const int n = std::holds_alternative<PlaneShape>(f.shape) ? 1 : bands;
                 double r0 = rLo;
