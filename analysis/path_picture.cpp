@@ -25,9 +25,9 @@ std::ostream& operator<<(std::ostream& os, const SelectedPath& p) {
 }
 
 std::ostream& operator<<(std::ostream& os, const PathSelection& s) {
-    return os << "PathSelection{\"" << s.criterion << "\", " << s.paths.size() << " of "
-              << s.requested << " paths kept, " << s.pathsMatched << " of " << s.pathsEvaluated
-              << " paths matched in " << s.raysTraced << " rays}";
+    return os << "PathSelection{\"" << s.criterion << "\", " << s.rays.size() << " of "
+              << s.requested << " rays kept (" << s.pathCount() << " paths), " << s.pathsMatched
+              << " of " << s.pathsEvaluated << " paths matched in " << s.raysTraced << " rays}";
 }
 
 std::ostream& operator<<(std::ostream& os, PathColouring c) {
@@ -35,46 +35,65 @@ std::ostream& operator<<(std::ostream& os, PathColouring c) {
 }
 
 // Selection
+SelectedPath SelectedRay::path(size_t k) const {
+    SelectedPath p;
+    p.ray = ray;
+    p.leaf = leafNodes.at(k);
+    std::vector<int> chain;
+    for (int n = leaves.at(k); n >= 0; n = parent[n]) chain.push_back(n);
+    for (auto it = chain.rbegin(); it != chain.rend(); ++it) {
+        p.points.push_back(points[*it]);
+        p.flux.push_back(flux[*it]);
+        p.events.push_back(events[*it]);
+    }
+    return p;
+}
+
+size_t PathSelection::pathCount() const {
+    size_t n = 0;
+    for (const SelectedRay& r : rays) n += r.leaves.size();
+    return n;
+}
+
+std::vector<SelectedPath> PathSelection::paths() const {
+    std::vector<SelectedPath> out;
+    for (const SelectedRay& r : rays)
+        for (size_t k = 0; k < r.leaves.size(); ++k) out.push_back(r.path(k));
+    return out;
+}
+
 namespace {
 
-// The matches of all rays seen so far that can still be among the first `count`: the map is
-// trimmed so that removing its last ray would leave fewer than `count` paths.
-class FirstMatches {
+// The first `count` rays with a match seen so far, by ray index.
+class FirstRays {
   public:
-    explicit FirstMatches(size_t count) : count_(count) {}
+    explicit FirstRays(size_t count) : count_(count) {}
 
-    // Whether ray `ray` could still contribute (cheap pre-check; add() decides for real).
+    // Whether ray `ray` could still be among the first (cheap pre-check; add() decides).
     bool wanted(uint64_t ray) {
         std::lock_guard lock(mutex_);
-        return stored_ < count_ || byRay_.empty() || ray < byRay_.rbegin()->first;
+        return byRay_.size() < count_ || ray < byRay_.rbegin()->first;
     }
-    void add(uint64_t ray, std::vector<SelectedPath>&& paths) {
-        if (paths.empty()) return;
+    void add(SelectedRay&& r) {
         std::lock_guard lock(mutex_);
-        if (stored_ >= count_ && !byRay_.empty() && ray > byRay_.rbegin()->first) return;
-        stored_ += paths.size();
-        byRay_[ray] = std::move(paths);
-        while (!byRay_.empty()) {
-            const size_t last = byRay_.rbegin()->second.size();
-            if (stored_ - last < count_) break;
-            stored_ -= last;
-            byRay_.erase(std::prev(byRay_.end()));
-        }
+        if (byRay_.size() >= count_ && r.ray > byRay_.rbegin()->first) return;
+        const uint64_t key = r.ray;
+        byRay_[key] = std::move(r);
+        if (byRay_.size() > count_) byRay_.erase(std::prev(byRay_.end()));
     }
-    size_t stored() const { return stored_; }
-    // Ray order, then leaf order (paths of one ray are added in increasing leaf order).
-    std::vector<SelectedPath> take() {
-        std::vector<SelectedPath> out;
-        for (auto& [ray, paths] : byRay_)
-            for (SelectedPath& p : paths)
-                if (out.size() < count_) out.push_back(std::move(p));
+    size_t stored() {
+        std::lock_guard lock(mutex_);
+        return byRay_.size();
+    }
+    std::vector<SelectedRay> take() {
+        std::vector<SelectedRay> out;
+        for (auto& [ray, r] : byRay_) out.push_back(std::move(r));
         return out;
     }
 
   private:
     size_t count_;
-    size_t stored_ = 0;
-    std::map<uint64_t, std::vector<SelectedPath>> byRay_;
+    std::map<uint64_t, SelectedRay> byRay_;
     std::mutex mutex_;
 };
 
@@ -92,7 +111,7 @@ PathSelection selectPaths(const TransportScene& ts, const std::vector<DetectorIm
 
     const uint64_t sources = ts.sources.size();
     const uint64_t batch = std::max<uint64_t>(1, options.batchRays);
-    FirstMatches first(options.count);
+    FirstRays first(options.count);
     std::atomic<uint64_t> evaluated{0}, matched{0};
     tbb::enumerable_thread_specific<StreamingEvaluator> evaluators(
         [&] { return StreamingEvaluator(compiled); });
@@ -107,35 +126,45 @@ PathSelection selectPaths(const TransportScene& ts, const std::vector<DetectorIm
         RayCallback onRay = [&](uint64_t i, const PathHistory& h) {
             const uint64_t ray = offset + i;
             StreamingEvaluator& ev = evaluators.local();
-            std::vector<SelectedPath> found;
+            SelectedRay kept;
+            kept.ray = ray;
+            std::vector<int> local;  // history node -> kept node, -1 = not kept yet
             uint64_t paths = 0, hits = 0;
+            const bool wanted = first.wanted(ray);
             h.forEachPath([&](const PathView& p) {
                 ++paths;
                 ev.reset();
                 for (size_t k = 0; k < p.size() && !ev.decided(); ++k) ev.push(p.event(k));
                 if (ev.finish() != CriterionState::True) return;
                 ++hits;
-                SelectedPath s;
-                s.ray = ray;
-                s.leaf = p.leaf();
+                if (!wanted) return;
+                if (local.empty()) local.assign(h.nodes().size(), -1);
+                int parent = -1;
                 for (size_t k = 0; k < p.size(); ++k) {
-                    const PathNode& n = h.node(p.node(k));
-                    s.points.push_back(n.position);
-                    s.flux.push_back(n.flux);
-                    s.events.push_back(p.event(k));
+                    const NodeIndex n = p.node(k);
+                    if (local[n] < 0) {
+                        const PathNode& node = h.node(n);
+                        local[n] = static_cast<int>(kept.points.size());
+                        kept.points.push_back(node.position);
+                        kept.flux.push_back(node.flux);
+                        kept.events.push_back(p.event(k));
+                        kept.parent.push_back(parent);
+                    }
+                    parent = local[n];
                 }
-                found.push_back(std::move(s));
+                kept.leaves.push_back(parent);
+                kept.leafNodes.push_back(p.leaf());
             });
             evaluated += paths;
             matched += hits;
-            if (!found.empty() && first.wanted(ray)) first.add(ray, std::move(found));
+            if (!kept.leaves.empty()) first.add(std::move(kept));
         };
         traceNonsequential(ts, detectors, perSource, to, {}, onRay);
         result.raysTraced += perSource * sources;
         if (options.progress) options.progress(result.raysTraced);
         if (first.stored() >= options.count) break;
     }
-    result.paths = first.take();
+    result.rays = first.take();
     result.pathsEvaluated = evaluated;
     result.pathsMatched = matched;
     return result;
@@ -165,8 +194,8 @@ Picture drawPaths(const Picture& base, const PathSelection& selection,
                   const PathPictureOptions& options) {
     Picture pic = base;
     double maxFlux = 0.0;
-    for (const SelectedPath& p : selection.paths)
-        for (size_t k = 1; k < p.flux.size(); ++k) maxFlux = std::max(maxFlux, p.flux[k]);
+    for (const SelectedRay& r : selection.rays)
+        for (size_t k = 1; k < r.flux.size(); ++k) maxFlux = std::max(maxFlux, r.flux[k]);
     const double decades = std::max(options.decades, 1e-3);
     auto fluxColour = [&](double f) {
         if (!(f > 0.0) || !(maxFlux > 0.0)) return falseColour(0.0);
@@ -182,11 +211,12 @@ Picture drawPaths(const Picture& base, const PathSelection& selection,
         options.clipZY ? *options.clipZY
                        : std::array<double, 4>{base.zMin(), base.zMax(), base.yMin(), base.yMax()};
     std::vector<Line> lines;
-    for (const SelectedPath& p : selection.paths) {
-        for (size_t k = 1; k < p.points.size(); ++k) {
-            Vec2 a(p.points[k - 1].z, p.points[k - 1].y), b(p.points[k].z, p.points[k].y);
+    for (const SelectedRay& r : selection.rays) {
+        for (size_t k = 1; k < r.points.size(); ++k) {
+            const Vec3& from = r.points[r.parent[k]];
+            Vec2 a(from.z, from.y), b(r.points[k].z, r.points[k].y);
             if (!clipSegment(a, b, frame[0], frame[1], frame[2], frame[3])) continue;
-            lines.push_back({a, b, p.flux[k], p.events[k].type});
+            lines.push_back({a, b, r.flux[k], r.events[k].type});
         }
     }
     if (options.colouring == PathColouring::LogFlux)
@@ -201,9 +231,10 @@ Picture drawPaths(const Picture& base, const PathSelection& selection,
     // Legend, in output points below the title (pages are 1000 pt wide).
     const double x = pic.marginPt, y = 42.0;
     std::ostringstream head;
-    head << selection.criterion << "   (" << selection.paths.size() << " path"
-         << (selection.paths.size() == 1 ? "" : "s") << ", first in ray order of "
-         << selection.raysTraced << " rays)";
+    const size_t paths = selection.pathCount();
+    head << selection.criterion << "   (first " << selection.rays.size() << " ray"
+         << (selection.rays.size() == 1 ? "" : "s") << " of " << selection.raysTraced
+         << " traced, with " << paths << " matching path" << (paths == 1 ? "" : "s") << ")";
     pic.overlayText(x, y, head.str(), Color::hex(0x000000), 11.0);
     const double ky = y + 16.0;
     if (options.colouring == PathColouring::EventType) {

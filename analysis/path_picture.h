@@ -1,20 +1,23 @@
 #pragma once
-// Ray path pictures: the first N ray paths that satisfy a criterion, drawn over the 2D layout
-// (the seed's figures 1a/1b and 4-6).
+// Ray path pictures: the first N emitted rays with a path that satisfies a criterion, each
+// drawn with every one of its branches that does, over the 2D layout (the seed's figures
+// 1a/1b and 4-6: "the first 1000 rays").
 //
 //   criterion text ──selectPaths(TransportScene)──> PathSelection ──drawPaths(layout)──> Picture
 //
 // Selection traces rays in batches with path histories and evaluates the criterion on every
-// complete path (root to leaf) of every ray. It keeps the first `count` matching paths in ray
-// index order, then leaf order, so the result is the same whatever the thread count: the rays
-// of a batch finish in any order, but only the lowest indices are kept.
+// complete path (root to leaf) of every ray. It keeps the first `count` rays with a match in
+// ray index order, each with its matching paths in leaf order, so the result is the same
+// whatever the thread count: the rays of a batch finish in any order, but only the lowest
+// indices are kept. In split mode one ray is a tree of branches (hundreds on a scene with
+// scattering mounts); a kept ray stores the nodes of its matching paths once, as a tree.
 //
 // Batch b traces with seed `seed + b`; ray r of batch b has the global index
 // b * batchRays * sources + r (batch 0 is exactly `veil trace --seed seed`).
 
 #include <array>
-#include <functional>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <ostream>
 #include <string>
@@ -39,9 +42,23 @@ struct SelectedPath {
 };
 std::ostream& operator<<(std::ostream& os, const SelectedPath& p);
 
+// One emitted ray with at least one matching path: the nodes of its matching paths, each
+// once, parents before children (node 0 is the emission), and the matching leaves.
+struct SelectedRay {
+    uint64_t ray = 0;                  // global ray index (see the header comment)
+    std::vector<Vec3> points;          // global, mm
+    std::vector<double> flux;          // arriving at each node
+    std::vector<PathEvent> events;     // the event at each node, as the criterion saw it
+    std::vector<int> parent;           // -1 for the emission
+    std::vector<int> leaves;           // matching paths' last nodes, in leaf order
+    std::vector<NodeIndex> leafNodes;  // the same leaves as nodes of the ray's PathHistory
+    // The k-th matching path, root to leaf.
+    SelectedPath path(size_t k) const;
+};
+
 struct PathSelectionOptions {
     std::string where;           // criterion text (docs/criteria.md)
-    size_t count = 300;          // paths to keep
+    size_t count = 300;          // emitted rays (with a matching path) to keep
     uint64_t maxRays = 1000000;  // emitted rays (all sources) to trace at most
     uint64_t batchRays = 20000;  // rays per source per batch
     TransportOptions transport;  // recordHistories is forced on; seed is the base seed
@@ -52,19 +69,23 @@ struct PathSelectionOptions {
 };
 
 struct PathSelection {
-    std::string criterion;            // the text as given
-    std::vector<SelectedPath> paths;  // first `count` matches by (ray, leaf)
-    uint64_t raysTraced = 0;          // emitted rays (all sources)
-    uint64_t pathsEvaluated = 0;      // complete paths seen
-    uint64_t pathsMatched = 0;        // of those, matching (can exceed paths.size())
-    std::string fluxUnit = "W";       // of SelectedPath::flux: the (first) source's, W or lm
-    bool complete() const { return !paths.empty() && paths.size() >= requested; }
-    size_t requested = 0;
+    std::string criterion;          // the text as given
+    std::vector<SelectedRay> rays;  // the first `count` rays with a match, by ray index
+    uint64_t raysTraced = 0;        // emitted rays (all sources)
+    uint64_t pathsEvaluated = 0;    // complete paths seen
+    uint64_t pathsMatched = 0;      // of those, matching (can exceed pathCount())
+    std::string fluxUnit = "W";     // of the flux: the (first) source's, W or lm
+    size_t requested = 0;           // rays asked for
+    bool complete() const { return !rays.empty() && rays.size() >= requested; }
+    // Matching paths of the kept rays, and all of them in (ray, leaf) order.
+    size_t pathCount() const;
+    std::vector<SelectedPath> paths() const;
 };
 std::ostream& operator<<(std::ostream& os, const PathSelection& s);
 
 // Parses and compiles options.where against the scene's names (ParseError with the column on
-// a bad criterion), then traces batches until `count` paths are found or maxRays are traced.
+// a bad criterion), then traces batches until `count` rays with a match are found or maxRays
+// are traced.
 // `detectors` are the empty images traceNonsequential needs (TraceSetup::images).
 PathSelection selectPaths(const TransportScene& ts, const std::vector<DetectorImage>& detectors,
                           const PathSelectionOptions& options);
@@ -87,9 +108,9 @@ struct PathPictureOptions {
 // detector black.
 Color eventColour(EventType t);
 
-// `base` (from drawLayout) with every path's segments projected to the y-z plane (a point
-// (x, y, z) is drawn at (z, y)) and a legend: the criterion, the number of paths and the
-// colour key.
+// `base` (from drawLayout) with the segments of every kept ray's matching paths (each segment
+// once) projected to the y-z plane (a point (x, y, z) is drawn at (z, y)) and a legend: the
+// criterion, the numbers of rays and paths and the colour key.
 //
 // LogFlux colours a segment by the flux the traced ray (or its split branch) carries along
 // it, in the sources' unit (W or lm): absolute, per traced ray, so it scales with 1 / the

@@ -59,7 +59,8 @@ void addGhostsCommand(CLI::App& app, GhostsOptions& o) {
         ->check(CLI::Range(2, 4096))
         ->capture_default_str();
     addRays(sub, o.rays, "Monte Carlo rays per source (0: the sequential estimate only)", 0);
-    sub->add_option("--paths", o.paths, "paths per ghost path picture")
+    sub->add_option("--paths", o.paths,
+                    "emitted rays per ghost path picture, each drawn with its matching branches")
         ->check(CLI::Range(1, 100000))
         ->capture_default_str();
     addRunControls(sub, o.threads, o.seed);

@@ -1,6 +1,7 @@
 // veil paths SCENE --where EXPR --first N -o DIR: traces rays with path histories and draws
-// the first N paths (in ray order) that satisfy the criterion over the y-z section of lens,
-// mechanics, stop and detector, as DIR/paths.svg and DIR/paths.png (DIR defaults to ./paths).
+// the first N emitted rays (in ray order) with a path that satisfies the criterion, each with
+// every one of its branches that does, over the y-z section of lens, mechanics, stop and
+// detector, as DIR/paths.svg and DIR/paths.png (DIR defaults to ./paths).
 //
 //   veil paths examples/scenes/longfocus_360mm_sun.toml --where "emit(sun)" --first 300
 //       -o out/all
@@ -8,7 +9,7 @@
 //       --first 50 -n 2M --colour event -o out/ghost
 //
 // Rays are traced in batches of --batch rays per source (batch b with seed --seed + b) until
-// N paths are found or -n rays per source are traced; the same seed gives the same paths with
+// N such rays are found or -n rays per source are traced; the same seed gives the same paths with
 // any number of threads. The criterion syntax is docs/criteria.md; an error names its column.
 
 #include "cli/paths_command.h"
@@ -16,8 +17,8 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
-#include <optional>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "analysis/layout.h"
 #include "analysis/path_picture.h"
@@ -28,10 +29,12 @@
 namespace veil::cli {
 
 void addPathsCommand(CLI::App& app, PathsOptions& o) {
-    CLI::App* sub = app.add_subcommand("paths", "draw the first N ray paths matching a criterion");
+    CLI::App* sub =
+        app.add_subcommand("paths", "draw the first N rays with paths matching a criterion");
     sub->add_option("scene", o.file, "scene or lens file (.toml or .zmx)")->required();
     sub->add_option("--where", o.where, "path criterion (docs/criteria.md)")->required();
-    sub->add_option("--first", o.first, "number of paths to draw")
+    sub->add_option("--first", o.first,
+                    "emitted rays to draw, each with all its branches that match")
         ->check(CLI::Range(1, 1000000))
         ->capture_default_str();
     addRays(sub, o.rays, "emitted rays per source to trace at most");
@@ -79,7 +82,7 @@ int runPaths(const CommonOptions& common, const PathsOptions& o) {
     po.transport.mode =
         o.mode == "random" ? TransportOptions::Mode::Random : TransportOptions::Mode::Split;
     po.transport.minRelativeFlux = o.minRelativeFlux;
-    // Progress by batch; the run ends early once --first paths are found.
+    // Progress by batch; the run ends early once --first rays are found.
     std::optional<ProgressReporter> reporter;
     if (!o.quiet) {
         reporter.emplace("paths", po.maxRays);
@@ -102,14 +105,15 @@ int runPaths(const CommonOptions& common, const PathsOptions& o) {
         std::filesystem::create_directories(dir);
         writePicture(pic, dir / "paths", o.widthPx, written);
     }
-    if (sel.paths.size() < static_cast<size_t>(o.first))
-        std::cerr << "veil: only " << sel.paths.size() << " matching paths in " << sel.raysTraced
-                  << " rays; raise -n to find more\n";
+    if (sel.rays.size() < static_cast<size_t>(o.first))
+        std::cerr << "veil: only " << sel.rays.size() << " of " << sel.raysTraced
+                  << " rays have a matching path; raise -n to find more\n";
     if (o.json) {
         nlohmann::json j{{"scene", o.file},
                          {"where", o.where},
                          {"requested", o.first},
-                         {"found", sel.paths.size()},
+                         {"found", sel.rays.size()},
+                         {"paths_drawn", sel.pathCount()},
                          {"rays_traced", sel.raysTraced},
                          {"paths_evaluated", sel.pathsEvaluated},
                          {"paths_matched", sel.pathsMatched},
@@ -118,9 +122,10 @@ int runPaths(const CommonOptions& common, const PathsOptions& o) {
         std::cout << j.dump(2) << "\n";
         return 0;
     }
-    std::cout << "found " << sel.paths.size() << " of " << o.first << " paths matching '" << o.where
-              << "' in " << sel.raysTraced << " rays (" << sel.pathsMatched << " of "
-              << sel.pathsEvaluated << " paths matched)\n";
+    std::cout << "found " << sel.rays.size() << " of " << o.first << " rays with paths matching '"
+              << o.where << "' in " << sel.raysTraced << " rays, " << sel.pathCount()
+              << " matching paths drawn (" << sel.pathsMatched << " of " << sel.pathsEvaluated
+              << " paths matched)\n";
     if (!o.quiet) written.print(std::cout);
     return 0;
 }
