@@ -183,7 +183,12 @@ int main(int argc, char** argv) {
     const DetectorImage renderImage = state.criterionTotal(0);
     const auto [forwardError, forwardLit] = forwardLitError(forwardImage, renderImage);
 
-    const double forwardTo = forwardSeconds * std::pow(forwardError / target, 2.0);
+    // No hit at all (a dark scene): forward Monte Carlo's time to the target is bounded from
+    // below. Fewer than 3 hits were expected in the run (95 % confidence for none seen), and
+    // the target needs at least 1 / target^2 hits in each lit pixel.
+    const bool forwardFound = forwardImage.totalFlux() > 0.0;
+    const double forwardTo = forwardFound ? forwardSeconds * std::pow(forwardError / target, 2.0)
+                                          : forwardSeconds * forwardLit / (target * target) / 3.0;
     const double renderTo = renderSeconds * std::pow(renderError / target, 2.0 / ro.alpha);
     const double renderModelTo = renderSeconds / state.passes() * model.passesTo(target, ro.alpha);
     std::printf("scene %s, light '%s', %d threads; lit pixels: the render's image's, for both\n",
@@ -194,25 +199,32 @@ int main(int argc, char** argv) {
         "| method | run | time (s) | flux (W) | mean pixel error | lit pixels | "
         "time to %.0f %% (extrapolated) |\n| --- | --- | ---: | --- | ---: | ---: | ---: |\n",
         100 * target);
-    std::printf("| veil trace | %llu rays | %.1f | %.4e +- %.1f %% | %.1f %% | %d | %.3g s |\n",
-                static_cast<unsigned long long>(forward.emittedRays), forwardSeconds,
-                forwardImage.totalFlux(),
-                100 * forwardImage.totalRelativeError(forward.emittedRays), 100 * forwardError,
-                forwardLit, forwardTo);
+    if (forwardFound)
+        std::printf("| veil trace | %llu rays | %.1f | %.4e +- %.1f %% | %.1f %% | %d | %.3g s |\n",
+                    static_cast<unsigned long long>(forward.emittedRays), forwardSeconds,
+                    forwardImage.totalFlux(),
+                    100 * forwardImage.totalRelativeError(forward.emittedRays), 100 * forwardError,
+                    forwardLit, forwardTo);
+    else
+        std::printf("| veil trace | %llu rays | %.1f | 0 (no hit) | - | %d | > %.3g s |\n",
+                    static_cast<unsigned long long>(forward.emittedRays), forwardSeconds,
+                    forwardLit, forwardTo);
     std::printf(
         "| veil render | %d passes | %.1f | %.4e +- %.1f %% | %.1f %% | %d | %.3g s |\n",
         state.passes(), renderSeconds, renderImage.totalFlux(),
         100 * std::sqrt(renderImage.totalVariance(state.passes())) / renderImage.totalFlux(),
         100 * renderError, forwardLit, renderTo);
-    std::printf("render is %.3gx faster to %.0f %% mean pixel error (the renderer at t^-alpha/2)\n",
-                forwardTo / renderTo, 100 * target);
+    std::printf(
+        "render is %s%.3gx faster to %.0f %% mean pixel error (the renderer at "
+        "t^-alpha/2)\n",
+        forwardFound ? "" : "more than ", forwardTo / renderTo, 100 * target);
     std::printf(
         "renderer's variance fitted over passes %d..%d as A/n + B S_n/n^2 (S_n = sum k^(1 - "
         "alpha)): A %.4g, B %.4g; its error at %d passes %.1f %% (measured %.1f %%); time to "
-        "%.0f %% %.3g s: %.3gx faster\n",
+        "%.0f %% %.3g s: %s%.3gx faster\n",
         VarianceModel::kFirstPass, state.passes(), model.a, model.b, state.passes(),
         100 * std::sqrt(model.variance(state.passes(), ro.alpha)), 100 * renderError, 100 * target,
-        renderModelTo, forwardTo / renderModelTo);
+        renderModelTo, forwardFound ? "" : "more than ", forwardTo / renderModelTo);
 
     if (!pngDir.empty()) {
         std::filesystem::create_directories(pngDir);
