@@ -46,9 +46,10 @@ std::optional<ShapeHit> intersectFace(const FaceGeometry& face, const Ray& local
 // for planes, spheres and conics, whose sag is monotone in r; an interval enclosure over
 // 1024 radial pieces for aspheres), padded by a relative 1e-9 to hold edge hits.
 Bounds3 faceBounds(const FaceGeometry& face);
-// Boxes whose union holds the face, each much tighter than faceBounds(): what a BVH should
-// see, so a ray near the axis does not meet the box of a butt end or a flat shoulder, nor
-// the whole sag range of a curved face. Local frame, padded as faceBounds().
+// Boxes whose union holds the face, each much tighter than faceBounds(): points that bound
+// the face closely (the renderer's exit aperture takes their corners), without the whole
+// sag range of a curved face or the box across a butt end's hole. Local frame, padded as
+// faceBounds().
 //   disc (circular aperture)   a central disc of radius rMax / kFaceRings, then
 //                              kFaceRings - 1 rings of equal width, each in kFaceSectors
 //                              azimuthal sectors; a flat disc is one box

@@ -21,33 +21,41 @@ constexpr double kGroupPad = 1e-6;
 // a face may be intersected twice, never missed.
 constexpr int kMaxTested = 16;
 
+// How far frame f is from group frame g: the largest difference of their rotations' entries,
+// and f's origin in g's coordinates.
+struct FrameOffset {
+    double rotation;
+    Vec3 origin;
+};
+FrameOffset offsetFrom(const Frame& g, const Frame& f) {
+    double dr = 0.0;
+    for (int c = 0; c < 3; ++c)
+        for (int r = 0; r < 3; ++r)
+            dr = std::max(dr, std::abs(f.rotation[c][r] - g.rotation[c][r]));
+    return {dr, g.toLocalPoint(f.translation)};
+}
+
 }  // namespace
 
 ExactFaceIndex::ExactFaceIndex(std::vector<ExactFaceEntry> faces) : faces_(std::move(faces)) {
     // Group faces by axis; the first face of a group gives its frame.
-    std::vector<int> groupOf(faces_.size(), -1);
     std::vector<std::vector<int>> members;
     for (size_t i = 0; i < faces_.size(); ++i) {
         const Frame& f = faces_[i].frame;
-        for (size_t g = 0; g < groups_.size() && groupOf[i] < 0; ++g) {
-            const Frame& gf = groups_[g].frame;
-            double dr = 0.0;
-            for (int c = 0; c < 3; ++c)
-                for (int r = 0; r < 3; ++r)
-                    dr = std::max(dr, std::abs(f.rotation[c][r] - gf.rotation[c][r]));
-            const Vec3 off = gf.toLocalPoint(f.translation);
-            if (dr <= kSameRotation && std::hypot(off.x, off.y) <= kOnAxisMm) {
-                groupOf[i] = static_cast<int>(g);
-                members[g].push_back(static_cast<int>(i));
-            }
+        size_t g = 0;
+        for (; g < groups_.size(); ++g) {
+            const FrameOffset off = offsetFrom(groups_[g].frame, f);
+            if (off.rotation <= kSameRotation &&
+                std::hypot(off.origin.x, off.origin.y) <= kOnAxisMm)
+                break;
         }
-        if (groupOf[i] < 0) {
-            Group g;
-            g.frame = f;
-            groupOf[i] = static_cast<int>(groups_.size());
-            groups_.push_back(g);
-            members.push_back({static_cast<int>(i)});
+        if (g == groups_.size()) {
+            Group grp;
+            grp.frame = f;
+            groups_.push_back(grp);
+            members.emplace_back();
         }
+        members[g].push_back(static_cast<int>(i));
     }
     // Bands in group coordinates, sorted by zLo within a group.
     for (size_t g = 0; g < groups_.size(); ++g) {
@@ -55,12 +63,9 @@ ExactFaceIndex::ExactFaceIndex(std::vector<ExactFaceEntry> faces) : faces_(std::
         grp.first = static_cast<int>(up_.size());
         double zMin = std::numeric_limits<double>::infinity(), zMax = -zMin, rMax = 0.0;
         for (int i : members[g]) {
-            const Frame& f = faces_[i].frame;
-            const Vec3 off = grp.frame.toLocalPoint(f.translation);
-            double dr = 0.0;
-            for (int c = 0; c < 3; ++c)
-                for (int r = 0; r < 3; ++r)
-                    dr = std::max(dr, std::abs(f.rotation[c][r] - grp.frame.rotation[c][r]));
+            const FrameOffset fo = offsetFrom(grp.frame, faces_[i].frame);
+            const double dr = fo.rotation;
+            const Vec3& off = fo.origin;
             for (const FaceBand& b : faceBands(faces_[i].face, kBandsPerCurvedFace)) {
                 // A point p of the face sits at R_f p + t_f = R_g (R_g^T R_f p + off): in group
                 // coordinates off + p + (R_g^T R_f - 1) p, where the last term is at most

@@ -60,7 +60,6 @@ class ExactFaceIndex {
     const std::vector<ExactFaceEntry>& faces() const { return faces_; }
     bool empty() const { return faces_.empty(); }
     int groupCount() const { return static_cast<int>(groups_.size()); }
-    int bandCount() const { return static_cast<int>(up_.size()); }
 
   private:
     struct Group {

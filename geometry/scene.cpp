@@ -173,8 +173,8 @@ SceneHit Scene::makeHit(int object, int primitive, double t, const Ray& ray,
 std::optional<SceneHit> Scene::closestHit(const Ray& ray, double tMax, int startObject,
                                           int startPrimitive) const {
     if (!committed_) throw ModelError("scene", "closestHit() before commit()");
-    // One BVH over exact faces and meshes (geometry/embree_scene.h). The exact faces are
-    // intersected in double inside the traversal; the nearest one is the first candidate.
+    // The exact faces in double (geometry/face_index.h), then the triangles up to the nearest
+    // one (geometry/embree_scene.h); the nearest exact face is the first candidate.
     ExactCandidate exact;
     exact.t = tMax;
     EmbreeScene::Skip skips[EmbreeScene::kMaxSkips];

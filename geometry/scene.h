@@ -11,10 +11,10 @@
 // Opaque parts (mechanics, meshes) have air on both sides; their property decides what
 // happens.
 //
-// Closest hit: exact faces are intersected analytically in double precision (own bounds);
-// triangle meshes go through Embree (float) for candidates, refined in double on the
-// candidate triangle. A ray that starts on an object passes that object (and for meshes the
-// triangle) so the start point is not found again: no epsilon offsets.
+// Closest hit: exact faces are intersected analytically in double precision (the axis-band
+// sweep of face_index.h); triangle meshes go through Embree (float) for candidates, refined
+// in double on the candidate triangle. A ray that starts on an object passes that object (and for
+// meshes the triangle) so the start point is not found again: no epsilon offsets.
 
 #include <cstdint>
 #include <memory>
@@ -135,7 +135,7 @@ class Scene {
     // the triangles around its start triangle, where float candidates are unreliable (a
     // concave corner a few nanometres away).
     std::vector<std::vector<std::vector<uint32_t>>> trianglesOfVertex_;
-    std::unique_ptr<EmbreeScene> embree_;  // meshes and exact faces in one BVH
+    std::unique_ptr<EmbreeScene> embree_;  // the exact faces' index and the meshes' BVH
     bool committed_ = false;
 };
 
