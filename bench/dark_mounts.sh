@@ -10,12 +10,16 @@
 #   sun     examples/scenes/longfocus_360mm_sun.toml: uncoated faces, 50/50 ground butt ends
 #           and a 10 % stop edge kept; only the black anodised mounts change
 #
-#   bench/dark_mounts.sh [fig10a|sun] [build/bench/veil_render_vs_trace_bench] [seconds]
+#   bench/dark_mounts.sh [fig10a|sun] [build/bench/veil_render_vs_trace_bench] [seconds] [criterion]
+#
+# The criterion selects the light both methods image (default `scatter`, all scattered light;
+# `scatter{2}`: light scattered exactly twice, the same paths at every reflectance).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 base=${1:-fig10a}
 bench=${2:-build/bench/veil_render_vs_trace_bench}
 seconds=${3:-120}
+where=${4:-scatter}
 case "$base" in
   fig10a) example=examples/scenes/seed_fig10a_mounts_lambertian.toml; property=mount ;;
   sun) example=examples/scenes/longfocus_360mm_sun.toml; property=black_anodized ;;
@@ -34,7 +38,7 @@ for reflectance in 0.001 0.05 0.30; do
       "$example" > "$scene"
   grep -q "model = \"lambertian\", reflectance = $reflectance }" "$scene" ||
     { echo "dark_mounts.sh: could not set the mounts' reflectance in $scene" >&2; exit 1; }
-  echo "## $base, mounts $reflectance (Lambertian reflectance), $seconds s per method"
-  "$bench" "$scene" "$seconds"
+  echo "## $base, mounts $reflectance (Lambertian reflectance), $seconds s per method, light '$where'"
+  "$bench" "$scene" "$seconds" "" "$where"
   echo
 done

@@ -7,9 +7,10 @@
 // Monte Carlo's error falls as t^-1/2, the progressive renderer's as t^(-alpha/2) (its
 // variance as n^-alpha). The equal-time images are written side by side for the docs.
 //
-//   build/bench/veil_render_vs_trace_bench [scene] [seconds per method] [png folder]
+//   build/bench/veil_render_vs_trace_bench [scene] [seconds per method] [png folder] [criterion]
 //
-// Defaults: examples/scenes/longfocus_360mm_sun.toml, 60 s, no images. Results and the command
+// Defaults: examples/scenes/longfocus_360mm_sun.toml, 60 s, no images ("" also: none),
+// `scatter`. Results and the command
 // are in docs/performance.md.
 
 #include <tbb/global_control.h>
@@ -133,7 +134,7 @@ int main(int argc, char** argv) {
                  : std::string(VEIL_SOURCE_DIR) + "/examples/scenes/longfocus_360mm_sun.toml";
     const double budget = argc > 2 ? std::stod(argv[2]) : 60.0;
     const std::string pngDir = argc > 3 ? argv[3] : "";
-    const std::string where = "scatter";
+    const std::string where = argc > 4 ? argv[4] : "scatter";
     const double target = 0.05;
 
     const auto scene = PreparedScene::read(scenePath, GlassCatalog::builtIn());

@@ -160,7 +160,8 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
         ->check(CLI::Range(0.0, 0.99))
         ->capture_default_str();
     sub->add_option("--roulette", o.roulette,
-                    "photons below this share of their emitted flux play Russian roulette (0: off)")
+                    "photons below this share of their emitted flux (once scattered: of their flux "
+                    "just after their first scatter) play Russian roulette (0: off)")
         ->check(CLI::Range(0.0, 1.0))
         ->capture_default_str();
     sub->add_option("--backward", o.backward,

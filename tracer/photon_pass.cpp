@@ -94,6 +94,10 @@ struct PhotonBranch {
     int medium = 0, startObject = -1, startPrimitive = -1;
     bool specular = false, scattered = false;  // the events it has seen
     int segments = 0;
+    // The flux below which it plays Russian roulette after its first scatter: rouletteRelativeFlux
+    // of its flux just after that scatter (scale-free: a photon that scattered off a 0.1 %
+    // mount is followed as far as one that scattered off a 30 % one).
+    double rouletteFlux = 0.0;
     size_t state = 0;               // with criteria: its path state's offset in the photon's arena
     uint64_t alive = ~uint64_t{0};  // criteria its path may still match
 };
@@ -248,7 +252,7 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                 const double keepFlux =
                     cheap ? rouletteFlux : options.photonRescueRelativeFlux * e.flux;
                 stack.clear();
-                PhotonBranch first{e.ray, e.flux, 0, -1, -1, false, false, 0};
+                PhotonBranch first{e.ray, e.flux, 0, -1, -1, false, false, 0, rouletteFlux};
                 if (judge) {
                     states.assign(stateBytes, std::byte{0});
                     judge->reset(states.data());
@@ -305,6 +309,9 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                         // probability flux / rouletteFlux, at rouletteFlux. The gathering, which
                         // costs as much for a weak ghost as for the photon itself, and the
                         // scattered child take that flux; its specular children keep theirs.
+                        // From then on the scattered light is a photon of its own: it plays
+                        // roulette below rouletteRelativeFlux of its flux just after this
+                        // scatter (PhotonBranch::rouletteFlux), however dark the surface.
                         double scatterScale = 1.0;
                         if (scatters && !br.scattered) {
                             const double kept =
@@ -405,6 +412,8 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                                 ++a.pruned;
                                 return false;
                             }
+                            if (child.scatter && !b.scattered)
+                                b.rouletteFlux = options.rouletteRelativeFlux * flux;
                             (child.scatter ? b.scattered : b.specular) = true;
                             b.flux = flux;
                             b.ray = {hit->point, *dir};
@@ -422,7 +431,11 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                                 const double f = br.flux * in.children[k].share *
                                                  (in.children[k].scatter ? scatterScale : 1.0);
                                 if (!(f > 0.0)) continue;
-                                const double keep = playRoulette(f, lowFlux, keepFlux, rng);
+                                // A scattered child's flux played its roulette above (the
+                                // incident flux, scatterScale): it starts a photon of its own.
+                                const double keep = in.children[k].scatter
+                                                        ? f
+                                                        : playRoulette(f, lowFlux, keepFlux, rng);
                                 if (!(keep > 0.0)) continue;
                                 PhotonBranch child = br;
                                 child.segments = br.segments + 1;
@@ -438,7 +451,8 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                             flux = br.flux * in.children[0].share *
                                    (in.children[0].scatter ? scatterScale : 1.0);
                             if (!(flux > 0.0)) break;
-                            flux = playRoulette(flux, lowFlux, keepFlux, rng);
+                            if (!in.children[0].scatter)
+                                flux = playRoulette(flux, lowFlux, keepFlux, rng);
                             if (!(flux > 0.0)) break;
                         } else {
                             c = in.count > 1 ? chooseChild(in, rng.uniform()) : 0;
@@ -448,7 +462,7 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                         }
                         if (!become(br, c, flux)) break;
                         if (br.scattered) {
-                            br.flux = playRoulette(br.flux, rouletteFlux, rouletteFlux, rng);
+                            br.flux = playRoulette(br.flux, br.rouletteFlux, br.rouletteFlux, rng);
                             if (!(br.flux > 0.0)) break;
                         }
                     }

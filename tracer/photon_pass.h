@@ -4,8 +4,11 @@
 // RenderOptions::ghostPhotonsPerPass of a source split at every interface until their first
 // scatter (every Fresnel branch; below photonMinRelativeFlux of the photon a branch plays
 // roulette, kept at photonRescueRelativeFlux); the others follow one child by weight. Where a
-// branch first scatters, its scattered light plays roulette below rouletteRelativeFlux; after
-// that one child by weight, with Russian roulette. They add three images:
+// branch first scatters, the light it scatters plays roulette below rouletteRelativeFlux of the
+// emitted flux (on the incident flux: weak ghosts rarely scatter); after that one child by
+// weight, with Russian roulette below rouletteRelativeFlux of its flux just after that first
+// scatter (scale-free: light scattered once by a 0.1 % mount is followed as far as light
+// scattered by a 30 % one, the seed's dark-mount claim). They add three images:
 //   visible    a splitting photon of the sun, a collimated or a point source that reaches the
 //              detector without scattering (its flux times photons / ghost photons), spread
 //              over the pixels within the detector smoothing disk

@@ -13,7 +13,8 @@
 //      points of the emission, the same transport (tracer/interaction.h, flux mode). Until
 //      its first scatter a photon splits at every interface (every Fresnel branch; the first
 //      ghostPhotonsPerPass follow every branch, the others' weak branches play roulette);
-//      then it follows one child chosen by weight, with Russian roulette. A splitting photon
+//      then it follows one child chosen by weight, with Russian roulette relative to its flux
+//      just after that first scatter (however dark the surface was). A splitting photon
 //      of the sun or of a collimated or point source that reaches the detector without
 //      scattering adds its flux (times photons / ghost photons) to its pixels: the visible
 //      component of those sources (their ghosts, or their image in the field), which a
@@ -77,7 +78,8 @@ struct RenderOptions {
     double viewPointRelativeWeight = 0.05;  // view point roulette (BackwardOptions)
     int maxSpecularDepth = 64;              // backward specular events per branch
     double rouletteRelativeFlux = 0.1;      // photons below this share of their emitted flux
-                                            // play Russian roulette; 0 = off
+                                            // (after their first scatter: of their flux just
+                                            // after it) play Russian roulette; 0 = off
     int maxPhotonSegments = 1000;
     // The first ghostPhotonsPerPass photons of each source (of the quasi-random sequence,
     // at most photonsPerPass) follow every specular branch until their first scatter (every
