@@ -17,6 +17,7 @@
 //   baffles              [{ z_mm, inner_radius_mm, thickness_mm = 0.5, property, enabled }]
 //   vanes                { enabled, count, depth_mm, thickness_mm = 0.5, from_z_mm, to_z_mm,
 //                          property }                                 off when absent
+//   parts                [{ name, profile_mm = [[r, z], ...], property, enabled }]
 //
 // Lengths in mm; z is global (surface 1's vertex at 0). Radii (r) are distances from the axis.
 
@@ -27,6 +28,7 @@
 #include <functional>
 #include <iomanip>
 #include <limits>
+#include <map>
 #include <numbers>
 #include <sstream>
 
@@ -690,7 +692,11 @@ void MechanicsBuilder::computeBores() {
     double largest = 0.0;
     for (const Body& b : bodies_) largest = std::max(largest, b.boreMm);
     for (const Region& r : regions_) largest = std::max(largest, r.boreMm);
-    segments_ = chordSegmentCount(largest + spec_.barrel.wallMm, spec_.chordToleranceMm);
+    largest += spec_.barrel.wallMm;
+    for (const MechanicsSpec::Part& part : spec_.parts)
+        if (part.enabled)
+            for (const Vec2& v : part.profileMm) largest = std::max(largest, v.x);
+    segments_ = chordSegmentCount(largest, spec_.chordToleranceMm);
     cosHalfStep_ = std::cos(std::numbers::pi / segments_);
     for (Plate& p : plates_) {
         p.ro = regions_[p.region].boreMm - spec_.contactGapMm;
@@ -1216,16 +1222,31 @@ std::vector<MechanicalPart> MechanicsBuilder::build() {
     makeSpacersAndRetainers();
     makeBarrel();
     for (size_t i = plateParts; i < parts_.size(); ++i) checkAgainstGlass(parts_[i]);
+    const size_t builtParts = parts_.size();
+    for (const MechanicsSpec::Part& part : spec_.parts) {
+        if (!part.enabled) continue;
+        std::vector<Vec2> profile = part.profileMm;  // either orientation, revolved ccw
+        if (profileArea(profile) < 0.0) std::reverse(profile.begin(), profile.end());
+        addPart(part.name, propertyOr(part.property), std::move(profile));
+        checkAgainstGlass(parts_.back());
+    }
     checkParts();
     // Order: barrel, retainers, spacers, then the plates as made (stop, field stop, baffles,
-    // vanes).
+    // vanes), then the user's parts as given.
     auto rank = [](const std::string& name) {
         if (name == "barrel") return 0;
         if (name.rfind("retainer", 0) == 0) return 1;
         if (name.rfind("spacer", 0) == 0) return 2;
         return 3;
     };
-    std::stable_sort(parts_.begin(), parts_.end(),
+    for (size_t i = builtParts; i < parts_.size(); ++i)
+        for (size_t j = 0; j < i; ++j)
+            if (parts_[j].name == parts_[i].name)
+                throw ModelError(parts_[i].name,
+                                 "the part's name is already used by a part "
+                                 "veil builds; choose another");
+
+    std::stable_sort(parts_.begin(), parts_.begin() + static_cast<std::ptrdiff_t>(builtParts),
                      [&](const MechanicalPart& a, const MechanicalPart& b) {
                          return rank(a.name) < rank(b.name);
                      });
@@ -1276,6 +1297,8 @@ std::ostream& operator<<(std::ostream& os, const MechanicsSpec& s) {
     for (const auto& b : s.baffles) baffles += b.enabled;
     if (baffles > 0) os << ", " << baffles << " baffles";
     if (s.vanes.enabled) os << ", " << s.vanes.count << " vanes";
+    for (const auto& p : s.parts)
+        if (p.enabled) os << ", part " << p.name;
     return os << "}";
 }
 
@@ -1374,6 +1397,43 @@ MechanicsSpec readMechanicsTable(const TomlTable& m) {
             b.thicknessMm = t.number("thickness_mm", b.thicknessMm, positive);
             b.property = t.string("property");
             s.baffles.push_back(b);
+        }
+    }
+    if (const auto v = m.get("parts")) {
+        std::map<std::string, FileLoc> seen;
+        for (const TomlValue& entry : v->asArray()) {
+            const TomlTable t = entry.asTable();
+            MechanicsSpec::Part part;
+            part.enabled = t.boolean("enabled", true);
+            const TomlValue name = t.require("name", "the part's object name");
+            part.name = name.asString();
+            if (part.name.empty() || part.name.find_first_of(". \t|,()*?") != std::string::npos)
+                name.fail(name.path() + " '" + part.name +
+                          "' must be a non-empty name without dots, spaces, wildcards or "
+                          "criteria punctuation");
+            if (auto [it, inserted] = seen.emplace(part.name, name.loc()); !inserted)
+                name.fail("part name '" + part.name + "' is already used at " + it->second.str());
+            const TomlValue profile = t.require(
+                "profile_mm", "the part's outline in the (r, z) half plane, [[r, z], ...]");
+            for (const TomlValue& point : profile.asArray()) {
+                const std::vector<TomlValue> rz = point.asArray();
+                if (rz.size() != 2) point.failExpected("a point [r, z]");
+                const double r = rz[0].asNumber(NumberRange::atLeast(0.0));
+                part.profileMm.push_back({r, rz[1].asNumber()});
+            }
+            if (part.profileMm.size() < 3)
+                profile.fail(profile.path() + " needs at least 3 points, got " +
+                             std::to_string(part.profileMm.size()));
+            // Either orientation; revolved counter-clockwise.
+            if (profileArea(part.profileMm) < 0.0)
+                std::reverse(part.profileMm.begin(), part.profileMm.end());
+            try {
+                (void)revolveProfile(part.profileMm, 3);
+            } catch (const std::invalid_argument& e) {
+                profile.fail(profile.path() + " is not a simple closed outline: " + e.what());
+            }
+            part.property = t.string("property");
+            s.parts.push_back(std::move(part));
         }
     }
     {

@@ -54,6 +54,8 @@
 //     stop has none), outer = bore - gap. Its inner cylinder, the knife edge, is exactly
 //     edge_mm wide (named stop.edge); from it both faces bevel out at bevel_deg to the full
 //     thickness. A stop on a lens face sits just outside the glass, on the air side.
+//   - User parts ([[mechanics.parts]]): a closed (r, z) profile revolved as it is given,
+//     after the barrel (they do not widen it); their radius enters the segment count.
 //   - Parts never touch: every pair in contact keeps contact_gap_mm of air, so no two
 //     surfaces coincide. Every part shares one angular segment count, from the chord
 //     tolerance at the largest radius, so clearances in (r, z) carry over to the meshes.
@@ -140,6 +142,17 @@ struct MechanicsSpec {
         double toZMm = 0.0;
         std::string property;
     } vanes;
+    // [[mechanics.parts]]: solids of revolution the user draws as a profile in (r, z), for
+    // what the builder does not make from the prescription (a secondary mirror's holder, a
+    // baffle tube through a primary's hole, a mirror cell, a sunshade). Built after the
+    // barrel, meshed with the common segment count and checked like every part.
+    struct Part {
+        bool enabled = true;
+        std::string name;
+        std::vector<Vec2> profileMm;  // (r, z), counter-clockwise, r >= 0, simple
+        std::string property;
+    };
+    std::vector<Part> parts;
 };
 std::ostream& operator<<(std::ostream& os, const MechanicsSpec& s);
 
@@ -174,7 +187,8 @@ struct MechanicalPart {
 std::ostream& operator<<(std::ostream& os, const MechanicalPart& p);
 
 // Builds every enabled part, checks each mesh and every clearance. Parts come in z order of
-// kind: barrel, retainers, spacers, stop, field stop, baffles, vanes. Parts that do not fit
+// kind: barrel, retainers, spacers, stop, field stop, baffles, vanes, then the user's parts
+// in the order given. Parts that do not fit
 // (a spacer with no radial or axial room, a retainer behind a mirror) are left out; when
 // `notes` is given, one line per part left out says why. Throws ModelError naming the part
 // (and what it collides with) on failure; ModelError naming the surface when a lens surface

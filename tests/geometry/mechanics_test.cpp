@@ -435,6 +435,74 @@ TEST(Mechanics, FieldStopBafflesAndVanes) {
     }
 }
 
+TEST(Mechanics, UserPartsAreRevolvedAsDrawnAndChecked) {
+    // The catadioptric: L1's back face at z = 41 (R -273.66), M2 at z = 61 (R -501.53,
+    // mech_sd 40). A conical tube in front of the primary, drawn clockwise, and a disc between
+    // the corrector and the secondary.
+    const Prescription rx = lens("catadioptric_2000mm.toml");
+    MechanicsSpec spec;
+    spec.property = "mount";
+    const std::vector<Vec2> tube{{29.0, 455.0}, {30.0, 455.0}, {33.0, 350.0}, {32.0, 350.0}};
+    spec.parts.push_back({true, "tube", tube, ""});
+    spec.parts.push_back(
+        {true, "disc", {{0.0, 45.0}, {30.0, 45.0}, {30.0, 55.0}, {0.0, 55.0}}, "black"});
+    spec.parts.push_back({false, "off", {{0.0, 45.0}, {1.0, 45.0}, {1.0, 46.0}}, ""});
+    std::vector<MechanicalPart> parts = buildMechanics(rx, spec);
+    ASSERT_GE(parts.size(), 2u);
+    EXPECT_EQ(parts[parts.size() - 2].name, "tube");  // last, in the order given
+    EXPECT_EQ(parts.back().name, "disc");
+    EXPECT_EQ(findPart(parts, "off"), nullptr);
+    const MechanicalPart& t = parts[parts.size() - 2];
+    EXPECT_EQ(t.property, "mount");  // the [mechanics] property
+    EXPECT_EQ(parts.back().property, "black");
+    // Revolved counter-clockwise: the same outline, reversed.
+    EXPECT_EQ(t.profile, std::vector<Vec2>(tube.rbegin(), tube.rend()));
+    for (const MechanicalPart* p : {&t, static_cast<const MechanicalPart*>(&parts.back())}) {
+        const MeshCheck c = checkMesh(p->mesh);
+        EXPECT_TRUE(c.valid()) << p->name;
+        EXPECT_NEAR(c.volumeMm3, profileRevolvedVolume(p->profile) * polygonFactor(p->segments),
+                    1e-9 * c.volumeMm3)
+            << p->name;
+        EXPECT_LE(deepestInGlass(rx, p->mesh).depth, 0.0) << p->name;
+        ASSERT_EQ(p->namedRanges.size(), 1u);
+        EXPECT_EQ(p->namedRanges[0].triangleCount, p->mesh.triangles.size());
+    }
+    // A part wider than the barrel sets the segment count: the chord error stays within the
+    // tolerance at its radius.
+    spec.parts = {
+        {true, "shade", {{300.0, -50.0}, {302.0, -50.0}, {302.0, -20.0}, {300.0, -20.0}}, ""}};
+    parts = buildMechanics(rx, spec);
+    const MechanicalPart* shade = findPart(parts, "shade");
+    ASSERT_NE(shade, nullptr);
+    EXPECT_LE(chordError(302.0, shade->segments), spec.chordToleranceMm);
+    for (const MechanicalPart& p : parts) EXPECT_EQ(p.segments, shade->segments) << p.name;
+
+    // Into the glass, into a mirror, into another part, or a built part's name: ModelErrors
+    // naming the part.
+    auto failing = [&](MechanicsSpec::Part part) {
+        MechanicsSpec bad;
+        bad.parts = {std::move(part)};
+        return modelErrorOf([&] { buildMechanics(rx, bad); });
+    };
+    ModelError e =
+        failing({true, "plug", {{0.0, 30.0}, {20.0, 30.0}, {20.0, 50.0}, {0.0, 50.0}}, ""});
+    EXPECT_EQ(e.object(), "plug");
+    EXPECT_THAT(e.what(), HasSubstr("collides with L1"));
+    e = failing({true, "cup", {{0.0, 45.0}, {30.0, 45.0}, {30.0, 62.0}, {0.0, 62.0}}, ""});
+    EXPECT_EQ(e.object(), "cup");
+    EXPECT_THAT(e.what(), HasSubstr("collides with"));
+    std::cout << "[ collide  ] " << e.what() << "\n";
+    e = failing({true, "barrel", {{0.0, 45.0}, {30.0, 45.0}, {30.0, 55.0}, {0.0, 55.0}}, ""});
+    EXPECT_EQ(e.object(), "barrel");
+    EXPECT_THAT(e.what(), HasSubstr("already used"));
+    MechanicsSpec two;
+    two.parts = {{true, "a", {{0.0, 45.0}, {30.0, 45.0}, {30.0, 55.0}, {0.0, 55.0}}, ""},
+                 {true, "b", {{10.0, 50.0}, {35.0, 50.0}, {35.0, 56.0}, {10.0, 56.0}}, ""}};
+    e = modelErrorOf([&] { buildMechanics(rx, two); });
+    EXPECT_THAT(e.what(), HasSubstr("collides with"));
+    EXPECT_THAT(std::string(e.what()) + e.object(), HasSubstr("a"));
+}
+
 TEST(Mechanics, PartsSwitchedOffAreAbsent) {
     const Prescription rx = lens("double_gauss_50mm.toml");
     auto without = [&](auto change) {
@@ -620,6 +688,25 @@ TEST(Mechanics, UnknownKeysAndBadValuesAreParseErrorsAtTheirPlace) {
             "[mechanics]\nvanes = { count = 2, depth_mm = 1, from_z_mm = 5, to_z_mm = 1 }\n"),
         HasSubstr("to_z_mm"));
     EXPECT_THAT(parseError("[mechanics]\nbarrel = 3\n"), HasSubstr("a table or a boolean"));
+    // User parts: the outline must be a simple polygon of [r, z] points with r >= 0.
+    auto part = [](const std::string& body) { return "[mechanics]\n[[mechanics.parts]]\n" + body; };
+    EXPECT_THAT(parseError(part("name = \"p\"\nprofile_mm = [[0, 0], [1, 0]]\n")),
+                HasSubstr("scene.toml:4:"));
+    EXPECT_THAT(parseError(part("name = \"p\"\nprofile_mm = [[0, 0], [1, 0]]\n")),
+                HasSubstr("at least 3 points"));
+    EXPECT_THAT(parseError(part("name = \"p\"\nprofile_mm = [[0, 0], [2, 2], [2, 0], [0, 2]]\n")),
+                HasSubstr("not a simple closed outline"));
+    EXPECT_THAT(parseError(part("name = \"p\"\nprofile_mm = [[0, 0], [-1, 0], [0, 1]]\n")),
+                HasSubstr("scene.toml:4:"));
+    EXPECT_THAT(parseError(part("name = \"p\"\nprofile_mm = [[0, 0], [1, 0, 3], [0, 1]]\n")),
+                HasSubstr("[r, z]"));
+    EXPECT_THAT(parseError(part("name = \"p.q\"\nprofile_mm = [[0, 0], [1, 0], [0, 1]]\n")),
+                HasSubstr("without dots"));
+    EXPECT_THAT(parseError(part("profile_mm = [[0, 0], [1, 0], [0, 1]]\n")), HasSubstr("name"));
+    EXPECT_THAT(parseError(part("name = \"p\"\nprofile_mm = [[0, 0], [1, 0], [0, 1]]\n"
+                                "[[mechanics.parts]]\nname = \"p\"\n"
+                                "profile_mm = [[0, 0], [1, 0], [0, 1]]\n")),
+                HasSubstr("already used at scene.toml:3:"));
     EXPECT_THAT(parseError("[mechanics]\nfield_stop = true\n"), HasSubstr("radius_mm"));
 }
 
