@@ -127,6 +127,10 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
                     "stop when the mean relative error of the lit pixels falls below this")
         ->check(CLI::Range(1e-6, 1.0))
         ->capture_default_str();
+    sub->add_option("--target-on", o.targetOn,
+                    "the image --target-error applies to: total, visible, direct, caustic, "
+                    "secondary, or where<k> (the k-th --where criterion's image)")
+        ->capture_default_str();
     sub->add_option("--time-limit", o.timeLimit,
                     "stop after this long: 90s, 10m, 1h30m ('none': no limit)")
         ->capture_default_str();
@@ -198,6 +202,29 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
     if (o.prune && o.where.empty())
         throw ParseError({"--prune", 0, 0}, "--prune needs at least one --where");
     if (o.where.size() > 64) throw ParseError({"--where", 0, 0}, "at most 64 criteria");
+    // --target-on: the total, a component, or a criterion's image (where<k>, 1-based).
+    std::optional<RenderComponent> targetComponent;
+    int targetCriterion = -1;
+    if (o.targetOn != "total") {
+        for (int c = 0; c < kRenderComponents; ++c)
+            if (o.targetOn == toString(static_cast<RenderComponent>(c)))
+                targetComponent = static_cast<RenderComponent>(c);
+        if (!targetComponent) {
+            int k = 0;
+            if (o.targetOn.rfind("where", 0) == 0 && o.targetOn.size() > 5 &&
+                o.targetOn.find_first_not_of("0123456789", 5) == std::string::npos)
+                k = std::stoi(o.targetOn.substr(5, 3));
+            if (k < 1 || k > static_cast<int>(o.where.size()))
+                throw ParseError(
+                    {"--target-on", 1, 1},
+                    "'" + o.targetOn +
+                        "' is no image of this run: total, visible, direct, "
+                        "caustic, secondary" +
+                        (o.where.empty() ? std::string(", or where<k> with --where")
+                                         : ", where1 to where" + std::to_string(o.where.size())));
+            targetCriterion = k - 1;
+        }
+    }
 
     const GlassCatalog catalog = loadCatalog(common);
     const std::unique_ptr<const PreparedScene> prepared =
@@ -295,8 +322,14 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
     double lastLine = -1e9;
     std::string stopReason;
     WrittenFiles written;
+    // The mean pixel error of the image the target applies to.
+    auto targetError = [&] {
+        if (targetComponent) return state.meanRelativeError(*targetComponent);
+        if (targetCriterion >= 0) return state.criterionMeanRelativeError(targetCriterion);
+        return state.meanRelativeError();
+    };
     while (true) {
-        const double error = state.meanRelativeError();
+        const double error = targetError();
         if (state.passes() >= 2 && error <= o.targetError) {
             stopReason = "target error reached";
             break;
@@ -322,7 +355,7 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
         photonSeconds += pass.photonSeconds;
         if (o.quiet) continue;
         const double t = seconds();
-        const double err = state.meanRelativeError();
+        const double err = targetError();
         const int done = state.passes() - startPasses;
         // Passes still needed: the error falls as n^(-alpha / 2).
         std::string eta = "-";
@@ -430,6 +463,8 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
         {"radius_mm", aperture.radiusMm}};
     summary["mean_relative_error"] = num(error);
     summary["target_error"] = o.targetError;
+    summary["target_on"] = o.targetOn;
+    summary["target_mean_relative_error"] = num(targetError());
     summary["lit_pixels"] = state.litPixels();
     summary["emitted_flux"] = emitted;
     auto fluxJson = [&](const DetectorImage& img) {
@@ -504,11 +539,18 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
          << stopReason << "; mean pixel error "
          << (std::isfinite(error) ? std::to_string(100.0 * error).substr(0, 5) + " %" : "unknown")
          << " over " << state.litPixels() << " lit pixels (target " << 100.0 * o.targetError
-         << " %)\n";
+         << " %";
+    if (o.targetOn != "total") {
+        const double te = targetError();
+        text << " on " << o.targetOn << ": "
+             << (std::isfinite(te) ? std::to_string(100.0 * te).substr(0, 5) + " %" : "unknown");
+    }
+    text << ")\n";
     text << "  radius " << ro.initialRadiusMm << " mm -> " << state.radiusMm() << " mm, "
          << ro.photonsPerPass << " photons per source and " << ro.raysPerPixel
          << " rays per pixel per pass\n";
-    if (stopReason != "target error reached" && std::isfinite(error) && error > o.targetError)
+    if (stopReason != "target error reached" && std::isfinite(targetError()) &&
+        targetError() > o.targetError)
         text << "  the target error was not reached: continue with --resume " << dir.string()
              << "\n";
     std::cout << text.str();

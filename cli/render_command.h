@@ -17,6 +17,9 @@ struct RenderCommandOptions {
     std::string output;  // folder; default ./render (or the --resume folder)
     std::string resume;  // folder of a run to continue
     double targetError = 0.05;
+    // The image the target error applies to: total, visible, direct, caustic, secondary or
+    // where<k> (the k-th --where criterion's image).
+    std::string targetOn = "total";
     std::string timeLimit = "10m";
     int passes = 0;  // 0: no pass limit
     std::string detector;

@@ -91,6 +91,24 @@ TEST(RenderCommand, SplitsTheImageByCriteria) {
     ASSERT_TRUE(exr.layer("where3.caustic"));
     EXPECT_TRUE(std::filesystem::exists(dir + "/sensor_image.where3.png"));
 
+    // The target on one criterion's image: the run stops when that image's error reaches
+    // it, and says so.
+    for (const std::string on : {"where2", "caustic"}) {
+        r = runVeil("render " + kSun + " --passes 30" + kSmall +
+                    " --where 'scatter{,0}' --where scatter --target-error 0.7 --target-on " + on +
+                    " --json -o " + dirFor("target_" + on));
+        ASSERT_EQ(r.exitCode, 0) << r.err;
+        const nlohmann::json t = nlohmann::json::parse(r.out);
+        EXPECT_EQ(t["target_on"], on);
+        EXPECT_EQ(t["stopped"], "target error reached") << on;
+        const double got = t["target_mean_relative_error"].get<double>();
+        EXPECT_LE(got, 0.7) << on;
+        EXPECT_EQ(got, on == "caustic"
+                           ? t["components"]["caustic"]["mean_relative_error"].get<double>()
+                           : t["criteria"][1]["mean_relative_error"].get<double>());
+        EXPECT_LT(t["passes"].get<int>(), 30) << on;
+    }
+
     // Single scatter with pruning: photons stop at their second scatter; the total is the
     // criterion's light.
     r = runVeil("render " + kSun + " --passes 2" + kSmall +
@@ -162,6 +180,15 @@ TEST(RenderCommand, BadInputStopsBeforeAnyPass) {
     r = runVeil("render " + kSun + " --resume " + dir + " -o " + dir);
     EXPECT_EQ(r.exitCode, 1);
     EXPECT_NE(r.err.find("holds no render.checkpoint"), std::string::npos) << r.err;
+    r = runVeil("render " + kSun + " --target-on where2 --where scatter -o " + dir);
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_NE(r.err.find("'where2' is no image of this run"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("where1 to where1"), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir));
+    r = runVeil("render " + kSun + " --target-on stray -o " + dir);
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_NE(r.err.find("or where<k> with --where"), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir));
     r = runVeil("render " + kSun + " --alpha 1.5 -o " + dir);
     EXPECT_EQ(r.exitCode, 2);
     EXPECT_FALSE(std::filesystem::exists(dir));
