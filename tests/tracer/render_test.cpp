@@ -488,25 +488,38 @@ TEST(Render, ErrorFallsAtTheProgressivePhotonMappingRate) {
     EXPECT_GT(measured, -0.8);
 }
 
-TEST(Render, SingleScatterErrorDoesNotDependOnTheReflectance) {
-    // The seed's claim: a 0.1 % plate costs what a 30 % one does. The photons reach the plate
-    // the same way whatever it reflects; the reflectance only scales what they leave there.
-    std::array<double, 2> error{};
-    std::array<double, 2> flux{};
+// One component's total flux and relative error, for the window scene at reflectances 0.1 %
+// and 30 % (the plate's, and the wall's when `wall`), 64 rays per pixel, 20000 photons.
+struct ByReflectance {
+    std::array<double, 2> flux{}, error{};
+};
+ByReflectance componentByReflectance(RenderComponent component, bool wall, double radiusMm,
+                                     double guide, int passes) {
+    ByReflectance out;
     const std::array<double, 2> reflectance = {0.001, 0.3};
     for (int i = 0; i < 2; ++i) {
         WindowScene w;
         w.reflectance = reflectance[i];
+        w.wall = wall;
         const auto s = windowPlateScene(w);
         RenderOptions o;
         o.raysPerPixel = 64;
         o.photonsPerPass = 20000;
-        o.initialRadiusMm = 2.0;
-        const RenderState state = render(*s, o, 6, plateAperture());
-        const DetectorImage c = state.component(RenderComponent::Caustic);
-        flux[i] = c.totalFlux();
-        error[i] = std::sqrt(c.totalVariance(state.passes())) / c.totalFlux();
+        o.initialRadiusMm = radiusMm;
+        o.guideFraction = guide;
+        const RenderState state = render(*s, o, passes, plateAperture());
+        const DetectorImage c = state.component(component);
+        out.flux[i] = c.totalFlux();
+        out.error[i] = std::sqrt(c.totalVariance(state.passes())) / c.totalFlux();
     }
+    return out;
+}
+
+TEST(Render, SingleScatterErrorDoesNotDependOnTheReflectance) {
+    // The seed's claim: a 0.1 % plate costs what a 30 % one does. The photons reach the plate
+    // the same way whatever it reflects; the reflectance only scales what they leave there.
+    const auto [flux, error] = componentByReflectance(RenderComponent::Caustic, false, 2.0,
+                                                      RenderOptions{}.guideFraction, 6);
     EXPECT_NEAR(error[0], error[1], 0.2 * error[1]);
     EXPECT_NEAR(flux[0] / flux[1], 0.001 / 0.3, 0.05 * 0.001 / 0.3);
 }
@@ -516,24 +529,8 @@ TEST(Render, TwiceScatteredErrorDoesNotDependOnTheReflectance) {
     // reflectance R): a photon that scattered once off a dark surface must be followed as far
     // as one that scattered off a bright one, or the secondary light of dark mounts starves
     // (a roulette relative to the emitted flux kept 1 in 100 at R = 0.1 %).
-    std::array<double, 2> error{};
-    std::array<double, 2> flux{};
-    const std::array<double, 2> reflectance = {0.001, 0.3};
-    for (int i = 0; i < 2; ++i) {
-        WindowScene w;
-        w.reflectance = reflectance[i];
-        w.wall = true;
-        const auto s = windowPlateScene(w);
-        RenderOptions o;
-        o.raysPerPixel = 64;
-        o.photonsPerPass = 20000;
-        o.initialRadiusMm = 4.0;
-        o.guideFraction = 0.0;
-        const RenderState state = render(*s, o, 16, plateAperture());
-        const DetectorImage c = state.component(RenderComponent::Secondary);
-        flux[i] = c.totalFlux();
-        error[i] = std::sqrt(c.totalVariance(state.passes())) / c.totalFlux();
-    }
+    const auto [flux, error] =
+        componentByReflectance(RenderComponent::Secondary, true, 4.0, 0.0, 16);
     ASSERT_GT(flux[0], 0.0);
     EXPECT_NEAR(error[0], error[1], 0.3 * error[1]) << error[0] << " vs " << error[1];
     // Twice scattered: the flux scales as R^2, within the two runs' errors.
