@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <map>
 #include <optional>
+#include <sstream>
 #include <stdexcept>
 
 #include "analysis/scene_section.h"
@@ -15,7 +17,7 @@ namespace veil {
 std::ostream& operator<<(std::ostream& os, const LayoutSource& s) {
     os << "LayoutSource{'" << s.name << "', " << s.kind << ", emitter";
     for (const Vec2& p : s.emitterZY) os << " (" << p.x << ", " << p.y << ")";
-    os << ", " << s.arrows.size() << " arrows:";
+    os << ", '" << s.detail << "', " << s.arrows.size() << " arrows:";
     for (const LayoutSource::Arrow& a : s.arrows)
         os << " (" << a.fromZY.x << ", " << a.fromZY.y << ")->(" << a.toZY.x << ", " << a.toZY.y
            << ")";
@@ -25,6 +27,13 @@ std::ostream& operator<<(std::ostream& os, const LayoutSource& s) {
 namespace {
 
 Vec2 zy(const Vec3& p) { return Vec2(p.z, p.y); }
+
+// An angle in degrees to 3 significant digits ("7", "3.25", "0.533").
+std::string degrees(double rad) {
+    std::ostringstream os;
+    os << std::setprecision(3) << rad * 180.0 / M_PI << " deg";
+    return os.str();
+}
 
 constexpr double kConeFill = 0.9;              // of a point source's cone drawn
 constexpr double kMaxAreaRayRad = M_PI / 4.0;  // steepest ray drawn from an area source
@@ -68,6 +77,8 @@ LayoutSource beamSource(const Beam& beam, const Scene& scene, int rays, double m
     const double setBack = std::max(0.0, minArrowMm - shortest);
     for (size_t i = 0; i < origins.size(); ++i)
         s.arrows.push_back({zy(origins[i] - setBack * d), zy(origins[i] + lengths[i] * d)});
+    const double offAxis = std::acos(std::clamp(d.z, -1.0, 1.0));
+    if (offAxis > 1e-9) s.detail = degrees(offAxis) + " off axis";
     return s;
 }
 
@@ -79,6 +90,7 @@ LayoutSource pointSource(const PointSource& p, const Scene& scene, int rays) {
     // A whole sphere: evenly around the circle; else evenly over 90 % of [-half, half]: the
     // edge of a cone that covers the first surface grazes its rim and would fly past it.
     const bool sphere = p.halfAngleRad >= M_PI * (1.0 - 1e-9);
+    s.detail = sphere ? "whole sphere" : "+-" + degrees(p.halfAngleRad) + " cone";
     for (int i = 0; i < rays; ++i) {
         const double phi = sphere      ? 2.0 * M_PI * i / rays
                            : rays == 1 ? 0.0
@@ -112,6 +124,8 @@ LayoutSource areaSource(const AreaEmitter& a, const Scene& scene) {
             {zy(o), zy(o + firstHitDistance(scene, o, dir, beyondScene(scene, o)) * dir)});
     };
     for (double f : {-1.0, 0.0, 1.0}) ray(centre + f * half * w, 0.0);
+    if (a.coneHalfAngleRad < 0.5 * M_PI * (1.0 - 1e-9))
+        s.detail = "+-" + degrees(a.coneHalfAngleRad) + " cone";
     const double cone = std::min(a.coneHalfAngleRad, kMaxAreaRayRad);
     ray(centre, -cone);
     ray(centre, cone);
@@ -312,7 +326,8 @@ std::optional<Label> drawSource(Picture& pic, const LayoutSource& s, double padM
         }
     }
     if (!labelAt) return std::nullopt;
-    const std::string text = s.name == s.kind ? s.name : s.name + " (" + s.kind + ")";
+    std::string text = s.name == s.kind ? s.name : s.name + " (" + s.kind + ")";
+    if (!s.detail.empty()) text += ", " + s.detail;
     return Label{Vec2(labelAt->x, labelAt->y + 0.3 * padMm), text, kSourceLabelColour,
                  TextAnchor::Start};
 }

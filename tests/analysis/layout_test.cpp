@@ -101,6 +101,7 @@ TEST(LayoutSources, BeamArrowsAreParallelAndEndWhereTheRayFirstMeetsTheScene) {
         EXPECT_NEAR(a.toZY.y, hit->point.y, 1e-6);
     }
     EXPECT_NEAR(shortest, 30.0, 1e-6);
+    EXPECT_EQ(s[0].detail, "7 deg off axis");
     // The arrows span the start disk.
     const double across = glm::length(s[0].arrows.front().fromZY - s[0].arrows.back().fromZY);
     EXPECT_NEAR(across, 2.0 * beam.radiusMm, 1e-6);
@@ -115,6 +116,15 @@ TEST(LayoutSources, PointAndAreaSourcesAreDrawnWhereTheyEmit) {
     // Point: a dot at (z, y) = (-300, 20), rays from it spread over its cone, the outer rays
     // at 90 % of the cone's half-angle from its axis.
     EXPECT_EQ(s[0].kind, "point");
+    {
+        // The label gives the cone's half-angle to 3 digits.
+        const PointSource& lamp = std::get<PointSource>(sources[0].shape());
+        std::smatch m;
+        ASSERT_TRUE(std::regex_match(s[0].detail, m, std::regex(R"(\+-([0-9.]+) deg cone)")))
+            << s[0].detail;
+        EXPECT_NEAR(std::stod(m[1]), lamp.halfAngleRad * 180.0 / M_PI,
+                    5e-3 * lamp.halfAngleRad * 180.0 / M_PI);
+    }
     ASSERT_EQ(s[0].emitterZY.size(), 1u);
     EXPECT_EQ(s[0].emitterZY[0], Vec2(-300.0, 20.0));
     ASSERT_EQ(s[0].arrows.size(), 5u);
@@ -151,6 +161,7 @@ TEST(LayoutSources, PointAndAreaSourcesAreDrawnWhereTheyEmit) {
         EXPECT_NEAR(a.fromZY.x, -50.0, 1e-12);
     }
     EXPECT_EQ(angles, (std::multiset<long>{-45, 0, 0, 0, 45}));
+    EXPECT_EQ(s[1].detail, "");  // a whole hemisphere: the kind says it
 
     // The beam: 7 parallel arrows at 5 deg.
     EXPECT_EQ(s[2].kind, "collimated");
@@ -159,6 +170,7 @@ TEST(LayoutSources, PointAndAreaSourcesAreDrawnWhereTheyEmit) {
         const Vec2 d = unit(a.toZY - a.fromZY);
         EXPECT_NEAR(d.y / d.x, std::tan(5.0 * M_PI / 180.0), 1e-9);
     }
+    EXPECT_EQ(s[2].detail, "5 deg off axis");
     EXPECT_THROW(layoutSources(sources, r.setup->scene, {0, 5, 0.0}), std::invalid_argument);
 }
 
@@ -175,6 +187,7 @@ TEST(LayoutSources, TheWindowIsADiskInFrontOfTheLens) {
     EXPECT_NEAR(s[0].emitterZY[0].x, front - 0.1, 1e-9);
     EXPECT_NEAR(s[0].emitterZY[1].x, front - 0.1, 1e-9);
     for (const LayoutSource::Arrow& a : s[0].arrows) EXPECT_GT(a.toZY.x, a.fromZY.x);
+    EXPECT_EQ(s[0].detail, "+-3.25 deg cone");  // the scene's cone_deg
 }
 
 // Layout Drawing Tests
@@ -230,7 +243,7 @@ TEST(DrawLayout, SourcesAndTheDetectorNameAppearInTheSvg) {
     o.sources = layoutSources(r.trace.transport.sources, r.setup->scene);
     const Picture pic = drawLayout(r.setup->scene, o);
     const std::string svg = pic.svg();
-    const std::regex sourceLabel("<text [^>]*>sun</text>");
+    const std::regex sourceLabel("<text [^>]*>sun, 7 deg off axis</text>");
     EXPECT_TRUE(std::regex_search(svg, sourceLabel));
     EXPECT_FALSE(std::regex_search(without, sourceLabel));
     // Arrows in the source colour: one filled head per arrow.
