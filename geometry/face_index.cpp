@@ -38,6 +38,8 @@ FrameOffset offsetFrom(const Frame& g, const Frame& f) {
 }  // namespace
 
 ExactFaceIndex::ExactFaceIndex(std::vector<ExactFaceEntry> faces) : faces_(std::move(faces)) {
+    for (const ExactFaceEntry& e : faces_)
+        shiftOnly_.push_back(e.frame.rotation == glm::dmat3(1.0) ? 1 : 0);
     // Group faces by axis; the first face of a group gives its frame.
     std::vector<std::vector<int>> members;
     for (size_t i = 0; i < faces_.size(); ++i) {
@@ -115,8 +117,11 @@ void ExactFaceIndex::nearest(const Ray& ray, int startObject, ExactCandidate& be
             if (tested[k] == entry) return;
         if (testedCount < kMaxTested) tested[testedCount++] = entry;
         const ExactFaceEntry& e = faces_[entry];
-        const auto hit =
-            intersectFace(e.face, e.frame.toLocal(ray), 0.0, best.t, e.object == startObject);
+        // A face on the z axis (every lens face) is reached by a shift alone: the same local
+        // ray as the rotation by the identity, without its 18 products.
+        const Ray local = shiftOnly_[entry] ? Ray{ray.origin - e.frame.translation, ray.direction}
+                                            : e.frame.toLocal(ray);
+        const auto hit = intersectFace(e.face, local, 0.0, best.t, e.object == startObject);
         if (!hit) return;
         const bool nearer = hit->t < best.t || best.entry < 0 ||
                             (hit->t == best.t && e.object < faces_[best.entry].object);

@@ -78,6 +78,7 @@ class ExactFaceIndex {
     // first band that reaches a z is found by binary search), down_ sorted by zHi downward
     // with reach = the smallest zLo so far.
     std::vector<ExactFaceEntry> faces_;
+    std::vector<unsigned char> shiftOnly_;  // per face: its rotation is the identity
     std::vector<Group> groups_;
     std::vector<Band> up_, down_;
     std::vector<double> upReach_, downReach_;
