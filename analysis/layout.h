@@ -31,9 +31,9 @@ struct LayoutSource {
     std::vector<Vec2> emitterZY;  // point: its position; window, lambertian: the ends of
                                   // the emitting area's section; beams: empty
     std::vector<Arrow> arrows;    // from where the ray is drawn to start to where it ends
-    std::string detail;           // drawn after the name: "7 deg off axis" (a beam's angle to +z),
-                         // "+-3.25 deg cone" (a point or window source's half-angle); empty
-                         // for a beam along +z and a Lambertian panel
+    // Drawn after the name: "7 deg off axis" (a beam's angle to +z), "+-3.25 deg cone" (a
+    // point or window source's half-angle); empty for a beam along +z and a Lambertian panel.
+    std::string detail;
 };
 std::ostream& operator<<(std::ostream& os, const LayoutSource& s);
 

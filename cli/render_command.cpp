@@ -540,17 +540,18 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
          << (std::isfinite(error) ? std::to_string(100.0 * error).substr(0, 5) + " %" : "unknown")
          << " over " << state.litPixels() << " lit pixels (target " << 100.0 * o.targetError
          << " %";
-    if (o.targetOn != "total") {
-        const double te = targetError();
+    const double finalTargetError = targetError();
+    if (o.targetOn != "total")
         text << " on " << o.targetOn << ": "
-             << (std::isfinite(te) ? std::to_string(100.0 * te).substr(0, 5) + " %" : "unknown");
-    }
+             << (std::isfinite(finalTargetError)
+                     ? std::to_string(100.0 * finalTargetError).substr(0, 5) + " %"
+                     : "unknown");
     text << ")\n";
     text << "  radius " << ro.initialRadiusMm << " mm -> " << state.radiusMm() << " mm, "
          << ro.photonsPerPass << " photons per source and " << ro.raysPerPixel
          << " rays per pixel per pass\n";
-    if (stopReason != "target error reached" && std::isfinite(targetError()) &&
-        targetError() > o.targetError)
+    if (stopReason != "target error reached" && std::isfinite(finalTargetError) &&
+        finalTargetError > o.targetError)
         text << "  the target error was not reached: continue with --resume " << dir.string()
              << "\n";
     std::cout << text.str();
