@@ -33,9 +33,10 @@ struct Fixture {
     std::unique_ptr<EmbreeScene> raw;
     std::vector<Ray> rays;
     // The rays of the tracer's own segments (from recorded histories of 200 emitted rays),
-    // with the object and triangle each starts on.
+    // with the object and triangle each starts on and the medium it travels in.
     std::vector<Ray> segmentRays;
     std::vector<std::pair<int, int>> segmentStarts;
+    std::vector<int> segmentMedia;
 };
 
 const Fixture& sun7() {
@@ -71,6 +72,7 @@ const Fixture& sun7() {
                     fx->segmentRays.push_back({node.position, node.direction});
                     fx->segmentStarts.emplace_back(t == EventType::Emit ? -1 : node.object,
                                                    t == EventType::Emit ? -1 : node.face);
+                    fx->segmentMedia.push_back(node.medium);
                 }
             });
         return fx;
@@ -167,7 +169,7 @@ void BM_SegmentRaysClosestHit(benchmark::State& state) {
     for (auto _ : state) {
         for (size_t i = 0; i < f.segmentRays.size(); ++i) {
             const auto h = scene.closestHit(f.segmentRays[i], kInfinity, f.segmentStarts[i].first,
-                                            f.segmentStarts[i].second);
+                                            f.segmentStarts[i].second, f.segmentMedia[i]);
             hits += h.has_value();
         }
         rays += static_cast<long long>(f.segmentRays.size());

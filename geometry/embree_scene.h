@@ -67,6 +67,11 @@ class EmbreeScene {
                                        const Skip* skips, int skipCount,
                                        ExactCandidate& exact) const;
 
+    // The exact faces alone (the first half of query()): for a ray that provably meets no
+    // triangle before its nearest face (Scene's sealed media).
+    void nearestExact(const Ray& ray, int startObject, ExactCandidate& exact) const {
+        faces_.nearest(ray, startObject, exact);
+    }
     bool empty() const { return meshCount_ == 0 && faces_.empty(); }
     const std::vector<ExactFaceEntry>& exactFaces() const { return faces_.faces(); }
 

@@ -162,6 +162,8 @@ double curvatureBound(const SurfaceShape& shape, double uLo, double uHi) {
     return kCurvatureSafety * m;
 }
 
+}  // namespace
+
 // Enclosure of the sag over u in [uLo, uHi]. The conic part and every term a[i] u^(i+1) are
 // monotone in u >= 0, so over a subinterval each lies between its values at the ends; the
 // sum of those ranges encloses the sag. Summed over kSagEnclosurePieces subintervals the
@@ -200,6 +202,8 @@ void sagRange(const SurfaceShape& shape, double uLo, double uHi, double& zLo, do
         zHi = std::max(zHi, hi + slack);
     }
 }
+
+namespace {
 
 // Surface Patch Intersection
 

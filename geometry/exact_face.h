@@ -71,6 +71,9 @@ struct FaceBand {
     double zLo = 0.0, zHi = 0.0;
 };
 std::vector<FaceBand> faceBands(const FaceGeometry& face, int bands);
+// An enclosure of a shape's sag over squared radii u in [uLo, uHi] (not a sample: every
+// sag there lies in [zLo, zHi]).
+void sagRange(const SurfaceShape& shape, double uLo, double uHi, double& zLo, double& zHi);
 // A triangle mesh for display and export whose chord error (distance between the exact
 // face and its triangles) stays below chordToleranceMm. Local frame; triangles face along
 // the face's normal. The rule (M = bound on the sag's curvature over the aperture, exact for

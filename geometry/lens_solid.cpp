@@ -125,6 +125,22 @@ double sideZ(const LensSide& side, double r) {
     return side.vertexZMm + sag(side.shape, r * r);
 }
 
+// An enclosure of sideZ() over radii [r0, r1], widened into [lo, hi]: the face's sag
+// enclosure inside its radius, the flat (or step) plane beyond.
+void widenBySide(const LensSide& side, double r0, double r1, double& lo, double& hi) {
+    if (r0 < side.faceRadiusMm) {
+        const double rEnd = std::min(r1, side.faceRadiusMm);
+        double zLo = 0.0, zHi = 0.0;
+        sagRange(side.shape, r0 * r0, rEnd * rEnd, zLo, zHi);
+        lo = std::min(lo, side.vertexZMm + zLo);
+        hi = std::max(hi, side.vertexZMm + zHi);
+    }
+    if (r1 >= side.faceRadiusMm) {
+        lo = std::min(lo, side.rimZMm);
+        hi = std::max(hi, side.rimZMm);
+    }
+}
+
 // Radii at which thickness profiles are checked: a regular grid plus the face rims.
 std::vector<double> profileRadii(double rMax, std::initializer_list<double> extra) {
     std::vector<double> r;
@@ -379,6 +395,22 @@ void addLensSolids(const Prescription& prescription, Scene& scene,
         };
         built.insert(s.front.surface);
         built.insert(s.back.surface);
+
+        // The glass as a body (scene.h): at radius r it lies between frontZ(r) and backZ(r).
+        if (glass > 0) {
+            ExactBody body;
+            body.part = s.name;
+            body.medium = glass;
+            body.radiusMm = s.edgeRadiusMm;
+            body.zRange = [front = s.front, back = s.back](double r0, double r1, double& lo,
+                                                           double& hi) {
+                lo = std::numeric_limits<double>::infinity();
+                hi = -lo;
+                widenBySide(front, r0, r1, lo, hi);
+                widenBySide(back, r0, r1, lo, hi);
+            };
+            scene.addExactBody(std::move(body));
+        }
 
         // A cemented front face was made with the element in front.
         if (!s.front.cemented) {

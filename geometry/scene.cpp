@@ -1,5 +1,6 @@
 #include "geometry/scene.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -105,6 +106,49 @@ int Scene::addObject(SceneObject o) {
     return objects_.back().id;
 }
 
+void Scene::addExactBody(ExactBody body) {
+    if (body.medium <= 0 || body.medium >= static_cast<int>(media_.size()))
+        throw ModelError(body.part, "a body needs a medium other than air");
+    if (!(body.radiusMm > 0.0) || !body.zRange)
+        throw ModelError(body.part, "a body needs a radius and a z enclosure");
+    bodies_.push_back(std::move(body));
+    committed_ = false;
+}
+
+namespace {
+
+// Whether the triangle (a, b, c), in the body's local frame, stays at least `margin` away
+// from the body: in the (r, z) half-plane the triangle lies within its box (r from its exact
+// distance to the axis to its farthest vertex, z between its vertices'), and the body at
+// those radii within zRange().
+bool triangleClearOf(const ExactBody& body, const Vec3& a, const Vec3& b, const Vec3& c,
+                     double margin) {
+    const double zMin = std::min({a.z, b.z, c.z}), zMax = std::max({a.z, b.z, c.z});
+    const double rMax =
+        std::sqrt(std::max({a.x * a.x + a.y * a.y, b.x * b.x + b.y * b.y, c.x * c.x + c.y * c.y}));
+    // The distance from the axis: 0 when the triangle's projection on the xy plane holds the
+    // origin (a degenerate projection counts as holding it when collinear: conservative),
+    // else the nearest of its three edges.
+    auto cross = [](const Vec3& p, const Vec3& q) { return p.x * q.y - p.y * q.x; };
+    const double d1 = cross(a, b), d2 = cross(b, c), d3 = cross(c, a);
+    double rMin = 0.0;
+    if (!((d1 >= 0.0 && d2 >= 0.0 && d3 >= 0.0) || (d1 <= 0.0 && d2 <= 0.0 && d3 <= 0.0))) {
+        auto segment = [](const Vec3& p, const Vec3& q) {
+            const double ex = q.x - p.x, ey = q.y - p.y;
+            const double len = ex * ex + ey * ey;
+            const double s = len > 0.0 ? std::clamp(-(p.x * ex + p.y * ey) / len, 0.0, 1.0) : 0.0;
+            return std::hypot(p.x + s * ex, p.y + s * ey);
+        };
+        rMin = std::min({segment(a, b), segment(b, c), segment(c, a)});
+    }
+    if (rMin >= body.radiusMm + margin) return true;
+    double lo = 0.0, hi = 0.0;
+    body.zRange(std::max(0.0, rMin - margin), std::min(body.radiusMm, rMax + margin), lo, hi);
+    return zMax <= lo - margin || zMin >= hi + margin;
+}
+
+}  // namespace
+
 void Scene::commit() {
     exactObjects_.clear();
     objectOfTriangle_.assign(meshes_.size(), {});
@@ -142,7 +186,51 @@ void Scene::commit() {
     for (int id : exactObjects_)
         faces.push_back({id, objects_[id].frame, std::get<FaceGeometry>(objects_[id].geometry)});
     embree_ = std::make_unique<EmbreeScene>(meshes_, std::move(faces));
+    sealMedia();
     committed_ = true;
+}
+
+void Scene::sealMedia() {
+    sealed_.assign(media_.size(), 0);
+    bodiesNotClear_.clear();
+    std::vector<int> bodies(media_.size(), 0), clear(media_.size(), 0);
+    for (const ExactBody& body : bodies_) {
+        ++bodies[body.medium];
+        // Far beyond rounding (relative 1e-9 of the body's size), far below any gap the
+        // mechanics keeps (contact_gap_mm, 1 um by default).
+        double lo = 0.0, hi = 0.0;
+        body.zRange(0.0, body.radiusMm, lo, hi);
+        const double margin = 1e-9 * (1.0 + std::max({body.radiusMm, std::abs(lo), std::abs(hi),
+                                                      glm::length(body.frame.translation)}));
+        const SceneObject* near = nullptr;
+        for (size_t m = 0; m < meshes_.size() && !near; ++m) {
+            const TriangleMesh& mesh = meshes_[m];
+            for (size_t t = 0; t < mesh.triangles.size(); ++t) {
+                const auto& tri = mesh.triangles[t];
+                const Vec3 a = body.frame.toLocalPoint(mesh.vertices[tri[0]]);
+                const Vec3 b = body.frame.toLocalPoint(mesh.vertices[tri[1]]);
+                const Vec3 c = body.frame.toLocalPoint(mesh.vertices[tri[2]]);
+                if (!triangleClearOf(body, a, b, c, margin)) {
+                    near = &objects_[objectOfTriangle_[m][t]];
+                    break;
+                }
+            }
+        }
+        if (near)
+            bodiesNotClear_.push_back(body.part + ": " + near->name);
+        else
+            ++clear[body.medium];
+    }
+    // Every object bordering the medium must be an exact face of a body's part.
+    std::vector<unsigned char> bordered(media_.size(), 1);
+    for (const SceneObject& o : objects_) {
+        bool ofBody = false;
+        if (std::holds_alternative<FaceGeometry>(o.geometry))
+            for (const ExactBody& body : bodies_) ofBody = ofBody || body.part == o.part;
+        if (!ofBody) bordered[o.mediumFront] = bordered[o.mediumBack] = 0;
+    }
+    for (size_t m = 1; m < media_.size(); ++m)
+        sealed_[m] = bodies[m] > 0 && clear[m] == bodies[m] && bordered[m];
 }
 
 Bounds3 Scene::bounds() const {
@@ -171,17 +259,24 @@ SceneHit Scene::makeHit(int object, int primitive, double t, const Ray& ray,
 }
 
 std::optional<SceneHit> Scene::closestHit(const Ray& ray, double tMax, int startObject,
-                                          int startPrimitive) const {
+                                          int startPrimitive, int medium) const {
     if (!committed_) throw ModelError("scene", "closestHit() before commit()");
     // The exact faces in double (geometry/face_index.h), then the triangles up to the nearest
     // one (geometry/embree_scene.h); the nearest exact face is the first candidate.
     ExactCandidate exact;
     exact.t = tMax;
-    EmbreeScene::Skip skips[EmbreeScene::kMaxSkips];
-    int skipCount = 0;
     const MeshRef* startMesh = startObject >= 0 && startPrimitive >= 0
                                    ? std::get_if<MeshRef>(&objects_[startObject].geometry)
                                    : nullptr;
+    if (sealed(medium) && !startMesh) {
+        // Inside a lens body no triangle comes before the face the ray leaves it through.
+        embree_->nearestExact(ray, startObject, exact);
+        if (exact.entry < 0) return std::nullopt;
+        const ExactFaceEntry& e = embree_->exactFaces()[exact.entry];
+        return makeHit(e.object, 0, exact.t, ray, e.frame.toGlobalDirection(exact.localNormal));
+    }
+    EmbreeScene::Skip skips[EmbreeScene::kMaxSkips];
+    int skipCount = 0;
     if (startMesh) {
         // The start triangle and the triangles around its vertices: Embree would see them in
         // float at t ~ 0 (a candidate to refuse and a repeated query); they are tested in

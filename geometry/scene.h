@@ -15,8 +15,18 @@
 // sweep of face_index.h); triangle meshes go through Embree (float) for candidates, refined
 // in double on the candidate triangle. A ray that starts on an object passes that object (and for
 // meshes the triangle) so the start point is not found again: no epsilon offsets.
+//
+// Sealed media. A lens element's glass is a closed body bounded by exact faces alone
+// (addExactBody(), registered by addLensSolids()). commit() proves, for every body, that no
+// mesh triangle comes near it: in the body's (r, z) half-plane each triangle's box (its
+// exact distance range from the axis, its z range) is compared with an enclosure of the body
+// at those radii, with a margin. A medium whose bodies are all clear, and which no mesh
+// borders, is sealed: a ray travelling in it (closestHit()'s `medium`) starts inside one of
+// its bodies and leaves it through an exact face before it could meet any triangle, so the
+// query searches the exact faces alone and skips the triangle BVH. The answer is the same.
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <ostream>
@@ -84,6 +94,18 @@ struct SceneHit {
 };
 std::ostream& operator<<(std::ostream& os, const SceneHit& h);
 
+// A closed region of one medium bounded by exact faces alone (a lens element's glass), as a
+// solid of revolution about its frame's local z axis.
+struct ExactBody {
+    std::string part;       // the part whose faces bound it ("L4")
+    int medium = 0;         // the medium inside (index into Scene::media())
+    Frame frame;            // local to global; the axis is the local z axis
+    double radiusMm = 0.0;  // no point of the body lies farther from the axis
+    // For radii [r0, r1] within [0, radiusMm]: a local z interval holding every point of the
+    // body at those radii (an enclosure, not a sample).
+    std::function<void(double r0, double r1, double& zLo, double& zHi)> zRange;
+};
+
 class EmbreeScene;  // geometry/embree_scene.h
 
 class Scene {
@@ -97,6 +119,8 @@ class Scene {
     int addMedium(Medium m);  // returns its index; "air" is medium 0 from the start
     int addMesh(TriangleMesh mesh);
     int addObject(SceneObject o);  // assigns the id
+    // A body of one medium bounded by the exact faces of `part` (see the top of this file).
+    void addExactBody(ExactBody body);
     // Builds the acceleration structures. Must be called after the last add and before
     // any query; adding after commit() requires another commit().
     void commit();
@@ -110,9 +134,18 @@ class Scene {
     Bounds3 bounds() const;
 
     // Closest hit with t in (0, tMax]. startObject/startPrimitive: the object (and mesh
-    // triangle) the ray starts on, or -1.
+    // triangle) the ray starts on, or -1. medium: the medium the ray travels in, or -1 when
+    // unknown; in a sealed medium only the exact faces are searched (same answer, faster).
     std::optional<SceneHit> closestHit(const Ray& ray, double tMax = kInfinity,
-                                       int startObject = -1, int startPrimitive = -1) const;
+                                       int startObject = -1, int startPrimitive = -1,
+                                       int medium = -1) const;
+    // Whether commit() proved the medium sealed (see the top of this file).
+    bool sealed(int medium) const {
+        return medium >= 0 && medium < static_cast<int>(sealed_.size()) && sealed_[medium];
+    }
+    // The bodies commit() could not prove clear, each with the first mesh object found near
+    // it ("L4: barrel"): their media are searched in full. For reports and tests.
+    const std::vector<std::string>& bodiesNotClear() const { return bodiesNotClear_; }
     // The same by a plain loop over every face and every triangle in double precision: the
     // test oracle for closestHit().
     std::optional<SceneHit> closestHitBruteForce(const Ray& ray, double tMax = kInfinity,
@@ -124,12 +157,16 @@ class Scene {
     TriangleMesh tessellate(double chordToleranceMm, std::vector<int>* objectOfTriangle) const;
 
   private:
+    void sealMedia();  // commit(): sealed_ and bodiesNotClear_
     SceneHit makeHit(int object, int primitive, double t, const Ray& ray, const Vec3& normal) const;
 
     std::vector<Medium> media_;
     std::vector<TriangleMesh> meshes_;
     std::vector<SceneObject> objects_;
-    std::vector<int> exactObjects_;                   // ids of objects with FaceGeometry
+    std::vector<int> exactObjects_;  // ids of objects with FaceGeometry
+    std::vector<ExactBody> bodies_;
+    std::vector<unsigned char> sealed_;               // per medium, set by commit()
+    std::vector<std::string> bodiesNotClear_;         // "L4: barrel", set by commit()
     std::vector<std::vector<int>> objectOfTriangle_;  // [mesh][triangle] -> object id
     // [mesh][vertex] -> triangles using it: a ray leaving a mesh is tested in double against
     // the triangles around its start triangle, where float candidates are unreliable (a

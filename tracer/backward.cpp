@@ -306,8 +306,8 @@ BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& dete
                     while (!stack.empty()) {
                         Branch br = stack.back();
                         stack.pop_back();
-                        const auto hit =
-                            scene.closestHit(br.ray, kInfinity, br.startObject, br.startPrimitive);
+                        const auto hit = scene.closestHit(br.ray, kInfinity, br.startObject,
+                                                          br.startPrimitive, br.medium);
                         const double tHit = hit ? hit->t : kInfinity;
                         // Sources seen along the segment (they block nothing).
                         const double alpha = media.absorptionPerMm(br.medium, w);

@@ -225,7 +225,8 @@ class RayTracer {
                 cull(br, CullReason::MaxSegments, b);
                 return;
             }
-            const auto hit = scene.closestHit(br.ray, kInfinity, br.startObject, br.startPrimitive);
+            const auto hit =
+                scene.closestHit(br.ray, kInfinity, br.startObject, br.startPrimitive, br.medium);
             ++br.segments;
             ++b.segments;
             if (!hit) {

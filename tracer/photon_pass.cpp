@@ -274,8 +274,8 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                         return judge->matches(states.data() + br.state, suffix, scratch.data());
                     };
                     for (; br.segments < options.maxPhotonSegments; ++br.segments) {
-                        const auto hit =
-                            scene.closestHit(br.ray, kInfinity, br.startObject, br.startPrimitive);
+                        const auto hit = scene.closestHit(br.ray, kInfinity, br.startObject,
+                                                          br.startPrimitive, br.medium);
                         ++a.segments;
                         if (!hit) break;
                         const double alpha = media.absorptionPerMm(br.medium, w);

@@ -16,6 +16,7 @@
 #include <random>
 #include <sstream>
 
+#include "geometry/revolve.h"
 #include "lensdata/glass_catalog.h"
 #include "lensdata/lens_file.h"
 #include "tests/test_lenses.h"
@@ -798,6 +799,69 @@ TEST(LensSolid, PrintsItself) {
         << os.str();
     EXPECT_NE(os.str().find("LensSolidOptions{edge 'lens_edge', flat 'lens_flat'"),
               std::string::npos);
+}
+
+// The glass of a lens is sealed (closestHit() in it searches the exact faces alone) only when
+// commit() proves no triangle comes near the body. A ring around the singlet's butt end, 1 um
+// outside it, keeps it sealed; the same ring reaching 10 um into the glass unseals it, names
+// it, and a ray in the glass then meets the ring, as the brute force says; a mesh with glass
+// on one side unseals that glass too.
+TEST(LensSolid, GlassIsSealedOnlyWhenNoPartComesNearIt) {
+    const Prescription p = example("singlet.toml");
+    struct Built {
+        Scene scene;
+        int glass = 0;
+    };
+    auto build = [&](double innerGapMm, int ringMedium) {
+        Built b;
+        addLensSolids(p, b.scene);
+        const SceneObject& edge = get(b.scene, "L1.edge");
+        b.glass = edge.mediumBack;
+        const auto& cyl = std::get<CylinderPatch>(std::get<FaceGeometry>(edge.geometry));
+        const double rIn = cyl.radiusMm + innerGapMm;
+        const double zMid = 0.5 * (cyl.zMinMm + cyl.zMaxMm);
+        // 2000 segments: the inscribed polygon stays within 2e-5 mm of the circle.
+        const std::vector<Vec2> profile{
+            {rIn, zMid - 0.2}, {rIn + 2.0, zMid - 0.2}, {rIn + 2.0, zMid + 0.2}, {rIn, zMid + 0.2}};
+        SceneObject ring;
+        ring.name = "ring";
+        ring.kind = ObjectKind::Mechanics;
+        ring.part = "ring";
+        ring.mediumFront = ringMedium < 0 ? b.glass : 0;
+        ring.geometry = MeshRef{b.scene.addMesh(revolveProfile(profile, 2000).mesh)};
+        b.scene.addObject(ring);
+        b.scene.commit();
+        return b;
+    };
+    auto edgeRay = [](const Scene& scene) {
+        const auto& cyl =
+            std::get<CylinderPatch>(std::get<FaceGeometry>(get(scene, "L1.edge").geometry));
+        return Ray{Vec3(0.0, 0.0, 0.5 * (cyl.zMinMm + cyl.zMaxMm)), Vec3(1.0, 0.0, 0.0)};
+    };
+
+    const Built clear = build(1e-3, 0);
+    EXPECT_TRUE(clear.scene.bodiesNotClear().empty());
+    EXPECT_TRUE(clear.scene.sealed(clear.glass));
+    EXPECT_FALSE(clear.scene.sealed(0));  // air never is
+    const Ray r1 = edgeRay(clear.scene);
+    const auto h1 = clear.scene.closestHit(r1, kInf, -1, -1, clear.glass);
+    ASSERT_TRUE(h1.has_value());
+    EXPECT_EQ(clear.scene.object(h1->object).name, "L1.edge");
+    EXPECT_EQ(h1->t, clear.scene.closestHitBruteForce(r1)->t);
+
+    const Built into = build(-1e-2, 0);
+    ASSERT_EQ(into.scene.bodiesNotClear().size(), 1u);
+    EXPECT_EQ(into.scene.bodiesNotClear()[0], "L1: ring");
+    EXPECT_FALSE(into.scene.sealed(into.glass));
+    const Ray r2 = edgeRay(into.scene);
+    const auto h2 = into.scene.closestHit(r2, kInf, -1, -1, into.glass);
+    ASSERT_TRUE(h2.has_value());
+    EXPECT_EQ(into.scene.object(h2->object).name, "ring");
+    EXPECT_NEAR(h2->t, into.scene.closestHitBruteForce(r2)->t, 1e-9);
+
+    const Built glassy = build(1e-3, -1);
+    EXPECT_TRUE(glassy.scene.bodiesNotClear().empty());
+    EXPECT_FALSE(glassy.scene.sealed(glassy.glass));
 }
 
 }  // namespace
