@@ -5,6 +5,7 @@
 #include <charconv>
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <set>
 #include <sstream>
@@ -23,10 +24,17 @@ struct TomlDocumentState {
     std::string fileName;
     toml::table root;
     std::map<const toml::table*, TableUse> tables;
+    // Values set by TomlDocument::set(), with the edit that set them.
+    std::map<const toml::node*, std::string> origins;
 
     FileLoc locOf(const toml::source_region& region) const {
         return {fileName, static_cast<int>(region.begin.line),
                 static_cast<int>(region.begin.column)};
+    }
+    FileLoc locOf(const toml::node& node) const {
+        const auto it = origins.find(&node);
+        if (it != origins.end()) return {it->second, 0, 0};
+        return locOf(node.source());
     }
 };
 
@@ -119,8 +127,7 @@ void collectUnused(const detail::TomlDocumentState& doc, const toml::node& node,
 // openedOnly: report unused keys only inside tables some reader opened below the root (the
 // readers that would open the others may not have run yet).
 void collectUnusedInTable(const detail::TomlDocumentState& doc, const toml::table& table,
-                          const std::string& path, std::vector<UnusedKey>& out,
-                          bool openedOnly) {
+                          const std::string& path, std::vector<UnusedKey>& out, bool openedOnly) {
     const auto it = doc.tables.find(&table);
     const detail::TableUse* use = it == doc.tables.end() ? nullptr : &it->second;
     if (openedOnly && !use) return;
@@ -148,7 +155,8 @@ void collectUnusedInTable(const detail::TomlDocumentState& doc, const toml::tabl
             const std::string guess = closestSpelling(name, candidates);
             if (!guess.empty()) message += " (did you mean '" + guess + "'?)";
         }
-        out.push_back({doc.locOf(key.source()), std::move(message)});
+        const bool edited = doc.origins.contains(&value);
+        out.push_back({edited ? doc.locOf(value) : doc.locOf(key.source()), std::move(message)});
     }
 }
 
@@ -201,7 +209,7 @@ std::ostream& operator<<(std::ostream& os, const NumberRange& r) { return os << 
 
 // TomlValue Public Methods
 
-FileLoc TomlValue::loc() const { return doc_->locOf(node_->source()); }
+FileLoc TomlValue::loc() const { return doc_->locOf(*node_); }
 
 bool TomlValue::isNumber() const { return node_->is_number(); }
 bool TomlValue::isInteger() const { return node_->is_integer(); }
@@ -364,6 +372,160 @@ TomlDocument TomlDocument::fromString(std::string_view text, std::string fileNam
 const std::string& TomlDocument::fileName() const { return state_->fileName; }
 
 TomlTable TomlDocument::root() const { return TomlTable(state_.get(), &state_->root, ""); }
+
+namespace {
+
+// The parts of a key path: "a.b[2].c" and "a.b.2.c" both give a, b, 2, c.
+std::vector<std::string> keyPathParts(std::string_view path) {
+    std::vector<std::string> parts;
+    std::string cur;
+    for (char c : path) {
+        if (c == '.' || c == '[' || c == ']') {
+            if (!cur.empty()) parts.push_back(std::move(cur));
+            cur.clear();
+        } else {
+            cur += c;
+        }
+    }
+    if (!cur.empty()) parts.push_back(std::move(cur));
+    return parts;
+}
+
+// A whole-text integer or number, else nullopt.
+std::optional<int64_t> parseInteger(std::string_view text) {
+    int64_t v = 0;
+    const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+    if (ec != std::errc() || end != text.data() + text.size()) return std::nullopt;
+    return v;
+}
+std::optional<double> parseNumber(std::string_view text) {
+    double v = 0.0;
+    const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+    if (ec != std::errc() || end != text.data() + text.size()) return std::nullopt;
+    return v;
+}
+
+// The value `text` stands for where `old` stood (nullptr: a new key).
+template <class Fail>
+void assignValue(const toml::node* old, std::string_view text, const std::string& path, Fail fail,
+                 std::function<void(toml::node&&)> put) {
+    const std::optional<int64_t> i = parseInteger(text);
+    const std::optional<double> x = parseNumber(text);
+    const bool isBool = text == "true" || text == "false";
+    if (!old) {
+        if (i)
+            put(toml::value<int64_t>(*i));
+        else if (x)
+            put(toml::value<double>(*x));
+        else if (isBool)
+            put(toml::value<bool>(text == "true"));
+        else
+            put(toml::value<std::string>(std::string(text)));
+        return;
+    }
+    if (old->is_table() || old->is_array())
+        fail(path + " is " + withArticle(typeNameOf(*old)) + "; name one of its values (" + path +
+             (old->is_array() ? "[1]" : ".key") + ")");
+    if (old->is_number()) {
+        if (i && old->is_integer())
+            put(toml::value<int64_t>(*i));
+        else if (x)
+            put(toml::value<double>(*x));
+        else
+            fail(path + " is a number in the file; '" + std::string(text) + "' is not one");
+    } else if (old->is_boolean()) {
+        if (!isBool) fail(path + " is true or false in the file, not '" + std::string(text) + "'");
+        put(toml::value<bool>(text == "true"));
+    } else if (old->is_string()) {
+        put(toml::value<std::string>(std::string(text)));
+    } else {
+        fail(path + " is " + withArticle(typeNameOf(*old)) + ", which cannot be varied");
+    }
+}
+
+}  // namespace
+
+void TomlDocument::set(std::string_view keyPath, std::string_view valueText,
+                       const std::string& origin) {
+    auto fail = [&](const std::string& message) -> void {
+        throw ParseError({origin, 0, 0}, message);
+    };
+    const std::vector<std::string> parts = keyPathParts(keyPath);
+    if (parts.empty()) fail("an empty key");
+    toml::node* node = &state_->root;
+    std::string path;
+    for (size_t k = 0; k < parts.size(); ++k) {
+        const std::string& part = parts[k];
+        const bool last = k + 1 == parts.size();
+        if (toml::table* table = node->as_table()) {
+            const std::string childPath = joinPath(path, part);
+            toml::node* child = table->get(part);
+            if (last) {
+                assignValue(child, valueText, childPath, fail, [&](toml::node&& v) {
+                    v.visit([&](auto&& value) { table->insert_or_assign(part, std::move(value)); });
+                });
+                state_->origins[table->get(part)] = origin;
+                return;
+            }
+            if (!child) {
+                std::vector<std::string> keys;
+                for (auto&& [key, value] : *table) keys.emplace_back(key.str());
+                const std::string guess = closestSpelling(part, keys);
+                std::string message =
+                    "no '" + part + "' in " + tableDisplayName(path) + " of " + state_->fileName;
+                if (!guess.empty()) message += " (did you mean '" + guess + "'?)";
+                fail(message);
+            }
+            node = child;
+            path = childPath;
+        } else if (toml::array* array = node->as_array()) {
+            size_t index = 0;
+            if (const auto i = parseInteger(part)) {
+                if (*i < 1 || *i > static_cast<int64_t>(array->size()))
+                    fail(path + " has " + std::to_string(array->size()) +
+                         " entries, counted from 1; there is no entry " + part);
+                index = static_cast<size_t>(*i - 1);
+            } else {
+                std::vector<std::string> names;
+                for (; index < array->size(); ++index) {
+                    const toml::table* t = (*array)[index].as_table();
+                    const toml::node* name = t ? t->get("name") : nullptr;
+                    if (name && name->is_string()) {
+                        names.push_back(name->as_string()->get());
+                        if (names.back() == part) break;
+                    }
+                }
+                if (index == array->size())
+                    fail("no entry named '" + part + "' in " + path +
+                         (names.empty() ? std::string(" (its entries have no names)")
+                                        : " (named: " +
+                                              [&] {
+                                                  std::string all;
+                                                  for (const std::string& n : names)
+                                                      all += (all.empty() ? "" : ", ") + n;
+                                                  return all;
+                                              }() +
+                                              ")"));
+            }
+            const std::string childPath = path + "[" + std::to_string(index + 1) + "]";
+            if (last) {
+                assignValue(&(*array)[index], valueText, childPath, fail, [&](toml::node&& v) {
+                    v.visit([&](auto&& value) {
+                        array->replace(array->cbegin() + static_cast<std::ptrdiff_t>(index),
+                                       std::move(value));
+                    });
+                });
+                state_->origins[&(*array)[index]] = origin;
+                return;
+            }
+            node = &(*array)[index];
+            path = childPath;
+        } else {
+            fail(path + " is " + withArticle(typeNameOf(*node)) + ", not a table: it has no '" +
+                 part + "'");
+        }
+    }
+}
 
 void TomlDocument::checkAllUsed() const { check(false); }
 

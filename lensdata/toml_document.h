@@ -182,6 +182,17 @@ class TomlDocument {
     const std::string& fileName() const;
     TomlTable root() const;
 
+    // Replaces (or adds) one value, for what-if edits (`veil sweep --vary`). The key path is
+    // written as messages write it, "system.surfaces[3].coating", or with dots,
+    // "system.surfaces.3.coating" (array entries count from 1); in an array of tables an
+    // entry may be named by its `name` key: "source.sun.field_deg[2]". The new value takes
+    // the type of the one it replaces (number, integer, string, true/false; an integer given
+    // a fraction becomes a number); a new key becomes an integer or a number when the text
+    // is one, true/false, else a string. `origin` ("--vary KEY=VALUE") stands for the
+    // value's file:line:col in every later message about it. Throws ParseError at `origin`
+    // for a path that names nothing (with the keys there) or a value that does not fit.
+    void set(std::string_view keyPath, std::string_view valueText, const std::string& origin);
+
     // Throws ParseError at the first key (in file order) that no reader used:
     // "unknown key 'foo' in [system]", "unknown table [mechanics]"; with "did you mean 'x'?"
     // when a key a reader asked for in the same table is close in spelling. Keys inside a

@@ -18,6 +18,12 @@ std::unique_ptr<PreparedScene> PreparedScene::read(const std::filesystem::path& 
     return build(readSceneFile(path, catalog), catalog, options);
 }
 
+void PreparedScene::replaceTransport(SceneFile file, const GlassCatalog& catalog) {
+    trace_.reset();
+    file_ = std::move(file);
+    if (!file_.sources.empty()) trace_ = prepareTrace(file_, setup_, catalog);
+}
+
 const TraceSetup& PreparedScene::trace() const {
     if (!trace_) throw ModelError(file_.path.string(), "the scene has no [[source]] to trace");
     return *trace_;

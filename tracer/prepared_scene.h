@@ -48,6 +48,11 @@ class PreparedScene {
     // For what-if edits of the transport's properties or sources before a run (the ghost
     // analysis's coatings); the scene itself stays as built.
     TraceSetup& trace();
+    // Another reading of the same scene file whose edits change only what the transport
+    // reads (optical properties, [[assign]], sources: veil sweep's property-only variants):
+    // the file and the transport are replaced, the geometry is kept, not rebuilt. The caller
+    // vouches that `file` describes the same geometry.
+    void replaceTransport(SceneFile file, const GlassCatalog& catalog);
 
   private:
     PreparedScene() = default;

@@ -50,17 +50,64 @@ void size(SceneFile& f, const Prescription& p, const GlassCatalog& catalog) {
 
 }  // namespace
 
-SceneFile readSceneFile(const std::filesystem::path& path, const GlassCatalog& catalog) {
+namespace {
+
+bool editsLens(const SceneEdit& e) {
+    return e.key == "system" || e.key.starts_with("system.") || e.key.starts_with("system[");
+}
+
+[[noreturn]] void editOfNonToml(const SceneEdit& e, const std::filesystem::path& file) {
+    throw ParseError({e.origin, 0, 0}, file.filename().string() +
+                                           " is not a TOML file; only TOML scenes and lenses can "
+                                           "be edited");
+}
+
+}  // namespace
+
+bool editsTransportOnly(const std::string& key) {
+    for (const char* top : {"properties", "assign", "source"})
+        if (key == top || key.starts_with(std::string(top) + ".") ||
+            key.starts_with(std::string(top) + "["))
+            return true;
+    return false;
+}
+
+void checkSceneEdits(const std::filesystem::path& path, const std::vector<SceneEdit>& edits) {
+    if (edits.empty()) return;
+    if (lowerExtension(path) != ".toml") editOfNonToml(edits.front(), path);
+    if (!std::filesystem::exists(path)) throw ParseError({path.string(), 0, 0}, "no such file");
+    TomlDocument doc = TomlDocument::fromFile(path);
+    const TomlTable root = doc.root();
+    const auto lens = root.has("lens") ? root.get("lens") : std::nullopt;
+    std::optional<TomlDocument> lensDoc;
+    for (const SceneEdit& e : edits) {
+        if (!(lens && editsLens(e))) {
+            doc.set(e.key, e.value, e.origin);
+            continue;
+        }
+        const std::filesystem::path lensPath = path.parent_path() / lens->asString();
+        if (lowerExtension(lensPath) != ".toml") editOfNonToml(e, lensPath);
+        if (!lensDoc) lensDoc = TomlDocument::fromFile(lensPath);
+        lensDoc->set(e.key, e.value, e.origin);
+    }
+}
+
+SceneFile readSceneFile(const std::filesystem::path& path, const GlassCatalog& catalog,
+                        const std::vector<SceneEdit>& edits) {
     SceneFile f;
     f.path = path;
     if (lowerExtension(path) != ".toml") {
+        if (!edits.empty()) editOfNonToml(edits.front(), path);
         size(f, readLensFile(path, catalog), catalog);
         return f;
     }
     if (!std::filesystem::exists(path)) throw ParseError({path.string(), 0, 0}, "no such file");
     TomlDocument doc = TomlDocument::fromFile(path);
     const TomlTable root = doc.root();
-    if (const auto lens = root.get("lens")) {
+    const auto lens = root.has("lens") ? root.get("lens") : std::nullopt;
+    for (const SceneEdit& e : edits)
+        if (!(lens && editsLens(e))) doc.set(e.key, e.value, e.origin);
+    if (lens) {
         if (root.has("system"))
             lens->fail(
                 "a scene names its lens either with `lens = \"file\"` or inline in "
@@ -68,7 +115,19 @@ SceneFile readSceneFile(const std::filesystem::path& path, const GlassCatalog& c
         const std::filesystem::path lensPath = path.parent_path() / lens->asString();
         if (!std::filesystem::exists(lensPath))
             lens->fail("lens file '" + lensPath.string() + "' does not exist");
-        size(f, readLensFile(lensPath, catalog), catalog);
+        std::vector<SceneEdit> lensEdits;
+        for (const SceneEdit& e : edits)
+            if (editsLens(e)) lensEdits.push_back(e);
+        if (lensEdits.empty()) {
+            size(f, readLensFile(lensPath, catalog), catalog);
+        } else {
+            if (lowerExtension(lensPath) != ".toml") editOfNonToml(lensEdits.front(), lensPath);
+            TomlDocument lensDoc = TomlDocument::fromFile(lensPath);
+            for (const SceneEdit& e : lensEdits) lensDoc.set(e.key, e.value, e.origin);
+            Prescription p = readTomlPrescription(lensDoc, catalog);
+            lensDoc.checkAllUsed();
+            size(f, std::move(p), catalog);
+        }
     } else {
         size(f, readTomlPrescription(doc, catalog), catalog);
     }

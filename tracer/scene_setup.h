@@ -43,8 +43,27 @@ struct SceneFile {
     PropertyTable properties;             // built-ins + [properties.*] + [[assign]]
 };
 
-// Reads and checks every section (unknown keys are a ParseError at file:line:col).
-SceneFile readSceneFile(const std::filesystem::path& path, const GlassCatalog& catalog);
+// A what-if edit of the scene file (`veil sweep --vary`): the value at `key` replaced by
+// `value` as TomlDocument::set() does; `origin` ("--vary KEY=VALUE") names the edit in every
+// message about it. Keys under `system` go to the lens file when the scene names one
+// (`lens = "lens.toml"`).
+struct SceneEdit {
+    std::string key;
+    std::string value;
+    std::string origin;
+};
+
+// Reads and checks every section (unknown keys are a ParseError at file:line:col), after the
+// edits. Edits need TOML files: an edit of a .zmx lens is a ParseError at the edit.
+SceneFile readSceneFile(const std::filesystem::path& path, const GlassCatalog& catalog,
+                        const std::vector<SceneEdit>& edits = {});
+// Applies the edits to the scene's (and its lens file's) TOML documents and nothing more:
+// a key that names nothing or a value of the wrong type is a ParseError at the edit, found
+// before anything is built. Values are checked by readSceneFile().
+void checkSceneEdits(const std::filesystem::path& path, const std::vector<SceneEdit>& edits);
+// Whether an edit of this key changes only what the transport reads (optical properties,
+// [[assign]], sources), not the geometry: PreparedScene::replaceTransport() suffices.
+bool editsTransportOnly(const std::string& key);
 
 struct SceneOptions {
     bool mechanics = true;  // build the [mechanics] section when present

@@ -288,5 +288,90 @@ TEST(NumberRange, DescribesItself) {
     EXPECT_FALSE(NumberRange::any().orInfinite().contains(NAN));
 }
 
+// What-if Edits (TomlDocument::set)
+
+constexpr const char* kEditable = R"(
+[system]
+surfaces = [
+  { r = 50.0, t = 5, glass = "N-BK7", coating = "ar" },
+  { r = -50.0, t = 40.0 },
+]
+
+[[source]]
+name = "sun"
+field_deg = [0.0, 7.0]
+
+[[source]]
+name = "lamp"
+flux_w = 2
+
+[properties.black]
+reflectance = 0.05
+on = true
+)";
+
+TEST(TomlDocument, SetReplacesValuesByPathKeepingTheirType) {
+    TomlDocument doc = TomlDocument::fromString(kEditable, "scene.toml");
+    doc.set("properties.black.reflectance", "0.3", "--vary a");
+    doc.set("system.surfaces[1].coating", "none", "--vary b");
+    doc.set("system.surfaces.2.t", "38", "--vary c");      // a number stays a number
+    doc.set("system.surfaces.1.t", "4.5", "--vary d");     // an integer given a fraction
+    doc.set("source.sun.field_deg[2]", "15", "--vary e");  // an entry by its name
+    doc.set("source.lamp.flux_w", "3", "--vary f");        // an integer stays one
+    doc.set("properties.black.on", "false", "--vary g");
+    doc.set("properties.black.transmittance", "0.1", "--vary h");  // a new key
+    const TomlTable root = doc.root();
+    const TomlTable black = root.require("properties").asTable().require("black").asTable();
+    EXPECT_EQ(black.number("reflectance", 0.0), 0.3);
+    EXPECT_FALSE(black.boolean("on", true));
+    EXPECT_EQ(black.number("transmittance", 0.0), 0.1);
+    const auto surfaces = root.require("system").asTable().require("surfaces").asArray();
+    EXPECT_EQ(surfaces[0].asTable().string("coating"), "none");
+    EXPECT_FALSE(surfaces[0].asTable().require("t").isInteger());
+    EXPECT_EQ(surfaces[0].asTable().number("t", 0.0), 4.5);
+    EXPECT_EQ(surfaces[1].asTable().number("t", 0.0), 38.0);
+    const auto sources = root.require("source").asArray();
+    EXPECT_EQ(sources[0].asTable().require("field_deg").asArray()[1].asNumber(), 15.0);
+    EXPECT_TRUE(sources[1].asTable().require("flux_w").isInteger());
+    // A message about an edited value names the edit, not a line of the file.
+    const ParseError e = parseErrorOf(
+        [&] { black.require("reflectance").asNumber(NumberRange::between(0.0, 0.2)); });
+    EXPECT_EQ(e.loc().file, "--vary a");
+    EXPECT_EQ(e.loc().line, 0);
+    EXPECT_THAT(e.what(), HasSubstr("--vary a: properties.black.reflectance must be"));
+}
+
+TEST(TomlDocument, SetRejectsPathsThatNameNothingAndValuesThatDoNotFit) {
+    TomlDocument doc = TomlDocument::fromString(kEditable, "scene.toml");
+    auto error = [&](const char* key, const char* value) {
+        return std::string(parseErrorOf([&] { doc.set(key, value, "--vary X"); }).what());
+    };
+    EXPECT_THAT(error("propertes.black.reflectance", "0.1"),
+                HasSubstr("--vary X: no 'propertes' in the top level of scene.toml (did you "
+                          "mean 'properties'?)"));
+    EXPECT_THAT(error("system.surfaces[3].t", "1"),
+                HasSubstr("system.surfaces has 2 entries, counted from 1; there is no entry 3"));
+    EXPECT_THAT(error("system.surfaces.0.t", "1"), HasSubstr("there is no entry 0"));
+    EXPECT_THAT(error("source.moon.flux_w", "1"),
+                HasSubstr("no entry named 'moon' in source (named: sun, lamp)"));
+    EXPECT_THAT(error("system.surfaces[1].t", "thick"),
+                HasSubstr("system.surfaces[1].t is a number in the file; 'thick' is not one"));
+    EXPECT_THAT(error("properties.black.on", "1"), HasSubstr("is true or false in the file"));
+    EXPECT_THAT(error("source.sun.field_deg", "3"),
+                HasSubstr("source[1].field_deg is an array; name one of its values"));
+    EXPECT_THAT(error("properties.black.reflectance.x", "3"),
+                HasSubstr("is a floating-point number, not a table"));
+    EXPECT_THAT(error("", "3"), HasSubstr("an empty key"));
+}
+
+TEST(TomlDocument, AnEditedKeyNobodyReadsIsReportedAtTheEdit) {
+    TomlDocument doc = TomlDocument::fromString("[a]\nx = 1\n", "f.toml");
+    doc.set("a.y", "2", "--vary a.y=2");
+    doc.root().require("a").asTable().number("x", 0.0);
+    const ParseError e = parseErrorOf([&] { doc.checkAllUsed(); });
+    EXPECT_EQ(e.loc().file, "--vary a.y=2");
+    EXPECT_THAT(e.what(), HasSubstr("unknown key 'y' in [a]"));
+}
+
 }  // namespace
 }  // namespace veil
