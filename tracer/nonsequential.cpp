@@ -66,7 +66,25 @@ struct Branch {
     int startPrimitive = -1;
     NodeIndex node = kNoNode;             // its last event in the history (when recorded)
     std::shared_ptr<BranchState> filter;  // online pruning state (copied on write at splits)
+    // Its own random numbers: the ray's stream for the first branch and whoever continues it
+    // (the first child of a split), a stream of its own for every other child, keyed by its
+    // parent's key, the split depth and the child. A branch culled in one run and followed in
+    // another (a sweep's variants: another reflectance, another min-flux outcome) then
+    // shifts no other branch's numbers, so the variants share their paths (common random
+    // numbers) wherever their physics agrees.
+    uint64_t key = 0;
+    CounterRng rng{0, 0};
 };
+
+// The key of child k (>= 1) of a split at `depth` of the branch with `key`: distinct for
+// every split along a lineage (the depth grows), mixed (splitmix64) across lineages.
+uint64_t childKey(uint64_t key, int depth, int k) {
+    uint64_t z = key * 0x9E3779B97F4A7C15ull + static_cast<uint64_t>(depth) * 64u +
+                 static_cast<uint64_t>(k) + 1u;
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return (z ^ (z >> 31)) | 1u;  // never 0, the ray's own key
+}
 
 // Per-block accumulation: the budget and one image per detector.
 struct Accumulator {
@@ -106,6 +124,7 @@ class RayTracer {
         const double rouletteFlux = o_.rouletteRelativeFlux * e.flux;
         stack_.clear();
         Branch first{e.ray, e.flux, 0, 0, 0, -1, -1, root, nullptr};
+        first.rng = rng;  // the ray's stream, after the emission's numbers
         if (o_.filter) {
             first.filter = o_.filter->start();
             PathEvent emit;
@@ -123,7 +142,7 @@ class RayTracer {
             Branch br = stack_.back();
             stack_.pop_back();
             ++b.branches;
-            follow(br, w, e.wavelengthNm, cullFlux, rouletteFlux, rng, acc);
+            follow(br, w, e.wavelengthNm, cullFlux, rouletteFlux, rayIndex, acc);
         }
         acc.flushRay();
     }
@@ -217,8 +236,9 @@ class RayTracer {
     }
 
     void follow(Branch br, int w, double wavelengthNm, double cullFlux, double rouletteFlux,
-                CounterRng& rng, Accumulator& acc) {
+                uint64_t rayIndex, Accumulator& acc) {
         FluxBudget& b = acc.budget;
+        CounterRng& rng = br.rng;
         const Scene& scene = *ts_.scene;
         while (true) {
             if (br.segments >= o_.maxSegments) {
@@ -287,7 +307,9 @@ class RayTracer {
                     if (br.filter) c.filter = br.filter->clone();
                     c.flux = br.flux * in.children[k].share;
                     c.depth = br.depth + 1;
-                    if (!continueAs(c, in, k, *hit, parent, arriving, rng, b)) continue;
+                    c.key = childKey(br.key, br.depth, k);
+                    c.rng = CounterRng(o_.seed ^ c.key, rayIndex);
+                    if (!continueAs(c, in, k, *hit, parent, arriving, c.rng, b)) continue;
                     if (c.flux < cullFlux) {
                         cull(c, CullReason::MinFlux, b);
                         continue;

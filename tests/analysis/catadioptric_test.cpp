@@ -355,7 +355,7 @@ TEST(Catadioptric, ExampleWindowSceneDeliversTheOraclesShares) {
     const std::vector<std::string> texts = {
         kImageCriterion, "not reflect and not scatter and detector(sensor)",
         "not fresnel and not scatter and reflect{4} and detector(sensor)",
-        "fresnel and not scatter and detector(sensor)", "scatter and detector(sensor)"};
+        "(fresnel or scatter) and detector(sensor)"};
     const uint64_t n = 50000;
     const std::vector<Share> mc = sharesByCriterion(setup, trace, texts, n, 1, 0.079833);
     const Glass* bk7 = catalog.find("N-BK7");
@@ -383,12 +383,13 @@ TEST(Catadioptric, ExampleWindowSceneDeliversTheOraclesShares) {
     // 50000 rays: 2.2 % on the image, 6 and 8 % on the two small families.
     EXPECT_LT(mc[0].sigma, 0.025 * mc[0].value);
     // Stray light proper, ghosts between the 1 % faces and scatter from the butt ends and
-    // mounts, stays below 0.1 % of the detected flux (measured: 0.03 %); no other path
-    // reaches the detector.
+    // mounts (one criterion: scatter alone is so rare that 50000 rays may bring none, and
+    // then its own error would be undefined), stays below 0.1 % of the detected flux
+    // (measured: 0.01 to 0.03 %); no other path reaches the detector.
     const double detected = mc[0].value + mc[1].value + mc[2].value;
-    EXPECT_LT(mc[3].value + 3 * mc[3].sigma + mc[4].value + 3 * mc[4].sigma, 1e-3 * detected)
-        << "ghosts " << mc[3] << ", scatter " << mc[4];
-    EXPECT_EQ(mc[5].value, 0.0);
+    ASSERT_GT(mc[3].sigma, 0.0);
+    EXPECT_LT(mc[3].value + 3 * mc[3].sigma, 1e-3 * detected) << "ghosts and scatter " << mc[3];
+    EXPECT_EQ(mc[4].value, 0.0);
 }
 
 }  // namespace
