@@ -63,6 +63,29 @@ struct ExportOptions {
 void addExportCommand(CLI::App& app, ExportOptions& options);
 int runExport(const CommonOptions& common, const ExportOptions& options);
 
+struct SweepOptions {
+    std::string file;
+    std::vector<std::string> vary;  // KEY=VALUES
+    bool zip = false;
+    uint64_t rays = 0;
+    int batches = 16;
+    std::string output;  // folder; default ./sweep
+    std::vector<std::string> fields;
+    int threads = 0;
+    uint64_t seed = 1;
+    std::string mode = "split";
+    double minRelativeFlux = 1e-4;
+    int maxSplitDepth = 64;
+    double roulette = 0.0;
+    int maxSegments = 1000;
+    std::vector<std::string> where;
+    bool prune = false;
+    bool json = false;
+    bool quiet = false;
+};
+void addSweepCommand(CLI::App& app, SweepOptions& options);
+int runSweepCommand(const CommonOptions& common, const SweepOptions& options);
+
 struct TraceOptions {
     std::string file;
     uint64_t rays = 0;

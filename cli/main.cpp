@@ -62,6 +62,8 @@ int main(int argc, char** argv) {
     veil::cli::addGhostsCommand(app, ghostsOptions);
     veil::cli::RenderCommandOptions renderOptions;
     veil::cli::addRenderCommand(app, renderOptions);
+    veil::cli::SweepOptions sweepOptions;
+    veil::cli::addSweepCommand(app, sweepOptions);
 
     // A first word that is no command and no option: name the nearest command.
     if (argc > 1 && argv[1][0] != '-') {
@@ -99,6 +101,7 @@ int main(int argc, char** argv) {
             if (sub->get_name() == "paths") return veil::cli::runPaths(common, pathsOptions);
             if (sub->get_name() == "ghosts") return veil::cli::runGhosts(common, ghostsOptions);
             if (sub->get_name() == "render") return veil::cli::runRender(common, renderOptions);
+            if (sub->get_name() == "sweep") return veil::cli::runSweepCommand(common, sweepOptions);
         }
     } catch (const veil::ParseError& e) {
         std::cerr << "veil: error: " << e.what() << "\n";

@@ -1,0 +1,596 @@
+#include "analysis/sweep.h"
+
+#include <algorithm>
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "analysis/chart.h"
+#include "analysis/ghosts.h"
+#include "analysis/stray_light_run.h"
+#include "lensdata/output_file.h"
+#include "lensdata/toml_document.h"
+#include "tracer/prepared_scene.h"
+
+namespace veil {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// Ranges longer than this are a mistake (a step of 1e-9 typed for 1e-3).
+constexpr size_t kMaxValues = 10000;
+
+std::optional<double> number(const std::string& s) {
+    double v = 0.0;
+    const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+    if (ec != std::errc() || end != s.data() + s.size() || !std::isfinite(v)) return std::nullopt;
+    return v;
+}
+
+// Shortest text that reads back to the same double, without float noise from the range
+// arithmetic: a value within 1e-12 of a 12-significant-digit rounding is written rounded.
+std::string numberText(double v) {
+    std::ostringstream os;
+    os << std::setprecision(12) << v;
+    const double rounded = std::stod(os.str());
+    if (std::abs(rounded - v) <= 1e-12 * std::max(std::abs(v), 1e-300)) v = rounded;
+    char buf[64];
+    const auto [end, ec] = std::to_chars(buf, buf + sizeof(buf), v);
+    return std::string(buf, end);
+}
+
+std::vector<std::string> split(const std::string& s, char sep) {
+    std::vector<std::string> out;
+    std::string cur;
+    for (char c : s) {
+        if (c == sep) {
+            out.push_back(cur);
+            cur.clear();
+        } else {
+            cur += c;
+        }
+    }
+    out.push_back(cur);
+    return out;
+}
+
+// FNV-1a, 64 bit: a stable fingerprint of a file's text.
+std::string textHash(const std::filesystem::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream text;
+    text << in.rdbuf();
+    uint64_t h = 1469598103934665603ull;
+    for (unsigned char c : text.str()) {
+        h ^= c;
+        h *= 1099511628211ull;
+    }
+    std::ostringstream os;
+    os << std::hex << std::setw(16) << std::setfill('0') << h;
+    return os.str();
+}
+
+// The files a variant depends on: the scene and, when it names one, its lens file.
+nlohmann::json inputHashes(const std::filesystem::path& scene) {
+    nlohmann::json j;
+    j["scene"] = textHash(scene);
+    try {
+        if (scene.extension() == ".toml") {
+            TomlDocument doc = TomlDocument::fromFile(scene);
+            if (const auto lens = doc.root().get("lens"); lens && lens->isString())
+                j["lens"] = textHash(scene.parent_path() / lens->asString());
+        }
+    } catch (const std::exception&) {
+        // Unreadable here: readSceneFile reports it for the variant.
+    }
+    return j;
+}
+
+double mean(const std::vector<double>& v) {
+    double s = 0.0;
+    for (double x : v) s += x;
+    return v.empty() ? kNaN : s / static_cast<double>(v.size());
+}
+// Standard error of the mean from the spread of the values.
+double standardError(const std::vector<double>& v) {
+    if (v.size() < 2) return kNaN;
+    const double m = mean(v);
+    double ss = 0.0;
+    for (double x : v) ss += (x - m) * (x - m);
+    return std::sqrt(ss / static_cast<double>(v.size() - 1) / static_cast<double>(v.size()));
+}
+
+nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
+double numOf(const nlohmann::json& j) { return j.is_number() ? j.get<double>() : kNaN; }
+
+std::string csvField(const std::string& s) {
+    if (s.find_first_of(",\"\n") == std::string::npos) return s;
+    std::string out = "\"";
+    for (char c : s) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+    return out + "\"";
+}
+
+std::string sci(double v, int digits = 4) {
+    if (!std::isfinite(v)) return "";
+    std::ostringstream os;
+    os << std::scientific << std::setprecision(digits - 1) << v;
+    return os.str();
+}
+
+}  // namespace
+
+// Axes
+
+std::vector<std::string> parseSweepValues(const std::string& text, const std::string& origin) {
+    auto fail = [&](const std::string& m) -> void { throw ParseError({origin, 0, 0}, m); };
+    if (text.empty()) fail("no values after '='");
+    std::vector<std::string> out;
+    const std::vector<std::string> range = split(text, ':');
+    if (range.size() == 1) {
+        for (const std::string& v : split(text, ',')) {
+            if (v.empty()) fail("an empty value in the list '" + text + "'");
+            out.push_back(v);
+        }
+        return out;
+    }
+    if (range.size() != 3)
+        fail("a range is START:STOP:STEP or START:STOP:xFACTOR, not '" + text + "'");
+    const auto start = number(range[0]), stop = number(range[1]);
+    if (!start || !stop) fail("the ends of the range '" + text + "' must be numbers");
+    const bool geometric = !range[2].empty() && (range[2][0] == 'x' || range[2][0] == '*');
+    const auto step = number(geometric ? range[2].substr(1) : range[2]);
+    if (!step) fail("the step of the range '" + text + "' must be a number");
+    if (geometric) {
+        if (!(*start > 0.0) || !(*stop > 0.0) || !(*step > 0.0) || *step == 1.0)
+            fail("a geometric range needs positive ends and a factor other than 1: '" + text + "'");
+        const double f = *stop >= *start ? *step : 1.0 / *step;
+        if ((*stop > *start) != (f > 1.0) && *stop != *start)
+            fail("the factor of '" + text + "' moves away from its end");
+        const double n = std::log(*stop / *start) / std::log(f);
+        if (n + 1 > kMaxValues) fail("'" + text + "' has more than 10000 values");
+        for (int k = 0; k <= static_cast<int>(std::floor(n + 1e-9)); ++k)
+            out.push_back(numberText(*start * std::pow(f, k)));
+        return out;
+    }
+    if (*step == 0.0) fail("the step of '" + text + "' is 0");
+    if ((*stop - *start) * *step < 0.0) fail("the step of '" + text + "' moves away from its end");
+    const double n = (*stop - *start) / *step;
+    if (n + 1 > kMaxValues) fail("'" + text + "' has more than 10000 values");
+    for (int k = 0; k <= static_cast<int>(std::floor(n + 1e-9)); ++k)
+        out.push_back(numberText(*start + k * *step));
+    return out;
+}
+
+SweepAxis parseSweepAxis(const std::string& option) {
+    SweepAxis a;
+    a.option = "--vary " + option;
+    const size_t eq = option.find('=');
+    if (eq == std::string::npos || eq == 0)
+        throw ParseError({a.option, 0, 0},
+                         "expected KEY=VALUES, as in "
+                         "properties.black.reflectance=0.01,0.05,0.1");
+    a.key = option.substr(0, eq);
+    a.values = parseSweepValues(option.substr(eq + 1), a.option);
+    return a;
+}
+
+std::vector<std::vector<std::string>> sweepVariants(const SweepSpec& spec) {
+    std::vector<std::vector<std::string>> out;
+    if (spec.axes.empty()) return out;
+    if (spec.zip) {
+        const size_t n = spec.axes.front().values.size();
+        for (const SweepAxis& a : spec.axes)
+            if (a.values.size() != n)
+                throw ParseError({a.option, 0, 0},
+                                 "--zip pairs the values of every --vary: this one has " +
+                                     std::to_string(a.values.size()) + ", the first " +
+                                     std::to_string(n));
+        for (size_t i = 0; i < n; ++i) {
+            std::vector<std::string> v;
+            for (const SweepAxis& a : spec.axes) v.push_back(a.values[i]);
+            out.push_back(std::move(v));
+        }
+        return out;
+    }
+    std::vector<size_t> index(spec.axes.size(), 0);
+    while (true) {
+        std::vector<std::string> v;
+        for (size_t k = 0; k < spec.axes.size(); ++k) v.push_back(spec.axes[k].values[index[k]]);
+        out.push_back(std::move(v));
+        size_t k = spec.axes.size();
+        while (k > 0) {
+            --k;
+            if (++index[k] < spec.axes[k].values.size()) break;
+            index[k] = 0;
+            if (k == 0) return out;
+        }
+    }
+}
+
+// Running
+
+namespace {
+
+std::vector<SceneEdit> editsOf(const SweepSpec& spec, const std::vector<std::string>& values) {
+    std::vector<SceneEdit> edits;
+    for (size_t k = 0; k < spec.axes.size(); ++k)
+        edits.push_back(
+            {spec.axes[k].key, values[k], "--vary " + spec.axes[k].key + "=" + values[k]});
+    return edits;
+}
+
+nlohmann::json fingerprint(const SweepSpec& spec, const nlohmann::json& hashes,
+                           const std::vector<std::string>& values) {
+    const TransportOptions& t = spec.transport;
+    nlohmann::json j;
+    j["format"] = 1;
+    j["inputs"] = hashes;
+    for (size_t k = 0; k < spec.axes.size(); ++k) j["values"][spec.axes[k].key] = values[k];
+    j["rays_per_source"] = spec.raysPerSource;
+    j["batches"] = spec.batches;
+    j["seed"] = t.seed;
+    j["mode"] = t.mode == TransportOptions::Mode::Random ? "random" : "split";
+    j["min_flux"] = t.minRelativeFlux;
+    j["max_split_depth"] = t.maxSplitDepth;
+    j["roulette"] = t.rouletteRelativeFlux;
+    j["max_segments"] = t.maxSegments;
+    j["where"] = spec.where;
+    j["prune"] = spec.prune;
+    j["fields_deg"] = spec.fieldsDeg;
+    return j;
+}
+
+// The quantities of a run: each detector's total and criterion layers.
+std::vector<std::string> quantityNames(const std::vector<StrayLightRow>& rows) {
+    std::vector<std::string> names;
+    for (const StrayLightRow& r : rows)
+        names.push_back(r.layer.empty() ? r.detector : r.detector + ": " + r.layer);
+    return names;
+}
+
+}  // namespace
+
+SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
+    if (spec.axes.empty()) throw ModelError("sweep", "nothing to vary: give at least one --vary");
+    if (spec.batches < 2)
+        throw ParseError({"--batches", 0, 0}, "a sweep needs at least 2 batches for its errors");
+    if (spec.raysPerSource < static_cast<uint64_t>(spec.batches))
+        throw ParseError({"-n", 0, 0}, "fewer rays (" + std::to_string(spec.raysPerSource) +
+                                           ") than batches (" + std::to_string(spec.batches) + ")");
+    const std::vector<std::vector<std::string>> variants = sweepVariants(spec);
+    // Every edit checked before anything is built: a key that names nothing stops the sweep.
+    for (const SweepAxis& a : spec.axes)
+        for (const std::string& v : a.values)
+            checkSceneEdits(spec.scene, {{a.key, v, "--vary " + a.key + "=" + v}});
+    bool transportOnly = true;
+    for (const SweepAxis& a : spec.axes) transportOnly = transportOnly && editsTransportOnly(a.key);
+
+    SweepResult result;
+    for (const SweepAxis& a : spec.axes) result.keys.push_back(a.key);
+    result.batches = spec.batches;
+    const nlohmann::json hashes = inputHashes(spec.scene);
+    const std::filesystem::path store = spec.folder / "variants";
+    std::filesystem::create_directories(store);
+    std::unique_ptr<PreparedScene> shared;  // transport-only sweeps: the geometry, built once
+
+    for (size_t k = 0; k < variants.size(); ++k) {
+        SweepVariant v;
+        v.index = static_cast<int>(k);
+        v.values = variants[k];
+        std::string label;
+        for (size_t a = 0; a < spec.axes.size(); ++a)
+            label += (a ? ", " : "") + spec.axes[a].key + "=" + v.values[a];
+        if (spec.progress) spec.progress(v.index, static_cast<int>(variants.size()), -1, label);
+        const nlohmann::json print = fingerprint(spec, hashes, v.values);
+        const std::filesystem::path saved = store / (std::to_string(k) + ".json");
+
+        // A finished variant with the same fingerprint is read back.
+        if (std::filesystem::exists(saved)) {
+            try {
+                std::ifstream in(saved);
+                const nlohmann::json j = nlohmann::json::parse(in);
+                if (j.at("fingerprint") == print) {
+                    v.resumed = true;
+                    v.error = j.value("error", "");
+                    if (v.error.empty()) {
+                        if (result.quantities.empty()) {
+                            result.quantities = j.at("quantities").get<std::vector<std::string>>();
+                            result.criteria = j.at("criteria").get<std::vector<std::string>>();
+                            result.unit = j.at("unit").get<std::string>();
+                        }
+                        for (const auto& q : j.at("batch_values")) {
+                            std::vector<double> b;
+                            for (const auto& x : q) b.push_back(numOf(x));
+                            v.batchValues.push_back(std::move(b));
+                        }
+                    }
+                }
+            } catch (const std::exception&) {
+                v = SweepVariant{};  // unreadable: traced again
+                v.index = static_cast<int>(k);
+                v.values = variants[k];
+            }
+        }
+
+        if (!v.resumed) {
+            const auto started = std::chrono::steady_clock::now();
+            try {
+                SceneFile file = readSceneFile(spec.scene, catalog, editsOf(spec, v.values));
+                if (!spec.fieldsDeg.empty())
+                    setFieldSources(file, catalog, spec.fieldsDeg);
+                else if (file.sources.empty())
+                    addSystemFieldSources(file, catalog);
+                PreparedScene* prepared = nullptr;
+                std::unique_ptr<PreparedScene> own;
+                if (transportOnly && shared) {
+                    shared->replaceTransport(std::move(file), catalog);
+                    prepared = shared.get();
+                    v.geometryReused = true;
+                } else {
+                    own = PreparedScene::build(std::move(file), catalog);
+                    prepared = own.get();
+                }
+                std::vector<std::string> names, criteria;
+                for (int b = 0; b < spec.batches; ++b) {
+                    StrayLightSpec run;
+                    const uint64_t per = spec.raysPerSource / static_cast<uint64_t>(spec.batches);
+                    run.raysPerSource =
+                        per + (static_cast<uint64_t>(b) <
+                                       spec.raysPerSource % static_cast<uint64_t>(spec.batches)
+                                   ? 1
+                                   : 0);
+                    run.transport = spec.transport;
+                    run.transport.seed = spec.transport.seed + static_cast<uint64_t>(b);
+                    run.where = spec.where;
+                    run.prune = spec.prune;
+                    const StrayLightResult r = runStrayLight(*prepared, run);
+                    const std::vector<StrayLightRow> rows = r.report();
+                    if (b == 0) {
+                        names = quantityNames(rows);
+                        for (const StrayLightRow& row : rows) criteria.push_back(row.criterion);
+                        if (result.quantities.empty()) {
+                            result.quantities = names;
+                            result.criteria = criteria;
+                            result.unit = r.fluxUnit;
+                        } else if (names != result.quantities) {
+                            throw ModelError("sweep",
+                                             "its detectors differ from the first "
+                                             "variant's, so the rows cannot be compared");
+                        }
+                        v.batchValues.assign(rows.size(), {});
+                    }
+                    for (size_t q = 0; q < rows.size(); ++q)
+                        v.batchValues[q].push_back(rows[q].flux);
+                    if (spec.progress)
+                        spec.progress(v.index, static_cast<int>(variants.size()), b + 1, label);
+                }
+                if (transportOnly && !shared) shared = std::move(own);
+            } catch (const std::exception& e) {
+                v.error = e.what();
+                v.batchValues.clear();
+            }
+            v.seconds =
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+            nlohmann::json j;
+            j["fingerprint"] = print;
+            j["error"] = v.error;
+            j["seconds"] = v.seconds;
+            j["quantities"] = result.quantities;
+            j["criteria"] = result.criteria;
+            j["unit"] = result.unit;
+            j["batch_values"] = nlohmann::json::array();
+            for (const auto& q : v.batchValues) {
+                nlohmann::json b = nlohmann::json::array();
+                for (double x : q) b.push_back(num(x));
+                j["batch_values"].push_back(b);
+            }
+            writeTextFile(saved, j.dump(1) + "\n");
+        }
+        result.variants.push_back(std::move(v));
+    }
+
+    // Values and the changes against the first variant, batch by batch.
+    const SweepVariant& first = result.variants.front();
+    for (SweepVariant& v : result.variants) {
+        if (!v.error.empty()) continue;
+        for (size_t q = 0; q < v.batchValues.size(); ++q) {
+            SweepValue m;
+            m.value = mean(v.batchValues[q]);
+            m.error = standardError(v.batchValues[q]);
+            if (first.error.empty() && q < first.batchValues.size() &&
+                first.batchValues[q].size() == v.batchValues[q].size()) {
+                std::vector<double> d;
+                for (size_t b = 0; b < v.batchValues[q].size(); ++b)
+                    d.push_back(v.batchValues[q][b] - first.batchValues[q][b]);
+                m.change = mean(d);
+                m.changeError = standardError(d);
+            } else {
+                m.change = m.changeError = kNaN;
+            }
+            v.measured.push_back(m);
+        }
+    }
+    return result;
+}
+
+// Tables
+
+std::string SweepResult::csv() const {
+    std::ostringstream os;
+    os << "variant";
+    for (const std::string& k : keys) os << "," << csvField(k);
+    os << ",quantity,criterion,value,error,change,change_error,unit,status\n";
+    for (const SweepVariant& v : variants) {
+        auto lead = [&] {
+            os << v.index;
+            for (const std::string& x : v.values) os << "," << csvField(x);
+        };
+        if (!v.error.empty()) {
+            lead();
+            os << ",,,,,,," << unit << "," << csvField("error: " + v.error) << "\n";
+            continue;
+        }
+        for (size_t q = 0; q < v.measured.size(); ++q) {
+            const SweepValue& m = v.measured[q];
+            lead();
+            os << "," << csvField(quantities[q]) << "," << csvField(criteria[q]) << ","
+               << sci(m.value, 6) << "," << sci(m.error, 3) << "," << sci(m.change, 6) << ","
+               << sci(m.changeError, 3) << "," << unit << "," << (v.resumed ? "resumed" : "ok")
+               << "\n";
+        }
+    }
+    return os.str();
+}
+
+std::string SweepResult::markdown() const {
+    std::ostringstream os;
+    os << "| variant |";
+    for (const std::string& k : keys) os << " " << k << " |";
+    os << " quantity | value (" << unit << ") | change against variant 0 |\n|---|";
+    for (size_t k = 0; k < keys.size(); ++k) os << "---|";
+    os << "---|---|---|\n";
+    auto pm = [](double v, double e) {
+        if (!std::isfinite(v)) return std::string("-");
+        std::string s = sci(v, 4);
+        if (std::isfinite(e)) s += " +- " + sci(e, 2);
+        return s;
+    };
+    for (const SweepVariant& v : variants) {
+        auto lead = [&] {
+            os << "| " << v.index << " |";
+            for (const std::string& x : v.values) os << " " << x << " |";
+        };
+        if (!v.error.empty()) {
+            lead();
+            std::string e = v.error;
+            std::replace(e.begin(), e.end(), '|', '/');
+            std::replace(e.begin(), e.end(), '\n', ' ');
+            os << " (not run) | error: " << e << " | |\n";
+            continue;
+        }
+        for (size_t q = 0; q < v.measured.size(); ++q) {
+            lead();
+            const SweepValue& m = v.measured[q];
+            os << " " << quantities[q] << " | " << pm(m.value, m.error) << " | "
+               << (v.index == 0 ? std::string("(reference)") : pm(m.change, m.changeError))
+               << " |\n";
+        }
+    }
+    bool anyCriterion = false;
+    for (const std::string& c : criteria) anyCriterion = anyCriterion || !c.empty();
+    if (anyCriterion) {
+        os << "\n";
+        for (size_t q = 0; q < quantities.size(); ++q)
+            if (!criteria[q].empty()) os << "- " << quantities[q] << ": `" << criteria[q] << "`\n";
+    }
+    return os.str();
+}
+
+std::string SweepResult::json() const {
+    nlohmann::json j;
+    j["keys"] = keys;
+    j["quantities"] = quantities;
+    j["criteria"] = criteria;
+    j["unit"] = unit;
+    j["batches"] = batches;
+    j["variants"] = nlohmann::json::array();
+    for (const SweepVariant& v : variants) {
+        nlohmann::json r;
+        r["index"] = v.index;
+        for (size_t k = 0; k < keys.size(); ++k) r["values"][keys[k]] = v.values[k];
+        r["error"] = v.error;
+        r["resumed"] = v.resumed;
+        r["geometry_reused"] = v.geometryReused;
+        r["seconds"] = v.seconds;
+        r["measured"] = nlohmann::json::array();
+        for (size_t q = 0; q < v.measured.size(); ++q) {
+            const SweepValue& m = v.measured[q];
+            nlohmann::json b = nlohmann::json::array();
+            for (double x : v.batchValues[q]) b.push_back(num(x));
+            r["measured"].push_back({{"quantity", quantities[q]},
+                                     {"value", num(m.value)},
+                                     {"error", num(m.error)},
+                                     {"change", num(m.change)},
+                                     {"change_error", num(m.changeError)},
+                                     {"batch_values", b}});
+        }
+        j["variants"].push_back(r);
+    }
+    return j.dump(2) + "\n";
+}
+
+// Plot
+
+std::vector<std::filesystem::path> writeSweep(const SweepResult& r,
+                                              const std::filesystem::path& folder) {
+    std::filesystem::create_directories(folder);
+    std::vector<std::filesystem::path> written;
+    auto text = [&](const char* name, const std::string& body) {
+        writeTextFile(folder / name, body);
+        written.push_back(folder / name);
+    };
+    text("sweep.csv", r.csv());
+    text("sweep.md", r.markdown());
+    text("sweep.json", r.json());
+
+    // x: the first axis's values (numbers, else categories in order of appearance); a series
+    // per quantity and per combination of the other axes' values.
+    std::vector<std::string> xTexts;
+    for (const SweepVariant& v : r.variants)
+        if (std::find(xTexts.begin(), xTexts.end(), v.values[0]) == xTexts.end())
+            xTexts.push_back(v.values[0]);
+    bool numeric = true;
+    for (const std::string& t : xTexts) numeric = numeric && number(t).has_value();
+    ChartSpec chart;
+    chart.xLabel = r.keys[0];
+    chart.yLabel = "flux on the detector (" + r.unit + ")";
+    chart.title = "veil sweep: stray light against " + r.keys[0];
+    if (!numeric) chart.xCategories = xTexts;
+    std::vector<double> xs, ys;
+    std::vector<std::string> seriesKeys;
+    for (const SweepVariant& v : r.variants) {
+        if (!v.error.empty()) continue;
+        std::string others;
+        for (size_t k = 1; k < r.keys.size(); ++k) others += ", " + r.keys[k] + "=" + v.values[k];
+        const double x =
+            numeric ? *number(v.values[0])
+                    : static_cast<double>(std::find(xTexts.begin(), xTexts.end(), v.values[0]) -
+                                          xTexts.begin());
+        for (size_t q = 0; q < v.measured.size(); ++q) {
+            const std::string key = r.quantities[q] + others;
+            auto it = std::find(seriesKeys.begin(), seriesKeys.end(), key);
+            if (it == seriesKeys.end()) {
+                seriesKeys.push_back(key);
+                ChartSeries s;
+                s.label = key;
+                if (!r.criteria[q].empty()) s.label += " (" + r.criteria[q] + ")";
+                // A detector's total is dashed when its criteria are drawn too (the rest
+                // often lies on it).
+                s.dashed = r.criteria[q].empty() && r.quantities.size() > 1;
+                chart.series.push_back(s);
+                it = seriesKeys.end() - 1;
+            }
+            ChartSeries& s = chart.series[static_cast<size_t>(it - seriesKeys.begin())];
+            s.x.push_back(x);
+            s.y.push_back(v.measured[q].value);
+            s.yError.push_back(v.measured[q].error);
+            xs.push_back(x);
+            ys.push_back(v.measured[q].value);
+        }
+    }
+    if (chart.series.empty()) return written;  // every variant failed: nothing to plot
+    chart.logX = numeric && chooseLogAxis(xs);
+    chart.logY = chooseLogAxis(ys);
+    const Picture pic = drawChart(chart);
+    pic.writeSvg(folder / "sweep.svg");
+    pic.writePng(folder / "sweep.png", 1600);
+    written.push_back(folder / "sweep.svg");
+    written.push_back(folder / "sweep.png");
+    return written;
+}
+
+}  // namespace veil

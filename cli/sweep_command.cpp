@@ -1,0 +1,144 @@
+// veil sweep SCENE --vary KEY=VALUES ... -n RAYS -o DIR: what-if studies (analysis/sweep.h).
+//
+//   veil sweep examples/scenes/longfocus_360mm_sun.toml \
+//       --vary properties.mount_black.scatter.reflectance=0.01:0.09:0.02 -n 20000 -o out/
+//
+// Every variant is the scene with the varied values, traced forward with the same seeds
+// (common random numbers) in batches; DIR gets sweep.csv, sweep.md, sweep.json and the plot
+// sweep.png / sweep.svg, and DIR/variants/<k>.json per variant, which a rerun with the same
+// options reads instead of tracing again. A line per variant goes to standard error; the
+// table to standard output (or the JSON with --json).
+
+#include <chrono>
+#include <iomanip>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "analysis/sweep.h"
+#include "cli/commands.h"
+#include "cli/options.h"
+#include "cli/progress.h"
+
+namespace veil::cli {
+
+void addSweepCommand(CLI::App& app, SweepOptions& o) {
+    CLI::App* sub = app.add_subcommand(
+        "sweep", "what-if study: vary scene values, trace every variant with the same rays");
+    sub->add_option("scene", o.file, "scene file (.toml)")->required();
+    sub->add_option("--vary", o.vary,
+                    "KEY=VALUES: a TOML key path of the scene (properties.black.reflectance, "
+                    "mechanics.baffles[1].z_mm, source.sun.field_deg[2]) and its values: a list "
+                    "0.01,0.05, a range 10:60:5 or a geometric range 0.001:1:x10; repeatable "
+                    "(the grid of all, or --zip)")
+        ->required();
+    sub->add_flag("--zip", o.zip,
+                  "pair the values of every --vary (equal counts) instead of taking their grid");
+    addRays(sub, o.rays, "emitted rays per source per variant")->required();
+    sub->add_option("--batches", o.batches,
+                    "batches per variant (seeds seed..seed+batches-1, the same in every "
+                    "variant): the errors and the errors of the changes come from their spread")
+        ->check(CLI::Range(2, 10000))
+        ->capture_default_str();
+    addOutputFolder(sub, o.output, "sweep");
+    addFields(sub, o.fields);
+    addRunControls(sub, o.threads, o.seed);
+    sub->add_option("--mode", o.mode, "split (every Fresnel branch) or random (one branch)")
+        ->check(CLI::IsMember({"split", "random"}))
+        ->capture_default_str();
+    sub->add_option("--min-flux", o.minRelativeFlux,
+                    "cull a branch below this share of its ray's emitted flux, after every bounce")
+        ->check(CLI::Range(0.0, 1.0))
+        ->capture_default_str();
+    sub->add_option("--max-split-depth", o.maxSplitDepth, "split mode: deepest split followed")
+        ->check(CLI::Range(1, 100000))
+        ->capture_default_str();
+    sub->add_option("--roulette", o.roulette,
+                    "Russian roulette below this share of the ray's flux (0: off)")
+        ->check(CLI::Range(0.0, 1.0))
+        ->capture_default_str();
+    sub->add_option("--max-segments", o.maxSegments, "segments per branch before it is culled")
+        ->check(CLI::Range(1, 100000000))
+        ->capture_default_str();
+    sub->add_option("--where", o.where,
+                    "path criterion (docs/criteria.md); repeatable: each variant's detector flux "
+                    "split by criterion, one line per criterion in the plot");
+    sub->add_flag("--prune", o.prune,
+                  "with --where: stop tracing a branch as soon as no criterion can match it");
+    addReportFlags(sub, o.json, o.quiet);
+}
+
+int runSweepCommand(const CommonOptions& common, const SweepOptions& o) {
+    SweepSpec spec;
+    spec.scene = o.file;
+    for (const std::string& v : o.vary) spec.axes.push_back(parseSweepAxis(v));
+    spec.zip = o.zip;
+    if (!o.fields.empty()) spec.fieldsDeg = parseFields(o.fields);
+    spec.raysPerSource = o.rays;
+    spec.batches = o.batches;
+    spec.transport.mode =
+        o.mode == "random" ? TransportOptions::Mode::Random : TransportOptions::Mode::Split;
+    spec.transport.minRelativeFlux = o.minRelativeFlux;
+    spec.transport.maxSplitDepth = o.maxSplitDepth;
+    spec.transport.rouletteRelativeFlux = o.roulette;
+    spec.transport.maxSegments = o.maxSegments;
+    spec.transport.seed = o.seed;
+    spec.where = o.where;
+    spec.prune = o.prune;
+    if (o.prune && o.where.empty())
+        throw ParseError({"--prune", 0, 0}, "--prune needs at least one --where");
+    // The variants are counted (and a --zip mismatch found) before the catalog is loaded.
+    const size_t count = sweepVariants(spec).size();
+    const GlassCatalog catalog = loadCatalog(common);
+    spec.folder = outputFolder(o.output, "sweep", false);
+
+    const auto limit = limitThreads(o.threads);
+    const auto started = std::chrono::steady_clock::now();
+    auto since = [&] {
+        return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    };
+    if (!o.quiet) {
+        spec.progress = [&](int variant, int variants, int batch, const std::string& label) {
+            if (batch == -1)
+                std::cerr << "sweep: variant " << variant + 1 << " of " << variants << " (" << label
+                          << ")" << std::flush;
+            else if (batch == o.batches)
+                std::cerr << ": " << elapsed(since()) << " elapsed" << std::flush;
+        };
+    }
+    // Each variant's line ends when the next one starts or the sweep ends.
+    SweepSpec traced = spec;
+    int lastVariant = -1;
+    if (spec.progress) {
+        traced.progress = [&](int variant, int variants, int batch, const std::string& label) {
+            if (batch == -1 && lastVariant >= 0) std::cerr << "\n";
+            lastVariant = variant;
+            spec.progress(variant, variants, batch, label);
+        };
+    }
+    const SweepResult result = runSweep(traced, catalog);
+    if (spec.progress && lastVariant >= 0) std::cerr << "\n";
+
+    const std::vector<std::filesystem::path> files = writeSweep(result, spec.folder);
+    WrittenFiles written;
+    for (const auto& f : files) written.add(f);
+    int failed = 0, resumed = 0, reused = 0;
+    for (const SweepVariant& v : result.variants) {
+        failed += !v.error.empty();
+        resumed += v.resumed;
+        reused += v.geometryReused;
+    }
+    if (o.json) {
+        nlohmann::json j = nlohmann::json::parse(result.json());
+        j["files"] = written.json();
+        std::cout << j.dump(2) << "\n";
+    } else if (!o.quiet) {
+        std::cout << result.markdown() << "\n"
+                  << count << " variants in " << elapsed(since()) << ": " << count - failed
+                  << " measured (" << resumed << " read from an earlier run, " << reused
+                  << " on the first variant's geometry), " << failed << " could not be run\n";
+        written.print(std::cout);
+    }
+    return 0;
+}
+
+}  // namespace veil::cli
