@@ -162,6 +162,57 @@ TEST(Sweep, AVariantThatCannotBeBuiltIsARowAndTheRerunResumes) {
     std::filesystem::remove_all(dir);
 }
 
+// A baffle in the collimated beam in front of the singlet: the flux through it goes with its
+// aperture's area, r^2 (the mesh's inscribed polygon has the same shape at every radius,
+// since every part shares one segment count), whatever the beam's own size and the lens's
+// transmittance. Every radius rebuilds the mechanics.
+TEST(Sweep, ABaffleInTheBeamPassesTheShareItsApertureAreaPredicts) {
+    const std::filesystem::path dir = std::filesystem::temp_directory_path() / "veil_sweep_baffle";
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    const std::filesystem::path scene = dir / "scene.toml";
+    std::ofstream(scene) << "lens = \"" VEIL_SOURCE_DIR "/examples/lenses/singlet.toml\"\n"
+                         << R"(
+[mechanics]
+property = "absorber"
+
+[[mechanics.baffles]]
+z_mm = -5.0
+inner_radius_mm = 9.0
+
+[[assign]]
+objects = ["L1.front", "L1.back"]
+property = "ideal_ar"
+
+[[source]]
+name = "beam"
+kind = "collimated"
+field_deg = [0.0, 0.0]
+)";
+    SweepSpec spec;
+    spec.scene = scene;
+    spec.axes = {parseSweepAxis("mechanics.baffles[1].inner_radius_mm=9,7,5,3")};
+    spec.raysPerSource = 40000;
+    spec.batches = 8;
+    spec.folder = dir / "out";
+    const SweepResult r = runSweep(spec, GlassCatalog::builtIn());
+    ASSERT_EQ(r.variants.size(), 4u);
+    const SweepValue& open = r.variants[0].measured[0];
+    ASSERT_GT(open.value, 0.3);  // most of the beam passes 9 mm
+    for (const SweepVariant& v : r.variants) {
+        ASSERT_TRUE(v.error.empty()) << v.error;
+        EXPECT_FALSE(v.geometryReused);
+        const double share = std::pow(std::stod(v.values[0]) / 9.0, 2);
+        const SweepValue& m = v.measured[0];
+        const double sigma = std::hypot(m.error, share * open.error);
+        EXPECT_LT(std::abs(m.value - share * open.value), 4.0 * sigma + 1e-12)
+            << "r = " << v.values[0] << ": " << m.value << " +- " << m.error << ", expected "
+            << share * open.value;
+        EXPECT_LE(m.value, open.value * (1.0 + 1e-12));  // nested apertures, the same rays
+    }
+    std::filesystem::remove_all(dir);
+}
+
 TEST(Sweep, AKeyThatNamesNothingStopsTheSweepBeforeAnyTrace) {
     const std::filesystem::path dir = std::filesystem::temp_directory_path() / "veil_sweep_key";
     std::filesystem::remove_all(dir);
