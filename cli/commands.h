@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "cli/options.h"
 #include "lensdata/glass_catalog.h"
 #include "tracer/prepared_scene.h"
 #include "tracer/scene_setup.h"
@@ -73,11 +74,7 @@ struct SweepOptions {
     std::vector<std::string> fields;
     int threads = 0;
     uint64_t seed = 1;
-    std::string mode = "split";
-    double minRelativeFlux = 1e-4;
-    int maxSplitDepth = 64;
-    double roulette = 0.0;
-    int maxSegments = 1000;
+    TransportFlags transport;
     std::vector<std::string> where;
     bool prune = false;
     bool json = false;
@@ -86,6 +83,23 @@ struct SweepOptions {
 void addSweepCommand(CLI::App& app, SweepOptions& options);
 int runSweepCommand(const CommonOptions& common, const SweepOptions& options);
 
+struct PstOptions {
+    std::string file;
+    std::string angles;
+    double azimuthDeg = 0.0;
+    uint64_t rays = 0;
+    int batches = 16;
+    std::string output;  // folder; default ./pst
+    int threads = 0;
+    uint64_t seed = 1;
+    TransportFlags transport;
+    std::vector<std::string> where;
+    bool json = false;
+    bool quiet = false;
+};
+void addPstCommand(CLI::App& app, PstOptions& options);
+int runPstCommand(const CommonOptions& common, const PstOptions& options);
+
 struct TraceOptions {
     std::string file;
     uint64_t rays = 0;
@@ -93,11 +107,7 @@ struct TraceOptions {
     std::vector<std::string> fields;
     int threads = 0;
     uint64_t seed = 1;
-    std::string mode = "split";
-    double minRelativeFlux = 1e-4;
-    int maxSplitDepth = 64;
-    double roulette = 0.0;
-    int maxSegments = 1000;
+    TransportFlags transport;
     bool json = false;
     bool quiet = false;
     std::string saveRays;            // ray database file to write

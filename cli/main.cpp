@@ -64,6 +64,8 @@ int main(int argc, char** argv) {
     veil::cli::addRenderCommand(app, renderOptions);
     veil::cli::SweepOptions sweepOptions;
     veil::cli::addSweepCommand(app, sweepOptions);
+    veil::cli::PstOptions pstOptions;
+    veil::cli::addPstCommand(app, pstOptions);
 
     // A first word that is no command and no option: name the nearest command.
     if (argc > 1 && argv[1][0] != '-') {
@@ -102,6 +104,7 @@ int main(int argc, char** argv) {
             if (sub->get_name() == "ghosts") return veil::cli::runGhosts(common, ghostsOptions);
             if (sub->get_name() == "render") return veil::cli::runRender(common, renderOptions);
             if (sub->get_name() == "sweep") return veil::cli::runSweepCommand(common, sweepOptions);
+            if (sub->get_name() == "pst") return veil::cli::runPstCommand(common, pstOptions);
         }
     } catch (const veil::ParseError& e) {
         std::cerr << "veil: error: " << e.what() << "\n";

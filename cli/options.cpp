@@ -9,6 +9,7 @@
 
 #include "analysis/picture.h"
 #include "lensdata/errors.h"
+#include "tracer/nonsequential.h"
 
 namespace veil::cli {
 
@@ -84,6 +85,36 @@ void addRunControls(CLI::App* sub, int& threads, uint64_t& seed) {
     sub->add_option("--seed", seed, "random seed (the same seed gives the same result with any "
                                     "number of threads)")
         ->capture_default_str();
+}
+
+void addTransportFlags(CLI::App* sub, TransportFlags& f) {
+    sub->add_option("--mode", f.mode, "split (every Fresnel branch) or random (one branch)")
+        ->check(CLI::IsMember({"split", "random"}))
+        ->capture_default_str();
+    sub->add_option("--min-flux", f.minRelativeFlux,
+                    "cull a branch below this share of its ray's emitted flux, after every bounce "
+                    "(both modes)")
+        ->check(CLI::Range(0.0, 1.0))
+        ->capture_default_str();
+    sub->add_option("--max-split-depth", f.maxSplitDepth, "split mode: deepest split followed")
+        ->check(CLI::Range(1, 100000))
+        ->capture_default_str();
+    sub->add_option("--roulette", f.roulette,
+                    "Russian roulette below this share of the ray's flux (0: off)")
+        ->check(CLI::Range(0.0, 1.0))
+        ->capture_default_str();
+    sub->add_option("--max-segments", f.maxSegments, "segments per branch before it is culled")
+        ->check(CLI::Range(1, 100000000))
+        ->capture_default_str();
+}
+
+void applyTransportFlags(const TransportFlags& f, TransportOptions& options) {
+    options.mode =
+        f.mode == "random" ? TransportOptions::Mode::Random : TransportOptions::Mode::Split;
+    options.minRelativeFlux = f.minRelativeFlux;
+    options.maxSplitDepth = f.maxSplitDepth;
+    options.rouletteRelativeFlux = f.roulette;
+    options.maxSegments = f.maxSegments;
 }
 
 CLI::Option* addOutputFolder(CLI::App* sub, std::string& folder, const std::string& defaultName) {

@@ -27,6 +27,7 @@
 
 namespace veil {
 class Picture;
+struct TransportOptions;
 }
 
 namespace veil::cli {
@@ -45,6 +46,18 @@ void addRunControls(CLI::App* sub, int& threads, uint64_t& seed);
 // -o/--output as a folder (default shown: ./<defaultName>) or as one file.
 CLI::Option* addOutputFolder(CLI::App* sub, std::string& folder, const std::string& defaultName);
 CLI::Option* addOutputFile(CLI::App* sub, std::string& file, const std::string& what);
+// The forward tracer's knobs, shared by trace and sweep: --mode, --min-flux,
+// --max-split-depth, --roulette, --max-segments (defaults: TransportOptions's).
+struct TransportFlags {
+    std::string mode = "split";
+    double minRelativeFlux = 1e-4;
+    int maxSplitDepth = 64;
+    double roulette = 0.0;
+    int maxSegments = 1000;
+};
+void addTransportFlags(CLI::App* sub, TransportFlags& flags);
+// Into the transport's options; the seed and the rest are left as they are.
+void applyTransportFlags(const TransportFlags& flags, TransportOptions& options);
 // --json and --quiet.
 void addReportFlags(CLI::App* sub, bool& json, bool& quiet);
 // --field X,Y (repeatable).

@@ -42,23 +42,7 @@ void addSweepCommand(CLI::App& app, SweepOptions& o) {
     addOutputFolder(sub, o.output, "sweep");
     addFields(sub, o.fields);
     addRunControls(sub, o.threads, o.seed);
-    sub->add_option("--mode", o.mode, "split (every Fresnel branch) or random (one branch)")
-        ->check(CLI::IsMember({"split", "random"}))
-        ->capture_default_str();
-    sub->add_option("--min-flux", o.minRelativeFlux,
-                    "cull a branch below this share of its ray's emitted flux, after every bounce")
-        ->check(CLI::Range(0.0, 1.0))
-        ->capture_default_str();
-    sub->add_option("--max-split-depth", o.maxSplitDepth, "split mode: deepest split followed")
-        ->check(CLI::Range(1, 100000))
-        ->capture_default_str();
-    sub->add_option("--roulette", o.roulette,
-                    "Russian roulette below this share of the ray's flux (0: off)")
-        ->check(CLI::Range(0.0, 1.0))
-        ->capture_default_str();
-    sub->add_option("--max-segments", o.maxSegments, "segments per branch before it is culled")
-        ->check(CLI::Range(1, 100000000))
-        ->capture_default_str();
+    addTransportFlags(sub, o.transport);
     sub->add_option("--where", o.where,
                     "path criterion (docs/criteria.md); repeatable: each variant's detector flux "
                     "split by criterion, one line per criterion in the plot");
@@ -75,12 +59,7 @@ int runSweepCommand(const CommonOptions& common, const SweepOptions& o) {
     if (!o.fields.empty()) spec.fieldsDeg = parseFields(o.fields);
     spec.raysPerSource = o.rays;
     spec.batches = o.batches;
-    spec.transport.mode =
-        o.mode == "random" ? TransportOptions::Mode::Random : TransportOptions::Mode::Split;
-    spec.transport.minRelativeFlux = o.minRelativeFlux;
-    spec.transport.maxSplitDepth = o.maxSplitDepth;
-    spec.transport.rouletteRelativeFlux = o.roulette;
-    spec.transport.maxSegments = o.maxSegments;
+    applyTransportFlags(o.transport, spec.transport);
     spec.transport.seed = o.seed;
     spec.where = o.where;
     spec.prune = o.prune;

@@ -42,24 +42,7 @@ void addTraceCommand(CLI::App& app, TraceOptions& o) {
     addOutputFolder(sub, o.output, "trace");
     addFields(sub, o.fields);
     addRunControls(sub, o.threads, o.seed);
-    sub->add_option("--mode", o.mode, "split (every Fresnel branch) or random (one branch)")
-        ->check(CLI::IsMember({"split", "random"}))
-        ->capture_default_str();
-    sub->add_option("--min-flux", o.minRelativeFlux,
-                    "cull a branch below this share of its ray's emitted flux, after every bounce "
-                    "(both modes)")
-        ->check(CLI::Range(0.0, 1.0))
-        ->capture_default_str();
-    sub->add_option("--max-split-depth", o.maxSplitDepth, "split mode: deepest split followed")
-        ->check(CLI::Range(1, 100000))
-        ->capture_default_str();
-    sub->add_option("--roulette", o.roulette,
-                    "Russian roulette below this share of the ray's flux (0: off)")
-        ->check(CLI::Range(0.0, 1.0))
-        ->capture_default_str();
-    sub->add_option("--max-segments", o.maxSegments, "segments per branch before it is culled")
-        ->check(CLI::Range(1, 100000000))
-        ->capture_default_str();
+    addTransportFlags(sub, o.transport);
     addReportFlags(sub, o.json, o.quiet);
     sub->add_option("--where", o.where,
                     "path criterion (docs/criteria.md); repeatable: one image per criterion plus "
@@ -241,12 +224,7 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
     StrayLightSpec spec;
     spec.raysPerSource = o.rays;
     TransportOptions& options = spec.transport;
-    options.mode =
-        o.mode == "random" ? TransportOptions::Mode::Random : TransportOptions::Mode::Split;
-    options.minRelativeFlux = o.minRelativeFlux;
-    options.maxSplitDepth = o.maxSplitDepth;
-    options.rouletteRelativeFlux = o.roulette;
-    options.maxSegments = o.maxSegments;
+    applyTransportFlags(o.transport, options);
     options.seed = o.seed;
     spec.where = o.where;
     spec.prune = o.prune;

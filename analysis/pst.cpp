@@ -1,0 +1,246 @@
+#include "analysis/pst.h"
+
+#include <cmath>
+#include <iomanip>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "analysis/chart.h"
+#include "analysis/first_order.h"
+#include "analysis/ghosts.h"
+#include "analysis/stray_light_run.h"
+#include "lensdata/output_file.h"
+#include "tracer/prepared_scene.h"
+
+namespace veil {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+const char* kNominal = "not fresnel and not scatter";
+const char* kStray = "fresnel or scatter";
+
+double mean(const std::vector<double>& v) {
+    double s = 0.0;
+    for (double x : v) s += x;
+    return v.empty() ? kNaN : s / static_cast<double>(v.size());
+}
+double standardError(const std::vector<double>& v) {
+    if (v.size() < 2) return kNaN;
+    const double m = mean(v);
+    double ss = 0.0;
+    for (double x : v) ss += (x - m) * (x - m);
+    return std::sqrt(ss / static_cast<double>(v.size() - 1) / static_cast<double>(v.size()));
+}
+std::string sci(double v, int digits) {
+    if (!std::isfinite(v)) return "";
+    std::ostringstream os;
+    os << std::scientific << std::setprecision(digits - 1) << v;
+    return os.str();
+}
+nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
+
+}  // namespace
+
+PstResult runPst(const PstSpec& spec, const GlassCatalog& catalog) {
+    if (spec.anglesDeg.empty()) throw ParseError({"--angles", 0, 0}, "no angle to trace");
+    for (double a : spec.anglesDeg)
+        if (!(a >= 0.0 && a < 90.0))
+            throw ParseError({"--angles", 0, 0}, "an off-axis angle must be in [0, 90) degrees");
+    if (!std::isfinite(spec.azimuthDeg))
+        throw ParseError({"--azimuth", 0, 0}, "the azimuth must be a number of degrees");
+    if (spec.batches < 2)
+        throw ParseError({"--batches", 0, 0}, "PST needs at least 2 batches for its errors");
+    if (spec.raysPerAngle < static_cast<uint64_t>(spec.batches))
+        throw ParseError({"-n", 0, 0}, "fewer rays than batches");
+
+    const double phi = spec.azimuthDeg * M_PI / 180.0;
+    auto fieldOf = [&](double theta) {
+        return std::pair<double, double>{theta * std::sin(phi), theta * std::cos(phi)};
+    };
+    const SceneFile base = readSceneFile(spec.scene, catalog);
+    if (base.prescription.system.fieldKind != SystemData::FieldKind::AngleDeg)
+        throw ModelError(spec.scene.string(),
+                         "PST needs a lens with an object at infinity (fields in degrees)");
+    SceneFile first = base;
+    setFieldSources(first, catalog, {fieldOf(spec.anglesDeg.front())});
+    const std::unique_ptr<PreparedScene> prepared = PreparedScene::build(std::move(first), catalog);
+
+    PstResult result;
+    for (const Field& f : base.prescription.system.fields)
+        result.fieldDeg = std::max(result.fieldDeg, std::hypot(f.x, f.y));
+    // The beam is uniform over the first surface's aperture disk (mech_sd, else sd) and
+    // brings 1 W through it; the entrance pupil, a disk of the paraxial entrance pupil
+    // diameter, takes (pupil / beam)^2 of that at any angle (collimated light crosses every
+    // disk of the same radius alike, whatever its plane).
+    const EntranceAperture ap = entranceAperture(base.prescription, *base.model);
+    const FirstOrderData fo = computeFirstOrder(*base.model, base.model->primaryWavelength());
+    result.pupilRadiusMm = 0.5 * fo.entrancePupilDiameterMm;
+    result.beamRadiusMm = ap.radiusMm;
+    if (!(result.pupilRadiusMm > 0.0) || !(result.beamRadiusMm >= result.pupilRadiusMm))
+        throw ModelError(spec.scene.string(),
+                         "the beam over the first surface (radius " +
+                             std::to_string(result.beamRadiusMm) +
+                             " mm) does not cover the entrance pupil (radius " +
+                             std::to_string(result.pupilRadiusMm) + " mm)");
+    result.apertureAreaMm2 = M_PI * result.pupilRadiusMm * result.pupilRadiusMm;
+    const double throughPupil = std::pow(result.pupilRadiusMm / result.beamRadiusMm, 2);
+    const DetectorGeometry& det = prepared->setup().detectors.front();
+    result.detector = det.name;
+    result.detectorAreaMm2 = det.widthMm * det.heightMm;
+    std::vector<std::string> where = {kNominal, kStray};
+    where.insert(where.end(), spec.where.begin(), spec.where.end());
+    result.quantities = {{"total", ""}, {"nominal", kNominal}, {"stray", kStray}};
+    for (size_t k = 0; k < spec.where.size(); ++k)
+        result.quantities.push_back({"where" + std::to_string(k + 1), spec.where[k]});
+
+    for (size_t a = 0; a < spec.anglesDeg.size(); ++a) {
+        if (spec.progress) spec.progress(a, spec.anglesDeg.size());
+        const double theta = spec.anglesDeg[a];
+        if (a > 0) {
+            SceneFile file = base;
+            setFieldSources(file, catalog, {fieldOf(theta)});
+            prepared->replaceTransport(std::move(file), catalog);
+        }
+        // [quantity][batch]: flux on the first detector over the flux emitted.
+        std::vector<std::vector<double>> shares(result.quantities.size());
+        double incident = 0.0;
+        for (int b = 0; b < spec.batches; ++b) {
+            StrayLightSpec run;
+            const uint64_t per = spec.raysPerAngle / static_cast<uint64_t>(spec.batches);
+            run.raysPerSource =
+                per +
+                (static_cast<uint64_t>(b) < spec.raysPerAngle % static_cast<uint64_t>(spec.batches)
+                     ? 1
+                     : 0);
+            run.transport = spec.transport;
+            run.transport.seed = spec.transport.seed + static_cast<uint64_t>(b);
+            run.where = where;
+            const StrayLightResult r = runStrayLight(*prepared, run);
+            // The first detector's rows: its total, then the nominal image, the stray light,
+            // the user's criteria, and the rest (not kept). Each over the flux the beam
+            // brings through the entrance pupil.
+            const std::vector<StrayLightRow> rows = r.report();
+            incident = r.budget.emitted * throughPupil;
+            for (size_t q = 0; q < result.quantities.size(); ++q)
+                shares[q].push_back(incident > 0.0 ? rows[q].flux / incident : 0.0);
+        }
+        PstRow row;
+        row.angleDeg = theta;
+        row.inField = theta <= result.fieldDeg;
+        row.incidentFlux = incident;
+        for (const auto& s : shares) {
+            row.pst.push_back(mean(s));
+            row.error.push_back(standardError(s));
+        }
+        result.rows.push_back(std::move(row));
+    }
+    return result;
+}
+
+std::string PstResult::csv() const {
+    std::ostringstream os;
+    os << "angle_deg,in_field";
+    for (const PstQuantity& q : quantities) os << ",pst_" << q.name << ",error_" << q.name;
+    os << ",irradiance_ratio_total\n";
+    const double toIrradiance = detectorAreaMm2 > 0.0 ? apertureAreaMm2 / detectorAreaMm2 : kNaN;
+    for (const PstRow& r : rows) {
+        os << r.angleDeg << "," << (r.inField ? "yes" : "no");
+        for (size_t q = 0; q < quantities.size(); ++q)
+            os << "," << sci(r.pst[q], 6) << "," << sci(r.error[q], 3);
+        os << "," << sci(r.pst[0] * toIrradiance * std::cos(r.angleDeg * M_PI / 180.0), 6) << "\n";
+    }
+    return os.str();
+}
+
+std::string PstResult::markdown() const {
+    std::ostringstream os;
+    os << "| angle (deg) | in field |";
+    for (const PstQuantity& q : quantities) os << " PST " << q.name << " |";
+    os << "\n|---|---|";
+    for (size_t q = 0; q < quantities.size(); ++q) os << "---|";
+    os << "\n";
+    for (const PstRow& r : rows) {
+        os << "| " << r.angleDeg << " | " << (r.inField ? "yes" : "no") << " |";
+        for (size_t q = 0; q < quantities.size(); ++q) {
+            if (r.pst[q] == 0.0 && !(r.error[q] > 0.0))
+                os << " 0 |";
+            else
+                os << " " << sci(r.pst[q], 3) << " +- " << sci(r.error[q], 2) << " |";
+        }
+        os << "\n";
+    }
+    os << "\nPST = flux on " << detector
+       << " / flux the collimated beam brings through the entrance pupil (radius " << pupilRadiusMm
+       << " mm; the beam fills the first surface out to " << beamRadiusMm
+       << " mm). The system's field reaches " << fieldDeg << " deg.\n";
+    for (const PstQuantity& q : quantities)
+        if (!q.criterion.empty()) os << "- " << q.name << ": `" << q.criterion << "`\n";
+    return os.str();
+}
+
+std::string PstResult::json() const {
+    nlohmann::json j;
+    j["detector"] = detector;
+    j["field_deg"] = fieldDeg;
+    j["aperture_area_mm2"] = apertureAreaMm2;
+    j["pupil_radius_mm"] = pupilRadiusMm;
+    j["beam_radius_mm"] = beamRadiusMm;
+    j["detector_area_mm2"] = detectorAreaMm2;
+    j["quantities"] = nlohmann::json::array();
+    for (const PstQuantity& q : quantities)
+        j["quantities"].push_back({{"name", q.name}, {"criterion", q.criterion}});
+    j["rows"] = nlohmann::json::array();
+    for (const PstRow& r : rows) {
+        nlohmann::json row{{"angle_deg", r.angleDeg}, {"in_field", r.inField}};
+        for (size_t q = 0; q < quantities.size(); ++q) {
+            row["pst"][quantities[q].name] = num(r.pst[q]);
+            row["error"][quantities[q].name] = num(r.error[q]);
+        }
+        j["rows"].push_back(row);
+    }
+    return j.dump(2) + "\n";
+}
+
+std::vector<std::filesystem::path> writePst(const PstResult& r,
+                                            const std::filesystem::path& folder) {
+    std::filesystem::create_directories(folder);
+    std::vector<std::filesystem::path> written;
+    auto text = [&](const char* name, const std::string& body) {
+        writeTextFile(folder / name, body);
+        written.push_back(folder / name);
+    };
+    text("pst.csv", r.csv());
+    text("pst.md", r.markdown());
+    text("pst.json", r.json());
+    ChartSpec chart;
+    chart.title = "veil pst: point source transmittance on " + r.detector;
+    chart.xLabel = "source angle off axis (deg)";
+    chart.yLabel = "PST (detector flux / flux through the entrance pupil)";
+    chart.logY = true;
+    for (size_t q = 0; q < r.quantities.size(); ++q) {
+        ChartSeries s;
+        s.label = r.quantities[q].name;
+        if (!r.quantities[q].criterion.empty()) s.label += " (" + r.quantities[q].criterion + ")";
+        s.dashed = q == 0;
+        for (const PstRow& row : r.rows) {
+            s.x.push_back(row.angleDeg);
+            s.y.push_back(row.pst[q]);
+            s.yError.push_back(row.error[q]);
+        }
+        chart.series.push_back(std::move(s));
+    }
+    try {
+        const Picture pic = drawChart(chart);
+        pic.writeSvg(folder / "pst.svg");
+        pic.writePng(folder / "pst.png", 1600);
+        written.push_back(folder / "pst.svg");
+        written.push_back(folder / "pst.png");
+    } catch (const std::invalid_argument&) {
+        // Nothing reached the detector at any angle: the tables say so, there is no curve.
+    }
+    return written;
+}
+
+}  // namespace veil
