@@ -165,6 +165,14 @@ Picture drawChart(const ChartSpec& spec) {
     pic.text(kLeft, kTop + 10.0, spec.yLabel + (spec.logY ? " (log scale)" : ""), kInk, 13.0,
              TextAnchor::Start);
 
+    for (const auto& [x, label] : spec.xMarkers) {
+        if (!ax.drawable(x) && !categories) continue;
+        const double px0 = px(x);
+        if (px0 < kLeft || px0 > kRight) continue;
+        pic.polyline({{px0, kBottom}, {px0, kTop}}, Color::hex(0x888888), 1.0, true);
+        pic.text(px0 + 4.0, kTop - 14.0, label, Color::hex(0x555555), 10.0, TextAnchor::Start);
+    }
+
     // Series: error bars, lines, markers.
     std::vector<LegendEntry> legend;
     for (size_t k = 0; k < spec.series.size(); ++k) {

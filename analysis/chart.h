@@ -10,6 +10,7 @@
 // between them when the axis spans few decades).
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "analysis/picture.h"
@@ -29,6 +30,8 @@ struct ChartSpec {
     std::vector<ChartSeries> series;
     // Category labels for the x axis instead of numbers (x = 0, 1, ...); empty: numbers.
     std::vector<std::string> xCategories;
+    // Vertical dashed lines at these x values with their labels (the edge of a field).
+    std::vector<std::pair<double, std::string>> xMarkers;
 };
 
 // Whether these values ask for a log axis: all positive and max / min >= 10.

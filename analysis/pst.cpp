@@ -219,6 +219,11 @@ std::vector<std::filesystem::path> writePst(const PstResult& r,
     chart.xLabel = "source angle off axis (deg)";
     chart.yLabel = "PST (detector flux / flux through the entrance pupil)";
     chart.logY = true;
+    if (r.fieldDeg > 0.0) {
+        std::ostringstream edge;
+        edge << "field edge, " << r.fieldDeg << " deg";
+        chart.xMarkers.push_back({r.fieldDeg, edge.str()});
+    }
     for (size_t q = 0; q < r.quantities.size(); ++q) {
         ChartSeries s;
         s.label = r.quantities[q].name;

@@ -261,6 +261,12 @@ SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
     if (spec.raysPerSource < static_cast<uint64_t>(spec.batches))
         throw ParseError({"-n", 0, 0}, "fewer rays (" + std::to_string(spec.raysPerSource) +
                                            ") than batches (" + std::to_string(spec.batches) + ")");
+    for (size_t a = 0; a < spec.axes.size(); ++a)
+        for (size_t b = 0; b < a; ++b)
+            if (spec.axes[a].key == spec.axes[b].key)
+                throw ParseError({spec.axes[a].option, 0, 0},
+                                 spec.axes[a].key + " is varied twice (also by " +
+                                     spec.axes[b].option + "): give its values once");
     const std::vector<std::vector<std::string>> variants = sweepVariants(spec);
     // Every edit checked before anything is built: a key that names nothing stops the sweep.
     for (const SweepAxis& a : spec.axes)

@@ -226,6 +226,10 @@ TEST(Sweep, AKeyThatNamesNothingStopsTheSweepBeforeAnyTrace) {
                 HasSubstr("--vary properties.mont.scatter.reflectance=0.1: no 'mont' in "
                           "[properties]"));
     EXPECT_FALSE(std::filesystem::exists(dir / "out" / "variants"));
+    spec.axes = {parseSweepAxis("properties.mount.scatter.reflectance=0.1"),
+                 parseSweepAxis("properties.mount.scatter.reflectance=0.2")};
+    EXPECT_THAT(errorOf([&] { runSweep(spec, GlassCatalog::builtIn()); }),
+                HasSubstr("properties.mount.scatter.reflectance is varied twice"));
     std::filesystem::remove_all(dir);
 }
 
