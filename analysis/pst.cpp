@@ -21,18 +21,6 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 const char* kNominal = "not fresnel and not scatter";
 const char* kStray = "fresnel or scatter";
 
-double mean(const std::vector<double>& v) {
-    double s = 0.0;
-    for (double x : v) s += x;
-    return v.empty() ? kNaN : s / static_cast<double>(v.size());
-}
-double standardError(const std::vector<double>& v) {
-    if (v.size() < 2) return kNaN;
-    const double m = mean(v);
-    double ss = 0.0;
-    for (double x : v) ss += (x - m) * (x - m);
-    return std::sqrt(ss / static_cast<double>(v.size() - 1) / static_cast<double>(v.size()));
-}
 std::string sci(double v, int digits) {
     if (!std::isfinite(v)) return "";
     std::ostringstream os;
@@ -105,34 +93,26 @@ PstResult runPst(const PstSpec& spec, const GlassCatalog& catalog) {
         }
         // [quantity][batch]: flux on the first detector over the flux emitted.
         std::vector<std::vector<double>> shares(result.quantities.size());
-        double incident = 0.0;
-        for (int b = 0; b < spec.batches; ++b) {
-            StrayLightSpec run;
-            const uint64_t per = spec.raysPerAngle / static_cast<uint64_t>(spec.batches);
-            run.raysPerSource =
-                per +
-                (static_cast<uint64_t>(b) < spec.raysPerAngle % static_cast<uint64_t>(spec.batches)
-                     ? 1
-                     : 0);
-            run.transport = spec.transport;
-            run.transport.seed = spec.transport.seed + static_cast<uint64_t>(b);
-            run.where = where;
-            const StrayLightResult r = runStrayLight(*prepared, run);
+        StrayLightSpec run;
+        run.raysPerSource = spec.raysPerAngle;
+        run.transport = spec.transport;
+        run.where = where;
+        runStrayLightBatches(*prepared, run, spec.batches, [&](int, const StrayLightResult& r) {
             // The first detector's rows: its total, then the nominal image, the stray light,
             // the user's criteria, and the rest (not kept). Each over the flux the beam
             // brings through the entrance pupil.
             const std::vector<StrayLightRow> rows = r.report();
-            incident = r.budget.emitted * throughPupil;
+            const double incident = r.budget.emitted * throughPupil;
             for (size_t q = 0; q < result.quantities.size(); ++q)
                 shares[q].push_back(incident > 0.0 ? rows[q].flux / incident : 0.0);
-        }
+        });
         PstRow row;
         row.angleDeg = theta;
         row.inField = theta <= result.fieldDeg;
-        row.incidentFlux = incident;
         for (const auto& s : shares) {
-            row.pst.push_back(mean(s));
-            row.error.push_back(standardError(s));
+            const BatchMean m = batchMean(s);
+            row.pst.push_back(m.value);
+            row.error.push_back(m.error);
         }
         result.rows.push_back(std::move(row));
     }

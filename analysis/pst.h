@@ -48,7 +48,6 @@ struct PstQuantity {
 struct PstRow {
     double angleDeg = 0.0;
     bool inField = false;            // within the system's largest field angle
-    double incidentFlux = 0.0;       // W (or lm) through the entrance aperture
     std::vector<double> pst, error;  // per quantity: PST and its 1-sigma error
 };
 

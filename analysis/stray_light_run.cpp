@@ -1,6 +1,8 @@
 #include "analysis/stray_light_run.h"
 
 #include <chrono>
+#include <cmath>
+#include <limits>
 
 #include "analysis/criterion_names.h"
 
@@ -66,6 +68,29 @@ StrayLightResult runStrayLight(const PreparedScene& scene, const StrayLightSpec&
     result.budget = traced.budget;
     result.images = std::move(traced.detectors);
     return result;
+}
+
+void runStrayLightBatches(const PreparedScene& scene, const StrayLightSpec& spec, int batches,
+                          const std::function<void(int batch, const StrayLightResult&)>& onBatch) {
+    const uint64_t n = static_cast<uint64_t>(batches);
+    for (uint64_t b = 0; b < n; ++b) {
+        StrayLightSpec run = spec;
+        run.raysPerSource = spec.raysPerSource / n + (b < spec.raysPerSource % n ? 1 : 0);
+        run.transport.seed = spec.transport.seed + b;
+        onBatch(static_cast<int>(b), runStrayLight(scene, run));
+    }
+}
+
+BatchMean batchMean(const std::vector<double>& v) {
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    if (v.empty()) return {nan, nan};
+    double sum = 0.0;
+    for (double x : v) sum += x;
+    const double m = sum / static_cast<double>(v.size());
+    if (v.size() < 2) return {m, nan};
+    double ss = 0.0;
+    for (double x : v) ss += (x - m) * (x - m);
+    return {m, std::sqrt(ss / static_cast<double>(v.size() - 1) / static_cast<double>(v.size()))};
 }
 
 }  // namespace veil

@@ -62,4 +62,19 @@ struct StrayLightResult {
 // ModelError when the scene has no source or prune is asked without criteria, before tracing.
 StrayLightResult runStrayLight(const PreparedScene& scene, const StrayLightSpec& spec);
 
+// The spec's rays in `batches` runs with the seeds seed, seed + 1, ... (the first
+// raysPerSource % batches runs one ray more): the common random numbers of the studies
+// (sweep, pst), whose errors come from the spread of the batch values. Each batch's result
+// goes to `onBatch` in order.
+void runStrayLightBatches(const PreparedScene& scene, const StrayLightSpec& spec, int batches,
+                          const std::function<void(int batch, const StrayLightResult&)>& onBatch);
+
+// The mean of batch values and its standard error from their spread (NaN error below two
+// values, NaN mean for none).
+struct BatchMean {
+    double value = 0.0;
+    double error = 0.0;
+};
+BatchMean batchMean(const std::vector<double>& values);
+
 }  // namespace veil

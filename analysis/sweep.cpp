@@ -90,20 +90,6 @@ nlohmann::json inputHashes(const std::filesystem::path& scene) {
     return j;
 }
 
-double mean(const std::vector<double>& v) {
-    double s = 0.0;
-    for (double x : v) s += x;
-    return v.empty() ? kNaN : s / static_cast<double>(v.size());
-}
-// Standard error of the mean from the spread of the values.
-double standardError(const std::vector<double>& v) {
-    if (v.size() < 2) return kNaN;
-    const double m = mean(v);
-    double ss = 0.0;
-    for (double x : v) ss += (x - m) * (x - m);
-    return std::sqrt(ss / static_cast<double>(v.size() - 1) / static_cast<double>(v.size()));
-}
-
 nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
 double numOf(const nlohmann::json& j) { return j.is_number() ? j.get<double>() : kNaN; }
 
@@ -340,40 +326,33 @@ SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
                     own = PreparedScene::build(std::move(file), catalog);
                     prepared = own.get();
                 }
-                std::vector<std::string> names, criteria;
-                for (int b = 0; b < spec.batches; ++b) {
-                    StrayLightSpec run;
-                    const uint64_t per = spec.raysPerSource / static_cast<uint64_t>(spec.batches);
-                    run.raysPerSource =
-                        per + (static_cast<uint64_t>(b) <
-                                       spec.raysPerSource % static_cast<uint64_t>(spec.batches)
-                                   ? 1
-                                   : 0);
-                    run.transport = spec.transport;
-                    run.transport.seed = spec.transport.seed + static_cast<uint64_t>(b);
-                    run.where = spec.where;
-                    run.prune = spec.prune;
-                    const StrayLightResult r = runStrayLight(*prepared, run);
-                    const std::vector<StrayLightRow> rows = r.report();
-                    if (b == 0) {
-                        names = quantityNames(rows);
-                        for (const StrayLightRow& row : rows) criteria.push_back(row.criterion);
-                        if (result.quantities.empty()) {
-                            result.quantities = names;
-                            result.criteria = criteria;
-                            result.unit = r.fluxUnit;
-                        } else if (names != result.quantities) {
-                            throw ModelError("sweep",
-                                             "its detectors differ from the first "
-                                             "variant's, so the rows cannot be compared");
+                StrayLightSpec run;
+                run.raysPerSource = spec.raysPerSource;
+                run.transport = spec.transport;
+                run.where = spec.where;
+                run.prune = spec.prune;
+                runStrayLightBatches(
+                    *prepared, run, spec.batches, [&](int b, const StrayLightResult& r) {
+                        const std::vector<StrayLightRow> rows = r.report();
+                        if (b == 0) {
+                            const std::vector<std::string> names = quantityNames(rows);
+                            if (result.quantities.empty()) {
+                                result.quantities = names;
+                                for (const StrayLightRow& row : rows)
+                                    result.criteria.push_back(row.criterion);
+                                result.unit = r.fluxUnit;
+                            } else if (names != result.quantities) {
+                                throw ModelError("sweep",
+                                                 "its detectors differ from the first "
+                                                 "variant's, so the rows cannot be compared");
+                            }
+                            v.batchValues.assign(rows.size(), {});
                         }
-                        v.batchValues.assign(rows.size(), {});
-                    }
-                    for (size_t q = 0; q < rows.size(); ++q)
-                        v.batchValues[q].push_back(rows[q].flux);
-                    if (spec.progress)
-                        spec.progress(v.index, static_cast<int>(variants.size()), b + 1, label);
-                }
+                        for (size_t q = 0; q < rows.size(); ++q)
+                            v.batchValues[q].push_back(rows[q].flux);
+                        if (spec.progress)
+                            spec.progress(v.index, static_cast<int>(variants.size()), b + 1, label);
+                    });
                 if (transportOnly && !shared) shared = std::move(own);
             } catch (const std::exception& e) {
                 v.error = e.what();
@@ -405,15 +384,17 @@ SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
         if (!v.error.empty()) continue;
         for (size_t q = 0; q < v.batchValues.size(); ++q) {
             SweepValue m;
-            m.value = mean(v.batchValues[q]);
-            m.error = standardError(v.batchValues[q]);
+            const BatchMean own = batchMean(v.batchValues[q]);
+            m.value = own.value;
+            m.error = own.error;
             if (first.error.empty() && q < first.batchValues.size() &&
                 first.batchValues[q].size() == v.batchValues[q].size()) {
                 std::vector<double> d;
                 for (size_t b = 0; b < v.batchValues[q].size(); ++b)
                     d.push_back(v.batchValues[q][b] - first.batchValues[q][b]);
-                m.change = mean(d);
-                m.changeError = standardError(d);
+                const BatchMean change = batchMean(d);
+                m.change = change.value;
+                m.changeError = change.error;
             } else {
                 m.change = m.changeError = kNaN;
             }

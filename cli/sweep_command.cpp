@@ -1,7 +1,7 @@
 // veil sweep SCENE --vary KEY=VALUES ... -n RAYS -o DIR: what-if studies (analysis/sweep.h).
 //
-//   veil sweep examples/scenes/longfocus_360mm_sun.toml \
-//       --vary properties.mount_black.scatter.reflectance=0.01:0.09:0.02 -n 20000 -o out/
+//   veil sweep examples/scenes/longfocus_360mm_sun.toml -n 20000 -o out/finish
+//       --vary properties.black_anodized.scatter.reflectance=0.01:0.09:0.02
 //
 // Every variant is the scene with the varied values, traced forward with the same seeds
 // (common random numbers) in batches; DIR gets sweep.csv, sweep.md, sweep.json and the plot
@@ -75,27 +75,22 @@ int runSweepCommand(const CommonOptions& common, const SweepOptions& o) {
     auto since = [&] {
         return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     };
+    // A line per variant, ended when the next one starts or the sweep ends.
+    bool lineOpen = false;
     if (!o.quiet) {
         spec.progress = [&](int variant, int variants, int batch, const std::string& label) {
-            if (batch == -1)
+            if (batch == -1) {
+                if (lineOpen) std::cerr << "\n";
                 std::cerr << "sweep: variant " << variant + 1 << " of " << variants << " (" << label
                           << ")" << std::flush;
-            else if (batch == o.batches)
+                lineOpen = true;
+            } else if (batch == o.batches) {
                 std::cerr << ": " << elapsed(since()) << " elapsed" << std::flush;
+            }
         };
     }
-    // Each variant's line ends when the next one starts or the sweep ends.
-    SweepSpec traced = spec;
-    int lastVariant = -1;
-    if (spec.progress) {
-        traced.progress = [&](int variant, int variants, int batch, const std::string& label) {
-            if (batch == -1 && lastVariant >= 0) std::cerr << "\n";
-            lastVariant = variant;
-            spec.progress(variant, variants, batch, label);
-        };
-    }
-    const SweepResult result = runSweep(traced, catalog);
-    if (spec.progress && lastVariant >= 0) std::cerr << "\n";
+    const SweepResult result = runSweep(spec, catalog);
+    if (lineOpen) std::cerr << "\n";
 
     const std::vector<std::filesystem::path> files = writeSweep(result, spec.folder);
     WrittenFiles written;
