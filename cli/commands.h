@@ -100,6 +100,24 @@ struct PstOptions {
 void addPstCommand(CLI::App& app, PstOptions& options);
 int runPstCommand(const CommonOptions& common, const PstOptions& options);
 
+struct ObjectsOptions {
+    std::string file;
+    uint64_t rays = 20000;
+    std::string source, detector;
+    std::vector<std::string> fields;
+    bool includeOptical = false;
+    std::string rank = "product";
+    int top = 8;
+    std::string output;  // folder; default ./objects
+    int threads = 0;
+    uint64_t seed = 1;
+    TransportFlags transport;
+    bool json = false;
+    bool quiet = false;
+};
+void addObjectsCommand(CLI::App& app, ObjectsOptions& options);
+int runObjectsCommand(const CommonOptions& common, const ObjectsOptions& options);
+
 struct TraceOptions {
     std::string file;
     uint64_t rays = 0;

@@ -66,6 +66,8 @@ int main(int argc, char** argv) {
     veil::cli::addSweepCommand(app, sweepOptions);
     veil::cli::PstOptions pstOptions;
     veil::cli::addPstCommand(app, pstOptions);
+    veil::cli::ObjectsOptions objectsOptions;
+    veil::cli::addObjectsCommand(app, objectsOptions);
 
     // A first word that is no command and no option: name the nearest command.
     if (argc > 1 && argv[1][0] != '-') {
@@ -105,6 +107,8 @@ int main(int argc, char** argv) {
             if (sub->get_name() == "render") return veil::cli::runRender(common, renderOptions);
             if (sub->get_name() == "sweep") return veil::cli::runSweepCommand(common, sweepOptions);
             if (sub->get_name() == "pst") return veil::cli::runPstCommand(common, pstOptions);
+            if (sub->get_name() == "objects")
+                return veil::cli::runObjectsCommand(common, objectsOptions);
         }
     } catch (const veil::ParseError& e) {
         std::cerr << "veil: error: " << e.what() << "\n";

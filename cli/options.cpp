@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <iomanip>
+#include <iostream>
 #include <sstream>
 
 #include "analysis/picture.h"
@@ -216,6 +217,18 @@ void writePicture(const Picture& picture, const std::filesystem::path& stem, int
     written.add(svg);
     picture.writePng(png, widthPx);
     written.add(png);
+}
+
+void printReport(const std::string& jsonText, const std::string& text,
+                 const WrittenFiles& written, bool json, bool quiet) {
+    if (json) {
+        nlohmann::json j = nlohmann::json::parse(jsonText);
+        j["files"] = written.json();
+        std::cout << j.dump(2) << "\n";
+    } else if (!quiet) {
+        std::cout << text << "\n";
+        written.print(std::cout);
+    }
 }
 
 nlohmann::json WrittenFiles::json() const {

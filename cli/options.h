@@ -88,6 +88,11 @@ class WrittenFiles {
     std::vector<std::filesystem::path> files_;
 };
 
+// A study's closing report on standard output: with --json its JSON object (jsonText) with
+// the written files under "files"; else, unless --quiet, the text and the list of files.
+void printReport(const std::string& jsonText, const std::string& text,
+                 const WrittenFiles& written, bool json, bool quiet);
+
 // A picture as `stem`.svg and `stem`.png (widthPx wide), both listed in `written`.
 void writePicture(const Picture& picture, const std::filesystem::path& stem, int widthPx,
                   WrittenFiles& written);

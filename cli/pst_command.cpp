@@ -72,14 +72,7 @@ int runPstCommand(const CommonOptions& common, const PstOptions& o) {
     WrittenFiles written;
     if (!o.json || !o.output.empty())
         for (const auto& f : writePst(result, dir)) written.add(f);
-    if (o.json) {
-        nlohmann::json j = nlohmann::json::parse(result.json());
-        j["files"] = written.json();
-        std::cout << j.dump(2) << "\n";
-    } else if (!o.quiet) {
-        std::cout << result.markdown() << "\n";
-        written.print(std::cout);
-    }
+    printReport(result.json(), result.markdown(), written, o.json, o.quiet);
     return 0;
 }
 

@@ -12,6 +12,7 @@
 #include <chrono>
 #include <iomanip>
 #include <iostream>
+#include <sstream>
 #include <nlohmann/json.hpp>
 
 #include "analysis/sweep.h"
@@ -101,17 +102,12 @@ int runSweepCommand(const CommonOptions& common, const SweepOptions& o) {
         resumed += v.resumed;
         reused += v.geometryReused;
     }
-    if (o.json) {
-        nlohmann::json j = nlohmann::json::parse(result.json());
-        j["files"] = written.json();
-        std::cout << j.dump(2) << "\n";
-    } else if (!o.quiet) {
-        std::cout << result.markdown() << "\n"
-                  << count << " variants in " << elapsed(since()) << ": " << count - failed
-                  << " measured (" << resumed << " read from an earlier run, " << reused
-                  << " on the first variant's geometry), " << failed << " could not be run\n";
-        written.print(std::cout);
-    }
+    std::ostringstream text;
+    text << result.markdown() << "\n"
+         << count << " variants in " << elapsed(since()) << ": " << count - failed << " measured ("
+         << resumed << " read from an earlier run, " << reused
+         << " on the first variant's geometry), " << failed << " could not be run";
+    printReport(result.json(), text.str(), written, o.json, o.quiet);
     return 0;
 }
 
