@@ -9,6 +9,7 @@
 #include "analysis/chart.h"
 #include "analysis/first_order.h"
 #include "analysis/ghosts.h"
+#include "analysis/render_run.h"
 #include "analysis/stray_light_run.h"
 #include "lensdata/output_file.h"
 #include "tracer/prepared_scene.h"
@@ -39,9 +40,19 @@ PstResult runPst(const PstSpec& spec, const GlassCatalog& catalog) {
     if (!std::isfinite(spec.azimuthDeg))
         throw ParseError({"--azimuth", 0, 0}, "the azimuth must be a number of degrees");
     if (spec.batches < 2)
-        throw ParseError({"--batches", 0, 0}, "PST needs at least 2 batches for its errors");
-    if (spec.raysPerAngle < static_cast<uint64_t>(spec.batches))
+        throw ParseError({"--batches", 0, 0},
+                         "PST needs at least 2 batches (render: passes) for its errors");
+    if (!spec.render && spec.raysPerAngle < static_cast<uint64_t>(spec.batches))
         throw ParseError({"-n", 0, 0}, "fewer rays than batches");
+    if (spec.render) {
+        RenderOptions checked = spec.renderOptions;
+        if (checked.initialRadiusMm <= 0.0) checked.initialRadiusMm = 1.0;  // set per scene
+        try {
+            checked.check();
+        } catch (const std::invalid_argument& e) {
+            throw ParseError({"--measure render", 0, 0}, e.what());
+        }
+    }
 
     const double phi = spec.azimuthDeg * M_PI / 180.0;
     auto fieldOf = [&](double theta) {
@@ -79,9 +90,17 @@ PstResult runPst(const PstSpec& spec, const GlassCatalog& catalog) {
     result.detectorAreaMm2 = det.widthMm * det.heightMm;
     std::vector<std::string> where = {kNominal, kStray};
     where.insert(where.end(), spec.where.begin(), spec.where.end());
-    result.quantities = {{"total", ""}, {"nominal", kNominal}, {"stray", kStray}};
+    result.measure = spec.render ? "render" : "trace";
+    if (spec.render)
+        result.quantities = {{"total", ""},
+                             {"specular", "render: visible (nominal image and ghosts)"},
+                             {"scattered", "render: direct + caustic + secondary"}};
+    else
+        result.quantities = {{"total", ""}, {"nominal", kNominal}, {"stray", kStray}};
     for (size_t k = 0; k < spec.where.size(); ++k)
         result.quantities.push_back({"where" + std::to_string(k + 1), spec.where[k]});
+    const size_t ghostQuantity = result.quantities.size();
+    result.quantities.push_back({"ghost_estimate", "sequential, all two-reflection ghosts"});
 
     for (size_t a = 0; a < spec.anglesDeg.size(); ++a) {
         if (spec.progress) spec.progress(a, spec.anglesDeg.size());
@@ -92,20 +111,38 @@ PstResult runPst(const PstSpec& spec, const GlassCatalog& catalog) {
             prepared->replaceTransport(std::move(file), catalog);
         }
         // [quantity][batch]: flux on the first detector over the flux emitted.
-        std::vector<std::vector<double>> shares(result.quantities.size());
-        StrayLightSpec run;
-        run.raysPerSource = spec.raysPerAngle;
-        run.transport = spec.transport;
-        run.where = where;
-        runStrayLightBatches(*prepared, run, spec.batches, [&](int, const StrayLightResult& r) {
-            // The first detector's rows: its total, then the nominal image, the stray light,
-            // the user's criteria, and the rest (not kept). Each over the flux the beam
-            // brings through the entrance pupil.
-            const std::vector<StrayLightRow> rows = r.report();
-            const double incident = r.budget.emitted * throughPupil;
-            for (size_t q = 0; q < result.quantities.size(); ++q)
-                shares[q].push_back(incident > 0.0 ? rows[q].flux / incident : 0.0);
-        });
+        std::vector<std::vector<double>> shares(ghostQuantity);
+        const double emitted = prepared->trace().transport.sources.front().totalFlux();
+        if (spec.render) {
+            RenderRunSpec run;
+            run.options = spec.renderOptions;
+            run.options.seed = spec.transport.seed;
+            run.passes = spec.batches;
+            run.detector = det.name;
+            run.where = spec.where;
+            runRenderPasses(*prepared, run, [&](int, const RenderPassTotals& t) {
+                const double incident = emitted * throughPupil;
+                const double visible = t.components[static_cast<size_t>(RenderComponent::Visible)];
+                std::vector<double> values = {t.total(), visible, t.total() - visible};
+                values.insert(values.end(), t.criteria.begin(), t.criteria.end());
+                for (size_t q = 0; q < ghostQuantity; ++q)
+                    shares[q].push_back(values[q] / incident);
+            });
+        } else {
+            StrayLightSpec run;
+            run.raysPerSource = spec.raysPerAngle;
+            run.transport = spec.transport;
+            run.where = where;
+            runStrayLightBatches(*prepared, run, spec.batches, [&](int, const StrayLightResult& r) {
+                // The first detector's rows: its total, then the nominal image, the stray
+                // light, the user's criteria, and the rest (not kept). Each over the flux the
+                // beam brings through the entrance pupil.
+                const std::vector<StrayLightRow> rows = r.report();
+                const double incident = r.budget.emitted * throughPupil;
+                for (size_t q = 0; q < ghostQuantity; ++q)
+                    shares[q].push_back(incident > 0.0 ? rows[q].flux / incident : 0.0);
+            });
+        }
         PstRow row;
         row.angleDeg = theta;
         row.inField = theta <= result.fieldDeg;
@@ -114,6 +151,15 @@ PstResult runPst(const PstSpec& spec, const GlassCatalog& catalog) {
             row.pst.push_back(m.value);
             row.error.push_back(m.error);
         }
+        // The sequential ghost estimate: exact for its model, no error.
+        GhostOptions go;
+        go.detector = det.name;
+        const GhostAnalysis ghosts =
+            GhostTracer(prepared->setup(), prepared->trace(), catalog, go).analyse();
+        double ghostFlux = 0.0;
+        for (const GhostEstimate& g : ghosts.ghosts) ghostFlux += g.flux();
+        row.pst.push_back(ghostFlux / (emitted * throughPupil));
+        row.error.push_back(0.0);
         result.rows.push_back(std::move(row));
     }
     return result;
@@ -146,6 +192,8 @@ std::string PstResult::markdown() const {
         for (size_t q = 0; q < quantities.size(); ++q) {
             if (r.pst[q] == 0.0 && !(r.error[q] > 0.0))
                 os << " 0 |";
+            else if (r.error[q] == 0.0)  // the sequential estimate
+                os << " " << sci(r.pst[q], 3) << " |";
             else
                 os << " " << sci(r.pst[q], 3) << " +- " << sci(r.error[q], 2) << " |";
         }
@@ -163,6 +211,7 @@ std::string PstResult::markdown() const {
 std::string PstResult::json() const {
     nlohmann::json j;
     j["detector"] = detector;
+    j["measure"] = measure;
     j["field_deg"] = fieldDeg;
     j["aperture_area_mm2"] = apertureAreaMm2;
     j["pupil_radius_mm"] = pupilRadiusMm;
@@ -209,10 +258,12 @@ std::vector<std::filesystem::path> writePst(const PstResult& r,
         s.label = r.quantities[q].name;
         if (!r.quantities[q].criterion.empty()) s.label += " (" + r.quantities[q].criterion + ")";
         s.dashed = q == 0;
+        // The ghost estimate: points where it is above 0 (no error bars: it has none).
+        const bool estimate = r.quantities[q].name == "ghost_estimate";
         for (const PstRow& row : r.rows) {
             s.x.push_back(row.angleDeg);
             s.y.push_back(row.pst[q]);
-            s.yError.push_back(row.error[q]);
+            s.yError.push_back(estimate ? 0.0 : row.error[q]);
         }
         chart.series.push_back(std::move(s));
     }

@@ -17,7 +17,12 @@
 // geometry built once (only the source changes). The light is split into the nominal image
 // (`not fresnel and not scatter`: refracted and mirrored only), the stray light (`fresnel or
 // scatter`), and the user's criteria; inside the field of view (the system's largest field
-// angle) the nominal image is the signal and the stray light is what PST plots.
+// angle) the nominal image is the signal and the stray light is what PST plots. Rendered
+// instead (render), the split is the renderer's: the specular light (the visible component:
+// the nominal image and the ghosts) and the scattered light (direct, caustic and secondary),
+// plus the criteria. Every angle also gets the sequential estimate of all two-reflection
+// ghosts (veil ghosts' estimate, deterministic and fast; the mechanics are not in it):
+// where it fits (ghosts that no mount cuts), it is the ghost curve without noise.
 
 #include <filesystem>
 #include <functional>
@@ -26,11 +31,17 @@
 
 #include "lensdata/glass_catalog.h"
 #include "tracer/nonsequential.h"
+#include "tracer/render.h"
 
 namespace veil {
 
 struct PstSpec {
     std::filesystem::path scene;
+    // Forward Monte Carlo (the default), or the bidirectional renderer: `batches` passes per
+    // angle with these options (its seed is transport.seed), for scenes where the stray light
+    // is scatter from dark mounts that forward rays find only as speckle.
+    bool render = false;
+    RenderOptions renderOptions;
     std::vector<double> anglesDeg;  // off-axis angles, >= 0 and < 90
     double azimuthDeg = 0.0;
     uint64_t raysPerAngle = 0;
@@ -52,6 +63,7 @@ struct PstRow {
 };
 
 struct PstResult {
+    std::string measure;  // "trace" or "render"
     std::vector<PstQuantity> quantities;
     std::vector<PstRow> rows;
     double fieldDeg = 0.0;         // the system's largest field angle

@@ -12,6 +12,7 @@
 
 #include "analysis/chart.h"
 #include "analysis/ghosts.h"
+#include "analysis/render_run.h"
 #include "analysis/stray_light_run.h"
 #include "lensdata/output_file.h"
 #include "lensdata/toml_document.h"
@@ -214,6 +215,13 @@ nlohmann::json fingerprint(const SweepSpec& spec, const nlohmann::json& hashes,
     const TransportOptions& t = spec.transport;
     nlohmann::json j;
     j["format"] = 1;
+    j["measure"] = std::string(toString(spec.measure));
+    j["detector"] = spec.detector;
+    if (spec.measure == SweepMeasure::Render) {
+        std::ostringstream render;
+        render << spec.render;
+        j["render"] = render.str();
+    }
     j["inputs"] = hashes;
     for (size_t k = 0; k < spec.axes.size(); ++k) j["values"][spec.axes[k].key] = values[k];
     j["rays_per_source"] = spec.raysPerSource;
@@ -240,13 +248,43 @@ std::vector<std::string> quantityNames(const std::vector<StrayLightRow>& rows) {
 
 }  // namespace
 
+std::string_view toString(SweepMeasure m) {
+    switch (m) {
+        case SweepMeasure::Trace:
+            return "trace";
+        case SweepMeasure::Render:
+            return "render";
+        case SweepMeasure::Ghosts:
+            return "ghosts";
+    }
+    return "?";
+}
+
 SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
     if (spec.axes.empty()) throw ModelError("sweep", "nothing to vary: give at least one --vary");
-    if (spec.batches < 2)
-        throw ParseError({"--batches", 0, 0}, "a sweep needs at least 2 batches for its errors");
-    if (spec.raysPerSource < static_cast<uint64_t>(spec.batches))
+    const bool ghosts = spec.measure == SweepMeasure::Ghosts;
+    if (!ghosts && spec.batches < 2)
+        throw ParseError({"--batches", 0, 0},
+                         "a sweep needs at least 2 batches (render: passes) for its errors");
+    if (spec.measure == SweepMeasure::Trace &&
+        spec.raysPerSource < static_cast<uint64_t>(spec.batches))
         throw ParseError({"-n", 0, 0}, "fewer rays (" + std::to_string(spec.raysPerSource) +
                                            ") than batches (" + std::to_string(spec.batches) + ")");
+    if (ghosts && !spec.where.empty())
+        throw ParseError({"--where", 0, 0},
+                         "criteria split traced or rendered light: --measure ghosts has its own "
+                         "(each ghost's), see veil ghosts");
+    if (spec.measure != SweepMeasure::Trace && spec.prune && spec.measure != SweepMeasure::Render)
+        throw ParseError({"--prune", 0, 0}, "--prune needs --measure trace or render");
+    if (spec.measure == SweepMeasure::Render) {
+        RenderOptions checked = spec.render;
+        if (checked.initialRadiusMm <= 0.0) checked.initialRadiusMm = 1.0;  // set per scene
+        try {
+            checked.check();
+        } catch (const std::invalid_argument& e) {
+            throw ParseError({"--measure render", 0, 0}, e.what());
+        }
+    }
     for (size_t a = 0; a < spec.axes.size(); ++a)
         for (size_t b = 0; b < a; ++b)
             if (spec.axes[a].key == spec.axes[b].key)
@@ -263,7 +301,8 @@ SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
 
     SweepResult result;
     for (const SweepAxis& a : spec.axes) result.keys.push_back(a.key);
-    result.batches = spec.batches;
+    result.batches = ghosts ? 1 : spec.batches;
+    result.measure = std::string(toString(spec.measure));
     const nlohmann::json hashes = inputHashes(spec.scene);
     const std::filesystem::path store = spec.folder / "variants";
     std::filesystem::create_directories(store);
@@ -326,33 +365,91 @@ SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
                     own = PreparedScene::build(std::move(file), catalog);
                     prepared = own.get();
                 }
-                StrayLightSpec run;
-                run.raysPerSource = spec.raysPerSource;
-                run.transport = spec.transport;
-                run.where = spec.where;
-                run.prune = spec.prune;
-                runStrayLightBatches(
-                    *prepared, run, spec.batches, [&](int b, const StrayLightResult& r) {
-                        const std::vector<StrayLightRow> rows = r.report();
-                        if (b == 0) {
-                            const std::vector<std::string> names = quantityNames(rows);
-                            if (result.quantities.empty()) {
-                                result.quantities = names;
-                                for (const StrayLightRow& row : rows)
-                                    result.criteria.push_back(row.criterion);
-                                result.unit = r.fluxUnit;
-                            } else if (names != result.quantities) {
-                                throw ModelError("sweep",
-                                                 "its detectors differ from the first "
-                                                 "variant's, so the rows cannot be compared");
-                            }
-                            v.batchValues.assign(rows.size(), {});
+                // One batch's values: the first names the quantities.
+                auto record = [&](int b, const std::vector<std::string>& names,
+                                  const std::vector<std::string>& criteria, const std::string& unit,
+                                  const std::vector<double>& values) {
+                    if (b == 0) {
+                        if (result.quantities.empty()) {
+                            result.quantities = names;
+                            result.criteria = criteria;
+                            result.unit = unit;
+                        } else if (names != result.quantities) {
+                            throw ModelError("sweep",
+                                             "its detectors differ from the first "
+                                             "variant's, so the rows cannot be compared");
                         }
-                        for (size_t q = 0; q < rows.size(); ++q)
-                            v.batchValues[q].push_back(rows[q].flux);
-                        if (spec.progress)
-                            spec.progress(v.index, static_cast<int>(variants.size()), b + 1, label);
+                        v.batchValues.assign(values.size(), {});
+                    }
+                    for (size_t q = 0; q < values.size(); ++q)
+                        v.batchValues[q].push_back(values[q]);
+                    if (spec.progress)
+                        spec.progress(v.index, static_cast<int>(variants.size()), b + 1, label);
+                };
+                const TransportScene& ts = prepared->trace().transport;
+                const std::string unit = ts.sources.front().unit() == FluxUnit::Lumen ? "lm" : "W";
+                if (spec.measure == SweepMeasure::Trace) {
+                    StrayLightSpec run;
+                    run.raysPerSource = spec.raysPerSource;
+                    run.transport = spec.transport;
+                    run.where = spec.where;
+                    run.prune = spec.prune;
+                    runStrayLightBatches(
+                        *prepared, run, spec.batches, [&](int b, const StrayLightResult& r) {
+                            const std::vector<StrayLightRow> rows = r.report();
+                            std::vector<std::string> criteria;
+                            std::vector<double> values;
+                            for (const StrayLightRow& row : rows) {
+                                criteria.push_back(row.criterion);
+                                values.push_back(row.flux);
+                            }
+                            record(b, quantityNames(rows), criteria, r.fluxUnit, values);
+                        });
+                } else if (spec.measure == SweepMeasure::Render) {
+                    RenderRunSpec run;
+                    run.options = spec.render;
+                    run.options.seed = spec.transport.seed;
+                    run.options.prune = spec.prune;
+                    run.passes = spec.batches;
+                    run.detector = spec.detector;
+                    run.where = spec.where;
+                    std::vector<std::string> names, criteria;
+                    runRenderPasses(*prepared, run, [&](int pass, const RenderPassTotals& t) {
+                        if (names.empty()) {
+                            const std::string d = spec.detector.empty()
+                                                      ? prepared->trace().images[0].geometry().name
+                                                      : spec.detector;
+                            names.push_back(d + ": render");
+                            criteria.push_back("");
+                            for (int c = 0; c < kRenderComponents; ++c) {
+                                names.push_back(d + ": " +
+                                                std::string(toString(RenderComponent(c))));
+                                criteria.push_back("");
+                            }
+                            for (size_t k = 0; k < spec.where.size(); ++k) {
+                                names.push_back(d + ": where" + std::to_string(k + 1));
+                                criteria.push_back(spec.where[k]);
+                            }
+                        }
+                        std::vector<double> values{t.total()};
+                        for (double c : t.components) values.push_back(c);
+                        for (double c : t.criteria) values.push_back(c);
+                        record(pass - 1, names, criteria, unit, values);
                     });
+                } else {
+                    GhostOptions go;
+                    go.detector = spec.detector;
+                    const GhostTracer tracer(prepared->setup(), prepared->trace(), catalog, go);
+                    const GhostAnalysis a = tracer.analyse();
+                    double all = 0.0;
+                    for (const GhostEstimate& g : a.ghosts) all += g.flux();
+                    const std::string& d = a.detector;
+                    record(
+                        0, {d + ": nominal", d + ": ghosts", d + ": brightest ghost"},
+                        // The brightest ghost may be another pair in each variant.
+                        {nominalCriterion(d), a.allGhostsCriterion, ""}, unit,
+                        {a.nominal.flux(), all, a.ghosts.empty() ? 0.0 : a.ghosts.front().flux()});
+                }
                 if (transportOnly && !shared) shared = std::move(own);
             } catch (const std::exception& e) {
                 v.error = e.what();
@@ -386,7 +483,7 @@ SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
             SweepValue m;
             const BatchMean own = batchMean(v.batchValues[q]);
             m.value = own.value;
-            m.error = own.error;
+            m.error = ghosts ? 0.0 : own.error;  // the sequential estimate is exact
             if (first.error.empty() && q < first.batchValues.size() &&
                 first.batchValues[q].size() == v.batchValues[q].size()) {
                 std::vector<double> d;
@@ -394,7 +491,7 @@ SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
                     d.push_back(v.batchValues[q][b] - first.batchValues[q][b]);
                 const BatchMean change = batchMean(d);
                 m.change = change.value;
-                m.changeError = change.error;
+                m.changeError = ghosts ? 0.0 : change.error;
             } else {
                 m.change = m.changeError = kNaN;
             }
@@ -443,7 +540,7 @@ std::string SweepResult::markdown() const {
     auto pm = [](double v, double e) {
         if (!std::isfinite(v)) return std::string("-");
         std::string s = sci(v, 4);
-        if (std::isfinite(e)) s += " +- " + sci(e, 2);
+        if (std::isfinite(e) && e > 0.0) s += " +- " + sci(e, 2);
         return s;
     };
     for (const SweepVariant& v : variants) {
@@ -483,6 +580,7 @@ std::string SweepResult::json() const {
     j["quantities"] = quantities;
     j["criteria"] = criteria;
     j["unit"] = unit;
+    j["measure"] = measure;
     j["batches"] = batches;
     j["variants"] = nlohmann::json::array();
     for (const SweepVariant& v : variants) {
@@ -557,7 +655,12 @@ std::vector<std::filesystem::path> writeSweep(const SweepResult& r,
                 if (!r.criteria[q].empty()) s.label += " (" + r.criteria[q] + ")";
                 // A detector's total is dashed when its criteria are drawn too (the rest
                 // often lies on it).
-                s.dashed = r.criteria[q].empty() && r.quantities.size() > 1;
+                // The detector's total (trace: its name alone; render: "D: render") is
+                // dashed, drawn under its parts.
+                const std::string& name = r.quantities[q];
+                const bool total =
+                    name.find(": ") == std::string::npos || name.ends_with(": render");
+                s.dashed = total && r.quantities.size() > 1;
                 chart.series.push_back(s);
                 it = seriesKeys.end() - 1;
             }

@@ -32,6 +32,7 @@
 
 #include "lensdata/glass_catalog.h"
 #include "tracer/nonsequential.h"
+#include "tracer/render.h"
 
 namespace veil {
 
@@ -48,14 +49,39 @@ SweepAxis parseSweepAxis(const std::string& option);
 // The values of a range or list, as texts that read back to the same numbers.
 std::vector<std::string> parseSweepValues(const std::string& text, const std::string& origin);
 
+// How a variant is measured:
+//   trace   forward Monte Carlo (veil trace) in `batches` batches of raysPerSource rays per
+//           source: each detector's total and criterion layers
+//   render  the bidirectional renderer (veil render) for `batches` passes: the rendered
+//           detector's total and its components (visible, direct, caustic, secondary) and
+//           criterion images; the dark mounts' scatter that forward rays find as speckle
+//   ghosts  the sequential two-reflection ghost estimate (veil ghosts, no Monte Carlo): the
+//           nominal image, all ghosts together and the brightest ghost on the detector;
+//           deterministic, so its errors are 0
+enum class SweepMeasure { Trace, Render, Ghosts };
+std::string_view toString(SweepMeasure m);
+
 struct SweepSpec {
+    SweepMeasure measure = SweepMeasure::Trace;
+    // Render: its options (the seed is transport.seed; passes = batches) and the detector
+    // (empty: the first); ghosts: the detector. The learned aperture guide is off: guided
+    // passes draw their pixel rays from the light found so far, which differs between
+    // variants, and that would cost the variants their common random numbers.
+    RenderOptions render = unguided();
+    static RenderOptions unguided() {
+        RenderOptions o;
+        o.guideFraction = 0.0;
+        return o;
+    }
+    std::string detector;
     std::filesystem::path scene;
     std::vector<SweepAxis> axes;
     bool zip = false;  // pair the axes' values (equal counts) instead of their grid
     // Collimated 1 W beams (degrees x, y) replacing the scene's sources (--field); empty:
     // the scene's sources, or one beam per system field when it has none.
     std::vector<std::pair<double, double>> fieldsDeg;
-    // Per variant: raysPerSource rays per source in `batches` batches (seed + b).
+    // Per variant: raysPerSource rays per source in `batches` batches (seed + b); render:
+    // `batches` passes; ghosts: one deterministic estimate (rays and batches unused).
     uint64_t raysPerSource = 0;
     int batches = 16;
     TransportOptions transport;      // its seed is the first batch's
@@ -90,6 +116,7 @@ struct SweepResult {
     std::vector<std::string> quantities;  // "sensor", "sensor: where1", ..., "sensor: rest"
     std::vector<std::string> criteria;    // per quantity: the criterion text ("" for a total)
     std::string unit;                     // "W" or "lm"
+    std::string measure;                  // "trace", "render" or "ghosts"
     int batches = 0;
     std::vector<SweepVariant> variants;
 

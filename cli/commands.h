@@ -68,6 +68,10 @@ struct SweepOptions {
     std::string file;
     std::vector<std::string> vary;  // KEY=VALUES
     bool zip = false;
+    std::string measure = "trace";
+    uint64_t photons = 100000;
+    uint64_t raysPerPixel = 16;
+    std::string detector;
     uint64_t rays = 0;
     int batches = 16;
     std::string output;  // folder; default ./sweep
@@ -86,6 +90,9 @@ int runSweepCommand(const CommonOptions& common, const SweepOptions& options);
 struct PstOptions {
     std::string file;
     std::string angles;
+    std::string measure = "trace";
+    uint64_t photons = 100000;
+    uint64_t raysPerPixel = 16;
     double azimuthDeg = 0.0;
     uint64_t rays = 0;
     int batches = 16;

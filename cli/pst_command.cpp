@@ -6,6 +6,7 @@
 // Writes DIR/pst.csv, pst.md, pst.json and the plot pst.png / pst.svg; the table goes to
 // standard output (or the JSON with --json), a line per angle to standard error.
 
+#include <algorithm>
 #include <iostream>
 #include <nlohmann/json.hpp>
 
@@ -29,11 +30,21 @@ void addPstCommand(CLI::App& app, PstOptions& o) {
                     "the plane of the angles, degrees from +y toward +x (0: the y-z plane)")
         ->check(CLI::Range(-360.0, 360.0))
         ->capture_default_str();
-    addRays(sub, o.rays, "rays of the collimated beam per angle")->required();
+    sub->add_option("--measure", o.measure,
+                    "trace (forward Monte Carlo, -n rays per angle) or render (the bidirectional "
+                    "renderer, --batches passes per angle: dark mounts' scatter)")
+        ->check(CLI::IsMember({"trace", "render"}))
+        ->capture_default_str();
+    addRays(sub, o.rays, "rays of the collimated beam per angle (--measure trace)");
     sub->add_option("--batches", o.batches,
-                    "batches per angle (seeds seed..seed+batches-1): the errors come from their "
-                    "spread")
+                    "batches per angle (seeds seed..seed+batches-1; render: its passes): the "
+                    "errors come from their spread")
         ->check(CLI::Range(2, 10000))
+        ->capture_default_str();
+    addCount(sub, "--photons", o.photons, "--measure render: photons per pass")
+        ->capture_default_str();
+    addCount(sub, "--rays-per-pixel", o.raysPerPixel,
+             "--measure render: backward rays per pixel per pass")
         ->capture_default_str();
     addOutputFolder(sub, o.output, "pst");
     addRunControls(sub, o.threads, o.seed);
@@ -55,6 +66,13 @@ int runPstCommand(const CommonOptions& common, const PstOptions& o) {
         }
     }
     spec.azimuthDeg = o.azimuthDeg;
+    spec.render = o.measure == "render";
+    if (!spec.render && o.rays == 0)
+        throw ParseError({"-n", 0, 0}, "--measure trace needs the rays per angle: give -n N");
+    spec.renderOptions.photonsPerPass = o.photons;
+    spec.renderOptions.ghostPhotonsPerPass =
+        std::min<uint64_t>(spec.renderOptions.ghostPhotonsPerPass, o.photons);
+    spec.renderOptions.raysPerPixel = o.raysPerPixel;
     spec.raysPerAngle = o.rays;
     spec.batches = o.batches;
     applyTransportFlags(o.transport, spec.transport);

@@ -9,11 +9,12 @@
 // options reads instead of tracing again. A line per variant goes to standard error; the
 // table to standard output (or the JSON with --json).
 
+#include <algorithm>
 #include <chrono>
 #include <iomanip>
 #include <iostream>
-#include <sstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "analysis/sweep.h"
 #include "cli/commands.h"
@@ -34,12 +35,26 @@ void addSweepCommand(CLI::App& app, SweepOptions& o) {
         ->required();
     sub->add_flag("--zip", o.zip,
                   "pair the values of every --vary (equal counts) instead of taking their grid");
-    addRays(sub, o.rays, "emitted rays per source per variant")->required();
+    sub->add_option("--measure", o.measure,
+                    "how each variant is measured: trace (forward Monte Carlo, -n rays), render "
+                    "(the bidirectional renderer, --batches passes: dark mounts' scatter) or "
+                    "ghosts (the sequential two-reflection ghost estimate)")
+        ->check(CLI::IsMember({"trace", "render", "ghosts"}))
+        ->capture_default_str();
+    addRays(sub, o.rays, "emitted rays per source per variant (--measure trace)");
     sub->add_option("--batches", o.batches,
                     "batches per variant (seeds seed..seed+batches-1, the same in every "
-                    "variant): the errors and the errors of the changes come from their spread")
+                    "variant; render: its passes): the errors and the errors of the changes "
+                    "come from their spread")
         ->check(CLI::Range(2, 10000))
         ->capture_default_str();
+    addCount(sub, "--photons", o.photons, "--measure render: photons per source per pass")
+        ->capture_default_str();
+    addCount(sub, "--rays-per-pixel", o.raysPerPixel,
+             "--measure render: backward rays per pixel per pass")
+        ->capture_default_str();
+    sub->add_option("--detector", o.detector,
+                    "--measure render or ghosts: the detector (default: the first)");
     addOutputFolder(sub, o.output, "sweep");
     addFields(sub, o.fields);
     addRunControls(sub, o.threads, o.seed);
@@ -58,8 +73,18 @@ int runSweepCommand(const CommonOptions& common, const SweepOptions& o) {
     for (const std::string& v : o.vary) spec.axes.push_back(parseSweepAxis(v));
     spec.zip = o.zip;
     if (!o.fields.empty()) spec.fieldsDeg = parseFields(o.fields);
+    spec.measure = o.measure == "render"   ? SweepMeasure::Render
+                   : o.measure == "ghosts" ? SweepMeasure::Ghosts
+                                           : SweepMeasure::Trace;
+    if (spec.measure == SweepMeasure::Trace && o.rays == 0)
+        throw ParseError({"-n", 0, 0}, "--measure trace needs the rays per variant: give -n N");
     spec.raysPerSource = o.rays;
     spec.batches = o.batches;
+    spec.render.photonsPerPass = o.photons;
+    spec.render.ghostPhotonsPerPass =
+        std::min<uint64_t>(spec.render.ghostPhotonsPerPass, o.photons);
+    spec.render.raysPerPixel = o.raysPerPixel;
+    spec.detector = o.detector;
     applyTransportFlags(o.transport, spec.transport);
     spec.transport.seed = o.seed;
     spec.where = o.where;
