@@ -139,6 +139,15 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
         for (const FirstOrderData& d : fo.wavelengths)
             j["wavelengths"].push_back(firstOrderJson(d));
         j["field_unit"] = angle ? "deg" : "mm";
+        if (!p.system.imageHeights.empty()) {
+            j["fields_given_as"] =
+                p.system.givenFieldKind == SystemData::FieldKind::RealImageHeightMm
+                    ? "real_image_height_mm"
+                    : "paraxial_image_height_mm";
+            j["image_heights_mm"] = nlohmann::json::array();
+            for (const Field& f : p.system.imageHeights)
+                j["image_heights_mm"].push_back({{"x", f.x}, {"y", f.y}});
+        }
         j["fields"] = nlohmann::json::array();
         for (const Field& f : p.system.fields)
             j["fields"].push_back({{"x", f.x}, {"y", f.y}, {"weight", f.weight}});
@@ -241,6 +250,20 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
                << std::setw(14) << fmt(x.bflMm, 8) << std::setw(14)
                << fmt(x.entrancePupilDiameterMm, 7) << std::setw(12) << fmt(x.imageSpaceFNumber, 5)
                << "\n";
+    }
+    if (!p.system.imageHeights.empty()) {
+        const bool realHeights = p.system.givenFieldKind == SystemData::FieldKind::RealImageHeightMm;
+        os << "\nFields given as " << (realHeights ? "real" : "paraxial")
+           << " image heights, resolved into " << (angle ? "field angles" : "object heights")
+           << (realHeights ? " by aiming the real chief ray at them"
+                           : " through the paraxial chief ray")
+           << "\n";
+        for (size_t f = 0; f < p.system.fields.size(); ++f) {
+            const Field& h = p.system.imageHeights[f];
+            const Field& o = p.system.fields[f];
+            os << "  field " << f + 1 << ": (" << fmt(h.x) << ", " << fmt(h.y) << ") mm -> ("
+               << fmt(o.x, 8) << ", " << fmt(o.y, 8) << ")" << (angle ? " deg" : " mm") << "\n";
+        }
     }
     os << "\nSpots on the image surface (" << aimer.mode() << " aiming, " << options.rings
        << " rings)\n";

@@ -105,7 +105,7 @@ struct SystemAperture {
 std::ostream& operator<<(std::ostream& os, const SystemAperture& a);
 
 struct Field {
-    double x = 0.0;  // degrees for angle fields, mm for object heights
+    double x = 0.0;  // degrees for angle fields, mm for object and image heights
     double y = 0.0;
     double weight = 1.0;
 };
@@ -119,8 +119,14 @@ struct SystemData {
     std::string name;
     std::string notes;
     SystemAperture aperture;
-    enum class FieldKind { AngleDeg, ObjectHeightMm };
+    // Image heights (paraxial: on the paraxial image plane; real: where the real chief ray
+    // meets the image surface) are what a file may give; resolveImageHeightFields()
+    // (tracer/image_fields.h) turns them into angles or object heights before any trace, and
+    // keeps them in imageHeights.
+    enum class FieldKind { AngleDeg, ObjectHeightMm, ParaxialImageHeightMm, RealImageHeightMm };
     FieldKind fieldKind = FieldKind::AngleDeg;
+    FieldKind givenFieldKind = FieldKind::AngleDeg;  // as the file gave them
+    std::vector<Field> imageHeights;                 // the file's image heights, once resolved
     bool rectangularField = false;  // fields span a rectangle (x, y) rather than a radius
     std::vector<Field> fields;
     std::vector<Wavelength> wavelengths;

@@ -375,19 +375,29 @@ void LensReader::readAperture(const TomlTable& system) {
 void LensReader::readFields(const TomlTable& system) {
     SystemData& sys = p_.system;
     const auto deg = system.get("fields_deg");
-    const auto mm = system.get("fields_mm");
-    if (deg && mm)
-        laterInFile(*deg, *mm).fail(
-            "give fields_deg (angles) or fields_mm (object heights), "
-            "not both");
-    if (mm && std::isinf(p_.surfaces[0].thicknessMm))
-        mm->fail(
+    const auto objectMm = system.get("fields_mm");
+    const auto paraxialMm = system.get("fields_paraxial_image_mm");
+    const auto realMm = system.get("fields_real_image_mm");
+    std::optional<TomlValue> given;
+    for (const auto* f : {&deg, &objectMm, &paraxialMm, &realMm}) {
+        if (!*f) continue;
+        if (given)
+            laterInFile(*given, **f).fail(
+                "give one of fields_deg (angles), fields_mm (object heights), "
+                "fields_paraxial_image_mm or fields_real_image_mm (image heights), not two");
+        given = **f;
+    }
+    if (objectMm && std::isinf(p_.surfaces[0].thicknessMm))
+        objectMm->fail(
             "fields_mm gives object heights, which need a finite object_distance_mm; use "
             "fields_deg for an object at infinity");
-    sys.fieldKind = mm ? SystemData::FieldKind::ObjectHeightMm : SystemData::FieldKind::AngleDeg;
-    const NumberRange range = mm ? NumberRange::any() : NumberRange::strictlyBetween(-90, 90);
+    sys.fieldKind = objectMm     ? SystemData::FieldKind::ObjectHeightMm
+                    : paraxialMm ? SystemData::FieldKind::ParaxialImageHeightMm
+                    : realMm     ? SystemData::FieldKind::RealImageHeightMm
+                                 : SystemData::FieldKind::AngleDeg;
+    const NumberRange range = deg ? NumberRange::strictlyBetween(-90, 90) : NumberRange::any();
 
-    if (const auto& list = deg ? deg : mm) {
+    if (const auto& list = given) {
         const std::vector<TomlValue> entries = list->asArray();
         if (entries.empty()) list->fail(list->path() + " needs at least one field");
         for (const TomlValue& entry : entries) {

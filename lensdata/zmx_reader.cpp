@@ -633,10 +633,11 @@ bool ZmxParser::surfaceCommand(const std::string& tag, const Line& line) {
 void ZmxParser::endSurface() {
     if (!unsupported_) return;
     std::string msg = "surface type " + unsupported_->type +
-                      " is not supported; the surface is kept as a STANDARD surface with its "
-                      "curvature, conic and thickness";
+                      " is not supported by veil (read as a STANDARD surface it would lose its "
+                      "shape";
     if (!unsupported_->lostParameters.empty())
-        msg += "; lost: " + joinNames(unsupported_->lostParameters);
+        msg += ": " + joinNames(unsupported_->lostParameters);
+    msg += ")";
     note(Severity::Error, unsupported_->loc, msg);
     unsupported_.reset();
 }
@@ -811,6 +812,12 @@ void ZmxParser::buildFields() {
         sys.fieldKind = SystemData::FieldKind::AngleDeg;
     } else if (type == 1) {
         sys.fieldKind = SystemData::FieldKind::ObjectHeightMm;
+        for (Field& f : sys.fields) f.x *= mmPerUnit_, f.y *= mmPerUnit_;
+    } else if (type == 2 || type == 3) {
+        // Image heights: resolved into angles or object heights once the model exists
+        // (tracer/image_fields.h).
+        sys.fieldKind = type == 2 ? SystemData::FieldKind::ParaxialImageHeightMm
+                                  : SystemData::FieldKind::RealImageHeightMm;
         for (Field& f : sys.fields) f.x *= mmPerUnit_, f.y *= mmPerUnit_;
     } else {
         static const char* kNames[] = {"angle", "object height", "paraxial image height",

@@ -18,6 +18,11 @@ RayAimer::RayAimer(const SequentialModel& model, const PupilData& pupil, AimMode
       pupil_(pupil),
       mode_(mode),
       angleField_(model.prescription().system.fieldKind == SystemData::FieldKind::AngleDeg) {
+    const SystemData::FieldKind kind = model.prescription().system.fieldKind;
+    if (kind == SystemData::FieldKind::ParaxialImageHeightMm ||
+        kind == SystemData::FieldKind::RealImageHeightMm)
+        throw ModelError("fields", "image-height fields must be resolved into object space first "
+                                   "(resolveImageHeightFields, tracer/image_fields.h)");
     if (!angleField_ && model.objectAtInfinity())
         throw ModelError("fields", "object-height fields need a finite object distance");
 }

@@ -3,11 +3,13 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <sstream>
 
 #include "geometry/lens_solid.h"
 #include "lensdata/lens_file.h"
 #include "lensdata/toml_reader.h"
 #include "tracer/auto_apertures.h"
+#include "tracer/image_fields.h"
 #include "tracer/sequential_model.h"
 
 namespace veil {
@@ -33,7 +35,21 @@ std::shared_ptr<const SequentialModel> modelOf(const Prescription& p, const Glas
     return std::make_shared<const SequentialModel>(SequentialModel::build(p, catalog));
 }
 
-void size(SceneFile& f, const Prescription& p, const GlassCatalog& catalog) {
+void size(SceneFile& f, const Prescription& given, const GlassCatalog& catalog) {
+    // An error in the import report (a glass no catalog has, a surface type veil does not
+    // model, a field type it cannot read) stops here, before anything is built: the first at
+    // its place in the file, every other one after it.
+    std::vector<const ImportNote*> errors;
+    for (const ImportNote& n : given.report)
+        if (n.severity == ImportNote::Severity::Error) errors.push_back(&n);
+    if (!errors.empty()) {
+        std::ostringstream more;
+        for (size_t i = 1; i < errors.size(); ++i) more << "\n  and " << *errors[i];
+        throw ParseError(errors.front()->loc, errors.front()->message + more.str());
+    }
+    // Image-height fields become angles or object heights first: everything after traces
+    // from object space.
+    const Prescription p = resolveImageHeightFields(given, catalog);
     auto model = modelOf(p, catalog);
     bool open = false;
     for (size_t i = 1; i < p.surfaces.size(); ++i)

@@ -147,6 +147,18 @@ TEST(VeilInfo, UnknownZmxGlassNamesItsLineAndTheFix) {
     EXPECT_NE(r.err.find("--glass-catalog"), std::string::npos) << r.err;
 }
 
+// A surface type veil does not model is an error that stops the command (exit 1) before
+// anything is built, named at its line, with every other error of the import after it.
+TEST(VeilInfo, UnsupportedSurfaceTypesStopWithEveryErrorNamed) {
+    const VeilRun r = runVeil("info tests/data/zmx/unsupported.zmx");
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_NE(r.err.find("tests/data/zmx/unsupported.zmx:28:"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("surface type COORDBRK"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("tests/data/zmx/unsupported.zmx:38:"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("surface type TOROIDAL"), std::string::npos) << r.err;
+    EXPECT_EQ(r.out, "");
+}
+
 }  // namespace
 
 namespace {
