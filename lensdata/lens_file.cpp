@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 
+#include "lensdata/codev_reader.h"
 #include "lensdata/toml_reader.h"
 #include "lensdata/zmx_reader.h"
 
@@ -15,8 +16,9 @@ Prescription readLensFile(const std::filesystem::path& path, const GlassCatalog&
     if (!std::filesystem::exists(path)) throw ParseError({path.string(), 0, 0}, "no such file");
     if (ext == ".zmx") return readZmx(path, catalog);
     if (ext == ".toml") return readTomlPrescriptionFile(path, catalog);
+    if (ext == ".seq") return readCodeV(path, catalog);
     throw ParseError({path.string(), 0, 0},
-                     "unknown lens file type '" + ext + "' (expected .toml or .zmx)");
+                     "unknown lens file type '" + ext + "' (expected .toml, .zmx or .seq)");
 }
 
 }  // namespace veil
