@@ -322,7 +322,14 @@ ObjectsResult runObjects(const PreparedScene& prepared, const ObjectsSpec& spec)
             throw ParseError({"--source " + spec.source, 0, 0},
                              "no source '" + spec.source + "' (the scene has " + known + ")");
     }
-    for (const Source& s : lit.sources) result.sources.push_back(s.name());
+    for (const Source& s : lit.sources) {
+        result.sources.push_back(s.name());
+        if (s.unit() != lit.sources.front().unit())
+            throw ParseError({"--source", 0, 0},
+                             "sources " + lit.sources.front().name() + " and " + s.name() +
+                                 " emit in different units (W and lm): their shares cannot be "
+                                 "added; choose one with --source");
+    }
     result.detector = det->name;
     const Bounds3 bounds = scene.bounds();
     const double size = bounds.empty() ? 1.0 : std::max(1.0, glm::length(bounds.hi - bounds.lo));

@@ -49,6 +49,7 @@ TEST(ExamplesSmoke, EveryExampleRunsThroughEveryCommand) {
             // A window source has no sequential ghost estimate: ghosts asks for --field.
             "ghosts " + f + " -n 100 --grid 12 --top 0 --quiet -o " + dir + "/ghosts" +
                 (window ? " --field 0,0.3" : ""),
+            "objects " + f + " -n 200 --quiet -o " + dir + "/objects",
         };
         for (const std::string& c : commands) {
             SCOPED_TRACE(c);
@@ -61,6 +62,7 @@ TEST(ExamplesSmoke, EveryExampleRunsThroughEveryCommand) {
         EXPECT_TRUE(std::filesystem::exists(dir + "/trace/summary.json")) << f;
         EXPECT_TRUE(std::filesystem::exists(dir + "/paths/paths.svg")) << f;
         EXPECT_TRUE(std::filesystem::exists(dir + "/ghosts/ghosts.md")) << f;
+        EXPECT_TRUE(std::filesystem::exists(dir + "/objects/objects.png")) << f;
     }
     std::filesystem::remove_all(out);
 }
