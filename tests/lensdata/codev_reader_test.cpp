@@ -119,6 +119,25 @@ TEST(CodeVReader, SyntaxAsCodeVWritesIt) {
     EXPECT_NEAR(rx.surfaces[6].thicknessMm, (-1.0 + 0.01) * in, 1e-12);
 }
 
+// Image-height fields keep their kind (resolved when a scene is built) and the lens units.
+TEST(CodeVReader, ImageHeightFieldsInLensUnits) {
+    const std::string head = "RDM;LEN\nDIM C\nEPD 1\nWL 550\n";
+    const std::string lens = "SO 0 1e11\nS 5 0.5 1.5168:64.17\n  STO\nS -5 9.5\nSI 0 0\n";
+    const Prescription paraxial =
+        readCodeVText(head + "XIM 0 0.3\nYIM 0 0.4\n" + lens, "yim.seq", GlassCatalog::builtIn());
+    EXPECT_EQ(paraxial.system.fieldKind, SystemData::FieldKind::ParaxialImageHeightMm);
+    ASSERT_EQ(paraxial.system.fields.size(), 2u);
+    EXPECT_DOUBLE_EQ(paraxial.system.fields[1].x, 3.0);  // cm to mm
+    EXPECT_DOUBLE_EQ(paraxial.system.fields[1].y, 4.0);
+    const Prescription real =
+        readCodeVText(head + "YRI 0 0.4\n" + lens, "yri.seq", GlassCatalog::builtIn());
+    EXPECT_EQ(real.system.fieldKind, SystemData::FieldKind::RealImageHeightMm);
+    EXPECT_DOUBLE_EQ(real.system.fields[1].x, 0.0);
+    EXPECT_THROW(
+        readCodeVText(head + "YAN 0 5\nYRI 0 0.4\n" + lens, "mixed.seq", GlassCatalog::builtIn()),
+        ParseError);
+}
+
 TEST(CodeVReader, WhatVeilCannotRepresentIsAnErrorAtItsLine) {
     const std::string text =
         "RDM;LEN\nEPD 10\nWL 550\nYAN 0\nSO 0 1e11\nS 50 5 NBK7_SCHOTT\n  STO\n"
