@@ -82,6 +82,7 @@ struct ShapeParts {
     double c = 0.0;
     double k = 0.0;
     std::array<double, 10> a{};
+    std::array<double, 9> b{};  // odd terms, b[j] r^(2j+3)
     bool hasPolynomial = false;
 };
 ShapeParts partsOf(const SurfaceShape& shape) {
@@ -95,9 +96,11 @@ ShapeParts partsOf(const SurfaceShape& shape) {
             } else if constexpr (std::is_same_v<S, ConicShape>) {
                 return {s.curvature, s.conic, {}, false};
             } else {
-                const bool poly = std::any_of(s.coefficients.begin(), s.coefficients.end(),
-                                              [](double v) { return v != 0.0; });
-                return {s.curvature, s.conic, s.coefficients, poly};
+                const auto nonzero = [](double v) { return v != 0.0; };
+                const bool poly =
+                    std::any_of(s.coefficients.begin(), s.coefficients.end(), nonzero) ||
+                    std::any_of(s.odd.begin(), s.odd.end(), nonzero);
+                return {s.curvature, s.conic, s.coefficients, s.odd, poly};
             }
         },
         shape);
@@ -150,7 +153,19 @@ double curvatureBound(const SurfaceShape& shape, double uLo, double uHi) {
             s2 = p.c == 0.0 ? 0.0 : p.c * bigK / 4.0;
             s2 += 2.0 * p.a[1];
         }
-        return std::max(std::abs(2.0 * s1 + 4.0 * u * s2), std::abs(2.0 * s1));
+        // The odd terms b r^n (n = 2j + 3) in r directly: radial z'' = n (n - 1) b r^(n-2),
+        // tangential z' / r = n b r^(n-2), both finite on the axis.
+        double radial = 0.0, tangential = 0.0;
+        const double r = std::sqrt(u);
+        double rPow = r;  // r^(n-2)
+        for (int j = 0; j < 9; ++j) {
+            const double n = 2.0 * j + 3.0;
+            radial += n * (n - 1.0) * p.b[j] * rPow;
+            tangential += n * p.b[j] * rPow;
+            rPow *= u;
+        }
+        return std::max(std::abs(2.0 * s1 + 4.0 * u * s2 + radial),
+                        std::abs(2.0 * s1 + tangential));
     };
     if (!p.hasPolynomial) return std::max(eigen(uLo), eigen(uHi));
     double m = 0.0;
@@ -164,8 +179,8 @@ double curvatureBound(const SurfaceShape& shape, double uLo, double uHi) {
 
 }  // namespace
 
-// Enclosure of the sag over u in [uLo, uHi]. The conic part and every term a[i] u^(i+1) are
-// monotone in u >= 0, so over a subinterval each lies between its values at the ends; the
+// Enclosure of the sag over u in [uLo, uHi]. The conic part, every term a[i] u^(i+1) and every
+// odd term b[j] u^(j+1.5) are monotone in u >= 0, so over a subinterval each lies between its values at the ends; the
 // sum of those ranges encloses the sag. Summed over kSagEnclosurePieces subintervals the
 // overestimate is small, and the result is widened by a few ulps of the magnitudes, so it is
 // a safe bound rather than a sampled guess.
@@ -196,6 +211,15 @@ void sagRange(const SurfaceShape& shape, double uLo, double uHi, double& zLo, do
             magnitude += std::max(std::abs(t0), std::abs(t1));
             pow0 *= u0;
             pow1 *= u1;
+        }
+        double odd0 = u0 * std::sqrt(u0), odd1 = u1 * std::sqrt(u1);  // u^(j+1.5)
+        for (int i = 0; i < 9; ++i) {
+            const double t0 = p.b[i] * odd0, t1 = p.b[i] * odd1;
+            lo += std::min(t0, t1);
+            hi += std::max(t0, t1);
+            magnitude += std::max(std::abs(t0), std::abs(t1));
+            odd0 *= u0;
+            odd1 *= u1;
         }
         const double slack = 32.0 * kEpsilon * magnitude;
         zLo = std::min(zLo, lo - slack);

@@ -45,7 +45,9 @@ std::vector<double> vertexZ(const Prescription& p) {
     return z;
 }
 
-SurfaceShape shapeOf(const Surface& s) { return makeShape(s.curvature, s.conic, s.asphere); }
+SurfaceShape shapeOf(const Surface& s) {
+    return makeShape(s.curvature, s.conic, s.asphere, s.oddAsphere);
+}
 
 bool close(double a, double b, double rel) {
     return std::abs(a - b) <= rel * std::max(std::abs(a), std::abs(b));
@@ -56,6 +58,9 @@ bool sameShape(const Surface& a, const Surface& b) {
     if (std::abs(a.conic - b.conic) > kSameShapeRel * (1.0 + std::abs(a.conic))) return false;
     for (size_t i = 0; i < a.asphere.size(); ++i) {
         if (!close(a.asphere[i], b.asphere[i], kSameShapeRel)) return false;
+    }
+    for (size_t j = 0; j < a.oddAsphere.size(); ++j) {
+        if (!close(a.oddAsphere[j], b.oddAsphere[j], kSameShapeRel)) return false;
     }
     return true;
 }

@@ -80,8 +80,25 @@ double polySlope(const std::array<double, 10>& a, double u) {
     return acc * u + a[0];
 }
 
-bool allZero(const std::array<double, 10>& a) {
+template <size_t N>
+bool allZero(const std::array<double, N>& a) {
     return std::all_of(a.begin(), a.end(), [](double v) { return v == 0.0; });
+}
+
+// Odd part O(u) = sum b[j] r^(2j+3) = r u Q(u) with Q(u) = sum b[j] u^j, r = sqrt(u), and
+// dO/du = r (1.5 Q(u) + u Q'(u)): finite, and 0 on the axis.
+double oddSag(const std::array<double, 9>& b, double u) {
+    double q = 0.0;
+    for (int j = 8; j >= 0; --j) q = q * u + b[j];
+    return std::sqrt(u) * u * q;
+}
+double oddSlope(const std::array<double, 9>& b, double u) {
+    double q = 0.0, dq = 0.0;
+    for (int j = 8; j >= 0; --j) {
+        dq = dq * u + q;
+        q = q * u + b[j];
+    }
+    return std::sqrt(u) * (1.5 * q + u * dq);
 }
 
 // Conic Intersection
@@ -239,22 +256,29 @@ std::optional<ShapeHit> conicFirst(const SurfaceShape& shape, const ConicBase& b
 class AsphereAlongRay {
   public:
     AsphereAlongRay(const EvenAsphereShape& shape, const Vec3& p, const Vec3& d)
-        : base_{shape.curvature, shape.conic}, a_(shape.coefficients), p_(p), d_(d) {
+        : base_{shape.curvature, shape.conic},
+          a_(shape.coefficients),
+          b_(shape.odd),
+          hasOdd_(!allZero(shape.odd)),
+          p_(p),
+          d_(d) {
         bigK_ = base_.bigK();
     }
 
     double value(double s) const {
         const double x = p_.x + s * d_.x, y = p_.y + s * d_.y, z = p_.z + s * d_.z;
         const double u = x * x + y * y;
-        return z - (conicSagClamped(base_, u) + polySag(a_, u));
+        return z - (conicSagClamped(base_, u) + polySag(a_, u) + (hasOdd_ ? oddSag(b_, u) : 0.0));
     }
     void valueAndSlope(double s, double& f, double& df) const {
         const double x = p_.x + s * d_.x, y = p_.y + s * d_.y, z = p_.z + s * d_.z;
         const double u = x * x + y * y;
         double zc, dzc;
         conicSagAndSlopeClamped(base_, u, zc, dzc);
-        f = z - (zc + polySag(a_, u));
-        df = d_.z - (dzc + polySlope(a_, u)) * 2.0 * (x * d_.x + y * d_.y);
+        const double odd = hasOdd_ ? oddSag(b_, u) : 0.0;
+        const double oddSlopeU = hasOdd_ ? oddSlope(b_, u) : 0.0;
+        f = z - (zc + polySag(a_, u) + odd);
+        df = d_.z - (dzc + polySlope(a_, u) + oddSlopeU) * 2.0 * (x * d_.x + y * d_.y);
     }
 
     // Enclosure of S and S' over u in [uLo, uHi], and a bound on the magnitudes summed.
@@ -283,6 +307,27 @@ class AsphereAlongRay {
             derHi = powHi;
             powLo *= uLo;
             powHi *= uHi;
+        }
+        // Odd terms b[j] u^(j + 1.5) and their u-slopes (j + 1.5) b[j] u^(j + 0.5): each
+        // monotone in u >= 0, so between its values at the ends.
+        if (!hasOdd_) return r;
+        const double sLo = std::sqrt(uLo), sHi = std::sqrt(uHi);
+        double oLo = uLo * sLo, oHi = uHi * sHi;  // u^(j+1.5)
+        double qLo = sLo, qHi = sHi;              // u^(j+0.5)
+        for (int j = 0; j < 9; ++j) {
+            if (b_[j] != 0.0) {
+                const double t0 = b_[j] * oLo, t1 = b_[j] * oHi;
+                r.lo += std::min(t0, t1);
+                r.hi += std::max(t0, t1);
+                r.magnitude += std::max(std::abs(t0), std::abs(t1));
+                const double e0 = (j + 1.5) * b_[j] * qLo, e1 = (j + 1.5) * b_[j] * qHi;
+                r.slopeLo += std::min(e0, e1);
+                r.slopeHi += std::max(e0, e1);
+            }
+            oLo *= uLo;
+            oHi *= uHi;
+            qLo *= uLo;
+            qHi *= uHi;
         }
         return r;
     }
@@ -397,6 +442,8 @@ class AsphereAlongRay {
     ConicBase base_;
     double bigK_ = 0.0;
     std::array<double, 10> a_;
+    std::array<double, 9> b_;
+    bool hasOdd_ = false;  // any odd term: else their sums are skipped
     Vec3 p_, d_;
 };
 
@@ -611,6 +658,10 @@ std::ostream& operator<<(std::ostream& os, const EvenAsphereShape& s) {
     for (size_t i = 0; i < s.coefficients.size(); ++i) {
         os << (i ? ", " : "") << s.coefficients[i];
     }
+    if (!allZero(s.odd)) {
+        os << "], odd r^3.. [";
+        for (size_t j = 0; j < s.odd.size(); ++j) os << (j ? ", " : "") << s.odd[j];
+    }
     return os << "]}";
 }
 std::ostream& operator<<(std::ostream& os, const SurfaceShape& s) {
@@ -623,8 +674,9 @@ std::ostream& operator<<(std::ostream& os, const ShapeHit& h) {
 
 // Surface Shape Functions
 
-SurfaceShape makeShape(double curvature, double conic, const std::array<double, 10>& asphere) {
-    if (!allZero(asphere)) return EvenAsphereShape{curvature, conic, asphere};
+SurfaceShape makeShape(double curvature, double conic, const std::array<double, 10>& asphere,
+                       const std::array<double, 9>& odd) {
+    if (!allZero(asphere) || !allZero(odd)) return EvenAsphereShape{curvature, conic, asphere, odd};
     if (curvature == 0.0) return PlaneShape{};
     if (conic == 0.0) return SphereShape{curvature};
     return ConicShape{curvature, conic};
@@ -641,7 +693,8 @@ double sag(const SurfaceShape& shape, double rSq) {
             } else if constexpr (std::is_same_v<S, ConicShape>) {
                 return conicSag({s.curvature, s.conic}, rSq);
             } else {
-                return conicSag({s.curvature, s.conic}, rSq) + polySag(s.coefficients, rSq);
+                return conicSag({s.curvature, s.conic}, rSq) + polySag(s.coefficients, rSq) +
+                       oddSag(s.odd, rSq);
             }
         },
         shape);
@@ -662,7 +715,8 @@ Vec3 surfaceNormal(const SurfaceShape& shape, const Vec3& point) {
                 const ConicBase b{s.curvature, s.conic};
                 const double u = point.x * point.x + point.y * point.y;
                 const double w = std::sqrt(std::max(0.0, 1.0 - b.bigK() * u));
-                const double m = b.c + 2.0 * w * polySlope(s.coefficients, u);
+                const double m =
+                    b.c + 2.0 * w * (polySlope(s.coefficients, u) + oddSlope(s.odd, u));
                 return {-point.x * m, -point.y * m, w};
             } else {
                 const ConicBase b = conicBase(s);
@@ -689,7 +743,7 @@ std::optional<double> intersectSequential(const SurfaceShape& shape, const Ray& 
                 if (localRay.direction.z == 0.0) return std::nullopt;
                 return -localRay.origin.z / localRay.direction.z;
             } else if constexpr (std::is_same_v<S, EvenAsphereShape>) {
-                if (allZero(s.coefficients)) {
+                if (allZero(s.coefficients) && allZero(s.odd)) {
                     return conicSequential({s.curvature, s.conic}, localRay);
                 }
                 return asphereSequential(s, localRay);
@@ -716,7 +770,7 @@ std::optional<ShapeHit> intersectFirst(const SurfaceShape& shape, const Ray& loc
                 if (!withinRadius(point, rMax, glm::length(o) + std::abs(t))) return std::nullopt;
                 return ShapeHit{t, point, {0.0, 0.0, 1.0}};
             } else if constexpr (std::is_same_v<S, EvenAsphereShape>) {
-                if (allZero(s.coefficients)) {
+                if (allZero(s.coefficients) && allZero(s.odd)) {
                     return conicFirst(shape, {s.curvature, s.conic}, localRay, tMin, tMax, rMax,
                                       startsOnSurface);
                 }

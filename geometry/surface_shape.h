@@ -10,6 +10,9 @@
 //   sphere         z = c r^2 / (1 + sqrt(1 - c^2 r^2))
 //   conic          z = c r^2 / (1 + sqrt(1 - (1 + k) c^2 r^2))
 //   even asphere   conic + sum_i a[i] r^(2i+2)      (a[0] r^2, a[1] r^4 = A4, ... a[9] = A20)
+//                  + sum_j b[j] r^(2j+3)            (odd terms r^3, r^5, ... r^19: Zemax's
+//                                                    ODDASPH; no r^1 term, which would put a
+//                                                    cone's tip at the vertex)
 //
 // Units: lengths in mm, curvature c in 1/mm (c > 0 when the centre of curvature is at +z),
 // k dimensionless (k > 0 oblate ellipsoid, 0 sphere, (-1, 0) prolate ellipsoid, -1
@@ -43,6 +46,7 @@ struct EvenAsphereShape {
     double curvature = 0.0;
     double conic = 0.0;
     std::array<double, 10> coefficients{};  // coefficients[i] multiplies r^(2i+2)
+    std::array<double, 9> odd{};            // odd[j] multiplies r^(2j+3), in mm^-(2j+2)
 };
 
 using SurfaceShape = std::variant<PlaneShape, SphereShape, ConicShape, EvenAsphereShape>;
@@ -56,7 +60,8 @@ std::ostream& operator<<(std::ostream& os, const SurfaceShape& s);
 // every a[i] == 0 (the conic constant of a flat surface has no effect), a sphere when also
 // k == 0, a conic when only the a[i] vanish, an even asphere otherwise (a[0] r^2 curves a
 // flat base, so it makes an asphere too).
-SurfaceShape makeShape(double curvature, double conic, const std::array<double, 10>& asphere);
+SurfaceShape makeShape(double curvature, double conic, const std::array<double, 10>& asphere,
+                       const std::array<double, 9>& odd = {});
 
 // Sag z at radial distance squared rSq (mm^2). NaN outside the conic's domain.
 double sag(const SurfaceShape& shape, double rSq);

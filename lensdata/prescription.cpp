@@ -30,6 +30,8 @@ std::ostream& operator<<(std::ostream& os, const Material& m) { return os << m.l
 bool Surface::hasAsphere() const {
     for (double a : asphere)
         if (a != 0.0) return true;
+    for (double b : oddAsphere)
+        if (b != 0.0) return true;
     return false;
 }
 

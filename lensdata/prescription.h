@@ -53,6 +53,8 @@ struct Surface {
     // Even asphere: sag += sum_i asphere[i] r^(2i+2), so asphere[0] multiplies r^2 and
     // asphere[1..9] are A4..A20.
     std::array<double, 10> asphere{};
+    // Odd asphere terms (Zemax ODDASPH): sag += sum_j oddAsphere[j] r^(2j+3), r^3 .. r^19.
+    std::array<double, 9> oddAsphere{};
     double thicknessMm = 0.0;  // to the next surface; may be +-kInfinity for the object
     Material material;         // medium after this surface (gap index = this surface's index)
 

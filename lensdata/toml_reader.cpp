@@ -22,6 +22,7 @@
 //   conic               number                       0             conic constant k
 //   asph                [A4, A6, ..., A20]           []            even asphere terms
 //   asph_r2             number                       0             A2 (r^2 term)
+//   asph_odd            [B3, B5, ..., B19]           []            odd asphere terms
 //   stop, mirror        bool                         false
 //   coating, name, comment  string                   ""
 //   image               bool, last row only          false         the row is the image
@@ -303,6 +304,14 @@ void LensReader::readShape(const TomlTable& row, Surface& s) {
                        std::to_string(s.asphere.size() - 1) + " terms (got " +
                        std::to_string(terms.size()) + ")");
         for (size_t j = 0; j < terms.size(); ++j) s.asphere[j + 1] = terms[j].asNumber();
+    }
+    if (const auto odd = row.get("asph_odd")) {
+        const std::vector<TomlValue> terms = odd->asArray();
+        if (terms.size() > s.oddAsphere.size())
+            odd->fail("asph_odd lists the terms of r^3, r^5, ..., r^19: at most " +
+                      std::to_string(s.oddAsphere.size()) + " (got " +
+                      std::to_string(terms.size()) + ")");
+        for (size_t j = 0; j < terms.size(); ++j) s.oddAsphere[j] = terms[j].asNumber();
     }
 }
 

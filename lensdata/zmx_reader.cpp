@@ -519,7 +519,7 @@ bool ZmxParser::surfaceCommand(const std::string& tag, const Line& line) {
         (void)s;
         const std::string type = upper(arg(line, 1, "surface type").text);
         surfaceTypes_.back() = type;
-        if (type != "STANDARD" && type != "EVENASPH")
+        if (type != "STANDARD" && type != "EVENASPH" && type != "ODDASPH")
             unsupported_ = UnsupportedSurface{restOfLine(line, 1), locOf(line, line.tokens[1]), {}};
     } else if (tag == "CURV") {
         // CURV <curvature> <solve type> <solve parameters...> "<pickup name>"
@@ -552,6 +552,19 @@ bool ZmxParser::surfaceCommand(const std::string& tag, const Line& line) {
                                                        std::string(line.tokens[2].text));
         } else if (type == "EVENASPH" && n >= 1 && n <= static_cast<int>(s.asphere.size())) {
             s.asphere[n - 1] = v;
+        } else if (type == "ODDASPH" && n >= 1 && n <= 8) {
+            // ODDASPH: PARM n multiplies r^n. Even powers join the even asphere (r^2 n / 2 - 1),
+            // odd ones the odd terms; r^1 would put a cone's tip on the axis.
+            if (n == 1) {
+                if (v != 0.0)
+                    note(Severity::Error, locOf(line, line.tokens[2]),
+                         "ODDASPH PARM 1 = " + std::string(line.tokens[2].text) +
+                             ": a term in r^1 (a cone at the vertex) is not supported by veil");
+            } else if (n % 2 == 0) {
+                s.asphere[static_cast<size_t>(n / 2 - 1)] = v;
+            } else {
+                s.oddAsphere[static_cast<size_t>((n - 3) / 2)] = v;
+            }
         } else if (v != 0.0) {
             note(Severity::Warning, locOf(line, line.tokens[1]),
                  "PARM " + std::to_string(n) + " = " + std::string(line.tokens[2].text) +
@@ -787,6 +800,9 @@ void ZmxParser::convertUnits() {
         // asphere[i] multiplies r^(2i+2) and has units length^-(2i+1).
         for (size_t i = 0; i < s.asphere.size(); ++i)
             s.asphere[i] *= std::pow(f, -(2.0 * static_cast<double>(i) + 1.0));
+        // oddAsphere[j] multiplies r^(2j+3): units length^-(2j+2).
+        for (size_t j = 0; j < s.oddAsphere.size(); ++j)
+            s.oddAsphere[j] *= std::pow(f, -(2.0 * static_cast<double>(j) + 2.0));
     }
     note(Severity::Info, unitLoc_,
          "lens units " + unitName_ + ": lengths converted to mm (x " + formatNumber(f) + ")");

@@ -236,7 +236,7 @@ SceneSetup buildScene(const SceneFile& file, const GlassCatalog& catalog,
             sensorRadius =
                 std::max(sensorRadius, std::hypot(0.5 * d.sizeMm->x + std::abs(d.centerMm.x),
                                                   0.5 * d.sizeMm->y + std::abs(d.centerMm.y)));
-    det.geometry = FaceGeometry{SurfacePatch{makeShape(is.curvature, is.conic, is.asphere),
+    det.geometry = FaceGeometry{SurfacePatch{makeShape(is.curvature, is.conic, is.asphere, is.oddAsphere),
                                              CircularAperture{sensorRadius}}};
     det.sequentialSurface = image;
     s.scene.addObject(std::move(det));

@@ -38,7 +38,7 @@ SequentialModel SequentialModel::build(const Prescription& p, const GlassCatalog
         const Surface& s = p.surfaces[i];
         SequentialSurface seq;
         seq.name = s.name;
-        seq.shape = makeShape(s.curvature, s.conic, s.asphere);
+        seq.shape = makeShape(s.curvature, s.conic, s.asphere, s.oddAsphere);
         seq.clearSemiDiameterMm = s.clearSemiDiameterMm;
         seq.mirror = s.mirror;
         seq.stop = i == m.stopIndex_;

@@ -235,6 +235,7 @@ INSTANTIATE_TEST_SUITE_P(
     Examples, SceneClosestHit,
     ::testing::Values(
         OracleCase{"singlet_default_mechanics", "lenses/singlet", 20000},
+        OracleCase{"odd_asphere_singlet", "../tests/data/toml/odd_asphere_singlet", 20000},
         OracleCase{"achromat_default_mechanics", "lenses/achromat", 20000},
         OracleCase{"cooke_triplet_default_mechanics", "lenses/cooke_triplet", 20000},
         OracleCase{"double_gauss_default_mechanics", "lenses/double_gauss_50mm", 100000},

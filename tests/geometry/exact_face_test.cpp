@@ -300,6 +300,8 @@ TEST(ExactFace, BoundsHoldDenseSamplesAndAreTight) {
         SurfacePatch{ConicShape{1.0 / 100.0, -2.5}, CircularAperture{40.0}},
         // An asphere whose sag turns over inside the aperture (a maximum near r = 14).
         SurfacePatch{EvenAsphereShape{1.0 / 50.0, 0.0, {0.0, 0.0, -3e-7}}, CircularAperture{20.0}},
+        // Odd terms r^3 and r^5 on a weak sphere, turning over inside the aperture.
+        SurfacePatch{EvenAsphereShape{1.0 / 200.0, 0.0, {}, {1e-4, -8e-7}}, CircularAperture{18.0}},
         SurfacePatch{PlaneShape{}, RectangularAperture{4.0, 2.0}},
         CylinderPatch{9.0, -1.0, 4.0, true},
     };
@@ -422,6 +424,9 @@ TEST(ExactFace, TessellationChordErrorStaysWithinTolerance) {
         {"asphere",
          SurfacePatch{EvenAsphereShape{1.0 / 50.0, -0.5, {0.0, 1e-6, -2e-9}},
                       CircularAperture{18.0}},
+         1.0},
+        {"odd asphere",
+         SurfacePatch{EvenAsphereShape{1.0 / 60.0, 0.0, {}, {2e-5, -1e-8}}, CircularAperture{16.0}},
          1.0},
         {"sphere rectangle", SurfacePatch{SphereShape{1.0 / 40.0}, RectangularAperture{8.0, 5.0}},
          1.0},

@@ -40,7 +40,8 @@ constexpr LD kNaNLd = std::numeric_limits<LD>::quiet_NaN();
 struct RefShape {
     LD c = 0, k = 0;
     std::array<LD, 10> a{};
-    bool quadric = true;  // plane, sphere or conic: the implicit form holds
+    std::array<LD, 9> b{};  // odd terms b[j] r^(2j+3)
+    bool quadric = true;    // plane, sphere or conic: the implicit form holds
 };
 
 RefShape refShape(const SurfaceShape& shape) {
@@ -54,6 +55,7 @@ RefShape refShape(const SurfaceShape& shape) {
         r.c = s->curvature;
         r.k = s->conic;
         for (int i = 0; i < 10; ++i) r.a[i] = s->coefficients[i];
+        for (int j = 0; j < 9; ++j) r.b[j] = s->odd[j];
         r.quadric = false;
     }
     return r;
@@ -68,6 +70,11 @@ LD refSag(const RefShape& s, LD u) {
         z += s.a[i] * pw;
         pw *= u;
     }
+    LD po = u * std::sqrt(u);  // r^3
+    for (int j = 0; j < 9; ++j) {
+        z += s.b[j] * po;
+        po *= u;
+    }
     return z;
 }
 LD refSlope(const RefShape& s, LD u) {  // dS/du
@@ -76,6 +83,11 @@ LD refSlope(const RefShape& s, LD u) {  // dS/du
     for (int i = 0; i < 10; ++i) {
         d += (i + 1) * s.a[i] * pw;
         pw *= u;
+    }
+    LD po = std::sqrt(u);  // u^(j + 1/2)
+    for (int j = 0; j < 9; ++j) {
+        d += (j + LD(1.5)) * s.b[j] * po;
+        po *= u;
     }
     return d;
 }
@@ -547,6 +559,83 @@ TEST(SurfaceShape, AsphereMatchesBruteForce) {
     EXPECT_GT(severalCrossings, 10);
     std::cout << "[ info     ] asphere first: " << firstMisses << " rays with no crossing, "
               << severalCrossings << " with several\n";
+}
+
+// Odd asphere terms (Zemax ODDASPH): the even asphere plus b r^3, b r^5, ...
+EvenAsphereShape randomOddAsphere(std::mt19937_64& rng, double rNorm, double amplitudeMm) {
+    std::uniform_real_distribution<double> uni(-1.0, 1.0);
+    EvenAsphereShape s = randomAsphere(rng, rNorm, amplitudeMm);
+    const int terms = std::uniform_int_distribution<int>(1, 3)(rng);
+    for (int t = 0; t < terms; ++t) {
+        const int j = std::uniform_int_distribution<int>(0, 4)(rng);
+        s.odd[j] = uni(rng) * amplitudeMm / std::pow(rNorm, 2 * j + 3);
+    }
+    return s;
+}
+
+TEST(SurfaceShape, OddTermsAddToTheSagAndTheNormalAsWritten) {
+    EvenAsphereShape s;
+    s.curvature = 1.0 / 80.0;
+    s.odd[0] = 2e-5;   // r^3
+    s.odd[1] = -3e-8;  // r^5
+    const SurfaceShape shape = s;
+    for (double r : {0.0, 0.5, 3.0, 11.0, 19.5}) {
+        const double u = r * r;
+        const double expected = (1.0 / 80.0) * u / (1.0 + std::sqrt(1.0 - u / 6400.0)) +
+                                2e-5 * r * r * r - 3e-8 * std::pow(r, 5);
+        EXPECT_NEAR(sag(shape, u), expected, 1e-14 * (1.0 + std::abs(expected))) << r;
+        // The normal is along grad(z - sag): compare with a central difference in x.
+        const Vec3 p(r, 0.0, sag(shape, u));
+        const double h = 1e-6;
+        const double dzdx =
+            (sag(shape, (r + h) * (r + h)) - sag(shape, (r - h) * (r - h))) / (2 * h);
+        const Vec3 n = surfaceNormal(shape, p);
+        const Vec3 expectedN = glm::normalize(Vec3(-dzdx, 0.0, 1.0));
+        EXPECT_NEAR(n.x, expectedN.x, 1e-8) << r;
+        EXPECT_NEAR(n.z, expectedN.z, 1e-8) << r;
+    }
+    EXPECT_TRUE(std::holds_alternative<EvenAsphereShape>(makeShape(0.0, 0.0, {}, s.odd)));
+}
+
+TEST(SurfaceShape, OddAsphereMatchesBruteForce) {
+    std::mt19937_64 rng(13);
+    Worst seq{"odd asphere sequential vs brute force"};
+    Worst first{"odd asphere first vs brute force"};
+    std::uniform_real_distribution<double> uni(-1.0, 1.0);
+    for (int i = 0; i < 200; ++i) {
+        const bool wavy = i % 2 == 1;
+        const double rAp = 20.0;
+        const EvenAsphereShape asphere = randomOddAsphere(
+            rng, rAp, wavy ? logUniform(rng, 1.0, 6.0) : logUniform(rng, 0.01, 3.0));
+        const SurfaceShape shape = asphere;
+        const RefShape ref = refShape(shape);
+        const double rIn = std::min(0.8 * maxRadius(shape), rAp);
+        Ray ray = wavy ? rayThroughSurface(rng, shape, rIn, 1.55, logUniform(rng, 0.1, 30.0), 1.22)
+                       : rayThroughSurface(rng, shape, rIn, 1.3, logUniform(rng, 0.1, 100.0));
+        if (i % 4 == 3) ray.origin += Vec3(uni(rng), uni(rng), 0.0) * 15.0;  // may miss
+
+        const std::optional<LD> expectSeq = oracleSequential(ref, ray, 100, 15000);
+        const std::optional<double> tSeq = intersectSequential(shape, ray);
+        if (expectSeq) {
+            ASSERT_TRUE(tSeq) << shape << " " << ray;
+            const LD err = std::abs(*tSeq - *expectSeq);
+            seq.tError = std::max(seq.tError, err);
+            ASSERT_LT(err, 1e-9) << shape << " " << ray << " oracle " << double(*expectSeq);
+            seq.hit(ref, ray.origin + *tSeq * ray.direction);
+        }
+        const double rMax = std::min(rAp, 0.99 * maxRadius(shape));
+        const std::optional<LD> expectFirst = oracleFirst(ref, ray, 400, rMax, 20000);
+        const std::optional<ShapeHit> hit = intersectFirst(shape, ray, 0.0, 400.0, rMax, false);
+        ASSERT_EQ(bool(expectFirst), bool(hit)) << shape << " " << ray;
+        if (!hit) continue;
+        const LD err = std::abs(hit->t - *expectFirst);
+        first.tError = std::max(first.tError, err);
+        ASSERT_LT(err, 1e-9) << shape << " " << ray << " oracle " << double(*expectFirst);
+        first.hit(ref, hit->point);
+        ASSERT_LT(surfaceDistance(ref, hit->point), 1e-9);
+    }
+    EXPECT_GT(seq.count, 130);
+    EXPECT_GT(first.count, 60);
 }
 
 // Hard Cases

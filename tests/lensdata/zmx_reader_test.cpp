@@ -756,4 +756,29 @@ TEST(ZmxReader, SurfaceCommandBeforeFirstSurfaceIsAnError) {
 }
 
 }  // namespace
+// ODDASPH: PARM n multiplies r^n; the even powers join the even asphere, the odd ones (r^3,
+// r^5, r^7) the odd terms, both in the lens units converted to mm; an r^1 term is an Error.
+TEST(ZmxReader, OddAsphereTermsByPower) {
+    const std::string head =
+        "UNIT CM X W X CM MR CPMM\nENPD 1\nSURF 0\n DISZ INFINITY\nSURF 1\n STOP\n"
+        " TYPE ODDASPH\n CURV 0.02\n";
+    const std::string tail = " DISZ 0.5\n GLAS N-BK7\nSURF 2\n DISZ 10\nSURF 3\n";
+    const Prescription rx =
+        readZmxText(head + " PARM 2 1e-3\n PARM 3 2e-4\n PARM 4 -3e-5\n PARM 5 4e-6\n" + tail,
+                    "odd.zmx", GlassCatalog::builtIn());
+    const Surface& s = rx.surfaces[1];
+    // cm to mm: a coefficient of r^n scales by 10^(1 - n).
+    EXPECT_NEAR(s.asphere[0], 1e-3 * std::pow(10.0, -1.0), 1e-18);     // r^2
+    EXPECT_NEAR(s.oddAsphere[0], 2e-4 * std::pow(10.0, -2.0), 1e-18);  // r^3
+    EXPECT_NEAR(s.asphere[1], -3e-5 * std::pow(10.0, -3.0), 1e-18);    // r^4
+    EXPECT_NEAR(s.oddAsphere[1], 4e-6 * std::pow(10.0, -4.0), 1e-18);  // r^5
+    EXPECT_TRUE(s.hasAsphere());
+    for (const ImportNote& n : rx.report) EXPECT_NE(n.severity, ImportNote::Severity::Error) << n;
+    const Prescription cone =
+        readZmxText(head + " PARM 1 0.01\n" + tail, "cone.zmx", GlassCatalog::builtIn());
+    const ImportNote* note = findNote(cone, "a term in r^1");
+    ASSERT_NE(note, nullptr) << reportText(cone);
+    EXPECT_EQ(note->severity, ImportNote::Severity::Error);
+}
+
 }  // namespace veil
