@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "analysis/layout.h"
+#include "analysis/render_run.h"
 #include "analysis/scene_section.h"
 #include "geometry/exact_face.h"
 #include "lensdata/errors.h"
@@ -275,6 +276,12 @@ Source detectorEmitter(const Scene& scene, const DetectorGeometry& d,
     return Source("detector " + d.name, LambertianSource{e}, 1.0, spectrum);
 }
 
+double triangleArea(const TriangleMesh& m, size_t t) {
+    const auto& tri = m.triangles[t];
+    return 0.5 * glm::length(glm::cross(m.vertices[tri[1]] - m.vertices[tri[0]],
+                                        m.vertices[tri[2]] - m.vertices[tri[0]]));
+}
+
 bool isOptical(ObjectKind k) { return k == ObjectKind::LensFace || k == ObjectKind::MirrorFace; }
 
 std::string percent(double value, double error) {
@@ -296,20 +303,8 @@ ObjectsResult runObjects(const PreparedScene& prepared, const ObjectsSpec& spec)
     ObjectsResult result;
 
     // The detector and the sources, checked before any ray.
-    const std::vector<DetectorGeometry>& detectors = prepared.setup().detectors;
-    if (detectors.empty()) throw ModelError(prepared.file().path.string(), "no detector");
-    const DetectorGeometry* det = &detectors.front();
-    if (!spec.detector.empty()) {
-        det = nullptr;
-        std::string known;
-        for (const DetectorGeometry& d : detectors) {
-            if (d.name == spec.detector) det = &d;
-            known += (known.empty() ? "" : ", ") + d.name;
-        }
-        if (!det)
-            throw ParseError({"--detector " + spec.detector, 0, 0},
-                             "no detector '" + spec.detector + "' (the scene has " + known + ")");
-    }
+    if (setup.images.empty()) throw ModelError(prepared.file().path.string(), "no detector");
+    const DetectorGeometry* det = &setup.images[findDetector(setup, spec.detector)].geometry();
     TransportScene lit = setup.transport;
     if (!spec.source.empty()) {
         std::string known;
@@ -398,14 +393,17 @@ ObjectsResult runObjects(const PreparedScene& prepared, const ObjectsSpec& spec)
         std::tie(row.lit, row.litError) = get(litBy, key(o.id, kWhole));
         std::tie(row.scattered, row.scatteredError) = get(litBy, key(o.id, kWhole, true));
         std::tie(row.seen, row.seenError) = get(seenBy, key(o.id, kWhole));
+        // The sides either pass reached (arrivals; the scattered keys lie above kWhole).
         std::map<uint32_t, ObjectSide> sides;
-        for (const std::map<uint64_t, std::pair<double, double>>* m :
-             std::initializer_list<const std::map<uint64_t, std::pair<double, double>>*>{&litBy,
-                                                                                         &seenBy})
-            for (auto it = m->lower_bound(key(o.id, 0));
-                 it != m->end() && it->first < key(o.id, kWhole); ++it)
-                sides[static_cast<uint32_t>(it->first & 0xFFFF)].name =
-                    sideName(scene, static_cast<uint32_t>(it->first & 0xFFFF));
+        auto collectSides = [&](const std::map<uint64_t, std::pair<double, double>>& m) {
+            for (auto it = m.lower_bound(key(o.id, 0));
+                 it != m.end() && it->first < key(o.id, kWhole); ++it) {
+                const auto side = static_cast<uint32_t>(it->first & 0xFFFF);
+                sides[side].name = sideName(scene, side);
+            }
+        };
+        collectSides(litBy);
+        collectSides(seenBy);
         // An opaque part scatters light back to the side it came from; glass faces, edges
         // and flats may pass it through to the other side.
         const bool opaque = isOpaqueKind(o.kind);
@@ -421,18 +419,13 @@ ObjectsResult runObjects(const PreparedScene& prepared, const ObjectsSpec& spec)
             const size_t end = r->triangleCount == 0 ? m.triangles.size()
                                                      : size_t(r->firstTriangle) + r->triangleCount;
             for (size_t t = r->firstTriangle; t < end; ++t) {
-                const auto& tri = m.triangles[t];
-                const double a =
-                    0.5 * glm::length(glm::cross(m.vertices[tri[1]] - m.vertices[tri[0]],
-                                                 m.vertices[tri[2]] - m.vertices[tri[0]]));
+                const double a = triangleArea(m, t);
                 area[meshSide(m, static_cast<int>(t))] += a;
                 faceArea += a;
             }
         } else {
             const TriangleMesh m = tessellateFace(std::get<FaceGeometry>(o.geometry), 1e-3);
-            for (const auto& tri : m.triangles)
-                faceArea += 0.5 * glm::length(glm::cross(m.vertices[tri[1]] - m.vertices[tri[0]],
-                                                         m.vertices[tri[2]] - m.vertices[tri[0]]));
+            for (size_t t = 0; t < m.triangles.size(); ++t) faceArea += triangleArea(m, t);
         }
         double variance = 0.0, scatterVariance = 0.0, estimateVariance = 0.0;
         for (auto& [side, s] : sides) {

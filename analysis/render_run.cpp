@@ -8,6 +8,17 @@
 
 namespace veil {
 
+size_t findDetector(const TraceSetup& trace, const std::string& name) {
+    if (name.empty()) return 0;
+    std::string names;
+    for (size_t d = 0; d < trace.images.size(); ++d) {
+        names += (d ? ", " : "") + trace.images[d].geometry().name;
+        if (trace.images[d].geometry().name == name) return d;
+    }
+    throw ParseError({"--detector", 1, 1},
+                     "no detector '" + name + "' in the scene (it has " + names + ")");
+}
+
 double RenderPassTotals::total() const {
     double t = 0.0;
     for (double c : components) t += c;
@@ -20,19 +31,7 @@ std::string runRenderPasses(const PreparedScene& scene, const RenderRunSpec& spe
     const TransportScene& ts = trace.transport;
     if (trace.images.empty())
         throw ModelError(scene.file().path.string(), "the scene has no detector to render");
-    size_t det = 0;
-    if (!spec.detector.empty()) {
-        det = trace.images.size();
-        std::string names;
-        for (size_t d = 0; d < trace.images.size(); ++d) {
-            names += (d ? ", " : "") + trace.images[d].geometry().name;
-            if (trace.images[d].geometry().name == spec.detector) det = d;
-        }
-        if (det == trace.images.size())
-            throw ParseError({"--detector", 1, 1}, "no detector '" + spec.detector +
-                                                       "' in the scene (it has " + names + ")");
-    }
-    const DetectorImage& detector = trace.images[det];
+    const DetectorImage& detector = trace.images[findDetector(trace, spec.detector)];
     RenderOptions options = spec.options;
     if (options.initialRadiusMm <= 0.0) options.initialRadiusMm = defaultInitialRadius(ts);
     options.check();

@@ -34,6 +34,10 @@ struct RenderPassTotals {
     double total() const;
 };
 
+// The index of the detector named `name` among trace.images (empty: the first, 0); ParseError
+// at --detector naming the scene's detectors when none has that name.
+size_t findDetector(const TraceSetup& trace, const std::string& name);
+
 // The detector rendered (its name is returned). Throws ParseError for a criterion or detector
 // name that names nothing and ModelError for a scene with no source, no detector or nothing
 // that scatters, before the first pass.

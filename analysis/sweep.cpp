@@ -274,7 +274,7 @@ SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
         throw ParseError({"--where", 0, 0},
                          "criteria split traced or rendered light: --measure ghosts has its own "
                          "(each ghost's), see veil ghosts");
-    if (spec.measure != SweepMeasure::Trace && spec.prune && spec.measure != SweepMeasure::Render)
+    if (ghosts && spec.prune)
         throw ParseError({"--prune", 0, 0}, "--prune needs --measure trace or render");
     if (spec.measure == SweepMeasure::Render) {
         RenderOptions checked = spec.render;

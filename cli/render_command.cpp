@@ -26,6 +26,7 @@
 #include "analysis/criterion_names.h"
 #include "analysis/image_output.h"
 #include "analysis/render_criteria.h"
+#include "analysis/render_run.h"
 #include "cli/options.h"
 #include "cli/progress.h"
 #include "lensdata/errors.h"
@@ -234,19 +235,7 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
     reportSceneNotes(*prepared);
     if (ts.sources.empty()) throw ModelError(o.file, "the scene has no light source to render");
     if (trace.images.empty()) throw ModelError(o.file, "the scene has no detector to render");
-    size_t det = 0;
-    if (!o.detector.empty()) {
-        det = trace.images.size();
-        std::string names;
-        for (size_t d = 0; d < trace.images.size(); ++d) {
-            names += (d ? ", " : "") + trace.images[d].geometry().name;
-            if (trace.images[d].geometry().name == o.detector) det = d;
-        }
-        if (det == trace.images.size())
-            throw ParseError({"--detector", 1, 1}, "no detector '" + o.detector +
-                                                       "' in the scene (it has " + names + ")");
-    }
-    const DetectorImage& detector = trace.images[det];
+    const DetectorImage& detector = trace.images[findDetector(trace, o.detector)];
     const DetectorGeometry& geometry = detector.geometry();
 
     RenderOptions ro;

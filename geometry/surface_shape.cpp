@@ -693,8 +693,8 @@ double sag(const SurfaceShape& shape, double rSq) {
             } else if constexpr (std::is_same_v<S, ConicShape>) {
                 return conicSag({s.curvature, s.conic}, rSq);
             } else {
-                return conicSag({s.curvature, s.conic}, rSq) + polySag(s.coefficients, rSq) +
-                       oddSag(s.odd, rSq);
+                const double odd = allZero(s.odd) ? 0.0 : oddSag(s.odd, rSq);
+                return conicSag({s.curvature, s.conic}, rSq) + polySag(s.coefficients, rSq) + odd;
             }
         },
         shape);
@@ -715,8 +715,8 @@ Vec3 surfaceNormal(const SurfaceShape& shape, const Vec3& point) {
                 const ConicBase b{s.curvature, s.conic};
                 const double u = point.x * point.x + point.y * point.y;
                 const double w = std::sqrt(std::max(0.0, 1.0 - b.bigK() * u));
-                const double m =
-                    b.c + 2.0 * w * (polySlope(s.coefficients, u) + oddSlope(s.odd, u));
+                const double odd = allZero(s.odd) ? 0.0 : oddSlope(s.odd, u);
+                const double m = b.c + 2.0 * w * (polySlope(s.coefficients, u) + odd);
                 return {-point.x * m, -point.y * m, w};
             } else {
                 const ConicBase b = conicBase(s);

@@ -204,7 +204,10 @@ class CodeVParser {
     std::pair<SurfaceInput*, size_t> target(const Command& c) {
         if (c.tokens.size() > 1 && !c.tokens[1].quoted) {
             const std::string q = upper(c.tokens[1].text);
-            if (q == "SO") return {&current(c) - (surfaces_.size() - 1), 2};
+            if (q == "SO") {
+                current(c);  // an error when there is no surface yet
+                return {&surfaces_.front(), 2};
+            }
             if (q == "SI") {
                 if (!imageSeen_) throw ParseError(c.tokens[1].loc, "SI: no image surface yet");
                 return {&surfaces_.back(), 2};
@@ -275,8 +278,9 @@ class CodeVParser {
     }
 
     void unsupportedSurface(const Command& c, const std::string& what) {
-        SurfaceInput& s = current(c);
-        if (unsupportedSurfaces_.insert(&s).second)
+        current(c);  // a profile before any surface is an error at its line
+        // By index: the vector of surfaces grows, so addresses of earlier ones do not last.
+        if (unsupportedSurfaces_.insert(surfaces_.size() - 1).second)
             note(Severity::Error, c.code().loc,
                  what + " is not supported by veil (surface " +
                      std::to_string(surfaces_.size() - 1) + "): read as a sphere it would lose " +
@@ -326,7 +330,6 @@ class CodeVParser {
         }
         if (full == "WL") {
             wavelengths_ = numbers(c);
-            wavelengthLoc_ = codeToken.loc;
             return;
         }
         if (full == "GO" || full == "LEN" || full == "NEW") return;
@@ -647,7 +650,7 @@ class CodeVParser {
     std::map<std::string, int> ignoredCount_;
     std::map<std::string, size_t> ignoredNote_;
     std::vector<SurfaceInput> surfaces_;
-    std::set<const SurfaceInput*> unsupportedSurfaces_;
+    std::set<size_t> unsupportedSurfaces_;  // indices already reported
     bool imageSeen_ = false;
     bool rdmSeen_ = false;
     bool radiusMode_ = true;
@@ -657,7 +660,6 @@ class CodeVParser {
     double unit_ = 1.0;
     std::optional<SystemAperture> aperture_;
     std::vector<double> wavelengths_, wavelengthWeights_;
-    FileLoc wavelengthLoc_;
     int reference_ = 1;
     FileLoc referenceLoc_;
     std::optional<SystemData::FieldKind> fieldKind_;
