@@ -30,7 +30,9 @@ double axisDistance(double cx, double cy, double hx, double hy) {
 
 std::vector<ImportNote> detectorPlacementWarnings(const SceneFile& file, const SceneSetup& setup) {
     std::vector<ImportNote> out;
-    if (!setup.model) return out;
+    // The checks measure along one axis: a system a coordinate break tilts or decenters
+    // is not checked.
+    if (!setup.model || !setup.model->coaxial()) return out;
     const SequentialModel& model = *setup.model;
     const FirstOrderData fo = computeFirstOrder(model, model.primaryWavelength());
     const double efl = fo.eflMm;

@@ -355,20 +355,22 @@ bool GhostTracer::launch(int source, int w, int ix, int iy, RayState& r) const {
 
 bool GhostTracer::advance(RayState& r, const Step& step, int w) const {
     const SequentialSurface& s = model_.surface(step.surface);
-    const Ray local{r.pos - Vec3(0.0, 0.0, s.zMm), r.dir};
+    if (s.coordinateBreak) return true;  // only the frame changes
+    const Ray local = s.frame.toLocal({r.pos, r.dir});
     const std::optional<double> t = intersectSequential(s.shape, local);
     if (!t || *t < -1e-9) return false;  // missed, or behind the ray: not this path
     if (!mirrors_.empty() && obscured(r, *t, step.surface)) return false;
-    const Vec3 hit = local.origin + *t * r.dir;
+    const Vec3 hit = local.origin + *t * local.direction;
     // Squared radii: hypot would cost more than the intersection.
     const double r2 = hit.x * hit.x + hit.y * hit.y;
     const double clip = clipRadius_[step.surface], hole = holeRadius_[step.surface];
     if (r2 > clip * clip || r2 < hole * hole) return false;
     const double alpha = trace_->transport.media->absorptionPerMm(mediumOfGap_[step.gapBefore], w);
     if (alpha > 0.0) r.flux *= std::exp(-alpha * std::max(0.0, *t));
-    r.pos = hit + Vec3(0.0, 0.0, s.zMm);
+    r.pos = s.frame.toGlobalPoint(hit);
     r.at = step.surface;
-    Vec3 nrm = surfaceNormal(s.shape, hit);
+    // The normal in global coordinates, like the ray's direction.
+    Vec3 nrm = s.frame.toGlobalDirection(surfaceNormal(s.shape, hit));
     if (glm::dot(nrm, r.dir) > 0.0) nrm = -nrm;
     const double n1 = std::abs(model_.index(step.gapBefore, w));
     // The medium across the surface: where a refracted ray goes, and the one a ghost
@@ -410,7 +412,7 @@ bool GhostTracer::obscured(const RayState& r, double t, int target) const {
     for (int m : mirrors_) {
         if (m == r.at || m == target) continue;
         const SequentialSurface& s = model_.surface(m);
-        const Ray local{r.pos - Vec3(0.0, 0.0, s.zMm), r.dir};
+        const Ray local = s.frame.toLocal({r.pos, r.dir});
         const std::optional<ShapeHit> h =
             intersectFirst(s.shape, local, 0.0, t, clipRadius_[m], false);
         if (!h) continue;
@@ -423,19 +425,19 @@ bool GhostTracer::obscured(const RayState& r, double t, int target) const {
 bool GhostTracer::land(const RayState& r, int w, DetectorRay& out) const {
     const int img = model_.imageIndex();
     const SequentialSurface& image = model_.surface(img);
-    const Ray local{r.pos - Vec3(0.0, 0.0, image.zMm), r.dir};
+    const Ray local = image.frame.toLocal({r.pos, r.dir});
     const std::optional<double> t = intersectSequential(image.shape, local);
     if (!t || *t < -1e-9) return false;
     if (!mirrors_.empty() && obscured(r, *t, img)) return false;
     double flux = r.flux;
     const double alpha = trace_->transport.media->absorptionPerMm(mediumOfGap_[img - 1], w);
     if (alpha > 0.0) flux *= std::exp(-alpha * *t);
-    const Vec3 localHit = local.origin + *t * r.dir;
+    const Vec3 localHit = local.origin + *t * local.direction;
     // The sensor object is the image surface out to its clear semi-diameter.
     const double imageSd = model_.prescription().surfaces[img].clearSemiDiameterMm;
     if (imageSd > 0.0 && localHit.x * localHit.x + localHit.y * localHit.y > imageSd * imageSd)
         return false;
-    const Vec3 q = detector_->frame.toLocalPoint(localHit + Vec3(0.0, 0.0, image.zMm));
+    const Vec3 q = detector_->frame.toLocalPoint(image.frame.toGlobalPoint(localHit));
     if (std::abs(q.x) > 0.5 * detector_->widthMm || std::abs(q.y) > 0.5 * detector_->heightMm)
         return false;
     out = {Vec2(q.x, q.y), flux};
@@ -834,7 +836,9 @@ bool addDefaultGhostScene(SceneFile& file, const GlassCatalog& catalog, double* 
     for (const Field& f : file.prescription.system.fields) fields.emplace_back(f.x, f.y);
     if (fields.empty()) fields.emplace_back(0.0, 0.0);
     file.sources = fieldSources(file, catalog, fields);
-    if (!file.mechanics) {
+    // The stop plate, unless a coordinate break takes the lens off one axis (the mount
+    // generator builds about one axis only): the stop's sd then clips sequential rays alone.
+    if (!file.mechanics && file.model->coaxial()) {
         MechanicsSpec m;
         m.barrel.enabled = false;
         m.retainers.enabled = false;

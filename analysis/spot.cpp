@@ -41,7 +41,10 @@ SpotResult computeSpot(const SequentialModel& model, const RayAimer& aimer, int 
         SequentialTraceOptions chiefOptions = topts;
         chiefOptions.clipApertures = false;
         const SequentialRayResult r = traceSequential(model, w, chief.ray, chiefOptions);
-        if (r.ok()) out.chiefMm = Vec2(r.ray.origin.x, r.ray.origin.y);
+        if (r.ok()) {
+            const Vec3 q = model.localPoint(r.surface, r.ray.origin);
+            out.chiefMm = Vec2(q.x, q.y);
+        }
     }
     for (const Vec2& pp : hexapolarPupil(options.rings)) {
         ++out.raysTraced;
@@ -49,7 +52,8 @@ SpotResult computeSpot(const SequentialModel& model, const RayAimer& aimer, int 
         if (a.status != RayStatus::Ok) continue;
         const SequentialRayResult r = traceSequential(model, w, a.ray, topts);
         if (!r.ok()) continue;
-        out.pointsMm.emplace_back(r.ray.origin.x, r.ray.origin.y);
+        const Vec3 q = model.localPoint(r.surface, r.ray.origin);
+        out.pointsMm.emplace_back(q.x, q.y);
     }
     out.raysLanded = static_cast<int>(out.pointsMm.size());
     if (out.pointsMm.empty()) return out;

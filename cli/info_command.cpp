@@ -7,6 +7,7 @@
 // ffl_mm, f_number, ...), every wavelength under "wavelengths", surfaces, elements, spots
 // and the import report beside them.
 
+#include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <iostream>
@@ -209,6 +210,15 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
         if (s.innerSemiDiameterMm > 0.0) flags += " hole=" + fmt(s.innerSemiDiameterMm, 5);
         if (s.conic != 0.0) flags += " k=" + fmt(s.conic);
         if (s.hasAsphere()) flags += " asphere";
+        if (const auto& b = s.coordinateBreak) {
+            flags += " BREAK";
+            if (b->decenterXMm != 0.0 || b->decenterYMm != 0.0)
+                flags += " decenter " + fmt(b->decenterXMm) + ", " + fmt(b->decenterYMm) + " mm";
+            if (b->tiltXDeg != 0.0 || b->tiltYDeg != 0.0 || b->tiltZDeg != 0.0)
+                flags += " tilt " + fmt(b->tiltXDeg) + ", " + fmt(b->tiltYDeg) + ", " +
+                         fmt(b->tiltZDeg) + " deg";
+            if (b->tiltFirst) flags += " (tilt first)";
+        }
         os << "  " << std::left << std::setw(4) << i << std::setw(12) << s.name << std::right
            << std::setw(13) << fmt(s.radiusMm(), 8) << std::setw(12) << fmt(s.thicknessMm, 7)
            << "  " << std::left << std::setw(22) << s.material.label() << std::right << std::setw(9)
@@ -216,6 +226,10 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
     }
     const FirstOrderData& d = fo.primaryData();
     os << "\nFirst-order data at " << fmt(d.wavelengthNm) << " nm (primary)\n";
+    if (std::any_of(p.surfaces.begin(), p.surfaces.end(), [](const Surface& s) {
+            return s.coordinateBreak && !s.coordinateBreak->identity();
+        }))
+        os << "  of the unfolded system: paraxial data ignore coordinate breaks\n";
     auto row = [&](const char* label, double v, const char* unit) {
         os << "  " << std::left << std::setw(40) << label << std::right << std::setw(14)
            << fmt(v, 8) << " " << unit << "\n";

@@ -7,6 +7,7 @@
 #include <set>
 #include <sstream>
 
+#include "geometry/surface_frames.h"
 #include "geometry/surface_shape.h"
 
 namespace veil {
@@ -65,10 +66,29 @@ bool sameShape(const Surface& a, const Surface& b) {
     return true;
 }
 
-bool coincide(const Prescription& p, const std::vector<double>& z, int i, int j) {
+bool sameRotation(const Frame& a, const Frame& b) {
+    for (int c = 0; c < 3; ++c)
+        for (int r = 0; r < 3; ++r)
+            if (std::abs(a.rotation[c][r] - b.rotation[c][r]) > 1e-12) return false;
+    return true;
+}
+
+// Two frames are the same place within the coincidence tolerance.
+bool samePlace(const Frame& a, const Frame& b) {
+    const double tol =
+        kCoincidentAbsMm +
+        kCoincidentRel * std::max(glm::length(a.translation), glm::length(b.translation));
+    return glm::length(a.translation - b.translation) <= tol && sameRotation(a, b);
+}
+
+bool coincide(const Prescription& p, const std::vector<Frame>& frames, int i, int j) {
     if (i == j) return true;
-    const double tol = kCoincidentAbsMm + kCoincidentRel * std::max(std::abs(z[i]), std::abs(z[j]));
-    return std::abs(z[i] - z[j]) <= tol && sameShape(p.surfaces[i], p.surfaces[j]);
+    return samePlace(frames[i], frames[j]) && sameShape(p.surfaces[i], p.surfaces[j]);
+}
+
+// The frame at distance z along `placement`'s z axis.
+Frame alongAxisOf(const Frame& placement, double z) {
+    return {placement.rotation, placement.translation + placement.rotation * Vec3(0.0, 0.0, z)};
 }
 
 double mechanicalRadius(const Surface& s) {
@@ -184,6 +204,8 @@ void checkAirGap(const Prescription& p, const LensSolid& a, const LensSolid& b) 
         if (p.surfaces[j].mirror) return;
     }
     if (a.direction != b.direction) return;
+    // Elements on different axes (a coordinate break between them) are not compared.
+    if (!samePlace(a.placement, b.placement)) return;
     const double rMax = std::min(a.edgeRadiusMm, b.edgeRadiusMm);
     double worst = std::numeric_limits<double>::infinity(), worstR = 0.0;
     for (double r : profileRadii(rMax, {a.back.faceRadiusMm, b.front.faceRadiusMm})) {
@@ -202,6 +224,7 @@ void checkAirGap(const Prescription& p, const LensSolid& a, const LensSolid& b) 
 std::vector<LensSolid> solidsOfNamed(const Prescription& p) {
     p.validate();
     const std::vector<double> z = vertexZ(p);
+    const std::vector<Frame> frames = surfaceFrames(p);
     const int image = p.imageIndex();
 
     // Elements, without repeated passes through glass already listed.
@@ -214,10 +237,10 @@ std::vector<LensSolid> solidsOfNamed(const Prescription& p) {
         }
         const bool repeat = std::any_of(kept.begin(), kept.end(), [&](const Element& k) {
             if (!(k.material == e.material)) return false;
-            return (coincide(p, z, k.frontSurface, e.frontSurface) &&
-                    coincide(p, z, k.backSurface, e.backSurface)) ||
-                   (coincide(p, z, k.frontSurface, e.backSurface) &&
-                    coincide(p, z, k.backSurface, e.frontSurface));
+            return (coincide(p, frames, k.frontSurface, e.frontSurface) &&
+                    coincide(p, frames, k.backSurface, e.backSurface)) ||
+                   (coincide(p, frames, k.frontSurface, e.backSurface) &&
+                    coincide(p, frames, k.backSurface, e.frontSurface));
         });
         if (!repeat) kept.push_back(e);
     }
@@ -247,6 +270,16 @@ std::vector<LensSolid> solidsOfNamed(const Prescription& p) {
         const double t = p.surfaces[e.frontSurface].thicknessMm;
         if (t == 0.0) throw ModelError(e.name, "zero centre thickness");
         s.direction = t > 0.0 ? 1.0 : -1.0;
+        // The element's own axis: the front surface's frame, its origin moved back to where
+        // the unfolded z is 0, so the sides keep their unfolded z. The back face must lie on
+        // the same axis.
+        const Frame& ff = frames[e.frontSurface];
+        s.placement = alongAxisOf(ff, -z[e.frontSurface]);
+        if (!samePlace(alongAxisOf(s.placement, z[e.backSurface]), frames[e.backSurface]))
+            throw ModelError(e.name,
+                             "a coordinate break between its faces tilts or decenters one face "
+                             "against the other: such elements (wedges, tilted faces) are not "
+                             "modelled in the 3D scene");
         if (k > 0 && cementedToNext(k - 1)) {
             s.front = out[k - 1].back;  // the shared face, rim computed once
         } else {
@@ -333,7 +366,7 @@ void addLensSolids(const Prescription& prescription, Scene& scene,
                    const LensSolidOptions& options) {
     const Prescription p = withNames(prescription);
     const std::vector<LensSolid> solids = solidsOfNamed(p);
-    const std::vector<double> z = vertexZ(p);
+    const std::vector<Frame> frames = surfaceFrames(p);
     const int n = static_cast<int>(p.surfaces.size());
 
     // One medium per distinct material; air is medium 0.
@@ -365,7 +398,7 @@ void addLensSolids(const Prescription& prescription, Scene& scene,
             sf.mirror
                 ? mirrorPropertyOf(sf, options)
                 : (options.opticalFaceProperty.empty() ? sf.coating : options.opticalFaceProperty);
-        o.frame = Frame::alongAxis(side.vertexZMm);
+        o.frame = alongAxisOf(s.placement, side.vertexZMm);
         o.geometry = FaceGeometry{SurfacePatch{side.shape, CircularAperture{side.faceRadiusMm}}};
         o.sequentialSurface = side.surface;
         return o;
@@ -376,7 +409,7 @@ void addLensSolids(const Prescription& prescription, Scene& scene,
         o.kind = ObjectKind::LensFlat;
         o.part = s.name;
         o.property = options.flatProperty;
-        o.frame = Frame::alongAxis(side.rimZMm);
+        o.frame = alongAxisOf(s.placement, side.rimZMm);
         o.geometry = FaceGeometry{
             SurfacePatch{PlaneShape{}, AnnularAperture{side.faceRadiusMm, s.edgeRadiusMm}}};
         return o;
@@ -407,6 +440,7 @@ void addLensSolids(const Prescription& prescription, Scene& scene,
             body.part = s.name;
             body.medium = glass;
             body.radiusMm = s.edgeRadiusMm;
+            body.frame = s.placement;
             body.zRange = [front = s.front, back = s.back](double r0, double r1, double& lo,
                                                            double& hi) {
                 lo = std::numeric_limits<double>::infinity();
@@ -434,7 +468,7 @@ void addLensSolids(const Prescription& prescription, Scene& scene,
             o.kind = ObjectKind::LensEdge;
             o.part = s.name;
             o.property = options.edgeProperty;
-            o.frame = Frame::alongAxis(0.0);
+            o.frame = s.placement;
             o.geometry =
                 FaceGeometry{CylinderPatch{s.edgeRadiusMm, std::min(s.front.rimZMm, s.back.rimZMm),
                                            std::max(s.front.rimZMm, s.back.rimZMm), true}};
@@ -459,7 +493,7 @@ void addLensSolids(const Prescription& prescription, Scene& scene,
     auto findCoincident = [&](int i) -> Planned* {
         for (Planned& pl : planned) {
             const int j = pl.object.sequentialSurface;
-            if (j >= 0 && coincide(p, z, i, j)) return &pl;
+            if (j >= 0 && coincide(p, frames, i, j)) return &pl;
         }
         return nullptr;
     };
@@ -527,7 +561,7 @@ void addLensSolids(const Prescription& prescription, Scene& scene,
         o.kind = ObjectKind::MirrorFace;
         o.part = sf.name;
         o.property = mirrorPropertyOf(sf, options);
-        o.frame = Frame::alongAxis(z[i]);
+        o.frame = frames[i];
         // A hole (a Cassegrain primary) leaves an annulus: light passes through the centre.
         o.geometry = FaceGeometry{SurfacePatch{shapeOf(sf), clearAperture(sf)}};
         o.sequentialSurface = i;

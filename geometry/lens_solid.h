@@ -59,9 +59,14 @@
 // air gap must not overlap either.
 //
 // Placement. Surface 1's vertex is at z = 0 and z accumulates the thicknesses (negative
-// after a mirror), as in tracer/sequential_model.cpp; faces and flats are placed with
-// Frame::alongAxis(z), the edge cylinder with the identity frame (its z range is global).
-// Elements traversed toward -z (after a mirror) have their front at the larger z.
+// after a mirror), as in tracer/sequential_model.cpp; faces and flats are placed at their z
+// along the element's axis (LensSolid::placement), the edge cylinder with that frame itself.
+// In a coaxial system the placement is the identity and z is global. After a coordinate
+// break (geometry/surface_frames.h) an element sits on the axis of its front surface's
+// frame; a break between an element's faces (a wedge, a tilted face) is a ModelError, and
+// neighbours on different axes are not checked against each other for overlap. Mirrors in
+// air take their surface's frame. Elements traversed toward -z (after a mirror) have their
+// front at the larger z.
 //
 // Media. A SurfacePatch's normal is +z at its vertex, so mediumFront is the medium on the
 // face's +z side and mediumBack the one on its -z side (scene.h). These are geometric: the
@@ -119,7 +124,7 @@ std::ostream& operator<<(std::ostream& os, const LensSolidOptions& o);
 struct LensSide {
     int surface = -1;           // prescription index of the optical surface
     SurfaceShape shape;         // its shape, local frame at the vertex
-    double vertexZMm = 0.0;     // global z of its vertex
+    double vertexZMm = 0.0;     // z of its vertex along the element's axis (placement)
     double faceRadiusMm = 0.0;  // the exact face ends here: clear sd, or rc when cemented
     double rimZMm = 0.0;        // vertexZ + sag(faceRadius): plane of the flat or step
     bool cemented = false;
@@ -134,6 +139,10 @@ struct LensSolid {
     LensSide front;             // the side light enters first
     LensSide back;
     double direction = 1.0;  // +1 when back lies at +z of front, -1 after an odd number of mirrors
+    // The element's axis: its z values (vertexZMm, rimZMm, frontZ(), backZ()) are local z in
+    // this frame. Identity for coaxial systems, where they are global z; after a coordinate
+    // break, the front surface's frame moved along its axis to where the unfolded z is 0.
+    Frame placement;
 
     // z of the front or back boundary at radial distance r <= edgeRadiusMm: the face inside
     // faceRadius, the flat (rimZ) beyond.

@@ -34,6 +34,7 @@
 
 #include "geometry/mesh_check.h"
 #include "geometry/revolve.h"
+#include "geometry/surface_frames.h"
 #include "geometry/surface_shape.h"
 #include "lensdata/toml_document.h"
 
@@ -1260,6 +1261,26 @@ std::vector<MechanicalPart> MechanicsBuilder::build() {
 std::vector<MechanicalPart> buildMechanics(const Prescription& prescription,
                                            const MechanicsSpec& spec,
                                            std::vector<std::string>* notes) {
+    // Every part is a solid of revolution about the global axis: a lens whose surfaces a
+    // coordinate break tilts or decenters would be mounted where it is not.
+    const std::vector<Frame> frames = surfaceFrames(prescription);
+    int lastBreak = -1;
+    for (size_t i = 1; i + 1 < prescription.surfaces.size(); ++i) {
+        const Surface& s = prescription.surfaces[i];
+        if (s.coordinateBreak) {
+            lastBreak = static_cast<int>(i);
+            continue;
+        }
+        if (onAxis(frames[i])) continue;
+        const std::string name = s.name.empty() ? "surface " + std::to_string(i) : s.name;
+        const Surface& b = prescription.surfaces[lastBreak];
+        throw ModelError("mechanics",
+                         "the mount generator builds barrels, spacers and stops about one "
+                         "axis, and " + name + " is tilted or decentered off it by the "
+                         "coordinate break " + (b.name.empty() ? "surface " + std::to_string(lastBreak) : b.name) +
+                         ": leave [mechanics] out of this scene and bring the mounts in as "
+                         "[[mesh]] parts placed in global coordinates");
+    }
     MechanicsBuilder builder(prescription, spec, notes);
     return builder.build();
 }

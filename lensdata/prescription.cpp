@@ -35,8 +35,17 @@ bool Surface::hasAsphere() const {
     return false;
 }
 
+std::ostream& operator<<(std::ostream& os, const CoordinateBreak& b) {
+    os << "CoordinateBreak{decenter " << b.decenterXMm << ", " << b.decenterYMm << " mm, tilt "
+       << b.tiltXDeg << ", " << b.tiltYDeg << ", " << b.tiltZDeg << " deg";
+    if (b.tiltFirst) os << ", tilt first";
+    return os << "}";
+}
+
 std::ostream& operator<<(std::ostream& os, const Surface& s) {
-    os << "Surface{" << (s.name.empty() ? "?" : s.name) << " R=";
+    os << "Surface{" << (s.name.empty() ? "?" : s.name);
+    if (s.coordinateBreak) os << " " << *s.coordinateBreak;
+    os << " R=";
     if (s.curvature == 0.0)
         os << "inf";
     else
@@ -91,14 +100,18 @@ std::vector<Element> Prescription::elements() const {
     // Gap i runs from surface i to surface i+1; gaps 1..N-2 lie inside the system. Each gap
     // holding glass is an element, except the return pass through a second-surface mirror
     // (Mangin): the gap after a mirror inside glass belongs to the element in front of it.
+    // Coordinate breaks inside glass do not end an element: it runs on to the next surface
+    // that is not a break.
     std::vector<Element> out;
     const int n = static_cast<int>(surfaces.size());
     for (int i = 1; i + 1 < n; ++i) {
         const Surface& s = surfaces[i];
-        if (s.material.isAir()) continue;
+        if (s.material.isAir() || s.coordinateBreak) continue;
         const bool returnPass = s.mirror && !out.empty() && out.back().backSurface == i;
         if (returnPass) continue;
-        out.push_back({"L" + std::to_string(out.size() + 1), i, i + 1, s.material});
+        int back = i + 1;
+        while (back + 1 < n && surfaces[back].coordinateBreak) ++back;
+        out.push_back({"L" + std::to_string(out.size() + 1), i, back, s.material});
     }
     return out;
 }
@@ -186,6 +199,24 @@ void Prescription::validate() const {
         if (s.mirror && !(s.material == surfaces[i - 1].material))
             throw ModelError(nameOf(i), "a mirror keeps the medium: material after it must be " +
                                             surfaces[i - 1].material.label());
+        if (s.coordinateBreak) {
+            const CoordinateBreak& b = *s.coordinateBreak;
+            for (double v : {b.decenterXMm, b.decenterYMm, b.tiltXDeg, b.tiltYDeg, b.tiltZDeg})
+                if (!std::isfinite(v))
+                    throw ModelError(nameOf(i), "coordinate break decenter or tilt is not finite");
+            if (i == 0 || i == n - 1)
+                throw ModelError(nameOf(i),
+                                 "the object and image surfaces cannot be coordinate breaks");
+            if (s.mirror || s.stop || s.curvature != 0.0 || s.conic != 0.0 || s.hasAsphere() ||
+                s.innerSemiDiameterMm > 0.0)
+                throw ModelError(nameOf(i),
+                                 "a coordinate break is a flat dummy surface: it cannot be a "
+                                 "mirror or the stop, or have a curvature, conic, asphere or hole");
+            if (!(s.material == surfaces[i - 1].material))
+                throw ModelError(nameOf(i), "a coordinate break keeps the medium: material after "
+                                            "it must be " +
+                                                surfaces[i - 1].material.label());
+        }
         if (s.material.kind == Material::Kind::Model &&
             (s.material.nd < 1.0 || s.material.vd < 0.0))
             throw ModelError(nameOf(i), "model glass needs nd >= 1 and Vd >= 0 (0: no dispersion)");

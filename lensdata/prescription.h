@@ -44,6 +44,32 @@ std::ostream& operator<<(std::ostream& os, const Material& m);
 
 inline constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
+// A coordinate break (Zemax COORDBRK, CODE V ADE/XDE/YDE on a dummy surface): a flat dummy
+// surface whose own coordinate system, and that of every surface after it, is the incoming
+// one decentered and tilted. Order 0 decenters along the incoming x and y, then tilts about
+// x, then the new y, then the new z; tiltFirst (the Zemax order flag) tilts about z, y, x,
+// then decenters along the tilted axes, so a break with every value negated and the order
+// flipped undoes it. Tilts about x and y are left-handed and about z right-handed, as in lens
+// design programs: a positive tilt about x turns the z axis toward +y, about y toward -x,
+// and about z turns the x axis toward +y. The break's thickness runs along the new z axis.
+// Sequential rays are not traced to the break itself (it is not a surface light meets); the
+// paraxial trace sees a plane in the same medium, so first-order data ignore breaks, as in
+// lens design programs.
+struct CoordinateBreak {
+    double decenterXMm = 0.0;
+    double decenterYMm = 0.0;
+    double tiltXDeg = 0.0;
+    double tiltYDeg = 0.0;
+    double tiltZDeg = 0.0;
+    bool tiltFirst = false;
+    bool identity() const {
+        return decenterXMm == 0.0 && decenterYMm == 0.0 && tiltXDeg == 0.0 && tiltYDeg == 0.0 &&
+               tiltZDeg == 0.0;
+    }
+    bool operator==(const CoordinateBreak&) const = default;
+};
+std::ostream& operator<<(std::ostream& os, const CoordinateBreak& b);
+
 struct Surface {
     std::string name;     // stable name: object, L1.front, L1.back, stop, M1, image, S7, ...
     std::string comment;  // free text from the lens file
@@ -75,6 +101,8 @@ struct Surface {
 
     bool stop = false;
     bool mirror = false;
+    // Set: this surface is a coordinate break (flat, no aperture, the medium continues).
+    std::optional<CoordinateBreak> coordinateBreak;
     std::string coating;  // coating or surface property name; empty = default for the scene
 
     FileLoc origin;  // where in the input file this surface was defined

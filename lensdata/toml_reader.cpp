@@ -85,6 +85,8 @@ class LensReader {
     void readSurfaces(const TomlTable& system);
     void readRow(const TomlTable& row, bool last, Material& incident);
     void readShape(const TomlTable& row, Surface& s);
+    void readBreakRow(const TomlTable& row, const TomlValue& brk, Surface& s,
+                      const Material& incident);
     Material readMaterial(const TomlValue& value) const;
     void readAperture(const TomlTable& system);
     void readFields(const TomlTable& system);
@@ -217,6 +219,12 @@ void LensReader::readRow(const TomlTable& row, bool last, Material& incident) {
             flag->fail("only the last row can be the image row { image = true, ... }");
     }
 
+    if (const auto brk = row.get("break")) {
+        if (image) brk->fail("the image row cannot be a coordinate break");
+        readBreakRow(row, *brk, s, incident);
+        p_.surfaces.push_back(s);
+        return;
+    }
     readShape(row, s);
     s.clearSemiDiameterMm = row.number("sd", 0.0, NumberRange::atLeast(0.0));
     s.mechSemiDiameterMm = row.number("mech_sd", 0.0, NumberRange::atLeast(0.0));
@@ -283,6 +291,41 @@ void LensReader::readRow(const TomlTable& row, bool last, Material& incident) {
     }
     incident = s.material;
     p_.surfaces.push_back(s);
+}
+
+void LensReader::readBreakRow(const TomlTable& row, const TomlValue& brk, Surface& s,
+                              const Material& incident) {
+    // { break = { decenter_mm = [x, y], tilt_deg = [x, y, z], tilt_first = false }, t = ... }
+    for (const char* key : {"r", "c", "conic", "asph", "asph_r2", "asph_odd", "sd", "mech_sd",
+                            "hole_sd", "stop", "mirror", "coating"})
+        if (const auto v = row.get(key))
+            v->fail(std::string("a coordinate break row takes no '") + key +
+                    "': it is a flat dummy surface (only break, t, glass, name and comment)");
+    if (!brk.isTable())
+        brk.failExpected("a table { decenter_mm = [x, y], tilt_deg = [x, y, z], tilt_first = ... }");
+    const TomlTable b = brk.asTable();
+    CoordinateBreak cb;
+    if (const auto d = b.get("decenter_mm")) {
+        const std::vector<TomlValue> v = d->asArray();
+        if (v.size() != 2) d->fail("decenter_mm = [x, y]: two numbers (mm)");
+        cb.decenterXMm = v[0].asNumber();
+        cb.decenterYMm = v[1].asNumber();
+    }
+    if (const auto t = b.get("tilt_deg")) {
+        const std::vector<TomlValue> v = t->asArray();
+        if (v.size() != 3) t->fail("tilt_deg = [x, y, z]: three angles (degrees)");
+        cb.tiltXDeg = v[0].asNumber(NumberRange::between(-360.0, 360.0));
+        cb.tiltYDeg = v[1].asNumber(NumberRange::between(-360.0, 360.0));
+        cb.tiltZDeg = v[2].asNumber(NumberRange::between(-360.0, 360.0));
+    }
+    cb.tiltFirst = b.boolean("tilt_first", false);
+    s.coordinateBreak = cb;
+    s.thicknessMm =
+        row.require("t", "distance along the new z axis to the next surface in mm").asNumber();
+    s.material = incident;
+    if (const auto glass = row.get("glass"); glass && !(readMaterial(*glass) == incident))
+        glass->fail("a coordinate break keeps the medium " + incident.label() +
+                    "; leave 'glass' out of break rows (or repeat " + incident.label() + ")");
 }
 
 void LensReader::readShape(const TomlTable& row, Surface& s) {

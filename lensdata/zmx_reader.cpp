@@ -516,10 +516,10 @@ bool ZmxParser::headerCommand(const std::string& tag, const Line& line) {
 bool ZmxParser::surfaceCommand(const std::string& tag, const Line& line) {
     if (tag == "TYPE") {
         Surface& s = current(line, tag);
-        (void)s;
         const std::string type = upper(arg(line, 1, "surface type").text);
         surfaceTypes_.back() = type;
-        if (type != "STANDARD" && type != "EVENASPH" && type != "ODDASPH")
+        if (type == "COORDBRK") s.coordinateBreak = CoordinateBreak{};
+        if (type != "STANDARD" && type != "EVENASPH" && type != "ODDASPH" && type != "COORDBRK")
             unsupported_ = UnsupportedSurface{restOfLine(line, 1), locOf(line, line.tokens[1]), {}};
     } else if (tag == "CURV") {
         // CURV <curvature> <solve type> <solve parameters...> "<pickup name>"
@@ -552,6 +552,15 @@ bool ZmxParser::surfaceCommand(const std::string& tag, const Line& line) {
                                                        std::string(line.tokens[2].text));
         } else if (type == "EVENASPH" && n >= 1 && n <= static_cast<int>(s.asphere.size())) {
             s.asphere[n - 1] = v;
+        } else if (type == "COORDBRK" && n >= 1 && n <= 6) {
+            // COORDBRK: decenter x, y (lens units), tilt about x, y, z (degrees), order flag.
+            CoordinateBreak& b = *s.coordinateBreak;
+            double* const slot[] = {&b.decenterXMm, &b.decenterYMm, &b.tiltXDeg, &b.tiltYDeg,
+                                    &b.tiltZDeg};
+            if (n <= 5)
+                *slot[n - 1] = v;
+            else
+                b.tiltFirst = v != 0.0;
         } else if (type == "ODDASPH" && n >= 1 && n <= 8) {
             // ODDASPH: PARM n multiplies r^n. Even powers join the even asphere (r^2 n / 2 - 1),
             // odd ones the odd terms; r^1 would put a cone's tip on the axis.
@@ -726,9 +735,16 @@ void ZmxParser::resolveGlasses() {
 }
 
 void ZmxParser::applyMirrors() {
-    // A mirror keeps the medium the light came from (in order, so mirror after mirror works).
-    for (size_t i = 1; i < rx_.surfaces.size(); ++i)
-        if (rx_.surfaces[i].mirror) rx_.surfaces[i].material = rx_.surfaces[i - 1].material;
+    // A mirror or a coordinate break keeps the medium the light came from (in order, so
+    // mirror after mirror works). A break has no aperture of its own.
+    for (size_t i = 1; i < rx_.surfaces.size(); ++i) {
+        Surface& s = rx_.surfaces[i];
+        if (s.mirror || s.coordinateBreak) s.material = rx_.surfaces[i - 1].material;
+        if (s.coordinateBreak) {
+            s.clearSemiDiameterMm = s.mechSemiDiameterMm = 0.0;
+            s.semiDiameterAutomatic = false;
+        }
+    }
 }
 
 void ZmxParser::importHoles() {
@@ -803,6 +819,10 @@ void ZmxParser::convertUnits() {
         // oddAsphere[j] multiplies r^(2j+3): units length^-(2j+2).
         for (size_t j = 0; j < s.oddAsphere.size(); ++j)
             s.oddAsphere[j] *= std::pow(f, -(2.0 * static_cast<double>(j) + 2.0));
+        if (s.coordinateBreak) {
+            s.coordinateBreak->decenterXMm *= f;
+            s.coordinateBreak->decenterYMm *= f;
+        }
     }
     note(Severity::Info, unitLoc_,
          "lens units " + unitName_ + ": lengths converted to mm (x " + formatNumber(f) + ")");

@@ -27,7 +27,7 @@ Prescription withAutomaticSemiDiameters(const SequentialModel& model, int rimRay
                 const SequentialRayResult r = traceSequential(model, w, ar.ray, opts);
                 for (size_t i = 0; i < r.path.size(); ++i) {
                     const int s = opts.firstSurface + static_cast<int>(i);
-                    const Vec3& q = r.path[i].origin;
+                    const Vec3 q = model.localPoint(s, r.path[i].origin);
                     maxR[s] = std::max(maxR[s], std::hypot(q.x, q.y));
                 }
             }
@@ -37,7 +37,7 @@ Prescription withAutomaticSemiDiameters(const SequentialModel& model, int rimRay
     const PupilData& pupil = aimer.pupil();
     for (int i = 1; i < n; ++i) {
         Surface& s = p.surfaces[i];
-        if (s.clearSemiDiameterMm > 0.0) continue;
+        if (s.clearSemiDiameterMm > 0.0 || s.coordinateBreak) continue;  // breaks need none
         s.clearSemiDiameterMm = i == stop ? pupil.stopRadiusMm : maxR[i];
         s.semiDiameterAutomatic = true;
     }

@@ -98,7 +98,8 @@ Prescription resolveImageHeightFields(const Prescription& p, const GlassCatalog&
         if (chief.status != RayStatus::Ok) return std::nullopt;
         const SequentialRayResult r = traceSequential(model, w, chief.ray, options);
         if (!r.ok()) return std::nullopt;
-        return r.ray.origin.x * ux + r.ray.origin.y * uy;
+        const Vec3 q = model.localPoint(r.surface, r.ray.origin);
+        return q.x * ux + q.y * uy;
     };
 
     out.system.givenFieldKind = kind;

@@ -61,7 +61,8 @@ AimedRay RayAimer::aim(double fx, double fy, double px, double py, int w) const 
         const SequentialRayResult r =
             traceSequential(*model_, w, rayThrough(fx, fy, e.x, e.y), opts);
         if (!r.ok()) return false;
-        hit = Vec2(r.ray.origin.x, r.ray.origin.y);
+        const Vec3 q = model_->localPoint(r.surface, r.ray.origin);
+        hit = Vec2(q.x, q.y);
         return true;
     };
 

@@ -49,7 +49,7 @@ void size(SceneFile& f, const Prescription& given, const GlassCatalog& catalog) 
     auto model = modelOf(p, catalog);
     bool open = false;
     for (size_t i = 1; i < p.surfaces.size(); ++i)
-        open |= !(p.surfaces[i].clearSemiDiameterMm > 0.0);
+        open |= !(p.surfaces[i].clearSemiDiameterMm > 0.0) && !p.surfaces[i].coordinateBreak;
     if (!open) {
         f.prescription = p;
         f.model = std::move(model);
@@ -224,7 +224,7 @@ SceneSetup buildScene(const SceneFile& file, const GlassCatalog& catalog,
     det.aliases = {"image"};
     det.kind = ObjectKind::Detector;
     det.part = "sensor";
-    det.frame = Frame::alongAxis(model.surface(image).zMm);
+    det.frame = model.surface(image).frame;
     // Large enough for the image circle and for every detector rectangle placed on it.
     double sensorRadius = is.clearSemiDiameterMm;
     for (const DetectorSpec& d : file.detectors)

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <optional>
 
+#include "geometry/surface_frames.h"
+
 namespace veil {
 
 std::ostream& operator<<(std::ostream& os, const SequentialSurface& s) {
@@ -33,11 +35,16 @@ SequentialModel SequentialModel::build(const Prescription& p, const GlassCatalog
     m.stopIndex_ = p.stopIndex();
 
     const int n = static_cast<int>(p.surfaces.size());
+    const std::vector<Frame> frames = surfaceFrames(p);
     double z = 0.0;
     for (int i = 0; i < n; ++i) {
         const Surface& s = p.surfaces[i];
         SequentialSurface seq;
         seq.name = s.name;
+        seq.coordinateBreak = s.coordinateBreak.has_value();
+        seq.frame = frames[i];
+        // Only surfaces light meets decide whether the model is coaxial.
+        if (i > 0 && !s.coordinateBreak) m.coaxial_ = m.coaxial_ && onAxis(frames[i]);
         seq.shape = makeShape(s.curvature, s.conic, s.asphere, s.oddAsphere);
         seq.clearSemiDiameterMm = s.clearSemiDiameterMm;
         seq.mirror = s.mirror;

@@ -4,17 +4,23 @@
 //
 //   gap i: from surface i to surface i+1; index(i, w) = n of that gap at wavelength w.
 //
-// Frames: the global z axis is the optical axis; surface 1's vertex is at z = 0 and each
-// following vertex at z += thicknessMm (thicknesses are negative after an odd number of
-// mirrors, so folded systems need no tilts). Indices are signed as in lens design
-// programs: negative in gaps where light travels toward -z, so the paraxial equations
-// n'u' = nu - y c (n' - n) hold through mirrors unchanged. The real-ray trace uses |n|.
-// No tilts or decenters yet: every surface is centred on the axis.
+// Frames: the global frame is the coordinate system light arrives in at surface 1 (its
+// vertex at the origin, z the optical axis of object space). Each surface has a frame: its
+// vertex and axes in global coordinates. Without coordinate breaks (Surface::coordinateBreak)
+// every frame is the global one moved along z, each vertex at z += thicknessMm (negative after
+// an odd number of mirrors); a break turns and shifts the frame of itself and every surface
+// after it, and a thickness runs along its surface's own z axis. Indices are signed as in lens
+// design programs: negative in gaps where light travels toward -z of the local axis, so the
+// paraxial equations n'u' = nu - y c (n' - n) hold through mirrors unchanged. The real-ray
+// trace uses |n|. Paraxial (first-order) data ignore coordinate breaks, as lens design
+// programs do: zMm is the position along the unfolded axis, and it is the global z only in a
+// coaxial system (coaxial()).
 
 #include <ostream>
 #include <string>
 #include <vector>
 
+#include "geometry/frame.h"
 #include "geometry/surface_shape.h"
 #include "lensdata/glass_catalog.h"
 #include "lensdata/prescription.h"
@@ -24,7 +30,11 @@ namespace veil {
 struct SequentialSurface {
     std::string name;
     SurfaceShape shape;
-    double zMm = 0.0;                  // vertex position on the axis (global)
+    // Vertex position along the unfolded axis: the sum of the thicknesses before it from
+    // surface 1; the global z of the vertex when the model is coaxial.
+    double zMm = 0.0;
+    Frame frame;                       // the surface's local frame in global coordinates
+    bool coordinateBreak = false;      // a break: not intersected by sequential rays
     double clearSemiDiameterMm = 0.0;  // 0 = not given
     // Rays outside clearSemiDiameterMm are vignetted. False for the stop (the system aperture
     // sets its size) and for semi-diameters a lens file marked as computed.
@@ -53,6 +63,13 @@ class SequentialModel {
     int surfaceCount() const { return static_cast<int>(surfaces_.size()); }
     int stopIndex() const { return stopIndex_; }
     int imageIndex() const { return surfaceCount() - 1; }
+    // Every surface frame is the global one moved along z: no coordinate break tilts or
+    // decenters anything (breaks that cancel count as none).
+    bool coaxial() const { return coaxial_; }
+    // A global point in surface i's frame.
+    Vec3 localPoint(int i, const Vec3& global) const {
+        return surfaces_[i].frame.toLocalPoint(global);
+    }
 
     int wavelengthCount() const { return static_cast<int>(wavelengthsNm_.size()); }
     double wavelengthNm(int w) const { return wavelengthsNm_[w]; }
@@ -74,6 +91,8 @@ class SequentialModel {
     int stopIndex_ = 1;
     std::vector<std::vector<double>> indices_;  // [wavelength][gap]
     std::vector<double> directions_;            // [gap]
+    bool coaxial_ = true;
 };
+
 
 }  // namespace veil

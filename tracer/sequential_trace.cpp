@@ -43,17 +43,23 @@ SequentialRayResult traceSequential(const SequentialModel& model, int w, const R
     d /= len;
     for (int i = options.firstSurface; i <= last; ++i) {
         const SequentialSurface& s = model.surface(i);
-        const Ray local{p - Vec3(0.0, 0.0, s.zMm), d};
+        if (s.coordinateBreak) {
+            // Only the frame changes: the ray goes on in the same medium to the next surface.
+            result.surface = i;
+            if (options.recordPath) result.path.push_back(result.ray);
+            continue;
+        }
+        const Ray local = s.frame.toLocal({p, d});
         const std::optional<double> t = intersectSequential(s.shape, local);
         if (!t) {
             result.status = RayStatus::Missed;
             result.surface = i;
             return result;
         }
-        const Vec3 localHit = local.origin + *t * d;
+        const Vec3 localHit = local.origin + *t * local.direction;
         const double nBefore = std::abs(model.index(i - 1, w));
         result.opticalPathMm += nBefore * *t;
-        p = localHit + Vec3(0.0, 0.0, s.zMm);
+        p = s.frame.toGlobalPoint(localHit);
         result.ray = {p, d};
         result.surface = i;
         if (options.clipApertures) {
@@ -65,19 +71,21 @@ SequentialRayResult traceSequential(const SequentialModel& model, int w, const R
             }
         }
         const Vec3 nrm = surfaceNormal(s.shape, localHit);
+        Vec3 dl = local.direction;
         if (s.mirror) {
-            d = reflect(d, nrm);
+            dl = reflect(dl, nrm);
         } else {
             const double nAfter = std::abs(model.index(i, w));
             if (nAfter != nBefore) {
-                const std::optional<Vec3> r = refract(d, nrm, nBefore, nAfter);
+                const std::optional<Vec3> r = refract(dl, nrm, nBefore, nAfter);
                 if (!r) {
                     result.status = RayStatus::TotalInternalReflection;
                     return result;
                 }
-                d = *r;
+                dl = *r;
             }
         }
+        d = s.frame.toGlobalDirection(dl);
         result.ray.direction = d;
         if (options.recordPath) result.path.push_back(result.ray);
     }

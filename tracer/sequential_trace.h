@@ -1,8 +1,9 @@
 #pragma once
 // Real-ray sequential trace through a SequentialModel.
 //
-// Rays are in the global frame (z = optical axis). Each surface is met by
-// intersectSequential() on the same exact shapes the nonsequential tracer uses; refraction
+// Rays are in the global frame (tracer/sequential_model.h). Each surface is met in its own
+// frame by intersectSequential() on the same exact shapes the nonsequential tracer uses
+// (coordinate breaks are not met: the ray only passes into their frame); refraction
 // uses Snell's law in vector form with |n|, reflection mirrors the direction about the
 // normal. The outcome of every ray is a RayStatus with the surface where it stopped.
 
@@ -26,7 +27,10 @@ struct SequentialTraceOptions {
 struct SequentialRayResult {
     RayStatus status = RayStatus::Ok;
     int surface = 0;             // last surface reached (Ok) or where the ray failed
-    Ray ray;                     // at the last surface reached: point on it, direction after it
+    // At the last surface reached: point on it, direction after it, both global (a surface's
+    // own coordinates: SequentialModel::localPoint). At a coordinate break, the ray as it
+    // left the surface before.
+    Ray ray;
     double opticalPathMm = 0.0;  // sum of |n| * length from the start point
     std::vector<Ray> path;       // per surface from firstSurface (recordPath only)
     bool ok() const { return status == RayStatus::Ok; }

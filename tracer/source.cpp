@@ -8,6 +8,8 @@
 #include <optional>
 #include <sstream>
 
+#include "geometry/surface_frames.h"
+
 namespace veil {
 
 namespace {
@@ -95,20 +97,39 @@ EntranceAperture entranceAperture(const Prescription& p, const SequentialModel& 
         }
         return std::pair(clear, mech);
     };
+    // The first surface light meets (coordinate breaks are not met).
+    int first = 1;
+    while (first + 1 < model.surfaceCount() && model.surface(first).coordinateBreak) ++first;
     EntranceAperture a;
-    a.surface = 1;
-    const SequentialSurface& s = model.surface(1);
+    a.surface = first;
+    const SequentialSurface& s = model.surface(first);
     a.surfaceName = s.name;
+    if (!onAxis(s.frame))
+        throw ModelError(s.name,
+                         "is tilted or decentered by a coordinate break in front of it; sources "
+                         "fill the first surface about the object-space axis: start the lens "
+                         "with a surface on that axis (a dummy plane) before the break");
     a.shape = s.shape;
-    a.vertexZMm = s.zMm;
-    const auto [clear, mech] = radii(1);
+    a.vertexZMm = s.frame.translation.z;
+    const auto [clear, mech] = radii(first);
     a.radiusMm = mech > 0.0 ? mech : clear;
     a.clearRadiusMm = clear > 0.0 ? clear : mech;
     a.frontZMm = kInfinity;
-    for (int i = 1; i < model.surfaceCount(); ++i) {
+    for (int i = first; i < model.surfaceCount(); ++i) {
         const auto [c, m] = radii(i);
         const SequentialSurface& si = model.surface(i);
-        a.frontZMm = std::min(a.frontZMm, profileZRange(si.shape, si.zMm, m > 0.0 ? m : c).first);
+        if (si.coordinateBreak) continue;
+        const double r = m > 0.0 ? m : c;
+        const auto [zLo, zHi] = profileZRange(si.shape, 0.0, r);
+        if (onAxis(si.frame)) {
+            a.frontZMm = std::min(a.frontZMm, si.frame.translation.z + zLo);
+        } else {
+            // Tilted or decentered: the lowest global z of the box holding its profile.
+            Bounds3 box;
+            box.extend(Vec3(-r, -r, zLo));
+            box.extend(Vec3(r, r, zHi));
+            a.frontZMm = std::min(a.frontZMm, transformBounds(si.frame, box).lo.z);
+        }
     }
     return a;
 }

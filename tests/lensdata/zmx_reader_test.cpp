@@ -685,13 +685,13 @@ TEST(ZmxReader, UnsupportedSurfacesAndCommandsAreReported) {
     const Prescription rx = load("unsupported.zmx");
     ASSERT_EQ(rx.surfaces.size(), 6u);  // nothing dropped
 
-    const ImportNote* cb = findNote(rx, "surface type COORDBRK");
+    const ImportNote* cb = findNote(rx, "surface type IRREGULA");  // an irregular surface
     ASSERT_NE(cb, nullptr) << reportText(rx);
     EXPECT_EQ(cb->severity, ImportNote::Severity::Error);
     EXPECT_EQ(cb->loc.line, 28);
     EXPECT_NE(cb->message.find("would lose its shape"), std::string::npos) << cb->message;
     EXPECT_NE(cb->message.find("PARM 3 = 45"), std::string::npos) << cb->message;
-    EXPECT_EQ(rx.surfaces[3].thicknessMm, 5.0);  // the break's thickness still counts
+    EXPECT_EQ(rx.surfaces[3].thicknessMm, 5.0);  // its thickness still counts
 
     const ImportNote* toroid = findNote(rx, "surface type TOROIDAL");
     ASSERT_NE(toroid, nullptr) << reportText(rx);
