@@ -686,12 +686,13 @@ GhostAnalysis GhostTracer::analyse() const {
         (g.order() == 2 ? pairs : others).push_back(std::move(g));
     a.ghosts = estimatePairs(pairs, &a.nominal);
     for (const GhostPath& g : others) a.ghosts.push_back(estimate(g, &a.nominal));
-    // All ghosts together: one count of Fresnel reflections when no mirror is crossed, else
-    // the ghosts' own criteria (their mirror counts differ).
+    // All ghosts together: one count of Fresnel reflections when no mirror is crossed (or
+    // when there is no ghost: a system of mirrors alone), else the ghosts' own criteria
+    // (their mirror counts differ).
     int maxOrder = 2;
     bool mirrors = mirrorReflections(nominalPath()) > 0;
     for (const GhostEstimate& g : a.ghosts) maxOrder = std::max(maxOrder, g.path.order());
-    if (!mirrors) {
+    if (!mirrors || a.ghosts.empty()) {
         a.allGhostsCriterion =
             allGhostsCriterion(maxOrder, setup_->scene.object(detector_->object).name, firstFace_);
     } else {

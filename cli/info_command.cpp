@@ -58,6 +58,7 @@ nlohmann::json firstOrderJson(const FirstOrderData& d) {
 
 std::string fmt(double v, int prec = 6) {
     if (!std::isfinite(v)) return v > 0 ? "inf" : (v < 0 ? "-inf" : "nan");
+    if (v == 0.0) v = 0.0;  // -0 prints as 0
     std::ostringstream os;
     os << std::setprecision(prec) << v;
     return os.str();

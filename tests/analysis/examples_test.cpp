@@ -138,6 +138,27 @@ TEST(Examples, CatadioptricIsTheSeedsSecondSystem) {
     EXPECT_LT(onAxisRmsUm(l, 1 + 6 + 12), 15.0);
 }
 
+// Newtonian: the paraboloid's focus, R / 2 = 500 mm, folded 70 mm out of the tube by the
+// 45 degree mirror 430 mm in front of the primary: the image at (0, 70, 70) mm, where every
+// on-axis ray lands (the paraboloid is perfect on its axis).
+TEST(Examples, NewtonianFoldsThePerfectFocusOutOfTheTube) {
+    const Loaded l = load("newtonian_500mm.toml");
+    EXPECT_NEAR(l.firstOrder.primaryData().eflMm, 500.0, 1e-9);
+    const int img = l.model.imageIndex();
+    const Vec3 v = l.model.surface(img).frame.translation;
+    EXPECT_NEAR(v.x, 0.0, 1e-12);
+    EXPECT_NEAR(v.y, 70.0, 1e-12);
+    EXPECT_NEAR(v.z, 70.0, 1e-12);
+    EXPECT_FALSE(l.model.coaxial());
+    const RayAimer aimer(l.model, AimMode::Real);
+    for (int w = 0; w < 3; ++w) {
+        const SpotResult s = computeSpot(l.model, aimer, 0, w);
+        EXPECT_EQ(s.raysLanded, s.raysTraced);
+        EXPECT_LT(s.rmsRadiusMm, 1e-9);
+        EXPECT_LT(glm::length(s.centroidMm), 1e-9);
+    }
+}
+
 // The Numbers examples/README.md Quotes
 // Each lens's paragraph quotes what `veil info` reports: EFL, F/#, BFL and total track at the
 // primary wavelength, and the RMS spot radius about the centroid at F, d and C (8 hexapolar
@@ -183,6 +204,8 @@ TEST(Examples, ReadmeQuotesWhatVeilInfoReports) {
          {2.1, 12.4, 3.6}},
         {"catadioptric_2000mm.toml", 2000.23, 2, 10.0, 236.09, 2, 710.30, 2, {13.7, 8.9, 6.9}, 2,
          {8.2, 12.2, 14.5}},
+        {"newtonian_500mm.toml", 500.0, 0, 5.0, 70.0, 0, 140.00, 2, {0.0, 0.0, 0.0}, 2,
+         {10.2, 10.2, 10.2}},
     };
     // clang-format on
     for (const QuotedLens& q : lenses) {
