@@ -135,10 +135,23 @@ double number(const Token& t, const std::string& what) {
 }
 
 // A surface as the file gives it, before units and glasses are resolved.
+// A surface's decenter (XDE, YDE, ZDE in lens units; ADE, BDE, CDE in degrees) and its type:
+// basic (this surface and every one after it), DAR (decenter and return: this surface
+// only), BEN (bend: the coordinate system after the surface is tilted once more, a fold).
+struct Decenter {
+    enum class Type { Basic, DecenterAndReturn, Bend };
+    Type type = Type::Basic;
+    double x = 0.0, y = 0.0, z = 0.0, alpha = 0.0, beta = 0.0, gamma = 0.0;
+    bool given() const {
+        return x != 0.0 || y != 0.0 || z != 0.0 || alpha != 0.0 || beta != 0.0 || gamma != 0.0;
+    }
+};
+
 struct SurfaceInput {
     Surface surface;
     std::optional<Token> glass;  // the glass token, if any
     bool reflect = false;
+    Decenter decenter;
 };
 
 class CodeVParser {
@@ -165,7 +178,7 @@ class CodeVParser {
             [](const ImportNote& a, const ImportNote& b) { return a.loc.line < b.loc.line; });
         rx_.report = std::move(report_);
         rx_.sourceFile = file_;
-        for (SurfaceInput& s : surfaces_) rx_.surfaces.push_back(std::move(s.surface));
+        buildSurfaces();
         rx_.assignNames();
         rx_.validate();
         return std::move(rx_);
@@ -436,13 +449,28 @@ class CodeVParser {
         } else if (code == "XDE" || code == "YDE" || code == "ZDE" || code == "ADE" ||
                    code == "BDE" || code == "CDE") {
             auto [s, i] = target(c);
-            if (number(arg(c, i, "value"), code) != 0.0)
-                note(Severity::Error, codeToken.loc,
-                     code + " " + c.tokens[i].text +
-                         ": decenters and tilts are not supported by veil (surface " +
-                         std::to_string(s - surfaces_.data()) + ")");
-        } else if (code == "DAR" || code == "BEN" || code == "REV" || code == "RET") {
-            ignored(c, "a decenter type (decenters other than zero are errors)");
+            if (s == surfaces_.data())
+                throw ParseError(codeToken.loc, code + ": the object surface cannot be decentered");
+            const double v = number(arg(c, i, "value"), code);
+            Decenter& d = s->decenter;
+            (code == "XDE"   ? d.x
+             : code == "YDE" ? d.y
+             : code == "ZDE" ? d.z
+             : code == "ADE" ? d.alpha
+             : code == "BDE" ? d.beta
+                             : d.gamma) = v;
+        } else if (code == "DAR" || code == "BEN") {
+            auto [s, i] = target(c);
+            (void)i;
+            s->decenter.type = code == "DAR" ? Decenter::Type::DecenterAndReturn
+                                             : Decenter::Type::Bend;
+        } else if (code == "REV" || code == "RET") {
+            auto [s, i] = target(c);
+            (void)i;
+            note(Severity::Error, codeToken.loc,
+                 code + (code == "REV" ? " (reverse decenter)" : " (return to a surface's coordinates)") +
+                     " is not supported by veil (surface " +
+                     std::to_string(s - surfaces_.data()) + "): only basic decenters, DAR and BEN");
         } else if (code == "XTO" || code == "YTO" || code == "AAS" || code == "CYL" ||
                    code == "SPS" || code == "RDX" || code == "CUX") {
             unsupportedSurface(c, "surface profile " + full);
@@ -581,10 +609,56 @@ class CodeVParser {
         return privateNames_.count(normalized(name)) > 0;
     }
 
+    // The prescription's surfaces: each decentered surface gets coordinate breaks
+    // (CoordinateBreak, docs/format.md) around it. Basic: a break before it, which moves it
+    // and every surface after it (ZDE lengthens the gap before). DAR: the same break before
+    // it and its inverse after it, which carries its thickness, measured from the returned
+    // (undecentered) vertex. BEN: after the surface a break that tilts once more, as a fold.
+    void buildSurfaces() {
+        for (size_t i = 0; i < surfaces_.size(); ++i) {
+            Surface s = std::move(surfaces_[i].surface);
+            const Decenter& d = surfaces_[i].decenter;
+            if (i == 0 || !d.given()) {
+                rx_.surfaces.push_back(std::move(s));
+                continue;
+            }
+            Surface& before = rx_.surfaces.back();
+            if (std::isfinite(before.thicknessMm)) before.thicknessMm += d.z;
+            Surface in;
+            in.coordinateBreak = CoordinateBreak{d.x, d.y, d.alpha, d.beta, d.gamma, false};
+            in.material = before.material;
+            in.origin = s.origin;
+            in.comment = "decenter of the next surface";
+            rx_.surfaces.push_back(std::move(in));
+            // Nothing follows the image: DAR and BEN on it are basic decenters.
+            if (d.type == Decenter::Type::Basic || i + 1 == surfaces_.size()) {
+                rx_.surfaces.push_back(std::move(s));
+                continue;
+            }
+            Surface out;
+            out.coordinateBreak =
+                d.type == Decenter::Type::DecenterAndReturn
+                    ? CoordinateBreak{-d.x, -d.y, -d.alpha, -d.beta, -d.gamma, true}
+                    : CoordinateBreak{0.0, 0.0, d.alpha, d.beta, d.gamma, false};
+            out.thicknessMm =
+                s.thicknessMm - (d.type == Decenter::Type::DecenterAndReturn ? d.z : 0.0);
+            out.material = s.material;
+            out.origin = s.origin;
+            out.comment = d.type == Decenter::Type::DecenterAndReturn ? "return (DAR)"
+                                                                       : "bend (BEN)";
+            s.thicknessMm = 0.0;
+            rx_.surfaces.push_back(std::move(s));
+            rx_.surfaces.push_back(std::move(out));
+        }
+    }
+
     void convertUnits() {
         const double u = unit_;
         for (SurfaceInput& in : surfaces_) {
             Surface& s = in.surface;
+            in.decenter.x *= u;
+            in.decenter.y *= u;
+            in.decenter.z *= u;
             s.curvature /= u;
             if (std::isfinite(s.thicknessMm)) s.thicknessMm *= u;
             s.clearSemiDiameterMm *= u;

@@ -141,9 +141,9 @@ TEST(CodeVReader, ImageHeightFieldsInLensUnits) {
 TEST(CodeVReader, WhatVeilCannotRepresentIsAnErrorAtItsLine) {
     const std::string text =
         "RDM;LEN\nEPD 10\nWL 550\nYAN 0\nSO 0 1e11\nS 50 5 NBK7_SCHOTT\n  STO\n"
-        "S -50 40\n  YDE 0.5\n  XTO\nS 0 1 UNOBTAINIUM_SCHOTT\nFROB 1\nSI 0 0\nGO\n";
+        "S -50 40\n  REV\n  XTO\nS 0 1 UNOBTAINIUM_SCHOTT\nFROB 1\nSI 0 0\nGO\n";
     const Prescription rx = readCodeVText(text, "bad.seq", GlassCatalog::builtIn());
-    const ImportNote* decenter = findNote(rx, "decenters and tilts are not supported");
+    const ImportNote* decenter = findNote(rx, "REV (reverse decenter) is not supported");
     ASSERT_NE(decenter, nullptr) << reportText(rx);
     EXPECT_EQ(decenter->severity, ImportNote::Severity::Error);
     EXPECT_EQ(decenter->loc.line, 9);
@@ -157,6 +157,49 @@ TEST(CodeVReader, WhatVeilCannotRepresentIsAnErrorAtItsLine) {
     const ImportNote* frob = findNote(rx, "unknown command 'FROB'");
     ASSERT_NE(frob, nullptr) << reportText(rx);
     EXPECT_EQ(frob->severity, ImportNote::Severity::Warning);
+}
+
+// Decenters become coordinate breaks around their surface: basic (this surface and all after
+// it), DAR (this surface only: the inverse break after it carries its thickness) and BEN
+// (tilted once more after it, a fold). ZDE lengthens the gap before; lengths in lens units.
+TEST(CodeVReader, DecentersBecomeCoordinateBreaks) {
+    const std::string text =
+        "RDM;LEN\nDIM C\nEPD 1\nWL 587.56\nYAN 0\nSO 0 1e11\n"
+        "S 0 1.5\n"                                  // 1: a dummy
+        "S 5 0.5 NBK7_SCHOTT\n  STO\n  YDE 0.035; ADE 1.5; DAR\n"  // 2: decentered, returned
+        "S -5 3\n  XDE -0.02\n"                       // 3: basic: everything after moves
+        "S 0 -2 REFL\n  ADE 45; BEN\n"                 // 4: a fold mirror
+        "SI 0 0\n  ZDE 0.1\nGO\n";                  // the image moved 1 mm along its z
+    const Prescription rx = readCodeVText(text, "decenters.seq", GlassCatalog::builtIn());
+    for (const ImportNote& n : rx.report) EXPECT_NE(n.severity, ImportNote::Severity::Error) << n;
+    // object, dummy, CB, S2, CB (return), CB, S3, CB, mirror, CB (bend), CB, image
+    ASSERT_EQ(rx.surfaces.size(), 12u);
+    const double cm = 10.0;
+    ASSERT_TRUE(rx.surfaces[2].coordinateBreak);
+    EXPECT_NEAR(rx.surfaces[2].coordinateBreak->decenterYMm, 0.035 * cm, 1e-15);
+    EXPECT_EQ(rx.surfaces[2].coordinateBreak->tiltXDeg, 1.5);
+    EXPECT_FALSE(rx.surfaces[2].coordinateBreak->tiltFirst);
+    EXPECT_TRUE(rx.surfaces[3].stop);
+    EXPECT_EQ(rx.surfaces[3].thicknessMm, 0.0);
+    ASSERT_TRUE(rx.surfaces[4].coordinateBreak);
+    EXPECT_NEAR(rx.surfaces[4].coordinateBreak->decenterYMm, -0.035 * cm, 1e-15);
+    EXPECT_EQ(rx.surfaces[4].coordinateBreak->tiltXDeg, -1.5);
+    EXPECT_TRUE(rx.surfaces[4].coordinateBreak->tiltFirst);
+    EXPECT_NEAR(rx.surfaces[4].thicknessMm, 0.5 * cm, 1e-12);  // S2's thickness, returned
+    EXPECT_EQ(rx.surfaces[4].material, Material::catalog("N-BK7"));
+    ASSERT_TRUE(rx.surfaces[5].coordinateBreak);
+    EXPECT_NEAR(rx.surfaces[5].coordinateBreak->decenterXMm, -0.02 * cm, 1e-15);
+    EXPECT_NEAR(rx.surfaces[6].thicknessMm, 3.0 * cm, 1e-12);  // basic: its own thickness
+    ASSERT_TRUE(rx.surfaces[7].coordinateBreak);
+    EXPECT_EQ(rx.surfaces[7].coordinateBreak->tiltXDeg, 45.0);
+    EXPECT_TRUE(rx.surfaces[8].mirror);
+    EXPECT_EQ(rx.surfaces[8].thicknessMm, 0.0);
+    ASSERT_TRUE(rx.surfaces[9].coordinateBreak);
+    EXPECT_EQ(rx.surfaces[9].coordinateBreak->tiltXDeg, 45.0);  // the bend
+    EXPECT_EQ(rx.surfaces[9].coordinateBreak->decenterYMm, 0.0);
+    EXPECT_NEAR(rx.surfaces[9].thicknessMm, -2.0 * cm + 0.1 * cm, 1e-12);  // + ZDE of SI
+    ASSERT_TRUE(rx.surfaces[10].coordinateBreak);
+    EXPECT_TRUE(rx.surfaces[10].coordinateBreak->identity());  // ZDE alone: no shift or tilt
 }
 
 TEST(CodeVReader, MalformedInputNamesFileLineAndColumn) {
