@@ -210,7 +210,10 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
         if (s.mirror) flags += " MIRROR";
         if (s.innerSemiDiameterMm > 0.0) flags += " hole=" + fmt(s.innerSemiDiameterMm, 5);
         if (s.conic != 0.0) flags += " k=" + fmt(s.conic);
-        if (s.hasAsphere()) flags += " asphere";
+        if (s.qAsphere)
+            flags += s.qAsphere->kind == QAsphere::Kind::Bfs ? " Qbfs" : " Qcon";
+        else if (s.hasAsphere())
+            flags += " asphere";
         if (const auto& b = s.coordinateBreak) {
             flags += " BREAK";
             if (b->decenterXMm != 0.0 || b->decenterYMm != 0.0)

@@ -82,7 +82,8 @@ struct ShapeParts {
     double c = 0.0;
     double k = 0.0;
     std::array<double, 10> a{};
-    std::array<double, 9> b{};  // odd terms, b[j] r^(2j+3)
+    std::array<double, 9> b{};   // odd terms, b[j] r^(2j+3)
+    std::array<double, 10> e{};  // terms over w, e[i] r^(2i+2) / w
     bool hasPolynomial = false;
 };
 ShapeParts partsOf(const SurfaceShape& shape) {
@@ -92,15 +93,16 @@ ShapeParts partsOf(const SurfaceShape& shape) {
             if constexpr (std::is_same_v<S, PlaneShape>) {
                 return {};
             } else if constexpr (std::is_same_v<S, SphereShape>) {
-                return {s.curvature, 0.0, {}, false};
+                return {s.curvature, 0.0, {}, {}, {}, false};
             } else if constexpr (std::is_same_v<S, ConicShape>) {
-                return {s.curvature, s.conic, {}, false};
+                return {s.curvature, s.conic, {}, {}, {}, false};
             } else {
                 const auto nonzero = [](double v) { return v != 0.0; };
                 const bool poly =
                     std::any_of(s.coefficients.begin(), s.coefficients.end(), nonzero) ||
-                    std::any_of(s.odd.begin(), s.odd.end(), nonzero);
-                return {s.curvature, s.conic, s.coefficients, s.odd, poly};
+                    std::any_of(s.odd.begin(), s.odd.end(), nonzero) ||
+                    std::any_of(s.overW.begin(), s.overW.end(), nonzero);
+                return {s.curvature, s.conic, s.coefficients, s.odd, s.overW, poly};
             }
         },
         shape);
@@ -152,6 +154,23 @@ double curvatureBound(const SurfaceShape& shape, double uLo, double uHi) {
         if (u == 0.0) {  // the u^(i-1) terms above: only i = 1 survives at u = 0
             s2 = p.c == 0.0 ? 0.0 : p.c * bigK / 4.0;
             s2 += 2.0 * p.a[1];
+        }
+        // Terms over w, g = e u^n / w (n = i + 1): g' = n u^(n-1) / w + u^n K / (2 w^3),
+        // g'' = n (n-1) u^(n-2) / w + n u^(n-1) K / w^3 + 3 K^2 u^n / (4 w^5).
+        {
+            double un1 = 1.0;  // u^(n-1)
+            for (int i = 0; i < 10; ++i) {
+                const int n = i + 1;
+                const double un = un1 * u;
+                if (p.e[i] != 0.0) {
+                    const double w3 = w * w * w;
+                    s1 += p.e[i] * (n * un1 / w + un * bigK / (2.0 * w3));
+                    const double un2 = n >= 2 ? std::pow(u, n - 2) : 0.0;  // u^(n-2)
+                    s2 += p.e[i] * (n * (n - 1) * un2 / w + n * un1 * bigK / w3 +
+                                    3.0 * bigK * bigK * un / (4.0 * w3 * w * w));
+                }
+                un1 = un;
+            }
         }
         // The odd terms b r^n (n = 2j + 3) in r directly: radial z'' = n (n - 1) b r^(n-2),
         // tangential z' / r = n b r^(n-2), both finite on the axis.
@@ -209,6 +228,22 @@ void sagRange(const SurfaceShape& shape, double uLo, double uHi, double& zLo, do
             lo += std::min(t0, t1);
             hi += std::max(t0, t1);
             magnitude += std::max(std::abs(t0), std::abs(t1));
+            pow0 *= u0;
+            pow1 *= u1;
+        }
+        // Terms over w (a sphere or ellipsoid base, K >= 0): e u^(i+1) / w is monotone too.
+        const double bigK = (1.0 + p.k) * p.c * p.c;
+        const double w0 = std::sqrt(std::max(0.0, 1.0 - bigK * u0));
+        const double w1 = std::sqrt(std::max(0.0, 1.0 - bigK * u1));
+        pow0 = u0;
+        pow1 = u1;
+        for (int i = 0; i < 10; ++i) {
+            const double t0 = p.e[i] * pow0 / w0, t1 = p.e[i] * pow1 / w1;
+            if (p.e[i] != 0.0) {
+                lo += std::min(t0, t1);
+                hi += std::max(t0, t1);
+                magnitude += std::max(std::abs(t0), std::abs(t1));
+            }
             pow0 *= u0;
             pow1 *= u1;
         }

@@ -46,10 +46,6 @@ std::vector<double> vertexZ(const Prescription& p) {
     return z;
 }
 
-SurfaceShape shapeOf(const Surface& s) {
-    return makeShape(s.curvature, s.conic, s.asphere, s.oddAsphere);
-}
-
 bool close(double a, double b, double rel) {
     return std::abs(a - b) <= rel * std::max(std::abs(a), std::abs(b));
 }
@@ -62,6 +58,15 @@ bool sameShape(const Surface& a, const Surface& b) {
     }
     for (size_t j = 0; j < a.oddAsphere.size(); ++j) {
         if (!close(a.oddAsphere[j], b.oddAsphere[j], kSameShapeRel)) return false;
+    }
+    if (a.qAsphere.has_value() != b.qAsphere.has_value()) return false;
+    if (a.qAsphere) {
+        const QAsphere &qa = *a.qAsphere, &qb = *b.qAsphere;
+        if (qa.kind != qb.kind || qa.terms.size() != qb.terms.size() ||
+            !close(qa.normRadiusMm, qb.normRadiusMm, kSameShapeRel))
+            return false;
+        for (size_t i = 0; i < qa.terms.size(); ++i)
+            if (!close(qa.terms[i], qb.terms[i], kSameShapeRel)) return false;
     }
     return true;
 }
@@ -124,7 +129,7 @@ Aperture clearAperture(const Surface& s) {
 LensSide makeSide(const Prescription& p, const std::vector<double>& z, int surface, double r,
                   bool cemented) {
     const Surface& s = p.surfaces[surface];
-    const SurfaceShape shape = shapeOf(s);
+    const SurfaceShape shape = surfaceShape(s);
     const double rim = maxRadius(shape);
     if (r > rim) {
         throw ModelError(
@@ -563,7 +568,7 @@ void addLensSolids(const Prescription& prescription, Scene& scene,
         o.property = mirrorPropertyOf(sf, options);
         o.frame = frames[i];
         // A hole (a Cassegrain primary) leaves an annulus: light passes through the centre.
-        o.geometry = FaceGeometry{SurfacePatch{shapeOf(sf), clearAperture(sf)}};
+        o.geometry = FaceGeometry{SurfacePatch{surfaceShape(sf), clearAperture(sf)}};
         o.sequentialSurface = i;
         planned.push_back({i, std::move(o)});
     }

@@ -235,7 +235,7 @@ void MechanicsBuilder::readSurfaces() {
         const Surface& s = rx_.surfaces[i];
         SurfaceInfo info;
         info.name = s.name.empty() ? "S" + std::to_string(i) : s.name;
-        info.shape = makeShape(s.curvature, s.conic, s.asphere, s.oddAsphere);
+        info.shape = surfaceShape(s);
         info.clearMm = s.clearSemiDiameterMm > 0.0 ? s.clearSemiDiameterMm : s.mechSemiDiameterMm;
         info.mechMm = std::max(s.mechSemiDiameterMm, info.clearMm);
         if (i == 0) {

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "geometry/qtype.h"
+
 namespace veil {
 
 namespace {
@@ -63,6 +65,23 @@ std::vector<Frame> surfaceFrames(const Prescription& p) {
         frame.translation += frame.rotation * Vec3(0.0, 0.0, s.thicknessMm);
     }
     return out;
+}
+
+SurfaceShape surfaceShape(const Surface& s) {
+    std::array<double, 10> even = s.asphere;
+    std::array<double, 10> overW{};
+    if (s.qAsphere) {
+        const QAsphere& q = *s.qAsphere;
+        // Index n of the departure multiplies v^n = r^(2n): the arrays' entry n - 1.
+        if (q.kind == QAsphere::Kind::Con) {
+            const std::vector<double> d = qconDeparture(q.normRadiusMm, q.terms);
+            for (size_t n = 1; n < d.size(); ++n) even[n - 1] += d[n];
+        } else {
+            const std::vector<double> d = qbfsDeparture(q.normRadiusMm, q.terms);
+            for (size_t n = 1; n < d.size(); ++n) overW[n - 1] = d[n];
+        }
+    }
+    return makeShape(s.curvature, s.conic, even, s.oddAsphere, overW);
 }
 
 bool onAxis(const Frame& f) {

@@ -1,6 +1,6 @@
 #pragma once
-// Where every surface of a prescription sits: its local frame (vertex at the origin, z the
-// local optical axis) in global coordinates.
+// Where every surface of a prescription sits, its local frame (vertex at the origin, z the
+// local optical axis) in global coordinates, and what it is: its exact shape in that frame.
 //
 // The global frame is the coordinate system light arrives in at surface 1: surface 1's
 // vertex at the origin, z the object-space axis. The object surface sits one object distance
@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "geometry/frame.h"
+#include "geometry/surface_shape.h"
 #include "lensdata/prescription.h"
 
 namespace veil {
@@ -27,5 +28,9 @@ std::vector<Frame> surfaceFrames(const Prescription& p);
 
 // The frame is the global one moved along z: no rotation, the vertex on the z axis.
 bool onAxis(const Frame& f);
+
+// The exact shape of a surface: its conic, even and odd asphere terms, and a Q-type
+// departure turned into even asphere terms (Qcon) or terms over w (Qbfs), geometry/qtype.h.
+SurfaceShape surfaceShape(const Surface& s);
 
 }  // namespace veil

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include "geometry/numerics.h"
 
@@ -99,6 +100,16 @@ double oddSlope(const std::array<double, 9>& b, double u) {
         q = q * u + b[j];
     }
     return std::sqrt(u) * (1.5 * q + u * dq);
+}
+
+// Part over w, W(u) = P_e(u) / w with w = sqrt(1 - K u) clamped at 0, and
+// dW/du = P_e'(u) / w + P_e(u) K / (2 w^3).
+double overWSag(const std::array<double, 10>& e, double bigK, double u) {
+    return polySag(e, u) / std::sqrt(std::max(0.0, 1.0 - bigK * u));
+}
+double overWSlope(const std::array<double, 10>& e, double bigK, double u) {
+    const double w = std::sqrt(std::max(0.0, 1.0 - bigK * u));
+    return polySlope(e, u) / w + polySag(e, u) * bigK / (2.0 * w * w * w);
 }
 
 // Conic Intersection
@@ -259,7 +270,9 @@ class AsphereAlongRay {
         : base_{shape.curvature, shape.conic},
           a_(shape.coefficients),
           b_(shape.odd),
+          e_(shape.overW),
           hasOdd_(!allZero(shape.odd)),
+          hasOverW_(!allZero(shape.overW)),
           p_(p),
           d_(d) {
         bigK_ = base_.bigK();
@@ -268,7 +281,8 @@ class AsphereAlongRay {
     double value(double s) const {
         const double x = p_.x + s * d_.x, y = p_.y + s * d_.y, z = p_.z + s * d_.z;
         const double u = x * x + y * y;
-        return z - (conicSagClamped(base_, u) + polySag(a_, u) + (hasOdd_ ? oddSag(b_, u) : 0.0));
+        return z - (conicSagClamped(base_, u) + polySag(a_, u) + (hasOdd_ ? oddSag(b_, u) : 0.0) +
+                    (hasOverW_ ? overWSag(e_, bigK_, u) : 0.0));
     }
     void valueAndSlope(double s, double& f, double& df) const {
         const double x = p_.x + s * d_.x, y = p_.y + s * d_.y, z = p_.z + s * d_.z;
@@ -277,8 +291,11 @@ class AsphereAlongRay {
         conicSagAndSlopeClamped(base_, u, zc, dzc);
         const double odd = hasOdd_ ? oddSag(b_, u) : 0.0;
         const double oddSlopeU = hasOdd_ ? oddSlope(b_, u) : 0.0;
-        f = z - (zc + polySag(a_, u) + odd);
-        df = d_.z - (dzc + polySlope(a_, u) + oddSlopeU) * 2.0 * (x * d_.x + y * d_.y);
+        const double overW = hasOverW_ ? overWSag(e_, bigK_, u) : 0.0;
+        const double overWSlopeU = hasOverW_ ? overWSlope(e_, bigK_, u) : 0.0;
+        f = z - (zc + polySag(a_, u) + odd + overW);
+        df = d_.z -
+             (dzc + polySlope(a_, u) + oddSlopeU + overWSlopeU) * 2.0 * (x * d_.x + y * d_.y);
     }
 
     // Enclosure of S and S' over u in [uLo, uHi], and a bound on the magnitudes summed.
@@ -307,6 +324,33 @@ class AsphereAlongRay {
             derHi = powHi;
             powLo *= uLo;
             powHi *= uHi;
+        }
+        // Terms over w, e[i] u^(i+1) / w, and their u-slopes e[i] ((i+1) u^i / w +
+        // u^(i+1) K / (2 w^3)): with K >= 0 every factor is positive and increasing in u, so
+        // each term is monotone and between its values at the ends.
+        if (hasOverW_) {
+            const double wLo = std::sqrt(std::max(0.0, 1.0 - bigK_ * uLo));
+            const double wHi = std::sqrt(std::max(0.0, 1.0 - bigK_ * uHi));
+            double pLo = uLo, pHi = uHi;  // u^(i+1)
+            double qLo = 1.0, qHi = 1.0;  // u^i
+            for (int i = 0; i < 10; ++i) {
+                if (e_[i] != 0.0) {
+                    const double t0 = e_[i] * pLo / wLo, t1 = e_[i] * pHi / wHi;
+                    r.lo += std::min(t0, t1);
+                    r.hi += std::max(t0, t1);
+                    r.magnitude += std::max(std::abs(t0), std::abs(t1));
+                    const double e0 = e_[i] * ((i + 1) * qLo / wLo +
+                                               pLo * bigK_ / (2.0 * wLo * wLo * wLo));
+                    const double e1 = e_[i] * ((i + 1) * qHi / wHi +
+                                               pHi * bigK_ / (2.0 * wHi * wHi * wHi));
+                    r.slopeLo += std::min(e0, e1);
+                    r.slopeHi += std::max(e0, e1);
+                }
+                qLo = pLo;
+                qHi = pHi;
+                pLo *= uLo;
+                pHi *= uHi;
+            }
         }
         // Odd terms b[j] u^(j + 1.5) and their u-slopes (j + 1.5) b[j] u^(j + 0.5): each
         // monotone in u >= 0, so between its values at the ends.
@@ -443,7 +487,9 @@ class AsphereAlongRay {
     double bigK_ = 0.0;
     std::array<double, 10> a_;
     std::array<double, 9> b_;
-    bool hasOdd_ = false;  // any odd term: else their sums are skipped
+    std::array<double, 10> e_;
+    bool hasOdd_ = false;    // any odd term: else their sums are skipped
+    bool hasOverW_ = false;  // any term over w: likewise
     Vec3 p_, d_;
 };
 
@@ -563,7 +609,12 @@ bool asphereSearchRange(const AsphereAlongRay& f, const Vec3& p, const Vec3& d, 
         lo = std::max(lo, std::min(s1, s2));
         hi = std::min(hi, std::max(s1, s2));
     }
-    const AsphereAlongRay::SagRange sr = f.sagRange(0.0, uMax);
+    // A ray parallel to the axis stays at one radius: the sag there bounds it (terms over w
+    // grow without bound toward the rim, so the whole range would not).
+    const double u0 = p.x * p.x + p.y * p.y;
+    const AsphereAlongRay::SagRange sr =
+        qa == 0.0 ? f.sagRange(u0 * (1.0 - 8.0 * kEpsilon), std::min(uMax, u0 * (1.0 + 8.0 * kEpsilon)))
+                  : f.sagRange(0.0, uMax);
     const double zTol = 32.0 * kEpsilon * sr.magnitude;
     const double zLo = sr.lo - zTol, zHi = sr.hi + zTol;
     if (d.z != 0.0) {
@@ -662,6 +713,10 @@ std::ostream& operator<<(std::ostream& os, const EvenAsphereShape& s) {
         os << "], odd r^3.. [";
         for (size_t j = 0; j < s.odd.size(); ++j) os << (j ? ", " : "") << s.odd[j];
     }
+    if (!allZero(s.overW)) {
+        os << "], over w [";
+        for (size_t i = 0; i < s.overW.size(); ++i) os << (i ? ", " : "") << s.overW[i];
+    }
     return os << "]}";
 }
 std::ostream& operator<<(std::ostream& os, const SurfaceShape& s) {
@@ -675,8 +730,11 @@ std::ostream& operator<<(std::ostream& os, const ShapeHit& h) {
 // Surface Shape Functions
 
 SurfaceShape makeShape(double curvature, double conic, const std::array<double, 10>& asphere,
-                       const std::array<double, 9>& odd) {
-    if (!allZero(asphere) || !allZero(odd)) return EvenAsphereShape{curvature, conic, asphere, odd};
+                       const std::array<double, 9>& odd, const std::array<double, 10>& overW) {
+    if (!allZero(overW) && !(1.0 + conic >= 0.0))
+        throw std::invalid_argument("terms over w need a sphere or ellipsoid base (1 + k >= 0)");
+    if (!allZero(asphere) || !allZero(odd) || !allZero(overW))
+        return EvenAsphereShape{curvature, conic, asphere, odd, overW};
     if (curvature == 0.0) return PlaneShape{};
     if (conic == 0.0) return SphereShape{curvature};
     return ConicShape{curvature, conic};
@@ -694,7 +752,10 @@ double sag(const SurfaceShape& shape, double rSq) {
                 return conicSag({s.curvature, s.conic}, rSq);
             } else {
                 const double odd = allZero(s.odd) ? 0.0 : oddSag(s.odd, rSq);
-                return conicSag({s.curvature, s.conic}, rSq) + polySag(s.coefficients, rSq) + odd;
+                const ConicBase b{s.curvature, s.conic};
+                // Beyond the rim the conic sag is NaN, and so is the sum.
+                const double overW = allZero(s.overW) ? 0.0 : overWSag(s.overW, b.bigK(), rSq);
+                return conicSag(b, rSq) + polySag(s.coefficients, rSq) + odd + overW;
             }
         },
         shape);
@@ -716,7 +777,9 @@ Vec3 surfaceNormal(const SurfaceShape& shape, const Vec3& point) {
                 const double u = point.x * point.x + point.y * point.y;
                 const double w = std::sqrt(std::max(0.0, 1.0 - b.bigK() * u));
                 const double odd = allZero(s.odd) ? 0.0 : oddSlope(s.odd, u);
-                const double m = b.c + 2.0 * w * (polySlope(s.coefficients, u) + odd);
+                const double overW =
+                    allZero(s.overW) ? 0.0 : overWSlope(s.overW, b.bigK(), u);
+                const double m = b.c + 2.0 * w * (polySlope(s.coefficients, u) + odd + overW);
                 return {-point.x * m, -point.y * m, w};
             } else {
                 const ConicBase b = conicBase(s);
@@ -743,7 +806,7 @@ std::optional<double> intersectSequential(const SurfaceShape& shape, const Ray& 
                 if (localRay.direction.z == 0.0) return std::nullopt;
                 return -localRay.origin.z / localRay.direction.z;
             } else if constexpr (std::is_same_v<S, EvenAsphereShape>) {
-                if (allZero(s.coefficients) && allZero(s.odd)) {
+                if (allZero(s.coefficients) && allZero(s.odd) && allZero(s.overW)) {
                     return conicSequential({s.curvature, s.conic}, localRay);
                 }
                 return asphereSequential(s, localRay);
@@ -770,7 +833,7 @@ std::optional<ShapeHit> intersectFirst(const SurfaceShape& shape, const Ray& loc
                 if (!withinRadius(point, rMax, glm::length(o) + std::abs(t))) return std::nullopt;
                 return ShapeHit{t, point, {0.0, 0.0, 1.0}};
             } else if constexpr (std::is_same_v<S, EvenAsphereShape>) {
-                if (allZero(s.coefficients) && allZero(s.odd)) {
+                if (allZero(s.coefficients) && allZero(s.odd) && allZero(s.overW)) {
                     return conicFirst(shape, {s.curvature, s.conic}, localRay, tMin, tMax, rMax,
                                       startsOnSurface);
                 }

@@ -13,6 +13,10 @@
 //                  + sum_j b[j] r^(2j+3)            (odd terms r^3, r^5, ... r^19: Zemax's
 //                                                    ODDASPH; no r^1 term, which would put a
 //                                                    cone's tip at the vertex)
+//                  + sum_i e[i] r^(2i+2) / w        (terms over the base's w = sqrt(1 - (1+k)
+//                                                    c^2 r^2): Forbes's Qbfs departure,
+//                                                    geometry/qtype.h; only on a sphere or
+//                                                    ellipsoid base, (1 + k) >= 0)
 //
 // Units: lengths in mm, curvature c in 1/mm (c > 0 when the centre of curvature is at +z),
 // k dimensionless (k > 0 oblate ellipsoid, 0 sphere, (-1, 0) prolate ellipsoid, -1
@@ -47,6 +51,7 @@ struct EvenAsphereShape {
     double conic = 0.0;
     std::array<double, 10> coefficients{};  // coefficients[i] multiplies r^(2i+2)
     std::array<double, 9> odd{};            // odd[j] multiplies r^(2j+3), in mm^-(2j+2)
+    std::array<double, 10> overW{};         // overW[i] multiplies r^(2i+2) / w, in mm^-(2i+1)
 };
 
 using SurfaceShape = std::variant<PlaneShape, SphereShape, ConicShape, EvenAsphereShape>;
@@ -60,8 +65,11 @@ std::ostream& operator<<(std::ostream& os, const SurfaceShape& s);
 // every a[i] == 0 (the conic constant of a flat surface has no effect), a sphere when also
 // k == 0, a conic when only the a[i] vanish, an even asphere otherwise (a[0] r^2 curves a
 // flat base, so it makes an asphere too).
+// Terms over w need 1 + k >= 0 (each is then monotone in r, which the intersections rely
+// on): std::invalid_argument otherwise.
 SurfaceShape makeShape(double curvature, double conic, const std::array<double, 10>& asphere,
-                       const std::array<double, 9>& odd = {});
+                       const std::array<double, 9>& odd = {},
+                       const std::array<double, 10>& overW = {});
 
 // Sag z at radial distance squared rSq (mm^2). NaN outside the conic's domain.
 double sag(const SurfaceShape& shape, double rSq);

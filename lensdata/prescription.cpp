@@ -32,7 +32,14 @@ bool Surface::hasAsphere() const {
         if (a != 0.0) return true;
     for (double b : oddAsphere)
         if (b != 0.0) return true;
-    return false;
+    return qAsphere.has_value();
+}
+
+std::ostream& operator<<(std::ostream& os, const QAsphere& q) {
+    os << (q.kind == QAsphere::Kind::Bfs ? "Qbfs" : "Qcon") << "{norm radius " << q.normRadiusMm
+       << " mm, terms [";
+    for (size_t i = 0; i < q.terms.size(); ++i) os << (i ? ", " : "") << q.terms[i];
+    return os << "]}";
 }
 
 std::ostream& operator<<(std::ostream& os, const CoordinateBreak& b) {
@@ -199,6 +206,32 @@ void Prescription::validate() const {
         if (s.mirror && !(s.material == surfaces[i - 1].material))
             throw ModelError(nameOf(i), "a mirror keeps the medium: material after it must be " +
                                             surfaces[i - 1].material.label());
+        if (s.qAsphere) {
+            const QAsphere& q = *s.qAsphere;
+            const char* kind = q.kind == QAsphere::Kind::Bfs ? "Qbfs" : "Qcon";
+            if (!(q.normRadiusMm > 0.0) || !std::isfinite(q.normRadiusMm))
+                throw ModelError(nameOf(i), std::string(kind) +
+                                                " normalisation radius must be finite and > 0");
+            if (q.terms.empty() || q.terms.size() > 9)
+                throw ModelError(nameOf(i), std::string(kind) + " takes 1 to 9 terms (got " +
+                                                std::to_string(q.terms.size()) + ")");
+            for (double a : q.terms)
+                if (!std::isfinite(a))
+                    throw ModelError(nameOf(i), std::string(kind) + " term is not finite");
+            for (double a : s.asphere)
+                if (a != 0.0)
+                    throw ModelError(nameOf(i), std::string(kind) +
+                                                    " surface with even asphere terms: give one "
+                                                    "or the other");
+            for (double b : s.oddAsphere)
+                if (b != 0.0)
+                    throw ModelError(nameOf(i), std::string(kind) +
+                                                    " surface with odd asphere terms: give one or "
+                                                    "the other");
+            if (q.kind == QAsphere::Kind::Bfs && s.conic != 0.0)
+                throw ModelError(nameOf(i), "Qbfs departs from a best-fit sphere: its conic must "
+                                            "be 0 (a conic base is Qcon)");
+        }
         if (s.coordinateBreak) {
             const CoordinateBreak& b = *s.coordinateBreak;
             for (double v : {b.decenterXMm, b.decenterYMm, b.tiltXDeg, b.tiltYDeg, b.tiltZDeg})

@@ -70,6 +70,18 @@ struct CoordinateBreak {
 };
 std::ostream& operator<<(std::ostream& os, const CoordinateBreak& b);
 
+// A Forbes Q-polynomial asphere (geometry/qtype.h): the departure from the base conic
+// (Qcon) or best-fit sphere (Qbfs, conic 0) as terms a_0 .. a_8 of Forbes's polynomials of
+// (r / normRadiusMm)^2. Both are traced exactly, as even asphere terms.
+struct QAsphere {
+    enum class Kind { Bfs, Con };
+    Kind kind = Kind::Con;
+    double normRadiusMm = 0.0;
+    std::vector<double> terms;  // mm
+    bool operator==(const QAsphere&) const = default;
+};
+std::ostream& operator<<(std::ostream& os, const QAsphere& q);
+
 struct Surface {
     std::string name;     // stable name: object, L1.front, L1.back, stop, M1, image, S7, ...
     std::string comment;  // free text from the lens file
@@ -81,6 +93,7 @@ struct Surface {
     std::array<double, 10> asphere{};
     // Odd asphere terms (Zemax ODDASPH): sag += sum_j oddAsphere[j] r^(2j+3), r^3 .. r^19.
     std::array<double, 9> oddAsphere{};
+    std::optional<QAsphere> qAsphere;  // a Q-type departure (then asphere and oddAsphere are 0)
     double thicknessMm = 0.0;  // to the next surface; may be +-kInfinity for the object
     Material material;         // medium after this surface (gap index = this surface's index)
 

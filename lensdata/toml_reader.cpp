@@ -348,6 +348,36 @@ void LensReader::readShape(const TomlTable& row, Surface& s) {
                        std::to_string(terms.size()) + ")");
         for (size_t j = 0; j < terms.size(); ++j) s.asphere[j + 1] = terms[j].asNumber();
     }
+    for (const char* key : {"qbfs", "qcon"}) {
+        const auto q = row.get(key);
+        if (!q) continue;
+        const bool bfs = std::string(key) == "qbfs";
+        if (s.qAsphere)
+            laterInFile(*row.get("qbfs"), *q).fail("give qbfs or qcon, not both");
+        if (!q->isTable())
+            q->failExpected("a table { norm_radius_mm = ..., terms = [a0, a1, ...] }");
+        const TomlTable t = q->asTable();
+        QAsphere qa;
+        qa.kind = bfs ? QAsphere::Kind::Bfs : QAsphere::Kind::Con;
+        qa.normRadiusMm =
+            t.require("norm_radius_mm", "the normalisation radius of the Q polynomials (mm)")
+                .asNumber(NumberRange::above(0.0));
+        const TomlValue terms = t.require("terms", "the Q polynomial coefficients a0, a1, ... (mm)");
+        const std::vector<TomlValue> list = terms.asArray();
+        if (list.empty() || list.size() > 9)
+            terms.fail(std::string(key) + " terms: 1 to 9 coefficients a0 .. a8 (got " +
+                       std::to_string(list.size()) + ")");
+        for (const TomlValue& v : list) qa.terms.push_back(v.asNumber());
+        s.qAsphere = qa;
+        for (const char* other : {"asph", "asph_r2", "asph_odd"})
+            if (const auto v = row.get(other))
+                v->fail(std::string("a ") + key + " surface takes no '" + other +
+                        "': the Q polynomials are its whole departure");
+        if (bfs)
+            if (const auto k = row.get("conic"); k && k->asNumber() != 0.0)
+                k->fail("qbfs departs from a best-fit sphere: conic must be 0 (use qcon on a "
+                        "conic)");
+    }
     if (const auto odd = row.get("asph_odd")) {
         const std::vector<TomlValue> terms = odd->asArray();
         if (terms.size() > s.oddAsphere.size())

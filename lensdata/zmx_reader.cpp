@@ -660,6 +660,10 @@ void ZmxParser::endSurface() {
     if (!unsupported_->lostParameters.empty())
         msg += ": " + joinNames(unsupported_->lostParameters);
     msg += ")";
+    if (upper(unsupported_->type).rfind("QED_TYPE", 0) == 0)
+        msg += "; veil models Forbes Q-type aspheres (a TOML surface's qbfs or qcon, "
+               "docs/format.md) but does not read their .zmx encoding: write the surface in "
+               "TOML from the file's normalisation radius and terms";
     note(Severity::Error, unsupported_->loc, msg);
     unsupported_.reset();
 }

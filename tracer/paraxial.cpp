@@ -1,5 +1,7 @@
 #include "tracer/paraxial.h"
 
+#include "geometry/qtype.h"
+
 namespace veil {
 
 std::ostream& operator<<(std::ostream& os, const ParaxialRay& r) {
@@ -13,7 +15,14 @@ std::ostream& operator<<(std::ostream& os, const ParaxialMatrix& m) {
     return os << "[[" << m.a << ", " << m.b << "], [" << m.c << ", " << m.d << "]]";
 }
 
-double paraxialCurvature(const Surface& s) { return s.curvature + 2.0 * s.asphere[0]; }
+double paraxialCurvature(const Surface& s) {
+    // z = (c + 2 a2) r^2 / 2 + O(r^4); a Qbfs departure adds its r^2 coefficient (over w,
+    // which is 1 on the axis); Qcon starts at r^4.
+    double c = s.curvature + 2.0 * s.asphere[0];
+    if (s.qAsphere && s.qAsphere->kind == QAsphere::Kind::Bfs)
+        c += 2.0 * qbfsDeparture(s.qAsphere->normRadiusMm, s.qAsphere->terms)[1];
+    return c;
+}
 
 ParaxialRay traceParaxial(const SequentialModel& model, int w, int first, int last, double y,
                           double nuBefore) {

@@ -23,7 +23,7 @@ struct ParaxialRay {
 };
 std::ostream& operator<<(std::ostream& os, const ParaxialRay& r);
 
-// The paraxial curvature of a surface: c + 2 a2.
+// The paraxial curvature of a surface: c + 2 a2, plus twice the r^2 term of a Qbfs departure.
 double paraxialCurvature(const Surface& s);
 
 // Traces from surface `first` (height y, reduced angle nuBefore in the gap before it) to

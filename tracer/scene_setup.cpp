@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "geometry/lens_solid.h"
+#include "geometry/surface_frames.h"
 #include "lensdata/lens_file.h"
 #include "lensdata/toml_reader.h"
 #include "tracer/auto_apertures.h"
@@ -232,8 +233,7 @@ SceneSetup buildScene(const SceneFile& file, const GlassCatalog& catalog,
             sensorRadius =
                 std::max(sensorRadius, std::hypot(0.5 * d.sizeMm->x + std::abs(d.centerMm.x),
                                                   0.5 * d.sizeMm->y + std::abs(d.centerMm.y)));
-    det.geometry = FaceGeometry{SurfacePatch{makeShape(is.curvature, is.conic, is.asphere, is.oddAsphere),
-                                             CircularAperture{sensorRadius}}};
+    det.geometry = FaceGeometry{SurfacePatch{surfaceShape(is), CircularAperture{sensorRadius}}};
     det.sequentialSurface = image;
     s.scene.addObject(std::move(det));
     // Detectors: on scene objects (the sensor by default) or free rectangles of their own.

@@ -45,7 +45,7 @@ SequentialModel SequentialModel::build(const Prescription& p, const GlassCatalog
         seq.frame = frames[i];
         // Only surfaces light meets decide whether the model is coaxial.
         if (i > 0 && !s.coordinateBreak) m.coaxial_ = m.coaxial_ && onAxis(frames[i]);
-        seq.shape = makeShape(s.curvature, s.conic, s.asphere, s.oddAsphere);
+        seq.shape = surfaceShape(s);
         seq.clearSemiDiameterMm = s.clearSemiDiameterMm;
         seq.mirror = s.mirror;
         seq.stop = i == m.stopIndex_;

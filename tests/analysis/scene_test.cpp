@@ -173,8 +173,8 @@ class TargetPicker {
 };
 
 // Every example with mechanics: the lens files with the default mechanics at a coarse
-// tessellation, the scene files with their own; and two test lenses, one with odd asphere
-// terms, one tilted and decentered by a coordinate break (exact faces on two axes) with
+// tessellation, the scene files with their own; and three test lenses, one with odd asphere
+// terms, one with Q-type faces (Qbfs and Qcon), one tilted and decentered by a coordinate break (exact faces on two axes) with
 // [[mesh]] blocks beside it. The double Gauss with default mechanics
 // (6 lenses, 25 exact faces, ~4000 triangles) gets 1e5 rays; the others, whose faces and
 // parts it shares in kind, fewer, in proportion to what their triangles cost the oracle.
@@ -241,6 +241,7 @@ INSTANTIATE_TEST_SUITE_P(
         OracleCase{"singlet_default_mechanics", "lenses/singlet", 20000},
         OracleCase{"odd_asphere_singlet", "../tests/data/toml/odd_asphere_singlet", 20000},
         OracleCase{"tilted_doublet_meshes", "../tests/data/toml/tilted_doublet", 20000},
+        OracleCase{"qtype_singlet", "../tests/data/toml/qtype_singlet", 20000},
         OracleCase{"achromat_default_mechanics", "lenses/achromat", 20000},
         OracleCase{"cooke_triplet_default_mechanics", "lenses/cooke_triplet", 20000},
         OracleCase{"double_gauss_default_mechanics", "lenses/double_gauss_50mm", 100000},

@@ -302,6 +302,9 @@ TEST(ExactFace, BoundsHoldDenseSamplesAndAreTight) {
         SurfacePatch{EvenAsphereShape{1.0 / 50.0, 0.0, {0.0, 0.0, -3e-7}}, CircularAperture{20.0}},
         // Odd terms r^3 and r^5 on a weak sphere, turning over inside the aperture.
         SurfacePatch{EvenAsphereShape{1.0 / 200.0, 0.0, {}, {1e-4, -8e-7}}, CircularAperture{18.0}},
+        // Terms over w (Qbfs) on a steep sphere, turning over inside the aperture.
+        SurfacePatch{EvenAsphereShape{1.0 / 40.0, 0.0, {}, {}, {0.0, 5e-6, -2e-8}},
+                     CircularAperture{22.0}},
         SurfacePatch{PlaneShape{}, RectangularAperture{4.0, 2.0}},
         CylinderPatch{9.0, -1.0, 4.0, true},
     };
@@ -427,6 +430,10 @@ TEST(ExactFace, TessellationChordErrorStaysWithinTolerance) {
          1.0},
         {"odd asphere",
          SurfacePatch{EvenAsphereShape{1.0 / 60.0, 0.0, {}, {2e-5, -1e-8}}, CircularAperture{16.0}},
+         1.0},
+        {"terms over w (Qbfs)",
+         SurfacePatch{EvenAsphereShape{1.0 / 45.0, 0.0, {}, {}, {2e-4, -3e-7, 1e-10}},
+                      CircularAperture{17.0}},
          1.0},
         {"sphere rectangle", SurfacePatch{SphereShape{1.0 / 40.0}, RectangularAperture{8.0, 5.0}},
          1.0},

@@ -589,6 +589,40 @@ surfaces = [{ r = 40, t = 5 }]
     EXPECT_THAT(e.message(), HasSubstr("'SCHOTT'"));
 }
 
+// Q-type rows: qbfs or qcon with a normalisation radius and 1 to 9 terms; errors at the value.
+TEST(TomlReader, QTypeRows) {
+    const Prescription p = read(R"([system]
+aperture = { f_number = 4 }
+surfaces = [
+  { r = 40, t = 5, glass = "N-BK7", sd = 10, qbfs = { norm_radius_mm = 10.0, terms = [0.01, -0.002] } },
+  { r = -60, conic = -1.2, t = 30, sd = 10, qcon = { norm_radius_mm = 10.5, terms = [1e-3] } },
+]
+)");
+    ASSERT_TRUE(p.surfaces[1].qAsphere);
+    EXPECT_EQ(p.surfaces[1].qAsphere->kind, QAsphere::Kind::Bfs);
+    EXPECT_EQ(p.surfaces[1].qAsphere->normRadiusMm, 10.0);
+    EXPECT_EQ(p.surfaces[1].qAsphere->terms, (std::vector<double>{0.01, -0.002}));
+    ASSERT_TRUE(p.surfaces[2].qAsphere);
+    EXPECT_EQ(p.surfaces[2].qAsphere->kind, QAsphere::Kind::Con);
+    EXPECT_TRUE(p.surfaces[2].hasAsphere());
+    auto message = [](const std::string& row) {
+        return parseErrorOf("[system]\naperture = { f_number = 4 }\nsurfaces = [" + row + "]\n")
+            .message();
+    };
+    EXPECT_NE(message("{ r = 40, t = 5, conic = -1, qbfs = { norm_radius_mm = 10.0, terms = [0.1] } }")
+                  .find("conic must be 0"),
+              std::string::npos);
+    EXPECT_NE(message("{ r = 40, t = 5, qcon = { norm_radius_mm = 0.0, terms = [0.1] } }")
+                  .find("must be > 0"),
+              std::string::npos);
+    EXPECT_NE(message("{ r = 40, t = 5, qcon = { norm_radius_mm = 5.0, terms = [] } }")
+                  .find("1 to 9 coefficients"),
+              std::string::npos);
+    EXPECT_NE(message("{ r = 40, t = 5, asph = [1e-6], qcon = { norm_radius_mm = 5.0, terms = [1.0] } }")
+                  .find("takes no 'asph'"),
+              std::string::npos);
+}
+
 TEST(TomlReader, RadiusAndCurvatureTogether) {
     const ParseError e = parseErrorOf(R"([system]
 aperture = { f_number = 4 }

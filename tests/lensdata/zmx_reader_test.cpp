@@ -681,6 +681,22 @@ TEST(ZmxReader, ConstantIndexModelGlassHasNoDispersion) {
     EXPECT_EQ(n->loc.line, 14);
 }
 
+// A Q-type surface (TYPE QED_TYPE) is an Error that says how to bring it in: veil models the
+// surface (TOML qbfs / qcon) but does not read its .zmx encoding.
+TEST(ZmxReader, QTypeSurfaceSaysHowToBringItIn) {
+    const std::string text =
+        "VERS 190513 80 123\nMODE SEQ\nUNIT MM X W X CM MR CPMM\nENPD 10\nSURF 0\n DISZ "
+        "INFINITY\nSURF 1\n STOP\n TYPE QED_TYPE\n CURV 0.02\n XDAT 3 5\n XDAT 4 0.01\n DISZ "
+        "4\n GLAS N-BK7 0 0 1.5168 64.17\n DIAM 5 1\nSURF 2\n DISZ 40\nSURF 3\n";
+    const Prescription rx = readZmxText(text, "q.zmx", GlassCatalog::builtIn());
+    const ImportNote* n = findNote(rx, "surface type QED_TYPE");
+    ASSERT_NE(n, nullptr) << reportText(rx);
+    EXPECT_EQ(n->severity, ImportNote::Severity::Error);
+    EXPECT_EQ(n->loc.line, 9);
+    EXPECT_NE(n->message.find("XDAT 4 = 0.01"), std::string::npos) << n->message;
+    EXPECT_NE(n->message.find("qbfs or qcon"), std::string::npos) << n->message;
+}
+
 TEST(ZmxReader, UnsupportedSurfacesAndCommandsAreReported) {
     const Prescription rx = load("unsupported.zmx");
     ASSERT_EQ(rx.surfaces.size(), 6u);  // nothing dropped

@@ -42,6 +42,37 @@ SequentialModel testStack() {
     return SequentialModel::build(p, kNoCatalog);
 }
 
+// A Qbfs face changes the vertex curvature (its departure has an r^2 term; Qcon's starts at
+// r^4): the paraxial trace takes it, so real rays of tiny height still reproduce it.
+TEST(SequentialTrace, QTypeFacesKeepTheParaxialLimit) {
+    for (const QAsphere::Kind kind : {QAsphere::Kind::Bfs, QAsphere::Kind::Con}) {
+        Prescription p = startLens(kInfinity, 10.0);
+        Surface front = surface(50.0, 5.0, Material::model(1.6, 0.0));
+        front.qAsphere = QAsphere{kind, 8.0, {0.02, -0.006, 0.003}};
+        front.stop = true;
+        p.surfaces.push_back(front);
+        p.surfaces.push_back(surface(-80.0, 60.0));
+        finishLens(p);
+        const SequentialModel m = SequentialModel::build(p, kNoCatalog);
+        const double extra = paraxialCurvature(p.surfaces[1]) - 1.0 / 50.0;
+        if (kind == QAsphere::Kind::Bfs)
+            EXPECT_GT(std::abs(extra), 1e-4);  // 2 (0.02 + ...) / 8^2 away from 1/50
+        else
+            EXPECT_EQ(extra, 0.0);
+        const int last = m.imageIndex() - 1;
+        const ParaxialRay par = traceParaxial(m, 0, 1, last, 1.0, 0.0);
+        const double parSlope = par.nu[last] / m.index(last, 0);
+        const double h = 1e-5;
+        SequentialTraceOptions o;
+        o.lastSurface = last;
+        const SequentialRayResult r =
+            traceSequential(m, 0, Ray{Vec3(0.0, h, -10.0), Vec3(0.0, 0.0, 1.0)}, o);
+        ASSERT_TRUE(r.ok()) << r;
+        const double slope = r.ray.direction.y / r.ray.direction.z;
+        EXPECT_NEAR(slope / h, parSlope, 1e-7 * std::abs(parSlope));
+    }
+}
+
 // Real rays of tiny height reproduce the paraxial ray: heights and slopes at the last
 // surface agree to 1e-9 relative once scaled by the ray height.
 TEST(SequentialTrace, RealRaysConvergeToParaxialInTheLimit) {
