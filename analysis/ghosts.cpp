@@ -356,7 +356,7 @@ bool GhostTracer::launch(int source, int w, int ix, int iy, RayState& r) const {
 bool GhostTracer::advance(RayState& r, const Step& step, int w) const {
     const SequentialSurface& s = model_.surface(step.surface);
     if (s.coordinateBreak) return true;  // only the frame changes
-    const Ray local = s.frame.toLocal({r.pos, r.dir});
+    const Ray local = s.toLocal(r.pos, r.dir);
     const std::optional<double> t = intersectSequential(s.shape, local);
     if (!t || *t < -1e-9) return false;  // missed, or behind the ray: not this path
     if (!mirrors_.empty() && obscured(r, *t, step.surface)) return false;
@@ -367,10 +367,10 @@ bool GhostTracer::advance(RayState& r, const Step& step, int w) const {
     if (r2 > clip * clip || r2 < hole * hole) return false;
     const double alpha = trace_->transport.media->absorptionPerMm(mediumOfGap_[step.gapBefore], w);
     if (alpha > 0.0) r.flux *= std::exp(-alpha * std::max(0.0, *t));
-    r.pos = s.frame.toGlobalPoint(hit);
+    r.pos = s.toGlobalPoint(hit);
     r.at = step.surface;
     // The normal in global coordinates, like the ray's direction.
-    Vec3 nrm = s.frame.toGlobalDirection(surfaceNormal(s.shape, hit));
+    Vec3 nrm = s.toGlobalDirection(surfaceNormal(s.shape, hit));
     if (glm::dot(nrm, r.dir) > 0.0) nrm = -nrm;
     const double n1 = std::abs(model_.index(step.gapBefore, w));
     // The medium across the surface: where a refracted ray goes, and the one a ghost
@@ -412,7 +412,7 @@ bool GhostTracer::obscured(const RayState& r, double t, int target) const {
     for (int m : mirrors_) {
         if (m == r.at || m == target) continue;
         const SequentialSurface& s = model_.surface(m);
-        const Ray local = s.frame.toLocal({r.pos, r.dir});
+        const Ray local = s.toLocal(r.pos, r.dir);
         const std::optional<ShapeHit> h =
             intersectFirst(s.shape, local, 0.0, t, clipRadius_[m], false);
         if (!h) continue;
@@ -425,7 +425,7 @@ bool GhostTracer::obscured(const RayState& r, double t, int target) const {
 bool GhostTracer::land(const RayState& r, int w, DetectorRay& out) const {
     const int img = model_.imageIndex();
     const SequentialSurface& image = model_.surface(img);
-    const Ray local = image.frame.toLocal({r.pos, r.dir});
+    const Ray local = image.toLocal(r.pos, r.dir);
     const std::optional<double> t = intersectSequential(image.shape, local);
     if (!t || *t < -1e-9) return false;
     if (!mirrors_.empty() && obscured(r, *t, img)) return false;
@@ -437,7 +437,7 @@ bool GhostTracer::land(const RayState& r, int w, DetectorRay& out) const {
     const double imageSd = model_.prescription().surfaces[img].clearSemiDiameterMm;
     if (imageSd > 0.0 && localHit.x * localHit.x + localHit.y * localHit.y > imageSd * imageSd)
         return false;
-    const Vec3 q = detector_->frame.toLocalPoint(image.frame.toGlobalPoint(localHit));
+    const Vec3 q = detector_->frame.toLocalPoint(image.toGlobalPoint(localHit));
     if (std::abs(q.x) > 0.5 * detector_->widthMm || std::abs(q.y) > 0.5 * detector_->heightMm)
         return false;
     out = {Vec2(q.x, q.y), flux};

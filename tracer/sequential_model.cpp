@@ -43,6 +43,7 @@ SequentialModel SequentialModel::build(const Prescription& p, const GlassCatalog
         seq.name = s.name;
         seq.coordinateBreak = s.coordinateBreak.has_value();
         seq.frame = frames[i];
+        seq.rotated = frames[i].rotation != glm::dmat3(1.0);
         // Only surfaces light meets decide whether the model is coaxial.
         if (i > 0 && !s.coordinateBreak) m.coaxial_ = m.coaxial_ && onAxis(frames[i]);
         seq.shape = surfaceShape(s);

@@ -34,7 +34,19 @@ struct SequentialSurface {
     // surface 1; the global z of the vertex when the model is coaxial.
     double zMm = 0.0;
     Frame frame;                       // the surface's local frame in global coordinates
+    bool rotated = false;              // the frame turns the axes (else it only shifts them)
     bool coordinateBreak = false;      // a break: not intersected by sequential rays
+    // Global to local and back: a shift alone unless the frame turns the axes (the common,
+    // coaxial case costs no rotation).
+    Ray toLocal(const Vec3& p, const Vec3& d) const {
+        return rotated ? frame.toLocal({p, d}) : Ray{p - frame.translation, d};
+    }
+    Vec3 toGlobalPoint(const Vec3& q) const {
+        return rotated ? frame.toGlobalPoint(q) : q + frame.translation;
+    }
+    Vec3 toGlobalDirection(const Vec3& v) const {
+        return rotated ? frame.toGlobalDirection(v) : v;
+    }
     double clearSemiDiameterMm = 0.0;  // 0 = not given
     // Rays outside clearSemiDiameterMm are vignetted. False for the stop (the system aperture
     // sets its size) and for semi-diameters a lens file marked as computed.

@@ -49,7 +49,7 @@ SequentialRayResult traceSequential(const SequentialModel& model, int w, const R
             if (options.recordPath) result.path.push_back(result.ray);
             continue;
         }
-        const Ray local = s.frame.toLocal({p, d});
+        const Ray local = s.toLocal(p, d);
         const std::optional<double> t = intersectSequential(s.shape, local);
         if (!t) {
             result.status = RayStatus::Missed;
@@ -59,7 +59,7 @@ SequentialRayResult traceSequential(const SequentialModel& model, int w, const R
         const Vec3 localHit = local.origin + *t * local.direction;
         const double nBefore = std::abs(model.index(i - 1, w));
         result.opticalPathMm += nBefore * *t;
-        p = s.frame.toGlobalPoint(localHit);
+        p = s.toGlobalPoint(localHit);
         result.ray = {p, d};
         result.surface = i;
         if (options.clipApertures) {
@@ -85,7 +85,7 @@ SequentialRayResult traceSequential(const SequentialModel& model, int w, const R
                 dl = *r;
             }
         }
-        d = s.frame.toGlobalDirection(dl);
+        d = s.toGlobalDirection(dl);
         result.ray.direction = d;
         if (options.recordPath) result.path.push_back(result.ray);
     }
