@@ -31,19 +31,19 @@ TEST(GlassCatalog, BuiltInHoldsTheVendorCatalogsAndCrystals) {
     const GlassCatalog& c = GlassCatalog::builtIn();
     EXPECT_EQ(c.catalogNames(), (std::vector<std::string>{"SCHOTT", "OHARA", "CDGM", "CRYSTALS"}));
     // Glass counts of the vendor AGF files (SCHOTT.AGF of June 2018, OHARA.AGF of 18.10.19,
-    // CDGM.AGF) and the three crystals.
+    // CDGM.AGF) and the six crystals and infrared materials.
     EXPECT_EQ(c.glasses("SCHOTT").size(), 160u);
     EXPECT_EQ(c.glasses("OHARA").size(), 417u);
     EXPECT_EQ(c.glasses("CDGM").size(), 162u);
-    EXPECT_EQ(c.glasses("CRYSTALS").size(), 3u);
-    EXPECT_EQ(c.size(), 742u);
+    EXPECT_EQ(c.glasses("CRYSTALS").size(), 6u);
+    EXPECT_EQ(c.size(), 745u);
     ASSERT_FALSE(c.comments("SCHOTT").empty());
     EXPECT_EQ(c.comments("SCHOTT")[0].rfind("SCHOTT. preferred.", 0), 0u);
     EXPECT_TRUE(c.comments("NOPE").empty());
     EXPECT_TRUE(c.glasses("NOPE").empty());
     std::ostringstream os;
     os << c;
-    EXPECT_EQ(os.str(), "GlassCatalog{SCHOTT: 160, OHARA: 417, CDGM: 162, CRYSTALS: 3}");
+    EXPECT_EQ(os.str(), "GlassCatalog{SCHOTT: 160, OHARA: 417, CDGM: 162, CRYSTALS: 6}");
 }
 
 TEST(GlassCatalog, BuiltInIsParsedOnceForAllThreads) {
@@ -63,7 +63,7 @@ TEST(GlassCatalog, BuiltInTextParsesToTheBuiltInCatalog) {
     c.loadAgfText(std::string_view(detail::kBuiltinGlassData, detail::kBuiltinGlassDataSize),
                   "<built-in glass data>", "BUILTIN");
     const GlassCatalog& builtIn = GlassCatalog::builtIn();
-    ASSERT_EQ(c.size(), 742u);
+    ASSERT_EQ(c.size(), 745u);
     ASSERT_EQ(c.catalogNames(), builtIn.catalogNames());
     for (const std::string& name : builtIn.catalogNames()) {
         const std::vector<const Glass*> a = c.glasses(name), b = builtIn.glasses(name);
@@ -136,6 +136,20 @@ TEST(GlassCatalog, CrystalsMatchPublishedIndices) {
     EXPECT_NEAR(sapphire->index(633.0), 1.7659, 5e-5);
     EXPECT_DOUBLE_EQ(silica->minWavelengthNm, 210.0);
     EXPECT_DOUBLE_EQ(caf2->maxWavelengthNm, 9700.0);
+    // The indices data sheets quote, to the decimals they print: MgF2 (ordinary) n_o =
+    // 1.3777 at the d line and 1.3770 at 632.8 nm; CVD ZnSe 2.4028 at 10.6 um (the CO2 laser line); silicon 3.4179 at 10 um and 3.4255
+    // at 4 um (Li's 1980 compilation, 293 K: another data set than the formula's, so to
+    // 2e-4).
+    const Glass* mgf2 = c.find("MGF2");
+    const Glass* znse = c.find("ZNSE");
+    const Glass* si = c.find("SILICON");
+    ASSERT_TRUE(mgf2 && znse && si);
+    EXPECT_NEAR(mgf2->index(587.6), 1.3777, 5e-5);
+    EXPECT_NEAR(mgf2->index(632.8), 1.3770, 5e-5);
+    EXPECT_NEAR(znse->index(10600.0), 2.4028, 1e-4);
+    EXPECT_NEAR(si->index(10000.0), 3.4179, 2e-4);
+    EXPECT_NEAR(si->index(4000.0), 3.4255, 2e-4);
+    EXPECT_FALSE(si->inRange(587.6));  // opaque in the visible
 }
 
 // Every Glass Against Its Catalog nd and Vd
@@ -213,7 +227,7 @@ void checkEveryGlass(const std::string& catalog, size_t expectedCount) {
 TEST(GlassCatalog, EverySchottGlassMatchesItsNdAndVd) { checkEveryGlass("SCHOTT", 160); }
 TEST(GlassCatalog, EveryOharaGlassMatchesItsNdAndVd) { checkEveryGlass("OHARA", 417); }
 TEST(GlassCatalog, EveryCdgmGlassMatchesItsNdAndVd) { checkEveryGlass("CDGM", 162); }
-TEST(GlassCatalog, EveryCrystalMatchesItsNdAndVd) { checkEveryGlass("CRYSTALS", 3); }
+TEST(GlassCatalog, EveryCrystalMatchesItsNdAndVd) { checkEveryGlass("CRYSTALS", 6); }
 
 // Lookup
 
