@@ -587,6 +587,17 @@ EvenAsphereShape randomOddAsphere(std::mt19937_64& rng, double rNorm, double amp
     return s;
 }
 
+// The normal at radius r (on the x axis) is along grad(z - sag): a central difference in x.
+void expectNormalAlongSagGradient(const SurfaceShape& shape, double r) {
+    const Vec3 p(r, 0.0, sag(shape, r * r));
+    const double h = 1e-6;
+    const double dzdx = (sag(shape, (r + h) * (r + h)) - sag(shape, (r - h) * (r - h))) / (2 * h);
+    const Vec3 n = surfaceNormal(shape, p);
+    const Vec3 expectedN = glm::normalize(Vec3(-dzdx, 0.0, 1.0));
+    EXPECT_NEAR(n.x, expectedN.x, 1e-8) << r;
+    EXPECT_NEAR(n.z, expectedN.z, 1e-8) << r;
+}
+
 TEST(SurfaceShape, OddTermsAddToTheSagAndTheNormalAsWritten) {
     EvenAsphereShape s;
     s.curvature = 1.0 / 80.0;
@@ -598,15 +609,7 @@ TEST(SurfaceShape, OddTermsAddToTheSagAndTheNormalAsWritten) {
         const double expected = (1.0 / 80.0) * u / (1.0 + std::sqrt(1.0 - u / 6400.0)) +
                                 2e-5 * r * r * r - 3e-8 * std::pow(r, 5);
         EXPECT_NEAR(sag(shape, u), expected, 1e-14 * (1.0 + std::abs(expected))) << r;
-        // The normal is along grad(z - sag): compare with a central difference in x.
-        const Vec3 p(r, 0.0, sag(shape, u));
-        const double h = 1e-6;
-        const double dzdx =
-            (sag(shape, (r + h) * (r + h)) - sag(shape, (r - h) * (r - h))) / (2 * h);
-        const Vec3 n = surfaceNormal(shape, p);
-        const Vec3 expectedN = glm::normalize(Vec3(-dzdx, 0.0, 1.0));
-        EXPECT_NEAR(n.x, expectedN.x, 1e-8) << r;
-        EXPECT_NEAR(n.z, expectedN.z, 1e-8) << r;
+        expectNormalAlongSagGradient(shape, r);
     }
     EXPECT_TRUE(std::holds_alternative<EvenAsphereShape>(makeShape(0.0, 0.0, {}, s.odd)));
 }
@@ -696,14 +699,7 @@ TEST(SurfaceShape, TermsOverWAddToTheSagAndTheNormalAsWritten) {
         const double u = r * r, w = std::sqrt(1.0 - u / 6400.0);
         const double expected = (1.0 / 80.0) * u / (1.0 + w) + (1e-3 * u - 2e-9 * u * u * u) / w;
         EXPECT_NEAR(sag(shape, u), expected, 1e-14 * (1.0 + std::abs(expected))) << r;
-        const Vec3 p(r, 0.0, sag(shape, u));
-        const double h = 1e-6;
-        const double dzdx =
-            (sag(shape, (r + h) * (r + h)) - sag(shape, (r - h) * (r - h))) / (2 * h);
-        const Vec3 n = surfaceNormal(shape, p);
-        const Vec3 expectedN = glm::normalize(Vec3(-dzdx, 0.0, 1.0));
-        EXPECT_NEAR(n.x, expectedN.x, 1e-8) << r;
-        EXPECT_NEAR(n.z, expectedN.z, 1e-8) << r;
+        expectNormalAlongSagGradient(shape, r);
     }
     // Terms over w need the sag's square root to grow less than linearly: not a hyperboloid.
     EXPECT_THROW(makeShape(0.01, -2.0, {}, {}, s.overW), std::invalid_argument);
