@@ -351,6 +351,14 @@ int rank(ObjectKind k) {
 
 }  // namespace
 
+std::vector<Vec3> layoutAxis(const SequentialModel& model) {
+    std::vector<Vec3> out;
+    if (model.coaxial()) return out;
+    for (int i = 1; i < model.surfaceCount(); ++i)
+        if (!model.surface(i).coordinateBreak) out.push_back(model.surface(i).frame.translation);
+    return out;
+}
+
 Picture drawLayout(const Scene& scene, const LayoutOptions& options) {
     const std::vector<SectionPath> paths = sceneSection(scene, options.chordToleranceMm);
     const Bounds3 b = layoutBounds(paths, options.sources);
@@ -359,7 +367,13 @@ Picture drawLayout(const Scene& scene, const LayoutOptions& options) {
     const double mmPerPt = (pic.zMax() - pic.zMin()) / (Picture::kPageWidthPt - 2.0 * pic.marginPt);
 
     // Optical axis first, under everything.
-    pic.polyline({Vec2(pic.zMin(), 0.0), Vec2(pic.zMax(), 0.0)}, kAxisColour, 0.6, true);
+    if (options.axisVerticesMm.empty()) {
+        pic.polyline({Vec2(pic.zMin(), 0.0), Vec2(pic.zMax(), 0.0)}, kAxisColour, 0.6, true);
+    } else {
+        std::vector<Vec2> axis{Vec2(pic.zMin(), 0.0)};
+        for (const Vec3& v : options.axisVerticesMm) axis.emplace_back(v.z, v.y);
+        pic.polyline(axis, kAxisColour, 0.6, true);
+    }
     std::vector<const SectionPath*> order;
     for (const SectionPath& p : paths) order.push_back(&p);
     std::stable_sort(order.begin(), order.end(), [&](const SectionPath* a, const SectionPath* c) {

@@ -16,6 +16,7 @@
 
 #include "analysis/picture.h"
 #include "geometry/scene.h"
+#include "tracer/sequential_model.h"
 #include "tracer/source.h"
 
 namespace veil {
@@ -72,7 +73,15 @@ struct LayoutOptions {
     // Sources to draw (layoutSources()). The frame grows to show where they start, by at
     // most half the section's larger extent on each side; what lies further out is clipped.
     std::vector<LayoutSource> sources;
+    // The optical axis through the surfaces' vertices, in order (layoutAxis()); empty: the
+    // global z axis across the picture. Drawn from the picture's left edge along z to the
+    // first vertex, then vertex to vertex: a fold shows where the axis turns.
+    std::vector<Vec3> axisVerticesMm;
 };
+
+// The vertices of every surface light meets, surface 1 to the image (coordinate breaks left
+// out), when a coordinate break takes the system off one axis; empty for a coaxial system.
+std::vector<Vec3> layoutAxis(const SequentialModel& model);
 
 // A picture of the scene's section; more layers (ray paths) can be drawn on it afterwards.
 // Its legend lists the kinds of part drawn (glass, mirror, mechanics, imported mesh,

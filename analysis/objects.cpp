@@ -584,6 +584,7 @@ Picture drawObjects(const PreparedScene& prepared, const ObjectsResult& result, 
             result.sources.end())
             shown.push_back(s);
     lo.sources = layoutSources(shown, scene);
+    lo.axisVerticesMm = layoutAxis(prepared.model());
     Picture pic = drawLayout(scene, lo);
     std::vector<LegendEntry> legend = pic.legendEntries();
 

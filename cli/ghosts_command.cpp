@@ -210,6 +210,7 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
         veil::LayoutOptions lo;
         lo.title = setup.prescription.system.name.empty() ? o.file : setup.prescription.system.name;
         lo.sources = layoutSources(ts.transport.sources, setup.scene);
+        lo.axisVerticesMm = layoutAxis(*setup.model);
         const Picture base = drawLayout(setup.scene, lo);
         const PathPictureOptions pp;  // clipped to the layout's frame
         const NameTable names = criterionNames(setup.scene, ts.transport);

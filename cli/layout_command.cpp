@@ -46,6 +46,7 @@ int runLayout(const CommonOptions& common, const LayoutOptions& options) {
         setup.prescription.system.name.empty() ? options.file : setup.prescription.system.name;
     if (prepared->hasSources())
         lo.sources = layoutSources(prepared->trace().transport.sources, setup.scene);
+    lo.axisVerticesMm = layoutAxis(*setup.model);
     const Picture pic = drawLayout(setup.scene, lo);
     const std::filesystem::path dir = outputFolder(options.output, "layout", options.json);
     WrittenFiles written;

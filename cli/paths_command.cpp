@@ -94,6 +94,7 @@ int runPaths(const CommonOptions& common, const PathsOptions& o) {
     veil::LayoutOptions lo;
     lo.title = setup.prescription.system.name.empty() ? o.file : setup.prescription.system.name;
     lo.sources = layoutSources(ts.transport.sources, setup.scene);
+    lo.axisVerticesMm = layoutAxis(*setup.model);
     const Picture base = drawLayout(setup.scene, lo);
     PathPictureOptions pp;
     pp.colouring = o.colour == "event" ? PathColouring::EventType : PathColouring::LogFlux;
