@@ -51,7 +51,13 @@ SequentialRayResult traceSequential(const SequentialModel& model, int w, const R
         }
         const Ray local = s.toLocal(p, d);
         const std::optional<double> t = intersectSequential(s.shape, local);
-        if (!t) {
+        // A crossing farther than any lens reaches (a ray all but parallel to a plane that a
+        // coordinate break turned along the beam) is no crossing: the ray misses.
+        const auto beyondReach = [&](double tt) {
+            const Vec3 q = local.origin + tt * local.direction;
+            return !(q.x * q.x + q.y * q.y <= kAsphereSearchRadiusMm * kAsphereSearchRadiusMm);
+        };
+        if (!t || beyondReach(*t)) {
             result.status = RayStatus::Missed;
             result.surface = i;
             return result;

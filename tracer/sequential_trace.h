@@ -3,7 +3,8 @@
 //
 // Rays are in the global frame (tracer/sequential_model.h). Each surface is met in its own
 // frame by intersectSequential() on the same exact shapes the nonsequential tracer uses
-// (coordinate breaks are not met: the ray only passes into their frame); refraction
+// (coordinate breaks are not met: the ray only passes into their frame; a crossing farther
+// than kAsphereSearchRadiusMm from the vertex counts as a miss); refraction
 // uses Snell's law in vector form with |n|, reflection mirrors the direction about the
 // normal. The outcome of every ray is a RayStatus with the surface where it stopped.
 

@@ -242,6 +242,26 @@ TEST(CoordinateBreak, DecenteredLensMovesTheImageByTheDecenter) {
     EXPECT_NEAR(std::tan(0.5 * (lo + hi) * kDeg), -delta / efl, 1e-4 * delta / efl);
 }
 
+// A break of 90 degrees turns the next plane along the beam: an axial ray meets it, if at
+// all, ~1e17 mm away (cos 90 deg rounds to 6e-17). That is a miss, not a hit at infinity.
+TEST(CoordinateBreak, APlaneTurnedAlongTheBeamIsMissed) {
+    Prescription p = startLens(kInfinity, 4.0);
+    p.surfaces.push_back(surface(0.0, 10.0));
+    p.surfaces.push_back(coordinateBreak(tilt(90.0, 0, 0), 5.0));
+    finishLens(p);
+    const SequentialModel m = SequentialModel::build(p, kNoCatalog);
+    const SequentialRayResult r =
+        traceSequential(m, 0, Ray{Vec3(0.0, 0.0, -5.0), Vec3(0.0, 0.0, 1.0)});
+    EXPECT_EQ(r.status, RayStatus::Missed);
+    EXPECT_EQ(r.surface, m.imageIndex());
+    // A ray climbing toward the turned plane meets it where geometry says: 5 mm up.
+    const SequentialRayResult up =
+        traceSequential(m, 0, Ray{Vec3(0.0, 0.0, 0.0), glm::normalize(Vec3(0.0, 1.0, 1.0))});
+    ASSERT_TRUE(up.ok()) << up;
+    EXPECT_NEAR(up.ray.origin.y, 5.0, 1e-12);
+    EXPECT_NEAR(up.ray.origin.z, 5.0, 1e-12);
+}
+
 // Breaks that cancel leave a coaxial model, bit for bit on the axis.
 TEST(CoordinateBreak, CancellingBreaksLeaveACoaxialModel) {
     Prescription p = startLens(kInfinity, 10.0);
