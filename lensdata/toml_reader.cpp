@@ -219,12 +219,6 @@ void LensReader::readRow(const TomlTable& row, bool last, Material& incident) {
             flag->fail("only the last row can be the image row { image = true, ... }");
     }
 
-    if (const auto brk = row.get("break")) {
-        if (image) brk->fail("the image row cannot be a coordinate break");
-        readBreakRow(row, *brk, s, incident);
-        p_.surfaces.push_back(s);
-        return;
-    }
     readShape(row, s);
     s.clearSemiDiameterMm = row.number("sd", 0.0, NumberRange::atLeast(0.0));
     s.mechSemiDiameterMm = row.number("mech_sd", 0.0, NumberRange::atLeast(0.0));
@@ -255,6 +249,12 @@ void LensReader::readRow(const TomlTable& row, bool last, Material& incident) {
         userNames_.emplace_back(index, *name);
     }
 
+    if (const auto brk = row.get("break")) {
+        if (image) brk->fail("the image row cannot be a coordinate break");
+        readBreakRow(row, *brk, s, incident);
+        p_.surfaces.push_back(s);
+        return;
+    }
     if (image) {
         for (const char* key : {"t", "glass", "stop", "mirror"}) {
             if (const auto v = row.get(key))

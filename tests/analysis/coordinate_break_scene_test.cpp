@@ -92,7 +92,8 @@ TEST(CoordinateBreakScene, BadBreakRowsAreReportedAtTheValue) {
               std::string::npos);
     EXPECT_EQ(message("{ break = { tilt_deg = [1.0, 0.0, 0.0] }, t = 0.0, glass = \"N-BK7\" }"),
               "no error");
-    EXPECT_EQ(message("{ break = { decenter_mm = [1.0, 0.0], tilt_first = true }, t = 0.0 }"),
+    EXPECT_EQ(message("{ break = { decenter_mm = [1.0, 0.0], tilt_first = true }, t = 0.0, "
+                      "name = \"wedge_in\", comment = \"a decenter\" }"),
               "no error");
 }
 
