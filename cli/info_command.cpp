@@ -166,6 +166,13 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
                               {"mirror", s.mirror}};
             if (!s.coating.empty()) js["coating"] = s.coating;
             if (s.innerSemiDiameterMm > 0.0) js["hole_semi_diameter_mm"] = s.innerSemiDiameterMm;
+            if (const auto& b = s.coordinateBreak)
+                js["coordinate_break"] = {{"decenter_mm", {b->decenterXMm, b->decenterYMm}},
+                                          {"tilt_deg", {b->tiltXDeg, b->tiltYDeg, b->tiltZDeg}},
+                                          {"tilt_first", b->tiltFirst}};
+            if (const auto& q = s.qAsphere)
+                js[q->kind == QAsphere::Kind::Bfs ? "qbfs" : "qcon"] = {
+                    {"norm_radius_mm", q->normRadiusMm}, {"terms", q->terms}};
             j["surfaces"].push_back(js);
         }
         j["elements"] = nlohmann::json::array();

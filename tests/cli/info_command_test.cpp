@@ -84,7 +84,7 @@ namespace {
 // Every example lens runs through `veil info --json` and reports a finite focal length.
 TEST(VeilInfo, EveryExampleLensRuns) {
     for (const char* name : {"singlet", "achromat", "cooke_triplet", "double_gauss_50mm",
-                             "longfocus_360mm", "catadioptric_2000mm"}) {
+                             "longfocus_360mm", "catadioptric_2000mm", "newtonian_500mm"}) {
         const VeilRun r = runVeil(std::string("info examples/lenses/") + name + ".toml --json");
         ASSERT_EQ(r.exitCode, 0) << name << ": " << r.err;
         const nlohmann::json j = nlohmann::json::parse(r.out);
@@ -92,6 +92,16 @@ TEST(VeilInfo, EveryExampleLensRuns) {
         EXPECT_TRUE(j["import_report"].empty()) << name << ": " << j["import_report"].dump();
         for (const auto& s : j["spots"]) EXPECT_GT(s["rays_landed"].get<int>(), 0) << name;
     }
+    // The Newtonian's fold: its two breaks, as the file gives them.
+    const nlohmann::json j =
+        nlohmann::json::parse(runVeil("info examples/lenses/newtonian_500mm.toml --json").out);
+    int breaks = 0;
+    for (const auto& s : j["surfaces"])
+        if (s.contains("coordinate_break")) {
+            ++breaks;
+            EXPECT_EQ(s["coordinate_break"]["tilt_deg"][0].get<double>(), 45.0);
+        }
+    EXPECT_EQ(breaks, 2);
 }
 
 }  // namespace
