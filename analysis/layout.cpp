@@ -370,9 +370,30 @@ Picture drawLayout(const Scene& scene, const LayoutOptions& options) {
     if (options.axisVerticesMm.empty()) {
         pic.polyline({Vec2(pic.zMin(), 0.0), Vec2(pic.zMax(), 0.0)}, kAxisColour, 0.6, true);
     } else {
-        std::vector<Vec2> axis{Vec2(pic.zMin(), 0.0)};
+        // Segment by segment, each drawn once: light that goes back along the axis (after a
+        // mirror) would lay a second dash pattern over the first.
+        // From the picture's left edge when surface 1 lies inside the picture.
+        std::vector<Vec2> axis;
+        if (pic.zMin() < options.axisVerticesMm.front().z) axis.emplace_back(pic.zMin(), 0.0);
         for (const Vec3& v : options.axisVerticesMm) axis.emplace_back(v.z, v.y);
-        pic.polyline(axis, kAxisColour, 0.6, true);
+        const double tol = 1e-9 * (pic.zMax() - pic.zMin());
+        auto onSegment = [&](const Vec2& q, const Vec2& a, const Vec2& b) {
+            const Vec2 ab = b - a;
+            const double len2 = glm::dot(ab, ab);
+            const double t = len2 > 0.0 ? std::clamp(glm::dot(q - a, ab) / len2, 0.0, 1.0) : 0.0;
+            return glm::length(a + t * ab - q) <= tol;
+        };
+        std::vector<std::pair<Vec2, Vec2>> drawnSegments;
+        for (size_t k = 1; k < axis.size(); ++k) {
+            const Vec2 a = axis[k - 1], b = axis[k];
+            if (glm::length(b - a) <= tol) continue;
+            bool covered = false;
+            for (const auto& [p, q] : drawnSegments)
+                covered = covered || (onSegment(a, p, q) && onSegment(b, p, q));
+            if (covered) continue;
+            pic.polyline({a, b}, kAxisColour, 0.6, true);
+            drawnSegments.emplace_back(a, b);
+        }
     }
     std::vector<const SectionPath*> order;
     for (const SectionPath& p : paths) order.push_back(&p);

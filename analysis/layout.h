@@ -75,7 +75,8 @@ struct LayoutOptions {
     std::vector<LayoutSource> sources;
     // The optical axis through the surfaces' vertices, in order (layoutAxis()); empty: the
     // global z axis across the picture. Drawn from the picture's left edge along z to the
-    // first vertex, then vertex to vertex: a fold shows where the axis turns.
+    // first vertex (if that lies inside), then vertex to vertex, each stretch once: a fold
+    // shows where the axis turns.
     std::vector<Vec3> axisVerticesMm;
 };
 
