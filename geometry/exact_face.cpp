@@ -222,12 +222,15 @@ void sagRange(const SurfaceShape& shape, double uLo, double uHi, double& zLo, do
         const double c0 = sag(base, u0), c1 = sag(base, u1);
         double lo = std::min(c0, c1), hi = std::max(c0, c1);
         double magnitude = std::max(std::abs(c0), std::abs(c1));
-        double pow0 = u0, pow1 = u1;
-        for (int i = 0; i < 10; ++i) {
-            const double t0 = p.a[i] * pow0, t1 = p.a[i] * pow1;
+        // A term monotone in u lies between its values t0, t1 at the piece's ends.
+        auto widen = [&](double t0, double t1) {
             lo += std::min(t0, t1);
             hi += std::max(t0, t1);
             magnitude += std::max(std::abs(t0), std::abs(t1));
+        };
+        double pow0 = u0, pow1 = u1;
+        for (int i = 0; i < 10; ++i) {
+            widen(p.a[i] * pow0, p.a[i] * pow1);
             pow0 *= u0;
             pow1 *= u1;
         }
@@ -238,21 +241,14 @@ void sagRange(const SurfaceShape& shape, double uLo, double uHi, double& zLo, do
         pow0 = u0;
         pow1 = u1;
         for (int i = 0; i < 10; ++i) {
-            const double t0 = p.e[i] * pow0 / w0, t1 = p.e[i] * pow1 / w1;
-            if (p.e[i] != 0.0) {
-                lo += std::min(t0, t1);
-                hi += std::max(t0, t1);
-                magnitude += std::max(std::abs(t0), std::abs(t1));
-            }
+            // Skipped when zero: 0 / w at an ellipsoid's rim (w = 0) would be NaN.
+            if (p.e[i] != 0.0) widen(p.e[i] * pow0 / w0, p.e[i] * pow1 / w1);
             pow0 *= u0;
             pow1 *= u1;
         }
         double odd0 = u0 * std::sqrt(u0), odd1 = u1 * std::sqrt(u1);  // u^(j+1.5)
         for (int i = 0; i < 9; ++i) {
-            const double t0 = p.b[i] * odd0, t1 = p.b[i] * odd1;
-            lo += std::min(t0, t1);
-            hi += std::max(t0, t1);
-            magnitude += std::max(std::abs(t0), std::abs(t1));
+            widen(p.b[i] * odd0, p.b[i] * odd1);
             odd0 *= u0;
             odd1 *= u1;
         }

@@ -71,19 +71,12 @@ bool sameShape(const Surface& a, const Surface& b) {
     return true;
 }
 
-bool sameRotation(const Frame& a, const Frame& b) {
-    for (int c = 0; c < 3; ++c)
-        for (int r = 0; r < 3; ++r)
-            if (std::abs(a.rotation[c][r] - b.rotation[c][r]) > 1e-12) return false;
-    return true;
-}
-
 // Two frames are the same place within the coincidence tolerance.
 bool samePlace(const Frame& a, const Frame& b) {
     const double tol =
         kCoincidentAbsMm +
         kCoincidentRel * std::max(glm::length(a.translation), glm::length(b.translation));
-    return glm::length(a.translation - b.translation) <= tol && sameRotation(a, b);
+    return glm::length(a.translation - b.translation) <= tol && sameRotation(a.rotation, b.rotation);
 }
 
 bool coincide(const Prescription& p, const std::vector<Frame>& frames, int i, int j) {

@@ -1263,16 +1263,13 @@ std::vector<MechanicalPart> buildMechanics(const Prescription& prescription,
                                            std::vector<std::string>* notes) {
     // Every part is a solid of revolution about the global axis: a lens whose surfaces a
     // coordinate break tilts or decenters would be mounted where it is not.
-    const std::vector<Frame> frames = surfaceFrames(prescription);
-    int lastBreak = -1;
-    for (size_t i = 1; i + 1 < prescription.surfaces.size(); ++i) {
-        const Surface& s = prescription.surfaces[i];
-        if (s.coordinateBreak) {
-            lastBreak = static_cast<int>(i);
-            continue;
-        }
-        if (onAxis(frames[i])) continue;
-        const std::string name = s.name.empty() ? "surface " + std::to_string(i) : s.name;
+    // (A tilted image plane alone mounts nothing off the axis.)
+    const int off = firstSurfaceOffAxis(prescription, surfaceFrames(prescription));
+    if (off >= 0 && off < prescription.imageIndex()) {
+        const Surface& s = prescription.surfaces[off];
+        const std::string name = s.name.empty() ? "surface " + std::to_string(off) : s.name;
+        int lastBreak = off - 1;  // the break that took it off the axis
+        while (!prescription.surfaces[lastBreak].coordinateBreak) --lastBreak;
         const Surface& b = prescription.surfaces[lastBreak];
         throw ModelError("mechanics",
                          "the mount generator builds barrels, spacers and stops about one "

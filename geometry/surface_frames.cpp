@@ -13,9 +13,7 @@ constexpr double kDegree = 3.14159265358979323846 / 180.0;
 // Within rounding of the global axis (breaks that cancel): snapped onto it.
 void snapOntoAxis(Frame& f, double scaleMm) {
     const glm::dmat3 id(1.0);
-    for (int c = 0; c < 3; ++c)
-        for (int r = 0; r < 3; ++r)
-            if (std::abs(f.rotation[c][r] - id[c][r]) > 1e-12) return;
+    if (!sameRotation(f.rotation, id)) return;
     if (std::abs(f.translation.x) > 1e-12 * scaleMm || std::abs(f.translation.y) > 1e-12 * scaleMm)
         return;
     f.rotation = id;
@@ -23,6 +21,13 @@ void snapOntoAxis(Frame& f, double scaleMm) {
 }
 
 }  // namespace
+
+bool sameRotation(const glm::dmat3& a, const glm::dmat3& b, double tol) {
+    for (int c = 0; c < 3; ++c)
+        for (int r = 0; r < 3; ++r)
+            if (std::abs(a[c][r] - b[c][r]) > tol) return false;
+    return true;
+}
 
 Frame breakFrame(const Frame& in, const CoordinateBreak& b) {
     // Left-handed about x and y, right-handed about z (CoordinateBreak); the columns are the
@@ -86,6 +91,12 @@ SurfaceShape surfaceShape(const Surface& s) {
 
 bool onAxis(const Frame& f) {
     return f.rotation == glm::dmat3(1.0) && f.translation.x == 0.0 && f.translation.y == 0.0;
+}
+
+int firstSurfaceOffAxis(const Prescription& p, const std::vector<Frame>& frames) {
+    for (size_t i = 1; i < p.surfaces.size(); ++i)
+        if (!p.surfaces[i].coordinateBreak && !onAxis(frames[i])) return static_cast<int>(i);
+    return -1;
 }
 
 }  // namespace veil

@@ -19,6 +19,9 @@
 
 namespace veil {
 
+// Every entry of the two rotations within tol (the same axes, to rounding).
+bool sameRotation(const glm::dmat3& a, const glm::dmat3& b, double tol = 1e-12);
+
 // The frame a coordinate break makes of the incoming one.
 Frame breakFrame(const Frame& incoming, const CoordinateBreak& b);
 
@@ -28,6 +31,10 @@ std::vector<Frame> surfaceFrames(const Prescription& p);
 
 // The frame is the global one moved along z: no rotation, the vertex on the z axis.
 bool onAxis(const Frame& f);
+
+// The first surface light meets (coordinate breaks left out, the object too) whose frame is
+// not onAxis(), or -1 when the system is coaxial.
+int firstSurfaceOffAxis(const Prescription& p, const std::vector<Frame>& frames);
 
 // The exact shape of a surface: its conic, even and odd asphere terms, and a Q-type
 // departure turned into even asphere terms (Qcon) or terms over w (Qbfs), geometry/qtype.h.

@@ -36,6 +36,8 @@ SequentialModel SequentialModel::build(const Prescription& p, const GlassCatalog
 
     const int n = static_cast<int>(p.surfaces.size());
     const std::vector<Frame> frames = surfaceFrames(p);
+    // Only surfaces light meets decide whether the model is coaxial.
+    m.coaxial_ = firstSurfaceOffAxis(p, frames) < 0;
     double z = 0.0;
     for (int i = 0; i < n; ++i) {
         const Surface& s = p.surfaces[i];
@@ -44,8 +46,6 @@ SequentialModel SequentialModel::build(const Prescription& p, const GlassCatalog
         seq.coordinateBreak = s.coordinateBreak.has_value();
         seq.frame = frames[i];
         seq.rotated = frames[i].rotation != glm::dmat3(1.0);
-        // Only surfaces light meets decide whether the model is coaxial.
-        if (i > 0 && !s.coordinateBreak) m.coaxial_ = m.coaxial_ && onAxis(frames[i]);
         seq.shape = surfaceShape(s);
         seq.clearSemiDiameterMm = s.clearSemiDiameterMm;
         seq.mirror = s.mirror;

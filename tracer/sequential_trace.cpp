@@ -51,18 +51,15 @@ SequentialRayResult traceSequential(const SequentialModel& model, int w, const R
         }
         const Ray local = s.toLocal(p, d);
         const std::optional<double> t = intersectSequential(s.shape, local);
+        const Vec3 localHit = t ? local.origin + *t * local.direction : Vec3(0.0);
         // A crossing farther than any lens reaches (a ray all but parallel to a plane that a
         // coordinate break turned along the beam) is no crossing: the ray misses.
-        const auto beyondReach = [&](double tt) {
-            const Vec3 q = local.origin + tt * local.direction;
-            return !(q.x * q.x + q.y * q.y <= kAsphereSearchRadiusMm * kAsphereSearchRadiusMm);
-        };
-        if (!t || beyondReach(*t)) {
+        const double rSq = localHit.x * localHit.x + localHit.y * localHit.y;
+        if (!t || !(rSq <= kAsphereSearchRadiusMm * kAsphereSearchRadiusMm)) {
             result.status = RayStatus::Missed;
             result.surface = i;
             return result;
         }
-        const Vec3 localHit = local.origin + *t * local.direction;
         const double nBefore = std::abs(model.index(i - 1, w));
         result.opticalPathMm += nBefore * *t;
         p = s.toGlobalPoint(localHit);

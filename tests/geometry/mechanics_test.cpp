@@ -127,11 +127,7 @@ TEST(Mechanics, EveryExampleLensGetsValidPartsClearOfGlassAndEachOther) {
         const Prescription rx = readLensFile(file, GlassCatalog::builtIn());
         // A lens a coordinate break takes off the axis (the Newtonian's fold) gets no mounts:
         // the generator says so, naming the surface, rather than mount it where it is not.
-        const std::vector<Frame> frames = surfaceFrames(rx);
-        bool offAxis = false;
-        for (size_t i = 1; i < rx.surfaces.size(); ++i)
-            offAxis = offAxis || (!rx.surfaces[i].coordinateBreak && !onAxis(frames[i]));
-        if (offAxis) {
+        if (firstSurfaceOffAxis(rx, surfaceFrames(rx)) >= 0) {
             EXPECT_THROW(buildMechanics(rx, MechanicsSpec{}), ModelError);
             continue;
         }
