@@ -96,6 +96,11 @@ ShapeParts partsOf(const SurfaceShape& shape) {
                 return {s.curvature, 0.0, {}, {}, {}, false};
             } else if constexpr (std::is_same_v<S, ConicShape>) {
                 return {s.curvature, s.conic, {}, {}, {}, false};
+            } else if constexpr (std::is_same_v<S, BiconicShape> ||
+                                 std::is_same_v<S, ToroidalShape>) {
+                // Exact faces are surfaces of revolution; lens solids refuse anamorphic
+                // surfaces before they get here (geometry/lens_solid.h).
+                throw std::logic_error("exact face of an anamorphic shape");
             } else {
                 const auto nonzero = [](double v) { return v != 0.0; };
                 const bool poly =

@@ -5,26 +5,19 @@
 #include <limits>
 #include <stdexcept>
 
+#include "geometry/anamorphic.h"
 #include "geometry/numerics.h"
+#include "geometry/root_search.h"
 
 namespace veil {
 
 namespace {
 
+using namespace root_search;
+
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kEpsilon = std::numeric_limits<double>::epsilon();
-
-// Asphere root search limits. The first segment of the search is kInitialSegmentMm long (or
-// twice the distance to the base conic's crossing, if longer) and later ones double in
-// length away from the reference point; a segment narrower than
-// kMinSegmentMm (plus a few ulps of its position) is not split again. kMaxSegments and
-// kMaxPolishIterations bound the work per ray: past them the ray is reported as missing.
-constexpr double kInitialSegmentMm = 1.0;
-constexpr double kMinSegmentMm = 1e-15;
-constexpr int kMaxSegments = 4000;
-constexpr int kMaxPolishIterations = 200;
-constexpr int kStackCapacity = 256;
 
 // Base conic of a shape: curvature c and conic constant k (a plane is c = 0).
 struct ConicBase {
@@ -42,8 +35,11 @@ ConicBase conicBase(const SurfaceShape& shape) {
                 return {};
             } else if constexpr (std::is_same_v<S, SphereShape>) {
                 return {s.curvature, 0.0};
-            } else {
+            } else if constexpr (std::is_same_v<S, ConicShape> ||
+                                 std::is_same_v<S, EvenAsphereShape>) {
                 return {s.curvature, s.conic};
+            } else {
+                throw std::logic_error("conicBase: an anamorphic shape has no base conic");
             }
         },
         shape);
@@ -168,19 +164,6 @@ QuadraticRoots conicRoots(const ConicBase& b, const Vec3& p, const Vec3& d) {
 }
 
 bool onVertexSheet(const ConicBase& b, double z) { return (1.0 + b.k) * b.c * z <= 1.0; }
-
-// Parameter of the ray point nearest the vertex.
-double nearestToVertex(const Ray& ray) {
-    const double dd = glm::dot(ray.direction, ray.direction);
-    return dd > 0.0 ? -glm::dot(ray.origin, ray.direction) / dd : 0.0;
-}
-
-// Edge test with an allowance for the rounding of the hit point p + s d (see the header).
-bool withinRadius(const Vec3& point, double rMax, double magnitude) {
-    if (rMax == kInfinity) return true;
-    const double r = std::sqrt(point.x * point.x + point.y * point.y);
-    return r <= rMax + 8.0 * kEpsilon * (rMax + magnitude);
-}
 
 std::optional<double> conicSequential(const ConicBase& b, const Ray& ray) {
     const Vec3& d = ray.direction;
@@ -381,9 +364,7 @@ class AsphereAlongRay {
         return x * x + y * y;
     }
 
-    struct Bounds {
-        double fLo, fHi, dfLo, dfHi;
-    };
+    using Bounds = AlongRayBounds;
     Bounds bounds(double a, double b) const {
         // Exact range of u(s) = |pxy + s dxy|^2 on [a, b], then a few ulps of slack.
         const double ua = radiusSqAt(a), ub = radiusSqAt(b);
@@ -442,46 +423,6 @@ class AsphereAlongRay {
         return r;
     }
 
-    // Bracketed Newton on [a, b], where f(a) and f(b) differ in sign (or one is 0), from
-    // `start` if it lies inside, else from the regula falsi point.
-    double polish(double a, double b, double fa, double fb, double start) const {
-        if (fa == 0.0) return a;
-        if (fb == 0.0) return b;
-        double lo = fa < 0.0 ? a : b;  // f(lo) < 0 < f(hi)
-        double hi = fa < 0.0 ? b : a;
-        double x = start;
-        if (!(x > a && x < b)) x = a - fa * (b - a) / (fb - fa);
-        if (!(x > a && x < b)) x = 0.5 * (a + b);
-        double stepOld = std::abs(b - a);
-        double step = stepOld;
-        double f, df;
-        valueAndSlope(x, f, df);
-        for (int i = 0; i < kMaxPolishIterations && f != 0.0; ++i) {
-            if (f < 0.0) {
-                lo = x;
-            } else {
-                hi = x;
-            }
-            const double newton = x - f / df;
-            const bool inside = newton > std::min(lo, hi) && newton < std::max(lo, hi);
-            if (!inside || !std::isfinite(newton) || std::abs(2.0 * f) > std::abs(stepOld * df)) {
-                stepOld = step;
-                step = 0.5 * (hi - lo);
-                x = lo + step;
-            } else {
-                stepOld = step;
-                step = newton - x;
-                x = newton;
-            }
-            if (std::abs(step) <= 2.0 * kEpsilon * std::abs(x) + kMinSegmentMm * 1e-3 ||
-                std::abs(hi - lo) <= 2.0 * kEpsilon * std::max(std::abs(lo), std::abs(hi))) {
-                break;
-            }
-            valueAndSlope(x, f, df);
-        }
-        return x;
-    }
-
   private:
     ConicBase base_;
     double bigK_ = 0.0;
@@ -492,103 +433,6 @@ class AsphereAlongRay {
     bool hasOverW_ = false;  // any term over w: likewise
     Vec3 p_, d_;
 };
-
-struct Segment {
-    double a, b;
-};
-
-// A stack of disjoint segments on one side of sRef, nearest on top.
-class SegmentStack {
-  public:
-    bool empty() const { return size_ == 0; }
-    bool push(const Segment& s) {
-        if (size_ == kStackCapacity) return false;
-        items_[size_++] = s;
-        return true;
-    }
-    const Segment& top() const { return items_[size_ - 1]; }
-    Segment pop() { return items_[--size_]; }
-    void clear() { size_ = 0; }
-
-  private:
-    std::array<Segment, kStackCapacity> items_;
-    int size_ = 0;
-};
-
-// Root of f in [lo, hi] nearest to sRef (lo <= sRef <= hi) that `accept` takes. sSelf is
-// the parameter of the ray origin when the ray starts on the surface (NaN otherwise).
-// `firstStep` is the length of the first segment on each side and `guess` a likely root
-// where Newton starts when its bracket holds it (NaN if none).
-template <typename Accept>
-std::optional<double> findAsphereRoot(const AsphereAlongRay& f, double lo, double hi, double sRef,
-                                      double sSelf, double firstStep, double guess,
-                                      Accept&& accept) {
-    SegmentStack right, left;  // right: segments at >= sRef; left: <= sRef
-    auto pushSide = [&](SegmentStack& stack, Segment seg, bool isRight) {
-        // Split at the origin of a ray that starts on the surface so that its own root sits
-        // at a segment end.
-        if (sSelf > seg.a && sSelf < seg.b) {
-            const Segment nearPart = isRight ? Segment{seg.a, sSelf} : Segment{sSelf, seg.b};
-            const Segment farPart = isRight ? Segment{sSelf, seg.b} : Segment{seg.a, sSelf};
-            stack.push(farPart);
-            stack.push(nearPart);
-        } else {
-            stack.push(seg);
-        }
-    };
-    if (hi > sRef) pushSide(right, {sRef, hi}, true);
-    if (sRef > lo) pushSide(left, {lo, sRef}, false);
-    if (hi == lo) pushSide(right, {lo, hi}, true);
-
-    std::optional<double> best;
-    double bestKey = kInfinity;
-    for (int evaluated = 0;;) {
-        const double keyRight = right.empty() ? kInfinity : right.top().a - sRef;
-        const double keyLeft = left.empty() ? kInfinity : sRef - left.top().b;
-        if (right.empty() && left.empty()) break;
-        const bool isRight = keyRight <= keyLeft;
-        SegmentStack& stack = isRight ? right : left;
-        if (std::min(keyRight, keyLeft) >= bestKey) {
-            stack.clear();  // the whole stack is farther than the best root
-            continue;
-        }
-        const Segment seg = stack.pop();
-        if (++evaluated > kMaxSegments) return std::nullopt;
-
-        const AsphereAlongRay::Bounds bd = f.bounds(seg.a, seg.b);
-        if (!(bd.fLo <= 0.0 && bd.fHi >= 0.0)) continue;
-        const bool monotone = bd.dfLo > 0.0 || bd.dfHi < 0.0;
-
-        // Split point: geometric while the segment is long compared with its distance from
-        // sRef, halving otherwise.
-        const double nearEnd = isRight ? seg.a : seg.b;
-        const double step = std::max(std::abs(nearEnd - sRef), firstStep);
-        double m = 0.5 * (seg.a + seg.b);
-        if (seg.b - seg.a > 4.0 * step) m = isRight ? seg.a + step : seg.b - step;
-        const double minWidth =
-            kMinSegmentMm + 8.0 * kEpsilon * std::max(std::abs(seg.a), std::abs(seg.b));
-        const bool leaf = !(m > seg.a && m < seg.b) || seg.b - seg.a <= minWidth;
-
-        if (monotone || leaf) {
-            // A monotone segment ending at the origin of a ray that starts on the surface
-            // holds only the origin's own root.
-            if (seg.a == sSelf || seg.b == sSelf) continue;
-            const double fa = f.value(seg.a), fb = f.value(seg.b);
-            if (!((fa <= 0.0 && fb >= 0.0) || (fa >= 0.0 && fb <= 0.0))) continue;
-            const double s = f.polish(seg.a, seg.b, fa, fb, guess);
-            const double key = std::abs(s - sRef);
-            if (key < bestKey && accept(s)) {
-                best = s;
-                bestKey = key;
-            }
-            continue;
-        }
-        const Segment nearPart = isRight ? Segment{seg.a, m} : Segment{m, seg.b};
-        const Segment farPart = isRight ? Segment{m, seg.b} : Segment{seg.a, m};
-        if (!stack.push(farPart) || !stack.push(nearPart)) return std::nullopt;
-    }
-    return best;
-}
 
 // The range of s to search: radial distance within rLimit (a quadratic inequality in s) and
 // z within the range of the sag over that disc (linear in s). At least one of the two is
@@ -663,7 +507,7 @@ std::optional<double> asphereSequential(const EvenAsphereShape& shape, const Ray
                                  ? std::max(kInitialSegmentMm, 2.0 * std::abs(guess - sRef))
                                  : kInitialSegmentMm;
     const std::optional<double> s =
-        findAsphereRoot(f, lo, hi, sRef, kNaN, firstStep, guess, [](double) { return true; });
+        findRoot(f, lo, hi, sRef, kNaN, firstStep, guess, [](double) { return true; });
     if (!s) return std::nullopt;
     return tRef + *s;
 }
@@ -686,7 +530,7 @@ std::optional<ShapeHit> asphereFirst(const EvenAsphereShape& shape, const Ray& r
         const double t = tRef + s;
         return t > tMin && t <= tMax && withinRadius(p + s * d, rMax, pLength + std::abs(s));
     };
-    const std::optional<double> s = findAsphereRoot(f, lo, hi, lo, startsOnSurface ? 0.0 : kNaN,
+    const std::optional<double> s = findRoot(f, lo, hi, lo, startsOnSurface ? 0.0 : kNaN,
                                                     kInitialSegmentMm, kNaN, accept);
     if (!s) return std::nullopt;
     const Vec3 point = p + *s * d;
@@ -719,6 +563,16 @@ std::ostream& operator<<(std::ostream& os, const EvenAsphereShape& s) {
     }
     return os << "]}";
 }
+std::ostream& operator<<(std::ostream& os, const BiconicShape& s) {
+    return os << "Biconic{x curvature " << s.xCurvature << " /mm, x conic " << s.xConic
+              << ", y curvature " << s.yCurvature << " /mm, y conic " << s.yConic << "}";
+}
+std::ostream& operator<<(std::ostream& os, const ToroidalShape& s) {
+    os << "Toroidal{y curvature " << s.yCurvature << " /mm, y conic " << s.yConic << ", a [";
+    for (size_t i = 0; i < s.yCoefficients.size(); ++i)
+        os << (i ? ", " : "") << s.yCoefficients[i];
+    return os << "], x curvature " << s.xCurvature << " /mm}";
+}
 std::ostream& operator<<(std::ostream& os, const SurfaceShape& s) {
     std::visit([&os](const auto& shape) { os << shape; }, s);
     return os;
@@ -740,11 +594,24 @@ SurfaceShape makeShape(double curvature, double conic, const std::array<double, 
     return ConicShape{curvature, conic};
 }
 
+bool isRotational(const SurfaceShape& shape) {
+    return !std::holds_alternative<BiconicShape>(shape) &&
+           !std::holds_alternative<ToroidalShape>(shape);
+}
+
+double sagAt(const SurfaceShape& shape, double x, double y) {
+    if (const auto* b = std::get_if<BiconicShape>(&shape)) return anamorphicSag(*b, x, y);
+    if (const auto* t = std::get_if<ToroidalShape>(&shape)) return anamorphicSag(*t, x, y);
+    return sag(shape, x * x + y * y);
+}
+
 double sag(const SurfaceShape& shape, double rSq) {
     return std::visit(
         [rSq](const auto& s) -> double {
             using S = std::decay_t<decltype(s)>;
-            if constexpr (std::is_same_v<S, PlaneShape>) {
+            if constexpr (std::is_same_v<S, BiconicShape> || std::is_same_v<S, ToroidalShape>) {
+                throw std::logic_error("sag(r^2) of an anamorphic shape; use sagAt(x, y)");
+            } else if constexpr (std::is_same_v<S, PlaneShape>) {
                 return 0.0;
             } else if constexpr (std::is_same_v<S, SphereShape>) {
                 return conicSag({s.curvature, 0.0}, rSq);
@@ -770,7 +637,9 @@ Vec3 surfaceNormal(const SurfaceShape& shape, const Vec3& point) {
     const Vec3 g = std::visit(
         [&point](const auto& s) -> Vec3 {
             using S = std::decay_t<decltype(s)>;
-            if constexpr (std::is_same_v<S, PlaneShape>) {
+            if constexpr (std::is_same_v<S, BiconicShape> || std::is_same_v<S, ToroidalShape>) {
+                return anamorphicNormal(s, point);
+            } else if constexpr (std::is_same_v<S, PlaneShape>) {
                 return {0.0, 0.0, 1.0};
             } else if constexpr (std::is_same_v<S, EvenAsphereShape>) {
                 const ConicBase b{s.curvature, s.conic};
@@ -791,6 +660,8 @@ Vec3 surfaceNormal(const SurfaceShape& shape, const Vec3& point) {
 }
 
 double maxRadius(const SurfaceShape& shape) {
+    if (const auto* a = std::get_if<BiconicShape>(&shape)) return anamorphicMaxRadius(*a);
+    if (const auto* a = std::get_if<ToroidalShape>(&shape)) return anamorphicMaxRadius(*a);
     const ConicBase b = conicBase(shape);
     // Spheres and ellipsoids end where 1 - (1 + k) c^2 r^2 = 0 (decided on 1 + k and c, not on
     // (1 + k) c^2, which underflows for tiny c).
@@ -802,7 +673,9 @@ std::optional<double> intersectSequential(const SurfaceShape& shape, const Ray& 
     return std::visit(
         [&](const auto& s) -> std::optional<double> {
             using S = std::decay_t<decltype(s)>;
-            if constexpr (std::is_same_v<S, PlaneShape>) {
+            if constexpr (std::is_same_v<S, BiconicShape> || std::is_same_v<S, ToroidalShape>) {
+                return anamorphicSequential(s, localRay);
+            } else if constexpr (std::is_same_v<S, PlaneShape>) {
                 if (localRay.direction.z == 0.0) return std::nullopt;
                 return -localRay.origin.z / localRay.direction.z;
             } else if constexpr (std::is_same_v<S, EvenAsphereShape>) {
@@ -822,7 +695,9 @@ std::optional<ShapeHit> intersectFirst(const SurfaceShape& shape, const Ray& loc
     return std::visit(
         [&](const auto& s) -> std::optional<ShapeHit> {
             using S = std::decay_t<decltype(s)>;
-            if constexpr (std::is_same_v<S, PlaneShape>) {
+            if constexpr (std::is_same_v<S, BiconicShape> || std::is_same_v<S, ToroidalShape>) {
+                return anamorphicFirst(s, localRay, tMin, tMax, rMax, startsOnSurface);
+            } else if constexpr (std::is_same_v<S, PlaneShape>) {
                 // A ray that starts on a plane cannot meet it again.
                 const Vec3& o = localRay.origin;
                 const Vec3& d = localRay.direction;

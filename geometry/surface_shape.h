@@ -18,6 +18,18 @@
 //                                                    geometry/qtype.h; only on a sphere or
 //                                                    ellipsoid base, (1 + k) >= 0)
 //
+// Two anamorphic shapes (no symmetry of revolution; mirror-symmetric in x and in y) follow
+// the lens design programs' definitions (geometry/anamorphic.h has their algebra):
+//
+//   biconic        z = (cx x^2 + cy y^2) / (1 + sqrt(1 - (1 + kx) cx^2 x^2 - (1 + ky) cy^2 y^2))
+//                  (its x-z and y-z sections are conics of their own curvature and conic
+//                  constant; cx = 0 or cy = 0 makes a cylinder)
+//   toroidal       the y-z profile zy(y) = c y^2 / (1 + sqrt(1 - (1 + k) c^2 y^2))
+//                  + sum_i a[i] y^(2i+2), swept about the axis parallel to y that crosses
+//                  the z axis at z = 1 / cx (the radius of rotation):
+//                  z = zy + q x^2 / (1 + sqrt(1 - q^2 x^2)),  q = cx / (1 - cx zy);
+//                  cx = 0 (an infinite radius of rotation) is a cylinder, flat in x
+//
 // Units: lengths in mm, curvature c in 1/mm (c > 0 when the centre of curvature is at +z),
 // k dimensionless (k > 0 oblate ellipsoid, 0 sphere, (-1, 0) prolate ellipsoid, -1
 // paraboloid, < -1 hyperboloid), a[i] in mm^-(2i+1).
@@ -54,12 +66,31 @@ struct EvenAsphereShape {
     std::array<double, 10> overW{};         // overW[i] multiplies r^(2i+2) / w, in mm^-(2i+1)
 };
 
-using SurfaceShape = std::variant<PlaneShape, SphereShape, ConicShape, EvenAsphereShape>;
+struct BiconicShape {
+    double xCurvature = 0.0;  // 1/mm, the x-z section
+    double xConic = 0.0;
+    double yCurvature = 0.0;  // 1/mm, the y-z section
+    double yConic = 0.0;
+};
+struct ToroidalShape {
+    double yCurvature = 0.0;  // 1/mm, the y-z profile's base conic
+    double yConic = 0.0;
+    std::array<double, 10> yCoefficients{};  // yCoefficients[i] multiplies y^(2i+2)
+    double xCurvature = 0.0;  // 1 / the radius of rotation; 0: a cylinder, flat in x
+};
+
+using SurfaceShape = std::variant<PlaneShape, SphereShape, ConicShape, EvenAsphereShape,
+                                  BiconicShape, ToroidalShape>;
 std::ostream& operator<<(std::ostream& os, const PlaneShape& s);
 std::ostream& operator<<(std::ostream& os, const SphereShape& s);
 std::ostream& operator<<(std::ostream& os, const ConicShape& s);
 std::ostream& operator<<(std::ostream& os, const EvenAsphereShape& s);
+std::ostream& operator<<(std::ostream& os, const BiconicShape& s);
+std::ostream& operator<<(std::ostream& os, const ToroidalShape& s);
 std::ostream& operator<<(std::ostream& os, const SurfaceShape& s);
+
+// True for the surfaces of revolution about z (every shape but the anamorphic ones).
+bool isRotational(const SurfaceShape& shape);
 
 // The simplest shape that represents the given parameters exactly: a plane when c == 0 and
 // every a[i] == 0 (the conic constant of a flat surface has no effect), a sphere when also
@@ -71,12 +102,16 @@ SurfaceShape makeShape(double curvature, double conic, const std::array<double, 
                        const std::array<double, 9>& odd = {},
                        const std::array<double, 10>& overW = {});
 
-// Sag z at radial distance squared rSq (mm^2). NaN outside the conic's domain.
+// Sag z at radial distance squared rSq (mm^2) of a surface of revolution. NaN outside the
+// conic's domain. An anamorphic shape has no such sag: std::logic_error (use sagAt()).
 double sag(const SurfaceShape& shape, double rSq);
+// Sag z at (x, y), every shape. NaN outside the shape's domain.
+double sagAt(const SurfaceShape& shape, double x, double y);
 // Unit normal at a point on (or near) the surface; +z at the vertex.
 Vec3 surfaceNormal(const SurfaceShape& shape, const Vec3& point);
 // Largest radial distance where the surface is defined (infinite for planes, paraboloids,
-// hyperboloids and aspheres without a conic limit).
+// hyperboloids and aspheres without a conic limit). For an anamorphic shape, the smaller of
+// the limits along its x and y sections.
 double maxRadius(const SurfaceShape& shape);
 
 // Even aspheres have no closed-form intersection; their roots are searched for on the part
