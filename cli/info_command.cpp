@@ -11,6 +11,7 @@
 #include <cmath>
 #include <iomanip>
 #include <iostream>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -122,6 +123,10 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
     const Prescription p = readSceneFile(options.file, catalog).prescription;
     const SequentialModel model = SequentialModel::build(p, catalog);
     const FirstOrderReport fo = computeFirstOrder(model);
+    // An anamorphic system has a second set of first-order data: its x-z section's.
+    std::optional<FirstOrderData> xSection;
+    if (p.firstAnamorphic() >= 0)
+        xSection = computeFirstOrder(SequentialModel::build(p.xSection(), catalog)).primaryData();
     const RayAimer aimer(model, options.aim == "real" ? AimMode::Real : AimMode::Paraxial);
     SpotOptions spotOptions;
     spotOptions.rings = options.rings;
@@ -140,6 +145,7 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
         j["wavelengths"] = nlohmann::json::array();
         for (const FirstOrderData& d : fo.wavelengths)
             j["wavelengths"].push_back(firstOrderJson(d));
+        if (xSection) j["x_section"] = firstOrderJson(*xSection);
         j["field_unit"] = angle ? "deg" : "mm";
         if (!p.system.imageHeights.empty()) {
             j["fields_given_as"] =
@@ -173,6 +179,11 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
             if (const auto& q = s.qAsphere)
                 js[q->kind == QAsphere::Kind::Bfs ? "qbfs" : "qcon"] = {
                     {"norm_radius_mm", q->normRadiusMm}, {"terms", q->terms}};
+            if (const auto& a = s.anamorphic) {
+                const double xr = a->xCurvature == 0.0 ? kInfinity : 1.0 / a->xCurvature;
+                js[a->label()] = {{"x_radius_mm", num(xr)}};
+                if (a->kind == Anamorphic::Kind::Biconic) js[a->label()]["x_conic"] = a->xConic;
+            }
             j["surfaces"].push_back(js);
         }
         j["elements"] = nlohmann::json::array();
@@ -221,6 +232,11 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
             flags += s.qAsphere->kind == QAsphere::Kind::Bfs ? " Qbfs" : " Qcon";
         else if (s.hasAsphere())
             flags += " asphere";
+        if (const auto& a = s.anamorphic) {
+            flags += a->kind == Anamorphic::Kind::Toroidal ? " TOROIDAL" : " BICONIC";
+            flags += " x_r=" + fmt(a->xCurvature == 0.0 ? kInfinity : 1.0 / a->xCurvature, 8);
+            if (a->xConic != 0.0) flags += " x_k=" + fmt(a->xConic);
+        }
         if (const auto& b = s.coordinateBreak) {
             flags += " BREAK";
             if (b->decenterXMm != 0.0 || b->decenterYMm != 0.0)
@@ -241,6 +257,8 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
             return s.coordinateBreak && !s.coordinateBreak->identity();
         }))
         os << "  of the unfolded system: paraxial data ignore coordinate breaks\n";
+    if (xSection)
+        os << "  of the y-z section (anamorphic surfaces: the x-z section follows)\n";
     auto row = [&](const char* label, double v, const char* unit) {
         os << "  " << std::left << std::setw(40) << label << std::right << std::setw(14)
            << fmt(v, 8) << " " << unit << "\n";
@@ -265,6 +283,16 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
         std::string label = "paraxial image height y, field " + std::to_string(f + 1) + " (" +
                             fmt(p.system.fields[f].y) + (angle ? " deg)" : " mm)");
         row(label.c_str(), d.paraxialImageHeightsMm[f], "mm");
+    }
+    if (xSection) {
+        const FirstOrderData& x = *xSection;
+        os << "\n  x-z section\n";
+        row("effective focal length", x.eflMm, "mm");
+        row("back focal length (from last surface)", x.bflMm, "mm");
+        row("paraxial image (from image surface)", x.paraxialImageDistanceMm, "mm");
+        row("entrance pupil position (from surface 1)", x.entrancePupilPositionMm, "mm");
+        row("exit pupil position (from image)", x.exitPupilPositionMm, "mm");
+        row("image-space F/# (EFL/EPD)", x.imageSpaceFNumber, "");
     }
     if (fo.wavelengths.size() > 1) {
         os << "\n  " << std::setw(12) << "wavelength" << std::setw(14) << "EFL" << std::setw(14)

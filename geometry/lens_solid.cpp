@@ -221,6 +221,7 @@ void checkAirGap(const Prescription& p, const LensSolid& a, const LensSolid& b) 
 
 std::vector<LensSolid> solidsOfNamed(const Prescription& p) {
     p.validate();
+    requireSurfacesOfRevolution(p);
     const std::vector<double> z = vertexZ(p);
     const std::vector<Frame> frames = surfaceFrames(p);
     const int image = p.imageIndex();
@@ -357,6 +358,17 @@ std::ostream& operator<<(std::ostream& os, const LensSolid& s) {
 
 double LensSolid::frontZ(double rMm) const { return sideZ(front, rMm); }
 double LensSolid::backZ(double rMm) const { return sideZ(back, rMm); }
+
+void requireSurfacesOfRevolution(const Prescription& p) {
+    const int a = p.firstAnamorphic();
+    if (a < 0) return;
+    const Surface& s = p.surfaces[a];
+    throw ModelError(s.name.empty() ? "surface " + std::to_string(a) : s.name,
+                     std::string("the surface is ") + s.anamorphic->label() +
+                         ": the 3D scene (trace, paths, ghosts, render, sweep, pst, objects, "
+                         "layout, export) is built from surfaces of revolution only; `veil "
+                         "info` traces it exactly (first-order data of both sections, spots)");
+}
 
 std::vector<LensSolid> lensSolids(const Prescription& p) { return solidsOfNamed(withNames(p)); }
 

@@ -151,6 +151,10 @@ struct LensSolid {
 };
 std::ostream& operator<<(std::ostream& os, const LensSolid& s);
 
+// Throws ModelError naming the first anamorphic surface (toroidal, biconic): lens solids,
+// and so the 3D scene, are built from surfaces of revolution.
+void requireSurfacesOfRevolution(const Prescription& p);
+
 // The solids of a prescription's lens elements, checked (sizes present, positive thickness
 // from the axis to the edge, no overlap with a neighbour across an air gap). Elements that
 // repeat a pass through glass already listed are left out. Throws ModelError.

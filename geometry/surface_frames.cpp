@@ -73,6 +73,12 @@ std::vector<Frame> surfaceFrames(const Prescription& p) {
 }
 
 SurfaceShape surfaceShape(const Surface& s) {
+    if (s.anamorphic) {
+        const Anamorphic& a = *s.anamorphic;
+        if (a.kind == Anamorphic::Kind::Biconic)
+            return BiconicShape{a.xCurvature, a.xConic, s.curvature, s.conic};
+        return ToroidalShape{s.curvature, s.conic, s.asphere, a.xCurvature};
+    }
     std::array<double, 10> even = s.asphere;
     std::array<double, 10> overW{};
     if (s.qAsphere) {

@@ -1,5 +1,6 @@
 #include "lensdata/prescription.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -42,6 +43,13 @@ std::ostream& operator<<(std::ostream& os, const QAsphere& q) {
     return os << "]}";
 }
 
+std::ostream& operator<<(std::ostream& os, const Anamorphic& a) {
+    os << (a.kind == Anamorphic::Kind::Toroidal ? "Toroidal" : "Biconic") << "{x curvature "
+       << a.xCurvature << " /mm";
+    if (a.kind == Anamorphic::Kind::Biconic) os << ", x conic " << a.xConic;
+    return os << "}";
+}
+
 std::ostream& operator<<(std::ostream& os, const CoordinateBreak& b) {
     os << "CoordinateBreak{decenter " << b.decenterXMm << ", " << b.decenterYMm << " mm, tilt "
        << b.tiltXDeg << ", " << b.tiltYDeg << ", " << b.tiltZDeg << " deg";
@@ -52,6 +60,7 @@ std::ostream& operator<<(std::ostream& os, const CoordinateBreak& b) {
 std::ostream& operator<<(std::ostream& os, const Surface& s) {
     os << "Surface{" << (s.name.empty() ? "?" : s.name);
     if (s.coordinateBreak) os << " " << *s.coordinateBreak;
+    if (s.anamorphic) os << " " << *s.anamorphic;
     os << " R=";
     if (s.curvature == 0.0)
         os << "inf";
@@ -232,6 +241,25 @@ void Prescription::validate() const {
                 throw ModelError(nameOf(i), "Qbfs departs from a best-fit sphere: its conic must "
                                             "be 0 (a conic base is Qcon)");
         }
+        if (s.anamorphic) {
+            const Anamorphic& a = *s.anamorphic;
+            const std::string kind = a.label();
+            if (!std::isfinite(a.xCurvature) || !std::isfinite(a.xConic))
+                throw ModelError(nameOf(i), kind + " x curvature or conic is not finite");
+            if (i == 0 || i == n - 1)
+                throw ModelError(nameOf(i), "the object and image surfaces cannot be " + kind);
+            if (s.qAsphere || std::any_of(s.oddAsphere.begin(), s.oddAsphere.end(),
+                                          [](double b) { return b != 0.0; }))
+                throw ModelError(nameOf(i), "a " + kind +
+                                                " surface takes no Q-type or odd asphere terms");
+            if (a.kind == Anamorphic::Kind::Toroidal && a.xConic != 0.0)
+                throw ModelError(nameOf(i), "a toroidal surface has no x conic (its x-z section "
+                                            "is the circle of its radius of rotation)");
+            if (a.kind == Anamorphic::Kind::Biconic &&
+                std::any_of(s.asphere.begin(), s.asphere.end(), [](double v) { return v != 0.0; }))
+                throw ModelError(nameOf(i), "a biconic surface takes no asphere terms (a toroidal "
+                                            "one takes terms in y)");
+        }
         if (s.coordinateBreak) {
             const CoordinateBreak& b = *s.coordinateBreak;
             for (double v : {b.decenterXMm, b.decenterYMm, b.tiltXDeg, b.tiltYDeg, b.tiltZDeg})
@@ -241,7 +269,7 @@ void Prescription::validate() const {
                 throw ModelError(nameOf(i),
                                  "the object and image surfaces cannot be coordinate breaks");
             if (s.mirror || s.stop || s.curvature != 0.0 || s.conic != 0.0 || s.hasAsphere() ||
-                s.innerSemiDiameterMm > 0.0)
+                s.anamorphic || s.innerSemiDiameterMm > 0.0)
                 throw ModelError(nameOf(i),
                                  "a coordinate break is a flat dummy surface: it cannot be a "
                                  "mirror or the stop, or have a curvature, conic, asphere or hole");
@@ -256,6 +284,27 @@ void Prescription::validate() const {
     }
     if (stops > 1) throw ModelError("stop", "more than one surface is flagged as the stop");
     if (surfaces[0].stop) throw ModelError("object", "the object surface cannot be the stop");
+}
+
+int Prescription::firstAnamorphic() const {
+    for (size_t i = 0; i < surfaces.size(); ++i)
+        if (surfaces[i].anamorphic) return static_cast<int>(i);
+    return -1;
+}
+
+Prescription Prescription::xSection() const {
+    Prescription x = *this;
+    for (Surface& s : x.surfaces) {
+        if (!s.anamorphic) continue;
+        const Anamorphic a = *s.anamorphic;
+        s.anamorphic.reset();
+        s.curvature = a.xCurvature;
+        // A toroid's x-z section is the circle of its radius of rotation; its asphere terms
+        // are in y alone.
+        s.conic = a.kind == Anamorphic::Kind::Biconic ? a.xConic : 0.0;
+        s.asphere = {};
+    }
+    return x;
 }
 
 }  // namespace veil

@@ -70,6 +70,24 @@ struct CoordinateBreak {
 };
 std::ostream& operator<<(std::ostream& os, const CoordinateBreak& b);
 
+// An anamorphic surface: no symmetry of revolution (geometry/surface_shape.h has the sags).
+// The surface's curvature and conic are those of its y-z section, as in lens design programs.
+// Toroidal (Zemax TOROIDAL): the y-z profile (curvature, conic and the even asphere terms, in
+// y alone) is swept about the axis parallel to y at the radius of rotation 1 / xCurvature from
+// the vertex; xCurvature 0 (an infinite radius) makes a cylinder lens surface, flat in x.
+// Biconic (Zemax BICONICX): the x-z section is the conic (xCurvature, xConic); no asphere
+// terms. Paraxial data are those of the y-z section; Prescription::xSection() gives the
+// x-z one.
+struct Anamorphic {
+    enum class Kind { Toroidal, Biconic };
+    Kind kind = Kind::Toroidal;
+    double xCurvature = 0.0;  // 1/mm
+    double xConic = 0.0;      // biconic only
+    const char* label() const { return kind == Kind::Toroidal ? "toroidal" : "biconic"; }
+    bool operator==(const Anamorphic&) const = default;
+};
+std::ostream& operator<<(std::ostream& os, const Anamorphic& a);
+
 // A Forbes Q-polynomial asphere (geometry/qtype.h): the departure from the base conic
 // (Qcon) or best-fit sphere (Qbfs, conic 0) as terms a_0 .. a_8 of Forbes's polynomials of
 // (r / normRadiusMm)^2. Both are traced exactly, as even asphere terms.
@@ -94,6 +112,7 @@ struct Surface {
     // Odd asphere terms (Zemax ODDASPH): sag += sum_j oddAsphere[j] r^(2j+3), r^3 .. r^19.
     std::array<double, 9> oddAsphere{};
     std::optional<QAsphere> qAsphere;  // a Q-type departure (then asphere and oddAsphere are 0)
+    std::optional<Anamorphic> anamorphic;  // set: curvature and conic are the y-z section's
     double thicknessMm = 0.0;  // to the next surface; may be +-kInfinity for the object
     Material material;         // medium after this surface (gap index = this surface's index)
 
@@ -205,6 +224,12 @@ struct Prescription {
     // the object's; a mirror's material equals the incident medium; and so on. Throws
     // ModelError naming the surface.
     void validate() const;
+    // The first anamorphic surface, -1 if every surface is one of revolution.
+    int firstAnamorphic() const;
+    // The x-z section of an anamorphic system as a system of revolution: every anamorphic
+    // surface replaced by the surface of revolution with its x-z section's curvature (and,
+    // for a biconic, conic), so that paraxial data of the result are the x section's.
+    Prescription xSection() const;
 };
 
 }  // namespace veil

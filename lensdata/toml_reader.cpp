@@ -63,6 +63,24 @@ std::string rowPath(int surfaceIndex) {
 }
 
 // Among the values present, the one written last in the file (for "not both" errors).
+const TomlValue& laterInFile(const TomlValue& a, const TomlValue& b);
+
+// A curvature given as a radius (rKey: mm, 0 or inf = flat) or as a curvature (cKey: 1/mm);
+// nullopt when neither key is there; both is an error at the later one.
+std::optional<double> curvatureOf(const TomlTable& t, const char* rKey, const char* cKey) {
+    const auto r = t.get(rKey);
+    const auto c = t.get(cKey);
+    if (r && c)
+        laterInFile(*r, *c).fail(std::string("give the radius ") + rKey + " or the curvature " +
+                                 cKey + ", not both");
+    if (r) {
+        const double radius = r->asNumber(NumberRange::any().orInfinite());
+        return radius == 0.0 || std::isinf(radius) ? 0.0 : 1.0 / radius;
+    }
+    if (c) return c->asNumber();
+    return std::nullopt;
+}
+
 const TomlValue& laterInFile(const TomlValue& a, const TomlValue& b) {
     const FileLoc la = a.loc(), lb = b.loc();
     return std::pair(la.line, la.column) > std::pair(lb.line, lb.column) ? a : b;
@@ -296,8 +314,9 @@ void LensReader::readRow(const TomlTable& row, bool last, Material& incident) {
 void LensReader::readBreakRow(const TomlTable& row, const TomlValue& brk, Surface& s,
                               const Material& incident) {
     // { break = { decenter_mm = [x, y], tilt_deg = [x, y, z], tilt_first = false }, t = ... }
-    for (const char* key : {"r", "c", "conic", "asph", "asph_r2", "asph_odd", "sd", "mech_sd",
-                            "hole_sd", "stop", "mirror", "coating"})
+    for (const char* key : {"r", "c", "conic", "asph", "asph_r2", "asph_odd", "qbfs", "qcon",
+                            "toroidal", "biconic", "sd", "mech_sd", "hole_sd", "stop", "mirror",
+                            "coating"})
         if (const auto v = row.get(key))
             v->fail(std::string("a coordinate break row takes no '") + key +
                     "': it is a flat dummy surface (only break, t, glass, name and comment)");
@@ -329,15 +348,7 @@ void LensReader::readBreakRow(const TomlTable& row, const TomlValue& brk, Surfac
 }
 
 void LensReader::readShape(const TomlTable& row, Surface& s) {
-    const auto r = row.get("r");
-    const auto c = row.get("c");
-    if (r && c) laterInFile(*r, *c).fail("give the radius r or the curvature c, not both");
-    if (r) {
-        const double radius = r->asNumber(NumberRange::any().orInfinite());
-        s.curvature = radius == 0.0 || std::isinf(radius) ? 0.0 : 1.0 / radius;
-    } else if (c) {
-        s.curvature = c->asNumber();
-    }
+    if (const auto c = curvatureOf(row, "r", "c")) s.curvature = *c;
     s.conic = row.number("conic", 0.0);
     s.asphere[0] = row.number("asph_r2", 0.0);
     if (const auto asph = row.get("asph")) {
@@ -377,6 +388,39 @@ void LensReader::readShape(const TomlTable& row, Surface& s) {
             if (const auto k = row.get("conic"); k && k->asNumber() != 0.0)
                 k->fail("qbfs departs from a best-fit sphere: conic must be 0 (use qcon on a "
                         "conic)");
+    }
+    for (const char* key : {"toroidal", "biconic"}) {
+        const auto a = row.get(key);
+        if (!a) continue;
+        const bool toroidal = std::string(key) == "toroidal";
+        if (s.anamorphic)
+            laterInFile(*row.get("toroidal"), *a).fail("give toroidal or biconic, not both");
+        if (!a->isTable())
+            a->failExpected(toroidal ? "a table { x_r = radius of rotation (mm; inf: a cylinder) }"
+                                     : "a table { x_r = x radius (mm), x_conic = ... }");
+        const TomlTable t = a->asTable();
+        Anamorphic an;
+        an.kind = toroidal ? Anamorphic::Kind::Toroidal : Anamorphic::Kind::Biconic;
+        const std::optional<double> xc = curvatureOf(t, "x_r", "x_c");
+        if (!xc)
+            a->fail(std::string(key) + " needs its x section: x_r = radius (mm; inf: flat in x) " +
+                    "or x_c = curvature (1/mm)");
+        an.xCurvature = *xc;
+        if (const auto k = t.get("x_conic")) {
+            if (toroidal)
+                k->fail("a toroidal surface has no x conic: its x-z section is the circle of "
+                        "its radius of rotation (use biconic)");
+            an.xConic = k->asNumber();
+        }
+        s.anamorphic = an;
+        for (const char* other : {"asph_odd", "qbfs", "qcon"})
+            if (const auto v = row.get(other))
+                v->fail(std::string("a ") + key + " surface takes no '" + other + "'");
+        if (!toroidal)
+            for (const char* other : {"asph", "asph_r2"})
+                if (const auto v = row.get(other))
+                    v->fail(std::string("a biconic surface takes no '") + other +
+                            "' (a toroidal one takes asphere terms in y)");
     }
     if (const auto odd = row.get("asph_odd")) {
         const std::vector<TomlValue> terms = odd->asArray();

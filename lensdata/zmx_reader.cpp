@@ -519,7 +519,10 @@ bool ZmxParser::surfaceCommand(const std::string& tag, const Line& line) {
         const std::string type = upper(arg(line, 1, "surface type").text);
         surfaceTypes_.back() = type;
         if (type == "COORDBRK") s.coordinateBreak = CoordinateBreak{};
-        if (type != "STANDARD" && type != "EVENASPH" && type != "ODDASPH" && type != "COORDBRK")
+        if (type == "TOROIDAL") s.anamorphic = Anamorphic{Anamorphic::Kind::Toroidal};
+        if (type == "BICONICX") s.anamorphic = Anamorphic{Anamorphic::Kind::Biconic};
+        if (type != "STANDARD" && type != "EVENASPH" && type != "ODDASPH" && type != "COORDBRK" &&
+            type != "TOROIDAL" && type != "BICONICX")
             unsupported_ = UnsupportedSurface{restOfLine(line, 1), locOf(line, line.tokens[1]), {}};
     } else if (tag == "CURV") {
         // CURV <curvature> <solve type> <solve parameters...> "<pickup name>"
@@ -561,6 +564,21 @@ bool ZmxParser::surfaceCommand(const std::string& tag, const Line& line) {
                 *slot[n - 1] = v;
             else
                 b.tiltFirst = v != 0.0;
+        } else if ((type == "TOROIDAL" || type == "BICONICX") && n == 1) {
+            // The radius of rotation (TOROIDAL) or the x radius (BICONICX), lens units; 0 is
+            // an infinite radius.
+            s.anamorphic->xCurvature = v == 0.0 ? 0.0 : 1.0 / v;
+        } else if (type == "BICONICX" && n == 2) {
+            s.anamorphic->xConic = v;
+        } else if (type == "TOROIDAL" && n >= 2 && n <= 8) {
+            // alpha 1..7 multiply y^2 .. y^14 of the y-z profile.
+            s.asphere[static_cast<size_t>(n - 2)] = v;
+        } else if (type == "TOROIDAL" && n == 13) {
+            if (v != 0.0)
+                note(Severity::Error, locOf(line, line.tokens[2]),
+                     "TOROIDAL PARM 13 = " + std::string(line.tokens[2].text) +
+                         " Zernike sag terms: veil models the toroid without them (its XDAT "
+                         "values would be lost)");
         } else if (type == "ODDASPH" && n >= 1 && n <= 8) {
             // ODDASPH: PARM n multiplies r^n. Even powers join the even asphere (r^2 n / 2 - 1),
             // odd ones the odd terms; r^1 would put a cone's tip on the axis.
@@ -585,6 +603,12 @@ bool ZmxParser::surfaceCommand(const std::string& tag, const Line& line) {
             if (line.tokens.size() > 2 && number(line, 2, "extra data value") != 0.0)
                 unsupported_->lostParameters.push_back("XDAT " + std::string(line.tokens[1].text) +
                                                        " = " + std::string(line.tokens[2].text));
+        } else if (surfaceTypes_.back() == "TOROIDAL") {
+            // The toroid's Zernike sag terms: PARM 13 counts them and is reported there.
+            if (line.tokens.size() > 2 && number(line, 2, "extra data value") != 0.0)
+                note(Severity::Error, locOf(line),
+                     "TOROIDAL Zernike sag term XDAT " + std::string(line.tokens[1].text) +
+                         " = " + std::string(line.tokens[2].text) + " is not modelled by veil");
         } else {
             note(Severity::Warning, locOf(line),
                  "extra data (XDAT) on a " + surfaceTypes_.back() + " surface ignored");
@@ -823,6 +847,7 @@ void ZmxParser::convertUnits() {
         // oddAsphere[j] multiplies r^(2j+3): units length^-(2j+2).
         for (size_t j = 0; j < s.oddAsphere.size(); ++j)
             s.oddAsphere[j] *= std::pow(f, -(2.0 * static_cast<double>(j) + 2.0));
+        if (s.anamorphic) s.anamorphic->xCurvature /= f;
         if (s.coordinateBreak) {
             s.coordinateBreak->decenterXMm *= f;
             s.coordinateBreak->decenterYMm *= f;

@@ -8,6 +8,7 @@
 #include <optional>
 #include <sstream>
 
+#include "geometry/lens_solid.h"
 #include "geometry/surface_frames.h"
 
 namespace veil {
@@ -88,6 +89,7 @@ std::ostream& operator<<(std::ostream& os, const EntranceAperture& a) {
 
 EntranceAperture entranceAperture(const Prescription& p, const SequentialModel& model) {
     if (model.surfaceCount() < 3) throw ModelError("lens", "no surface between object and image");
+    requireSurfacesOfRevolution(p);  // sources are aimed at a face of revolution
     // Semi-diameters from `p` (which may hold the automatic ones), falling back to the model.
     auto radii = [&](int i) {
         double clear = model.surface(i).clearSemiDiameterMm, mech = 0.0;

@@ -623,6 +623,49 @@ surfaces = [
               std::string::npos);
 }
 
+// Toroidal and biconic rows: the row's r and conic are the y-z section's, the table holds the
+// x one; errors at the value.
+TEST(TomlReader, AnamorphicRows) {
+    const Prescription p = read(R"([system]
+aperture = { f_number = 4 }
+surfaces = [
+  { r = 40, t = 5, glass = "N-BK7", sd = 10, asph = [1e-6], toroidal = { x_r = inf } },
+  { r = -60, conic = -1.2, t = 30, sd = 10, biconic = { x_c = -0.02, x_conic = 0.5 } },
+  { r = inf, t = 2, glass = "N-BK7", sd = 10, toroidal = { x_r = 35 } },
+  { t = 20, sd = 10 },
+]
+)");
+    ASSERT_TRUE(p.surfaces[1].anamorphic);
+    EXPECT_EQ(p.surfaces[1].anamorphic->kind, Anamorphic::Kind::Toroidal);
+    EXPECT_EQ(p.surfaces[1].anamorphic->xCurvature, 0.0);
+    EXPECT_EQ(p.surfaces[1].asphere[1], 1e-6);
+    ASSERT_TRUE(p.surfaces[2].anamorphic);
+    EXPECT_EQ(p.surfaces[2].anamorphic->kind, Anamorphic::Kind::Biconic);
+    EXPECT_EQ(p.surfaces[2].anamorphic->xCurvature, -0.02);
+    EXPECT_EQ(p.surfaces[2].anamorphic->xConic, 0.5);
+    EXPECT_EQ(p.surfaces[2].conic, -1.2);
+    EXPECT_DOUBLE_EQ(p.surfaces[3].anamorphic->xCurvature, 1.0 / 35.0);
+    EXPECT_EQ(p.firstAnamorphic(), 1);
+    auto error = [](const std::string& row) {
+        return parseErrorOf("[system]\naperture = { f_number = 4 }\nsurfaces = [" + row + "]\n");
+    };
+    const ParseError k = error("{ r = 40, t = 5, toroidal = { x_r = 30, x_conic = -1 } }");
+    expectAt(k, 3, 63);  // at the value
+    EXPECT_THAT(k.message(), HasSubstr("no x conic"));
+    EXPECT_THAT(error("{ r = 40, t = 5, toroidal = { x_r = 30 }, biconic = { x_r = 30 } }")
+                    .message(),
+                HasSubstr("toroidal or biconic, not both"));
+    EXPECT_THAT(error("{ r = 40, t = 5, biconic = { x_conic = -1 } }").message(),
+                HasSubstr("needs its x section"));
+    EXPECT_THAT(error("{ r = 40, t = 5, asph = [1e-6], biconic = { x_r = 30 } }").message(),
+                HasSubstr("biconic surface takes no 'asph'"));
+    EXPECT_THAT(error("{ r = 40, t = 5, toroidal = { x_r = 30, x_c = 0.1 } }").message(),
+                HasSubstr("not both"));
+    EXPECT_THAT(error("{ break = { tilt_deg = [1, 0, 0] }, t = 5, toroidal = { x_r = 30 } }")
+                    .message(),
+                HasSubstr("takes no 'toroidal'"));
+}
+
 TEST(TomlReader, RadiusAndCurvatureTogether) {
     const ParseError e = parseErrorOf(R"([system]
 aperture = { f_number = 4 }

@@ -697,6 +697,54 @@ TEST(ZmxReader, QTypeSurfaceSaysHowToBringItIn) {
     EXPECT_NE(n->message.find("qbfs or qcon"), std::string::npos) << n->message;
 }
 
+// TOROIDAL: PARM 1 the radius of rotation (0: infinite), PARM 2..8 the y^2..y^14 terms;
+// BICONICX: PARM 1 the x radius, PARM 2 the x conic; lengths in lens units (cm here).
+TEST(ZmxReader, ToroidalAndBiconicSurfaces) {
+    const std::string text =
+        "UNIT CM\nENPD 1\nWAVM 1 0.55 1\nSURF 0\n DISZ INFINITY\nSURF 1\n TYPE TOROIDAL\n"
+        " CURV 0.5\n CONI -0.3\n PARM 1 4\n PARM 2 0.01\n PARM 3 -0.002\n PARM 13 0\n"
+        " XDAT 1 0 0 0 0\n DISZ 0.4\n GLAS N-BK7 0 0 1.5168 64.17\n DIAM 1 1\nSURF 2\n"
+        " TYPE TOROIDAL\n PARM 1 0\n DISZ 1\n DIAM 1 1\nSURF 3\n TYPE BICONICX\n CURV -0.2\n"
+        " PARM 1 -2.5\n PARM 2 -1\n DISZ 0.3\n GLAS N-BK7 0 0 1.5168 64.17\n DIAM 1 1\n"
+        "SURF 4\n DISZ 5\nSURF 5\n";
+    const Prescription rx = readZmxText(text, "t.zmx", GlassCatalog::builtIn());
+    for (const ImportNote& n : rx.report)
+        EXPECT_NE(n.severity, ImportNote::Severity::Error) << n;
+    const Surface& t = rx.surfaces[1];
+    ASSERT_TRUE(t.anamorphic);
+    EXPECT_EQ(t.anamorphic->kind, Anamorphic::Kind::Toroidal);
+    EXPECT_DOUBLE_EQ(t.anamorphic->xCurvature, 1.0 / 40.0);
+    EXPECT_DOUBLE_EQ(t.curvature, 0.05);
+    EXPECT_DOUBLE_EQ(t.conic, -0.3);
+    EXPECT_DOUBLE_EQ(t.asphere[0], 0.01 / 10.0);     // y^2: 1/length
+    EXPECT_DOUBLE_EQ(t.asphere[1], -0.002 / 1000.0);  // y^4: 1/length^3
+    EXPECT_EQ(rx.surfaces[2].anamorphic->xCurvature, 0.0);  // PARM 1 0: a cylinder
+    const Surface& b = rx.surfaces[3];
+    ASSERT_TRUE(b.anamorphic);
+    EXPECT_EQ(b.anamorphic->kind, Anamorphic::Kind::Biconic);
+    EXPECT_DOUBLE_EQ(b.anamorphic->xCurvature, -1.0 / 25.0);
+    EXPECT_DOUBLE_EQ(b.anamorphic->xConic, -1.0);
+    EXPECT_DOUBLE_EQ(b.curvature, -0.02);
+    EXPECT_NO_THROW(rx.validate());
+}
+
+// The toroid's Zernike sag terms are not modelled: an Error at the count and at each value.
+TEST(ZmxReader, ToroidalZernikeTermsAreErrors) {
+    const std::string text =
+        "ENPD 1\nWAVM 1 0.55 1\nSURF 0\n DISZ INFINITY\nSURF 1\n TYPE TOROIDAL\n CURV 0.05\n"
+        " PARM 1 40\n PARM 13 2\n XDAT 1 2 0 0 0\n XDAT 2 10 0 0 0\n XDAT 3 0.001 0 0 0\n"
+        " DISZ 4\n GLAS N-BK7 0 0 1.5168 64.17\n DIAM 5 1\nSURF 2\n DISZ 40\nSURF 3\n";
+    const Prescription rx = readZmxText(text, "z.zmx", GlassCatalog::builtIn());
+    const ImportNote* count = findNote(rx, "TOROIDAL PARM 13 = 2");
+    ASSERT_NE(count, nullptr) << reportText(rx);
+    EXPECT_EQ(count->severity, ImportNote::Severity::Error);
+    EXPECT_EQ(count->loc.line, 9);
+    const ImportNote* term = findNote(rx, "XDAT 3 = 0.001");
+    ASSERT_NE(term, nullptr) << reportText(rx);
+    EXPECT_EQ(term->severity, ImportNote::Severity::Error);
+    EXPECT_EQ(term->loc.line, 12);
+}
+
 TEST(ZmxReader, UnsupportedSurfacesAndCommandsAreReported) {
     const Prescription rx = load("unsupported.zmx");
     ASSERT_EQ(rx.surfaces.size(), 6u);  // nothing dropped
@@ -709,12 +757,12 @@ TEST(ZmxReader, UnsupportedSurfacesAndCommandsAreReported) {
     EXPECT_NE(cb->message.find("PARM 3 = 45"), std::string::npos) << cb->message;
     EXPECT_EQ(rx.surfaces[3].thicknessMm, 5.0);  // its thickness still counts
 
-    const ImportNote* toroid = findNote(rx, "surface type TOROIDAL");
-    ASSERT_NE(toroid, nullptr) << reportText(rx);
-    EXPECT_EQ(toroid->severity, ImportNote::Severity::Error);
-    EXPECT_EQ(toroid->loc.line, 38);
-    EXPECT_NE(toroid->message.find("PARM 1 = -40"), std::string::npos) << toroid->message;
-    EXPECT_EQ(rx.surfaces[4].curvature, -0.02);  // its y curvature
+    const ImportNote* zernike = findNote(rx, "surface type SZERNSAG");
+    ASSERT_NE(zernike, nullptr) << reportText(rx);
+    EXPECT_EQ(zernike->severity, ImportNote::Severity::Error);
+    EXPECT_EQ(zernike->loc.line, 38);
+    EXPECT_NE(zernike->message.find("PARM 1 = -40"), std::string::npos) << zernike->message;
+    EXPECT_EQ(rx.surfaces[4].curvature, -0.02);  // its base curvature
     EXPECT_TRUE(rx.surfaces[4].mirror);
     EXPECT_EQ(rx.surfaces[4].thicknessMm, -40.0);
 
