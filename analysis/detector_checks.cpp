@@ -65,8 +65,8 @@ std::vector<ImportNote> detectorPlacementWarnings(const SceneFile& file, const S
         bool inGlass = false;
         for (const LensSolid& s : solids) {
             if (r > s.edgeRadiusMm) continue;
-            const double z0 = std::min(s.frontZ(r), s.backZ(r)),
-                         z1 = std::max(s.frontZ(r), s.backZ(r));
+            const double zf = s.frontZAt(c.x, c.y), zb = s.backZAt(c.x, c.y);
+            const double z0 = std::min(zf, zb), z1 = std::max(zf, zb);
             if (c.z > z0 && c.z < z1) {
                 warn("(centre at z = " + mm(c.z) + ") lies inside lens element " + s.name +
                      ", whose glass runs from z = " + mm(z0) + " to " + mm(z1) +

@@ -114,4 +114,14 @@ FirstOrderReport computeFirstOrder(const SequentialModel& model) {
     return r;
 }
 
+FirstOrderData computeXSectionFirstOrder(const SequentialModel& model, const FirstOrderData& y,
+                                         const GlassCatalog& catalog) {
+    Prescription x = model.prescription().xSection();
+    if (x.system.aperture.kind == SystemAperture::Kind::ImageSpaceFNumber)
+        x.system.aperture = {SystemAperture::Kind::EntrancePupilDiameter,
+                             y.entrancePupilDiameterMm};
+    const SequentialModel m = SequentialModel::build(x, catalog);
+    return computeFirstOrder(m, m.primaryWavelength());
+}
+
 }  // namespace veil

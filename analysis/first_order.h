@@ -53,4 +53,12 @@ struct FirstOrderReport {
 FirstOrderData computeFirstOrder(const SequentialModel& model, int w);
 FirstOrderReport computeFirstOrder(const SequentialModel& model);
 
+// First-order data of an anamorphic system's x-z section (Prescription::xSection()) at the
+// primary wavelength, through the same entrance pupil as the y-z section `y` (computed from
+// `model`): an aperture given as an F-number is the y section's, so the x section gets that
+// pupil's diameter; an entrance pupil diameter, a numerical aperture or the stop's size apply
+// to both sections as given.
+FirstOrderData computeXSectionFirstOrder(const SequentialModel& model, const FirstOrderData& y,
+                                         const GlassCatalog& catalog);
+
 }  // namespace veil

@@ -837,9 +837,10 @@ bool addDefaultGhostScene(SceneFile& file, const GlassCatalog& catalog, double* 
     for (const Field& f : file.prescription.system.fields) fields.emplace_back(f.x, f.y);
     if (fields.empty()) fields.emplace_back(0.0, 0.0);
     file.sources = fieldSources(file, catalog, fields);
-    // The stop plate, unless a coordinate break takes the lens off one axis (the mount
-    // generator builds about one axis only): the stop's sd then clips sequential rays alone.
-    if (!file.mechanics && file.model->coaxial()) {
+    // The stop plate, unless a coordinate break takes the lens off one axis or a surface is
+    // anamorphic (the mount generator builds about one axis, on rims of revolution): the
+    // stop's sd then clips sequential rays alone.
+    if (!file.mechanics && file.model->coaxial() && file.prescription.firstAnamorphic() < 0) {
         MechanicsSpec m;
         m.barrel.enabled = false;
         m.retainers.enabled = false;

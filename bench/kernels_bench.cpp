@@ -11,6 +11,9 @@
 //   bowl at its vertex. Baseline BM_TypicalAsphere: the same two calls on lens-like even
 //   aspheres (r^4 to r^10 terms, sag up to ~1 mm over 10 mm). Their ratio is what a give-up
 //   costs against an ordinary hit.
+// BM_Anamorphic/k: the same two calls on lens-like biconic (k = 0), toroidal (1) and
+//   cylindrical (2) surfaces, against the same baseline: what the interval search of an
+//   anamorphic surface costs against an asphere's.
 // BM_EncodeHistories / BM_DecodeHistories: events/s through encodeHistory / decodeHistory
 //   (float32 positions and directions, the ray database's default) on real histories: the
 //   seed's 360 mm lens in its barrel with the Sun 7 degrees off axis
@@ -111,6 +114,37 @@ void BM_TypicalAsphere(benchmark::State& state) {
     runAspheres(state, cases);
 }
 BENCHMARK(BM_TypicalAsphere)->Unit(benchmark::kMicrosecond);
+
+// Lens-like anamorphic surfaces, crossed by the same kind of rays as the typical aspheres:
+// k = 0 biconics (x and y radii 20 to 100 mm, conics -2 to 0), 1 toroids (profile radius and
+// radius of rotation 20 to 100 mm, y^4 to y^10 terms as the aspheres'), 2 cylinders (a
+// toroid with an infinite radius of rotation).
+void BM_Anamorphic(benchmark::State& state) {
+    static const char* kLabels[] = {"biconic", "toroid", "cylinder"};
+    const int kind = static_cast<int>(state.range(0));
+    state.SetLabel(kLabels[kind]);
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    std::vector<AsphereCase> cases;
+    for (int i = 0; i < 256; ++i) {
+        const double cy = 1.0 / (60.0 + 40.0 * u(rng)), cx = 1.0 / (60.0 + 40.0 * u(rng));
+        SurfaceShape shape;
+        if (kind == 0) {
+            shape = BiconicShape{cx, -1.0 + u(rng), cy, -1.0 + u(rng)};
+        } else {
+            ToroidalShape t{cy, -1.0 + u(rng), {}, kind == 1 ? cx : 0.0};
+            if (kind == 1)
+                for (int k = 1; k <= 4; ++k)
+                    t.yCoefficients[k] = 0.1 * u(rng) / std::pow(10.0, 2 * k + 2);
+            shape = t;
+        }
+        const Vec3 o(10.0 * u(rng), 10.0 * u(rng), -5.0);
+        const Vec3 d = glm::normalize(Vec3(0.3 * u(rng), 0.3 * u(rng), 1.0));
+        cases.push_back({shape, {o, d}});
+    }
+    runAspheres(state, cases);
+}
+BENCHMARK(BM_Anamorphic)->DenseRange(0, 2)->Unit(benchmark::kMicrosecond);
 
 // Path Histories
 

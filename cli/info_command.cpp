@@ -11,8 +11,8 @@
 #include <cmath>
 #include <iomanip>
 #include <iostream>
-#include <optional>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 
 #include "analysis/detector_checks.h"
@@ -126,7 +126,7 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
     // An anamorphic system has a second set of first-order data: its x-z section's.
     std::optional<FirstOrderData> xSection;
     if (p.firstAnamorphic() >= 0)
-        xSection = computeFirstOrder(SequentialModel::build(p.xSection(), catalog)).primaryData();
+        xSection = computeXSectionFirstOrder(model, fo.primaryData(), catalog);
     const RayAimer aimer(model, options.aim == "real" ? AimMode::Real : AimMode::Paraxial);
     SpotOptions spotOptions;
     spotOptions.rings = options.rings;
@@ -257,8 +257,7 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
             return s.coordinateBreak && !s.coordinateBreak->identity();
         }))
         os << "  of the unfolded system: paraxial data ignore coordinate breaks\n";
-    if (xSection)
-        os << "  of the y-z section (anamorphic surfaces: the x-z section follows)\n";
+    if (xSection) os << "  of the y-z section (anamorphic surfaces: the x-z section follows)\n";
     auto row = [&](const char* label, double v, const char* unit) {
         os << "  " << std::left << std::setw(40) << label << std::right << std::setw(14)
            << fmt(v, 8) << " " << unit << "\n";

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 
 #include "geometry/numerics.h"
 #include "geometry/root_search.h"
@@ -341,7 +342,66 @@ std::optional<ShapeHit> first(const Shape& shape, const Ray& ray, double tMin, d
     return ShapeHit{tRef + *s, point, anamorphicNormal(shape, point)};
 }
 
+template <typename Shape>
+void sagRangeOf(const Shape& shape, double uLo, double uHi, double& zLo, double& zHi) {
+    // Cells of equal width in X = x^2 and Y = y^2 over [0, uHi]^2, those whose X + Y range
+    // meets [uLo, uHi].
+    constexpr int kCells = 16;
+    zLo = kInf;
+    zHi = -kInf;
+    const double step = uHi / kCells;
+    for (int i = 0; i < kCells; ++i) {
+        const Interval X{i * step, i + 1 == kCells ? uHi : (i + 1) * step};
+        for (int j = 0; j < kCells; ++j) {
+            const Interval Y{j * step, j + 1 == kCells ? uHi : (j + 1) * step};
+            if (X.lo + Y.lo > uHi || X.hi + Y.hi < uLo) continue;
+            const Interval S = sagOf(shape, X, Y);
+            const Interval m = termMagnitude(shape, X, Y);
+            const double tol = 64.0 * kEps * std::max(std::abs(m.lo), std::abs(m.hi));
+            zLo = std::min(zLo, S.lo - tol);
+            zHi = std::max(zHi, S.hi + tol);
+        }
+    }
+    if (uHi == 0.0) {
+        zLo = std::min(zLo, 0.0);
+        zHi = std::max(zHi, 0.0);
+    }
+    if (std::isnan(zLo)) zLo = -kInf;
+    if (std::isnan(zHi)) zHi = kInf;
+}
+
 }  // namespace
+
+void anamorphicSagRange(const BiconicShape& s, double uLo, double uHi, double& zLo, double& zHi) {
+    sagRangeOf(s, uLo, uHi, zLo, zHi);
+}
+void anamorphicSagRange(const ToroidalShape& s, double uLo, double uHi, double& zLo, double& zHi) {
+    sagRangeOf(s, uLo, uHi, zLo, zHi);
+}
+
+double anamorphicCurvatureBound(const SurfaceShape& s, double rMax) {
+    constexpr int kRings = 24, kSpokes = 48;
+    const double h = 1e-4 * std::max(rMax, 1e-3);
+    double bound = 0.0;
+    for (int i = 0; i <= kRings; ++i) {
+        const double r = rMax * i / kRings;
+        for (int j = 0; j < kSpokes; ++j) {
+            const double phi = 2.0 * std::numbers::pi * j / kSpokes;
+            // Keep the stencil inside the disc.
+            const double rc = std::max(0.0, std::min(r, rMax - 2.0 * h));
+            const double x = rc * std::cos(phi), y = rc * std::sin(phi);
+            const double z = sagAt(s, x, y);
+            const double fxx = (sagAt(s, x + h, y) - 2.0 * z + sagAt(s, x - h, y)) / (h * h);
+            const double fyy = (sagAt(s, x, y + h) - 2.0 * z + sagAt(s, x, y - h)) / (h * h);
+            const double fxy = (sagAt(s, x + h, y + h) - sagAt(s, x + h, y - h) -
+                                sagAt(s, x - h, y + h) + sagAt(s, x - h, y - h)) /
+                               (4.0 * h * h);
+            const double g = std::max(std::abs(fxx), std::abs(fyy)) + std::abs(fxy);
+            if (std::isfinite(g)) bound = std::max(bound, g);
+        }
+    }
+    return 1.25 * bound;
+}
 
 double anamorphicSag(const BiconicShape& s, double x, double y) {
     if (!inDomain(s, x, y)) return kNaN;

@@ -36,6 +36,17 @@ Vec3 anamorphicNormal(const ToroidalShape& s, const Vec3& point);
 double anamorphicMaxRadius(const BiconicShape& s);
 double anamorphicMaxRadius(const ToroidalShape& s);
 
+// An enclosure of the sag over the annulus uLo <= x^2 + y^2 <= uHi (every sag there lies in
+// [zLo, zHi]; infinite where the shape has none): interval evaluations over cells of
+// (x^2, y^2), widened by a few ulps.
+void anamorphicSagRange(const BiconicShape& s, double uLo, double uHi, double& zLo, double& zHi);
+void anamorphicSagRange(const ToroidalShape& s, double uLo, double uHi, double& zLo, double& zHi);
+
+// A bound on the magnitude of the sag's curvature (the Hessian's eigenvalues) over the disc
+// r <= rMax, for tessellation: the Gershgorin bound of finite-difference Hessians sampled on
+// a polar grid, times 1.25 (a sample, as for the aspheres, not an enclosure).
+double anamorphicCurvatureBound(const SurfaceShape& s, double rMax);
+
 // As intersectSequential() and intersectFirst() in surface_shape.h.
 std::optional<double> anamorphicSequential(const BiconicShape& s, const Ray& localRay);
 std::optional<double> anamorphicSequential(const ToroidalShape& s, const Ray& localRay);

@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <type_traits>
 
+#include "geometry/anamorphic.h"
 #include "geometry/numerics.h"
 
 namespace veil {
@@ -132,6 +133,18 @@ double sagClamped(const SurfaceShape& shape, double u) {
     const double uMax = domainRadiusSq(shape);
     return sag(shape, std::min(u, uMax));
 }
+// The same at (x, y), for every shape: an anamorphic shape's point is pulled onto the radius
+// of its domain's limit.
+double sagClampedAt(const SurfaceShape& shape, double x, double y) {
+    if (isRotational(shape)) return sagClamped(shape, x * x + y * y);
+    const double u = x * x + y * y, uMax = domainRadiusSq(shape);
+    if (u > uMax) {
+        const double f = std::sqrt(uMax / u);
+        x *= f;
+        y *= f;
+    }
+    return sagAt(shape, x, y);
+}
 
 // Curvature bound M of the height field z = S(x^2 + y^2) over u in [uLo, uHi]: the largest
 // |eigenvalue| of its Hessian, which in polar form are the radial curvature
@@ -141,6 +154,7 @@ double sagClamped(const SurfaceShape& shape, double u) {
 // range. An asphere's polynomial makes them arbitrary: they are sampled densely and the
 // maximum multiplied by kCurvatureSafety. Infinite at an ellipsoid's rim (w = 0).
 double curvatureBound(const SurfaceShape& shape, double uLo, double uHi) {
+    if (!isRotational(shape)) return anamorphicCurvatureBound(shape, std::sqrt(uHi));
     const ShapeParts p = partsOf(shape);
     const double bigK = (1.0 + p.k) * p.c * p.c;
     auto eigen = [&](double u) {
@@ -209,6 +223,10 @@ double curvatureBound(const SurfaceShape& shape, double uLo, double uHi) {
 // overestimate is small, and the result is widened by a few ulps of the magnitudes, so it is
 // a safe bound rather than a sampled guess.
 void sagRange(const SurfaceShape& shape, double uLo, double uHi, double& zLo, double& zHi) {
+    if (const auto* b = std::get_if<BiconicShape>(&shape))
+        return anamorphicSagRange(*b, uLo, uHi, zLo, zHi);
+    if (const auto* t = std::get_if<ToroidalShape>(&shape))
+        return anamorphicSagRange(*t, uLo, uHi, zLo, zHi);
     const ShapeParts p = partsOf(shape);
     const SurfaceShape base = makeShape(p.c, p.k, {});
     if (!p.hasPolynomial) {
@@ -348,6 +366,13 @@ std::optional<ShapeHit> intersectCylinder(const CylinderPatch& cyl, const Ray& r
         const Vec3 point = p + s * d;
         const double slack = edgeSlack(zSize, pSize + std::abs(s));
         if (point.z < cyl.zMinMm - slack || point.z > cyl.zMaxMm + slack) continue;
+        if (cyl.rims) {
+            // Between the rim curves, with the same allowance as at a plane rim (the face
+            // itself accepts its points a few ulps beyond its circular aperture).
+            const RimCurves& rc = *cyl.rims;
+            if (rc.lower && point.z < rc.lower->zAt(point.x, point.y) - slack) continue;
+            if (rc.upper && point.z > rc.upper->zAt(point.x, point.y) + slack) continue;
+        }
         Vec3 normal{point.x, point.y, 0.0};
         normal /= std::hypot(point.x, point.y);
         if (!cyl.outward) normal = -normal;
@@ -409,7 +434,7 @@ TriangleMesh tessellatePolar(const SurfacePatch& patch, double rInner, double rO
     TriangleMesh mesh;
     auto vertex = [&](double r, double phi) {
         const double x = r * std::cos(phi), y = r * std::sin(phi);
-        return Vec3{x, y, sagClamped(patch.shape, x * x + y * y)};
+        return Vec3{x, y, sagClampedAt(patch.shape, x, y)};
     };
     // Ring radii: ring 0 is the centre point (disc) or the circumscribed hole polygon.
     std::vector<double> radii(rings + 1);
@@ -422,7 +447,7 @@ TriangleMesh tessellatePolar(const SurfacePatch& patch, double rInner, double rO
     for (int i = 0; i <= rings; ++i) {
         firstOfRing[i] = static_cast<uint32_t>(mesh.vertices.size());
         if (disc && i == 0) {
-            mesh.vertices.push_back(Vec3{0.0, 0.0, sagClamped(patch.shape, 0.0)});
+            mesh.vertices.push_back(Vec3{0.0, 0.0, sagClampedAt(patch.shape, 0.0, 0.0)});
             continue;
         }
         for (int j = 0; j < segments; ++j) mesh.vertices.push_back(vertex(radii[i], j * dAngle));
@@ -459,7 +484,7 @@ TriangleMesh tessellateRectangle(const SurfacePatch& patch, const RectangularApe
         for (int i = 0; i <= nx; ++i) {
             const double x =
                 i == nx ? rect.halfWidthMm : -rect.halfWidthMm + 2.0 * rect.halfWidthMm * i / nx;
-            mesh.vertices.push_back(Vec3{x, y, sagClamped(patch.shape, x * x + y * y)});
+            mesh.vertices.push_back(Vec3{x, y, sagClampedAt(patch.shape, x, y)});
         }
     }
     auto at = [&](int i, int j) { return static_cast<uint32_t>(j * (nx + 1) + i); };
@@ -472,6 +497,15 @@ TriangleMesh tessellateRectangle(const SurfacePatch& patch, const RectangularApe
     return mesh;
 }
 
+// The lower (upper = false) or upper limit of a cylinder at (x, y) on it.
+double rimZ(const CylinderPatch& cyl, bool upper, double x, double y) {
+    if (cyl.rims) {
+        const std::optional<RimCurve>& c = upper ? cyl.rims->upper : cyl.rims->lower;
+        if (c) return c->zAt(x, y);
+    }
+    return upper ? cyl.zMaxMm : cyl.zMinMm;
+}
+
 // The side wall as a prism inscribed in the cylinder: straight along z (exact), its sides
 // within tol of the circle. Triangles face along the patch's normal.
 TriangleMesh tessellateCylinder(const CylinderPatch& cyl, double tolerance) {
@@ -481,8 +515,8 @@ TriangleMesh tessellateCylinder(const CylinderPatch& cyl, double tolerance) {
     for (int j = 0; j < segments; ++j) {
         const double phi = 2.0 * std::numbers::pi * j / segments;
         const double x = cyl.radiusMm * std::cos(phi), y = cyl.radiusMm * std::sin(phi);
-        mesh.vertices.push_back(Vec3{x, y, cyl.zMinMm});
-        mesh.vertices.push_back(Vec3{x, y, cyl.zMaxMm});
+        mesh.vertices.push_back(Vec3{x, y, rimZ(cyl, false, x, y)});
+        mesh.vertices.push_back(Vec3{x, y, rimZ(cyl, true, x, y)});
     }
     for (int j = 0; j < segments; ++j) {
         const auto lo0 = static_cast<uint32_t>(2 * j), hi0 = lo0 + 1;
@@ -500,7 +534,7 @@ TriangleMesh tessellateCylinder(const CylinderPatch& cyl, double tolerance) {
 
 // Section
 
-// The profile z = sag(y^2) for y in [y0, y1], sampled so that the polyline stays within tol
+// The profile z = sag(0, y) for y in [y0, y1], sampled so that the polyline stays within tol
 // of it: |z''| <= M, so a chord of length dy deviates by at most M dy^2 / 8.
 std::vector<Vec2> profile(const SurfaceShape& shape, double y0, double y1, double tolerance) {
     const double uLo = (y0 <= 0.0 && y1 >= 0.0) ? 0.0 : std::min(y0 * y0, y1 * y1);
@@ -511,7 +545,7 @@ std::vector<Vec2> profile(const SurfaceShape& shape, double y0, double y1, doubl
     out.reserve(n + 1);
     for (int i = 0; i <= n; ++i) {
         const double y = i == n ? y1 : y0 + (y1 - y0) * i / n;
-        out.push_back(Vec2{y, sagClamped(shape, y * y)});
+        out.push_back(Vec2{y, sagClampedAt(shape, 0.0, y)});
     }
     return out;
 }
@@ -535,7 +569,12 @@ std::ostream& operator<<(std::ostream& os, const FaceGeometry& f) {
                 os << "SurfacePatch{" << face.shape << ", " << face.aperture << "}";
             } else {
                 os << "CylinderPatch{radius " << face.radiusMm << " mm, z " << face.zMinMm << " .. "
-                   << face.zMaxMm << " mm, " << (face.outward ? "outward" : "inward") << "}";
+                   << face.zMaxMm << " mm, " << (face.outward ? "outward" : "inward");
+                if (face.rims && face.rims->lower)
+                    os << ", lower rim on " << face.rims->lower->shape;
+                if (face.rims && face.rims->upper)
+                    os << ", upper rim on " << face.rims->upper->shape;
+                os << "}";
             }
         },
         f);
@@ -758,8 +797,8 @@ std::vector<std::vector<Vec2>> sectionOfFace(const FaceGeometry& face, double ch
                     out.push_back(profile(f.shape, -half, half, chordToleranceMm));
                 }
             } else {
-                out.push_back({Vec2{-f.radiusMm, f.zMinMm}, Vec2{-f.radiusMm, f.zMaxMm}});
-                out.push_back({Vec2{f.radiusMm, f.zMinMm}, Vec2{f.radiusMm, f.zMaxMm}});
+                for (double y : {-f.radiusMm, f.radiusMm})
+                    out.push_back({Vec2{y, rimZ(f, false, 0.0, y)}, Vec2{y, rimZ(f, true, 0.0, y)}});
             }
         },
         face);

@@ -4,12 +4,14 @@
 //   SurfacePatch   z = sag(x, y) of an exact SurfaceShape, limited by an Aperture: the
 //                  optical surface (circular aperture), a ring of it (annular aperture: a
 //                  primary mirror with a hole), or a flat shoulder (PlaneShape + annulus).
-//   CylinderPatch  the side wall r = radius between zMin and zMax: a lens butt end (edge).
+//   CylinderPatch  the side wall r = radius between zMin and zMax: a lens butt end (edge);
+//                  between rim curves where it meets anamorphic faces.
 //
 // Normals: a SurfacePatch's normal is the shape's (+z at the vertex); a CylinderPatch's
 // points away from the axis when outward is true, toward it otherwise. Which medium lies
 // on which side of a face is the scene object's business (scene.h).
 
+#include <memory>
 #include <optional>
 #include <ostream>
 #include <variant>
@@ -25,11 +27,22 @@ struct SurfacePatch {
     SurfaceShape shape;
     Aperture aperture;
 };
+// Where a lens edge meets an anamorphic face the rim is a curve, not a circle in a plane:
+// the edge ends on the face itself, z = vertexZMm + sagAt(shape, x, y).
+struct RimCurve {
+    SurfaceShape shape;
+    double vertexZMm = 0.0;
+    double zAt(double x, double y) const { return vertexZMm + sagAt(shape, x, y); }
+};
+struct RimCurves {
+    std::optional<RimCurve> lower, upper;  // unset: the plane zMinMm (zMaxMm)
+};
 struct CylinderPatch {
     double radiusMm = 0.0;
-    double zMinMm = 0.0;
+    double zMinMm = 0.0;  // the lower limit; with a lower rim curve, an enclosure of it
     double zMaxMm = 0.0;
     bool outward = true;
+    std::shared_ptr<const RimCurves> rims;  // null: both limits are planes
 };
 using FaceGeometry = std::variant<SurfacePatch, CylinderPatch>;
 std::ostream& operator<<(std::ostream& os, const FaceGeometry& f);
@@ -44,7 +57,8 @@ std::optional<ShapeHit> intersectFace(const FaceGeometry& face, const Ray& local
                                       double tMax, bool startsOnFace);
 // Local bounds: the aperture's box in x, y and an enclosure of the sag over it in z (exact
 // for planes, spheres and conics, whose sag is monotone in r; an interval enclosure over
-// 1024 radial pieces for aspheres), padded by a relative 1e-9 to hold edge hits.
+// 1024 radial pieces for aspheres, over cells of (x^2, y^2) for anamorphic shapes), padded
+// by a relative 1e-9 to hold edge hits.
 Bounds3 faceBounds(const FaceGeometry& face);
 // Boxes whose union holds the face, each much tighter than faceBounds(): points that bound
 // the face closely (the renderer's exit aperture takes their corners), without the whole
@@ -94,7 +108,7 @@ TriangleMesh tessellateFace(const FaceGeometry& face, double chordToleranceMm);
 // used for 2D layouts. Local frame; samples keep the chord error below chordToleranceMm
 // (spacing <= sqrt(8 tol / M)). A surface patch gives its profile z = sag(0, y) over the
 // aperture's y range, increasing y (two pieces for an annulus); a cylinder gives the two
-// segments y = -R and y = +R from zMin to zMax.
+// segments y = -R and y = +R from zMin to zMax (between its rim curves, if any).
 std::vector<std::vector<Vec2>> sectionOfFace(const FaceGeometry& face, double chordToleranceMm);
 
 }  // namespace veil

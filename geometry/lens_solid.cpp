@@ -4,6 +4,8 @@
 #include <cmath>
 #include <initializer_list>
 #include <limits>
+#include <memory>
+#include <numbers>
 #include <set>
 #include <sstream>
 
@@ -17,6 +19,8 @@ namespace {
 // Thickness profiles are checked at this many radii (plus the face rims) between the axis
 // and the edge.
 constexpr int kProfileSamples = 512;
+// And, for anamorphic elements, at this many azimuths plus one over a quarter turn.
+constexpr int kProfileAzimuths = 16;
 // Two surfaces are the same physical surface (a repeated pass) when their vertices are this
 // close (absolute mm plus a relative part for long systems) and their shape parameters agree
 // to a relative 1e-9.
@@ -58,6 +62,13 @@ bool sameShape(const Surface& a, const Surface& b) {
     }
     for (size_t j = 0; j < a.oddAsphere.size(); ++j) {
         if (!close(a.oddAsphere[j], b.oddAsphere[j], kSameShapeRel)) return false;
+    }
+    if (a.anamorphic.has_value() != b.anamorphic.has_value()) return false;
+    if (a.anamorphic) {
+        const Anamorphic &aa = *a.anamorphic, &ab = *b.anamorphic;
+        if (aa.kind != ab.kind || !close(aa.xCurvature, ab.xCurvature, kSameShapeRel) ||
+            std::abs(aa.xConic - ab.xConic) > kSameShapeRel * (1.0 + std::abs(aa.xConic)))
+            return false;
     }
     if (a.qAsphere.has_value() != b.qAsphere.has_value()) return false;
     if (a.qAsphere) {
@@ -135,9 +146,19 @@ LensSide makeSide(const Prescription& p, const std::vector<double>& z, int surfa
     side.shape = shape;
     side.vertexZMm = z[surface];
     side.faceRadiusMm = r;
-    side.rimZMm = z[surface] + sag(shape, r * r);
     side.cemented = cemented;
-    if (!std::isfinite(side.rimZMm)) {
+    if (isRotational(shape)) {
+        side.rimZMm = z[surface] + sag(shape, r * r);
+        side.rimZLoMm = side.rimZHiMm = side.rimZMm;
+    } else {
+        // An anamorphic face's rim is a curve: no plane for a flat or step.
+        side.rimZMm = std::numeric_limits<double>::quiet_NaN();
+        double lo = 0.0, hi = 0.0;
+        sagRange(shape, r * r, r * r, lo, hi);
+        side.rimZLoMm = z[surface] + lo;
+        side.rimZHiMm = z[surface] + hi;
+    }
+    if (!std::isfinite(side.rimZLoMm) || !std::isfinite(side.rimZHiMm)) {
         throw ModelError(s.name, "sag undefined at r = " + fmt(r) + " mm");
     }
     return side;
@@ -146,6 +167,26 @@ LensSide makeSide(const Prescription& p, const std::vector<double>& z, int surfa
 double sideZ(const LensSide& side, double r) {
     if (r >= side.faceRadiusMm) return side.rimZMm;
     return side.vertexZMm + sag(side.shape, r * r);
+}
+
+// The side's z at (x, y), every shape (an anamorphic face always reaches the edge).
+double sideZAt(const LensSide& side, double x, double y) {
+    if (isRotational(side.shape)) return sideZ(side, std::hypot(x, y));
+    return side.vertexZMm + sagAt(side.shape, x, y);
+}
+
+bool anamorphic(const LensSolid& s) {
+    return !isRotational(s.front.shape) || !isRotational(s.back.shape);
+}
+
+// Azimuths at which thickness profiles are checked: one for solids of revolution, a quarter
+// turn for anamorphic ones (their sags are even in x and in y).
+std::vector<double> profileAzimuths(bool anamorphicSolid) {
+    if (!anamorphicSolid) return {0.0};
+    std::vector<double> phi;
+    for (int k = 0; k <= kProfileAzimuths; ++k)
+        phi.push_back(0.5 * std::numbers::pi * k / kProfileAzimuths);
+    return phi;
 }
 
 // An enclosure of sideZ() over radii [r0, r1], widened into [lo, hi]: the face's sag
@@ -159,8 +200,8 @@ void widenBySide(const LensSide& side, double r0, double r1, double& lo, double&
         hi = std::max(hi, side.vertexZMm + zHi);
     }
     if (r1 >= side.faceRadiusMm) {
-        lo = std::min(lo, side.rimZMm);
-        hi = std::max(hi, side.rimZMm);
+        lo = std::min(lo, side.rimZLoMm);
+        hi = std::max(hi, side.rimZHiMm);
     }
 }
 
@@ -174,8 +215,9 @@ std::vector<double> profileRadii(double rMax, std::initializer_list<double> extr
 }
 
 void checkThickness(const LensSolid& s) {
-    // Beyond both face rims the thickness is the edge's: flats that cross show up here.
-    const double edge = s.direction * (s.back.rimZMm - s.front.rimZMm);
+    // Beyond both face rims the thickness is the edge's: flats that cross show up here (an
+    // anamorphic face reaches the edge, and the profile below covers its rim).
+    const double edge = anamorphic(s) ? 1.0 : s.direction * (s.back.rimZMm - s.front.rimZMm);
     if (!(edge > 0.0)) {
         throw ModelError(s.name, std::string(edge < 0.0 ? "negative" : "zero") +
                                      " edge thickness " + fmt(edge) +
@@ -183,10 +225,13 @@ void checkThickness(const LensSolid& s) {
     }
     double worst = std::numeric_limits<double>::infinity(), worstR = 0.0;
     for (double r : profileRadii(s.edgeRadiusMm, {s.front.faceRadiusMm, s.back.faceRadiusMm})) {
-        const double t = s.direction * (s.backZ(r) - s.frontZ(r));
-        if (t < worst) {
-            worst = t;
-            worstR = r;
+        for (double phi : profileAzimuths(anamorphic(s))) {
+            const double x = r * std::cos(phi), y = r * std::sin(phi);
+            const double t = s.direction * (s.backZAt(x, y) - s.frontZAt(x, y));
+            if (t < worst) {
+                worst = t;
+                worstR = r;
+            }
         }
     }
     if (!(worst > 0.0)) {
@@ -207,10 +252,13 @@ void checkAirGap(const Prescription& p, const LensSolid& a, const LensSolid& b) 
     const double rMax = std::min(a.edgeRadiusMm, b.edgeRadiusMm);
     double worst = std::numeric_limits<double>::infinity(), worstR = 0.0;
     for (double r : profileRadii(rMax, {a.back.faceRadiusMm, b.front.faceRadiusMm})) {
-        const double gap = a.direction * (b.frontZ(r) - a.backZ(r));
-        if (gap < worst) {
-            worst = gap;
-            worstR = r;
+        for (double phi : profileAzimuths(anamorphic(a) || anamorphic(b))) {
+            const double x = r * std::cos(phi), y = r * std::sin(phi);
+            const double gap = a.direction * (b.frontZAt(x, y) - a.backZAt(x, y));
+            if (gap < worst) {
+                worst = gap;
+                worstR = r;
+            }
         }
     }
     if (worst < -kOverlapToleranceMm) {
@@ -221,7 +269,6 @@ void checkAirGap(const Prescription& p, const LensSolid& a, const LensSolid& b) 
 
 std::vector<LensSolid> solidsOfNamed(const Prescription& p) {
     p.validate();
-    requireSurfacesOfRevolution(p);
     const std::vector<double> z = vertexZ(p);
     const std::vector<Frame> frames = surfaceFrames(p);
     const int image = p.imageIndex();
@@ -296,6 +343,19 @@ std::vector<LensSolid> solidsOfNamed(const Prescription& p) {
         // Clear apertures larger than the mechanical one are caught by validate(); a cemented
         // face never exceeds its elements.
         s.edgeRadiusMm = std::max({s.edgeRadiusMm, s.front.faceRadiusMm, s.back.faceRadiusMm});
+        // An anamorphic face continues to the edge: a flat or step there would have to follow
+        // its curved rim.
+        for (LensSide* side : {&s.front, &s.back}) {
+            if (isRotational(side->shape) || side->faceRadiusMm >= s.edgeRadiusMm) continue;
+            if (side->cemented)
+                throw ModelError(p.surfaces[side->surface].name,
+                                 std::string("a cemented ") +
+                                     p.surfaces[side->surface].anamorphic->label() +
+                                     " face between elements of different radii would need a "
+                                     "step that is not a plane: give both elements the same "
+                                     "mechanical semi-diameter");
+            *side = makeSide(p, z, side->surface, s.edgeRadiusMm, false);
+        }
         checkThickness(s);
     }
     for (size_t k = 0; k + 1 < count; ++k) {
@@ -358,17 +418,8 @@ std::ostream& operator<<(std::ostream& os, const LensSolid& s) {
 
 double LensSolid::frontZ(double rMm) const { return sideZ(front, rMm); }
 double LensSolid::backZ(double rMm) const { return sideZ(back, rMm); }
-
-void requireSurfacesOfRevolution(const Prescription& p) {
-    const int a = p.firstAnamorphic();
-    if (a < 0) return;
-    const Surface& s = p.surfaces[a];
-    throw ModelError(s.name.empty() ? "surface " + std::to_string(a) : s.name,
-                     std::string("the surface is ") + s.anamorphic->label() +
-                         ": the 3D scene (trace, paths, ghosts, render, sweep, pst, objects, "
-                         "layout, export) is built from surfaces of revolution only; `veil "
-                         "info` traces it exactly (first-order data of both sections, spots)");
-}
+double LensSolid::frontZAt(double xMm, double yMm) const { return sideZAt(front, xMm, yMm); }
+double LensSolid::backZAt(double xMm, double yMm) const { return sideZAt(back, xMm, yMm); }
 
 std::vector<LensSolid> lensSolids(const Prescription& p) { return solidsOfNamed(withNames(p)); }
 
@@ -479,9 +530,19 @@ void addLensSolids(const Prescription& prescription, Scene& scene,
             o.part = s.name;
             o.property = options.edgeProperty;
             o.frame = s.placement;
-            o.geometry =
-                FaceGeometry{CylinderPatch{s.edgeRadiusMm, std::min(s.front.rimZMm, s.back.rimZMm),
-                                           std::max(s.front.rimZMm, s.back.rimZMm), true}};
+            // Between the rims: the lower one is the front's when the element runs toward +z.
+            const LensSide& lower = up ? s.front : s.back;
+            const LensSide& upper = up ? s.back : s.front;
+            CylinderPatch edge{s.edgeRadiusMm, lower.rimZLoMm, upper.rimZHiMm, true, nullptr};
+            if (anamorphic(s)) {
+                auto rims = std::make_shared<RimCurves>();
+                if (!isRotational(lower.shape))
+                    rims->lower = RimCurve{lower.shape, lower.vertexZMm};
+                if (!isRotational(upper.shape))
+                    rims->upper = RimCurve{upper.shape, upper.vertexZMm};
+                edge.rims = std::move(rims);
+            }
+            o.geometry = FaceGeometry{edge};
             o.mediumFront = 0;  // outward normal: air outside, glass inside
             o.mediumBack = glass;
             planned.push_back({order, std::move(o)});

@@ -58,6 +58,14 @@
 // ("L3: negative edge thickness -0.4 mm at r = 12.9 mm"). Neighbouring elements across an
 // air gap must not overlap either.
 //
+// Anamorphic faces (toroidal, biconic). Their rim on a circle is a curve, not a plane, so no
+// flat or step can meet it: such a face runs out to the element's mechanical radius R (its
+// clear semi-diameter only sizes the sequential aperture), and the edge cylinder ends on the
+// face itself (CylinderPatch rim curves, exact_face.h). A cemented anamorphic face between
+// elements of different radii would need a curved step: ModelError. Thickness and air gaps
+// are checked at 17 azimuths over a quarter turn as well as the radii (the sags are even in x
+// and in y); rimZ is NaN and rimZLo, rimZHi enclose the rim.
+//
 // Placement. Surface 1's vertex is at z = 0 and z accumulates the thicknesses (negative
 // after a mirror), as in tracer/sequential_model.cpp; faces and flats are placed at their z
 // along the element's axis (LensSolid::placement), the edge cylinder with that frame itself.
@@ -127,6 +135,9 @@ struct LensSide {
     double vertexZMm = 0.0;     // z of its vertex along the element's axis (placement)
     double faceRadiusMm = 0.0;  // the exact face ends here: clear sd, or rc when cemented
     double rimZMm = 0.0;        // vertexZ + sag(faceRadius): plane of the flat or step
+    // An enclosure of the rim's z: rimZMm itself for a surface of revolution; for an
+    // anamorphic face, whose rim is a curve (rimZMm is NaN), the range of its sag there.
+    double rimZLoMm = 0.0, rimZHiMm = 0.0;
     bool cemented = false;
 };
 std::ostream& operator<<(std::ostream& os, const LensSide& s);
@@ -146,14 +157,14 @@ struct LensSolid {
 
     // z of the front or back boundary at radial distance r <= edgeRadiusMm: the face inside
     // faceRadius, the flat (rimZ) beyond.
+    // Sides of revolution only (an anamorphic side throws std::logic_error: use the next two).
     double frontZ(double rMm) const;
     double backZ(double rMm) const;
+    // z of the front or back boundary at (x, y), r <= edgeRadiusMm, every side.
+    double frontZAt(double xMm, double yMm) const;
+    double backZAt(double xMm, double yMm) const;
 };
 std::ostream& operator<<(std::ostream& os, const LensSolid& s);
-
-// Throws ModelError naming the first anamorphic surface (toroidal, biconic): lens solids,
-// and so the 3D scene, are built from surfaces of revolution.
-void requireSurfacesOfRevolution(const Prescription& p);
 
 // The solids of a prescription's lens elements, checked (sizes present, positive thickness
 // from the axis to the edge, no overlap with a neighbour across an air gap). Elements that

@@ -1278,6 +1278,15 @@ std::vector<MechanicalPart> buildMechanics(const Prescription& prescription,
                          ": leave [mechanics] out of this scene and bring the mounts in as "
                          "[[mesh]] parts placed in global coordinates");
     }
+    if (const int a = prescription.firstAnamorphic(); a >= 0) {
+        const Surface& s = prescription.surfaces[a];
+        throw ModelError("mechanics",
+                         "the mount generator seats lenses on rims of revolution, and " +
+                             (s.name.empty() ? "surface " + std::to_string(a) : s.name) + " is " +
+                             s.anamorphic->label() +
+                             ": leave [mechanics] out of this scene and bring the mounts in as "
+                             "[[mesh]] parts");
+    }
     MechanicsBuilder builder(prescription, spec, notes);
     return builder.build();
 }

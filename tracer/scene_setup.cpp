@@ -162,7 +162,6 @@ SceneFile readSceneFile(const std::filesystem::path& path, const GlassCatalog& c
 
 SceneSetup buildScene(const SceneFile& file, const GlassCatalog& catalog,
                       const SceneOptions& options) {
-    requireSurfacesOfRevolution(file.prescription);
     SceneSetup s;
     s.model = file.model ? file.model
                          : std::make_shared<const SequentialModel>(

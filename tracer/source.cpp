@@ -8,7 +8,7 @@
 #include <optional>
 #include <sstream>
 
-#include "geometry/lens_solid.h"
+#include "geometry/exact_face.h"
 #include "geometry/surface_frames.h"
 
 namespace veil {
@@ -57,6 +57,12 @@ std::pair<double, double> profileZRange(const SurfaceShape& shape, double vertex
     r = std::min(r, maxRadius(shape));
     double lo = vertexZMm, hi = vertexZMm;
     if (!(r > 0.0)) return {lo, hi};
+    if (!isRotational(shape)) {
+        // No profile to sample: the enclosure of the sag over the disc.
+        double zLo = 0.0, zHi = 0.0;
+        sagRange(shape, 0.0, r * r, zLo, zHi);
+        return {std::min(lo, vertexZMm + zLo), std::max(hi, vertexZMm + zHi)};
+    }
     for (int i = 1; i <= kProfileSamples; ++i) {
         const double ri = r * i / kProfileSamples;
         const double z = sag(shape, ri * ri);
@@ -89,7 +95,6 @@ std::ostream& operator<<(std::ostream& os, const EntranceAperture& a) {
 
 EntranceAperture entranceAperture(const Prescription& p, const SequentialModel& model) {
     if (model.surfaceCount() < 3) throw ModelError("lens", "no surface between object and image");
-    requireSurfacesOfRevolution(p);  // sources are aimed at a face of revolution
     // Semi-diameters from `p` (which may hold the automatic ones), falling back to the model.
     auto radii = [&](int i) {
         double clear = model.surface(i).clearSemiDiameterMm, mech = 0.0;
@@ -224,40 +229,55 @@ PointSource pointSourceCoveringAperture(const EntranceAperture& a, const Vec3& p
     };
     std::vector<Sample> samples;
     constexpr int kRim = 4096, kRings = 64, kSpokes = 512;
-    auto sagAt = [&](double rr) { return sag(a.shape, rr * rr); };
-    const double dr = rUse / kRings;
-    auto slopeAt = [&](double rr) {
-        const double lo = std::max(0.0, rr - 0.5 * dr), hi = std::min(rUse, rr + 0.5 * dr);
-        return hi > lo ? (sagAt(hi) - sagAt(lo)) / (hi - lo) : 0.0;
-    };
-    double sagCurvature = 0.0, slopeSq = 0.0;  // largest over the surface
-    for (int i = 0; i <= kRings; ++i) {
-        const double ri = std::min(rUse, i * dr);
-        const double lo = std::max(0.0, ri - dr), hi = std::min(rUse, ri + dr);
-        if (hi - lo > 0.0 && i > 0 && i < kRings)
-            sagCurvature =
-                std::max(sagCurvature, std::abs(sagAt(hi) - 2.0 * sagAt(ri) + sagAt(lo)) /
-                                           ((hi - ri) * (ri - lo)));
-        slopeSq = std::max(slopeSq, slopeAt(ri) * slopeAt(ri));
-    }
-    sagCurvature = std::max(sagCurvature, std::abs(2.0 * sagAt(dr) / (dr * dr)));  // vertex
-    const double rimZ = a.vertexZMm + sagAt(rUse);
     const double rimDelta = kPi * rUse / kRim;
-    for (int j = 0; j < kRim; ++j) {
-        const double phi = 2.0 * kPi * j / kRim;
-        samples.push_back({Vec3(rUse * std::cos(phi), rUse * std::sin(phi), rimZ),
-                           rimDelta * rimDelta, std::max(sagCurvature, 1.0 / rUse), slopeSq});
+    if (!isRotational(a.shape)) {
+        // An anamorphic surface lies in the cylinder r <= rUse between its sag enclosure's
+        // ends; a cone that holds the cylinder's two rim circles holds the cylinder (a convex
+        // set lies in a convex cone when its extreme points do), and so the surface.
+        double zLo = 0.0, zHi = 0.0;
+        sagRange(a.shape, 0.0, rUse * rUse, zLo, zHi);
+        for (double z : {a.vertexZMm + zLo, a.vertexZMm + zHi})
+            for (int j = 0; j < kRim; ++j) {
+                const double phi = 2.0 * kPi * j / kRim;
+                samples.push_back({Vec3(rUse * std::cos(phi), rUse * std::sin(phi), z),
+                                   rimDelta * rimDelta, 1.0 / rUse, 0.0});
+            }
     }
-    const double cellDeltaSq =
-        0.25 * (dr * dr + std::pow(rUse * 2.0 * kPi / kSpokes, 2) + slopeSq * dr * dr);
-    for (int i = 0; i < kRings; ++i) {
-        const double ri = i * dr;
-        const double zi = a.vertexZMm + sagAt(ri);
-        const int spokes = i == 0 ? 1 : kSpokes;
-        for (int j = 0; j < spokes; ++j) {
-            const double phi = 2.0 * kPi * j / kSpokes;
-            samples.push_back({Vec3(ri * std::cos(phi), ri * std::sin(phi), zi), cellDeltaSq,
-                               sagCurvature, slopeSq});
+    if (isRotational(a.shape)) {
+        auto sagAt = [&](double rr) { return sag(a.shape, rr * rr); };
+        const double dr = rUse / kRings;
+        auto slopeAt = [&](double rr) {
+            const double lo = std::max(0.0, rr - 0.5 * dr), hi = std::min(rUse, rr + 0.5 * dr);
+            return hi > lo ? (sagAt(hi) - sagAt(lo)) / (hi - lo) : 0.0;
+        };
+        double sagCurvature = 0.0, slopeSq = 0.0;  // largest over the surface
+        for (int i = 0; i <= kRings; ++i) {
+            const double ri = std::min(rUse, i * dr);
+            const double lo = std::max(0.0, ri - dr), hi = std::min(rUse, ri + dr);
+            if (hi - lo > 0.0 && i > 0 && i < kRings)
+                sagCurvature =
+                    std::max(sagCurvature, std::abs(sagAt(hi) - 2.0 * sagAt(ri) + sagAt(lo)) /
+                                               ((hi - ri) * (ri - lo)));
+            slopeSq = std::max(slopeSq, slopeAt(ri) * slopeAt(ri));
+        }
+        sagCurvature = std::max(sagCurvature, std::abs(2.0 * sagAt(dr) / (dr * dr)));  // vertex
+        const double rimZ = a.vertexZMm + sagAt(rUse);
+        for (int j = 0; j < kRim; ++j) {
+            const double phi = 2.0 * kPi * j / kRim;
+            samples.push_back({Vec3(rUse * std::cos(phi), rUse * std::sin(phi), rimZ),
+                               rimDelta * rimDelta, std::max(sagCurvature, 1.0 / rUse), slopeSq});
+        }
+        const double cellDeltaSq =
+            0.25 * (dr * dr + std::pow(rUse * 2.0 * kPi / kSpokes, 2) + slopeSq * dr * dr);
+        for (int i = 0; i < kRings; ++i) {
+            const double ri = i * dr;
+            const double zi = a.vertexZMm + sagAt(ri);
+            const int spokes = i == 0 ? 1 : kSpokes;
+            for (int j = 0; j < spokes; ++j) {
+                const double phi = 2.0 * kPi * j / kSpokes;
+                samples.push_back({Vec3(ri * std::cos(phi), ri * std::sin(phi), zi), cellDeltaSq,
+                                   sagCurvature, slopeSq});
+            }
         }
     }
     double minZ = kInfinity;

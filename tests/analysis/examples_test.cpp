@@ -206,6 +206,8 @@ TEST(Examples, ReadmeQuotesWhatVeilInfoReports) {
          {8.2, 12.2, 14.5}},
         {"newtonian_500mm.toml", 500.0, 0, 5.0, 70.0, 0, 140.00, 2, {0.0, 0.0, 0.0}, 2,
          {10.2, 10.2, 10.2}},
+        {"anamorphic_cylinders.toml", 100.00, 2, 10.0, 46.704, 3, 103.41, 2, {57.4, 19.9, 11.2}, 2,
+         {63.3, 25.1, 12.2}},
     };
     // clang-format on
     for (const QuotedLens& q : lenses) {

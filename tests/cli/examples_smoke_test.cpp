@@ -30,7 +30,7 @@ std::vector<std::string> examples() {
 
 TEST(ExamplesSmoke, EveryExampleRunsThroughEveryCommand) {
     const std::vector<std::string> files = examples();
-    ASSERT_GE(files.size(), 19u);  // 7 lenses, 2 Zemax files, 10 scenes
+    ASSERT_GE(files.size(), 20u);  // 8 lenses, 2 Zemax files, 10 scenes
     const std::string out = ::testing::TempDir() + "veil_smoke";
     std::filesystem::remove_all(out);
     for (const std::string& f : files) {

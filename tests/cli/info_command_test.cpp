@@ -83,8 +83,9 @@ namespace {
 
 // Every example lens runs through `veil info --json` and reports a finite focal length.
 TEST(VeilInfo, EveryExampleLensRuns) {
-    for (const char* name : {"singlet", "achromat", "cooke_triplet", "double_gauss_50mm",
-                             "longfocus_360mm", "catadioptric_2000mm", "newtonian_500mm"}) {
+    for (const char* name :
+         {"singlet", "achromat", "cooke_triplet", "double_gauss_50mm", "longfocus_360mm",
+          "catadioptric_2000mm", "newtonian_500mm", "anamorphic_cylinders"}) {
         const VeilRun r = runVeil(std::string("info examples/lenses/") + name + ".toml --json");
         ASSERT_EQ(r.exitCode, 0) << name << ": " << r.err;
         const nlohmann::json j = nlohmann::json::parse(r.out);
@@ -159,7 +160,7 @@ TEST(VeilInfo, UnknownZmxGlassNamesItsLineAndTheFix) {
 
 // An anamorphic lens: `veil info` gives both sections' first-order data (the test file's
 // hand computation: 100 mm in y, 50 mm in x, both focused on the image) and traces the
-// spots; a 3D command stops before any work, naming the surface.
+// spots; it traces in 3D, and [mechanics] stops before any work, naming the surface.
 TEST(VeilInfo, AnamorphicLensHasBothSections) {
     const VeilRun r = runVeil("info --json tests/data/toml/crossed_cylinders.toml");
     ASSERT_EQ(r.exitCode, 0) << r.err;
@@ -176,11 +177,20 @@ TEST(VeilInfo, AnamorphicLensHasBothSections) {
     EXPECT_NE(text.out.find("TOROIDAL x_r=25"), std::string::npos) << text.out;
     EXPECT_NE(text.out.find("x-z section"), std::string::npos) << text.out;
 
-    const VeilRun trace = runVeil("trace tests/data/toml/crossed_cylinders.toml --rays 10 -o " +
-                                  ::testing::TempDir() + "veil_anamorphic_trace");
-    EXPECT_EQ(trace.exitCode, 1);
-    EXPECT_NE(trace.err.find("L1.front: the surface is toroidal"), std::string::npos)
-        << trace.err;
+    const std::string dir = ::testing::TempDir() + "veil_anamorphic_trace";
+    const VeilRun trace =
+        runVeil("trace tests/data/toml/crossed_cylinders.toml --rays 10 --quiet -o " + dir);
+    EXPECT_EQ(trace.exitCode, 0) << trace.err;
+    // The mount generator stops before any work, naming the surface.
+    std::ifstream in(std::string(VEIL_SOURCE_DIR) + "/examples/lenses/anamorphic_cylinders.toml");
+    std::ofstream(dir + "/mounted.toml") << in.rdbuf() << "\n[mechanics]\n";
+    const VeilRun mounted = runVeil("trace " + dir + "/mounted.toml --rays 10 -o " + dir + "/m");
+    EXPECT_EQ(mounted.exitCode, 1);
+    EXPECT_NE(mounted.err.find("mechanics: the mount generator seats lenses on rims of "
+                               "revolution, and L1.front is toroidal"),
+              std::string::npos)
+        << mounted.err;
+    EXPECT_FALSE(std::filesystem::exists(dir + "/m/summary.json"));
 }
 
 // A surface type veil does not model is an error that stops the command (exit 1) before

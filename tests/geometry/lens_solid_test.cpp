@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <iostream>
 #include <numbers>
+#include <optional>
 #include <random>
 #include <sstream>
 
@@ -94,10 +95,11 @@ Vec3 randomInside(const LensSolid& s, std::mt19937_64& rng) {
     std::uniform_real_distribution<double> uni(0.0, 1.0);
     const double r = s.edgeRadiusMm * std::sqrt(uni(rng));
     const double phi = 2.0 * std::numbers::pi * uni(rng);
-    const double zf = s.frontZ(r), zb = s.backZ(r);
+    const double x = r * std::cos(phi), y = r * std::sin(phi);
+    const double zf = s.frontZAt(x, y), zb = s.backZAt(x, y);
     double v = uni(rng);
     while (v == 0.0) v = uni(rng);
-    return Vec3{r * std::cos(phi), r * std::sin(phi), zf + v * (zb - zf)};
+    return Vec3{x, y, zf + v * (zb - zf)};
 }
 
 struct WatertightStats {
@@ -161,16 +163,15 @@ void expectWatertight(const Prescription& p, const Scene& scene, int rays, uint6
             if (stats) stats->longestWalk = std::max(stats->longestWalk, steps);
         }
         // Rays aimed at the seams: face rim / flat, flat / edge, and the step of a cemented
-        // interface, at random azimuths.
-        const double seams[][2] = {{s.front.faceRadiusMm, s.front.rimZMm},
-                                   {s.edgeRadiusMm, s.front.rimZMm},
-                                   {s.back.faceRadiusMm, s.back.rimZMm},
-                                   {s.edgeRadiusMm, s.back.rimZMm}};
+        // interface (an anamorphic face's curved rim on the edge), at random azimuths.
+        const double seamRadius[] = {s.front.faceRadiusMm, s.edgeRadiusMm, s.back.faceRadiusMm,
+                                     s.edgeRadiusMm};
         int seamRays = 0;
         for (int i = 0; i < rays / 5; ++i) {
-            const auto& seam = seams[i % 4];
             const double phi = 2.0 * std::numbers::pi * uni(rng);
-            const Vec3 target{seam[0] * std::cos(phi), seam[0] * std::sin(phi), seam[1]};
+            const double x = seamRadius[i % 4] * std::cos(phi),
+                         y = seamRadius[i % 4] * std::sin(phi);
+            const Vec3 target{x, y, i % 4 < 2 ? s.frontZAt(x, y) : s.backZAt(x, y)};
             const Vec3 origin = randomInside(s, rng);
             const Ray ray{origin, glm::normalize(target - origin)};
             ++seamRays;
@@ -217,8 +218,13 @@ TEST(LensSolid, EveryExampleBuildsWatertightSolids) {
             EXPECT_EQ(edge.kind, ObjectKind::LensEdge);
             const auto& cyl = std::get<CylinderPatch>(std::get<FaceGeometry>(edge.geometry));
             EXPECT_EQ(cyl.radiusMm, s.edgeRadiusMm);
-            EXPECT_EQ(cyl.zMinMm, std::min(s.front.rimZMm, s.back.rimZMm));
-            EXPECT_EQ(cyl.zMaxMm, std::max(s.front.rimZMm, s.back.rimZMm));
+            // Between the rims (their enclosures, for an anamorphic face's curved rim).
+            const LensSide& lower = s.direction > 0.0 ? s.front : s.back;
+            const LensSide& upper = s.direction > 0.0 ? s.back : s.front;
+            EXPECT_EQ(cyl.zMinMm, lower.rimZLoMm);
+            EXPECT_EQ(cyl.zMaxMm, upper.rimZHiMm);
+            EXPECT_EQ(cyl.rims != nullptr,
+                      !isRotational(s.front.shape) || !isRotational(s.back.shape));
             for (const LensSide* side : {&s.front, &s.back}) {
                 const SceneObject& face = get(scene, p.surfaces[side->surface].name);
                 EXPECT_EQ(face.sequentialSurface, side->surface);
@@ -554,6 +560,64 @@ TEST(LensSolid, CementedElementsOfDifferentSizeGetAStep) {
         EXPECT_EQ(edgeA.zMaxMm, flat.frame.translation.z);
         EXPECT_EQ(edgeB.zMinMm, flat.frame.translation.z);
         expectWatertight(p, scene, 10000, 23);
+    }
+}
+
+// Anamorphic Faces
+
+// A cemented doublet of a biconic, a toroidal interface and a cylinder back, with a clear
+// aperture smaller than the mechanical one: every anamorphic face runs out to the edge (no
+// flats), and the edges end on the curved rims. Watertight like every other solid.
+Prescription anamorphicDoublet(double radiusA, double radiusB) {
+    Prescription p = test::startLens(kInf, 12.0);
+    auto add = [&](double r, double t, Material m, double mech, std::optional<Anamorphic> a) {
+        Surface s = test::surface(r, t, m);
+        s.clearSemiDiameterMm = 7.0;
+        s.mechSemiDiameterMm = mech;
+        s.anamorphic = a;
+        p.surfaces.push_back(s);
+    };
+    add(45.0, 6.0, Material::model(1.5168, 64.2), radiusA,
+        Anamorphic{Anamorphic::Kind::Biconic, 1.0 / 30.0, -0.5});
+    add(-35.0, 2.5, Material::model(1.62, 36.4), std::min(radiusA, radiusB),
+        Anamorphic{Anamorphic::Kind::Toroidal, -1.0 / 60.0, 0.0});
+    add(kInf, 60.0, Material::air(), radiusB,
+        Anamorphic{Anamorphic::Kind::Toroidal, 1.0 / 90.0, 0.0});
+    test::finishLens(p);
+    return p;
+}
+
+TEST(LensSolid, AnamorphicFacesRunToTheEdge) {
+    const Prescription p = anamorphicDoublet(9.0, 9.0);
+    Scene scene;
+    addLensSolids(p, scene);
+    const std::vector<LensSolid> solids = lensSolids(p);
+    ASSERT_EQ(solids.size(), 2u);
+    for (const char* face : {"L1.front", "L1.back", "L2.back"})
+        EXPECT_EQ(std::get<CircularAperture>(patchOf(get(scene, face)).aperture).radiusMm, 9.0)
+            << face;
+    for (const char* flat : {"L1.flat1", "L1.flat2", "L2.flat1", "L2.flat2"})
+        EXPECT_EQ(scene.find(flat), nullptr) << flat;
+    for (const LensSolid& s : solids) {
+        const auto& edge =
+            std::get<CylinderPatch>(std::get<FaceGeometry>(get(scene, s.name + ".edge").geometry));
+        ASSERT_TRUE(edge.rims);
+        EXPECT_TRUE(edge.rims->lower && edge.rims->upper);
+        EXPECT_TRUE(std::isnan(s.front.rimZMm));
+        EXPECT_LT(s.front.rimZLoMm, s.front.rimZHiMm);  // the rim is a curve
+    }
+    EXPECT_THROW(solids[0].frontZ(1.0), std::logic_error);
+    expectWatertight(p, scene, 10000, 29);
+}
+
+TEST(LensSolid, CementedAnamorphicFaceOfDifferentRadiiIsAnError) {
+    try {
+        lensSolids(anamorphicDoublet(10.0, 9.0));
+        FAIL() << "no error";
+    } catch (const ModelError& e) {
+        EXPECT_EQ(e.object(), "L1.back");
+        EXPECT_NE(std::string(e.what()).find("step that is not a plane"), std::string::npos)
+            << e.what();
     }
 }
 
