@@ -271,7 +271,9 @@ TEST(CoordinateBreakScene, GhostsThroughAFoldAreTheUnfoldedGhosts) {
         EXPECT_NEAR(std::abs(db.y), std::abs(da.y), 1e-9);
         // Off axis the ghost walks off the nominal image (by 2 t tan(r) for the unclipped
         // beam; here the plate's sd clips the 14 mm beams differently).
-        if (field > 0.0) EXPECT_GT(std::abs(db.y), 0.5);
+        if (field > 0.0) {
+            EXPECT_GT(std::abs(db.y), 0.5);
+        }
     }
 }
 

@@ -127,7 +127,9 @@ TEST(Anamorphic, ReducesToTheRotationalShapes) {
         for (const auto& [a, b] : {std::pair{biconic, conic}, std::pair{toroid, sphere}}) {
             const auto ta = intersectSequential(a, ray), tb = intersectSequential(b, ray);
             ASSERT_EQ(ta.has_value(), tb.has_value()) << a << " " << ray.origin;
-            if (ta) EXPECT_NEAR(*ta, *tb, 1e-11);
+            if (ta) {
+                EXPECT_NEAR(*ta, *tb, 1e-11);
+            }
             const auto ha = intersectFirst(a, ray, 0.0, 1e3, 15.0, false);
             const auto hb = intersectFirst(b, ray, 0.0, 1e3, 15.0, false);
             ASSERT_EQ(ha.has_value(), hb.has_value()) << a << " " << ray.origin;

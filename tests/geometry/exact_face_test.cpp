@@ -36,7 +36,7 @@ Vec3 unit(std::mt19937_64& rng) {
 TEST(ExactFace, CylinderHitsMatchLongDoubleOracle) {
     std::mt19937_64 rng(3);
     std::uniform_real_distribution<double> uni(-1.0, 1.0);
-    const CylinderPatch cyl{12.5, -3.0, 7.0, true};
+    const CylinderPatch cyl{12.5, -3.0, 7.0, true, nullptr};
     int hits = 0;
     LD worst = 0;
     for (int i = 0; i < 20000; ++i) {
@@ -88,7 +88,7 @@ TEST(ExactFace, CylinderGrazingRaysStayOnTheSurface) {
     LD worst = 0;
     int required = 0, optional = 0, optionalHits = 0;
     for (double radius : {1e-3, 1.0, 12.5, 1e4}) {
-        const CylinderPatch cyl{radius, -1e3 * radius, 1e3 * radius, true};
+        const CylinderPatch cyl{radius, -1e3 * radius, 1e3 * radius, true, nullptr};
         for (int kind = 0; kind < 3; ++kind) {
             const double cosine = kind == 0 ? 1e-6 : 1e-8;
             const bool mustHit = kind != 2;
@@ -139,7 +139,7 @@ TEST(ExactFace, CylinderGrazingRaysStayOnTheSurface) {
 TEST(ExactFace, CylinderRayStartingOnItFindsTheChord) {
     std::mt19937_64 rng(7);
     std::uniform_real_distribution<double> uni(0.0, 1.0);
-    const CylinderPatch cyl{8.0, -50.0, 50.0, false};  // inward normal: a bore
+    const CylinderPatch cyl{8.0, -50.0, 50.0, false, nullptr};  // inward normal: a bore
     int chords = 0;
     for (int i = 0; i < 20000; ++i) {
         const double phi = 2.0 * std::numbers::pi * uni(rng);
@@ -179,7 +179,7 @@ TEST(ExactFace, CylinderRayStartingOnItFindsTheChord) {
 }
 
 TEST(ExactFace, CylinderRespectsItsZRangeAndRayRange) {
-    const CylinderPatch cyl{5.0, 0.0, 2.0, true};
+    const CylinderPatch cyl{5.0, 0.0, 2.0, true, nullptr};
     // Aimed at z = 1: hit at t = 5; aimed above zMax: miss.
     const Ray in{Vec3{-10.0, 0.0, 1.0}, Vec3{1.0, 0.0, 0.0}};
     const auto hit = intersectFace(cyl, in, 0.0, kInf, false);
@@ -306,7 +306,7 @@ TEST(ExactFace, BoundsHoldDenseSamplesAndAreTight) {
         SurfacePatch{EvenAsphereShape{1.0 / 40.0, 0.0, {}, {}, {0.0, 5e-6, -2e-8}},
                      CircularAperture{22.0}},
         SurfacePatch{PlaneShape{}, RectangularAperture{4.0, 2.0}},
-        CylinderPatch{9.0, -1.0, 4.0, true},
+        CylinderPatch{9.0, -1.0, 4.0, true, nullptr},
     };
     for (const FaceGeometry& face : faces) {
         const Bounds3 b = faceBounds(face);
@@ -438,7 +438,7 @@ TEST(ExactFace, TessellationChordErrorStaysWithinTolerance) {
         {"sphere rectangle", SurfacePatch{SphereShape{1.0 / 40.0}, RectangularAperture{8.0, 5.0}},
          1.0},
         {"flat ring", SurfacePatch{PlaneShape{}, AnnularAperture{10.5, 12.0}}, 0.5, false},
-        {"cylinder", CylinderPatch{12.0, -1.0, 3.0, true}, 0.5},
+        {"cylinder", CylinderPatch{12.0, -1.0, 3.0, true, nullptr}, 0.5},
     };
     for (const Case& c : cases) {
         std::cout << c.name << ":";
@@ -470,8 +470,8 @@ TEST(ExactFace, TessellationFacesAlongTheNormal) {
          {FaceGeometry{SurfacePatch{SphereShape{1.0 / 30.0}, CircularAperture{12.0}}},
           FaceGeometry{SurfacePatch{SphereShape{-1.0 / 30.0}, AnnularAperture{4.0, 12.0}}},
           FaceGeometry{SurfacePatch{PlaneShape{}, RectangularAperture{2.0, 1.0}}},
-          FaceGeometry{CylinderPatch{5.0, 0.0, 1.0, true}},
-          FaceGeometry{CylinderPatch{5.0, 0.0, 1.0, false}}}) {
+          FaceGeometry{CylinderPatch{5.0, 0.0, 1.0, true, nullptr}},
+          FaceGeometry{CylinderPatch{5.0, 0.0, 1.0, false, nullptr}}}) {
         const TriangleMesh mesh = tessellateFace(face, 0.01);
         ASSERT_FALSE(mesh.triangles.empty());
         for (size_t t = 0; t < mesh.triangles.size(); ++t) {
@@ -488,7 +488,7 @@ TEST(ExactFace, TessellationFacesAlongTheNormal) {
             ASSERT_GT(glm::dot(mesh.triangleNormal(t), expect), 0.9) << face << " triangle " << t;
         }
     }
-    EXPECT_THROW(tessellateFace(CylinderPatch{1.0, 0.0, 1.0, true}, 0.0), std::invalid_argument);
+    EXPECT_THROW(tessellateFace(CylinderPatch{1.0, 0.0, 1.0, true, nullptr}, 0.0), std::invalid_argument);
 }
 
 // Sections
@@ -516,7 +516,7 @@ TEST(ExactFace, SectionsFollowTheProfile) {
     EXPECT_EQ(ring[1].front().x, 3.0);
     EXPECT_EQ(ring[1].back().x, 10.0);
     // Cylinder: two vertical segments at y = -+R.
-    const auto wall = sectionOfFace(CylinderPatch{7.0, -1.0, 2.0, true}, tol);
+    const auto wall = sectionOfFace(CylinderPatch{7.0, -1.0, 2.0, true, nullptr}, tol);
     ASSERT_EQ(wall.size(), 2u);
     EXPECT_EQ(wall[0], (std::vector<Vec2>{{-7.0, -1.0}, {-7.0, 2.0}}));
     EXPECT_EQ(wall[1], (std::vector<Vec2>{{7.0, -1.0}, {7.0, 2.0}}));
@@ -524,7 +524,7 @@ TEST(ExactFace, SectionsFollowTheProfile) {
 
 TEST(ExactFace, PrintsItself) {
     std::ostringstream os;
-    os << FaceGeometry{CylinderPatch{2.0, 0.0, 1.0, true}} << " "
+    os << FaceGeometry{CylinderPatch{2.0, 0.0, 1.0, true, nullptr}} << " "
        << FaceGeometry{SurfacePatch{PlaneShape{}, AnnularAperture{1.0, 2.0}}};
     EXPECT_EQ(os.str(),
               "CylinderPatch{radius 2 mm, z 0 .. 1 mm, outward} SurfacePatch{Plane{}, "

@@ -55,7 +55,7 @@ std::vector<ExactFaceEntry> testFaces() {
         SurfacePatch{PlaneShape{}, AnnularAperture{14.0, 16.0}});  // flat in front
     add(Frame::alongAxis(8.0), SurfacePatch{SphereShape{-1.0 / 45.0}, CircularAperture{14.0}});
     add(Frame::alongAxis(8.0), SurfacePatch{PlaneShape{}, AnnularAperture{14.0, 16.0}});
-    add(Frame::alongAxis(0.0), CylinderPatch{16.0, 0.0, 8.0, true});
+    add(Frame::alongAxis(0.0), CylinderPatch{16.0, 0.0, 8.0, true, nullptr});
     // A cemented asphere and a conic mirror with a hole further down the axis.
     std::array<double, 10> a{};
     a[0] = 1e-4;
@@ -72,7 +72,7 @@ std::vector<ExactFaceEntry> testFaces() {
     // A tilted, decentred element: its own group.
     add(tilted(0.5, {3.0, -20.0, 25.0}),
         SurfacePatch{SphereShape{1.0 / 30.0}, CircularAperture{6.0}});
-    add(tilted(0.5, {3.0, -20.0, 25.0}), CylinderPatch{6.0, -1.0, 2.0, true});
+    add(tilted(0.5, {3.0, -20.0, 25.0}), CylinderPatch{6.0, -1.0, 2.0, true, nullptr});
     return f;
 }
 

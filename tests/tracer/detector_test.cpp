@@ -440,7 +440,7 @@ Scene smallScene() {
     SceneObject edge;
     edge.name = "L1.edge";
     edge.kind = ObjectKind::LensEdge;
-    edge.geometry = FaceGeometry{CylinderPatch{5.0, 0.0, 2.0, true}};
+    edge.geometry = FaceGeometry{CylinderPatch{5.0, 0.0, 2.0, true, nullptr}};
     scene.addObject(edge);
     SceneObject sensor;
     sensor.name = "sensor";
