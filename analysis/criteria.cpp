@@ -7,6 +7,8 @@
 #include <array>
 #include <bit>
 #include <cctype>
+#include <charconv>
+#include <limits>
 #include <sstream>
 
 namespace veil {
@@ -131,7 +133,30 @@ bool isPatternChar(char ch) {
            ch != ',' && ch != '{' && ch != '}' && ch != '\0';
 }
 
+// Groups, seq(...) and not nest by recursion, in the parsers and in everything that walks
+// the tree: one level more while alive, bounded so that no text can exhaust the stack.
+template <typename Parser>
+class Nesting {
+  public:
+    // `at`: where the level opens in the text (the error points there).
+    Nesting(Parser& p, size_t at) : p_(p) {
+        if (++p_.depth_ > kMaxCriterionNesting)
+            p_.fail("the criterion nests groups" + std::string(Parser::kNestingWhat) +
+                        " deeper than " + std::to_string(kMaxCriterionNesting) + " levels",
+                    at);
+    }
+    ~Nesting() { --p_.depth_; }
+    Nesting(const Nesting&) = delete;
+    Nesting& operator=(const Nesting&) = delete;
+
+  private:
+    Parser& p_;
+};
+
 class TextParser {
+    friend class Nesting<TextParser>;
+    static constexpr const char* kNestingWhat = ", seq(...) and not";
+
   public:
     TextParser(std::string_view text, std::string_view source) : text_(text), source_(source) {}
 
@@ -191,6 +216,7 @@ class TextParser {
         skipSpace();
         const int column = static_cast<int>(pos_) + 1;
         if (acceptKeyword("not")) {
+            const Nesting<TextParser> nesting(*this, static_cast<size_t>(column) - 1);
             Criterion node;
             node.kind = Criterion::Kind::Not;
             node.column = column;
@@ -203,6 +229,7 @@ class TextParser {
         const char ch = peek();
         const size_t start = pos_;
         if (ch == '(') {
+            const Nesting<TextParser> nesting(*this, pos_);
             ++pos_;
             Criterion inner = parseOr();
             expect(')', "')'");
@@ -218,6 +245,7 @@ class TextParser {
         }
         pos_ += word.size();
         if (word == "seq") {
+            const Nesting<TextParser> nesting(*this, start);
             Criterion node;
             node.kind = Criterion::Kind::Seq;
             node.column = static_cast<int>(start) + 1;
@@ -307,12 +335,16 @@ class TextParser {
 
     std::string_view text_, source_;
     size_t pos_ = 0;
+    int depth_ = 0;  // groups, seq(...) and not open at pos_
 };
 
 // OpticStudio Filter Parser
 // or := and ('|' and)* ; and := unary ('&' unary)* ; unary := '!' unary | primary ;
 // primary := '(' or ')' | ('H'|'R'|'T'|'S') number
 class ZemaxParser {
+    friend class Nesting<ZemaxParser>;
+    static constexpr const char* kNestingWhat = " and '!'";
+
   public:
     ZemaxParser(std::string_view text, std::string_view source) : text_(text), source_(source) {}
     Criterion parse() {
@@ -322,9 +354,10 @@ class ZemaxParser {
     }
 
   private:
-    [[noreturn]] void fail(const std::string& message) const {
-        throw ParseError(FileLoc{std::string(source_), 1, static_cast<int>(pos_) + 1}, message);
+    [[noreturn]] void fail(const std::string& message, size_t at) const {
+        throw ParseError(FileLoc{std::string(source_), 1, static_cast<int>(at) + 1}, message);
     }
+    [[noreturn]] void fail(const std::string& message) const { fail(message, pos_); }
     char peek() {
         while (pos_ < text_.size() && std::isspace(static_cast<unsigned char>(text_[pos_]))) ++pos_;
         return pos_ < text_.size() ? text_[pos_] : '\0';
@@ -350,6 +383,7 @@ class ZemaxParser {
     Criterion parseUnary() {
         const char ch = peek();
         if (ch == '!') {
+            const Nesting<ZemaxParser> nesting(*this, pos_);
             Criterion node;
             node.kind = Criterion::Kind::Not;
             node.column = static_cast<int>(pos_) + 1;
@@ -358,6 +392,7 @@ class ZemaxParser {
             return node;
         }
         if (ch == '(') {
+            const Nesting<ZemaxParser> nesting(*this, pos_);
             ++pos_;
             Criterion inner = parseBinary(Criterion::Kind::Or, '|');
             if (peek() != ')') fail("expected ')'");
@@ -397,6 +432,7 @@ class ZemaxParser {
 
     std::string_view text_, source_;
     size_t pos_ = 0;
+    int depth_ = 0;  // groups and '!' open at pos_
 };
 
 }  // namespace
@@ -508,7 +544,9 @@ struct Compiler {
             if (p.text.size() > 1 && p.text[0] == '#' &&
                 std::all_of(p.text.begin() + 1, p.text.end(),
                             [](char ch) { return std::isdigit(static_cast<unsigned char>(ch)); })) {
-                const size_t id = std::stoul(p.text.substr(1));
+                // An id too large for size_t matches nothing, as any id past the last.
+                size_t id = std::numeric_limits<size_t>::max();
+                std::from_chars(p.text.data() + 1, p.text.data() + p.text.size(), id);
                 if (id < size && (c.leaf != LeafKind::Detector || !candidates[id].empty())) set(id);
             } else {
                 for (size_t i = 0; i < size; ++i)

@@ -87,6 +87,11 @@ struct Criterion {
 std::ostream& operator<<(std::ostream& os, const Criterion& c);
 std::string toString(const Criterion& c);
 
+// Groups, seq(...), not and '!' nest at most this deep: the parsers, and everything that walks
+// a criterion's tree, recurse once per level. Deeper text is a ParseError at the level that
+// goes past it.
+inline constexpr int kMaxCriterionNesting = 200;
+
 // Parses the text syntax (docs/criteria.md). Throws ParseError{source, 1, column}.
 Criterion parseCriterion(std::string_view text, std::string_view source = "<criterion>");
 // Parses an OpticStudio-style filter string (H7 & !R6 | S3) into the same tree, object

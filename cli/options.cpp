@@ -1,6 +1,7 @@
 #include "cli/options.h"
 
 #include <algorithm>
+#include <charconv>
 #include <iterator>
 #include <cmath>
 #include <cstdlib>
@@ -85,7 +86,33 @@ void addRunControls(CLI::App* sub, int& threads, uint64_t& seed) {
         ->capture_default_str();
     sub->add_option("--seed", seed, "random seed (the same seed gives the same result with any "
                                     "number of threads)")
+        ->check(CLI::Validator(
+            [](std::string& s) -> std::string {
+                // A whole number in [0, 2^64 - 1]; "-1" or a larger number would wrap or
+                // saturate silently.
+                uint64_t v = 0;
+                const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+                if (ec != std::errc() || end != s.data() + s.size())
+                    return "--seed " + s + " is not a whole number from 0 to 18446744073709551615";
+                return {};
+            },
+            "UINT in [0 - 18446744073709551615]"))
         ->capture_default_str();
+}
+
+// A closed range that also refuses nan (CLI::Range lets it through: every comparison is
+// false).
+CLI::Validator finiteRange(double lo, double hi) {
+    return CLI::Validator(
+        [lo, hi](std::string& s) -> std::string {
+            char* end = nullptr;
+            const double v = std::strtod(s.c_str(), &end);
+            if (end == s.c_str() || *end != '\0' || !(v >= lo && v <= hi))
+                return "value " + s + " not in range [" + CLI::detail::to_string(lo) + " - " +
+                       CLI::detail::to_string(hi) + "]";
+            return {};
+        },
+        "FLOAT in [" + CLI::detail::to_string(lo) + " - " + CLI::detail::to_string(hi) + "]");
 }
 
 void addTransportFlags(CLI::App* sub, TransportFlags& f) {
@@ -95,14 +122,14 @@ void addTransportFlags(CLI::App* sub, TransportFlags& f) {
     sub->add_option("--min-flux", f.minRelativeFlux,
                     "cull a branch below this share of its ray's emitted flux, after every bounce "
                     "(both modes)")
-        ->check(CLI::Range(0.0, 1.0))
+        ->check(finiteRange(0.0, 1.0))
         ->capture_default_str();
     sub->add_option("--max-split-depth", f.maxSplitDepth, "split mode: deepest split followed")
         ->check(CLI::Range(1, 100000))
         ->capture_default_str();
     sub->add_option("--roulette", f.roulette,
                     "Russian roulette below this share of the ray's flux (0: off)")
-        ->check(CLI::Range(0.0, 1.0))
+        ->check(finiteRange(0.0, 1.0))
         ->capture_default_str();
     sub->add_option("--max-segments", f.maxSegments, "segments per branch before it is culled")
         ->check(CLI::Range(1, 100000000))
@@ -110,6 +137,18 @@ void addTransportFlags(CLI::App* sub, TransportFlags& f) {
 }
 
 void applyTransportFlags(const TransportFlags& f, TransportOptions& options) {
+    // Split mode follows both Fresnel branches: without a flux floor or roulette nothing but
+    // the depth bounds the tree, 2^depth branches per ray (2^64 by default).
+    if (f.mode != "random" && !(f.minRelativeFlux > 0.0) && !(f.roulette > 0.0) &&
+        f.maxSplitDepth > kMaxUnculledSplitDepth)
+        throw ModelError("--min-flux",
+                         "0 in split mode leaves each ray's tree of Fresnel branches bounded "
+                         "only by --max-split-depth (" +
+                             std::to_string(f.maxSplitDepth) + ": up to 2^" +
+                             std::to_string(f.maxSplitDepth) +
+                             " branches per ray): give --min-flux > 0 (default 1e-4), "
+                             "--roulette > 0, --max-split-depth <= " +
+                             std::to_string(kMaxUnculledSplitDepth) + ", or --mode random");
     options.mode =
         f.mode == "random" ? TransportOptions::Mode::Random : TransportOptions::Mode::Split;
     options.minRelativeFlux = f.minRelativeFlux;

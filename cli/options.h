@@ -57,6 +57,9 @@ struct TransportFlags {
 };
 void addTransportFlags(CLI::App* sub, TransportFlags& flags);
 // Into the transport's options; the seed and the rest are left as they are.
+// Split mode without a flux floor (--min-flux 0) and without roulette is refused unless
+// --max-split-depth is at most this (2^20 branches per ray): ModelError naming --min-flux.
+inline constexpr int kMaxUnculledSplitDepth = 20;
 void applyTransportFlags(const TransportFlags& flags, TransportOptions& options);
 // --json and --quiet.
 void addReportFlags(CLI::App* sub, bool& json, bool& quiet);

@@ -353,7 +353,84 @@ TomlDocument TomlDocument::fromFile(const std::filesystem::path& path) {
     return fromString(text.str(), path.string());
 }
 
+namespace {
+
+// toml++ parses a dotted key (a.b.c = 1, [a.b.c]) by recursion, one level per part: a key of
+// some 30000 parts exhausts the stack. Keys are scanned first, outside strings and comments:
+// the dots between two of = , { } [ ] or a line end are counted, and a run of more than
+// kMaxDottedKeyParts - 1 is refused at its last dot. (Values hold few dots: 1.5, a date.)
+void checkDottedKeys(std::string_view text, const std::string& fileName) {
+    enum class State { Normal, Comment, Basic, Literal, MultiBasic, MultiLiteral };
+    State state = State::Normal;
+    int line = 1, column = 0, dots = 0;
+    for (size_t i = 0; i < text.size(); ++i) {
+        const char c = text[i];
+        ++column;
+        auto opens = [&](std::string_view q) { return text.substr(i, q.size()) == q; };
+        switch (state) {
+            case State::Comment:
+                if (c == '\n') state = State::Normal;
+                break;
+            case State::Basic:
+                if (c == '\\' && i + 1 < text.size() && text[i + 1] != '\n') {
+                    ++i;
+                    ++column;
+                } else if (c == '"' || c == '\n') {
+                    state = State::Normal;
+                }
+                break;
+            case State::Literal:
+                if (c == '\'' || c == '\n') state = State::Normal;
+                break;
+            case State::MultiBasic:
+                if (c == '\\' && i + 1 < text.size() && text[i + 1] != '\n') {
+                    ++i;
+                    ++column;
+                } else if (opens("\"\"\"")) {
+                    state = State::Normal;
+                    i += 2;
+                    column += 2;
+                }
+                break;
+            case State::MultiLiteral:
+                if (opens("\'\'\'")) {
+                    state = State::Normal;
+                    i += 2;
+                    column += 2;
+                }
+                break;
+            case State::Normal:
+                if (c == '#') {
+                    state = State::Comment;
+                } else if (c == '"') {
+                    state = opens("\"\"\"") ? State::MultiBasic : State::Basic;
+                    if (state == State::MultiBasic) i += 2, column += 2;
+                } else if (c == '\'') {
+                    state = opens("\'\'\'") ? State::MultiLiteral : State::Literal;
+                    if (state == State::MultiLiteral) i += 2, column += 2;
+                } else if (c == '.') {
+                    if (++dots >= kMaxDottedKeyParts)
+                        throw ParseError({fileName, line, column},
+                                         "a dotted key of more than " +
+                                             std::to_string(kMaxDottedKeyParts) + " parts");
+                } else if (c == '=' || c == ',' || c == '{' || c == '}' || c == '[' || c == ']' ||
+                           c == '\n') {
+                    dots = 0;
+                }
+                break;
+        }
+        if (c == '\n') {
+            ++line;
+            column = 0;
+            if (state != State::MultiBasic && state != State::MultiLiteral) dots = 0;
+        }
+    }
+}
+
+}  // namespace
+
 TomlDocument TomlDocument::fromString(std::string_view text, std::string fileName) {
+    checkDottedKeys(text, fileName);
     auto state = std::make_unique<detail::TomlDocumentState>();
     state->fileName = std::move(fileName);
     try {

@@ -51,6 +51,10 @@ class TomlValue;
 
 // The values a number may take; the default accepts any finite number. Used by the typed
 // getters, which report a value outside the range as a ParseError at the value.
+// A dotted key (a.b.c = 1, [a.b.c]) has at most this many parts: the TOML library parses
+// them by recursion, so a longer one is a ParseError at its last dot, before parsing.
+inline constexpr int kMaxDottedKeyParts = 128;
+
 struct NumberRange {
     double min = -std::numeric_limits<double>::infinity();
     double max = std::numeric_limits<double>::infinity();

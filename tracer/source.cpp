@@ -818,11 +818,16 @@ Amount readAmount(const TomlTable& t, Quantity second, const std::string& kind) 
     return a;
 }
 
-Vec3 readVec3(const TomlValue& v) {
+Vec3 readVec3(const TomlValue& v, const NumberRange& range = NumberRange::any()) {
     const std::vector<TomlValue> xs = v.asArray();
     if (xs.size() != 3) v.failExpected("a triple [x, y, z]");
-    return {xs[0].asNumber(), xs[1].asNumber(), xs[2].asNumber()};
+    return {xs[0].asNumber(range), xs[1].asNumber(range), xs[2].asNumber(range)};
 }
+
+// Ranges of a source's lengths (mm): within kMaxSourceLengthMm.
+const NumberRange kAnyLength = NumberRange::between(-kMaxSourceLengthMm, kMaxSourceLengthMm);
+const NumberRange kLength = NumberRange::between(0.0, kMaxSourceLengthMm);
+const NumberRange kPositiveLength{0.0, kMaxSourceLengthMm, true, false};
 
 // A field: y alone, or [x, y] (degrees), as in system.fields_deg.
 Vec2 readField(const TomlValue& v) {
@@ -907,9 +912,9 @@ class SourceReader {
         Vec2 field(0.0);
         if (const auto v = t.get("field_deg")) field = readField(*v);
         BeamOptions o;
-        o.marginMm = t.number("margin_mm", 0.0, NumberRange::atLeast(0.0));
-        o.radiusMm = t.number("radius_mm", 0.0, NumberRange::above(0.0));
-        o.startGapMm = t.number("start_gap_mm", o.startGapMm, NumberRange::atLeast(0.0));
+        o.marginMm = t.number("margin_mm", 0.0, kLength);
+        o.radiusMm = t.number("radius_mm", 0.0, kPositiveLength);
+        o.startGapMm = t.number("start_gap_mm", o.startGapMm, kLength);
         if (sun)
             o.halfAngleRad = 0.5 * kDegree *
                              t.number("angular_diameter_deg", kSunAngularDiameterDeg,
@@ -931,9 +936,9 @@ class SourceReader {
     }
 
     Source readPoint(const TomlTable& t, const std::string& name) {
-        const Vec3 position = readVec3(t.require("position_mm", "[x, y, z] in mm"));
-        const double margin = t.number("margin_mm", 0.0, NumberRange::atLeast(0.0));
-        const double radius = t.number("radius_mm", 0.0, NumberRange::above(0.0));
+        const Vec3 position = readVec3(t.require("position_mm", "[x, y, z] in mm"), kAnyLength);
+        const double margin = t.number("margin_mm", 0.0, kLength);
+        const double radius = t.number("radius_mm", 0.0, kPositiveLength);
         const std::optional<TomlValue> halfValue = t.get("half_angle_deg");
         const std::optional<TomlValue> axisValue = t.get("axis");
         PointSource ps;
@@ -942,7 +947,7 @@ class SourceReader {
             ps.halfAngleRad = halfValue->asNumber(NumberRange{0.0, 180.0, true, false}) * kDegree;
             Vec3 axis(0.0, 0.0, 1.0);
             if (axisValue) {
-                axis = readVec3(*axisValue);
+                axis = readVec3(*axisValue, kAnyLength);
                 if (!(glm::length(axis) > 0.0)) axisValue->fail(axisValue->path() + " is zero");
             } else {
                 axis = Vec3(0.0, 0.0,
@@ -973,21 +978,22 @@ class SourceReader {
         AreaEmitter e;
         if (kind == "window") {
             e.shape = AreaEmitter::Shape::Disk;
-            e.radiusMm = t.number("radius_mm", aperture_.clearRadiusMm, NumberRange::above(0.0));
+            e.radiusMm = t.number("radius_mm", aperture_.clearRadiusMm, kPositiveLength);
             if (!(e.radiusMm > 0.0))
                 t.fail("source '" + name + "': " + aperture_.surfaceName +
                        " has no semi-diameter to size the window; give radius_mm");
-            const double z = t.number("z_mm", aperture_.frontZMm - kWindowGapMm);
+            const double z = t.number("z_mm", aperture_.frontZMm - kWindowGapMm, kAnyLength);
             e.frame = Frame::alongAxis(z);
             e.coneHalfAngleRad = t.require("cone_deg", "half-angle of the emission cone, degrees")
                                      .asNumber(NumberRange{0.0, 90.0, true, false}) *
                                  kDegree;
         } else {
-            const Vec3 position = readVec3(t.require("position_mm", "[x, y, z] of the centre"));
+            const Vec3 position =
+                readVec3(t.require("position_mm", "[x, y, z] of the centre"), kAnyLength);
             Vec3 normal(0.0, 0.0, 1.0);
             std::optional<TomlValue> normalValue = t.get("normal");
             if (normalValue) {
-                normal = readVec3(*normalValue);
+                normal = readVec3(*normalValue, kAnyLength);
                 if (!(glm::length(normal) > 0.0))
                     normalValue->fail(normalValue->path() + " is zero");
                 normal = glm::normalize(normal);
@@ -995,7 +1001,7 @@ class SourceReader {
             Vec3 u, v;
             perpendicularBasis(normal, u, v);
             if (const auto xv = t.get("x_axis")) {
-                const Vec3 x = readVec3(*xv);
+                const Vec3 x = readVec3(*xv, kAnyLength);
                 const Vec3 inPlane = x - glm::dot(x, normal) * normal;
                 if (!(glm::length(inPlane) > 1e-9 * glm::length(x)))
                     xv->fail(xv->path() + " must not be parallel to the normal");
@@ -1010,13 +1016,12 @@ class SourceReader {
                 size->fail("give radius_mm (a disk) or size_mm (a rectangle), not both");
             if (radius) {
                 e.shape = AreaEmitter::Shape::Disk;
-                e.radiusMm = radius->asNumber(NumberRange::above(0.0));
+                e.radiusMm = radius->asNumber(kPositiveLength);
             } else if (size) {
                 const std::vector<TomlValue> xs = size->asArray();
                 if (xs.size() != 2) size->failExpected("a pair [width, height] in mm");
                 e.shape = AreaEmitter::Shape::Rectangle;
-                e.sizeMm = Vec2(xs[0].asNumber(NumberRange::above(0.0)),
-                                xs[1].asNumber(NumberRange::above(0.0)));
+                e.sizeMm = Vec2(xs[0].asNumber(kPositiveLength), xs[1].asNumber(kPositiveLength));
             } else {
                 t.fail("missing key 'radius_mm' (a disk) or 'size_mm' (a rectangle) in " +
                        t.displayName());

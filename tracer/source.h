@@ -76,6 +76,12 @@
 
 namespace veil {
 
+// Every length a [[source]] gives (positions, radii, sizes, margins, gaps, z) lies within
+// +-kMaxSourceLengthMm (1000 km): anything farther is at infinity for a lens (a collimated or
+// sun source), and rays starting beyond about 1e18 mm break Embree's single-precision
+// traversal. Checked when the scene file is read, as a ParseError at the value.
+inline constexpr double kMaxSourceLengthMm = 1e9;
+
 // What the sources need to know about the lens: the first surface and its aperture, and how
 // far forward (toward -z) the lens reaches.
 struct EntranceAperture {

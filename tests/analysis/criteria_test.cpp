@@ -213,6 +213,44 @@ TEST(CriteriaNames, GlobsAliasesAndErrors) {
     EXPECT_EQ(error("property(gold)").first, 10);
     EXPECT_EQ(error("hit(#8)").first, 5);
     EXPECT_EQ(error("hit(#7)").first, -1);
+    // An id past size_t (once a raw "stoul" from the number conversion) matches nothing.
+    EXPECT_EQ(error("hit(#18446744073709551617)"),
+              std::make_pair(5, std::string("object pattern '#18446744073709551617' matches no "
+                                            "object; the scene's objects are L4.front, L4.back, "
+                                            "L4.edge, spacer1, spacer2, barrel, stop, sensor")));
+}
+
+// Nesting is bounded (every walk of the tree recurses once per level): thousands of '(',
+// seq( or not stop at the level past the limit, as an error at that column, not a crash.
+TEST(CriteriaParser, NestingIsBounded) {
+    auto nested = [](const std::string& open, const std::string& close, int n) {
+        std::string text;
+        for (int i = 0; i < n; ++i) text += open;
+        text += "hit(sensor)";
+        for (int i = 0; i < n; ++i) text += close;
+        return text;
+    };
+    for (const auto& [open, close] : {std::pair<std::string, std::string>{"(", ")"},
+                                      {"seq(", ")"},
+                                      {"not ", ""}}) {
+        SCOPED_TRACE(open);
+        EXPECT_NO_THROW(parseCriterion(nested(open, close, kMaxCriterionNesting)));
+        const int column = static_cast<int>(open.size()) * kMaxCriterionNesting + 1;
+        EXPECT_EQ(errorColumn(nested(open, close, kMaxCriterionNesting + 1)), column);
+        EXPECT_NE(errorMessage(nested(open, close, 6000)).find("deeper than 200 levels"),
+                  std::string::npos);
+    }
+    for (const char* open : {"(", "!"}) {
+        std::string text(6000, open[0]);
+        text += "H1";
+        if (open[0] == '(') text += std::string(6000, ')');
+        try {
+            parseZemaxFilter(text);
+            ADD_FAILURE() << "no error";
+        } catch (const ParseError& e) {
+            EXPECT_EQ(e.loc().column, kMaxCriterionNesting + 1);
+        }
+    }
 }
 
 // Hand-made paths

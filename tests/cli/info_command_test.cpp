@@ -347,6 +347,49 @@ TEST(VeilTrace, PruneSaysWhatItPruned) {
     EXPECT_EQ(some.err.find("--prune stopped no branch"), std::string::npos) << some.err;
 }
 
+// Input that once crashed or never finished stops at once with exit 1 and a message that
+// names the option or the file position: an unbounded split tree, nan options, seeds that
+// would wrap, an object id past size_t, criteria nested thousands deep, a dotted key of
+// 30000 parts, sources 1e19 mm away. Nothing is written.
+TEST(VeilTrace, HostileInputStopsBeforeTracing) {
+    const std::string dir = ::testing::TempDir() + "veil_hostile";
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    const std::string lens = " examples/lenses/singlet.toml -n 10 --quiet -o " + dir + "/out";
+    auto expectStop = [&](const std::string& args, const std::string& fragment) {
+        SCOPED_TRACE(args);
+        const VeilRun r = runVeil(args);
+        EXPECT_NE(r.exitCode, 0);
+        EXPECT_NE(r.err.find(fragment), std::string::npos) << r.err;
+        EXPECT_FALSE(std::filesystem::exists(dir + "/out/summary.json"));
+    };
+    expectStop("trace" + lens + " --min-flux 0", "--min-flux: 0 in split mode");
+    expectStop("trace" + lens + " --min-flux nan", "--min-flux: value nan not in range");
+    expectStop("trace" + lens + " --roulette nan", "--roulette: value nan not in range");
+    expectStop("trace" + lens + " --seed -1", "--seed -1 is not a whole number");
+    expectStop("trace" + lens + " --seed 99999999999999999999", "is not a whole number");
+    expectStop("trace" + lens + " --where 'hit(#18446744073709551617)'",
+               "'#18446744073709551617' matches no object");
+    expectStop("trace" + lens + " --where '" + std::string(6000, '(') + "hit(L1.front)" +
+                   std::string(6000, ')') + "'",
+               "--where 1:1:201: the criterion nests groups");
+    // Still bounded: roulette alone, or a shallow tree.
+    EXPECT_EQ(runVeil("trace" + lens + " --min-flux 0 --roulette 0.01").exitCode, 0);
+    EXPECT_EQ(runVeil("trace" + lens + " --min-flux 0 --max-split-depth 8").exitCode, 0);
+    std::filesystem::remove_all(dir + "/out");
+
+    std::string key = "k";
+    for (int i = 1; i < 30000; ++i) key += ".k";
+    std::ofstream(dir + "/deep.toml") << key << " = 1\n";
+    expectStop("info " + dir + "/deep.toml", dir + "/deep.toml:1:256: a dotted key of more than");
+
+    std::ifstream in(std::string(VEIL_SOURCE_DIR) + "/examples/lenses/singlet.toml");
+    std::ofstream(dir + "/far.toml")
+        << in.rdbuf() << "\n[[source]]\nkind = \"point\"\nposition_mm = [0, 0, -1e19]\n";
+    expectStop("trace " + dir + "/far.toml -n 10 -o " + dir + "/out",
+               "far.toml:39:22: source[1].position_mm[3] must be between -1e+09 and 1e+09");
+}
+
 // A scene without [[source]] is traced with one beam per system field, and says so.
 TEST(VeilTrace, SceneWithoutSourceTracesTheSystemFields) {
     const VeilRun r = runVeil("trace examples/scenes/double_gauss_50mm.toml -n 20 --json");

@@ -51,6 +51,36 @@ TEST(TomlDocument, DuplicateKeyIsASyntaxError) {
     expectAt(e, 2, 5);
 }
 
+// A dotted key of 30000 parts (an 80 KB file) once overflowed the stack inside the TOML
+// library; keys are bounded before parsing, strings and comments not counted.
+std::string dottedKey(int parts) {
+    std::string key = "k";
+    for (int i = 1; i < parts; ++i) key += ".k";
+    return key;
+}
+
+TEST(TomlDocument, DottedKeysAreBounded) {
+    const ParseError e = parseErrorOf([] {
+        TomlDocument::fromString("# a comment.\n" + dottedKey(30000) + " = 1\n", "deep.toml");
+    });
+    EXPECT_EQ(e.loc().file, "deep.toml");
+    expectAt(e, 2, 2 * kMaxDottedKeyParts);  // the dot that starts part 129
+    EXPECT_THAT(e.message(), HasSubstr("more than 128 parts"));
+    EXPECT_NO_THROW(TomlDocument::fromString(dottedKey(kMaxDottedKeyParts) + " = 1\n", "ok.toml"));
+    EXPECT_THAT(parseErrorOf([] {
+                    TomlDocument::fromString("[" + dottedKey(kMaxDottedKeyParts + 1) + "]\n",
+                                             "t.toml");
+                }).message(),
+                HasSubstr("more than 128 parts"));
+    // Dots in strings, multi-line strings and comments are not key parts; values' dots reset.
+    const std::string dots(400, '.');
+    EXPECT_NO_THROW(
+        TomlDocument::fromString("a = \"" + dots + "\"\nb = '" + dots + "'\nc = \"\"\"\n" + dots +
+                                     "\n" + dots + "\"\"\"\nd = \'\'\'" + dots + "\'\'\'\n# " +
+                                     dots + "\ne = [" + std::string(100, '1') + ".5, 1.5, 2.5]\n",
+                                 "strings.toml"));
+}
+
 TEST(TomlDocument, MissingFileNamesTheFile) {
     const ParseError e = parseErrorOf([] { TomlDocument::fromFile("/nonexistent/dir/lens.toml"); });
     EXPECT_EQ(e.loc().file, "/nonexistent/dir/lens.toml");

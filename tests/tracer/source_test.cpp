@@ -1043,6 +1043,25 @@ TEST(ReadSources, ReportsErrorsAtTheKeyAtFault) {
     expectError("[[source]]\nname = \"my sun\"\nkind = \"sun\"\n", "letters, digits", 2);
 }
 
+// Lengths beyond 1e9 mm are refused at the value (rays starting beyond ~1e18 mm once aborted
+// inside Embree): the inputs, and the limit itself accepted.
+TEST(ReadSources, LengthsAreBounded) {
+    const std::string within = "1e9";
+    expectError("[[source]]\nkind = \"point\"\nposition_mm = [0, 0, -1e19]\n",
+                "must be between -1e+09 and 1e+09 (got -1e+19)", 3);
+    expectError("[[source]]\nkind = \"collimated\"\nstart_gap_mm = 1e19\n",
+                "must be between 0 and 1e+09 (got 1e+19)", 3);
+    expectError("[[source]]\nkind = \"sun\"\nmargin_mm = 5e299\n", "between 0 and", 3);
+    expectError(
+        "[[source]]\nkind = \"lambertian\"\nposition_mm = [0, 0, -5]\nsize_mm = [2e301, 10]\n",
+        "size_mm", 4);
+    expectError(
+        "[[source]]\nkind = \"lambertian\"\nposition_mm = [0, 0, -5]\nradius_mm = 1\n"
+        "normal = [0, 1e300, 1]\n",
+        "normal", 5);
+    EXPECT_NO_THROW(Scene("[[source]]\nkind = \"point\"\nposition_mm = [0, 0, -" + within + "]\n"));
+}
+
 TEST(ReadSources, NamesAreUnique) {
     expectError("[[source]]\nkind = \"sun\"\n[[source]]\nkind = \"sun\"\n",
                 "source name 'sun' is already used at scene.toml:8", 3);
