@@ -1,12 +1,17 @@
 #include "cli/options.h"
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <charconv>
-#include <iterator>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <iomanip>
 #include <iostream>
+#include <iterator>
 #include <sstream>
 
 #include "analysis/picture.h"
@@ -209,11 +214,41 @@ std::string formatFlux(double flux, double relativeError, const std::string& uni
     return os.str();
 }
 
+void requireWritableFolder(const std::filesystem::path& folder, const std::string& option,
+                           const std::string& shown) {
+    namespace fs = std::filesystem;
+    auto fail = [&](const std::string& why) {
+        throw ParseError({option + " " + (shown.empty() ? folder.string() : shown), 0, 0}, why);
+    };
+    if (folder.empty()) fail("the output folder is empty");
+    std::error_code ec;
+    // The folder itself if it exists, else the nearest folder above it that does.
+    fs::path at = fs::absolute(folder, ec);
+    if (ec) fail("not a usable path: " + ec.message());
+    while (!fs::exists(at, ec)) {
+        if (!at.has_parent_path() || at.parent_path() == at) fail("no folder above it exists");
+        at = at.parent_path();
+    }
+    if (!fs::is_directory(at, ec))
+        fail(at == fs::absolute(folder) ? "is a file, not a folder"
+                                        : at.string() + " is a file, not a folder");
+    if (::access(at.c_str(), W_OK | X_OK) != 0)
+        fail("veil may not write in " + at.string() + " (" + std::strerror(errno) + ")");
+    // Some folders pass access() and still refuse new files (/proc, /sys): try one.
+    const fs::path probe = at / (".veil-write-test-" + std::to_string(::getpid()));
+    std::FILE* f = std::fopen(probe.c_str(), "wb");
+    if (!f) fail("veil cannot create files in " + at.string() + " (" + std::strerror(errno) + ")");
+    std::fclose(f);
+    fs::remove(probe, ec);
+}
+
 std::filesystem::path outputFolder(const std::string& given, const std::string& defaultName,
                                    bool json) {
-    if (!given.empty()) return given;
-    if (json) return {};
-    return defaultName;
+    std::filesystem::path folder = !given.empty() ? std::filesystem::path(given)
+                                   : json         ? std::filesystem::path()
+                                                  : std::filesystem::path(defaultName);
+    if (!folder.empty()) requireWritableFolder(folder, "-o");
+    return folder;
 }
 
 void WrittenFiles::print(std::ostream& os) const {

@@ -72,8 +72,17 @@ std::vector<std::pair<double, double>> parseFields(const std::vector<std::string
 // of exactly zero (no ray arrived) reads "0 W (no hits)", not "+- inf %".
 std::string formatFlux(double flux, double relativeError, const std::string& unit);
 
+// Throws ParseError naming `option` unless `folder` (or the nearest existing folder above it)
+// is a folder veil may create files in.
+// `shown`: the path to name in the message (default: the folder).
+void requireWritableFolder(const std::filesystem::path& folder, const std::string& option,
+                           const std::string& shown = "");
+
 // Where a command writes its files: the -o folder given, else the default folder, else
-// (with --json and no -o) nowhere: empty.
+// (with --json and no -o) nowhere: empty. Checked before any work: the folder, or the
+// nearest folder above it that exists, must be a folder veil may write into (a file, a
+// read-only folder, /proc or an empty -o is a ParseError naming -o), so a run never fails
+// only after it has traced. Nothing is created here.
 std::filesystem::path outputFolder(const std::string& given, const std::string& defaultName,
                                    bool json);
 

@@ -236,6 +236,14 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
         throw ParseError({"--events-only", 0, 0}, "--events-only needs --save-rays FILE");
     PathEncoding encoding{.positions = true, .directions = true, .doublePrecision = false};
     if (o.eventsOnly) encoding = PathEncoding{};
+    if (!o.saveRays.empty()) {
+        // A file veil may create, before the sample traced to size it.
+        if (std::filesystem::is_directory(o.saveRays))
+            throw ParseError({"--save-rays " + o.saveRays, 0, 0},
+                             "is a folder: give the ray database's file name");
+        const std::filesystem::path parent = std::filesystem::path(o.saveRays).parent_path();
+        requireWritableFolder(parent.empty() ? "." : parent, "--save-rays", o.saveRays);
+    }
     if (!o.saveRays.empty())
         checkRayDatabaseSize(ts.transport, ts.images, options, spec.raysPerSource, encoding,
                              o.saveRays, o.quiet);

@@ -5,6 +5,7 @@
 #include <limits>
 #include <map>
 #include <numbers>
+#include <sstream>
 #include <stdexcept>
 
 #include "lensdata/toml_document.h"
@@ -35,7 +36,8 @@ DetectorSpec readOne(const TomlTable& t) {
         if (s.name.empty()) name->fail(name->path() + " must not be empty");
     }
     if (const std::optional<TomlValue> size = t.get("size_mm"))
-        s.sizeMm = readPair(*size, NumberRange::above(0.0), "a pair [width, height] of numbers");
+        s.sizeMm = readPair(*size, NumberRange{0.0, kMaxDetectorSizeMm, true, false},
+                            "a pair [width, height] of numbers");
     if (const std::optional<TomlValue> pixels = t.get("pixels")) {
         if (!pixels->isArray() || pixels->asArray().size() != 2)
             pixels->failExpected("a pair [columns, rows] of integers");
@@ -97,6 +99,20 @@ void defaultPixels(DetectorGeometry& g, int nx, int ny) {
     g.pixelsY = along(g.heightMm);
 }
 
+// Pixels much wider than high (or the reverse) make no image a reader can show, and OpenEXR
+// refuses their aspect ratio only when the image is written, after the whole trace.
+void requireSquarishPixels(const DetectorGeometry& g, const DetectorSpec& spec) {
+    const double aspect = (g.widthMm / g.pixelsX) / (g.heightMm / g.pixelsY);
+    if (aspect >= 1.0 / kMaxPixelAspect && aspect <= kMaxPixelAspect) return;
+    std::ostringstream m;
+    m << "detector '" << g.name << "': its pixels are " << g.widthMm / g.pixelsX << " x "
+      << g.heightMm / g.pixelsY << " mm (size_mm " << g.widthMm << " x " << g.heightMm
+      << " over " << g.pixelsX << " x " << g.pixelsY << " pixels), "
+      << std::max(aspect, 1.0 / aspect) << " times longer one way than the other; at most "
+      << kMaxPixelAspect << ": give size_mm closer to the pixels' shape, or pixels";
+    throw ParseError(spec.loc, m.str());
+}
+
 }  // namespace
 
 std::ostream& operator<<(std::ostream& os, const DetectorSpec& s) {
@@ -153,6 +169,7 @@ DetectorGeometry placeDetector(const DetectorSpec& spec, const Scene& scene) {
         g.widthMm = spec.sizeMm->x;
         g.heightMm = spec.sizeMm->y;
         defaultPixels(g, spec.pixelsX, spec.pixelsY);
+        requireSquarishPixels(g, spec);
         return g;
     }
     const std::string objectName = spec.object.empty() ? std::string("sensor") : spec.object;
@@ -182,6 +199,7 @@ DetectorGeometry placeDetector(const DetectorSpec& spec, const Scene& scene) {
     defaultPixels(g, spec.pixelsX, spec.pixelsY);
     if (int64_t(g.pixelsX) * g.pixelsY > kMaxDetectorPixels)
         throw ParseError(spec.loc, "detector '" + g.name + "' has too many pixels");
+    requireSquarishPixels(g, spec);
     return g;
 }
 

@@ -93,6 +93,11 @@ std::vector<DetectorSpec> readDetectors(TomlDocument& doc);
 
 // Largest pixelsX * pixelsY accepted (32 Mpx: 768 MB per image with its three sums).
 inline constexpr int64_t kMaxDetectorPixels = int64_t(1) << 25;
+// A detector's size_mm lies in (0, 1e9] mm, and its pixels (size over pixel count) are at most
+// this many times longer one way than the other: ParseError at the detector's table, when
+// the scene is built (OpenEXR refuses such images only when they are written).
+inline constexpr double kMaxDetectorSizeMm = 1e9;
+inline constexpr double kMaxPixelAspect = 1000.0;
 
 // A detector placed in a scene: everything pixelOf() needs.
 struct DetectorGeometry {

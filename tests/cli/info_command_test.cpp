@@ -388,6 +388,22 @@ TEST(VeilTrace, HostileInputStopsBeforeTracing) {
         << in.rdbuf() << "\n[[source]]\nkind = \"point\"\nposition_mm = [0, 0, -1e19]\n";
     expectStop("trace " + dir + "/far.toml -n 10 -o " + dir + "/out",
                "far.toml:39:22: source[1].position_mm[3] must be between -1e+09 and 1e+09");
+
+    // Outputs that could only fail after the trace are checked first: -o naming a file,
+    // --save-rays naming a folder, a folder in which nothing can be created, and a detector
+    // whose pixels OpenEXR would refuse (24 x 1e-7 mm).
+    std::ofstream(dir + "/a_file") << "x";
+    expectStop("trace examples/lenses/singlet.toml -n 10 -o " + dir + "/a_file",
+               "-o " + dir + "/a_file: is a file, not a folder");
+    expectStop("trace" + lens + " --save-rays " + dir, "--save-rays " + dir + ": is a folder");
+    expectStop("trace examples/lenses/singlet.toml -n 10 -o /proc/veil_out",
+               "-o /proc/veil_out: veil cannot create files in /proc");
+    std::ifstream in2(std::string(VEIL_SOURCE_DIR) + "/examples/lenses/singlet.toml");
+    std::ofstream(dir + "/thin.toml") << in2.rdbuf()
+                                      << "\n[[detector]]\nname = \"thin\"\nz_mm = 100\n"
+                                         "size_mm = [24, 1e-7]\n";
+    expectStop("trace " + dir + "/thin.toml -n 10 -o " + dir + "/out",
+               "thin.toml:37:1: detector 'thin': its pixels are 0.09375 x 1e-07 mm");
 }
 
 // A scene without [[source]] is traced with one beam per system field, and says so.
