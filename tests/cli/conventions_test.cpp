@@ -73,7 +73,9 @@ TEST(CliConventions, EveryCommandFollowsThemAndIsDocumented) {
             EXPECT_TRUE(options.count("--threads"));
             EXPECT_TRUE(options.count("--seed"));
             // pst makes its own beam, one per --angles value: --field has no place there.
-            if (c != "pst") EXPECT_TRUE(options.count("--field"));
+            if (c != "pst") {
+                EXPECT_TRUE(options.count("--field"));
+            }
         }
         for (const char* old : {"--mc-rays", "--png", "--output-dir"}) EXPECT_FALSE(options.count(old));
         if (options.count("--output")) {

@@ -1041,20 +1041,24 @@ TEST(SurfaceShape, PathologicalAspheresEndWithoutLooping) {
     wild.coefficients = {1e3, -1e6, 1e9, -1e12, 1e15, -1e18, 1e21, -1e24, 1e27, -1e30};
     // Whatever they return must be a point of the surface (today both give up: no hit).
     const RefShape wildRef = refShape(SurfaceShape{wild});
-    if (const std::optional<double> t = intersectSequential(wild, ray))
+    if (const std::optional<double> t = intersectSequential(wild, ray)) {
         EXPECT_LT(surfaceDistance(wildRef, ray.origin + *t * ray.direction), 1e-6) << *t;
-    if (const std::optional<ShapeHit> h = intersectFirst(wild, ray, -kInf, kInf, kInf, false))
+    }
+    if (const std::optional<ShapeHit> h = intersectFirst(wild, ray, -kInf, kInf, kInf, false)) {
         EXPECT_LT(surfaceDistance(wildRef, h->point), 1e-6) << h->t;
+    }
     // A ray touching the quartic bowl z = 1e-3 r^4 at its vertex: a contact of order four,
     // with no sign change to bracket. The vertex is the only common point, so a hit must be
     // there; with f = 1e-3 (t - 5)^4, t is resolved to about 1e-3 mm.
     EvenAsphereShape bowl{0.0, 0.0, {}};
     bowl.coefficients[1] = 1e-3;
     const Ray touching{{-5, 0, 0}, {1, 0, 0}};
-    if (const std::optional<double> t = intersectSequential(bowl, touching))
+    if (const std::optional<double> t = intersectSequential(bowl, touching)) {
         EXPECT_NEAR(*t, 5.0, 1e-3);
-    if (const std::optional<ShapeHit> h = intersectFirst(bowl, touching, 0.0, kInf, kInf, false))
+    }
+    if (const std::optional<ShapeHit> h = intersectFirst(bowl, touching, 0.0, kInf, kInf, false)) {
         EXPECT_NEAR(h->t, 5.0, 1e-3);
+    }
 }
 
 TEST(SurfaceShape, PrintsItself) {
