@@ -193,15 +193,19 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
                                      {"back", p.surfaces[e.backSurface].name},
                                      {"material", e.material.label()}});
         j["spots"] = nlohmann::json::array();
+        auto landed = [](const SpotResult& s, double v) {
+            return s.raysLanded > 0 ? num(v) : nlohmann::json();
+        };
         for (const SpotResult& s : spots)
             j["spots"].push_back({{"field", s.field},
                                   {"wavelength_nm", model.wavelengthNm(s.wavelength)},
                                   {"rays_traced", s.raysTraced},
                                   {"rays_landed", s.raysLanded},
-                                  {"centroid_x_mm", s.centroidMm.x},
-                                  {"centroid_y_mm", s.centroidMm.y},
-                                  {"rms_radius_mm", s.rmsRadiusMm},
-                                  {"rms_radius_chief_mm", s.rmsRadiusChiefMm}});
+                                  // null where no ray landed or the value overflowed
+                                  {"centroid_x_mm", landed(s, s.centroidMm.x)},
+                                  {"centroid_y_mm", landed(s, s.centroidMm.y)},
+                                  {"rms_radius_mm", landed(s, s.rmsRadiusMm)},
+                                  {"rms_radius_chief_mm", landed(s, s.rmsRadiusChiefMm)}});
         j["import_report"] = nlohmann::json::array();
         for (const ImportNote& n : p.report)
             j["import_report"].push_back({{"severity", severityName(n.severity)},
@@ -322,14 +326,33 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
     os << "  " << std::setw(16) << "field (x, y)" << std::setw(12) << "wavelength" << std::setw(10)
        << "rays" << std::setw(28) << "centroid (x, y) mm" << std::setw(16) << "RMS radius mm"
        << "\n";
+    // A spot no ray reached, or one whose numbers overflowed (an image 1e300 mm away), has
+    // no centroid or size to print: n/a, and why below the table.
+    bool noRays = false, notFinite = false;
+    auto cell = [&](const SpotResult& s, double v) -> std::string {
+        if (s.raysLanded == 0) {
+            noRays = true;
+            return "n/a";
+        }
+        if (!std::isfinite(v)) {
+            notFinite = true;
+            return "n/a";
+        }
+        return fmtMm(v);
+    };
     for (const SpotResult& s : spots) {
         const Field& f = p.system.fields[s.field];
+        const std::string centroid = s.raysLanded == 0
+                                         ? cell(s, 0.0)
+                                         : cell(s, s.centroidMm.x) + ", " + cell(s, s.centroidMm.y);
         os << "  " << std::setw(16) << (fmt(f.x, 4) + ", " + fmt(f.y, 4)) << std::setw(12)
            << fmt(model.wavelengthNm(s.wavelength)) << std::setw(10)
            << (std::to_string(s.raysLanded) + "/" + std::to_string(s.raysTraced)) << std::setw(28)
-           << (fmtMm(s.centroidMm.x) + ", " + fmtMm(s.centroidMm.y)) << std::setw(16)
-           << fmtMm(s.rmsRadiusMm) << "\n";
+           << centroid << std::setw(16) << cell(s, s.rmsRadiusMm) << "\n";
     }
+    if (noRays)
+        os << "  n/a: no ray of the bundle landed on the image surface (vignetted or missed)\n";
+    if (notFinite) os << "  n/a: the value is beyond the range of double precision\n";
     os << "\nImport report: ";
     if (p.report.empty()) {
         os << "nothing to report\n";

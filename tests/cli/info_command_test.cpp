@@ -193,6 +193,32 @@ TEST(VeilInfo, AnamorphicLensHasBothSections) {
     EXPECT_FALSE(std::filesystem::exists(dir + "/m/summary.json"));
 }
 
+// A spot that no ray reaches has no centroid and no size: "n/a" with the reason in the text,
+// null in the JSON, never a 0.000000 that reads as a perfect focus.
+TEST(VeilInfo, SpotWithoutRaysIsNotAvailable) {
+    const std::string dir = ::testing::TempDir() + "veil_spot_na";
+    std::filesystem::create_directories(dir);
+    std::ifstream in(std::string(VEIL_SOURCE_DIR) + "/examples/lenses/singlet.toml");
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    // The image surface vignettes at 1 mm: the 3.5 and 5 degree fields land nowhere.
+    text.replace(text.rfind("]"), 1, "  { image = true, sd = 1.0 },\n]");
+    std::ofstream(dir + "/vignetted.toml") << text;
+    const VeilRun r = runVeil("info " + dir + "/vignetted.toml");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.out.find("0/217                         n/a             n/a"), std::string::npos)
+        << r.out;
+    EXPECT_NE(r.out.find("n/a: no ray of the bundle landed on the image surface"),
+              std::string::npos);
+    EXPECT_EQ(r.out.find("nan"), std::string::npos);
+    const nlohmann::json j =
+        nlohmann::json::parse(runVeil("info --json " + dir + "/vignetted.toml").out);
+    const nlohmann::json& s = j["spots"].back();
+    EXPECT_EQ(s["rays_landed"].get<int>(), 0);
+    EXPECT_TRUE(s["rms_radius_mm"].is_null());
+    EXPECT_TRUE(s["centroid_x_mm"].is_null());
+    EXPECT_GT(j["spots"][0]["rms_radius_mm"].get<double>(), 0.0);
+}
+
 // A surface type veil does not model is an error that stops the command (exit 1) before
 // anything is built, named at its line, with every other error of the import after it.
 TEST(VeilInfo, UnsupportedSurfaceTypesStopWithEveryErrorNamed) {
