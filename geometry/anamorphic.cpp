@@ -261,19 +261,8 @@ template <typename Shape>
 bool searchRange(const Shape& shape, const Vec3& p, const Vec3& d, double rLimit, double& lo,
                  double& hi) {
     const double uMax = rLimit * rLimit * (1.0 + 64.0 * kEps);
+    if (!clipToCylinder(p, d, uMax, lo, hi)) return false;
     const double qa = d.x * d.x + d.y * d.y;
-    const double qb = p.x * d.x + p.y * d.y;
-    const double qc = p.x * p.x + p.y * p.y - uMax;
-    if (qa == 0.0) {
-        if (qc > 0.0) return false;
-    } else {
-        const double disc = differenceOfProducts(qb, qb, qa, qc);
-        if (!(disc >= 0.0)) return false;
-        const double q = -(qb + std::copysign(std::sqrt(disc), qb));
-        const double s1 = q / qa, s2 = q != 0.0 ? qc / q : 0.0;
-        lo = std::max(lo, std::min(s1, s2));
-        hi = std::min(hi, std::max(s1, s2));
-    }
     // A ray parallel to the axis stays at one (x, y).
     const Interval X = qa == 0.0 ? Interval{p.x * p.x, p.x * p.x} : Interval{0.0, uMax};
     const Interval Y = qa == 0.0 ? Interval{p.y * p.y, p.y * p.y} : Interval{0.0, uMax};
@@ -281,16 +270,7 @@ bool searchRange(const Shape& shape, const Vec3& p, const Vec3& d, double rLimit
     const Interval m = termMagnitude(shape, X, Y);
     const double zTol = 64.0 * kEps * std::max(std::abs(m.lo), std::abs(m.hi));
     const double zLo = S.lo - zTol, zHi = S.hi + zTol;
-    if (d.z != 0.0) {
-        const double s1 = (zLo - p.z) / d.z, s2 = (zHi - p.z) / d.z;
-        if (std::isfinite(s1) && std::isfinite(s2)) {
-            lo = std::max(lo, std::min(s1, s2));
-            hi = std::min(hi, std::max(s1, s2));
-        }
-    } else if (p.z < zLo || p.z > zHi) {
-        return false;
-    }
-    return lo <= hi && std::isfinite(lo) && std::isfinite(hi);
+    return clipToSlab(p, d, zLo, zHi, lo, hi);
 }
 
 template <typename Shape>

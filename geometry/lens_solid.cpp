@@ -224,8 +224,9 @@ void checkThickness(const LensSolid& s) {
                                      " mm at r = " + fmt(s.edgeRadiusMm) + " mm");
     }
     double worst = std::numeric_limits<double>::infinity(), worstR = 0.0;
+    const std::vector<double> azimuths = profileAzimuths(anamorphic(s));
     for (double r : profileRadii(s.edgeRadiusMm, {s.front.faceRadiusMm, s.back.faceRadiusMm})) {
-        for (double phi : profileAzimuths(anamorphic(s))) {
+        for (double phi : azimuths) {
             const double x = r * std::cos(phi), y = r * std::sin(phi);
             const double t = s.direction * (s.backZAt(x, y) - s.frontZAt(x, y));
             if (t < worst) {
@@ -251,8 +252,9 @@ void checkAirGap(const Prescription& p, const LensSolid& a, const LensSolid& b) 
     if (!samePlace(a.placement, b.placement)) return;
     const double rMax = std::min(a.edgeRadiusMm, b.edgeRadiusMm);
     double worst = std::numeric_limits<double>::infinity(), worstR = 0.0;
+    const std::vector<double> azimuths = profileAzimuths(anamorphic(a) || anamorphic(b));
     for (double r : profileRadii(rMax, {a.back.faceRadiusMm, b.front.faceRadiusMm})) {
-        for (double phi : profileAzimuths(anamorphic(a) || anamorphic(b))) {
+        for (double phi : azimuths) {
             const double x = r * std::cos(phi), y = r * std::sin(phi);
             const double gap = a.direction * (b.frontZAt(x, y) - a.backZAt(x, y));
             if (gap < worst) {

@@ -12,11 +12,13 @@
 // takes) and polishRoot() refines it; the method is described in geometry/surface_shape.cpp
 // (Even Asphere Intersection). Internal to geometry/.
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
 #include <optional>
 
+#include "geometry/numerics.h"
 #include "geometry/vec.h"
 
 namespace veil::root_search {
@@ -44,6 +46,38 @@ inline bool withinRadius(const Vec3& point, double rMax, double magnitude) {
     if (rMax == std::numeric_limits<double>::infinity()) return true;
     const double r = std::sqrt(point.x * point.x + point.y * point.y);
     return r <= rMax + 8.0 * std::numeric_limits<double>::epsilon() * (rMax + magnitude);
+}
+
+// The search range [lo, hi] of the ray p + s d narrowed to where it stays within the cylinder
+// x^2 + y^2 <= uMax (a quadratic in s, solved without cancellation); false if it never does.
+inline bool clipToCylinder(const Vec3& p, const Vec3& d, double uMax, double& lo, double& hi) {
+    const double qa = d.x * d.x + d.y * d.y;
+    const double qb = p.x * d.x + p.y * d.y;
+    const double qc = p.x * p.x + p.y * p.y - uMax;
+    if (qa == 0.0) return !(qc > 0.0);
+    const double disc = differenceOfProducts(qb, qb, qa, qc);
+    if (!(disc >= 0.0)) return false;
+    const double q = -(qb + std::copysign(std::sqrt(disc), qb));
+    const double s1 = q / qa, s2 = q != 0.0 ? qc / q : 0.0;
+    lo = std::max(lo, std::min(s1, s2));
+    hi = std::min(hi, std::max(s1, s2));
+    return true;
+}
+
+// [lo, hi] narrowed to where z lies in the slab [zLo, zHi] (a sag enclosure); false if the
+// range ends up empty or unbounded.
+inline bool clipToSlab(const Vec3& p, const Vec3& d, double zLo, double zHi, double& lo,
+                       double& hi) {
+    if (d.z != 0.0) {
+        const double s1 = (zLo - p.z) / d.z, s2 = (zHi - p.z) / d.z;
+        if (std::isfinite(s1) && std::isfinite(s2)) {
+            lo = std::max(lo, std::min(s1, s2));
+            hi = std::min(hi, std::max(s1, s2));
+        }
+    } else if (p.z < zLo || p.z > zHi) {
+        return false;
+    }
+    return lo <= hi && std::isfinite(lo) && std::isfinite(hi);
 }
 
 // Enclosures of f and f' over a segment of the ray.

@@ -440,19 +440,8 @@ class AsphereAlongRay {
 bool asphereSearchRange(const AsphereAlongRay& f, const Vec3& p, const Vec3& d, double rLimit,
                         double& lo, double& hi) {
     const double uMax = rLimit * rLimit * (1.0 + 64.0 * kEpsilon);
+    if (!clipToCylinder(p, d, uMax, lo, hi)) return false;
     const double qa = d.x * d.x + d.y * d.y;
-    const double qb = p.x * d.x + p.y * d.y;
-    const double qc = p.x * p.x + p.y * p.y - uMax;
-    if (qa == 0.0) {
-        if (qc > 0.0) return false;
-    } else {
-        const double disc = differenceOfProducts(qb, qb, qa, qc);
-        if (!(disc >= 0.0)) return false;
-        const double q = -(qb + std::copysign(std::sqrt(disc), qb));
-        const double s1 = q / qa, s2 = q != 0.0 ? qc / q : 0.0;
-        lo = std::max(lo, std::min(s1, s2));
-        hi = std::min(hi, std::max(s1, s2));
-    }
     // A ray parallel to the axis stays at one radius: the sag there bounds it (terms over w
     // grow without bound toward the rim, so the whole range would not).
     const double u0 = p.x * p.x + p.y * p.y;
@@ -461,16 +450,7 @@ bool asphereSearchRange(const AsphereAlongRay& f, const Vec3& p, const Vec3& d, 
                   : f.sagRange(0.0, uMax);
     const double zTol = 32.0 * kEpsilon * sr.magnitude;
     const double zLo = sr.lo - zTol, zHi = sr.hi + zTol;
-    if (d.z != 0.0) {
-        const double s1 = (zLo - p.z) / d.z, s2 = (zHi - p.z) / d.z;
-        if (std::isfinite(s1) && std::isfinite(s2)) {
-            lo = std::max(lo, std::min(s1, s2));
-            hi = std::min(hi, std::max(s1, s2));
-        }
-    } else if (p.z < zLo || p.z > zHi) {
-        return false;
-    }
-    return lo <= hi && std::isfinite(lo) && std::isfinite(hi);
+    return clipToSlab(p, d, zLo, zHi, lo, hi);
 }
 
 double asphereRadiusLimit(const EvenAsphereShape& s, double rMax) {
