@@ -247,6 +247,36 @@ DetectorImage::DetectorImage(DetectorGeometry geometry) : geometry_(std::move(ge
     count_.assign(n, 0);
 }
 
+DetectorImage DetectorImage::grid(DetectorGeometry geometry) {
+    DetectorImage out(std::move(geometry));
+    // Released, not only cleared: a template keeps no memory for sums.
+    std::vector<double>().swap(out.flux_);
+    std::vector<double>().swap(out.flux2_);
+    std::vector<uint64_t>().swap(out.count_);
+    return out;
+}
+
+DetectorImage::DetectorImage(const DetectorImage& other)
+    : geometry_(other.geometry_),
+      flux_(other.flux_),
+      flux2_(other.flux2_),
+      count_(other.count_),
+      totalFlux_(other.totalFlux_),
+      totalFlux2_(other.totalFlux2_),
+      totalCount_(other.totalCount_) {
+    if (!other.hasSums() && geometry_.pixelCount() > 0) {  // a template's copy: zero sums
+        const size_t n = static_cast<size_t>(geometry_.pixelCount());
+        flux_.assign(n, 0.0);
+        flux2_.assign(n, 0.0);
+        count_.assign(n, 0);
+    }
+}
+
+DetectorImage& DetectorImage::operator=(const DetectorImage& other) {
+    if (this != &other) *this = DetectorImage(other);
+    return *this;
+}
+
 std::optional<int> DetectorImage::pixelOf(const Vec3& globalPoint) const {
     const Vec3 p = geometry_.frame.toLocalPoint(globalPoint);
     return pixelOfLocal(p.x, p.y);
@@ -293,30 +323,58 @@ void DetectorImage::add(int pixel, double flux) {
     ++totalCount_;
 }
 
+namespace {
+
+// One ray's entries reduced to a sum per pixel, ascending pixel. Stable: equal pixels keep
+// the order they were recorded in, so the sums do not depend on the sort implementation.
+void reduceRay(const std::vector<RayContribution::Entry>& entries,
+               std::vector<RayContribution::Entry>& scratch,
+               std::vector<RayContribution::Entry>& out) {
+    scratch.assign(entries.begin(), entries.end());
+    std::stable_sort(scratch.begin(), scratch.end(),
+                     [](const auto& a, const auto& b) { return a.pixel < b.pixel; });
+    for (size_t i = 0; i < scratch.size();) {
+        const int pixel = scratch[i].pixel;
+        double sum = 0.0;
+        for (; i < scratch.size() && scratch[i].pixel == pixel; ++i) sum += scratch[i].flux;
+        out.push_back({pixel, sum});
+    }
+}
+
+}  // namespace
+
+void DetectorLog::add(RayContribution& ray) {
+    if (ray.empty()) return;
+    reduceRay(ray.entries(), sortScratch_, sums_);
+    rayEnds_.push_back(sums_.size());
+    ray.clear();
+}
+
 void DetectorImage::add(RayContribution& ray) {
     if (ray.empty()) return;
-    std::vector<RayContribution::Entry> entries = ray.entries();
-    // Stable: equal pixels keep the order they were recorded in, so the sums do not depend
-    // on the sort implementation.
-    std::stable_sort(entries.begin(), entries.end(),
-                     [](const auto& a, const auto& b) { return a.pixel < b.pixel; });
-    double rayTotal = 0.0;
-    for (size_t i = 0; i < entries.size();) {
-        const int pixel = entries[i].pixel;
-        if (static_cast<unsigned>(pixel) >= flux_.size())
-            throw std::out_of_range("DetectorImage::add: pixel " + std::to_string(pixel) +
-                                    " outside detector '" + geometry_.name + "'");
-        double sum = 0.0;
-        for (; i < entries.size() && entries[i].pixel == pixel; ++i) sum += entries[i].flux;
-        flux_[pixel] += sum;
-        flux2_[pixel] += sum * sum;
-        ++count_[pixel];
-        rayTotal += sum;
+    DetectorLog log;
+    log.add(ray);
+    add(log);
+}
+
+void DetectorImage::add(const DetectorLog& log) {
+    size_t i = 0;
+    for (const size_t end : log.rayEnds_) {
+        double rayTotal = 0.0;
+        for (; i < end; ++i) {
+            const auto [pixel, sum] = log.sums_[i];
+            if (static_cast<unsigned>(pixel) >= flux_.size())
+                throw std::out_of_range("DetectorImage::add: pixel " + std::to_string(pixel) +
+                                        " outside detector '" + geometry_.name + "'");
+            flux_[pixel] += sum;
+            flux2_[pixel] += sum * sum;
+            ++count_[pixel];
+            rayTotal += sum;
+        }
+        totalFlux_ += rayTotal;
+        totalFlux2_ += rayTotal * rayTotal;
+        ++totalCount_;
     }
-    totalFlux_ += rayTotal;
-    totalFlux2_ += rayTotal * rayTotal;
-    ++totalCount_;
-    ray.clear();
 }
 
 void DetectorImage::merge(const DetectorImage& other) {

@@ -39,11 +39,11 @@
 // one emitted ray deposits in a RayContribution and flush it once with add(RayContribution&).
 // add(pixel, flux) treats each call as the whole contribution of one emitted ray.
 //
-// Reductions. Threads accumulate into their own DetectorImage (or RayContribution lists) and
-// merge() adds element-wise. Floating-point sums depend on their order, so for images that
-// are bitwise the same for any thread count, merge partial images of fixed blocks of rays in
-// a fixed order (for example tbb::parallel_deterministic_reduce over ray indices with a
-// fixed grain size), never in completion order.
+// Reductions. Floating-point sums depend on their order, so for images that are bitwise the
+// same for any thread count, add the rays of fixed blocks in a fixed order, never in
+// completion order. A block traced on its own thread keeps a DetectorLog (its rays' sums, in
+// order; memory with the hits) that is added to the one image in block order; merge() adds
+// whole images element-wise (for checkpoints and passes), at pixel-count memory each.
 
 #include <array>
 #include <cstdint>
@@ -151,12 +151,45 @@ class RayContribution {
     std::vector<Entry> entries_;
 };
 
+// What a run of emitted rays deposits on one detector, ray after ray, each ray already
+// reduced to one sum per pixel (as DetectorImage::add(RayContribution&) reduces it). Adding
+// a log to an image gives bitwise the image that adding its rays one by one would. A
+// traced block of rays keeps its log (memory with its hits, not with the pixel count) and
+// the logs are added to one image in block order: pixels x blocks never held at once.
+class DetectorLog {
+  public:
+    // Appends one ray (nothing when it is empty) and clears it.
+    void add(RayContribution& ray);
+    bool empty() const { return rayEnds_.empty(); }
+    size_t rays() const { return rayEnds_.size(); }
+    size_t entries() const { return sums_.size(); }
+    void clear() {
+        sums_.clear();
+        rayEnds_.clear();
+    }
+
+  private:
+    friend class DetectorImage;
+    std::vector<RayContribution::Entry> sums_;  // per ray, one per pixel, ascending pixel
+    std::vector<size_t> rayEnds_;               // end of each ray's sums in sums_
+    std::vector<RayContribution::Entry> sortScratch_;
+};
+
 // Per pixel sums of flux (W or lm, the source's unit), of squared per-ray flux and the
 // number of rays that contributed, plus the same three for the whole detector.
 class DetectorImage {
   public:
     DetectorImage() = default;
     explicit DetectorImage(DetectorGeometry geometry);
+    // A template: the grid without memory for sums (TraceSetup::images, whose copies are the
+    // accumulators of a run). Copying a template gives a zero image with its sums allocated;
+    // the template's own sums must not be read (hasSums() is false).
+    static DetectorImage grid(DetectorGeometry geometry);
+    DetectorImage(const DetectorImage& other);
+    DetectorImage& operator=(const DetectorImage& other);
+    DetectorImage(DetectorImage&&) noexcept = default;
+    DetectorImage& operator=(DetectorImage&&) noexcept = default;
+    bool hasSums() const { return !flux_.empty(); }
 
     const DetectorGeometry& geometry() const { return geometry_; }
     int pixelsX() const { return geometry_.pixelsX; }
@@ -185,6 +218,8 @@ class DetectorImage {
     // recorded), then each pixel gets its sum, its square and one count; the totals get the
     // ray's sum over the detector and its square. Clears `ray`. Nothing happens when empty.
     void add(RayContribution& ray);
+    // Every ray of a log, in its order (the same as adding them one by one).
+    void add(const DetectorLog& log);
     // Element-wise sum. Throws std::invalid_argument when the pixel grids differ.
     void merge(const DetectorImage& other);
     void clear();

@@ -1,8 +1,5 @@
 #include "tracer/nonsequential.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_reduce.h>
-
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -10,6 +7,7 @@
 #include <exception>
 #include <thread>
 
+#include "tracer/ordered_blocks.h"
 #include "tracer/path_judge.h"
 #include "tracer/rng.h"
 #include "tracer/sequential_trace.h"
@@ -86,17 +84,21 @@ uint64_t childKey(uint64_t key, int depth, int k) {
     return (z ^ (z >> 31)) | 1u;  // never 0, the ray's own key
 }
 
-// Per-block accumulation: the budget and one image per detector.
+// One block of rays as traced: its budget and, per detector, the log of what its rays
+// deposited (tracer/detector.h, DetectorLog), added to the run's images in block order.
 struct Accumulator {
+    const std::vector<DetectorImage>* detectors = nullptr;  // the grids (pixelOf)
     FluxBudget budget;
-    std::vector<DetectorImage> images;
-    // The current ray's contributions, one list per detector, added once the ray (with all
+    std::vector<DetectorLog> logs;
+    // The current ray's contributions, one list per detector, logged once the ray (with all
     // its branches) is done: sums of squares are per emitted ray, per pixel and in total.
     std::vector<RayContribution> scratch;
 
+    explicit Accumulator(const std::vector<DetectorImage>& grids)
+        : detectors(&grids), logs(grids.size()), scratch(grids.size()) {}
     void flushRay() {
         for (size_t d = 0; d < scratch.size(); ++d)
-            if (!scratch[d].empty()) images[d].add(scratch[d]);
+            if (!scratch[d].empty()) logs[d].add(scratch[d]);
     }
 };
 
@@ -264,7 +266,7 @@ class RayTracer {
             }
             const int det = ts_.detectorOfObject[hit->object];
             if (det >= 0) {
-                const auto pixel = acc.images[det].pixelOf(hit->point);
+                const auto pixel = (*acc.detectors)[det].pixelOf(hit->point);
                 if (pixel) {
                     acc.scratch[det].add(*pixel, br.flux);
                     b.detected += br.flux;
@@ -345,36 +347,41 @@ TraceResult traceNonsequential(const TransportScene& ts,
     const uint64_t block = std::max<uint64_t>(1, options.raysPerBlock);
     std::atomic<uint64_t> done{0};
 
+    const uint64_t blocks = total / block + (total % block != 0 ? 1 : 0);
+    // Blocks traced in parallel, added to the images in block order (tracer/ordered_blocks.h):
+    // the sums do not depend on the thread count, and memory is the images plus the logs of
+    // a few blocks, whatever the ray count.
+    FluxBudget budget;
+    std::vector<DetectorImage> images = detectors;
     auto work = [&]() {
-        Accumulator identity{{}, detectors, std::vector<RayContribution>(detectors.size())};
-        return tbb::parallel_deterministic_reduce(
-            tbb::blocked_range<uint64_t>(0, total, block), identity,
-            [&](const tbb::blocked_range<uint64_t>& r, Accumulator acc) {
+        forBlocksInOrder(
+            blocks,
+            [&](uint64_t b) {
+                Accumulator acc(detectors);
                 RayTracer tracer(ts, options);
-                for (uint64_t i = r.begin(); i < r.end(); ++i) {
-                    // Ray i belongs to source i / raysPerSource; its random stream is keyed
-                    // by i alone, so sources never share numbers.
+                const uint64_t end = std::min(total, (b + 1) * block);
+                for (uint64_t i = b * block; i < end; ++i) {
+                    // Ray i belongs to source i / raysPerSource; its random stream is keyed by
+                    // i alone, so sources never share numbers.
                     tracer.trace(static_cast<int>(i / raysPerSource), i, raysPerSource, acc);
                     if (options.recordHistories && onRay) onRay(i, tracer.history());
                 }
-                done += r.size();
+                done += end - b * block;
                 return acc;
             },
-            [](Accumulator a, const Accumulator& b) {
-                a.budget.merge(b.budget);
-                for (size_t d = 0; d < a.images.size(); ++d) a.images[d].merge(b.images[d]);
-                return a;
+            [&](const Accumulator& acc) {
+                budget.merge(acc.budget);
+                for (size_t d = 0; d < images.size(); ++d) images[d].add(acc.logs[d]);
             });
     };
-    Accumulator result;
     if (!progress) {
-        result = work();
+        work();
     } else {
         std::exception_ptr failure;
         std::atomic<bool> finished{false};
         std::thread worker([&] {
             try {
-                result = work();
+                work();
             } catch (...) {
                 failure = std::current_exception();
             }
@@ -388,7 +395,7 @@ TraceResult traceNonsequential(const TransportScene& ts,
         if (failure) std::rethrow_exception(failure);
         progress(total);
     }
-    return {result.budget, std::move(result.images)};
+    return {budget, std::move(images)};
 }
 
 }  // namespace veil

@@ -27,8 +27,10 @@
 // reason and never booked as absorbed: a lossless scene absorbs exactly nothing.
 //
 // Determinism: ray i draws its random numbers from CounterRng(seed, i), and per-ray results
-// are reduced over fixed blocks of rays in a fixed order (tbb::parallel_deterministic_reduce),
-// so every thread count gives bitwise the same detector images and budget.
+// are collected over fixed blocks of rays, traced in parallel, and added to the images in block
+// order (tbb::parallel_pipeline with a serial in-order last stage), so every thread count gives
+// bitwise the same detector images and budget. A block keeps a log of its hits, not an image:
+// memory is the images plus a few blocks' logs, whatever the ray count.
 
 #include <cstdint>
 #include <functional>

@@ -1,8 +1,5 @@
 #include "tracer/photon_pass.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_reduce.h>
-
 #include <algorithm>
 #include <atomic>
 #include <bit>
@@ -10,6 +7,7 @@
 #include <cstring>
 #include <numbers>
 
+#include "tracer/ordered_blocks.h"
 #include "tracer/qmc.h"
 
 namespace veil {
@@ -178,10 +176,6 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
         }
         if (cells.empty()) cells.push_back(*own);
     };
-    auto splat = [](std::vector<double>& image, const std::vector<int>& cells, double flux) {
-        const double share = flux / static_cast<double>(cells.size());
-        for (int p : cells) image[static_cast<size_t>(p)] += share;
-    };
     // Criteria: photon prefixes stream through the judge; a gather or a deposit judges the
     // joined path (the photon's events, its scatter at the view point, the view point's
     // backward events; or the detector hit).
@@ -190,36 +184,56 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
     const size_t stateBytes = judge ? judge->stateBytes() : 0;
     const std::vector<PathEvent>& vpEvents = back.events;
 
-    PhotonImages identity;
-    identity.visible.assign(static_cast<size_t>(pixels), 0.0);
-    identity.caustic.assign(static_cast<size_t>(pixels), 0.0);
-    identity.secondary.assign(static_cast<size_t>(pixels), 0.0);
-    identity.by.assign(criteria, {identity.visible, identity.caustic, identity.secondary});
-    identity.learned.assign(back.learned.size(), 0.0);
-    return tbb::parallel_deterministic_reduce(
-        tbb::blocked_range<uint64_t>(0, total, block), identity,
-        [&](const tbb::blocked_range<uint64_t>& r, PhotonImages a) {
+    // A block's photons keep what they deposit as a log, image by image in order (image 0..2
+    // the plain visible, caustic and secondary light, 3 + 3 k + slot criterion k's), added to
+    // the pass's images in block order (tracer/ordered_blocks.h): bitwise the same images for
+    // every thread count, memory with the gathers of a few blocks, not images per block.
+    struct Deposit {
+        uint32_t image;
+        int pixel;
+        double value;
+    };
+    struct PhotonBlock {
+        std::vector<Deposit> deposits;
+        std::vector<double> learned;
+        uint64_t photons = 0, segments = 0, gathers = 0, pruned = 0;
+    };
+    PhotonImages result;
+    result.visible.assign(static_cast<size_t>(pixels), 0.0);
+    result.caustic.assign(static_cast<size_t>(pixels), 0.0);
+    result.secondary.assign(static_cast<size_t>(pixels), 0.0);
+    result.by.assign(criteria, {result.visible, result.caustic, result.secondary});
+    result.learned.assign(back.learned.size(), 0.0);
+    const uint64_t blocks = total / block + (total % block != 0 ? 1 : 0);
+    forBlocksInOrder(
+        blocks,
+        [&](uint64_t blockIndex) {
+            PhotonBlock a;
+            a.learned.assign(back.learned.size(), 0.0);
             std::vector<PhotonBranch> stack;
             std::vector<int> cells;
             std::vector<std::byte> states, scratch(stateBytes);  // states: per branch
             std::vector<PathEvent> suffix;
             std::vector<Verdict> verdicts;  // this hit's judged suffixes
             // Adds `value` to image slot `slot` (0 visible, 1 caustic, 2 secondary) of the
-            // plain accumulator unless pruning drops it, and of every criterion matched.
+            // plain accumulator unless pruning drops it, and of every criterion matched; a
+            // spread value is shared evenly by its cells.
             auto book = [&](int slot, uint64_t matched, const std::vector<int>* spread, int pixel,
                             double value) {
-                auto into = [&](std::vector<double>& image) {
-                    if (spread)
-                        splat(image, *spread, value);
-                    else
-                        image[static_cast<size_t>(pixel)] += value;
+                auto into = [&](uint32_t image) {
+                    if (spread) {
+                        const double share = value / static_cast<double>(spread->size());
+                        for (int p : *spread) a.deposits.push_back({image, p, share});
+                    } else {
+                        a.deposits.push_back({image, pixel, value});
+                    }
                 };
-                std::vector<double>* plain[3] = {&a.visible, &a.caustic, &a.secondary};
-                if (!prune || matched != 0) into(*plain[slot]);
+                if (!prune || matched != 0) into(static_cast<uint32_t>(slot));
                 for (uint64_t m = matched; m != 0; m &= m - 1)
-                    into(a.by[static_cast<size_t>(std::countr_zero(m))][static_cast<size_t>(slot)]);
+                    into(static_cast<uint32_t>(3 + 3 * std::countr_zero(m) + slot));
             };
-            for (uint64_t i = r.begin(); i < r.end(); ++i) {
+            const uint64_t first = blockIndex * block, last = std::min(total, first + block);
+            for (uint64_t i = first; i < last; ++i) {
                 const size_t sourceIndex = i / perSource;
                 const Source& source = ts.sources[sourceIndex];
                 const bool deposits = photonsSeeSource(source);
@@ -470,22 +484,20 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
             }
             return a;
         },
-        [](PhotonImages a, const PhotonImages& b) {
-            auto addInto = [](std::vector<double>& x, const std::vector<double>& y) {
-                for (size_t p = 0; p < x.size(); ++p) x[p] += y[p];
-            };
-            addInto(a.visible, b.visible);
-            addInto(a.caustic, b.caustic);
-            addInto(a.secondary, b.secondary);
-            addInto(a.learned, b.learned);
-            for (size_t k = 0; k < a.by.size(); ++k)
-                for (size_t s = 0; s < 3; ++s) addInto(a.by[k][s], b.by[k][s]);
-            a.photons += b.photons;
-            a.segments += b.segments;
-            a.gathers += b.gathers;
-            a.pruned += b.pruned;
-            return a;
+        [&](const PhotonBlock& b) {
+            std::vector<double>* images[3] = {&result.visible, &result.caustic, &result.secondary};
+            for (const Deposit& d : b.deposits) {
+                std::vector<double>& image =
+                    d.image < 3 ? *images[d.image] : result.by[(d.image - 3) / 3][(d.image - 3) % 3];
+                image[static_cast<size_t>(d.pixel)] += d.value;
+            }
+            for (size_t p = 0; p < result.learned.size(); ++p) result.learned[p] += b.learned[p];
+            result.photons += b.photons;
+            result.segments += b.segments;
+            result.gathers += b.gathers;
+            result.pruned += b.pruned;
         });
+    return result;
 }
 
 }  // namespace veil

@@ -20,7 +20,7 @@ TraceSetup prepareTrace(const SceneFile& file, const SceneSetup& setup,
     t.transport.detectorOfObject.assign(setup.scene.objects().size(), -1);
     for (size_t d = 0; d < setup.detectors.size(); ++d) {
         t.transport.detectorOfObject[setup.detectors[d].object] = static_cast<int>(d);
-        t.images.emplace_back(setup.detectors[d]);
+        t.images.push_back(DetectorImage::grid(setup.detectors[d]));
         t.transport.detectorNames.push_back(setup.detectors[d].name);
     }
     t.transport.sources = file.sources;

@@ -1,7 +1,7 @@
 #pragma once
 // Everything the nonsequential transport needs, resolved from a scene: media at the system
 // wavelengths, the optical property of every object, which objects are detectors, the
-// sources, and empty detector images.
+// sources, and the detectors' grids.
 
 #include <memory>
 #include <vector>
@@ -14,6 +14,8 @@ namespace veil {
 struct TraceSetup {
     std::unique_ptr<MediaOptics> media;
     TransportScene transport;  // points into the SceneSetup and into media
+    // One template per detector (DetectorImage::grid: no memory for sums, so a big detector
+    // is paid for once per run, by the accumulator a copy makes, not twice).
     std::vector<DetectorImage> images;
 };
 
