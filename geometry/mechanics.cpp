@@ -694,9 +694,32 @@ void MechanicsBuilder::computeBores() {
     for (const Body& b : bodies_) largest = std::max(largest, b.boreMm);
     for (const Region& r : regions_) largest = std::max(largest, r.boreMm);
     largest += spec_.barrel.wallMm;
+    std::string largestPart = "the barrel's outside (its bore plus wall_mm)";
     for (const MechanicsSpec::Part& part : spec_.parts)
         if (part.enabled)
-            for (const Vec2& v : part.profileMm) largest = std::max(largest, v.x);
+            for (const Vec2& v : part.profileMm)
+                if (v.x > largest) {
+                    largest = v.x;
+                    largestPart = "part " + part.name;
+                }
+    // Bounded work: refuse before meshing what would take a mesh of more segments.
+    if (!std::isfinite(largest) ||
+        chordError(largest, kMaxMechanicsSegments) > spec_.chordToleranceMm) {
+        // pi / acos(1 - x), by its series where 1 - x rounds to 1.
+        const double x = spec_.chordToleranceMm / largest;
+        const double needed = x < 1e-6 ? std::numbers::pi / std::sqrt(2.0 * x)
+                                       : std::numbers::pi / std::acos(1.0 - x);
+        throw ModelError(
+            "mechanics",
+            "the largest radius, " + fmt(largest) + " mm at " + largestPart +
+                ", needs about " + fmt(needed, 0) + " segments per turn for chord_tolerance_mm = " +
+                fmt(spec_.chordToleranceMm, 6) + "; at most " +
+                std::to_string(kMaxMechanicsSegments) +
+                ": raise chord_tolerance_mm to at least " +
+                fmt(chordError(largest, kMaxMechanicsSegments), 6) +
+                " or check the radii (a baffle's inner_radius_mm, the barrel's wall_mm, a part's "
+                "profile_mm)");
+    }
     segments_ = chordSegmentCount(largest, spec_.chordToleranceMm);
     cosHalfStep_ = std::cos(std::numbers::pi / segments_);
     for (Plate& p : plates_) {
@@ -1451,14 +1474,14 @@ MechanicsSpec readMechanicsTable(const TomlTable& m) {
             if (part.profileMm.size() < 3)
                 profile.fail(profile.path() + " needs at least 3 points, got " +
                              std::to_string(part.profileMm.size()));
+            if (part.profileMm.size() > kMaxPartProfilePoints)
+                profile.fail(profile.path() + " has " + std::to_string(part.profileMm.size()) +
+                             " points; at most " + std::to_string(kMaxPartProfilePoints));
             // Either orientation; revolved counter-clockwise.
             if (profileArea(part.profileMm) < 0.0)
                 std::reverse(part.profileMm.begin(), part.profileMm.end());
-            try {
-                (void)revolveProfile(part.profileMm, 3);
-            } catch (const std::invalid_argument& e) {
-                profile.fail(profile.path() + " is not a simple closed outline: " + e.what());
-            }
+            if (const std::string defect = profileDefect(part.profileMm); !defect.empty())
+                profile.fail(profile.path() + " is not a simple closed outline: " + defect);
             part.property = t.string("property");
             s.parts.push_back(std::move(part));
         }

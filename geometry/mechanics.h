@@ -84,6 +84,14 @@ class TomlTable;
 // MechanicsSpec: the [mechanics] table, every length in mm, every property a name from
 // [properties.*] (empty = the [mechanics] property, and if that is empty too, the scene's
 // default for mechanics). Defaults are those of docs/format.md.
+// Work limits, checked before any mesh is built (docs/robustness.md): every part shares
+// one angular segment count, the smallest that keeps the chord error at the largest radius
+// within chord_tolerance_mm, and it may not exceed kMaxMechanicsSegments (a ModelError
+// "mechanics" says which radius and tolerance ask for more); a user part's profile has at
+// most kMaxPartProfilePoints points (its simplicity check is quadratic).
+inline constexpr int kMaxMechanicsSegments = 4096;
+inline constexpr size_t kMaxPartProfilePoints = 4096;
+
 struct MechanicsSpec {
     double chordToleranceMm = 0.01;
     double contactGapMm = 0.001;

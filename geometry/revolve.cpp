@@ -42,16 +42,21 @@ std::string vertexText(size_t i, const Vec2& p) {
     return os.str();
 }
 
-void checkProfile(std::span<const Vec2> p) {
+}  // namespace
+
+// Profile Checks
+
+std::string profileDefect(std::span<const Vec2> p) {
     const size_t n = p.size();
-    if (n < 3) fail("a profile needs at least 3 vertices (got " + std::to_string(n) + ")");
+    if (n < 3) return "a profile needs at least 3 vertices (got " + std::to_string(n) + ")";
     for (size_t i = 0; i < n; ++i) {
         if (!std::isfinite(p[i].x) || !std::isfinite(p[i].y))
-            fail(vertexText(i, p[i]) + " is not finite");
-        if (p[i].x < 0.0) fail(vertexText(i, p[i]) + " has r < 0");
-        if (p[i] == p[(i + 1) % n]) fail(vertexText(i, p[i]) + " repeats the next vertex");
+            return vertexText(i, p[i]) + " is not finite";
+        if (p[i].x < 0.0) return vertexText(i, p[i]) + " has r < 0";
+        if (p[i] == p[(i + 1) % n]) return vertexText(i, p[i]) + " repeats the next vertex";
     }
-    if (!(profileArea(p) > 0.0)) fail("the profile is not counter-clockwise in (r, z) (area <= 0)");
+    if (!(profileArea(p) > 0.0))
+        return "the profile is not counter-clockwise in (r, z) (area <= 0)";
     // Simple polygon: non-consecutive edges do not meet; consecutive ones only at their
     // common vertex (no fold back along the same line).
     for (size_t i = 0; i < n; ++i) {
@@ -66,18 +71,17 @@ void checkProfile(std::span<const Vec2> p) {
                 const Vec2& other2 = next ? d : c;
                 if (orientation(other1, shared, other2) == 0 &&
                     glm::dot(other1 - shared, other2 - shared) > 0.0)
-                    fail("edges " + std::to_string(i) + " and " + std::to_string(j) +
-                         " fold back on each other");
+                    return "edges " + std::to_string(i) + " and " + std::to_string(j) +
+                           " fold back on each other";
                 continue;
             }
             if (segmentsMeet(a, b, c, d))
-                fail("edges " + std::to_string(i) + " and " + std::to_string(j) +
-                     " cross or touch: the profile is not a simple polygon");
+                return "edges " + std::to_string(i) + " and " + std::to_string(j) +
+                       " cross or touch: the profile is not a simple polygon";
         }
     }
+    return "";
 }
-
-}  // namespace
 
 // Chord Error and Segment Count
 
@@ -132,7 +136,7 @@ std::ostream& operator<<(std::ostream& os, const RevolvedMesh& m) {
 
 RevolvedMesh revolveProfile(std::span<const Vec2> profile, int segments) {
     if (segments < 3) fail("at least 3 angular segments are needed");
-    checkProfile(profile);
+    if (const std::string defect = profileDefect(profile); !defect.empty()) fail(defect);
     const size_t n = profile.size();
     const auto N = static_cast<uint32_t>(segments);
 

@@ -34,6 +34,7 @@
 #include <cstdint>
 #include <ostream>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "geometry/triangle_mesh.h"
@@ -64,6 +65,10 @@ std::ostream& operator<<(std::ostream& os, const RevolvedMesh& m);
 // A profile vertex on the axis whose two edges both leave the axis makes a pinch point (two
 // cones meeting at their tips); such a mesh is closed but not manifold at that vertex.
 RevolvedMesh revolveProfile(std::span<const Vec2> profile, int segments);
+// Why revolveProfile() would refuse `profile` (the message of its std::invalid_argument,
+// without the function's name), or "" when the profile can be revolved. Quadratic in the
+// vertex count (the simplicity check).
+std::string profileDefect(std::span<const Vec2> profile);
 
 // Signed area of a polygon in (r, z) (positive when counter-clockwise) and the volume of its
 // exact solid of revolution, 2 pi * integral of r dA (Pappus), mm^3.

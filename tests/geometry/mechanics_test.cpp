@@ -31,6 +31,7 @@ namespace veil {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 namespace fs = std::filesystem;
 
 constexpr double kPi = std::numbers::pi;
@@ -606,6 +607,32 @@ TEST(Mechanics, ChordToleranceTradesTrianglesForVolumeError) {
     }
 }
 
+TEST(Mechanics, SegmentCountIsBoundedBeforeMeshing) {
+    // A tolerance or a radius that would take more than kMaxMechanicsSegments segments per
+    // turn is refused, naming the radius, the tolerance and the smallest tolerance that
+    // would do; nothing is meshed (the check is immediate, not minutes of meshing).
+    const Prescription rx = lens("double_gauss_50mm.toml");
+    MechanicsSpec spec;
+    spec.chordToleranceMm = 1e-9;
+    const ModelError e = modelErrorOf([&] { buildMechanics(rx, spec); });
+    EXPECT_EQ(e.object(), "mechanics");
+    EXPECT_THAT(e.what(), HasSubstr("the barrel's outside"));
+    EXPECT_THAT(e.what(), HasSubstr("at most 4096"));
+    EXPECT_THAT(e.what(), HasSubstr("raise chord_tolerance_mm to at least"));
+    EXPECT_THAT(e.what(), Not(HasSubstr("chordSegmentCount")));
+    // A wall of a kilometre at the default tolerance: 22000 segments asked for.
+    spec = MechanicsSpec{};
+    spec.barrel.wallMm = 1e6;
+    EXPECT_THAT(modelErrorOf([&] { buildMechanics(rx, spec); }).what(), HasSubstr("22"));
+    // At the limit's tolerance the same radius builds with at most the limit.
+    spec.barrel.wallMm = 100.0;
+    spec.chordToleranceMm = 1e-4;
+    const std::vector<MechanicalPart> parts = buildMechanics(rx, spec);
+    ASSERT_FALSE(parts.empty());
+    EXPECT_LE(parts.front().segments, kMaxMechanicsSegments);
+    EXPECT_GT(parts.front().segments, kMaxMechanicsSegments / 2);
+}
+
 // Reading [mechanics]
 
 // The example of docs/format.md, section [mechanics], read from the document itself.
@@ -723,6 +750,10 @@ TEST(Mechanics, UnknownKeysAndBadValuesAreParseErrorsAtTheirPlace) {
     EXPECT_THAT(parseError(part("name = \"p.q\"\nprofile_mm = [[0, 0], [1, 0], [0, 1]]\n")),
                 HasSubstr("without dots"));
     EXPECT_THAT(parseError(part("profile_mm = [[0, 0], [1, 0], [0, 1]]\n")), HasSubstr("name"));
+    std::string many = "name = \"p\"\nprofile_mm = [[0, 0]";
+    for (size_t i = 1; i <= kMaxPartProfilePoints; ++i)
+        many += ", [" + std::to_string(i) + ", " + std::to_string(i % 2) + "]";
+    EXPECT_THAT(parseError(part(many + "]\n")), HasSubstr("at most 4096"));
     EXPECT_THAT(parseError(part("name = \"p\"\nprofile_mm = [[0, 0], [1, 0], [0, 1]]\n"
                                 "[[mechanics.parts]]\nname = \"p\"\n"
                                 "profile_mm = [[0, 0], [1, 0], [0, 1]]\n")),
