@@ -181,6 +181,7 @@ class CodeVParser {
         buildSurfaces();
         rx_.assignNames();
         rx_.validate();
+        rx_.notePlausibility();
         return std::move(rx_);
     }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <sstream>
 
 namespace veil {
@@ -284,6 +285,61 @@ void Prescription::validate() const {
     }
     if (stops > 1) throw ModelError("stop", "more than one surface is flagged as the stop");
     if (surfaces[0].stop) throw ModelError("object", "the object surface cannot be the stop");
+}
+
+void Prescription::notePlausibility() {
+    const int n = static_cast<int>(surfaces.size());
+    auto num = [](double v) {
+        std::ostringstream os;
+        os << std::setprecision(6) << v;
+        return os.str();
+    };
+    auto warn = [&](int i, const std::string& message) {
+        const Surface& s = surfaces[i];
+        FileLoc loc = s.origin;
+        if (loc.file.empty()) loc.file = sourceFile;
+        report.push_back({ImportNote::Severity::Warning, loc,
+                          (s.name.empty() ? "surface " + std::to_string(i) : s.name) + ": " +
+                              message});
+    };
+    // A flat surface in air, not a mirror: a reference plane whose gaps may run back.
+    auto dummy = [&](int i) {
+        const Surface& s = surfaces[i];
+        return i == 0 || i == n - 1 ||
+               (s.curvature == 0.0 && !s.hasAsphere() && !s.anamorphic && !s.mirror &&
+                s.material.isAir() && surfaces[i - 1].material.isAir());
+    };
+    double direction = 1.0;  // +1 along +z; every mirror turns it
+    for (int i = 1; i < n - 1; ++i) {
+        const Surface& s = surfaces[i];
+        if (s.coordinateBreak) continue;
+        const double sd = s.clearSemiDiameterMm;
+        if (s.curvature != 0.0 && std::abs(s.radiusMm()) < 1e-3)
+            warn(i, "radius " + num(s.radiusMm()) + " mm is below a micrometre");
+        // The height a conic section reaches: c^2 (1 + k) r^2 <= 1.
+        auto reach = [&](double c, double k, const std::string& section) {
+            if (c == 0.0 || !(1.0 + k > 0.0) || !(sd > 0.0)) return;
+            const double limit = 1.0 / (std::abs(c) * std::sqrt(1.0 + k));
+            if (sd > limit * (1.0 + 1e-12))
+                warn(i, "clear semi-diameter " + num(sd) + " mm exceeds the height the " +
+                            section + " reaches, " + num(limit) +
+                            " mm (|R| / sqrt(1 + conic)): rays beyond it miss the surface");
+        };
+        reach(s.curvature, s.conic, s.anamorphic ? "y-z section" : "surface");
+        if (s.anamorphic && s.anamorphic->kind == Anamorphic::Kind::Biconic)
+            reach(s.anamorphic->xCurvature, s.anamorphic->xConic, "x-z section");
+        if (s.mirror) direction = -direction;
+        const double along = s.thicknessMm * direction;
+        if (!s.material.isAir() && !(along > 0.0))
+            warn(i, "thickness " + num(s.thicknessMm) + " mm in " + s.material.label() +
+                        (s.thicknessMm == 0.0 ? " (glass of no thickness)"
+                                              : " runs against the light (no mirror turns it)"));
+        else if (s.material.isAir() && along < 0.0 && !dummy(i) && !dummy(i + 1))
+            warn(i, "air gap " + num(s.thicknessMm) +
+                        " mm runs against the light: the next surface lies behind this one "
+                        "(meant for a dummy surface or a stop placed back; lenses there "
+                        "overlap)");
+    }
 }
 
 int Prescription::firstAnamorphic() const {

@@ -224,6 +224,13 @@ struct Prescription {
     // the object's; a mirror's material equals the incident medium; and so on. Throws
     // ModelError naming the surface.
     void validate() const;
+    // Appends a Warning to `report` for each value that parses and validates but is most
+    // likely a mistake, naming the surface: a radius under a micrometre; a semi-diameter
+    // beyond the height the surface reaches (|R| / sqrt(1 + k) for a conic, either section
+    // of a biconic); glass of zero thickness or thickness against the light's direction
+    // (mirrors turn it); a negative air gap between two surfaces that are not dummies (flat,
+    // air on both sides). The readers call it after validate().
+    void notePlausibility();
     // The first anamorphic surface, -1 if every surface is one of revolution.
     int firstAnamorphic() const;
     // The x-z section of an anamorphic system as a system of revolution: every anamorphic

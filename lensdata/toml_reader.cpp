@@ -571,6 +571,7 @@ Prescription LensReader::finish() {
         }
     }
     p_.validate();
+    p_.notePlausibility();
     return std::move(p_);
 }
 

@@ -1049,6 +1049,7 @@ Prescription ZmxParser::parse(std::string_view decoded) {
     rx_.report = std::move(report_);
     rx_.assignNames();
     rx_.validate();
+    rx_.notePlausibility();
     return std::move(rx_);
 }
 

@@ -890,3 +890,62 @@ surfaces = [{ r = 40, t = 5, glass = "N-BK7", sd = 15, mech_sd = 14 }, { t = 10 
 
 }  // namespace
 }  // namespace veil
+
+namespace veil {
+namespace {
+
+// Unphysical but parseable prescriptions: a warning naming the surface and its line, the
+// lens still read. Plain lenses and a mirror system's negative gaps get none.
+std::vector<std::string> warnings(std::string_view surfaces) {
+    const std::string text = "[system]\nwavelengths_nm = [587.56]\naperture = { epd_mm = 10 }\n"
+                             "fields_deg = [0]\nsurfaces = [\n" +
+                             std::string(surfaces) + "]\n";
+    std::vector<std::string> out;
+    for (const ImportNote& n : read(text).report)
+        if (n.severity == ImportNote::Severity::Warning)
+            out.push_back(n.loc.str() + ": " + n.message);
+    return out;
+}
+
+TEST(TomlReader, UnphysicalValuesGetWarningsNamingTheSurface) {
+    EXPECT_THAT(warnings("{ r = 1e-12, t = 4, glass = \"N-BK7\", sd = 10.5 },\n"
+                         "{ r = -50, t = 90, sd = 10.5 },\n"),
+                ElementsAre(HasSubstr("lens.toml:6:"), HasSubstr("lens.toml:6:")));
+    const auto tiny = warnings("{ r = 1e-12, t = 4, glass = \"N-BK7\", sd = 10.5 },\n"
+                               "{ r = -50, t = 90, sd = 10.5 },\n");
+    EXPECT_THAT(tiny[0], HasSubstr("L1.front: radius 1e-12 mm is below a micrometre"));
+    EXPECT_THAT(tiny[1], HasSubstr("exceeds the height the surface reaches, 1e-12 mm"));
+    // sd beyond |R| (a hemisphere of radius 8 cannot be 10.5 high); a conic reaches
+    // |R| / sqrt(1 + k), a paraboloid any height.
+    EXPECT_THAT(warnings("{ r = 8, t = 4, glass = \"N-BK7\", sd = 10.5 },\n"
+                         "{ r = -50, t = 90, sd = 10.5 },\n"),
+                ElementsAre(HasSubstr("clear semi-diameter 10.5 mm exceeds the height the "
+                                      "surface reaches, 8 mm")));
+    EXPECT_THAT(warnings("{ r = 8, conic = -1, t = 4, glass = \"N-BK7\", sd = 10.5 },\n"
+                         "{ r = -50, t = 90, sd = 10.5 },\n"),
+                ElementsAre());
+    // Glass of zero or negative thickness; a negative air gap between two lenses.
+    EXPECT_THAT(warnings("{ r = 50, t = 0, glass = \"N-BK7\", sd = 5 },\n"
+                         "{ r = -50, t = 90, sd = 5 },\n"),
+                ElementsAre(HasSubstr("L1.front: thickness 0 mm in N-BK7 (glass of no "
+                                      "thickness)")));
+    EXPECT_THAT(warnings("{ r = 50, t = -3, glass = \"N-BK7\", sd = 5 },\n"
+                         "{ r = -50, t = 90, sd = 5 },\n"),
+                ElementsAre(HasSubstr("runs against the light (no mirror turns it)")));
+    EXPECT_THAT(warnings("{ r = 50, t = 3, glass = \"N-BK7\", sd = 5 },\n"
+                         "{ r = -50, t = -1, sd = 5 },\n"
+                         "{ r = 40, t = 3, glass = \"N-BK7\", sd = 5 },\n"
+                         "{ r = -40, t = 90, sd = 5 },\n"),
+                ElementsAre(HasSubstr("L1.back: air gap -1 mm runs against the light")));
+    // Not warned: a stop placed back by a negative gap from a dummy plane, and a mirror
+    // system, whose gaps after the mirror are negative.
+    EXPECT_THAT(warnings("{ t = 5 },\n{ stop = true, t = -5, sd = 5 },\n"
+                         "{ r = 50, t = 3, glass = \"N-BK7\", sd = 5 },\n"
+                         "{ r = -50, t = 90, sd = 5 },\n"),
+                ElementsAre());
+    EXPECT_THAT(warnings("{ t = 100, sd = 20 },\n{ r = -400, t = -150, mirror = true, sd = 20 },\n"),
+                ElementsAre());
+}
+
+}  // namespace
+}  // namespace veil
