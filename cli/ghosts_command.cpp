@@ -165,6 +165,7 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
 
     const fs::path out = outputFolder(o.output, "ghosts", o.json);
     WrittenFiles written;
+    written.beginRun(out);
     if (!out.empty()) {
         fs::create_directories(out);
         writeTextFile(out / "ghosts.json", j.dump(2) + "\n");
@@ -238,6 +239,7 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
         }
         draw(a.allGhostsCriterion, out / "paths" / "all_ghosts");
     }
+    written.finishRun();
 
     if (o.json) {
         nlohmann::json jj = j;

@@ -51,8 +51,10 @@ int runLayout(const CommonOptions& common, const LayoutOptions& options) {
     const std::filesystem::path dir = outputFolder(options.output, "layout", options.json);
     WrittenFiles written;
     if (!dir.empty()) {
+        written.beginRun(dir);
         std::filesystem::create_directories(dir);
         writePicture(pic, dir / "layout", options.widthPx, written);
+        written.finishRun();
     }
     if (options.json) {
         nlohmann::json j;

@@ -35,12 +35,13 @@ size_t distance(const std::string& a, const std::string& b) {
 }  // namespace
 
 int main(int argc, char** argv) {
+    veil::cli::setCommandLine(argc, argv);
     CLI::App app{"veil: optical design kernel for stray light and ghost analysis"};
     app.require_subcommand(1);
     // Options a subcommand does not know (--glass-catalog) are the main command's, wherever
     // they stand on the line.
     app.fallthrough();
-    app.set_version_flag("--version", "veil 0.1.0");
+    app.set_version_flag("--version", std::string("veil ") + veil::cli::kVeilVersion);
     veil::cli::CommonOptions common;
     app.add_option("--glass-catalog", common.glassCatalogs,
                    "extra AGF glass catalog file (repeatable; VEIL_GLASS_PATH works too)")

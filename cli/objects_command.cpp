@@ -80,6 +80,7 @@ int runObjectsCommand(const CommonOptions& common, const ObjectsOptions& o) {
 
     WrittenFiles written;
     if (!dir.empty()) {
+        written.beginRun(dir);
         std::filesystem::create_directories(dir);
         for (const auto& [name, text] :
              {std::pair<std::string, std::string>{"objects.csv", result.csv()},
@@ -89,6 +90,7 @@ int runObjectsCommand(const CommonOptions& common, const ObjectsOptions& o) {
             written.add(dir / name);
         }
         writePicture(drawObjects(*prepared, result, o.top), dir / "objects", 2000, written);
+        written.finishRun();
     }
     printReport(result.json(), result.markdown(), written, o.json, o.quiet);
     return 0;

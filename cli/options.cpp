@@ -11,12 +11,17 @@
 #include <cstring>
 #include <iomanip>
 #include <iostream>
+#include <ctime>
+#include <fstream>
 #include <iterator>
+#include <random>
 #include <sstream>
 
 #include "analysis/picture.h"
 #include "lensdata/errors.h"
+#include "lensdata/output_file.h"
 #include "tracer/nonsequential.h"
+#include "tracer/ray_database.h"
 
 namespace veil::cli {
 
@@ -303,6 +308,140 @@ void printReport(const std::string& jsonText, const std::string& text,
         std::cout << text << "\n";
         written.print(std::cout);
     }
+}
+
+namespace {
+
+std::string& commandLine() {
+    static std::string line;
+    return line;
+}
+
+struct FileStamp {
+    uint64_t bytes = 0;
+    uint32_t crc = 0;
+};
+
+std::optional<FileStamp> stampOf(const std::filesystem::path& file) {
+    std::ifstream in(file, std::ios::binary);
+    if (!in) return std::nullopt;
+    FileStamp s;
+    std::vector<char> buffer(size_t{1} << 20);
+    while (in) {
+        in.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
+        const auto got = static_cast<size_t>(in.gcount());
+        s.crc = crc32(reinterpret_cast<const uint8_t*>(buffer.data()), got, s.crc);
+        s.bytes += got;
+    }
+    return s;
+}
+
+std::string hex8(uint32_t v) {
+    std::ostringstream os;
+    os << std::hex << std::setw(8) << std::setfill('0') << v;
+    return os.str();
+}
+
+// NAME.EXT.tmp or NAME.EXT.partial with EXT a type veil writes.
+bool leftoverTemporary(const std::filesystem::path& p) {
+    const std::string ext = p.extension().string();
+    if (ext != ".tmp" && ext != ".partial") return false;
+    const std::string inner = p.stem().extension().string();
+    for (const char* e : {".exr", ".png", ".svg", ".json", ".csv", ".md", ".vrdb", ".obj", ".ply",
+                          ".txt"})
+        if (inner == e) return true;
+    return false;
+}
+
+}  // namespace
+
+void setCommandLine(int argc, char** argv) {
+    std::string line;
+    for (int i = 0; i < argc; ++i) {
+        const std::string a = argv[i];
+        if (i) line += ' ';
+        line += a.find_first_of(" \t'\"") == std::string::npos ? a : "'" + a + "'";
+    }
+    commandLine() = line;
+}
+
+void WrittenFiles::beginRun(const std::filesystem::path& folder, bool keepFiles) {
+    namespace fs = std::filesystem;
+    folder_ = folder;
+    if (folder.empty() || !fs::is_directory(folder)) return;
+    const fs::path manifest = folder / kRunManifest;
+    if (fs::exists(manifest)) {
+        nlohmann::json old;
+        try {
+            std::ifstream in(manifest);
+            old = nlohmann::json::parse(in);
+        } catch (const std::exception&) {
+            old = nlohmann::json();
+        }
+        // The manifest goes first: from here on the folder holds no finished run.
+        std::error_code ec;
+        fs::remove(manifest, ec);
+        if (ec)
+            throw std::runtime_error("cannot remove the older run's manifest " + manifest.string() +
+                                     ": " + ec.message());
+        if (!keepFiles && old.is_object() && old.contains("files") && old["files"].is_array()) {
+            for (const auto& f : old["files"]) {
+                if (!f.is_object() || !f.contains("name") || !f["name"].is_string()) continue;
+                const fs::path rel = f["name"].get<std::string>();
+                // Only files inside the folder, named relative to it.
+                if (rel.is_absolute() || rel.empty() || *rel.begin() == "..") continue;
+                const fs::path file = folder / rel;
+                if (!fs::is_regular_file(file)) continue;
+                const auto stamp = stampOf(file);
+                const bool same = stamp && f.value("bytes", uint64_t{0}) == stamp->bytes &&
+                                  f.value("crc32", std::string()) == hex8(stamp->crc);
+                if (same)
+                    fs::remove(file, ec);
+                else
+                    std::cerr << "veil: warning: " << file.string()
+                              << " was written by an older run into this folder and changed "
+                                 "since; kept\n";
+            }
+        }
+    }
+    std::error_code ec;
+    for (auto it = fs::recursive_directory_iterator(folder, ec);
+         !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
+        if (it.depth() > 1) it.disable_recursion_pending();
+        if (it->is_regular_file() && leftoverTemporary(it->path())) fs::remove(it->path(), ec);
+    }
+}
+
+void WrittenFiles::finishRun() {
+    namespace fs = std::filesystem;
+    if (folder_.empty()) return;
+    nlohmann::json files = nlohmann::json::array();
+    const fs::path base = fs::absolute(folder_).lexically_normal();
+    for (const fs::path& f : files_) {
+        const auto stamp = stampOf(f);
+        if (!stamp) continue;
+        const fs::path rel = fs::absolute(f).lexically_normal().lexically_relative(base);
+        const bool inside = !rel.empty() && *rel.begin() != "..";
+        files.push_back({{"name", inside ? rel.string() : fs::absolute(f).string()},
+                         {"bytes", stamp->bytes},
+                         {"crc32", hex8(stamp->crc)}});
+    }
+    const std::time_t now = std::time(nullptr);
+    char when[32] = {};
+    std::strftime(when, sizeof when, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
+    std::random_device device;
+    const uint64_t id = (uint64_t{device()} << 32) ^ device();
+    std::ostringstream idText;
+    idText << std::hex << std::setw(16) << std::setfill('0') << id;
+    const nlohmann::json manifest = {
+        {"run_id", idText.str()},
+        {"veil", kVeilVersion},
+        {"command", commandLine()},
+        {"finished", when},
+        {"note", "the files of one finished veil run, as written (CRC-32 as zlib computes it); "
+                 "a file of this folder not listed here belongs to no finished run"},
+        {"files", files}};
+    writeTextFile(folder_ / kRunManifest, manifest.dump(2) + "\n");
 }
 
 nlohmann::json WrittenFiles::json() const {

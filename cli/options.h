@@ -86,7 +86,26 @@ void requireWritableFolder(const std::filesystem::path& folder, const std::strin
 std::filesystem::path outputFolder(const std::string& given, const std::string& defaultName,
                                    bool json);
 
-// The files a run wrote, in order, for its closing list.
+inline constexpr const char* kVeilVersion = "0.1.0";
+
+// The command line as given (main() records it; the run manifest quotes it).
+void setCommandLine(int argc, char** argv);
+
+// The manifest of a finished run, written last into its output folder (kRunManifest below).
+inline constexpr const char* kRunManifest = "veil-run.json";
+
+// The files a run wrote, in order, for its closing list, and the run manifest of its output
+// folder (docs/cli.md, "Output folders"). A folder holds at most one finished run:
+//   beginRun(folder)  before the run writes its first file there: removes the manifest of an
+//                     older run first, then each file it lists that is unchanged (the size and
+//                     CRC-32 it lists; a changed file is kept and named on stderr), then
+//                     temporaries a killed run left (NAME.EXT.tmp, NAME.EXT.partial of veil's
+//                     file types) in the folder and its subfolders;
+//                     (keepFiles: only the manifest and the temporaries go);
+//   finishRun()       after the last file: writes veil-run.json with the run's id, command
+//                     line, veil version, time and every file's name, size and CRC-32.
+// A folder without veil-run.json holds no finished run (one is writing, failed or was
+// killed); one with it holds exactly the files it lists, as they were written.
 class WrittenFiles {
   public:
     void add(const std::filesystem::path& file) { files_.push_back(file); }
@@ -95,9 +114,15 @@ class WrittenFiles {
     // the folder they share, if any).
     void print(std::ostream& os) const;
     nlohmann::json json() const;
+    // No-ops for an empty folder (a --json run without -o writes nothing).
+    // keepFiles (a resumable command: render --resume, sweep): the older run's files stay
+    // to be continued or overwritten; its manifest and temporaries go.
+    void beginRun(const std::filesystem::path& folder, bool keepFiles = false);
+    void finishRun();
 
   private:
     std::vector<std::filesystem::path> files_;
+    std::filesystem::path folder_;
 };
 
 // A study's closing report on standard output: with --json its JSON object (jsonText) with

@@ -103,8 +103,10 @@ int runPaths(const CommonOptions& common, const PathsOptions& o) {
     const std::filesystem::path dir = outputFolder(o.output, "paths", o.json);
     WrittenFiles written;
     if (!dir.empty()) {
+        written.beginRun(dir);
         std::filesystem::create_directories(dir);
         writePicture(pic, dir / "paths", o.widthPx, written);
+        written.finishRun();
     }
     if (sel.rays.size() < static_cast<size_t>(o.first))
         std::cerr << "veil: only " << sel.rays.size() << " of " << sel.raysTraced

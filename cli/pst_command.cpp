@@ -88,8 +88,11 @@ int runPstCommand(const CommonOptions& common, const PstOptions& o) {
         };
     const PstResult result = runPst(spec, catalog);
     WrittenFiles written;
-    if (!o.json || !o.output.empty())
+    if (!o.json || !o.output.empty()) {
+        written.beginRun(dir);
         for (const auto& f : writePst(result, dir)) written.add(f);
+        written.finishRun();
+    }
     printReport(result.json(), result.markdown(), written, o.json, o.quiet);
     return 0;
 }

@@ -297,6 +297,9 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
     if (o.passes > 0 && state.passes() >= o.passes && !o.quiet)
         std::cerr << "veil: the run already has " << state.passes() << " passes (--passes "
                   << o.passes << "): writing its images\n";
+    // A resumed run continues the folder's files; a new one clears the older run's away.
+    WrittenFiles written;
+    written.beginRun(dir, !o.resume.empty());
     std::filesystem::create_directories(dir);
 
     const auto limit = limitThreads(o.threads);
@@ -310,7 +313,6 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
     double backwardSeconds = 0.0, photonSeconds = 0.0;
     double lastLine = -1e9;
     std::string stopReason;
-    WrittenFiles written;
     // The mean pixel error of the image the target applies to.
     auto targetError = [&] {
         if (targetComponent) return state.meanRelativeError(*targetComponent);
@@ -494,6 +496,7 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
     writeTextFile(dir / "summary.json", summary.dump(2) + "\n");
     written.add(dir / "summary.json");
     written.add(dir / kCheckpoint);
+    written.finishRun();
 
     if (o.json) {
         summary["files"] = scratchRun ? nlohmann::json::array() : written.json();

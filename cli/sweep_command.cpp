@@ -115,12 +115,15 @@ int runSweepCommand(const CommonOptions& common, const SweepOptions& o) {
             }
         };
     }
+    // A sweep continues the variants an earlier run finished: its files stay.
+    WrittenFiles written;
+    written.beginRun(spec.folder, true);
     const SweepResult result = runSweep(spec, catalog);
     if (lineOpen) std::cerr << "\n";
 
     const std::vector<std::filesystem::path> files = writeSweep(result, spec.folder);
-    WrittenFiles written;
     for (const auto& f : files) written.add(f);
+    written.finishRun();
     int failed = 0, resumed = 0, reused = 0;
     for (const SweepVariant& v : result.variants) {
         failed += !v.error.empty();

@@ -248,10 +248,13 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
         checkRayDatabaseSize(ts.transport, ts.images, options, spec.raysPerSource, encoding,
                              o.saveRays, o.quiet);
 
-    // The ray database opens its file only once the run's spec has been checked.
+    // Once the run's spec has been checked (criteria included), just before the first ray,
+    // the folder's older run gives way (WrittenFiles::beginRun) and the ray database opens.
     std::unique_ptr<RayDatabaseWriter> db;
-    if (!o.saveRays.empty()) {
-        spec.openConsumer = [&]() -> RayCallback {
+    spec.openConsumer = [&]() -> RayCallback {
+        written.beginRun(dir);
+        if (o.saveRays.empty()) return {};
+        {
             RayDatabaseInfo info = describeScene(setup.scene, o.file);
             info.encoding = encoding;
             // A detector's own name names its object in criteria on the saved rays too.
@@ -266,8 +269,8 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
             if (!parent.empty()) std::filesystem::create_directories(parent);
             db = std::make_unique<RayDatabaseWriter>(o.saveRays, info);
             return [&db](uint64_t i, const PathHistory& h) { db->add(i, h); };
-        };
-    }
+        }
+    };
     const auto limit = limitThreads(o.threads);
     std::optional<ProgressReporter> reporter;
     if (!o.quiet) reporter.emplace("trace", total);
@@ -405,6 +408,7 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
         writeTextFile(dir / "summary.json", summary.dump(2) + "\n");
         written.add(dir / "summary.json");
     }
+    written.finishRun();
     if (o.json) {
         summary["files"] = written.json();
         std::cout << summary.dump(2) << "\n";
