@@ -1,0 +1,14 @@
+// libFuzzer target: a ray database (.vrdb, tracer/ray_database.h), opened and read through.
+#include "fuzz/fuzz_common.h"
+#include "tracer/ray_database.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+    const auto path = veil::fuzz::writeScratch("input.vrdb", veil::fuzz::asText(data, size));
+    veil::fuzz::expectCleanRejection([&] {
+        veil::RayDatabaseReader reader(path);
+        veil::RayRecord record;
+        while (reader.next(record)) {
+        }
+    });
+    return 0;
+}
