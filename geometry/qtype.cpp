@@ -109,7 +109,8 @@ std::vector<double> departure(double rNormMm, const std::vector<double>& terms,
                               const std::vector<double>& prefix,
                               const std::vector<double>& (*poly)(int)) {
     checkTerms(rNormMm, terms);
-    std::vector<long double> inX(prefix.size() + terms.size(), 0.0L);
+    // Degree (prefix.size() - 1) + (terms.size() - 1): Q_m has degree m.
+    std::vector<long double> inX(prefix.size() + terms.size() - 1, 0.0L);
     for (size_t m = 0; m < terms.size(); ++m) {
         const std::vector<double>& q = poly(static_cast<int>(m));
         for (size_t i = 0; i < q.size(); ++i)

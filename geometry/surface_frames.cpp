@@ -1,6 +1,8 @@
 #include "geometry/surface_frames.h"
 
 #include <cmath>
+#include <stdexcept>
+#include <string>
 
 #include "geometry/qtype.h"
 
@@ -84,13 +86,13 @@ SurfaceShape surfaceShape(const Surface& s) {
     if (s.qAsphere) {
         const QAsphere& q = *s.qAsphere;
         // Index n of the departure multiplies v^n = r^(2n): the arrays' entry n - 1.
-        if (q.kind == QAsphere::Kind::Con) {
-            const std::vector<double> d = qconDeparture(q.normRadiusMm, q.terms);
-            for (size_t n = 1; n < d.size(); ++n) even[n - 1] += d[n];
-        } else {
-            const std::vector<double> d = qbfsDeparture(q.normRadiusMm, q.terms);
-            for (size_t n = 1; n < d.size(); ++n) overW[n - 1] = d[n];
-        }
+        const bool con = q.kind == QAsphere::Kind::Con;
+        const std::vector<double> d = con ? qconDeparture(q.normRadiusMm, q.terms)
+                                          : qbfsDeparture(q.normRadiusMm, q.terms);
+        if (d.size() > even.size() + 1)
+            throw std::logic_error("surfaceShape: a Q-type departure of degree " +
+                                   std::to_string(d.size() - 1) + " exceeds the asphere arrays");
+        for (size_t n = 1; n < d.size(); ++n) (con ? even : overW)[n - 1] += d[n];
     }
     return makeShape(s.curvature, s.conic, even, s.oddAsphere, overW);
 }

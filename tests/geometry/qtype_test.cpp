@@ -102,6 +102,19 @@ TEST(QType, QconAreTheJacobiPolynomials) {
 
 // The sag veil traces (the departure turned into v^n terms) is the defining formula, on
 // random surfaces of every term count, to 1e-12 of the departure's scale.
+// M + 1 terms give powers v^0 .. v^(M + 2): M + 3 coefficients, the last one the asphere
+// arrays hold (surfaceShape wrote one entry past them, a stack overflow AddressSanitizer
+// found, while the departure had one trailing zero too many).
+TEST(QType, DepartureHasExactlyItsDegreesCoefficients) {
+    for (int count = 1; count <= kMaxQTerms; ++count) {
+        const std::vector<double> terms(static_cast<size_t>(count), 0.01);
+        EXPECT_EQ(qconDeparture(10.0, terms).size(), static_cast<size_t>(count + 2));
+        EXPECT_EQ(qbfsDeparture(10.0, terms).size(), static_cast<size_t>(count + 2));
+        EXPECT_NE(qconDeparture(10.0, terms).back(), 0.0);
+        EXPECT_NE(qbfsDeparture(10.0, terms).back(), 0.0);
+    }
+}
+
 TEST(QType, SagIsTheDefiningFormula) {
     std::mt19937_64 rng(29);
     std::uniform_real_distribution<double> uni(-1.0, 1.0);
