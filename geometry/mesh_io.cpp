@@ -14,6 +14,7 @@
 #include <map>
 #include <mutex>
 #include <numbers>
+#include <iostream>
 #include <sstream>
 #include <stdexcept>
 #include <unordered_map>
@@ -151,8 +152,10 @@ class RawImporter final : public OpenMesh::IO::BaseImporter {
 
 // OpenMesh writes its complaints to the global streams omerr/omlog/omout (connected to
 // std::cerr, std::clog, std::cout). Library code must not print, and the complaints are
-// the best reason we can give in a ParseError, so while a file is read they go into a
-// string instead. The streams are process-wide: one read at a time.
+// the best reason we can give in a ParseError, so while a file is read the three standard
+// streams write into strings instead (their buffers swapped, then restored). Not by
+// disconnecting OpenMesh's multiplexers from them: disconnect() forgets its target without
+// deleting it, 16 bytes leaked per read. The streams are process-wide: one read at a time.
 std::mutex& openMeshStreamsMutex() {
     static std::mutex m;
     return m;
@@ -165,23 +168,20 @@ class OpenMeshMessages {
           errEnabled_(omerr().is_enabled()),
           logEnabled_(omlog().is_enabled()),
           outEnabled_(omout().is_enabled()) {
-        errHadCerr_ = omerr().disconnect(std::cerr);
-        logHadClog_ = omlog().disconnect(std::clog);
-        outHadCout_ = omout().disconnect(std::cout);
-        omerr().connect(errors_);
-        omlog().connect(other_);
-        omout().connect(other_);
+        omerr().flush();
+        omlog().flush();
+        omout().flush();
+        cerrBuf_ = std::cerr.rdbuf(errors_.rdbuf());
+        clogBuf_ = std::clog.rdbuf(other_.rdbuf());
+        coutBuf_ = std::cout.rdbuf(other_.rdbuf());
     }
     ~OpenMeshMessages() {
         omerr().flush();
         omlog().flush();
         omout().flush();
-        omerr().disconnect(errors_);
-        omlog().disconnect(other_);
-        omout().disconnect(other_);
-        if (errHadCerr_) omerr().connect(std::cerr);
-        if (logHadClog_) omlog().connect(std::clog);
-        if (outHadCout_) omout().connect(std::cout);
+        std::cerr.rdbuf(cerrBuf_);
+        std::clog.rdbuf(clogBuf_);
+        std::cout.rdbuf(coutBuf_);
         // A reader left by an exception may have disabled a stream.
         errEnabled_ ? omerr().enable() : omerr().disable();
         logEnabled_ ? omlog().enable() : omlog().disable();
@@ -204,9 +204,9 @@ class OpenMeshMessages {
     std::ostringstream errors_;
     std::ostringstream other_;
     bool errEnabled_, logEnabled_, outEnabled_;
-    bool errHadCerr_ = false;
-    bool logHadClog_ = false;
-    bool outHadCout_ = false;
+    std::streambuf* cerrBuf_ = nullptr;
+    std::streambuf* clogBuf_ = nullptr;
+    std::streambuf* coutBuf_ = nullptr;
 };
 
 // File Formats
@@ -443,7 +443,13 @@ Prescan prescanOff(const std::filesystem::path& path) {
         return false;
     };
     if (!skipBlankAndComments()) r.fail(0, "empty file");
-    if (r.words()[0].text != "OFF") return p;
+    // Only plain OFF is checked here and read: OpenMesh takes any first word ending in OFF
+    // (COFF, NOFF, 4OFF, "OFF10", ...) and then believes whatever counts follow (a face of
+    // 777777777755 corners asked for 2 GB; found by fuzzing).
+    if (r.words()[0].text != "OFF")
+        r.fail(r.words()[0].column, "expected the header 'OFF' (veil reads plain OFF files: "
+                                    "vertices as x y z, faces as n i1 .. in), got '" +
+                                        std::string(r.words()[0].text) + "'");
     if (r.words().size() > 1) {
         counts.assign(r.words().begin() + 1, r.words().end());
     } else {
@@ -513,8 +519,12 @@ Prescan prescanPly(const std::filesystem::path& path) {
             return p;
         }
         if (kw == "format") {
-            if (w.size() != 3 || (w[1].text != "ascii" && w[1].text != "binary_little_endian" &&
-                                  w[1].text != "binary_big_endian"))
+            // OpenMesh reads a version that is not a number forever (found by fuzzing).
+            if (format) r.fail(0, "a second 'format' line in the PLY header");
+            if (w.size() != 3 ||
+                (w[1].text != "ascii" && w[1].text != "binary_little_endian" &&
+                 w[1].text != "binary_big_endian") ||
+                w[2].text != "1.0")
                 r.fail(0, "expected 'format ascii|binary_little_endian|binary_big_endian 1.0'");
             p.format = w[1].text == "ascii" ? "PLY (ASCII)" : "PLY (binary)";
             format = true;
