@@ -18,8 +18,17 @@ std::string sci(double v, int digits = 3) {
     return os.str();
 }
 
+// A CSV cell: empty when not finite (a ghost focused at infinity).
+std::string csvNumber(double v) {
+    if (!std::isfinite(v)) return "";
+    std::ostringstream os;
+    os << v;
+    return os.str();
+}
+
+// Non-finite (a ghost focused at infinity: collimated) prints n/a.
 std::string fix(double v, int digits = 3) {
-    if (!std::isfinite(v)) return "inf";
+    if (!std::isfinite(v)) return "n/a";
     std::ostringstream os;
     os << std::fixed << std::setprecision(digits) << v;
     return os.str();
@@ -200,8 +209,8 @@ std::string GhostReport::csv() const {
     for (const GhostReportRow& g : rows) {
         csv << g.rank << ",\"" << g.label << "\"," << g.flux << "," << g.relativeFlux << ","
             << (haveMc ? sci(g.mcFlux, 6) : "") << "," << (haveMc ? sci(g.mcRelativeFlux, 6) : "")
-            << "," << (haveMc ? sci(g.mcRelativeError, 3) : "") << "," << g.focusMm << ","
-            << g.footprintMm << "," << g.peakIrradiance << "," << g.relativeIrradiance << ","
+            << "," << (haveMc ? sci(g.mcRelativeError, 3) : "") << ","
+            << csvNumber(g.focusMm) << "," << csvNumber(g.footprintMm) << "," << g.peakIrradiance << "," << g.relativeIrradiance << ","
             << (g.nearFocus ? 1 : 0) << ",\"" << g.glassFocus << "\","
             << (g.baselineRank > 0 ? std::to_string(g.baselineRank) : "") << ",\"" << g.criterion
             << "\",\"" << g.source << "\"\n";

@@ -262,9 +262,10 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
         }))
         os << "  of the unfolded system: paraxial data ignore coordinate breaks\n";
     if (xSection) os << "  of the y-z section (anamorphic surfaces: the x-z section follows)\n";
+    // An afocal system has its focal points and principal planes at infinity: n/a, said why.
     auto row = [&](const char* label, double v, const char* unit) {
         os << "  " << std::left << std::setw(40) << label << std::right << std::setw(14)
-           << fmt(v, 8) << " " << unit << "\n";
+           << (std::isfinite(v) ? fmt(v, 8) + " " + unit : "n/a (at infinity: afocal)") << "\n";
     };
     row("effective focal length", d.eflMm, "mm");
     row("back focal length (from last surface)", d.bflMm, "mm");
@@ -301,11 +302,12 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
         os << "\n  " << std::setw(12) << "wavelength" << std::setw(14) << "EFL" << std::setw(14)
            << "BFL" << std::setw(14) << "EP diameter" << std::setw(12) << "F/#"
            << "\n";
+        auto finite = [](double v, int prec) { return std::isfinite(v) ? fmt(v, prec) : "n/a"; };
         for (const FirstOrderData& x : fo.wavelengths)
-            os << "  " << std::setw(12) << fmt(x.wavelengthNm) << std::setw(14) << fmt(x.eflMm, 8)
-               << std::setw(14) << fmt(x.bflMm, 8) << std::setw(14)
-               << fmt(x.entrancePupilDiameterMm, 7) << std::setw(12) << fmt(x.imageSpaceFNumber, 5)
-               << "\n";
+            os << "  " << std::setw(12) << fmt(x.wavelengthNm) << std::setw(14)
+               << finite(x.eflMm, 8) << std::setw(14) << finite(x.bflMm, 8) << std::setw(14)
+               << fmt(x.entrancePupilDiameterMm, 7) << std::setw(12)
+               << finite(x.imageSpaceFNumber, 5) << "\n";
     }
     if (!p.system.imageHeights.empty()) {
         const bool realHeights = p.system.givenFieldKind == SystemData::FieldKind::RealImageHeightMm;

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cctype>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -26,6 +27,19 @@ std::vector<std::string> examples() {
             out.push_back(std::string(dir) + "/" + e.path().filename().string());
     std::sort(out.begin(), out.end());
     return out;
+}
+
+// An inf or nan token (as C++ streams print them) anywhere in the text.
+bool hasNonFinite(const std::string& text) {
+    auto word = [&](size_t i) {
+        return i < text.size() && (std::isalpha(static_cast<unsigned char>(text[i])) ||
+                                   text[i] == '_');
+    };
+    for (const char* token : {"inf", "nan"})
+        for (size_t at = text.find(token); at != std::string::npos;
+             at = text.find(token, at + 1))
+            if ((at == 0 || !word(at - 1)) && !word(at + 3)) return true;
+    return false;
 }
 
 TEST(ExamplesSmoke, EveryExampleRunsThroughEveryCommand) {
@@ -56,7 +70,15 @@ TEST(ExamplesSmoke, EveryExampleRunsThroughEveryCommand) {
             const VeilRun r = runVeil(c);
             EXPECT_EQ(r.exitCode, 0) << r.err;
             EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
+            // info's surface table shows a flat's radius and an object at infinity as inf,
+            // the file's own values; every computed number is finite or n/a.
+            if (c.rfind("info", 0) != 0) EXPECT_FALSE(hasNonFinite(r.out)) << r.out;
         }
+        for (const char* written :
+             {"/trace/summary.json", "/ghosts/ghosts.md", "/ghosts/ghosts.csv",
+              "/ghosts/ghosts.json", "/objects/objects.md", "/objects/objects.csv",
+              "/objects/objects.json"})
+            EXPECT_FALSE(hasNonFinite(readText(dir + written))) << dir + written;
         EXPECT_TRUE(std::filesystem::exists(dir + "/layout/layout.png")) << f;
         EXPECT_TRUE(std::filesystem::exists(dir + "/scene.ply")) << f;
         EXPECT_TRUE(std::filesystem::exists(dir + "/trace/summary.json")) << f;
