@@ -312,7 +312,10 @@ DetectorExr readDetectorExr(const std::filesystem::path& path) {
         std::vector<std::vector<float>> stored;
         stored.reserve(found.size() * kFields.size());
         Imf::FrameBuffer frame;
-        for (const auto& [layer, fields] : found) {
+        for (const auto& entry : found) {
+            // Named, not a structured binding: the lambda below captures it (clang 14).
+            const auto& layer = entry.first;
+            const auto& fields = entry.second;
             if (fields.size() != kFields.size())
                 throw std::runtime_error("layer '" + layer + "' lacks some of the channels " +
                                          "value, irradiance, variance, count");

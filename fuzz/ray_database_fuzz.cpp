@@ -4,11 +4,12 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const auto path = veil::fuzz::writeScratch("input.vrdb", veil::fuzz::asText(data, size));
-    veil::fuzz::expectCleanRejection([&] {
+    try {
         veil::RayDatabaseReader reader(path);
         veil::RayRecord record;
         while (reader.next(record)) {
         }
-    });
+    } catch (const veil::RayDatabaseError&) {
+    }
     return 0;
 }
