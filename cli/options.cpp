@@ -9,10 +9,10 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <iomanip>
-#include <iostream>
 #include <ctime>
 #include <fstream>
+#include <iomanip>
+#include <iostream>
 #include <iterator>
 #include <random>
 #include <sstream>
@@ -371,13 +371,10 @@ void WrittenFiles::beginRun(const std::filesystem::path& folder, bool keepFiles)
     if (folder.empty() || !fs::is_directory(folder)) return;
     const fs::path manifest = folder / kRunManifest;
     if (fs::exists(manifest)) {
-        nlohmann::json old;
-        try {
-            std::ifstream in(manifest);
-            old = nlohmann::json::parse(in);
-        } catch (const std::exception&) {
-            old = nlohmann::json();
-        }
+        // Unreadable JSON gives a discarded value: only the manifest itself goes then.
+        std::ifstream in(manifest);
+        const nlohmann::json old = nlohmann::json::parse(in, nullptr, false);
+        in.close();
         // The manifest goes first: from here on the folder holds no finished run.
         std::error_code ec;
         fs::remove(manifest, ec);
@@ -408,7 +405,8 @@ void WrittenFiles::beginRun(const std::filesystem::path& folder, bool keepFiles)
     for (auto it = fs::recursive_directory_iterator(folder, ec);
          !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
         if (it.depth() > 1) it.disable_recursion_pending();
-        if (it->is_regular_file() && leftoverTemporary(it->path())) fs::remove(it->path(), ec);
+        std::error_code removed;
+        if (it->is_regular_file() && leftoverTemporary(it->path())) fs::remove(it->path(), removed);
     }
 }
 

@@ -312,69 +312,70 @@ Vec2 DetectorImage::pixelCentreLocal(int pixel) const {
 }
 
 void DetectorImage::add(int pixel, double flux) {
-    if (static_cast<unsigned>(pixel) >= flux_.size())
-        throw std::out_of_range("DetectorImage::add: pixel " + std::to_string(pixel) +
-                                " outside detector '" + geometry_.name + "'");
-    flux_[pixel] += flux;
-    flux2_[pixel] += flux * flux;
-    ++count_[pixel];
-    totalFlux_ += flux;
-    totalFlux2_ += flux * flux;
-    ++totalCount_;
+    const RayContribution::Entry one{pixel, flux};
+    addRay(&one, &one + 1);
 }
 
 namespace {
 
-// One ray's entries reduced to a sum per pixel, ascending pixel. Stable: equal pixels keep
-// the order they were recorded in, so the sums do not depend on the sort implementation.
-void reduceRay(const std::vector<RayContribution::Entry>& entries,
-               std::vector<RayContribution::Entry>& scratch,
-               std::vector<RayContribution::Entry>& out) {
-    scratch.assign(entries.begin(), entries.end());
-    std::stable_sort(scratch.begin(), scratch.end(),
+// Sorts entries [from, end) by pixel and sums each pixel's run in place; the entries are then
+// the ray's sums, one per pixel in ascending order. Stable: equal pixels keep the order they
+// were recorded in, so the sums do not depend on the sort implementation.
+void reduceRay(std::vector<RayContribution::Entry>& entries, size_t from) {
+    std::stable_sort(entries.begin() + static_cast<std::ptrdiff_t>(from), entries.end(),
                      [](const auto& a, const auto& b) { return a.pixel < b.pixel; });
-    for (size_t i = 0; i < scratch.size();) {
-        const int pixel = scratch[i].pixel;
+    size_t out = from;
+    for (size_t i = from; i < entries.size();) {
+        const int pixel = entries[i].pixel;
         double sum = 0.0;
-        for (; i < scratch.size() && scratch[i].pixel == pixel; ++i) sum += scratch[i].flux;
-        out.push_back({pixel, sum});
+        for (; i < entries.size() && entries[i].pixel == pixel; ++i) sum += entries[i].flux;
+        entries[out++] = {pixel, sum};
     }
+    entries.resize(out);
 }
 
 }  // namespace
 
 void DetectorLog::add(RayContribution& ray) {
     if (ray.empty()) return;
-    reduceRay(ray.entries(), sortScratch_, sums_);
+    const size_t from = sums_.size();
+    sums_.insert(sums_.end(), ray.entries().begin(), ray.entries().end());
+    reduceRay(sums_, from);
     rayEnds_.push_back(sums_.size());
     ray.clear();
 }
 
 void DetectorImage::add(RayContribution& ray) {
     if (ray.empty()) return;
-    DetectorLog log;
-    log.add(ray);
-    add(log);
+    std::vector<RayContribution::Entry> sums = ray.entries();
+    reduceRay(sums, 0);
+    addRay(sums.data(), sums.data() + sums.size());
+    ray.clear();
 }
 
 void DetectorImage::add(const DetectorLog& log) {
-    size_t i = 0;
+    size_t begin = 0;
     for (const size_t end : log.rayEnds_) {
-        double rayTotal = 0.0;
-        for (; i < end; ++i) {
-            const auto [pixel, sum] = log.sums_[i];
-            if (static_cast<unsigned>(pixel) >= flux_.size())
-                throw std::out_of_range("DetectorImage::add: pixel " + std::to_string(pixel) +
-                                        " outside detector '" + geometry_.name + "'");
-            flux_[pixel] += sum;
-            flux2_[pixel] += sum * sum;
-            ++count_[pixel];
-            rayTotal += sum;
-        }
-        totalFlux_ += rayTotal;
-        totalFlux2_ += rayTotal * rayTotal;
-        ++totalCount_;
+        addRay(log.sums_.data() + begin, log.sums_.data() + end);
+        begin = end;
     }
+}
+
+void DetectorImage::addRay(const RayContribution::Entry* first,
+                           const RayContribution::Entry* last) {
+    double rayTotal = 0.0;
+    for (const RayContribution::Entry* e = first; e != last; ++e) {
+        if (static_cast<unsigned>(e->pixel) >= flux_.size())
+            throw std::out_of_range("DetectorImage::add: pixel " + std::to_string(e->pixel) +
+                                    " outside detector '" + geometry_.name + "'");
+        flux_[e->pixel] += e->flux;
+        flux2_[e->pixel] += e->flux * e->flux;
+        ++count_[e->pixel];
+        rayTotal += e->flux;
+    }
+    totalFlux_ += rayTotal;
+    totalFlux2_ += rayTotal * rayTotal;
+    ++totalCount_;
 }
 
 void DetectorImage::merge(const DetectorImage& other) {

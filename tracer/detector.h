@@ -172,7 +172,6 @@ class DetectorLog {
     friend class DetectorImage;
     std::vector<RayContribution::Entry> sums_;  // per ray, one per pixel, ascending pixel
     std::vector<size_t> rayEnds_;               // end of each ray's sums in sums_
-    std::vector<RayContribution::Entry> sortScratch_;
 };
 
 // Per pixel sums of flux (W or lm, the source's unit), of squared per-ray flux and the
@@ -257,6 +256,9 @@ class DetectorImage {
     bool sameSums(const DetectorImage& other) const;
 
   private:
+    // Adds one ray's sums (one entry per pixel) to the pixels and the totals.
+    void addRay(const RayContribution::Entry* first, const RayContribution::Entry* last);
+
     DetectorGeometry geometry_;
     std::vector<double> flux_, flux2_;
     std::vector<uint64_t> count_;

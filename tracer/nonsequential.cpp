@@ -344,10 +344,8 @@ TraceResult traceNonsequential(const TransportScene& ts,
                                const RayCallback& onRay) {
     const uint64_t sources = ts.sources.size();
     const uint64_t total = raysPerSource * sources;
-    const uint64_t block = std::max<uint64_t>(1, options.raysPerBlock);
     std::atomic<uint64_t> done{0};
 
-    const uint64_t blocks = total / block + (total % block != 0 ? 1 : 0);
     // Blocks traced in parallel, added to the images in block order (tracer/ordered_blocks.h):
     // the sums do not depend on the thread count, and memory is the images plus the logs of
     // a few blocks, whatever the ray count.
@@ -355,18 +353,17 @@ TraceResult traceNonsequential(const TransportScene& ts,
     std::vector<DetectorImage> images = detectors;
     auto work = [&]() {
         forBlocksInOrder(
-            blocks,
-            [&](uint64_t b) {
+            total, options.raysPerBlock,  // 0 counts as 1
+            [&](uint64_t first, uint64_t last) {
                 Accumulator acc(detectors);
                 RayTracer tracer(ts, options);
-                const uint64_t end = std::min(total, (b + 1) * block);
-                for (uint64_t i = b * block; i < end; ++i) {
+                for (uint64_t i = first; i < last; ++i) {
                     // Ray i belongs to source i / raysPerSource; its random stream is keyed by
                     // i alone, so sources never share numbers.
                     tracer.trace(static_cast<int>(i / raysPerSource), i, raysPerSource, acc);
                     if (options.recordHistories && onRay) onRay(i, tracer.history());
                 }
-                done += end - b * block;
+                done += last - first;
                 return acc;
             },
             [&](const Accumulator& acc) {

@@ -204,10 +204,9 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
     result.secondary.assign(static_cast<size_t>(pixels), 0.0);
     result.by.assign(criteria, {result.visible, result.caustic, result.secondary});
     result.learned.assign(back.learned.size(), 0.0);
-    const uint64_t blocks = total / block + (total % block != 0 ? 1 : 0);
     forBlocksInOrder(
-        blocks,
-        [&](uint64_t blockIndex) {
+        total, block,
+        [&](uint64_t first, uint64_t last) {
             PhotonBlock a;
             a.learned.assign(back.learned.size(), 0.0);
             std::vector<PhotonBranch> stack;
@@ -232,7 +231,6 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
                 for (uint64_t m = matched; m != 0; m &= m - 1)
                     into(static_cast<uint32_t>(3 + 3 * std::countr_zero(m) + slot));
             };
-            const uint64_t first = blockIndex * block, last = std::min(total, first + block);
             for (uint64_t i = first; i < last; ++i) {
                 const size_t sourceIndex = i / perSource;
                 const Source& source = ts.sources[sourceIndex];
