@@ -39,6 +39,9 @@ namespace {
 
 constexpr const char* kCheckpoint = "render.checkpoint";
 
+// "1 pass", "2 passes".
+std::string passesText(long long n) { return std::to_string(n) + (n == 1 ? " pass" : " passes"); }
+
 nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
 
 // FNV-1a over the text that determines a run's numbers: the scene as the renderer sees it and
@@ -409,20 +412,20 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
     po.fluxUnit = unit;
     po.emittedRays = n;
     po.decades = 3.0;  // stray light spans a few decades; 6 would flatten it
-    po.title = name + ": stray light, " + std::to_string(n) + " passes";
+    po.title = name + ": stray light, " + passesText(n);
     writeDetectorPng(dir / (name + ".png"), total, po);
     written.add(dir / (name + ".png"));
     for (int c = 0; c < kRenderComponents; ++c) {
         const std::string comp(toString(static_cast<RenderComponent>(c)));
         if (components[c].totalFlux() == 0.0) continue;
         PreviewOptions cp = po;
-        cp.title = name + ": " + comp + " component, " + std::to_string(n) + " passes";
+        cp.title = name + ": " + comp + " component, " + passesText(n);
         writeDetectorPng(dir / (name + "." + comp + ".png"), components[c], cp);
         written.add(dir / (name + "." + comp + ".png"));
     }
     for (int k = 0; k < criterionCount; ++k) {
         PreviewOptions cp = po;
-        cp.title = name + ": " + o.where[k] + ", " + std::to_string(n) + " passes";
+        cp.title = name + ": " + o.where[k] + ", " + passesText(n);
         const std::filesystem::path png = dir / (name + "." + layerName(k) + ".png");
         writeDetectorPng(png, byCriterion[k][0], cp);
         written.add(png);
@@ -508,7 +511,7 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
         return img.totalFlux() != 0.0 ? std::sqrt(img.totalVariance(n)) / std::abs(img.totalFlux())
                                       : kInfinity;
     };
-    text << "Stray light on " << name << " (" << unit << ", mean of " << n << " passes)"
+    text << "Stray light on " << name << " (" << unit << ", mean of " << passesText(n) << ")"
          << (o.prune ? ": only light whose path matches a --where (--prune)" : "") << "\n";
     text << "  total       " << formatFlux(total.totalFlux(), rel(total), unit)
          << "   transmittance " << std::scientific << std::setprecision(3)
@@ -526,10 +529,12 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
     if (o.prune)
         text << "  pruned " << prunedBranches << " backward and " << prunedPhotons
              << " photon branches (--prune)\n";
-    text << std::defaultfloat << std::setprecision(4) << "  " << state.passes() << " passes ("
+    text << std::defaultfloat << std::setprecision(4) << "  " << passesText(state.passes()) << " ("
          << state.passes() - startPasses << " this run, " << elapsed(runSeconds) << "), "
          << stopReason << "; mean pixel error "
-         << (std::isfinite(error) ? std::to_string(100.0 * error).substr(0, 5) + " %" : "unknown")
+         << (std::isfinite(error)
+                 ? std::to_string(100.0 * error).substr(0, 5) + " %"
+                 : std::string(state.passes() < 2 ? "unknown (it takes two passes)" : "unknown"))
          << " over " << state.litPixels() << " lit pixels (target " << 100.0 * o.targetError
          << " %";
     const double finalTargetError = targetError();

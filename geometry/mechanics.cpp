@@ -149,6 +149,7 @@ struct Region {
     int path = -1;  // the path through it when simple
     double boreMm = 0.0;
     std::vector<int> plates;  // sorted by z0
+    int widestPlate = -1;     // the plate (not a vane) of largest inner radius, -1: none
 };
 
 // Something a spacer or retainer rests against.
@@ -668,9 +669,13 @@ void MechanicsBuilder::computeBores() {
     }
     for (Region& r : regions_) {
         double plateNeed = 0.0;
+        r.widestPlate = -1;
         for (int pi : r.plates)
-            if (plates_[pi].kind != PlateKind::Vane)
-                plateNeed = std::max(plateNeed, plates_[pi].ri + kMinPlateWidthMm);
+            if (plates_[pi].kind != PlateKind::Vane &&
+                plates_[pi].ri + kMinPlateWidthMm > plateNeed) {
+                plateNeed = plates_[pi].ri + kMinPlateWidthMm;
+                r.widestPlate = pi;
+            }
         double bore = plateNeed;
         if (r.simple) {
             const double beam = paths_[r.path].beamMm;
@@ -692,9 +697,18 @@ void MechanicsBuilder::computeBores() {
     }
     double largest = 0.0;
     for (const Body& b : bodies_) largest = std::max(largest, b.boreMm);
-    for (const Region& r : regions_) largest = std::max(largest, r.boreMm);
-    largest += spec_.barrel.wallMm;
     std::string largestPart = "the barrel's outside (its bore plus wall_mm)";
+    for (const Region& r : regions_)
+        if (r.boreMm > largest) {
+            largest = r.boreMm;
+            // A plate whose opening sets the bore is what to look at, not the barrel.
+            if (r.widestPlate >= 0 &&
+                plates_[r.widestPlate].ri + kMinPlateWidthMm >= r.boreMm)
+                largestPart = "the barrel's outside around " + plates_[r.widestPlate].name +
+                              " (its inner radius plus " + fmt(kMinPlateWidthMm) +
+                              " mm of plate plus wall_mm)";
+        }
+    largest += spec_.barrel.wallMm;
     for (const MechanicsSpec::Part& part : spec_.parts)
         if (part.enabled)
             for (const Vec2& v : part.profileMm)

@@ -15,6 +15,7 @@
 #include "analysis/ghosts.h"
 #include "analysis/stray_light_run.h"
 #include "lensdata/errors.h"
+#include "tests/text_checks.h"
 #include "tracer/prepared_scene.h"
 
 namespace veil {
@@ -151,7 +152,14 @@ TEST(Sweep, AVariantThatCannotBeBuiltIsARowAndTheRerunResumes) {
     for (const SweepVariant& v : first.variants) EXPECT_FALSE(v.resumed);
     const auto files = writeSweep(first, spec.folder);
     EXPECT_EQ(files.size(), 5u);
-    for (const auto& f : files) EXPECT_TRUE(std::filesystem::exists(f)) << f;
+    for (const auto& f : files) {
+        EXPECT_TRUE(std::filesystem::exists(f)) << f;
+        // The failed variant's numbers are empty or "-", never inf or nan.
+        std::ifstream in(f);
+        const std::string text((std::istreambuf_iterator<char>(in)),
+                               std::istreambuf_iterator<char>());
+        EXPECT_FALSE(veil_test::hasNonFinite(text)) << f;
+    }
 
     // The rerun reads every variant back, failures included, with the same numbers.
     const SweepResult again = runSweep(spec, GlassCatalog::builtIn());

@@ -7,7 +7,6 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <cctype>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -16,8 +15,11 @@
 #include <vector>
 
 #include "tests/cli/run_veil.h"
+#include "tests/text_checks.h"
 
 namespace {
+
+using veil_test::hasNonFinite;
 
 std::vector<std::string> examples() {
     std::vector<std::string> out;
@@ -27,19 +29,6 @@ std::vector<std::string> examples() {
             out.push_back(std::string(dir) + "/" + e.path().filename().string());
     std::sort(out.begin(), out.end());
     return out;
-}
-
-// An inf or nan token (as C++ streams print them) anywhere in the text.
-bool hasNonFinite(const std::string& text) {
-    auto word = [&](size_t i) {
-        return i < text.size() && (std::isalpha(static_cast<unsigned char>(text[i])) ||
-                                   text[i] == '_');
-    };
-    for (const char* token : {"inf", "nan"})
-        for (size_t at = text.find(token); at != std::string::npos;
-             at = text.find(token, at + 1))
-            if ((at == 0 || !word(at - 1)) && !word(at + 3)) return true;
-    return false;
 }
 
 TEST(ExamplesSmoke, EveryExampleRunsThroughEveryCommand) {

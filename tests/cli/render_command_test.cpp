@@ -11,6 +11,7 @@
 
 #include "analysis/image_output.h"
 #include "tests/cli/run_veil.h"
+#include "tests/text_checks.h"
 
 namespace {
 
@@ -33,6 +34,8 @@ TEST(RenderCommand, WritesTheComponentsAndTheyAddUp) {
               std::string::npos)
         << r.out;
     EXPECT_NE(r.out.find("pass limit reached"), std::string::npos) << r.out;
+    EXPECT_FALSE(veil_test::hasNonFinite(r.out)) << r.out;
+    EXPECT_FALSE(veil_test::hasNonFinite(readText(dir + "/summary.json")));
     const nlohmann::json s = nlohmann::json::parse(readText(dir + "/summary.json"));
     EXPECT_EQ(s["passes"].get<int>(), 2);
     double sum = 0.0;

@@ -624,6 +624,14 @@ TEST(Mechanics, SegmentCountIsBoundedBeforeMeshing) {
     spec = MechanicsSpec{};
     spec.barrel.wallMm = 1e6;
     EXPECT_THAT(modelErrorOf([&] { buildMechanics(rx, spec); }).what(), HasSubstr("22"));
+    // A baffle of a kilometre's opening: the message names the baffle that widened the
+    // barrel, not the barrel.
+    spec = MechanicsSpec{};
+    spec.baffles.push_back({true, 30.4, 1e6, 0.5, ""});
+    const std::string baffle = modelErrorOf([&] { buildMechanics(rx, spec); }).what();
+    EXPECT_THAT(baffle, HasSubstr("around baffle1"));
+    EXPECT_THAT(baffle, HasSubstr("1000003.000 mm"));  // + 1 mm of plate + 2 mm of wall
+    spec = MechanicsSpec{};
     // At the limit's tolerance the same radius builds with at most the limit.
     spec.barrel.wallMm = 100.0;
     spec.chordToleranceMm = 1e-4;
