@@ -64,6 +64,27 @@ struct ExportOptions {
 void addExportCommand(CLI::App& app, ExportOptions& options);
 int runExport(const CommonOptions& common, const ExportOptions& options);
 
+struct ViewOptions {
+    std::string file;
+    std::string output = "scene.html";
+    std::string where;  // empty: no ray paths
+    int first = 100;
+    uint64_t rays = 1000000;  // per source, at most
+    std::vector<std::string> fields;
+    uint64_t batch = 20000;
+    std::string colour = "flux";
+    std::string mode = "split";
+    double minRelativeFlux = 1e-4;
+    int threads = 0;
+    uint64_t seed = 1;
+    double chordToleranceMm = 0.05;
+    bool noMechanics = false;
+    bool json = false;
+    bool quiet = false;
+};
+void addViewCommand(CLI::App& app, ViewOptions& options);
+int runView(const CommonOptions& common, const ViewOptions& options);
+
 struct SweepOptions {
     std::string file;
     std::vector<std::string> vary;  // KEY=VALUES

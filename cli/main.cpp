@@ -59,6 +59,8 @@ int main(int argc, char** argv) {
     veil::cli::addRaysCommand(app, raysOptions);
     veil::cli::PathsOptions pathsOptions;
     veil::cli::addPathsCommand(app, pathsOptions);
+    veil::cli::ViewOptions viewOptions;
+    veil::cli::addViewCommand(app, viewOptions);
     veil::cli::GhostsOptions ghostsOptions;
     veil::cli::addGhostsCommand(app, ghostsOptions);
     veil::cli::RenderCommandOptions renderOptions;
@@ -104,6 +106,7 @@ int main(int argc, char** argv) {
             if (sub->get_name() == "trace") return veil::cli::runTrace(common, traceOptions);
             if (sub->get_name() == "rays") return veil::cli::runRays(common, raysOptions);
             if (sub->get_name() == "paths") return veil::cli::runPaths(common, pathsOptions);
+            if (sub->get_name() == "view") return veil::cli::runView(common, viewOptions);
             if (sub->get_name() == "ghosts") return veil::cli::runGhosts(common, ghostsOptions);
             if (sub->get_name() == "render") return veil::cli::runRender(common, renderOptions);
             if (sub->get_name() == "sweep") return veil::cli::runSweepCommand(common, sweepOptions);

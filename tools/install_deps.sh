@@ -7,6 +7,7 @@ packages=(
   libembree-dev libcgal-dev libopenmesh-dev libopenexr-dev libglm-dev libtbb-dev
   libtomlplusplus-dev libcli11-dev nlohmann-json3-dev libcairo2-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  libjs-three chromium
 )
 missing=()
 for p in "${packages[@]}"; do

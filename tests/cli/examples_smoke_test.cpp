@@ -1,5 +1,5 @@
 // Every bundled example runs through every command it makes sense for, with small budgets:
-// lens files through info, layout, export, trace, paths and ghosts (a lens without sources is
+// lens files through info, layout, export, trace, paths, view and ghosts (a lens without sources is
 // traced with one beam per system field), scenes through the same (ghost path pictures are
 // left to ghosts_command_test). Each run exits 0, warns
 // of nothing, and writes what it lists.
@@ -49,6 +49,7 @@ TEST(ExamplesSmoke, EveryExampleRunsThroughEveryCommand) {
             "export " + f + " -o " + dir + "/scene.ply",
             "trace " + f + " -n 40 --quiet -o " + dir + "/trace",
             "paths " + f + " --where 'detector' --first 3 -n 200 --quiet -o " + dir + "/paths",
+            "view " + f + " --where 'detector' --first 3 -n 200 --quiet -o " + dir + "/scene.html",
             // A window source has no sequential ghost estimate: ghosts asks for --field.
             "ghosts " + f + " -n 100 --grid 12 --top 0 --quiet -o " + dir + "/ghosts" +
                 (window ? " --field 0,0.3" : ""),
@@ -72,6 +73,7 @@ TEST(ExamplesSmoke, EveryExampleRunsThroughEveryCommand) {
         EXPECT_TRUE(std::filesystem::exists(dir + "/scene.ply")) << f;
         EXPECT_TRUE(std::filesystem::exists(dir + "/trace/summary.json")) << f;
         EXPECT_TRUE(std::filesystem::exists(dir + "/paths/paths.svg")) << f;
+        EXPECT_TRUE(std::filesystem::exists(dir + "/scene.html")) << f;
         EXPECT_TRUE(std::filesystem::exists(dir + "/ghosts/ghosts.md")) << f;
         EXPECT_TRUE(std::filesystem::exists(dir + "/objects/objects.png")) << f;
     }

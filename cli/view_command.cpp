@@ -1,0 +1,156 @@
+// veil view SCENE [--where EXPR --first N] -o scene.html: the scene in 3D as one self-contained
+// HTML page (analysis/scene_view.h): lens solids, mechanics, detectors and sources, and with
+// --where the first N rays with a matching path (selected as `veil paths` selects them),
+// coloured by log flux or by event.
+//
+//   veil view examples/scenes/double_gauss_ghosts.toml -o out/scene.html
+//   veil view examples/scenes/longfocus_360mm_sun.toml --where "scatter(L*.edge)" --first 200
+//       -o out/butt_ends.html
+//
+// three.js comes from Debian's libjs-three (or $VEIL_THREE_JS_DIR) and is inlined when the
+// page is written: the page fetches nothing when it is opened. The page's data and checks
+// happen before any ray is traced: a missing three.js, a bad criterion or an unwritable -o
+// stop the command first.
+
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+
+#include "analysis/path_picture.h"
+#include "analysis/scene_view.h"
+#include "cli/commands.h"
+#include "cli/options.h"
+#include "cli/progress.h"
+#include "lensdata/errors.h"
+#include "tracer/prepared_scene.h"
+
+namespace veil::cli {
+
+void addViewCommand(CLI::App& app, ViewOptions& o) {
+    CLI::App* sub = app.add_subcommand(
+        "view", "the scene and selected ray paths in 3D, as one self-contained HTML page");
+    sub->add_option("scene", o.file, "scene or lens file (.toml or .zmx)")->required();
+    addOutputFile(sub, o.output, "HTML file to write (folders created as needed)");
+    sub->add_option("--where", o.where,
+                    "draw the rays with a path matching this criterion (docs/criteria.md)");
+    sub->add_option("--first", o.first,
+                    "emitted rays to draw (with --where), each with all its branches that match")
+        ->check(CLI::Range(1, 100000))
+        ->capture_default_str();
+    addRays(sub, o.rays, "emitted rays per source to trace at most (with --where)");
+    addFields(sub, o.fields);
+    addCount(sub, "--batch", o.batch, "rays per source per batch");
+    sub->add_option("--colour,--color", o.colour, "path colour: flux (log) or event type")
+        ->check(CLI::IsMember({"flux", "event"}))
+        ->capture_default_str();
+    sub->add_option("--mode", o.mode,
+                    "split (every Fresnel branch is a path) or random (one path per ray)")
+        ->check(CLI::IsMember({"split", "random"}))
+        ->capture_default_str();
+    sub->add_option("--min-flux", o.minRelativeFlux,
+                    "cull a branch below this share of its ray's emitted flux, after every bounce")
+        ->check(CLI::Range(0.0, 1.0))
+        ->capture_default_str();
+    addRunControls(sub, o.threads, o.seed);
+    sub->add_option("--chord-tolerance", o.chordToleranceMm,
+                    "display tessellation of exact faces, mm (smaller: smoother and larger pages)")
+        ->check(CLI::Range(1e-4, 10.0))
+        ->capture_default_str();
+    sub->add_flag("--no-mechanics", o.noMechanics, "leave the [mechanics] section out");
+    addReportFlags(sub, o.json, o.quiet);
+}
+
+int runView(const CommonOptions& common, const ViewOptions& o) {
+    namespace fs = std::filesystem;
+    const fs::path out(o.output);
+    if (out.empty() || !out.has_filename())
+        throw ParseError({"-o " + o.output, 0, 0}, "expected an HTML file name");
+    if (fs::is_directory(out))
+        throw ParseError({"-o " + o.output, 0, 0}, "is a folder; view writes one HTML file");
+    requireWritableFolder(out.has_parent_path() ? out.parent_path() : fs::path("."), "-o",
+                          o.output);
+    if (o.where.empty() && o.colour == "event")
+        throw ParseError({"--colour event", 0, 0}, "colours ray paths: give --where too");
+    const ThreeJs three = loadThreeJs();
+    const GlassCatalog catalog = loadCatalog(common);
+    SceneOptions so;
+    so.mechanics = !o.noMechanics;
+    const bool traced = !o.where.empty() || !o.fields.empty();
+    const std::unique_ptr<const PreparedScene> prepared =
+        traced ? prepareTracedScene(o.file, o.fields, catalog, so)
+               : PreparedScene::read(o.file, catalog, so);
+    reportSceneNotes(*prepared);
+    const SceneSetup& setup = prepared->setup();
+    const std::vector<Source> noSources;
+    const std::vector<Source>& sources =
+        prepared->hasSources() ? prepared->trace().transport.sources : noSources;
+
+    SceneViewOptions vo;
+    vo.title = setup.prescription.system.name.empty() ? o.file : setup.prescription.system.name;
+    vo.chordToleranceMm = o.chordToleranceMm;
+    vo.colouring = o.colour == "event" ? PathColouring::EventType : PathColouring::LogFlux;
+    std::optional<PathSelection> sel;
+    if (!o.where.empty()) {
+        const TraceSetup& ts = prepared->trace();
+        const auto limit = limitThreads(o.threads);
+        PathSelectionOptions po;
+        po.where = o.where;
+        po.count = static_cast<size_t>(o.first);
+        po.maxRays = o.rays * ts.transport.sources.size();
+        po.batchRays = o.batch;
+        po.transport.seed = o.seed;
+        po.transport.mode =
+            o.mode == "random" ? TransportOptions::Mode::Random : TransportOptions::Mode::Split;
+        po.transport.minRelativeFlux = o.minRelativeFlux;
+        std::optional<ProgressReporter> reporter;
+        if (!o.quiet && !o.json) {
+            reporter.emplace("view", po.maxRays);
+            po.progress = [&reporter](uint64_t done) { reporter->update(done); };
+        }
+        sel = selectPaths(ts.transport, ts.images, po);
+        if (reporter) reporter->finishAt(sel->raysTraced);
+        vo.paths = &*sel;
+        vo.title += " -- " + std::to_string(sel->pathCount()) + " paths matching '" + o.where + "'";
+        if (sel->rays.size() < static_cast<size_t>(o.first))
+            std::cerr << "veil: only " << sel->rays.size() << " of " << sel->raysTraced
+                      << " rays have a matching path; raise -n to find more\n";
+    }
+    const nlohmann::json data = sceneViewData(setup.scene, sources, vo);
+    if (out.has_parent_path()) fs::create_directories(out.parent_path());
+    writeSceneView(out, data, three);
+
+    size_t triangles = 0, objects = 0;
+    for (const nlohmann::json& obj : data["objects"])
+        if (obj["triangles"].get<size_t>() > 0) {
+            ++objects;
+            triangles += obj["triangles"].get<size_t>();
+        }
+    WrittenFiles written;
+    written.add(out);
+    if (o.json) {
+        nlohmann::json j{
+            {"scene", o.file},           {"objects", objects},          {"triangles", triangles},
+            {"sources", sources.size()}, {"bytes", fs::file_size(out)}, {"files", written.json()}};
+        if (sel) {
+            j["where"] = o.where;
+            j["rays_found"] = sel->rays.size();
+            j["paths_drawn"] = sel->pathCount();
+            j["rays_traced"] = sel->raysTraced;
+            j["seed"] = o.seed;
+        }
+        std::cout << j.dump(2) << "\n";
+        return 0;
+    }
+    std::cout << objects << " objects (" << triangles << " triangles), " << sources.size()
+              << " source" << (sources.size() == 1 ? "" : "s");
+    if (sel)
+        std::cout << ", " << sel->pathCount() << " paths of " << sel->rays.size()
+                  << " rays matching '" << o.where << "' in " << sel->raysTraced << " rays";
+    std::cout << "; " << fs::file_size(out) / 1024 << " KB, nothing fetched when opened\n";
+    if (!o.quiet) written.print(std::cout);
+    return 0;
+}
+
+}  // namespace veil::cli
