@@ -58,7 +58,7 @@ PstResult runPst(const PstSpec& spec, const GlassCatalog& catalog) {
     auto fieldOf = [&](double theta) {
         return std::pair<double, double>{theta * std::sin(phi), theta * std::cos(phi)};
     };
-    const SceneFile base = readSceneFile(spec.scene, catalog);
+    const SceneFile base = readSceneFile(spec.scene, catalog, spec.edits);
     if (base.prescription.system.fieldKind != SystemData::FieldKind::AngleDeg)
         throw ModelError(spec.scene.string(),
                          "PST needs a lens with an object at infinity (fields in degrees)");

@@ -32,11 +32,13 @@
 #include "lensdata/glass_catalog.h"
 #include "tracer/nonsequential.h"
 #include "tracer/render.h"
+#include "tracer/scene_setup.h"
 
 namespace veil {
 
 struct PstSpec {
     std::filesystem::path scene;
+    std::vector<SceneEdit> edits;  // applied when the scene is read (`--set`)
     // Forward Monte Carlo (the default), or the bidirectional renderer: `batches` passes per
     // angle with these options (its seed is transport.seed), for scenes where the stray light
     // is scatter from dark mounts that forward rays find only as speckle.

@@ -203,7 +203,7 @@ std::vector<std::vector<std::string>> sweepVariants(const SweepSpec& spec) {
 namespace {
 
 std::vector<SceneEdit> editsOf(const SweepSpec& spec, const std::vector<std::string>& values) {
-    std::vector<SceneEdit> edits;
+    std::vector<SceneEdit> edits = spec.baseEdits;
     for (size_t k = 0; k < spec.axes.size(); ++k)
         edits.push_back(
             {spec.axes[k].key, values[k], "--vary " + spec.axes[k].key + "=" + values[k]});
@@ -223,6 +223,7 @@ nlohmann::json fingerprint(const SweepSpec& spec, const nlohmann::json& hashes,
         j["render"] = render.str();
     }
     j["inputs"] = hashes;
+    for (const SceneEdit& e : spec.baseEdits) j["set"][e.key] = e.value;
     for (size_t k = 0; k < spec.axes.size(); ++k) j["values"][spec.axes[k].key] = values[k];
     j["rays_per_source"] = spec.raysPerSource;
     j["batches"] = spec.batches;
@@ -293,6 +294,7 @@ SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
                                      spec.axes[b].option + "): give its values once");
     const std::vector<std::vector<std::string>> variants = sweepVariants(spec);
     // Every edit checked before anything is built: a key that names nothing stops the sweep.
+    checkSceneEdits(spec.scene, spec.baseEdits);
     for (const SweepAxis& a : spec.axes)
         for (const std::string& v : a.values)
             checkSceneEdits(spec.scene, {{a.key, v, "--vary " + a.key + "=" + v}});

@@ -33,6 +33,7 @@
 #include "lensdata/glass_catalog.h"
 #include "tracer/nonsequential.h"
 #include "tracer/render.h"
+#include "tracer/scene_setup.h"
 
 namespace veil {
 
@@ -62,6 +63,9 @@ enum class SweepMeasure { Trace, Render, Ghosts };
 std::string_view toString(SweepMeasure m);
 
 struct SweepSpec {
+    // Edits applied to every variant before its own (`--set`); a variant's value of the same
+    // key wins.
+    std::vector<SceneEdit> baseEdits;
     SweepMeasure measure = SweepMeasure::Trace;
     // Render: its options (the seed is transport.seed; passes = batches) and the detector
     // (empty: the first); ghosts: the detector. The learned aperture guide is off: guided

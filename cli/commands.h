@@ -17,9 +17,17 @@ namespace veil::cli {
 
 struct CommonOptions {
     std::vector<std::string> glassCatalogs;
+    // --set KEY=VALUE: edits of the scene (and its lens) file, applied whenever a command
+    // reads it, as sweep's --vary applies its values (docs/cli.md).
+    std::vector<std::string> sets;
 };
 // Built-in catalogs, VEIL_GLASS_PATH and every --glass-catalog file.
 GlassCatalog loadCatalog(const CommonOptions& common);
+// The --set edits; a value without KEY= is a ParseError naming it.
+std::vector<SceneEdit> sceneEdits(const CommonOptions& common);
+// readSceneFile() with the --set edits.
+SceneFile readScene(const CommonOptions& common, const std::string& path,
+                    const GlassCatalog& catalog);
 // Caps the worker threads while the result lives (threads <= 0: all cores, returns null).
 std::unique_ptr<tbb::global_control> limitThreads(int threads);
 // The scene's warnings and errors on standard error: import notes, parts left out, and a
@@ -27,7 +35,8 @@ std::unique_ptr<tbb::global_control> limitThreads(int threads);
 void reportSceneNotes(const PreparedScene& scene);
 // The scene of a command that traces: its sources replaced by one beam per --field when
 // given; a scene without [[source]] gets one beam per system field (said on standard error).
-std::unique_ptr<PreparedScene> prepareTracedScene(const std::string& file,
+std::unique_ptr<PreparedScene> prepareTracedScene(const CommonOptions& common,
+                                                  const std::string& file,
                                                   const std::vector<std::string>& fields,
                                                   const GlassCatalog& catalog,
                                                   const SceneOptions& options = {});

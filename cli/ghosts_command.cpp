@@ -87,7 +87,7 @@ void addGhostsCommand(CLI::App& app, GhostsOptions& o) {
 
 int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
     const GlassCatalog catalog = loadCatalog(common);
-    SceneFile file = readSceneFile(o.file, catalog);
+    SceneFile file = readScene(common, o.file, catalog);
     double imageShiftMm = 0.0;
     const bool defaultScene = addDefaultGhostScene(file, catalog, &imageShiftMm);
     if (!o.fields.empty()) {

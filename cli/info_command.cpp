@@ -94,6 +94,24 @@ GlassCatalog loadCatalog(const CommonOptions& common) {
     return catalog;
 }
 
+std::vector<SceneEdit> sceneEdits(const CommonOptions& common) {
+    std::vector<SceneEdit> edits;
+    for (size_t k = 0; k < common.sets.size(); ++k) {
+        const std::string& s = common.sets[k];
+        const size_t eq = s.find('=');
+        if (eq == std::string::npos || eq == 0)
+            throw ParseError({"--set " + s, 0, 0},
+                             "expected KEY=VALUE, as in properties.black.scatter.reflectance=0.02");
+        edits.push_back({s.substr(0, eq), s.substr(eq + 1), "--set " + s});
+    }
+    return edits;
+}
+
+SceneFile readScene(const CommonOptions& common, const std::string& path,
+                    const GlassCatalog& catalog) {
+    return readSceneFile(path, catalog, sceneEdits(common));
+}
+
 std::unique_ptr<tbb::global_control> limitThreads(int threads) {
     if (threads <= 0) return nullptr;
     return std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
@@ -120,7 +138,7 @@ void addInfoCommand(CLI::App& app, InfoOptions& options) {
 
 int runInfo(const CommonOptions& common, const InfoOptions& options) {
     const GlassCatalog catalog = loadCatalog(common);
-    const Prescription p = readSceneFile(options.file, catalog).prescription;
+    const Prescription p = readScene(common, options.file, catalog).prescription;
     const SequentialModel model = SequentialModel::build(p, catalog);
     const FirstOrderReport fo = computeFirstOrder(model);
     // An anamorphic system has a second set of first-order data: its x-z section's.

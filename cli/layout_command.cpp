@@ -38,7 +38,7 @@ int runLayout(const CommonOptions& common, const LayoutOptions& options) {
     SceneOptions so;
     so.mechanics = !options.noMechanics;
     const std::unique_ptr<const PreparedScene> prepared =
-        PreparedScene::read(options.file, catalog, so);
+        PreparedScene::build(readScene(common, options.file, catalog), catalog, so);
     const SceneSetup& setup = prepared->setup();
     reportSceneNotes(*prepared);
     veil::LayoutOptions lo;
@@ -94,7 +94,7 @@ int runExport(const CommonOptions& common, const ExportOptions& options) {
     SceneOptions so;
     so.mechanics = !options.noMechanics;
     const std::unique_ptr<const PreparedScene> prepared =
-        PreparedScene::read(options.file, catalog, so);
+        PreparedScene::build(readScene(common, options.file, catalog), catalog, so);
     const SceneSetup& setup = prepared->setup();
     reportSceneNotes(*prepared);
     std::vector<int> objectOfTriangle;

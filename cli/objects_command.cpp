@@ -50,7 +50,7 @@ void addObjectsCommand(CLI::App& app, ObjectsOptions& o) {
 int runObjectsCommand(const CommonOptions& common, const ObjectsOptions& o) {
     const GlassCatalog catalog = loadCatalog(common);
     const std::unique_ptr<const PreparedScene> prepared =
-        prepareTracedScene(o.file, o.fields, catalog);
+        prepareTracedScene(common, o.file, o.fields, catalog);
     reportSceneNotes(*prepared);
     ObjectsSpec spec;
     spec.rays = o.rays;

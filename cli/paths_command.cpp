@@ -66,7 +66,7 @@ int runPaths(const CommonOptions& common, const PathsOptions& o) {
     SceneOptions so;
     so.mechanics = !o.noMechanics;
     const std::unique_ptr<const PreparedScene> prepared =
-        prepareTracedScene(o.file, o.fields, catalog, so);
+        prepareTracedScene(common, o.file, o.fields, catalog, so);
     const SceneSetup& setup = prepared->setup();
     const TraceSetup& ts = prepared->trace();
     reportSceneNotes(*prepared);

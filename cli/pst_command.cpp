@@ -58,6 +58,7 @@ void addPstCommand(CLI::App& app, PstOptions& o) {
 int runPstCommand(const CommonOptions& common, const PstOptions& o) {
     PstSpec spec;
     spec.scene = o.file;
+    spec.edits = sceneEdits(common);
     for (const std::string& v : parseSweepValues(o.angles, "--angles " + o.angles)) {
         try {
             spec.anglesDeg.push_back(std::stod(v));

@@ -232,7 +232,7 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
 
     const GlassCatalog catalog = loadCatalog(common);
     const std::unique_ptr<const PreparedScene> prepared =
-        prepareTracedScene(o.file, o.fields, catalog);
+        prepareTracedScene(common, o.file, o.fields, catalog);
     const TraceSetup& trace = prepared->trace();
     const TransportScene& ts = trace.transport;
     reportSceneNotes(*prepared);

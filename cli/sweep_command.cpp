@@ -70,6 +70,7 @@ void addSweepCommand(CLI::App& app, SweepOptions& o) {
 int runSweepCommand(const CommonOptions& common, const SweepOptions& o) {
     SweepSpec spec;
     spec.scene = o.file;
+    spec.baseEdits = sceneEdits(common);
     for (const std::string& v : o.vary) spec.axes.push_back(parseSweepAxis(v));
     spec.zip = o.zip;
     if (!o.fields.empty()) spec.fieldsDeg = parseFields(o.fields);

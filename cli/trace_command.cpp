@@ -190,11 +190,12 @@ void checkRayDatabaseSize(const TransportScene& ts, const std::vector<DetectorIm
 
 }  // namespace
 
-std::unique_ptr<PreparedScene> prepareTracedScene(const std::string& path,
+std::unique_ptr<PreparedScene> prepareTracedScene(const CommonOptions& common,
+                                                  const std::string& path,
                                                   const std::vector<std::string>& fields,
                                                   const GlassCatalog& catalog,
                                                   const SceneOptions& options) {
-    SceneFile file = readSceneFile(path, catalog);
+    SceneFile file = readScene(common, path, catalog);
     if (!fields.empty()) {
         setFieldSources(file, catalog, parseFields(fields));
     } else if (file.sources.empty()) {
@@ -214,7 +215,7 @@ std::unique_ptr<PreparedScene> prepareTracedScene(const std::string& path,
 int runTrace(const CommonOptions& common, const TraceOptions& o) {
     const GlassCatalog catalog = loadCatalog(common);
     const std::unique_ptr<const PreparedScene> prepared =
-        prepareTracedScene(o.file, o.fields, catalog);
+        prepareTracedScene(common, o.file, o.fields, catalog);
     const SceneSetup& setup = prepared->setup();
     const TraceSetup& ts = prepared->trace();
     reportSceneNotes(*prepared);

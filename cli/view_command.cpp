@@ -79,8 +79,8 @@ int runView(const CommonOptions& common, const ViewOptions& o) {
     so.mechanics = !o.noMechanics;
     const bool traced = !o.where.empty() || !o.fields.empty();
     const std::unique_ptr<const PreparedScene> prepared =
-        traced ? prepareTracedScene(o.file, o.fields, catalog, so)
-               : PreparedScene::read(o.file, catalog, so);
+        traced ? prepareTracedScene(common, o.file, o.fields, catalog, so)
+               : PreparedScene::build(readScene(common, o.file, catalog), catalog, so);
     reportSceneNotes(*prepared);
     const SceneSetup& setup = prepared->setup();
     const std::vector<Source> noSources;

@@ -8,6 +8,7 @@ packages=(
   libtomlplusplus-dev libcli11-dev nlohmann-json3-dev libcairo2-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libjs-three chromium
+  pybind11-dev python3-dev python3-numpy python3-matplotlib python3-pytest
 )
 missing=()
 for p in "${packages[@]}"; do

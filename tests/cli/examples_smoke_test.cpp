@@ -62,7 +62,9 @@ TEST(ExamplesSmoke, EveryExampleRunsThroughEveryCommand) {
             EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
             // info's surface table shows a flat's radius and an object at infinity as inf,
             // the file's own values; every computed number is finite or n/a.
-            if (c.rfind("info", 0) != 0) EXPECT_FALSE(hasNonFinite(r.out)) << r.out;
+            if (c.rfind("info", 0) != 0) {
+                EXPECT_FALSE(hasNonFinite(r.out)) << r.out;
+            }
         }
         for (const char* written :
              {"/trace/summary.json", "/ghosts/ghosts.md", "/ghosts/ghosts.csv",

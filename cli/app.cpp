@@ -1,0 +1,138 @@
+// The veil command line as a function: builds the subcommands (each in its own file:
+// info_command.cpp, ...), parses, runs one, and turns exceptions into messages and exit codes
+//   0 success, 1 bad input or model (the message names file:line:col or the object), 2 usage.
+// main() is this on argv; the Python module runs it in-process with rethrow on.
+
+#include "cli/app.h"
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "cli/commands.h"
+#include "cli/ghosts_command.h"
+#include "cli/paths_command.h"
+#include "cli/render_command.h"
+#include "lensdata/errors.h"
+
+namespace veil::cli {
+
+namespace {
+
+// Edit distance, for "did you mean" on a mistyped command.
+size_t distance(const std::string& a, const std::string& b) {
+    std::vector<size_t> row(b.size() + 1);
+    for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+    for (size_t i = 1; i <= a.size(); ++i) {
+        size_t diagonal = row[0];
+        row[0] = i;
+        for (size_t j = 1; j <= b.size(); ++j) {
+            const size_t up = row[j];
+            row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] != b[j - 1])});
+            diagonal = up;
+        }
+    }
+    return row[b.size()];
+}
+
+}  // namespace
+
+int runCommandLine(const std::vector<std::string>& args, bool rethrow) {
+    std::vector<char*> argvStore;
+    for (const std::string& a : args) argvStore.push_back(const_cast<char*>(a.c_str()));
+    const int argc = static_cast<int>(argvStore.size());
+    char** argv = argvStore.data();
+    setCommandLine(argc, argv);
+    CLI::App app{"veil: optical design kernel for stray light and ghost analysis"};
+    app.require_subcommand(1);
+    // Options a subcommand does not know (--glass-catalog) are the main command's, wherever
+    // they stand on the line.
+    app.fallthrough();
+    app.set_version_flag("--version", std::string("veil ") + kVeilVersion);
+    CommonOptions common;
+    app.add_option("--glass-catalog", common.glassCatalogs,
+                   "extra AGF glass catalog file (repeatable; VEIL_GLASS_PATH works too)")
+        ->check(CLI::ExistingFile);
+    app.add_option("--set", common.sets,
+                   "KEY=VALUE: edit the scene (or its lens) file as it is read, as sweep's "
+                   "--vary does (repeatable)");
+
+    InfoOptions info;
+    addInfoCommand(app, info);
+    LayoutOptions layout;
+    addLayoutCommand(app, layout);
+    ExportOptions exportOptions;
+    addExportCommand(app, exportOptions);
+    TraceOptions traceOptions;
+    addTraceCommand(app, traceOptions);
+    RaysOptions raysOptions;
+    addRaysCommand(app, raysOptions);
+    PathsOptions pathsOptions;
+    addPathsCommand(app, pathsOptions);
+    ViewOptions viewOptions;
+    addViewCommand(app, viewOptions);
+    GhostsOptions ghostsOptions;
+    addGhostsCommand(app, ghostsOptions);
+    RenderCommandOptions renderOptions;
+    addRenderCommand(app, renderOptions);
+    SweepOptions sweepOptions;
+    addSweepCommand(app, sweepOptions);
+    PstOptions pstOptions;
+    addPstCommand(app, pstOptions);
+    ObjectsOptions objectsOptions;
+    addObjectsCommand(app, objectsOptions);
+
+    // A first word that is no command and no option: name the nearest command.
+    if (argc > 1 && argv[1][0] != '-') {
+        const std::string word = argv[1];
+        std::string best;
+        size_t bestDistance = 3;  // at most two edits away
+        bool known = false;
+        for (const CLI::App* sub : app.get_subcommands({})) {
+            known |= sub->get_name() == word;
+            const size_t d = distance(word, sub->get_name());
+            if (d < bestDistance) {
+                bestDistance = d;
+                best = sub->get_name();
+            }
+        }
+        if (!known) {
+            std::string message = "unknown command '" + word + "'";
+            if (!best.empty()) message += "; did you mean '" + best + "'?";
+            if (rethrow) throw UsageError(message);
+            std::cerr << "veil: error: " << message << "\nRun veil --help for the commands.\n";
+            return 2;
+        }
+    }
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        if (rethrow && e.get_exit_code() != 0) throw UsageError(e.what());
+        return app.exit(e) == 0 ? 0 : 2;
+    }
+    try {
+        for (CLI::App* sub : app.get_subcommands()) {
+            if (sub->get_name() == "info") return runInfo(common, info);
+            if (sub->get_name() == "layout") return runLayout(common, layout);
+            if (sub->get_name() == "export") return runExport(common, exportOptions);
+            if (sub->get_name() == "trace") return runTrace(common, traceOptions);
+            if (sub->get_name() == "rays") return runRays(common, raysOptions);
+            if (sub->get_name() == "paths") return runPaths(common, pathsOptions);
+            if (sub->get_name() == "view") return runView(common, viewOptions);
+            if (sub->get_name() == "ghosts") return runGhosts(common, ghostsOptions);
+            if (sub->get_name() == "render") return runRender(common, renderOptions);
+            if (sub->get_name() == "sweep") return runSweepCommand(common, sweepOptions);
+            if (sub->get_name() == "pst") return runPstCommand(common, pstOptions);
+            if (sub->get_name() == "objects") return runObjectsCommand(common, objectsOptions);
+        }
+    } catch (const std::exception& e) {
+        if (rethrow) throw;
+        std::cerr << "veil: error: " << e.what() << "\n";
+        return 1;
+    }
+    return 2;
+}
+
+}  // namespace veil::cli

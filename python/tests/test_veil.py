@@ -1,0 +1,180 @@
+"""The veil Python module against the veil executable and against independent numbers.
+
+Run by ctest (Python.pytest) with PYTHONPATH=build/python and VEIL_EXE=build/veil, from the
+repository root. Results must equal the executable's for the same words and seed: the
+module runs the same command line in-process.
+"""
+
+import json
+import math
+import os
+import subprocess
+
+import numpy as np
+import pytest
+
+import veil
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
+VEIL_EXE = os.environ.get("VEIL_EXE", os.path.join(ROOT, "build", "veil"))
+SUN = os.path.join(ROOT, "examples", "scenes", "longfocus_360mm_sun.toml")
+DOUBLE_GAUSS = os.path.join(ROOT, "examples", "lenses", "double_gauss_50mm.toml")
+SINGLET = os.path.join(ROOT, "examples", "lenses", "singlet.toml")
+MOUNT_KEY = "properties.black_anodized.scatter.reflectance"
+
+
+def cli(*words):
+    """The executable's --json report."""
+    out = subprocess.run([VEIL_EXE, *map(str, words), "--json", "--quiet"], check=True,
+                         capture_output=True, text=True, cwd=ROOT)
+    return json.loads(out.stdout)
+
+
+def without_timing(report):
+    """A report without its wall times and file paths (which differ run to run)."""
+    if isinstance(report, dict):
+        return {k: without_timing(v) for k, v in report.items()
+                if "second" not in k and k not in ("files", "scene")}
+    if isinstance(report, list):
+        return [without_timing(v) for v in report]
+    return report
+
+
+def test_trace_equals_the_executable(tmp_path):
+    scene = veil.Scene(SUN)
+    result = scene.trace(rays="3k", seed=7, where=["scatter(L*.edge)"])
+    report = cli("trace", SUN, "-n", "3k", "--seed", "7", "--where", "scatter(L*.edge)",
+                 "-o", tmp_path / "cli")
+    assert without_timing(result.report) == without_timing(report)
+    # The images as numpy arrays: the same pixels as the executable's EXR, layer by layer.
+    mine = result.images["sensor_image"]
+    theirs = veil.read_exr(tmp_path / "cli" / "sensor_image.exr")
+    assert set(mine.layers) == {"all", "where1", "rest"}
+    for name, layer in mine.layers.items():
+        np.testing.assert_array_equal(layer.flux, theirs.layer(name).flux)
+        np.testing.assert_array_equal(layer.irradiance, theirs.layer(name).irradiance)
+    whole = mine.layer()
+    assert whole.flux.shape == (mine.height, mine.width) == (256, 256)
+    assert whole.units["irradiance"] == "W/mm^2"
+    # The pixel fluxes add up to the detector's flux in the report (float storage).
+    flux = report["detectors"][0]["flux"]
+    assert whole.flux.sum() == pytest.approx(flux, rel=1e-6)
+    # Irradiance is flux over the pixel area.
+    area = mine.pixel_size_mm[0] * mine.pixel_size_mm[1]
+    np.testing.assert_allclose(whole.irradiance * area, whole.flux, rtol=1e-6, atol=1e-30)
+
+
+def test_an_edit_is_the_executables_set_and_leaves_the_file_alone(tmp_path):
+    before = open(SUN).read()
+    scene = veil.Scene(SUN).set(MOUNT_KEY, 0.2)
+    edited = scene.trace(rays="2k", seed=3)
+    report = cli("trace", SUN, "-n", "2k", "--seed", "3", "--set", MOUNT_KEY + "=0.2",
+                 "-o", tmp_path / "cli")
+    assert without_timing(edited.report) == without_timing(report)
+    assert open(SUN).read() == before
+    # Same rays, brighter mounts: more light scattered onto the sensor, never less.
+    plain = veil.Scene(SUN).trace(rays="2k", seed=3)
+    assert edited.report["detectors"][0]["flux"] > plain.report["detectors"][0]["flux"]
+    # Undoing the edit gives the plain scene back.
+    scene.unset(MOUNT_KEY)
+    assert without_timing(scene.trace(rays="2k", seed=3).report) == \
+        without_timing(plain.report)
+
+
+def test_ghost_table_equals_the_executable(tmp_path):
+    result = veil.Scene(DOUBLE_GAUSS).ghosts(rays=0, top=0)
+    report = cli("ghosts", DOUBLE_GAUSS, "-n", "0", "--top", "0", "-o", tmp_path / "cli")
+    assert without_timing(result.report) == without_timing(report)
+    ghosts = result.report["ghosts"]
+    assert len(ghosts) >= 20
+    assert ghosts[0]["rank"] == 1
+
+
+def test_render_components_add_up_and_equal_the_executable(tmp_path):
+    options = dict(passes=2, photons="5k", rays_per_pixel=2, time_limit="none", seed=2)
+    result = veil.Scene(SUN).render(**options)
+    report = cli("render", SUN, "--passes", "2", "--photons", "5k", "--rays-per-pixel", "2",
+                 "--time-limit", "none", "--seed", "2", "-o", tmp_path / "cli")
+    assert without_timing(result.report) == without_timing(report)
+    image = result.images["sensor_image"]
+    total = image.layer("total").flux
+    parts = sum(image.layer(c).flux for c in ("visible", "direct", "caustic", "secondary"))
+    lit = total > 0
+    np.testing.assert_allclose(parts[lit], total[lit], rtol=1e-5)
+    theirs = veil.read_exr(tmp_path / "cli" / "sensor_image.exr")
+    np.testing.assert_array_equal(total, theirs.layer("total").flux)
+
+
+def test_sweep_equals_the_executable(tmp_path):
+    vary = MOUNT_KEY + "=0.01,0.1"
+    result = veil.Scene(SUN).sweep(vary, rays=1000, batches=4)
+    report = cli("sweep", SUN, "--vary", vary, "-n", "1000", "--batches", "4",
+                 "-o", tmp_path / "cli")
+    assert without_timing(result.report) == without_timing(report)
+
+
+def test_real_rays_focus_where_the_paraxial_data_say():
+    """A ray 1 um off axis, parallel to it, crosses the axis at the paraxial focus: the real
+    trace (Snell's law surface by surface) against the paraxial first-order data."""
+    lens = veil.Lens(SINGLET)
+    first = lens.first_order()
+    h = 1e-3
+    origins = np.array([[0.0, h, -10.0]])
+    directions = np.array([[0.0, 0.0, 1.0]])
+    last = lens.image_surface - 1  # the lens's back face
+    out = lens.trace(origins, directions, last_surface=last)
+    assert veil.RAY_STATUS[out["status"][0]] == "ok"
+    (x, y, z), (dx, dy, dz) = out["position"][0], out["direction"][0]
+    efl = -h / (dy / dz)
+    assert efl == pytest.approx(first["efl_mm"], rel=1e-5)
+    to_axis = -y / (dy / dz)  # z distance from where the ray leaves the lens to the axis
+    # The crossing, measured from the back face's vertex, is the BFL.
+    vertex_z = lens.trace(np.array([[0.0, 0.0, -10.0]]), directions,
+                          last_surface=last)["position"][0][2]
+    assert (z + to_axis) - vertex_z == pytest.approx(first["bfl_mm"], rel=1e-5)
+
+
+def test_rays_outside_the_aperture_are_clipped_and_paths_recorded():
+    lens = veil.Lens(SINGLET)
+    origins = np.array([[0.0, 5.0, -5.0], [0.0, 30.0, -5.0], [0.0, 0.0, -5.0]])
+    directions = np.tile([0.0, 0.0, 1.0], (3, 1))
+    out = lens.trace(origins, directions, record_path=True)
+    names = [veil.RAY_STATUS[s] for s in out["status"]]
+    assert names[0] == "ok" and names[2] == "ok"
+    assert names[1].startswith("clipped")
+    path = out["path"]
+    assert path.shape == (3, lens.image_surface, 3)
+    assert np.isnan(path[1, -1]).all()  # the clipped ray never reached the image
+    assert np.isnan(out["optical_path"][1])
+    # The chief ray along the axis stays on it.
+    np.testing.assert_allclose(path[2, :, :2], 0.0, atol=1e-12)
+    # Aimed rays: the chief ray of a 3.5 degree field leaves at 3.5 degrees.
+    aimed = lens.aim(0.0, 3.5, np.array([0.0]), np.array([0.0]))
+    d = aimed["directions"][0]
+    assert math.degrees(math.atan2(d[1], d[2])) == pytest.approx(3.5, abs=1e-9)
+
+
+def test_errors_carry_the_place(tmp_path):
+    broken = tmp_path / "broken.toml"
+    broken.write_text('[system]\nname = "x"\nwavelengths_nm = [587.6\n')
+    with pytest.raises(veil.ParseError, match=r"broken\.toml:3:"):
+        veil.Scene(broken).info()
+    with pytest.raises(veil.ParseError, match="no 'nothing' in"):
+        veil.Scene(SUN).set("properties.nothing.reflectance", 0.1).trace(rays=10)
+    with pytest.raises(veil.UsageError, match="--rays"):
+        veil.Scene(SUN).trace(rays=-1)
+    with pytest.raises(veil.UsageError):
+        veil.Scene(SUN).trace(rays=10, no_such_option=1)
+    # A lens element of negative thickness cannot be built: the error names the object.
+    with pytest.raises(veil.VeilError):
+        veil.Scene(DOUBLE_GAUSS).set("system.surfaces[2].thickness_mm", -5).trace(rays=10)
+    with pytest.raises(ValueError, match="same shape"):
+        veil.Lens(SINGLET).trace(np.zeros((2, 3)), np.zeros((3, 3)))
+
+
+def test_view_writes_one_page(tmp_path):
+    page = tmp_path / "scene.html"
+    result = veil.Scene(SUN).view(page, where="fresnel{2} and hit(sensor)", first=5)
+    assert page.exists()
+    assert result.report["paths_drawn"] >= 5
+    assert result.report["objects"] == 42
