@@ -14,6 +14,7 @@
 #include "analysis/ghosts.h"
 #include "analysis/render_run.h"
 #include "analysis/stray_light_run.h"
+#include "lensdata/input_file.h"
 #include "lensdata/output_file.h"
 #include "lensdata/toml_document.h"
 #include "tracer/prepared_scene.h"
@@ -62,11 +63,9 @@ std::vector<std::string> split(const std::string& s, char sep) {
 
 // FNV-1a, 64 bit: a stable fingerprint of a file's text.
 std::string textHash(const std::filesystem::path& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::ostringstream text;
-    text << in.rdbuf();
+    const std::string text = readInputFile(path).value_or("");
     uint64_t h = 1469598103934665603ull;
-    for (unsigned char c : text.str()) {
+    for (unsigned char c : text) {
         h ^= c;
         h *= 1099511628211ull;
     }

@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "lensdata/errors.h"
+#include "lensdata/input_file.h"
 #include "lensdata/text_decoding.h"
 
 namespace veil {
@@ -751,11 +752,9 @@ Prescription readCodeVText(std::string_view bytes, const std::string& fileName,
 }
 
 Prescription readCodeV(const std::filesystem::path& path, const GlassCatalog& catalog) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw ParseError({path.string(), 0, 0}, "cannot read the file");
-    std::ostringstream bytes;
-    bytes << in.rdbuf();
-    return readCodeVText(bytes.str(), path.string(), catalog);
+    const std::optional<std::string> bytes = readInputFile(path);
+    if (!bytes) throw ParseError({path.string(), 0, 0}, "cannot read the file");
+    return readCodeVText(*bytes, path.string(), catalog);
 }
 
 }  // namespace veil

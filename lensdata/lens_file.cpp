@@ -4,6 +4,7 @@
 #include <cctype>
 
 #include "lensdata/codev_reader.h"
+#include "lensdata/input_file.h"
 #include "lensdata/toml_reader.h"
 #include "lensdata/zmx_reader.h"
 
@@ -13,7 +14,7 @@ Prescription readLensFile(const std::filesystem::path& path, const GlassCatalog&
     std::string ext = path.extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(),
                    [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-    if (!std::filesystem::exists(path)) throw ParseError({path.string(), 0, 0}, "no such file");
+    if (!inputFileExists(path)) throw ParseError({path.string(), 0, 0}, "no such file");
     if (ext == ".zmx") return readZmx(path, catalog);
     if (ext == ".toml") return readTomlPrescriptionFile(path, catalog);
     if (ext == ".seq") return readCodeV(path, catalog);

@@ -10,6 +10,8 @@
 #include <set>
 #include <sstream>
 
+#include "lensdata/input_file.h"
+
 namespace veil {
 
 namespace detail {
@@ -346,11 +348,9 @@ TomlDocument& TomlDocument::operator=(TomlDocument&&) noexcept = default;
 TomlDocument::~TomlDocument() = default;
 
 TomlDocument TomlDocument::fromFile(const std::filesystem::path& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw ParseError({path.string(), 0, 0}, "cannot open file");
-    std::ostringstream text;
-    text << in.rdbuf();
-    return fromString(text.str(), path.string());
+    const std::optional<std::string> text = readInputFile(path);
+    if (!text) throw ParseError({path.string(), 0, 0}, "cannot open file");
+    return fromString(*text, path.string());
 }
 
 namespace {

@@ -10,6 +10,7 @@
 //      assemble fields and wavelengths, and add the summary notes. Then
 //      Prescription::assignNames() and validate().
 
+#include "lensdata/input_file.h"
 #include "lensdata/zmx_reader.h"
 
 #include <algorithm>
@@ -1064,10 +1065,9 @@ Prescription readZmxText(std::string_view bytes, const std::string& fileName,
 }
 
 Prescription readZmx(const std::filesystem::path& path, const GlassCatalog& catalog) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw ParseError({path.string()}, "cannot open the file");
-    const std::string bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-    return readZmxText(bytes, path.string(), catalog);
+    const std::optional<std::string> bytes = readInputFile(path);
+    if (!bytes) throw ParseError({path.string()}, "cannot open the file");
+    return readZmxText(*bytes, path.string(), catalog);
 }
 
 }  // namespace veil

@@ -23,6 +23,8 @@
 #include "cli/app.h"
 #include "lensdata/errors.h"
 #include "lensdata/glass_catalog.h"
+#include "lensdata/input_file.h"
+#include "lensdata/toml_document.h"
 #include "tracer/ray_aiming.h"
 #include "tracer/ray_status.h"
 #include "tracer/scene_setup.h"
@@ -65,9 +67,10 @@ struct CommandRun {
     std::string out, err;
 };
 
-CommandRun run(std::vector<std::string> args) {
+CommandRun run(std::vector<std::string> args, const veil::FileSnapshots& snapshots) {
     args.insert(args.begin(), "veil");
     std::lock_guard lock(commandMutex());
+    const veil::FileSnapshotScope files(&snapshots);
     CommandRun r;
     std::exception_ptr failure;
     std::string printedErr;
@@ -90,6 +93,24 @@ CommandRun run(std::vector<std::string> args) {
         std::rethrow_exception(failure);
     }
     return r;
+}
+
+// The texts of a scene file and of the lens file it names (`lens = "..."`), or of a lens
+// file: what Scene holds so that its commands do not read the disk again.
+veil::FileSnapshots snapshot(const std::filesystem::path& path) {
+    veil::FileSnapshots s;
+    const std::optional<std::string> text = veil::readInputFile(path);
+    if (!text) throw veil::ParseError({path.string(), 0, 0}, "cannot open file");
+    s[veil::snapshotKey(path)] = *text;
+    if (path.extension() == ".toml") {
+        const veil::TomlDocument doc = veil::TomlDocument::fromString(*text, path.string());
+        if (const auto lens = doc.root().has("lens") ? doc.root().get("lens") : std::nullopt)
+            if (const std::filesystem::path lensPath = path.parent_path() / lens->asString();
+                veil::inputFileExists(lensPath))
+                if (const auto lensText = veil::readInputFile(lensPath))
+                    s[veil::snapshotKey(lensPath)] = *lensText;
+    }
+    return s;
 }
 
 py::array_t<double> image(const std::vector<double>& v, int width, int height) {
@@ -143,8 +164,10 @@ std::vector<veil::SceneEdit> editsOf(const std::vector<std::pair<std::string, st
 class Lens {
   public:
     Lens(const std::filesystem::path& path, const std::vector<std::string>& glassCatalogs,
-         const std::vector<std::pair<std::string, std::string>>& sets)
+         const std::vector<std::pair<std::string, std::string>>& sets,
+         const veil::FileSnapshots& snapshots)
         : path_(path) {
+        const veil::FileSnapshotScope files(&snapshots);
         const veil::GlassCatalog catalog = catalogOf(glassCatalogs);
         veil::SceneFile file = veil::readSceneFile(path, catalog, editsOf(sets));
         model_ = file.model;
@@ -313,18 +336,23 @@ PYBIND11_MODULE(_veil, m) {
         .def_readonly("exit_code", &CommandRun::exitCode)
         .def_readonly("stdout", &CommandRun::out)
         .def_readonly("stderr", &CommandRun::err);
-    m.def("run", &run, py::arg("args"),
+    m.def("snapshot", &snapshot, py::arg("path"),
+          "The texts of a scene file and the lens file it names, keyed for run().");
+    m.def("run", &run, py::arg("args"), py::arg("snapshots") = veil::FileSnapshots{},
           "Runs the veil command line with these words (without the program name); returns "
-          "its exit code and captured output, raising VeilError subclasses on failure.");
+          "its exit code and captured output, raising VeilError subclasses on failure. Files "
+          "in snapshots are read from there, not from the disk.");
     m.def("read_exr", &readExr, py::arg("path"),
           "A detector EXR written by veil: its layers' flux, irradiance, variance and count "
           "as (rows, columns) float64 arrays, row 0 at the top, and their units.");
 
     py::class_<Lens>(m, "Lens")
         .def(py::init<const std::filesystem::path&, const std::vector<std::string>&,
-                      const std::vector<std::pair<std::string, std::string>>&>(),
+                      const std::vector<std::pair<std::string, std::string>>&,
+                      const veil::FileSnapshots&>(),
              py::arg("path"), py::arg("glass_catalogs") = std::vector<std::string>{},
-             py::arg("sets") = std::vector<std::pair<std::string, std::string>>{})
+             py::arg("sets") = std::vector<std::pair<std::string, std::string>>{},
+             py::arg("snapshots") = veil::FileSnapshots{})
         .def_property_readonly("name", &Lens::name)
         .def_property_readonly("wavelengths_nm", &Lens::wavelengths)
         .def_property_readonly("primary_wavelength", &Lens::primary)

@@ -7,6 +7,7 @@
 
 #include "geometry/lens_solid.h"
 #include "geometry/surface_frames.h"
+#include "lensdata/input_file.h"
 #include "lensdata/lens_file.h"
 #include "lensdata/toml_reader.h"
 #include "tracer/auto_apertures.h"
@@ -88,7 +89,7 @@ bool editsTransportOnly(const std::string& key) {
 void checkSceneEdits(const std::filesystem::path& path, const std::vector<SceneEdit>& edits) {
     if (edits.empty()) return;
     if (lowerExtension(path) != ".toml") editOfNonToml(edits.front(), path);
-    if (!std::filesystem::exists(path)) throw ParseError({path.string(), 0, 0}, "no such file");
+    if (!inputFileExists(path)) throw ParseError({path.string(), 0, 0}, "no such file");
     TomlDocument doc = TomlDocument::fromFile(path);
     const TomlTable root = doc.root();
     const auto lens = root.has("lens") ? root.get("lens") : std::nullopt;
@@ -114,7 +115,7 @@ SceneFile readSceneFile(const std::filesystem::path& path, const GlassCatalog& c
         size(f, readLensFile(path, catalog), catalog);
         return f;
     }
-    if (!std::filesystem::exists(path)) throw ParseError({path.string(), 0, 0}, "no such file");
+    if (!inputFileExists(path)) throw ParseError({path.string(), 0, 0}, "no such file");
     TomlDocument doc = TomlDocument::fromFile(path);
     const TomlTable root = doc.root();
     const auto lens = root.has("lens") ? root.get("lens") : std::nullopt;
@@ -126,7 +127,7 @@ SceneFile readSceneFile(const std::filesystem::path& path, const GlassCatalog& c
                 "a scene names its lens either with `lens = \"file\"` or inline in "
                 "[system], not both");
         const std::filesystem::path lensPath = path.parent_path() / lens->asString();
-        if (!std::filesystem::exists(lensPath))
+        if (!inputFileExists(lensPath))
             lens->fail("lens file '" + lensPath.string() + "' does not exist");
         std::vector<SceneEdit> lensEdits;
         for (const SceneEdit& e : edits)

@@ -178,3 +178,29 @@ def test_view_writes_one_page(tmp_path):
     assert page.exists()
     assert result.report["paths_drawn"] >= 5
     assert result.report["objects"] == 42
+
+
+def test_a_scene_reads_its_files_once(tmp_path):
+    """Scene holds the texts of its scene and lens files: a change on disk (or the files'
+    removal) is not seen until reload()."""
+    (tmp_path / "scenes").mkdir()
+    (tmp_path / "lenses").mkdir()
+    scene_file = tmp_path / "scenes" / "sun.toml"
+    lens_file = tmp_path / "lenses" / "longfocus_360mm.toml"
+    scene_file.write_text(open(SUN).read())
+    lens_file.write_text(open(os.path.join(ROOT, "examples", "lenses",
+                                           "longfocus_360mm.toml")).read())
+    scene = veil.Scene(scene_file)
+    first = scene.trace(rays=500, seed=4).report
+    text = scene_file.read_text()
+    scene_file.write_text(text.replace("reflectance = 0.05", "reflectance = 0.5"))
+    lens_file.unlink()
+    again = scene.trace(rays=500, seed=4).report
+    assert without_timing(again) == without_timing(first)
+    assert scene.lens().surface_names == veil.Lens(SUN).surface_names
+    with pytest.raises(veil.VeilError, match="longfocus_360mm.toml"):
+        scene.reload().trace(rays=500, seed=4)  # the lens file is gone now
+    lens_file.write_text(open(os.path.join(ROOT, "examples", "lenses",
+                                           "longfocus_360mm.toml")).read())
+    brighter = scene.reload().trace(rays=500, seed=4).report
+    assert brighter["detectors"][0]["flux"] > first["detectors"][0]["flux"]

@@ -64,7 +64,7 @@ def _words(options):
     return words
 
 
-def run(*words):
+def run(*words, snapshots=None):
     """Runs ``veil WORDS...`` in-process, as the shell would, and returns a :class:`Result`.
 
     ``run("trace", "scene.toml", "-n", "20k", "--json")``. With ``--json`` the report is
@@ -75,7 +75,7 @@ def run(*words):
     words = [str(w) for w in words]
     if "--quiet" not in words and words and not words[0].startswith("-"):
         words.append("--quiet")
-    r = _veil.run(words)
+    r = _veil.run(words, snapshots or {})
     if r.stderr:
         sys.stderr.write(r.stderr)
     report = None
@@ -162,6 +162,8 @@ class Result:
 class Scene:
     """A scene (or lens) file and edits to it.
 
+    The scene file (and the lens file it names) is read once, here: every command runs on
+    that text, so a file changed on disk afterwards is not seen until ``reload()``.
     ``set(key, value)`` records an edit (a TOML path as ``veil sweep --vary`` names it); every
     command then runs on the edited scene, as ``veil --set KEY=VALUE COMMAND ...`` would, and
     the file on disk is left alone. ``glass_catalogs``: extra AGF files (``--glass-catalog``).
@@ -169,10 +171,14 @@ class Scene:
 
     def __init__(self, path, glass_catalogs=()):
         self.path = os.fspath(path)
-        if not os.path.isfile(self.path):
-            raise VeilError("%s: no such file" % self.path)
         self.glass_catalogs = [os.fspath(c) for c in glass_catalogs]
         self.edits = {}
+        self.reload()
+
+    def reload(self):
+        """Reads the scene and lens files again (the edits stay). Returns the scene."""
+        self._snapshots = _veil.snapshot(self.path)
+        return self
 
     # Edits
 
@@ -187,8 +193,9 @@ class Scene:
         return self
 
     def copy(self):
-        other = Scene(self.path, self.glass_catalogs)
-        other.edits = dict(self.edits)
+        other = Scene.__new__(Scene)
+        other.path, other.glass_catalogs = self.path, list(self.glass_catalogs)
+        other.edits, other._snapshots = dict(self.edits), self._snapshots
         return other
 
     def _common(self):
@@ -217,7 +224,7 @@ class Scene:
             words += ["-o", os.fspath(output)]
         words += self._common() + ["--json"]
         try:
-            result = run(*words)
+            result = run(*words, snapshots=self._snapshots)
             files = (result.report or {}).get("files", []) if isinstance(result.report, dict) else []
             result.images = {}
             for f in files:
@@ -270,7 +277,9 @@ class Scene:
 
     def lens(self):
         """The scene's lens, read with the current edits, for real-ray traces."""
-        return Lens(self.path, self.glass_catalogs, self.edits)
+        lens = Lens.__new__(Lens)
+        lens._init(self.path, self.glass_catalogs, self.edits, self._snapshots)
+        return lens
 
     def __repr__(self):
         return "Scene(%r%s)" % (self.path, ", edits %r" % self.edits if self.edits else "")
@@ -288,11 +297,16 @@ class Lens:
     """
 
     def __init__(self, path, glass_catalogs=(), edits=None):
-        self.path = os.fspath(path)
+        path = os.fspath(path)
+        self._init(path, glass_catalogs, edits, _veil.snapshot(path))
+
+    def _init(self, path, glass_catalogs, edits, snapshots):
+        self.path = path
         self.glass_catalogs = [os.fspath(c) for c in glass_catalogs]
         self.edits = dict(edits or {})
+        self._snapshots = snapshots
         self._lens = _veil.Lens(self.path, self.glass_catalogs,
-                                [(k, _toml_value(v)) for k, v in self.edits.items()])
+                                [(k, _toml_value(v)) for k, v in self.edits.items()], snapshots)
 
     name = property(lambda self: self._lens.name)
     wavelengths_nm = property(lambda self: self._lens.wavelengths_nm)
@@ -303,8 +317,10 @@ class Lens:
 
     def first_order(self):
         """First-order data at every wavelength, as ``veil info --json`` reports it."""
-        scene = Scene(self.path, self.glass_catalogs)
+        scene = Scene.__new__(Scene)
+        scene.path, scene.glass_catalogs = self.path, self.glass_catalogs
         scene.edits = {k: _toml_value(v) for k, v in self.edits.items()}
+        scene._snapshots = self._snapshots
         return scene.info()
 
     def trace(self, origins, directions, wavelength=None, first_surface=1, last_surface=-1,
