@@ -81,6 +81,21 @@ def test_an_edit_is_the_executables_set_and_leaves_the_file_alone(tmp_path):
         without_timing(plain.report)
 
 
+def test_a_mechanical_edit_rebuilds_the_mounts(tmp_path):
+    """Wider retainers (a mechanical dimension): the executable's --set, and other stray light
+    than the design's."""
+    key = "mechanics.retainers.width_mm"
+    wide = veil.Scene(SUN).set(key, 4.0)
+    edited = wide.trace(rays="2k", seed=5)
+    report = cli("trace", SUN, "-n", "2k", "--seed", "5", "--set", key + "=4.0",
+                 "-o", tmp_path / "cli")
+    assert without_timing(edited.report) == without_timing(report)
+    plain = veil.Scene(SUN).trace(rays="2k", seed=5)
+    assert edited.report["budget"] != plain.report["budget"]
+    with pytest.raises(veil.ParseError, match="width_mm"):
+        veil.Scene(SUN).set(key, "wide").trace(rays=10)
+
+
 def test_ghost_table_equals_the_executable(tmp_path):
     result = veil.Scene(DOUBLE_GAUSS).ghosts(rays=0, top=0)
     report = cli("ghosts", DOUBLE_GAUSS, "-n", "0", "--top", "0", "-o", tmp_path / "cli")
