@@ -164,7 +164,18 @@ std::ostream& operator<<(std::ostream& os, const SpecularModel& m) {
 }
 
 std::ostream& operator<<(std::ostream& os, const AbgParams& p) {
-    return os << "{A " << p.a << ", B " << p.b << ", g " << p.g << "}";
+    os << "{A " << p.a << ", B " << p.b << ", g " << p.g;
+    if (p.p != 1.0) os << ", p " << p.p;
+    return os << "}";
+}
+
+AbgParams harveyShack(double b0, double l, double s) {
+    if (!(b0 >= 0.0) || !std::isfinite(b0))
+        throw std::invalid_argument("Harvey-Shack b0 must be >= 0");
+    if (!(l > 0.0) || !std::isfinite(l)) throw std::invalid_argument("Harvey-Shack l must be > 0");
+    if (!(s <= 0.0) || !std::isfinite(s))
+        throw std::invalid_argument("Harvey-Shack s must be <= 0");
+    return AbgParams{b0 * std::pow(l, -s), l * l, 2.0, -0.5 * s};
 }
 
 std::ostream& operator<<(std::ostream& os, const ScatterModel& m) {
@@ -258,6 +269,8 @@ AbgLobe::AbgLobe(const AbgParams& p) : p_(p) {
     if (!(p.a >= 0.0) || !std::isfinite(p.a)) throw std::invalid_argument("ABg A must be >= 0");
     if (!(p.b > 0.0) || !std::isfinite(p.b)) throw std::invalid_argument("ABg B must be > 0");
     if (!(p.g >= 0.0) || !std::isfinite(p.g)) throw std::invalid_argument("ABg g must be >= 0");
+    if (!(p.p >= 0.0) || !std::isfinite(p.p))
+        throw std::invalid_argument("the lobe's exponent p must be >= 0");
 
     // Radial CDF of r / (B + r^g): exact (8-point Gauss) on knots that are geometric from well
     // inside the lobe's core (r ~ B^(1/g)) out to r = 2, the largest |beta - beta0|.
@@ -282,9 +295,15 @@ AbgLobe::AbgLobe(const AbgParams& p) : p_(p) {
     }
 }
 
-double AbgLobe::bsdf(double r) const { return p_.a / (p_.b + std::pow(r, p_.g)); }
+double AbgLobe::bsdf(double r) const {
+    const double d = p_.b + std::pow(r, p_.g);
+    return p_.a / (p_.p == 1.0 ? d : std::pow(d, p_.p));
+}
 
-double AbgLobe::radialDensity(double r) const { return r / (p_.b + std::pow(r, p_.g)); }
+double AbgLobe::radialDensity(double r) const {
+    const double d = p_.b + std::pow(r, p_.g);
+    return r / (p_.p == 1.0 ? d : std::pow(d, p_.p));
+}
 
 double AbgLobe::partialIntegral(double r0, double r1) const {
     const auto& g = gauss8();
@@ -296,7 +315,13 @@ double AbgLobe::partialIntegral(double r0, double r1) const {
 
 double AbgLobe::radialCdf(double r) const {
     r = std::clamp(r, 0.0, 2.0);
-    if (p_.g == 2.0) return 0.5 * std::log1p(r * r / p_.b);  // Harvey's usual g: closed form
+    if (p_.g == 2.0) {  // Harvey's usual g (and Harvey-Shack): closed form
+        const double l = std::log1p(r * r / p_.b);
+        if (p_.p == 1.0) return 0.5 * l;
+        // ((B + r^2)^q - B^q) / (2 q), q = 1 - p, written to keep its precision near q = 0.
+        const double q = 1.0 - p_.p;
+        return std::pow(p_.b, q) * (q * l == 0.0 ? l : std::expm1(q * l) / q) * 0.5;
+    }
     if (r <= knotR_[1]) return partialIntegral(0.0, r);
     int k = 1 + static_cast<int>(std::floor(std::log(r / knot1_) / logRatio_));
     k = std::clamp(k, 1, kRadialKnots - 1);
@@ -307,7 +332,13 @@ double AbgLobe::radialCdf(double r) const {
 
 double AbgLobe::inverseRadialCdf(double c) const {
     c = std::clamp(c, 0.0, knotCdf_.back());
-    if (p_.g == 2.0) return std::min(2.0, std::sqrt(p_.b * std::expm1(2.0 * c)));
+    if (p_.g == 2.0) {
+        if (p_.p == 1.0) return std::min(2.0, std::sqrt(p_.b * std::expm1(2.0 * c)));
+        const double q = 1.0 - p_.p;
+        const double x = 2.0 * q * c / std::pow(p_.b, q);
+        const double l = x == 0.0 ? 2.0 * c / std::pow(p_.b, q) : std::log1p(x) / q;
+        return std::min(2.0, std::sqrt(p_.b * std::expm1(l)));
+    }
     int k =
         static_cast<int>(std::upper_bound(knotCdf_.begin(), knotCdf_.end(), c) - knotCdf_.begin()) -
         1;

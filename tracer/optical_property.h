@@ -64,6 +64,9 @@
 //                      else by Newton on a tabulated exact integral, to 1e-14), draws the
 //                      azimuth uniformly, and rejects points outside the unit disk (the
 //                      horizon). Under TIR the transmission lobe is off as for the Gaussian.
+//                      The lobe is general, A / (B + r^g)^p: p = 1 is ABg; g = 2 with
+//                      p = -s / 2 is the Harvey-Shack model b0 (1 + (r / l)^2)^(s / 2)
+//                      (harveyShack()), whose radial CDF is closed-form as well.
 // Rejection (Gaussian and ABg near grazing) draws its further uniforms from a CounterRng keyed
 // by the bits of (u1, u2): deterministic, and exact in distribution. At least half of a
 // Gaussian lobe lies above the horizon, so it takes 2 tries on average at worst; after 256
@@ -222,17 +225,23 @@ class GaussianScatter {
     double norm_;  // 1 - exp(-2 kappa)
 };
 
+// bsdf = A / (B + r^g)^p: Harvey's ABg (p = 1), and with g = 2 the Harvey-Shack model
+// b0 (1 + (r / l)^2)^(s / 2) (harveyShack(): A = b0 l^-s, B = l^2, p = -s / 2).
 struct AbgParams {
     double a = 0.0;  // 1/sr
     double b = 1e-3;
     double g = 2.0;
+    double p = 1.0;
 };
+// The Harvey-Shack lobe b0 (1 + (|beta - beta0| / l)^2)^(s / 2): b0 the BSDF at the specular
+// direction (1/sr), l the shoulder (direction-cosine units), s the slope beyond it (<= 0).
+AbgParams harveyShack(double b0, double l, double s);
 std::ostream& operator<<(std::ostream& os, const AbgParams& p);
 
 // One ABg lobe (BRDF or BTDF) with its radial CDF and TIS tables. Immutable; shared.
 class AbgLobe {
   public:
-    // a >= 0, b > 0, g >= 0 (throws std::invalid_argument).
+    // a >= 0, b > 0, g >= 0, p >= 0 (throws std::invalid_argument).
     explicit AbgLobe(const AbgParams& p);
 
     const AbgParams& params() const { return p_; }
@@ -247,7 +256,7 @@ class AbgLobe {
     bool sample(const Vec2& beta0, double u1, double u2, Vec2& beta) const;
 
     // The radial distribution r bsdf(r) on [0, 2] (unnormalised, without A and 2 pi).
-    double radialCdf(double r) const;         // integral of r / (B + r^g) from 0 to r
+    double radialCdf(double r) const;         // integral of r / (B + r^g)^p from 0 to r
     double inverseRadialCdf(double c) const;  // c in [0, radialCdf(2)]
 
   private:

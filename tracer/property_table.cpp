@@ -40,7 +40,8 @@ std::string joinNames(const std::vector<std::string>& names) {
 
 const std::vector<std::string> kSpecularModels = {"fresnel",      "uncoated", "ideal_ar", "fixed",
                                                   "quarter_wave", "mirror",   "absorber", "none"};
-const std::vector<std::string> kScatterModels = {"lambertian", "gaussian", "abg", "none"};
+const std::vector<std::string> kScatterModels = {"lambertian", "gaussian", "abg", "harvey_shack",
+                                                 "none"};
 
 SpecularModel specularByName(const TomlValue& at, const std::string& model, bool inTable) {
     if (model == "fresnel" || model == "uncoated") return FresnelSpecular{};
@@ -94,6 +95,18 @@ AbgParams readAbgParams(const TomlValue& v) {
     return p;
 }
 
+AbgParams readHarveyShackParams(const TomlValue& v) {
+    if (!v.isTable()) v.failExpected("a table { b0 = ..., l = ..., s = ... }");
+    const TomlTable t = v.asTable();
+    const double b0 =
+        t.require("b0", "BSDF at the specular direction, 1/sr").asNumber(NumberRange::atLeast(0.0));
+    const double l =
+        t.require("l", "shoulder, in direction cosines").asNumber(NumberRange::above(0.0));
+    const double s =
+        t.require("s", "slope beyond the shoulder, <= 0").asNumber(NumberRange::between(-1e3, 0.0));
+    return harveyShack(b0, l, s);
+}
+
 ScatterModel readScatter(const TomlValue& v) {
     if (v.isString()) {
         if (v.asString() == "none") return NoScatter{};
@@ -123,12 +136,15 @@ ScatterModel readScatter(const TomlValue& v) {
                              .asNumber(NumberRange{0.0, 90.0, true, false});
         return GaussianScatter(r, tr, w);
     }
-    if (model == "abg") {
+    if (model == "abg" || model == "harvey_shack") {
+        const bool hs = model == "harvey_shack";
         const std::optional<TomlValue> brdf = t.get("brdf"), btdf = t.get("btdf");
-        if (!brdf && !btdf) t.fail(t.path() + ": ABg scatter needs `brdf` or `btdf` (or both)");
+        if (!brdf && !btdf)
+            t.fail(t.path() + ": " + (hs ? "Harvey-Shack" : "ABg") +
+                   " scatter needs `brdf` or `btdf` (or both)");
         std::optional<AbgParams> r, tr;
-        if (brdf) r = readAbgParams(*brdf);
-        if (btdf) tr = readAbgParams(*btdf);
+        if (brdf) r = hs ? readHarveyShackParams(*brdf) : readAbgParams(*brdf);
+        if (btdf) tr = hs ? readHarveyShackParams(*btdf) : readAbgParams(*btdf);
         try {
             return AbgScatter(r, tr);
         } catch (const std::invalid_argument& e) {

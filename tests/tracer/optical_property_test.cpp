@@ -16,6 +16,7 @@
 #include <iostream>
 #include <numbers>
 #include <sstream>
+#include <tuple>
 #include <vector>
 
 #include "lensdata/errors.h"
@@ -483,9 +484,9 @@ TEST(GaussianScatter, BsdfIntegratesToTheChannelFraction) {
 // Bin probabilities in (r = |beta - beta0|, phi) for the documented ABg BSDF on the unit disk
 // of beta, by midpoint quadrature (the bsdf over the projected solid angle is an area
 // integral in beta).
-std::vector<double> abgBinProbabilities(const AbgParams& q, const Vec2& beta0,
-                                        const std::vector<double>& rEdges, int nphi,
-                                        double* tis = nullptr) {
+std::vector<double> lobeBinProbabilities(const std::function<double(double)>& bsdf,
+                                         const Vec2& beta0, const std::vector<double>& rEdges,
+                                         int nphi, double* tis = nullptr) {
     const int nr = static_cast<int>(rEdges.size()) - 1;
     std::vector<double> p(nr * nphi, 0.0);
     double total = 0.0;
@@ -494,7 +495,7 @@ std::vector<double> abgBinProbabilities(const AbgParams& q, const Vec2& beta0,
         const double dr = (rEdges[a + 1] - rEdges[a]) / subR;
         for (int i = 0; i < subR; ++i) {
             const double r = rEdges[a] + (i + 0.5) * dr;
-            const double w = q.a / (q.b + std::pow(r, q.g)) * r * dr;
+            const double w = bsdf(r) * r * dr;
             for (int b = 0; b < nphi; ++b) {
                 const double dp = 2 * kPi / nphi / subP;
                 for (int j = 0; j < subP; ++j) {
@@ -513,8 +514,17 @@ std::vector<double> abgBinProbabilities(const AbgParams& q, const Vec2& beta0,
     return p;
 }
 
-void abgChi2(const char* what, const AbgParams& q, double incidenceDeg,
-             const std::vector<double>& rEdges, uint64_t seed) {
+std::vector<double> abgBinProbabilities(const AbgParams& q, const Vec2& beta0,
+                                        const std::vector<double>& rEdges, int nphi,
+                                        double* tis = nullptr) {
+    return lobeBinProbabilities([&](double r) { return q.a / (q.b + std::pow(r, q.g)); }, beta0,
+                                rEdges, nphi, tis);
+}
+
+// The lobe's sampled directions against bin probabilities of `bsdf` (the model's own formula,
+// not the lobe's): chi-square, and the TIS the property reports against their quadrature.
+void lobeChi2(const char* what, const AbgParams& q, const std::function<double(double)>& bsdf,
+              double incidenceDeg, const std::vector<double>& rEdges, uint64_t seed) {
     const OpticalProperty p("abg", AbsorberSpecular{}, AbgScatter(q, std::nullopt));
     const SurfaceContext c = contextAt(incidenceDeg);
     const Vec3 t1 = perpendicular(kNormal), t2 = glm::cross(kNormal, t1);
@@ -522,7 +532,7 @@ void abgChi2(const char* what, const AbgParams& q, double incidenceDeg,
     const Vec2 beta0 = toBeta(c.direction);  // the mirror direction has the same projection
     const int nphi = 8;
     double tis = 0.0;
-    const std::vector<double> prob = abgBinProbabilities(q, beta0, rEdges, nphi, &tis);
+    const std::vector<double> prob = lobeBinProbabilities(bsdf, beta0, rEdges, nphi, &tis);
     const double fraction = p.channels(c).scatterReflect;
     EXPECT_NEAR(fraction, tis, 2e-4 * tis) << what;
     std::vector<double> obs(prob.size(), 0.0);
@@ -542,6 +552,12 @@ void abgChi2(const char* what, const AbgParams& q, double incidenceDeg,
             std::min(nphi - 1, static_cast<int>(phi / (2 * kPi) * nphi))] += 1;
     }
     expectChi2(what, chiSquare(obs, prob, n));
+}
+
+void abgChi2(const char* what, const AbgParams& q, double incidenceDeg,
+             const std::vector<double>& rEdges, uint64_t seed) {
+    lobeChi2(what, q, [&](double r) { return q.a / (q.b + std::pow(r, q.g)); }, incidenceDeg,
+             rEdges, seed);
 }
 
 TEST(AbgScatter, TisAtNormalIncidenceMatchesTheClosedForm) {
@@ -631,6 +647,71 @@ TEST(OpticalProperty, PrintsItself) {
        << contextAt(10.0) << " " << Channels{};
     EXPECT_NE(os.str().find("HWHM 5"), std::string::npos) << os.str();
     EXPECT_NE(os.str().find("fixed{R 0.01"), std::string::npos) << os.str();
+}
+
+// Harvey-Shack Lobe
+
+// The model as its authors write it, from its own parameters.
+double harveyShackBsdf(double b0, double l, double s, double r) {
+    return b0 * std::pow(1.0 + (r / l) * (r / l), 0.5 * s);
+}
+
+TEST(HarveyShackScatter, IsTheLobeItsParametersDescribe) {
+    for (const auto& [b0, l, s] : {std::tuple{50.0, 0.01, -2.5}, std::tuple{2.0, 0.05, -1.5},
+                                   std::tuple{0.3, 0.2, -2.0}, std::tuple{0.02, 0.5, 0.0}}) {
+        const AbgLobe lobe(harveyShack(b0, l, s));
+        for (double r : {0.0, 0.3 * l, l, 3.0 * l, 0.5, 1.7})
+            EXPECT_NEAR(lobe.bsdf(r), harveyShackBsdf(b0, l, s, r),
+                        1e-12 * harveyShackBsdf(b0, l, s, r))
+                << b0 << " " << l << " " << s << " r " << r;
+    }
+    EXPECT_THROW(harveyShack(1.0, 0.0, -2.0), std::invalid_argument);
+    EXPECT_THROW(harveyShack(1.0, 0.01, 0.5), std::invalid_argument);
+    EXPECT_THROW(harveyShack(-1.0, 0.01, -2.0), std::invalid_argument);
+}
+
+TEST(HarveyShackScatter, TisAtNormalIncidenceMatchesTheClosedForm) {
+    // TIS = 2 pi b0 integral_0^1 (1 + r^2 / l^2)^(s/2) r dr
+    //     = 2 pi b0 l^2 ((1 + 1/l^2)^((s+2)/2) - 1) / (s + 2), and pi b0 l^2 ln(1 + 1/l^2) at
+    //       s = -2.
+    for (const auto& [b0, l, s] : {std::tuple{50.0, 0.01, -2.5}, std::tuple{2.0, 0.05, -1.5},
+                                   std::tuple{0.3, 0.2, -2.0}, std::tuple{1.0, 0.1, -1.999999},
+                                   std::tuple{0.02, 0.5, 0.0}, std::tuple{1e3, 1e-3, -3.0}}) {
+        const double x = 1.0 + 1.0 / (l * l);
+        const double expected =
+            s == -2.0 ? kPi * b0 * l * l * std::log(x)
+                      : 2.0 * kPi * b0 * l * l * (std::pow(x, 0.5 * (s + 2.0)) - 1.0) / (s + 2.0);
+        const AbgLobe lobe(harveyShack(b0, l, s));
+        EXPECT_NEAR(lobe.tis(0.0), expected, 1e-9 * expected) << b0 << " " << l << " " << s;
+        EXPECT_NEAR(lobe.tisExact(0.0), expected, 1e-9 * expected) << b0 << " " << l << " " << s;
+    }
+}
+
+TEST(HarveyShackScatter, TisTableMatchesDirectQuadratureAtEveryAngle) {
+    for (const AbgParams q : {harveyShack(50.0, 0.01, -2.5), harveyShack(2.0, 0.05, -1.5),
+                              harveyShack(1e3, 1e-3, -3.0)}) {
+        const AbgLobe lobe(q);
+        for (double b0 : {0.05, 0.3, 0.7, 0.95, 0.995, 0.9999}) {
+            EXPECT_NEAR(lobe.tis(b0), lobe.tisExact(b0), 1e-6 * lobe.tisExact(b0))
+                << q << " b0 " << b0;
+        }
+        // The radial CDF inverts itself to rounding.
+        for (double r : {1e-5, 1e-3, 0.01, 0.1, 0.5, 1.0, 1.9}) {
+            EXPECT_NEAR(lobe.inverseRadialCdf(lobe.radialCdf(r)), r, 1e-9 * r) << q << " r " << r;
+        }
+    }
+}
+
+TEST(HarveyShackScatter, SamplerPassesChiSquareAgainstTheModel) {
+    const double b0 = 50.0, l = 0.01, s = -2.5;
+    const auto hs = [&](double r) { return harveyShackBsdf(b0, l, s, r); };
+    lobeChi2("Harvey-Shack normal incidence", harveyShack(b0, l, s), hs, 0.0,
+             {0, 0.002, 0.005, 0.01, 0.02, 0.04, 0.08, 0.16, 0.32, 0.64, 1.0}, 601);
+    lobeChi2("Harvey-Shack 60 deg incidence", harveyShack(b0, l, s), hs, 60.0,
+             {0, 0.002, 0.005, 0.01, 0.02, 0.04, 0.08, 0.16, 0.32, 0.64, 2.0}, 602);
+    const auto wide = [&](double r) { return harveyShackBsdf(0.05, 0.3, -1.2, r); };
+    lobeChi2("Harvey-Shack wide, 80 deg incidence", harveyShack(0.05, 0.3, -1.2), wide, 80.0,
+             {0, 0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8, 1.0, 1.3, 2.0}, 603);
 }
 
 }  // namespace

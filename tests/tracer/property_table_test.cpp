@@ -6,6 +6,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include <string>
 
 namespace veil {
@@ -141,6 +143,9 @@ specular = "absorber"
 specular = "fresnel"
 scatter = { model = "abg", brdf = { a = 1e-4, b = 1e-3, g = 2 }, btdf = { a = 2e-4, b = 1e-3, g = 1.5 } }
 
+[properties.polished]
+scatter = { model = "harvey_shack", brdf = { b0 = 50, l = 0.01, s = -2.5 } }
+
 [properties.gauss]
 scatter = { model = "gaussian", reflectance = 0.05, half_width_deg = 5 }
 
@@ -208,6 +213,11 @@ TEST(PropertyTable, ReadsEveryKey) {
     ASSERT_NE(rough.transmitLobe(), nullptr);
     EXPECT_EQ(rough.transmitLobe()->params().g, 1.5);
 
+    // Harvey-Shack keys give the lobe b0 (1 + (r / l)^2)^(s / 2).
+    const auto& polished = std::get<AbgScatter>(get("polished").scatter());
+    ASSERT_NE(polished.reflectLobe(), nullptr);
+    EXPECT_NEAR(polished.reflectLobe()->bsdf(0.0), 50.0, 1e-12);
+    EXPECT_NEAR(polished.reflectLobe()->bsdf(0.01), 50.0 * std::pow(2.0, -1.25), 1e-10);
     EXPECT_TRUE(std::holds_alternative<AbsorberSpecular>(get("black").specular()));
     const auto& g = std::get<GaussianScatter>(get("gauss").scatter());
     EXPECT_EQ(g.reflectance(), 0.05);
@@ -221,7 +231,7 @@ TEST(PropertyTable, ReadsEveryKey) {
 
     // A table replaces the built-in of its name, in place.
     EXPECT_EQ(std::get<LambertianScatter>(get("lens_edge").scatter()).reflectance, 0.1);
-    EXPECT_EQ(t.properties().size(), PropertyTable().properties().size() + 15);
+    EXPECT_EQ(t.properties().size(), PropertyTable().properties().size() + 16);
 
     ASSERT_EQ(t.rules().size(), 2u);
     EXPECT_EQ(t.rules()[0].patterns, std::vector<std::string>{"L1.*"});
@@ -286,6 +296,10 @@ TEST(PropertyTable, ScatterErrorsAreAtTheValue) {
     expectErrorAt(text, "{ model", "total integrated scatter");
     text = "[properties.x]\nscatter = \"lambertian\"\n";
     expectErrorAt(text, "\"lambertian\"", "must be a table");
+    text = "[properties.x]\nscatter = { model = \"harvey_shack\", brdf = { b0 = 1, l = 0.01 } }\n";
+    expectErrorAt(text, "{ b0", "missing key 's'");
+    text = "[properties.x]\nscatter = { model = \"harvey_shack\", brdf = { b0 = 1, l = 0.01, s = 1 } }\n";
+    expectErrorAt(text, "1 } }", "s");
 }
 
 TEST(PropertyTable, TableErrors) {
