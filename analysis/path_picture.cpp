@@ -190,17 +190,34 @@ Color eventColour(EventType t) {
     }
 }
 
-Picture drawPaths(const Picture& base, const PathSelection& selection,
-                  const PathPictureOptions& options) {
-    Picture pic = base;
+const std::vector<std::pair<const char*, EventType>>& eventLegend() {
+    static const std::vector<std::pair<const char*, EventType>> keys = {
+        {"refract", EventType::Refract},
+        {"reflect (Fresnel, specular)", EventType::FresnelReflect},
+        {"TIR", EventType::TotalInternalReflection},
+        {"scatter", EventType::ScatterReflect},
+        {"absorb / exit", EventType::Exit},
+        {"detector", EventType::DetectorHit}};
+    return keys;
+}
+
+double maxSegmentFlux(const PathSelection& selection) {
     double maxFlux = 0.0;
     for (const SelectedRay& r : selection.rays)
         for (size_t k = 1; k < r.flux.size(); ++k) maxFlux = std::max(maxFlux, r.flux[k]);
+    return maxFlux;
+}
+
+Color segmentFluxColour(double flux, double maxFlux, double decades) {
+    if (!(flux > 0.0) || !(maxFlux > 0.0)) return falseColour(0.0);
+    return falseColour(1.0 + std::log10(flux / maxFlux) / decades);
+}
+
+Picture drawPaths(const Picture& base, const PathSelection& selection,
+                  const PathPictureOptions& options) {
+    Picture pic = base;
+    const double maxFlux = maxSegmentFlux(selection);
     const double decades = std::max(options.decades, 1e-3);
-    auto fluxColour = [&](double f) {
-        if (!(f > 0.0) || !(maxFlux > 0.0)) return falseColour(0.0);
-        return falseColour(1.0 + std::log10(f / maxFlux) / decades);
-    };
     // Weak segments first so the strong ones stay on top.
     struct Line {
         Vec2 a, b;
@@ -223,8 +240,9 @@ Picture drawPaths(const Picture& base, const PathSelection& selection,
         std::stable_sort(lines.begin(), lines.end(),
                          [](const Line& x, const Line& y) { return x.flux < y.flux; });
     for (const Line& l : lines) {
-        const Color c =
-            options.colouring == PathColouring::LogFlux ? fluxColour(l.flux) : eventColour(l.event);
+        const Color c = options.colouring == PathColouring::LogFlux
+                            ? segmentFluxColour(l.flux, maxFlux, decades)
+                            : eventColour(l.event);
         pic.polyline({l.a, l.b}, c, options.lineWidthPt);
     }
 
@@ -238,15 +256,8 @@ Picture drawPaths(const Picture& base, const PathSelection& selection,
     pic.overlayText(x, y, head.str(), Color::hex(0x000000), 11.0);
     const double ky = y + 16.0;
     if (options.colouring == PathColouring::EventType) {
-        const std::pair<const char*, EventType> keys[] = {
-            {"refract", EventType::Refract},
-            {"reflect (Fresnel, specular)", EventType::FresnelReflect},
-            {"TIR", EventType::TotalInternalReflection},
-            {"scatter", EventType::ScatterReflect},
-            {"absorb / exit", EventType::Exit},
-            {"detector", EventType::DetectorHit}};
         double kx = x;
-        for (const auto& [label, t] : keys) {
+        for (const auto& [label, t] : eventLegend()) {
             pic.overlayLine(kx, ky - 3.5, kx + 18.0, ky - 3.5, eventColour(t), 2.0);
             pic.overlayText(kx + 22.0, ky, label, Color::hex(0x000000), 10.0);
             kx += 22.0 + Picture::textWidthPt(label, 10.0) + 16.0;

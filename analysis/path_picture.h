@@ -21,6 +21,7 @@
 #include <optional>
 #include <ostream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "analysis/criteria.h"
@@ -107,6 +108,14 @@ struct PathPictureOptions {
 // Fresnel and specular reflection red, TIR orange, scatter green, absorb and exit grey,
 // detector black.
 Color eventColour(EventType t);
+// The event key of the EventType palette, in legend order: label and an event of each colour.
+const std::vector<std::pair<const char*, EventType>>& eventLegend();
+
+// The largest flux a kept segment carries (0 without segments).
+double maxSegmentFlux(const PathSelection& selection);
+// The LogFlux colour of a segment: log10(flux / maxFlux) over `decades` decades on the
+// false-colour ramp, its lowest colour for nothing (flux or maxFlux <= 0).
+Color segmentFluxColour(double flux, double maxFlux, double decades);
 
 // `base` (from drawLayout) with the segments of every kept ray's matching paths (each segment
 // once) projected to the y-z plane (a point (x, y, z) is drawn at (z, y)) and a legend: the

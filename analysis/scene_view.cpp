@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include "analysis/image_output.h"
+#include "lensdata/input_file.h"
 #include "lensdata/output_file.h"
 
 namespace veil {
@@ -113,9 +114,7 @@ nlohmann::json sourceMarkers(const Scene& scene, const std::vector<Source>& sour
 }
 
 nlohmann::json pathData(const PathSelection& sel, const SceneViewOptions& o) {
-    double maxFlux = 0.0;
-    for (const SelectedRay& r : sel.rays)
-        for (size_t k = 1; k < r.flux.size(); ++k) maxFlux = std::max(maxFlux, r.flux[k]);
+    const double maxFlux = maxSegmentFlux(sel);
     struct Segment {
         Vec3 a, b;
         double flux;
@@ -131,18 +130,15 @@ nlohmann::json pathData(const PathSelection& sel, const SceneViewOptions& o) {
     if (o.colouring == PathColouring::LogFlux)
         std::stable_sort(segments.begin(), segments.end(),
                          [](const Segment& x, const Segment& y) { return x.flux < y.flux; });
-    auto fluxColour = [&](double f) {
-        if (!(f > 0.0) || !(maxFlux > 0.0)) return falseColour(0.0);
-        return falseColour(1.0 + std::log10(f / maxFlux) / o.decades);
-    };
     std::vector<float> positions, logFlux;
     std::vector<uint8_t> colours;
     std::vector<uint32_t> rays;
     for (const Segment& s : segments) {
         push(positions, s.a);
         push(positions, s.b);
-        const Color c =
-            o.colouring == PathColouring::LogFlux ? fluxColour(s.flux) : eventColour(s.event);
+        const Color c = o.colouring == PathColouring::LogFlux
+                            ? segmentFluxColour(s.flux, maxFlux, o.decades)
+                            : eventColour(s.event);
         for (int v = 0; v < 2; ++v)
             for (double channel : {c.r, c.g, c.b})
                 colours.push_back(
@@ -163,14 +159,8 @@ nlohmann::json pathData(const PathSelection& sel, const SceneViewOptions& o) {
                   {"max", maxFlux}};
     } else {
         nlohmann::json keys = nlohmann::json::array();
-        const std::pair<const char*, EventType> events[] = {
-            {"refract", EventType::Refract},
-            {"reflect (Fresnel, specular)", EventType::FresnelReflect},
-            {"TIR", EventType::TotalInternalReflection},
-            {"scatter", EventType::ScatterReflect},
-            {"absorb / exit", EventType::Exit},
-            {"detector", EventType::DetectorHit}};
-        for (const auto& [label, t] : events) keys.push_back({label, hexColour(eventColour(t))});
+        for (const auto& [label, t] : eventLegend())
+            keys.push_back({label, hexColour(eventColour(t))});
         legend = {{"title", "segment colour: the event that ends it"}, {"events", keys}};
     }
     return {{"count", sel.pathCount()},
@@ -183,14 +173,6 @@ nlohmann::json pathData(const PathSelection& sel, const SceneViewOptions& o) {
             {"ray_of_segment", uints(rays)},
             {"log10_flux_of_segment", floats(logFlux)},
             {"legend", legend}};
-}
-
-std::string readWhole(const std::filesystem::path& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    if (!in && !in.eof()) throw std::runtime_error(path.string() + ": cannot be read");
-    return s.str();
 }
 
 }  // namespace
@@ -291,7 +273,9 @@ ThreeJs loadThreeJs() {
                 "three.js not found: no " + p.string() +
                 " (install Debian's libjs-three, or set VEIL_THREE_JS_DIR to a folder holding "
                 "build/three.min.js and examples/js/controls/OrbitControls.js)");
-        *text = readWhole(p);
+        const std::optional<std::string> bytes = readInputFile(p);
+        if (!bytes) throw std::runtime_error(p.string() + ": cannot be read");
+        *text = *bytes;
     }
     return t;
 }

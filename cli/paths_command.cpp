@@ -28,6 +28,38 @@
 
 namespace veil::cli {
 
+void addPathDrawingOptions(CLI::App* sub, std::string& colour, std::string& mode,
+                           double& minRelativeFlux) {
+    sub->add_option("--colour,--color", colour, "segment colour: flux (log) or event type")
+        ->check(CLI::IsMember({"flux", "event"}))
+        ->capture_default_str();
+    sub->add_option("--mode", mode,
+                    "split (every Fresnel branch is a path) or random (one path per ray)")
+        ->check(CLI::IsMember({"split", "random"}))
+        ->capture_default_str();
+    sub->add_option("--min-flux", minRelativeFlux,
+                    "cull a branch below this share of its ray's emitted flux, after every bounce "
+                    "(both modes)")
+        ->check(CLI::Range(0.0, 1.0))
+        ->capture_default_str();
+}
+
+PathSelectionOptions pathSelectionOptions(const TraceSetup& trace, const std::string& where,
+                                          int first, uint64_t raysPerSource, uint64_t batch,
+                                          uint64_t seed, const std::string& mode,
+                                          double minRelativeFlux) {
+    PathSelectionOptions po;
+    po.where = where;
+    po.count = static_cast<size_t>(first);
+    po.maxRays = raysPerSource * trace.transport.sources.size();
+    po.batchRays = batch;
+    po.transport.seed = seed;
+    po.transport.mode =
+        mode == "random" ? TransportOptions::Mode::Random : TransportOptions::Mode::Split;
+    po.transport.minRelativeFlux = minRelativeFlux;
+    return po;
+}
+
 void addPathsCommand(CLI::App& app, PathsOptions& o) {
     CLI::App* sub =
         app.add_subcommand("paths", "draw the first N rays with paths matching a criterion");
@@ -41,18 +73,7 @@ void addPathsCommand(CLI::App& app, PathsOptions& o) {
     addOutputFolder(sub, o.output, "paths");
     addFields(sub, o.fields);
     addCount(sub, "--batch", o.batch, "rays per source per batch");
-    sub->add_option("--colour,--color", o.colour, "segment colour: flux (log) or event type")
-        ->check(CLI::IsMember({"flux", "event"}))
-        ->capture_default_str();
-    sub->add_option("--mode", o.mode,
-                    "split (every Fresnel branch is a path) or random (one path per ray)")
-        ->check(CLI::IsMember({"split", "random"}))
-        ->capture_default_str();
-    sub->add_option("--min-flux", o.minRelativeFlux,
-                    "cull a branch below this share of its ray's emitted flux, after every bounce "
-                    "(both modes)")
-        ->check(CLI::Range(0.0, 1.0))
-        ->capture_default_str();
+    addPathDrawingOptions(sub, o.colour, o.mode, o.minRelativeFlux);
     addRunControls(sub, o.threads, o.seed);
     sub->add_option("--width-px", o.widthPx, "PNG width in pixels")
         ->check(CLI::Range(200, 20000))
@@ -72,16 +93,9 @@ int runPaths(const CommonOptions& common, const PathsOptions& o) {
     reportSceneNotes(*prepared);
 
     const auto limit = limitThreads(o.threads);
-    PathSelectionOptions po;
-    po.where = o.where;
+    PathSelectionOptions po = pathSelectionOptions(ts, o.where, o.first, o.rays, o.batch, o.seed,
+                                                   o.mode, o.minRelativeFlux);
     po.whereSource = "--where 1";  // as trace names its criteria
-    po.count = static_cast<size_t>(o.first);
-    po.maxRays = o.rays * ts.transport.sources.size();
-    po.batchRays = o.batch;
-    po.transport.seed = o.seed;
-    po.transport.mode =
-        o.mode == "random" ? TransportOptions::Mode::Random : TransportOptions::Mode::Split;
-    po.transport.minRelativeFlux = o.minRelativeFlux;
     // Progress by batch; the run ends early once --first rays are found.
     std::optional<ProgressReporter> reporter;
     if (!o.quiet) {

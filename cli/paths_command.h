@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/path_picture.h"
 #include "cli/commands.h"
 
 namespace veil::cli {
@@ -30,5 +31,14 @@ struct PathsOptions {
 };
 void addPathsCommand(CLI::App& app, PathsOptions& options);
 int runPaths(const CommonOptions& common, const PathsOptions& options);
+
+// Shared by the commands that draw selected paths (paths, view): --colour, --mode and
+// --min-flux, and the selection they and -n, --first, --batch and --seed ask for.
+void addPathDrawingOptions(CLI::App* sub, std::string& colour, std::string& mode,
+                           double& minRelativeFlux);
+PathSelectionOptions pathSelectionOptions(const TraceSetup& trace, const std::string& where,
+                                          int first, uint64_t raysPerSource, uint64_t batch,
+                                          uint64_t seed, const std::string& mode,
+                                          double minRelativeFlux);
 
 }  // namespace veil::cli

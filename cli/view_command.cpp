@@ -22,6 +22,7 @@
 #include "analysis/scene_view.h"
 #include "cli/commands.h"
 #include "cli/options.h"
+#include "cli/paths_command.h"
 #include "cli/progress.h"
 #include "lensdata/errors.h"
 #include "tracer/prepared_scene.h"
@@ -42,17 +43,7 @@ void addViewCommand(CLI::App& app, ViewOptions& o) {
     addRays(sub, o.rays, "emitted rays per source to trace at most (with --where)");
     addFields(sub, o.fields);
     addCount(sub, "--batch", o.batch, "rays per source per batch");
-    sub->add_option("--colour,--color", o.colour, "path colour: flux (log) or event type")
-        ->check(CLI::IsMember({"flux", "event"}))
-        ->capture_default_str();
-    sub->add_option("--mode", o.mode,
-                    "split (every Fresnel branch is a path) or random (one path per ray)")
-        ->check(CLI::IsMember({"split", "random"}))
-        ->capture_default_str();
-    sub->add_option("--min-flux", o.minRelativeFlux,
-                    "cull a branch below this share of its ray's emitted flux, after every bounce")
-        ->check(CLI::Range(0.0, 1.0))
-        ->capture_default_str();
+    addPathDrawingOptions(sub, o.colour, o.mode, o.minRelativeFlux);
     addRunControls(sub, o.threads, o.seed);
     sub->add_option("--chord-tolerance", o.chordToleranceMm,
                     "display tessellation of exact faces, mm (smaller: smoother and larger pages)")
@@ -95,15 +86,8 @@ int runView(const CommonOptions& common, const ViewOptions& o) {
     if (!o.where.empty()) {
         const TraceSetup& ts = prepared->trace();
         const auto limit = limitThreads(o.threads);
-        PathSelectionOptions po;
-        po.where = o.where;
-        po.count = static_cast<size_t>(o.first);
-        po.maxRays = o.rays * ts.transport.sources.size();
-        po.batchRays = o.batch;
-        po.transport.seed = o.seed;
-        po.transport.mode =
-            o.mode == "random" ? TransportOptions::Mode::Random : TransportOptions::Mode::Split;
-        po.transport.minRelativeFlux = o.minRelativeFlux;
+        PathSelectionOptions po = pathSelectionOptions(ts, o.where, o.first, o.rays, o.batch,
+                                                       o.seed, o.mode, o.minRelativeFlux);
         std::optional<ProgressReporter> reporter;
         if (!o.quiet && !o.json) {
             reporter.emplace("view", po.maxRays);

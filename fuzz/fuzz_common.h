@@ -4,9 +4,11 @@
 //
 // A target feeds one input to one of veil's readers. A clean rejection is what a user gets
 // for bad input: a ParseError (file:line:col), a ModelError (the object) or, for the ray
-// database, a RayDatabaseError (caught by that target). Anything else escaping the reader (std::out_of_range from a library
-// call, a logic_error, a bad_alloc from an unchecked size) ends the process: libFuzzer
-// reports it as a crash, as it does a sanitizer finding.
+// database, a RayDatabaseError (caught by that target). Anything else escaping the reader
+// (std::out_of_range from a library call, a logic_error, a bad_alloc from an unchecked size) ends
+// the process: libFuzzer reports it as a crash, as it does a sanitizer finding.
+
+#include <unistd.h>
 
 #include <cstddef>
 #include <cstdint>
@@ -14,7 +16,6 @@
 #include <fstream>
 #include <string>
 #include <string_view>
-#include <unistd.h>
 
 #include "lensdata/errors.h"
 
@@ -45,11 +46,29 @@ inline const std::filesystem::path& scratchFolder() {
     return folder;
 }
 
+// scratchFolder()/scenes, beside copies of examples/lenses and examples/zmx, so that a scene
+// written there finds `lens = "../lenses/..."` as the examples do.
+inline const std::filesystem::path& sceneFolder() {
+    static const std::filesystem::path folder = [] {
+        const auto root = scratchFolder();
+        for (const char* sub : {"lenses", "zmx"}) {
+            std::filesystem::create_directories(root / sub);
+            std::filesystem::copy(std::filesystem::path(VEIL_SOURCE_DIR) / "examples" / sub,
+                                  root / sub,
+                                  std::filesystem::copy_options::overwrite_existing |
+                                      std::filesystem::copy_options::recursive);
+        }
+        std::filesystem::create_directories(root / "scenes");
+        return root / "scenes";
+    }();
+    return folder;
+}
+
 inline std::filesystem::path writeScratch(const std::string& name, std::string_view bytes) {
     const std::filesystem::path p = scratchFolder() / name;
     std::filesystem::create_directories(p.parent_path());
-    std::ofstream(p, std::ios::binary | std::ios::trunc).write(bytes.data(),
-                                                              static_cast<std::streamsize>(bytes.size()));
+    std::ofstream(p, std::ios::binary | std::ios::trunc)
+        .write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
     return p;
 }
 

@@ -21,6 +21,7 @@
 
 #include "analysis/image_output.h"
 #include "cli/app.h"
+#include "cli/commands.h"
 #include "lensdata/errors.h"
 #include "lensdata/glass_catalog.h"
 #include "lensdata/input_file.h"
@@ -147,12 +148,6 @@ py::dict readExr(const std::filesystem::path& path) {
     return d;
 }
 
-veil::GlassCatalog catalogOf(const std::vector<std::string>& glassCatalogs) {
-    veil::GlassCatalog catalog = veil::GlassCatalog::withEnvironment();
-    for (const std::string& f : glassCatalogs) catalog.loadAgf(f);
-    return catalog;
-}
-
 std::vector<veil::SceneEdit> editsOf(const std::vector<std::pair<std::string, std::string>>& sets) {
     std::vector<veil::SceneEdit> edits;
     for (const auto& [key, value] : sets)
@@ -168,7 +163,9 @@ class Lens {
          const veil::FileSnapshots& snapshots)
         : path_(path) {
         const veil::FileSnapshotScope files(&snapshots);
-        const veil::GlassCatalog catalog = catalogOf(glassCatalogs);
+        veil::cli::CommonOptions common;
+        common.glassCatalogs = glassCatalogs;
+        const veil::GlassCatalog catalog = veil::cli::loadCatalog(common);
         veil::SceneFile file = veil::readSceneFile(path, catalog, editsOf(sets));
         model_ = file.model;
     }
