@@ -9,6 +9,7 @@
 
 #include "lensdata/errors.h"
 #include "tracer/fresnel.h"
+#include "tracer/lobe_math.h"
 #include "tracer/rng.h"
 #include "tracer/sequential_trace.h"
 
@@ -25,55 +26,6 @@ struct Overloaded : Ts... {
 };
 template <class... Ts>
 Overloaded(Ts...) -> Overloaded<Ts...>;
-
-// Gauss-Legendre nodes and weights on [-1, 1] (Newton on the Legendre polynomial).
-template <int N>
-struct GaussLegendre {
-    std::array<double, N> x{}, w{};
-    GaussLegendre() {
-        for (int i = 0; i < (N + 1) / 2; ++i) {
-            double z = std::cos(kPi * (i + 0.75) / (N + 0.5));
-            double dp = 1.0;
-            for (int it = 0; it < 100; ++it) {
-                double p0 = 1.0, p1 = z;
-                for (int k = 2; k <= N; ++k) {
-                    const double p2 = ((2.0 * k - 1.0) * z * p1 - (k - 1.0) * p0) / k;
-                    p0 = p1;
-                    p1 = p2;
-                }
-                dp = N * (z * p1 - p0) / (z * z - 1.0);
-                const double dz = p1 / dp;
-                z -= dz;
-                if (std::abs(dz) < 1e-16) break;
-            }
-            x[i] = -z;
-            x[N - 1 - i] = z;
-            w[i] = w[N - 1 - i] = 2.0 / ((1.0 - z * z) * dp * dp);
-        }
-    }
-};
-const GaussLegendre<8>& gauss8() {
-    static const GaussLegendre<8> g;
-    return g;
-}
-const GaussLegendre<64>& gauss64() {
-    static const GaussLegendre<64> g;
-    return g;
-}
-
-// Integral over [a, b] of a function with square-root behaviour at both ends (the clipped
-// fraction of a lobe): the substitution x = a + (b - a)(1 - cos t) / 2 makes it smooth.
-template <class F>
-double integrateEndpointSqrt(double a, double b, F&& f) {
-    if (!(b > a)) return 0.0;
-    const auto& g = gauss64();
-    double sum = 0.0;
-    for (int i = 0; i < 64; ++i) {
-        const double t = 0.5 * kPi * (g.x[i] + 1.0);
-        sum += g.w[i] * f(a + 0.5 * (b - a) * (1.0 - std::cos(t))) * std::sin(t);
-    }
-    return sum * 0.5 * kPi * 0.5 * (b - a);
-}
 
 // Orthonormal basis with n as the third axis (Duff et al., JCGT 2017).
 void basisAround(const Vec3& n, Vec3& t1, Vec3& t2) {
@@ -102,15 +54,6 @@ bool sampleWithRejection(double u1, double u2, F&& attempt) {
 double circleFractionAbove(double cosAlpha, double sinAlpha, double cosS, double sinS) {
     if (sinAlpha <= 0.0 || sinS <= 0.0) return cosAlpha * cosS > 0.0 ? 1.0 : 0.0;
     const double c = -cosAlpha * cosS / (sinAlpha * sinS);
-    return std::acos(std::clamp(c, -1.0, 1.0)) / kPi;
-}
-
-// Fraction of a circle of radius r about a point at distance b0 from the centre of the unit
-// disk that lies inside the disk.
-double circleFractionInDisk(double r, double b0) {
-    if (r <= 1.0 - b0) return 1.0;
-    if (r >= 1.0 + b0) return 0.0;
-    const double c = (r * r + b0 * b0 - 1.0) / (2.0 * r * b0);
     return std::acos(std::clamp(c, -1.0, 1.0)) / kPi;
 }
 
@@ -195,6 +138,7 @@ std::ostream& operator<<(std::ostream& os, const ScatterModel& m) {
                        if (a.transmitLobe()) os << "btdf " << a.transmitLobe()->params();
                        os << "}";
                    },
+                   [&](const KCorrelationScatter& k) { os << k.params(); },
                },
                m);
     return os;
@@ -225,7 +169,7 @@ double GaussianScatter::hemisphereMass(double cosAxisSide) const {
     // Below w1 the whole circle is above the horizon; above w2 none of it.
     const double ua = cdf(1.0 - sinS), ub = cdf(1.0 + sinS);
     if (ub - ua < 1e-10) return ua + 0.5 * (ub - ua);  // all but < 1e-10 above the horizon
-    const double middle = integrateEndpointSqrt(ua, ub, [&](double u) {
+    const double middle = lobe::integrateEndpointSqrt(ua, ub, [&](double u) {
         const double w = std::min(2.0, -std::log1p(-u * norm_) / kappa_);
         return circleFractionAbove(1.0 - w, std::sqrt(std::max(0.0, w * (2.0 - w))), cosS, sinS);
     });
@@ -306,7 +250,7 @@ double AbgLobe::radialDensity(double r) const {
 }
 
 double AbgLobe::partialIntegral(double r0, double r1) const {
-    const auto& g = gauss8();
+    const auto& g = lobe::gauss<8>();
     const double h = 0.5 * (r1 - r0), m = 0.5 * (r1 + r0);
     double sum = 0.0;
     for (int i = 0; i < 8; ++i) sum += g.w[i] * radialDensity(m + h * g.x[i]);
@@ -315,13 +259,7 @@ double AbgLobe::partialIntegral(double r0, double r1) const {
 
 double AbgLobe::radialCdf(double r) const {
     r = std::clamp(r, 0.0, 2.0);
-    if (p_.g == 2.0) {  // Harvey's usual g (and Harvey-Shack): closed form
-        const double l = std::log1p(r * r / p_.b);
-        if (p_.p == 1.0) return 0.5 * l;
-        // ((B + r^2)^q - B^q) / (2 q), q = 1 - p, written to keep its precision near q = 0.
-        const double q = 1.0 - p_.p;
-        return std::pow(p_.b, q) * (q * l == 0.0 ? l : std::expm1(q * l) / q) * 0.5;
-    }
+    if (p_.g == 2.0) return lobe::powerLobeRadialCdf(r, p_.b, p_.p);  // closed form
     if (r <= knotR_[1]) return partialIntegral(0.0, r);
     int k = 1 + static_cast<int>(std::floor(std::log(r / knot1_) / logRatio_));
     k = std::clamp(k, 1, kRadialKnots - 1);
@@ -332,13 +270,7 @@ double AbgLobe::radialCdf(double r) const {
 
 double AbgLobe::inverseRadialCdf(double c) const {
     c = std::clamp(c, 0.0, knotCdf_.back());
-    if (p_.g == 2.0) {
-        if (p_.p == 1.0) return std::min(2.0, std::sqrt(p_.b * std::expm1(2.0 * c)));
-        const double q = 1.0 - p_.p;
-        const double x = 2.0 * q * c / std::pow(p_.b, q);
-        const double l = x == 0.0 ? 2.0 * c / std::pow(p_.b, q) : std::log1p(x) / q;
-        return std::min(2.0, std::sqrt(p_.b * std::expm1(l)));
-    }
+    if (p_.g == 2.0) return std::min(2.0, lobe::inversePowerLobeRadialCdf(c, p_.b, p_.p));
     int k =
         static_cast<int>(std::upper_bound(knotCdf_.begin(), knotCdf_.end(), c) - knotCdf_.begin()) -
         1;
@@ -374,8 +306,8 @@ double AbgLobe::tisExact(double b0) const {
     // Over the radial CDF variable v (uniform under the unclipped radial distribution): the
     // fraction of each circle inside the disk, 1 up to va.
     const double va = inner / outer;
-    const double middle = integrateEndpointSqrt(
-        va, 1.0, [&](double v) { return circleFractionInDisk(inverseRadialCdf(v * outer), b0); });
+    const double middle = lobe::integrateEndpointSqrt(
+        va, 1.0, [&](double v) { return lobe::circleFractionInDisk(inverseRadialCdf(v * outer), b0); });
     return 2.0 * kPi * p_.a * (inner + outer * middle);
 }
 
@@ -496,6 +428,14 @@ LobeFrame lobeFrame(const SurfaceContext& c, bool transmit) {
     return f;
 }
 
+// The K-correlation lobe of one side for an incident ray (f its frame: for the BTDF, the
+// refracted direction's cosine).
+KcLobe kcLobe(const KCorrelationScatter& k, const SurfaceContext& c, const LobeFrame& f) {
+    if (!f.transmit) return k.reflectLobe(c.wavelengthNm, c.n1, c.cosIncidence());
+    return k.transmitLobe(c.wavelengthNm, c.n1, c.n2, c.cosIncidence(),
+                          std::abs(glm::dot(f.axis, c.normal)));
+}
+
 }  // namespace
 
 Channels OpticalProperty::channels(const SurfaceContext& c) const {
@@ -520,6 +460,16 @@ Channels OpticalProperty::channels(const SurfaceContext& c) const {
                        if (a.reflectLobe()) sR = a.reflectLobe()->tis(b0);
                        if (a.transmitLobe() && !tir)
                            sT = a.transmitLobe()->tis(std::min(1.0, c.n1 / c.n2 * b0));
+                   },
+                   [&](const KCorrelationScatter& k) {
+                       if (k.reflects()) sR = k.tis(kcLobe(k, c, lobeFrame(c, false)));
+                       if (k.transmits() && !tir && !c.opaque) {
+                           const LobeFrame f = lobeFrame(c, true);
+                           if (f.valid) sT = k.tis(kcLobe(k, c, f));
+                       }
+                       // Past the smooth-surface limit (PropertyTable::checkScatterEnergy
+                       // refuses such scenes) the transmitted share is cut to what is left.
+                       sT = std::min(sT, std::max(0.0, 1.0 - sR));
                    },
                },
                scatter_);
@@ -603,6 +553,22 @@ ScatterSample OpticalProperty::sampleScatter(const SurfaceContext& c, bool trans
                     tis > 0.0 ? lobe->bsdf(glm::length(beta - beta0)) * cosO / tis : 0.0;
                 return ScatterSample{d, pdf};
             },
+            [&](const KCorrelationScatter& k) {
+                if (!(transmit ? k.transmits() : k.reflects())) return ScatterSample{};
+                const LobeFrame f = lobeFrame(c, transmit);
+                if (!f.valid) return ScatterSample{};
+                const KcLobe lobe = kcLobe(k, c, f);
+                const double tis = k.tis(lobe);
+                if (!(tis > 0.0)) return ScatterSample{};
+                Vec3 t1, t2;
+                basisAround(f.side, t1, t2);
+                const Vec2 beta0(glm::dot(f.betaVec, t1), glm::dot(f.betaVec, t2));
+                Vec2 beta;
+                if (!k.sample(lobe, beta0, u1, u2, beta)) return ScatterSample{f.axis, 0.0};
+                const double cosO = std::sqrt(std::max(0.0, 1.0 - glm::dot(beta, beta)));
+                const Vec3 d = glm::normalize(beta.x * t1 + beta.y * t2 + cosO * f.side);
+                return ScatterSample{d, k.bsdf(lobe, glm::length(beta - beta0), cosO) * cosO / tis};
+            },
         },
         scatter_);
 }
@@ -631,6 +597,14 @@ double OpticalProperty::bsdf(const SurfaceContext& c, const Vec3& out) const {
                               if (!f.valid) return 0.0;
                               const Vec3 beta = out - glm::dot(out, c.normal) * c.normal;
                               return lobe->bsdf(glm::length(beta - f.betaVec));
+                          },
+                          [&](const KCorrelationScatter& k) {
+                              if (!(transmit ? k.transmits() : k.reflects())) return 0.0;
+                              const LobeFrame f = lobeFrame(c, transmit);
+                              if (!f.valid) return 0.0;
+                              const Vec3 beta = out - glm::dot(out, c.normal) * c.normal;
+                              return k.bsdf(kcLobe(k, c, f), glm::length(beta - f.betaVec),
+                                            std::abs(cosO));
                           },
                       },
                       scatter_);
@@ -661,6 +635,17 @@ double OpticalProperty::scatterPdf(const SurfaceContext& c, const Vec3& out) con
                 const double tis = lobe->tis(glm::length(f.betaVec));
                 const Vec3 beta = out - glm::dot(out, c.normal) * c.normal;
                 return tis > 0.0 ? lobe->bsdf(glm::length(beta - f.betaVec)) * std::abs(cosO) / tis
+                                 : 0.0;
+            },
+            [&](const KCorrelationScatter& k) {
+                if (!(transmit ? k.transmits() : k.reflects())) return 0.0;
+                const LobeFrame f = lobeFrame(c, transmit);
+                if (!f.valid) return 0.0;
+                const KcLobe lobe = kcLobe(k, c, f);
+                const double tis = k.tis(lobe);
+                const Vec3 beta = out - glm::dot(out, c.normal) * c.normal;
+                return tis > 0.0 ? k.bsdf(lobe, glm::length(beta - f.betaVec), std::abs(cosO)) *
+                                       std::abs(cosO) / tis
                                  : 0.0;
             },
         },

@@ -125,6 +125,7 @@
 #include <vector>
 
 #include "geometry/vec.h"
+#include "tracer/k_correlation.h"
 
 namespace veil {
 
@@ -283,7 +284,8 @@ class AbgScatter {
     std::shared_ptr<const AbgLobe> reflect_, transmit_;
 };
 
-using ScatterModel = std::variant<NoScatter, LambertianScatter, GaussianScatter, AbgScatter>;
+using ScatterModel =
+    std::variant<NoScatter, LambertianScatter, GaussianScatter, AbgScatter, KCorrelationScatter>;
 std::ostream& operator<<(std::ostream& os, const ScatterModel& m);
 
 // Optical Property

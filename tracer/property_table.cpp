@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
+#include <numbers>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
@@ -40,8 +42,8 @@ std::string joinNames(const std::vector<std::string>& names) {
 
 const std::vector<std::string> kSpecularModels = {"fresnel",      "uncoated", "ideal_ar", "fixed",
                                                   "quarter_wave", "mirror",   "absorber", "none"};
-const std::vector<std::string> kScatterModels = {"lambertian", "gaussian", "abg", "harvey_shack",
-                                                 "none"};
+const std::vector<std::string> kScatterModels = {"lambertian",   "gaussian",      "abg",
+                                                 "harvey_shack", "k_correlation", "none"};
 
 SpecularModel specularByName(const TomlValue& at, const std::string& model, bool inTable) {
     if (model == "fresnel" || model == "uncoated") return FresnelSpecular{};
@@ -107,6 +109,36 @@ AbgParams readHarveyShackParams(const TomlValue& v) {
     return harveyShack(b0, l, s);
 }
 
+// The PSD as A, B and C, or as the RMS roughness, B and C (A = sigma^2 B^2 (C - 2) / 2 pi).
+KCorrelationScatter readKCorrelation(const TomlTable& t) {
+    KCorrelationParams p;
+    const std::optional<TomlValue> a = t.get("a"), sigma = t.get("sigma_nm");
+    if (a && sigma)
+        sigma->fail(t.path() + ": give the PSD either by `a` or by its RMS roughness `sigma_nm`, "
+                    "not both");
+    if (!a && !sigma)
+        t.fail(t.path() + ": K-correlation scatter needs `a` (nm^2 um^2) or `sigma_nm`, with "
+               "`b_um` and `c`");
+    p.bUm = t.require("b_um", "correlation length B, um").asNumber(NumberRange::above(0.0));
+    const TomlValue cv = t.require("c", "PSD slope C");
+    p.c = cv.asNumber(NumberRange{0.0, 1e3, true, false});
+    if (a) {
+        p.aNm2Um2 = a->asNumber(NumberRange::atLeast(0.0));
+    } else {
+        const double s = sigma->asNumber(NumberRange::atLeast(0.0));
+        if (!(p.c > 2.0))
+            cv.fail(t.path() + ": the RMS roughness of a K-correlation PSD is finite only for "
+                    "c > 2 (got " + number(p.c) + "); give `a` for flatter spectra");
+        p.aNm2Um2 = kCorrelationA(s, p.bUm, p.c);
+    }
+    const TomlValue r = t.require("reflectance", "the surface's reflectance Q, 0 to 1");
+    p.reflectance = r.asNumber(NumberRange::between(0.0, 1.0));
+    p.transmission = t.has("transmission") ? t.get("transmission")->asBool() : false;
+    if (p.reflectance == 0.0 && !p.transmission)
+        r.fail(t.path() + ": reflectance 0 and no transmission scatter nothing");
+    return KCorrelationScatter(p);
+}
+
 ScatterModel readScatter(const TomlValue& v) {
     if (v.isString()) {
         if (v.asString() == "none") return NoScatter{};
@@ -151,6 +183,7 @@ ScatterModel readScatter(const TomlValue& v) {
             t.fail(t.path() + ": " + e.what());
         }
     }
+    if (model == "k_correlation") return readKCorrelation(t);
     if (model == "none") return NoScatter{};
     const std::string hint = didYouMean(model, kScatterModels);
     modelValue.fail("unknown scatter model '" + model + "'" +
@@ -378,6 +411,44 @@ std::ostream& operator<<(std::ostream& os, const PropertyTable& t) {
     for (const OpticalProperty& p : t.properties()) os << ", " << p.name();
     os << "; " << t.rules().size() << " rules}";
     return os;
+}
+
+// Scatter Energy
+
+void PropertyTable::checkScatterEnergy(const SequentialModel& model) const {
+    for (const OpticalProperty& p : properties_) {
+        const auto* k = std::get_if<KCorrelationScatter>(&p.scatter());
+        if (!k) continue;
+        for (int w = 0; w < model.wavelengthCount(); ++w) {
+            double nMax = 1.0;
+            for (int g = 0; g + 1 < model.surfaceCount(); ++g)
+                nMax = std::max(nMax, std::abs(model.index(g, w)));
+            const double nm = model.wavelengthNm(w);
+            for (int deg = 0; deg < 90; ++deg) {
+                const double cosI = std::cos(deg * std::numbers::pi / 180.0);
+                double r = 0.0, t = 0.0, n1 = 1.0;
+                for (double n : {1.0, nMax}) {
+                    const double rn = k->tis(k->reflectLobe(nm, n, cosI));
+                    if (rn > r) r = rn, n1 = n;
+                }
+                if (k->transmits()) {
+                    const double sinT = std::sqrt(1.0 - cosI * cosI) / nMax;
+                    t = k->tis(k->transmitLobe(nm, 1.0, nMax, cosI, std::sqrt(1.0 - sinT * sinT)));
+                }
+                if (r + t > 1.0)
+                    throw ModelError(
+                        p.name(),
+                        "K-correlation scatter at " + number(nm) + " nm and " +
+                            std::to_string(deg) + " deg incidence takes " + number(r + t) +
+                            " of the light (reflected " + number(r) + " from n = " + number(n1) +
+                            (k->transmits() ? ", transmitted " + number(t) + " into n = " +
+                                                  number(nMax)
+                                            : std::string()) +
+                            "): the surface is too rough for the smooth-surface (Rayleigh-Rice) "
+                            "model at this wavelength");
+            }
+        }
+    }
 }
 
 }  // namespace veil

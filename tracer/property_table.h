@@ -43,6 +43,7 @@
 #include "lensdata/errors.h"
 #include "lensdata/toml_document.h"
 #include "tracer/optical_property.h"
+#include "tracer/sequential_model.h"
 
 namespace veil {
 
@@ -81,6 +82,12 @@ class PropertyTable {
     // matches no object, and ModelError naming the object for a property name that is not
     // defined.
     std::vector<int> resolve(const Scene& scene) const;
+
+    // Refuses (ModelError naming the property) scatter that would take more than all the
+    // light at one of the model's wavelengths: K-correlation roughness past the smooth-surface
+    // limit, its BRDF (from air and from the densest medium) and BTDF (air into the densest
+    // medium) together over incidence angles 0 to 89 degrees.
+    void checkScatterEnergy(const SequentialModel& model) const;
 
     // The name of the default property of a kind (rule 3 above).
     static std::string_view defaultName(ObjectKind kind);

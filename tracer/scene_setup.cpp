@@ -153,6 +153,7 @@ SceneFile readSceneFile(const std::filesystem::path& path, const GlassCatalog& c
         f.sources = readSources(doc, f.prescription, *f.model);
         f.detectors = readDetectors(doc);
         f.properties = PropertyTable::read(doc);
+        f.properties.checkScatterEnergy(*f.model);
     } catch (const std::exception&) {
         doc.checkUsedInOpenedTables();
         throw;

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
 
 #include <string>
 
@@ -146,6 +147,14 @@ scatter = { model = "abg", brdf = { a = 1e-4, b = 1e-3, g = 2 }, btdf = { a = 2e
 [properties.polished]
 scatter = { model = "harvey_shack", brdf = { b0 = 50, l = 0.01, s = -2.5 } }
 
+[properties.roughness]
+specular = "fresnel"
+scatter = { model = "k_correlation", sigma_nm = 2, b_um = 10, c = 3, reflectance = 0.04, transmission = true }
+
+[properties.psd]
+specular = "mirror"
+scatter = { model = "k_correlation", a = 5.5, b_um = 2, c = 1.5, reflectance = 0.9 }
+
 [properties.gauss]
 scatter = { model = "gaussian", reflectance = 0.05, half_width_deg = 5 }
 
@@ -218,6 +227,15 @@ TEST(PropertyTable, ReadsEveryKey) {
     ASSERT_NE(polished.reflectLobe(), nullptr);
     EXPECT_NEAR(polished.reflectLobe()->bsdf(0.0), 50.0, 1e-12);
     EXPECT_NEAR(polished.reflectLobe()->bsdf(0.01), 50.0 * std::pow(2.0, -1.25), 1e-10);
+    // K-correlation from the roughness: A = sigma^2 B^2 (C - 2) / (2 pi); or A itself.
+    const auto& kc = std::get<KCorrelationScatter>(get("roughness").scatter());
+    EXPECT_NEAR(kc.params().aNm2Um2, 4.0 * 100.0 * 1.0 / (2.0 * std::numbers::pi), 1e-12);
+    EXPECT_EQ(kc.params().reflectance, 0.04);
+    EXPECT_TRUE(kc.transmits());
+    const auto& psd = std::get<KCorrelationScatter>(get("psd").scatter());
+    EXPECT_EQ(psd.params().aNm2Um2, 5.5);
+    EXPECT_EQ(psd.params().c, 1.5);
+    EXPECT_FALSE(psd.transmits());
     EXPECT_TRUE(std::holds_alternative<AbsorberSpecular>(get("black").specular()));
     const auto& g = std::get<GaussianScatter>(get("gauss").scatter());
     EXPECT_EQ(g.reflectance(), 0.05);
@@ -231,7 +249,7 @@ TEST(PropertyTable, ReadsEveryKey) {
 
     // A table replaces the built-in of its name, in place.
     EXPECT_EQ(std::get<LambertianScatter>(get("lens_edge").scatter()).reflectance, 0.1);
-    EXPECT_EQ(t.properties().size(), PropertyTable().properties().size() + 16);
+    EXPECT_EQ(t.properties().size(), PropertyTable().properties().size() + 18);
 
     ASSERT_EQ(t.rules().size(), 2u);
     EXPECT_EQ(t.rules()[0].patterns, std::vector<std::string>{"L1.*"});
@@ -294,6 +312,16 @@ TEST(PropertyTable, ScatterErrorsAreAtTheValue) {
     expectErrorAt(text, "0, g", "> 0");
     text = "[properties.x]\nscatter = { model = \"abg\", brdf = { a = 1.0, b = 1e-3, g = 2 } }\n";
     expectErrorAt(text, "{ model", "total integrated scatter");
+    text = "[properties.x]\nscatter = { model = \"k_correlation\", a = 1, sigma_nm = 1, b_um = 1, c = 3, reflectance = 1 }\n";
+    expectErrorAt(text, "1, b_um", "not both");
+    text = "[properties.x]\nscatter = { model = \"k_correlation\", sigma_nm = 1, b_um = 1, c = 2, reflectance = 1 }\n";
+    expectErrorAt(text, "2, refl", "c > 2");
+    text = "[properties.x]\nscatter = { model = \"k_correlation\", a = 1, b_um = 1, c = 3 }\n";
+    expectErrorAt(text, "{ model", "missing key 'reflectance'");
+    text = "[properties.x]\nscatter = { model = \"k_correlation\", a = 1, b_um = 1, c = 3, reflectance = 0 }\n";
+    expectErrorAt(text, "0 }", "scatter nothing");
+    text = "[properties.x]\nscatter = { model = \"k_correlation\", b_um = 1, c = 3, reflectance = 1 }\n";
+    expectErrorAt(text, "{ model", "needs `a`");
     text = "[properties.x]\nscatter = \"lambertian\"\n";
     expectErrorAt(text, "\"lambertian\"", "must be a table");
     text = "[properties.x]\nscatter = { model = \"harvey_shack\", brdf = { b0 = 1, l = 0.01 } }\n";

@@ -106,5 +106,35 @@ TEST(SceneFile, MisspeltKeyIsReportedBeforeTheErrorItCauses) {
     }
 }
 
+// Roughness past the smooth-surface limit at one of the lens's wavelengths is refused when
+// the scene is read, naming the property and the wavelength; smoother roughness is read.
+TEST(SceneFile, RoughnessPastTheSmoothSurfaceLimitIsRefused) {
+    auto write = [](const std::string& path, double sigmaNm) {
+        FILE* f = fopen(path.c_str(), "w");
+        ASSERT_TRUE(f);
+        fprintf(f,
+                "lens = \"%s/examples/lenses/singlet.toml\"\n"
+                "[properties.rough]\nspecular = \"fresnel\"\n"
+                "scatter = { model = \"k_correlation\", sigma_nm = %g, b_um = 2, c = 3, "
+                "reflectance = 0.04, transmission = true }\n"
+                "[[assign]]\nobjects = \"s*\"\nproperty = \"rough\"\n",
+                VEIL_SOURCE_DIR, sigmaNm);
+        fclose(f);
+    };
+    const std::string path = ::testing::TempDir() + "veil_rough_scene.toml";
+    write(path, 2.0);
+    EXPECT_NO_THROW(readSceneFile(path, GlassCatalog::builtIn()));
+    write(path, 200.0);
+    try {
+        readSceneFile(path, GlassCatalog::builtIn());
+        FAIL() << "expected a ModelError";
+    } catch (const ModelError& e) {
+        const std::string what = e.what();
+        EXPECT_NE(what.find("rough"), std::string::npos) << what;
+        EXPECT_NE(what.find("486.133 nm"), std::string::npos) << what;
+        EXPECT_NE(what.find("too rough for the smooth-surface"), std::string::npos) << what;
+    }
+}
+
 }  // namespace
 }  // namespace veil
