@@ -139,6 +139,7 @@ std::ostream& operator<<(std::ostream& os, const ScatterModel& m) {
                        os << "}";
                    },
                    [&](const KCorrelationScatter& k) { os << k.params(); },
+                   [&](const TabulatedScatter& t) { os << t; },
                },
                m);
     return os;
@@ -306,8 +307,9 @@ double AbgLobe::tisExact(double b0) const {
     // Over the radial CDF variable v (uniform under the unclipped radial distribution): the
     // fraction of each circle inside the disk, 1 up to va.
     const double va = inner / outer;
-    const double middle = lobe::integrateEndpointSqrt(
-        va, 1.0, [&](double v) { return lobe::circleFractionInDisk(inverseRadialCdf(v * outer), b0); });
+    const double middle = lobe::integrateEndpointSqrt(va, 1.0, [&](double v) {
+        return lobe::circleFractionInDisk(inverseRadialCdf(v * outer), b0);
+    });
     return 2.0 * kPi * p_.a * (inner + outer * middle);
 }
 
@@ -436,6 +438,35 @@ KcLobe kcLobe(const KCorrelationScatter& k, const SurfaceContext& c, const LobeF
                           std::abs(glm::dot(f.axis, c.normal)));
 }
 
+// The frame of a tabulated lobe: the specular angle (degrees) and the unit vectors u (toward
+// the side's normal, azimuth 0) and v = s x u about the specular direction s.
+struct TableFrame {
+    double thetaDeg = 0.0;
+    Vec3 u{0.0}, v{0.0};
+};
+TableFrame tableFrame(const LobeFrame& f) {
+    TableFrame t;
+    const double c = std::clamp(glm::dot(f.axis, f.side), -1.0, 1.0);
+    t.thetaDeg = std::acos(c) * 180.0 / kPi;
+    Vec3 u = f.side - c * f.axis;
+    const double len = glm::length(u);
+    if (len > 1e-12) {
+        u /= len;
+    } else {
+        Vec3 t2;
+        basisAround(f.axis, u, t2);
+    }
+    t.u = u;
+    t.v = glm::cross(f.axis, u);
+    return t;
+}
+// Radial angle and azimuth of `out` about the specular direction.
+void tableAngles(const LobeFrame& f, const TableFrame& t, const Vec3& out, double& r, double& phi) {
+    r = std::acos(std::clamp(glm::dot(out, f.axis), -1.0, 1.0));
+    phi = std::atan2(glm::dot(out, t.v), glm::dot(out, t.u));
+    if (phi < 0.0) phi += 2.0 * kPi;
+}
+
 }  // namespace
 
 Channels OpticalProperty::channels(const SurfaceContext& c) const {
@@ -469,6 +500,15 @@ Channels OpticalProperty::channels(const SurfaceContext& c) const {
                        }
                        // Past the smooth-surface limit (PropertyTable::checkScatterEnergy
                        // refuses such scenes) the transmitted share is cut to what is left.
+                       sT = std::min(sT, std::max(0.0, 1.0 - sR));
+                   },
+                   [&](const TabulatedScatter& t) {
+                       if (t.reflectLobe())
+                           sR = t.reflectLobe()->tis(tableFrame(lobeFrame(c, false)).thetaDeg);
+                       if (t.transmitLobe() && !tir && !c.opaque) {
+                           const LobeFrame f = lobeFrame(c, true);
+                           if (f.valid) sT = t.transmitLobe()->tis(tableFrame(f).thetaDeg);
+                       }
                        sT = std::min(sT, std::max(0.0, 1.0 - sR));
                    },
                },
@@ -569,6 +609,22 @@ ScatterSample OpticalProperty::sampleScatter(const SurfaceContext& c, bool trans
                 const Vec3 d = glm::normalize(beta.x * t1 + beta.y * t2 + cosO * f.side);
                 return ScatterSample{d, k.bsdf(lobe, glm::length(beta - beta0), cosO) * cosO / tis};
             },
+            [&](const TabulatedScatter& t) {
+                const TabulatedLobe* lobe = transmit ? t.transmitLobe() : t.reflectLobe();
+                if (!lobe) return ScatterSample{};
+                const LobeFrame f = lobeFrame(c, transmit);
+                if (!f.valid) return ScatterSample{};
+                const TableFrame tf = tableFrame(f);
+                const double tis = lobe->tis(tf.thetaDeg);
+                if (!(tis > 0.0)) return ScatterSample{};
+                double r = 0.0, phi = 0.0;
+                if (!lobe->sample(tf.thetaDeg, u1, u2, r, phi)) return ScatterSample{f.axis, 0.0};
+                const Vec3 d =
+                    glm::normalize(std::cos(r) * f.axis +
+                                   std::sin(r) * (std::cos(phi) * tf.u + std::sin(phi) * tf.v));
+                const double cosO = std::abs(glm::dot(d, f.side));
+                return ScatterSample{d, lobe->bsdf(tf.thetaDeg, r, phi) * cosO / tis};
+            },
         },
         scatter_);
 }
@@ -578,36 +634,46 @@ double OpticalProperty::bsdf(const SurfaceContext& c, const Vec3& out) const {
     if (cosO == 0.0) return 0.0;
     const bool transmit = cosO < 0.0;
     if (transmit && c.opaque) return 0.0;
-    return std::visit(Overloaded{
-                          [&](const NoScatter&) { return 0.0; },
-                          [&](const LambertianScatter& l) {
-                              return (transmit ? l.transmittance : l.reflectance) / kPi;
-                          },
-                          [&](const GaussianScatter& g) {
-                              const double frac = transmit ? g.transmittance() : g.reflectance();
-                              if (frac <= 0.0) return 0.0;
-                              const LobeFrame f = lobeFrame(c, transmit);
-                              if (!f.valid) return 0.0;
-                              return frac * g.pdf(f.axis, f.side, out) / std::abs(cosO);
-                          },
-                          [&](const AbgScatter& a) {
-                              const AbgLobe* lobe = transmit ? a.transmitLobe() : a.reflectLobe();
-                              if (!lobe) return 0.0;
-                              const LobeFrame f = lobeFrame(c, transmit);
-                              if (!f.valid) return 0.0;
-                              const Vec3 beta = out - glm::dot(out, c.normal) * c.normal;
-                              return lobe->bsdf(glm::length(beta - f.betaVec));
-                          },
-                          [&](const KCorrelationScatter& k) {
-                              if (!(transmit ? k.transmits() : k.reflects())) return 0.0;
-                              const LobeFrame f = lobeFrame(c, transmit);
-                              if (!f.valid) return 0.0;
-                              const Vec3 beta = out - glm::dot(out, c.normal) * c.normal;
-                              return k.bsdf(kcLobe(k, c, f), glm::length(beta - f.betaVec),
-                                            std::abs(cosO));
-                          },
-                      },
-                      scatter_);
+    return std::visit(
+        Overloaded{
+            [&](const NoScatter&) { return 0.0; },
+            [&](const LambertianScatter& l) {
+                return (transmit ? l.transmittance : l.reflectance) / kPi;
+            },
+            [&](const GaussianScatter& g) {
+                const double frac = transmit ? g.transmittance() : g.reflectance();
+                if (frac <= 0.0) return 0.0;
+                const LobeFrame f = lobeFrame(c, transmit);
+                if (!f.valid) return 0.0;
+                return frac * g.pdf(f.axis, f.side, out) / std::abs(cosO);
+            },
+            [&](const AbgScatter& a) {
+                const AbgLobe* lobe = transmit ? a.transmitLobe() : a.reflectLobe();
+                if (!lobe) return 0.0;
+                const LobeFrame f = lobeFrame(c, transmit);
+                if (!f.valid) return 0.0;
+                const Vec3 beta = out - glm::dot(out, c.normal) * c.normal;
+                return lobe->bsdf(glm::length(beta - f.betaVec));
+            },
+            [&](const KCorrelationScatter& k) {
+                if (!(transmit ? k.transmits() : k.reflects())) return 0.0;
+                const LobeFrame f = lobeFrame(c, transmit);
+                if (!f.valid) return 0.0;
+                const Vec3 beta = out - glm::dot(out, c.normal) * c.normal;
+                return k.bsdf(kcLobe(k, c, f), glm::length(beta - f.betaVec), std::abs(cosO));
+            },
+            [&](const TabulatedScatter& t) {
+                const TabulatedLobe* lobe = transmit ? t.transmitLobe() : t.reflectLobe();
+                if (!lobe) return 0.0;
+                const LobeFrame f = lobeFrame(c, transmit);
+                if (!f.valid) return 0.0;
+                const TableFrame tf = tableFrame(f);
+                double r = 0.0, phi = 0.0;
+                tableAngles(f, tf, out, r, phi);
+                return lobe->bsdf(tf.thetaDeg, r, phi);
+            },
+        },
+        scatter_);
 }
 
 double OpticalProperty::scatterPdf(const SurfaceContext& c, const Vec3& out) const {
@@ -647,6 +713,18 @@ double OpticalProperty::scatterPdf(const SurfaceContext& c, const Vec3& out) con
                 return tis > 0.0 ? k.bsdf(lobe, glm::length(beta - f.betaVec), std::abs(cosO)) *
                                        std::abs(cosO) / tis
                                  : 0.0;
+            },
+            [&](const TabulatedScatter& t) {
+                const TabulatedLobe* lobe = transmit ? t.transmitLobe() : t.reflectLobe();
+                if (!lobe) return 0.0;
+                const LobeFrame f = lobeFrame(c, transmit);
+                if (!f.valid) return 0.0;
+                const TableFrame tf = tableFrame(f);
+                const double tis = lobe->tis(tf.thetaDeg);
+                if (!(tis > 0.0)) return 0.0;
+                double r = 0.0, phi = 0.0;
+                tableAngles(f, tf, out, r, phi);
+                return lobe->bsdf(tf.thetaDeg, r, phi) * std::abs(cosO) / tis;
             },
         },
         scatter_);

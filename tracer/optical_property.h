@@ -126,6 +126,7 @@
 
 #include "geometry/vec.h"
 #include "tracer/k_correlation.h"
+#include "tracer/tabulated_bsdf.h"
 
 namespace veil {
 
@@ -284,8 +285,8 @@ class AbgScatter {
     std::shared_ptr<const AbgLobe> reflect_, transmit_;
 };
 
-using ScatterModel =
-    std::variant<NoScatter, LambertianScatter, GaussianScatter, AbgScatter, KCorrelationScatter>;
+using ScatterModel = std::variant<NoScatter, LambertianScatter, GaussianScatter, AbgScatter,
+                                  KCorrelationScatter, TabulatedScatter>;
 std::ostream& operator<<(std::ostream& os, const ScatterModel& m);
 
 // Optical Property

@@ -3,10 +3,14 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <filesystem>
 #include <numbers>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
+
+#include "lensdata/input_file.h"
+#include "lensdata/zemax_bsdf.h"
 
 namespace veil {
 
@@ -42,8 +46,8 @@ std::string joinNames(const std::vector<std::string>& names) {
 
 const std::vector<std::string> kSpecularModels = {"fresnel",      "uncoated", "ideal_ar", "fixed",
                                                   "quarter_wave", "mirror",   "absorber", "none"};
-const std::vector<std::string> kScatterModels = {"lambertian",   "gaussian",      "abg",
-                                                 "harvey_shack", "k_correlation", "none"};
+const std::vector<std::string> kScatterModels = {
+    "lambertian", "gaussian", "abg", "harvey_shack", "k_correlation", "tabulated", "none"};
 
 SpecularModel specularByName(const TomlValue& at, const std::string& model, bool inTable) {
     if (model == "fresnel" || model == "uncoated") return FresnelSpecular{};
@@ -114,10 +118,12 @@ KCorrelationScatter readKCorrelation(const TomlTable& t) {
     KCorrelationParams p;
     const std::optional<TomlValue> a = t.get("a"), sigma = t.get("sigma_nm");
     if (a && sigma)
-        sigma->fail(t.path() + ": give the PSD either by `a` or by its RMS roughness `sigma_nm`, "
+        sigma->fail(t.path() +
+                    ": give the PSD either by `a` or by its RMS roughness `sigma_nm`, "
                     "not both");
     if (!a && !sigma)
-        t.fail(t.path() + ": K-correlation scatter needs `a` (nm^2 um^2) or `sigma_nm`, with "
+        t.fail(t.path() +
+               ": K-correlation scatter needs `a` (nm^2 um^2) or `sigma_nm`, with "
                "`b_um` and `c`");
     p.bUm = t.require("b_um", "correlation length B, um").asNumber(NumberRange::above(0.0));
     const TomlValue cv = t.require("c", "PSD slope C");
@@ -127,8 +133,10 @@ KCorrelationScatter readKCorrelation(const TomlTable& t) {
     } else {
         const double s = sigma->asNumber(NumberRange::atLeast(0.0));
         if (!(p.c > 2.0))
-            cv.fail(t.path() + ": the RMS roughness of a K-correlation PSD is finite only for "
-                    "c > 2 (got " + number(p.c) + "); give `a` for flatter spectra");
+            cv.fail(t.path() +
+                    ": the RMS roughness of a K-correlation PSD is finite only for "
+                    "c > 2 (got " +
+                    number(p.c) + "); give `a` for flatter spectra");
         p.aNm2Um2 = kCorrelationA(s, p.bUm, p.c);
     }
     const TomlValue r = t.require("reflectance", "the surface's reflectance Q, 0 to 1");
@@ -137,6 +145,43 @@ KCorrelationScatter readKCorrelation(const TomlTable& t) {
     if (p.reflectance == 0.0 && !p.transmission)
         r.fail(t.path() + ": reflectance 0 and no transmission scatter nothing");
     return KCorrelationScatter(p);
+}
+
+// Tables from Zemax .bsdf files named relative to the file that names them.
+TabulatedScatter readTabulated(const TomlTable& t) {
+    const std::optional<TomlValue> brdf = t.get("brdf"), btdf = t.get("btdf");
+    if (!brdf && !btdf)
+        t.fail(t.path() + ": tabulated scatter needs `brdf` or `btdf` (a .bsdf file), or both");
+    bool scale = false;
+    if (const std::optional<TomlValue> tis = t.get("tis")) {
+        const std::string mode = tis->asString();
+        if (mode == "file") {
+            scale = true;
+        } else if (mode != "table") {
+            tis->fail(
+                "tis must be \"table\" (the table's own integral) or \"file\" (each "
+                "block scaled to the TIS its file states), got '" +
+                mode + "'");
+        }
+    }
+    auto lobe = [&](const std::optional<TomlValue>& v,
+                    bool transmission) -> std::shared_ptr<const TabulatedLobe> {
+        if (!v) return nullptr;
+        if (!v->isString()) v->failExpected("the path of a .bsdf file");
+        const std::filesystem::path path =
+            std::filesystem::path(v->loc().file).parent_path() / v->asString();
+        if (!inputFileExists(path)) v->fail("BSDF file '" + path.string() + "' does not exist");
+        const ZemaxBsdf data = readZemaxBsdf(path);
+        if (data.transmission != transmission)
+            v->fail("'" + path.string() + "' holds a " + (data.transmission ? "BTDF" : "BRDF") +
+                    " (its ScatterType), given here as the " + (transmission ? "btdf" : "brdf"));
+        try {
+            return std::make_shared<const TabulatedLobe>(data, scale);
+        } catch (const ModelError& e) {
+            v->fail(e.what());
+        }
+    };
+    return TabulatedScatter(lobe(brdf, false), lobe(btdf, true));
 }
 
 ScatterModel readScatter(const TomlValue& v) {
@@ -184,6 +229,7 @@ ScatterModel readScatter(const TomlValue& v) {
         }
     }
     if (model == "k_correlation") return readKCorrelation(t);
+    if (model == "tabulated") return readTabulated(t);
     if (model == "none") return NoScatter{};
     const std::string hint = didYouMean(model, kScatterModels);
     modelValue.fail("unknown scatter model '" + model + "'" +
@@ -441,9 +487,9 @@ void PropertyTable::checkScatterEnergy(const SequentialModel& model) const {
                         "K-correlation scatter at " + number(nm) + " nm and " +
                             std::to_string(deg) + " deg incidence takes " + number(r + t) +
                             " of the light (reflected " + number(r) + " from n = " + number(n1) +
-                            (k->transmits() ? ", transmitted " + number(t) + " into n = " +
-                                                  number(nMax)
-                                            : std::string()) +
+                            (k->transmits()
+                                 ? ", transmitted " + number(t) + " into n = " + number(nMax)
+                                 : std::string()) +
                             "): the surface is too rough for the smooth-surface (Rayleigh-Rice) "
                             "model at this wavelength");
             }
