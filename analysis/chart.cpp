@@ -202,7 +202,7 @@ Picture drawChart(const ChartSpec& spec) {
             line.push_back(p);
         }
         flush();
-        for (size_t i = 0; i < s.x.size() && i < s.y.size(); ++i)
+        for (size_t i = 0; s.markers && i < s.x.size() && i < s.y.size(); ++i)
             if ((ax.drawable(s.x[i]) || categories) && ay.drawable(s.y[i]))
                 pic.dot({px(s.x[i]), py(s.y[i])}, 3.0, c, c);
         // Long labels (a criterion written out) are cut: the tables hold them whole.

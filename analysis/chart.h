@@ -21,6 +21,7 @@ struct ChartSeries {
     std::string label;
     std::vector<double> x, y, yError;  // yError: 1 sigma, empty or one per point
     bool dashed = false;
+    bool markers = true;  // a dot at every point (off for densely sampled curves)
 };
 
 struct ChartSpec {

@@ -74,7 +74,25 @@ std::string textHash(const std::filesystem::path& path) {
     return os.str();
 }
 
-// The files a variant depends on: the scene and, when it names one, its lens file.
+// The measured scatter tables (`scatter = { model = "tabulated", brdf/btdf = "x.bsdf" }`)
+// a document's [properties.NAME] tables name, by path relative to it.
+void addTableHashes(const TomlDocument& doc, const std::filesystem::path& dir,
+                    nlohmann::json& tables) {
+    const auto props = doc.root().get("properties");
+    if (!props || !props->isTable()) return;
+    for (auto&& [name, node] : props->asTable().table()) {
+        const auto* scatter = node.as_table() ? node.as_table()->get("scatter") : nullptr;
+        if (!scatter || !scatter->as_table()) continue;
+        for (const char* key : {"brdf", "btdf"})
+            if (const auto* f = scatter->as_table()->get(key); f && f->is_string()) {
+                const std::filesystem::path path = dir / f->as_string()->get();
+                tables[path.lexically_normal().string()] = textHash(path);
+            }
+    }
+}
+
+// The files a variant depends on: the scene and, when it names them, its lens file, its
+// material libraries and the scatter tables either names.
 nlohmann::json inputHashes(const std::filesystem::path& scene) {
     nlohmann::json j;
     j["scene"] = textHash(scene);
@@ -83,6 +101,20 @@ nlohmann::json inputHashes(const std::filesystem::path& scene) {
             TomlDocument doc = TomlDocument::fromFile(scene);
             if (const auto lens = doc.root().get("lens"); lens && lens->isString())
                 j["lens"] = textHash(scene.parent_path() / lens->asString());
+            nlohmann::json tables = nlohmann::json::object();
+            addTableHashes(doc, scene.parent_path(), tables);
+            if (const auto m = doc.root().get("materials")) {
+                std::vector<TomlValue> files;
+                if (m->isArray()) files = m->asArray();
+                if (m->isString()) files.push_back(*m);
+                for (const TomlValue& f : files) {
+                    if (!f.isString()) continue;
+                    const std::filesystem::path path = scene.parent_path() / f.asString();
+                    j["materials"][path.lexically_normal().string()] = textHash(path);
+                    addTableHashes(TomlDocument::fromFile(path), path.parent_path(), tables);
+                }
+            }
+            if (!tables.empty()) j["scatter_tables"] = tables;
         }
     } catch (const std::exception&) {
         // Unreadable here: readSceneFile reports it for the variant.

@@ -83,6 +83,8 @@ int runCommandLine(const std::vector<std::string>& args, bool rethrow) {
     addPstCommand(app, pstOptions);
     ObjectsOptions objectsOptions;
     addObjectsCommand(app, objectsOptions);
+    ScatterOptions scatterOptions;
+    addScatterCommand(app, scatterOptions);
 
     // A first word that is no command and no option: name the nearest command.
     if (argc > 1 && argv[1][0] != '-') {
@@ -126,6 +128,7 @@ int runCommandLine(const std::vector<std::string>& args, bool rethrow) {
             if (sub->get_name() == "sweep") return runSweepCommand(common, sweepOptions);
             if (sub->get_name() == "pst") return runPstCommand(common, pstOptions);
             if (sub->get_name() == "objects") return runObjectsCommand(common, objectsOptions);
+            if (sub->get_name() == "scatter") return runScatterCommand(common, scatterOptions);
         }
     } catch (const std::exception& e) {
         if (rethrow) throw;

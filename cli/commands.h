@@ -182,4 +182,16 @@ struct RaysOptions {
 void addRaysCommand(CLI::App& app, RaysOptions& options);
 int runRays(const CommonOptions& common, const RaysOptions& options);
 
+struct ScatterOptions {
+    std::string file;
+    std::vector<std::string> properties;
+    std::vector<double> wavelengthsNm;
+    bool writeBsdf = false;
+    std::string output;  // folder; default ./scatter
+    bool json = false;
+    bool quiet = false;
+};
+void addScatterCommand(CLI::App& app, ScatterOptions& options);
+int runScatterCommand(const CommonOptions& common, const ScatterOptions& options);
+
 }  // namespace veil::cli

@@ -107,6 +107,10 @@ std::ostream& operator<<(std::ostream& os, const SpecularModel& m) {
 }
 
 std::ostream& operator<<(std::ostream& os, const AbgParams& p) {
+    // g = 2 is a Harvey-Shack lobe: b0 = A / B^p, l = sqrt(B), s = -2p.
+    if (p.g == 2.0 && p.p != 1.0)
+        return os << "{b0 " << p.a / std::pow(p.b, p.p) << ", l " << std::sqrt(p.b) << ", s "
+                  << -2.0 * p.p << "}";
     os << "{A " << p.a << ", B " << p.b << ", g " << p.g;
     if (p.p != 1.0) os << ", p " << p.p;
     return os << "}";
@@ -132,10 +136,18 @@ std::ostream& operator<<(std::ostream& os, const ScatterModel& m) {
                           << ", HWHM " << g.halfWidthDeg() << " deg}";
                    },
                    [&](const AbgScatter& a) {
-                       os << "abg{";
-                       if (a.reflectLobe()) os << "brdf " << a.reflectLobe()->params();
-                       if (a.reflectLobe() && a.transmitLobe()) os << ", ";
-                       if (a.transmitLobe()) os << "btdf " << a.transmitLobe()->params();
+                       bool hs = true;
+                       for (bool t : {false, true})
+                           for (const auto& l : a.lobes(t))
+                               hs = hs && l->params().g == 2.0 && l->params().p != 1.0;
+                       os << (hs ? "harvey_shack{" : "abg{");
+                       for (bool t : {false, true}) {
+                           if (!a.has(t)) continue;
+                           if (t && a.has(false)) os << ", ";
+                           os << (t ? "btdf " : "brdf ");
+                           for (size_t k = 0; k < a.lobes(t).size(); ++k)
+                               os << (k ? " + " : "") << a.lobes(t)[k]->params();
+                       }
                        os << "}";
                    },
                    [&](const KCorrelationScatter& k) { os << k.params(); },
@@ -339,16 +351,58 @@ bool AbgLobe::sample(const Vec2& beta0, double u1, double u2, Vec2& beta) const 
     });
 }
 
-AbgScatter::AbgScatter(std::optional<AbgParams> brdf, std::optional<AbgParams> btdf) {
-    if (!brdf && !btdf) throw std::invalid_argument("ABg scatter needs a BRDF or a BTDF");
-    if (brdf) reflect_ = std::make_shared<const AbgLobe>(*brdf);
-    if (btdf) transmit_ = std::make_shared<const AbgLobe>(*btdf);
-    const double total =
-        (reflect_ ? reflect_->maxTis() : 0.0) + (transmit_ ? transmit_->maxTis() : 0.0);
+AbgScatter::AbgScatter(std::optional<AbgParams> brdf, std::optional<AbgParams> btdf)
+    : AbgScatter(brdf ? std::vector<AbgParams>{*brdf} : std::vector<AbgParams>{},
+                 btdf ? std::vector<AbgParams>{*btdf} : std::vector<AbgParams>{}) {}
+
+AbgScatter::AbgScatter(const std::vector<AbgParams>& brdf, const std::vector<AbgParams>& btdf) {
+    if (brdf.empty() && btdf.empty())
+        throw std::invalid_argument("ABg scatter needs a BRDF or a BTDF");
+    double total = 0.0;
+    for (const AbgParams& p : brdf) {
+        reflect_.push_back(std::make_shared<const AbgLobe>(p));
+        total += reflect_.back()->maxTis();
+    }
+    for (const AbgParams& p : btdf) {
+        transmit_.push_back(std::make_shared<const AbgLobe>(p));
+        total += transmit_.back()->maxTis();
+    }
     if (total > 1.0)
         throw std::invalid_argument("ABg total integrated scatter reaches " +
                                     std::to_string(total) +
                                     " (BRDF and BTDF together must stay <= 1)");
+}
+
+double AbgScatter::tis(bool transmit, double b0) const {
+    double sum = 0.0;
+    for (const auto& l : lobes(transmit)) sum += l->tis(b0);
+    return sum;
+}
+
+double AbgScatter::bsdf(bool transmit, double r) const {
+    double sum = 0.0;
+    for (const auto& l : lobes(transmit)) sum += l->bsdf(r);
+    return sum;
+}
+
+bool AbgScatter::sample(bool transmit, const Vec2& beta0, double u1, double u2,
+                        Vec2& beta) const {
+    const auto& ls = lobes(transmit);
+    if (ls.size() == 1) return ls[0]->sample(beta0, u1, u2, beta);
+    const double b0 = std::min(1.0, glm::length(beta0));
+    const double total = tis(transmit, b0);
+    if (!(total > 0.0)) return false;
+    // The lobe by u1, and u1 stretched back to [0, 1) within it.
+    double x = u1 * total;
+    for (size_t k = 0; k < ls.size(); ++k) {
+        const double t = ls[k]->tis(b0);
+        if (x < t || k + 1 == ls.size()) {
+            const double u = t > 0.0 ? std::clamp(x / t, 0.0, std::nextafter(1.0, 0.0)) : 0.0;
+            return ls[k]->sample(beta0, u, u2, beta);
+        }
+        x -= t;
+    }
+    return false;
 }
 
 // Optical Property
@@ -488,9 +542,8 @@ Channels OpticalProperty::channels(const SurfaceContext& c) const {
                    },
                    [&](const AbgScatter& a) {
                        const double b0 = std::sqrt(std::max(0.0, 1.0 - cosI * cosI));
-                       if (a.reflectLobe()) sR = a.reflectLobe()->tis(b0);
-                       if (a.transmitLobe() && !tir)
-                           sT = a.transmitLobe()->tis(std::min(1.0, c.n1 / c.n2 * b0));
+                       sR = a.tis(false, b0);
+                       if (!tir) sT = a.tis(true, std::min(1.0, c.n1 / c.n2 * b0));
                    },
                    [&](const KCorrelationScatter& k) {
                        if (k.reflects()) sR = k.tis(kcLobe(k, c, lobeFrame(c, false)));
@@ -577,21 +630,19 @@ ScatterSample OpticalProperty::sampleScatter(const SurfaceContext& c, bool trans
                 return g.sample(f.axis, f.side, u1, u2);
             },
             [&](const AbgScatter& a) {
-                const AbgLobe* lobe = transmit ? a.transmitLobe() : a.reflectLobe();
-                if (!lobe || lobe->params().a <= 0.0) return ScatterSample{};
+                if (!a.has(transmit)) return ScatterSample{};
                 const LobeFrame f = lobeFrame(c, transmit);
                 if (!f.valid) return ScatterSample{};
                 Vec3 t1, t2;
                 basisAround(f.side, t1, t2);
                 const Vec2 beta0(glm::dot(f.betaVec, t1), glm::dot(f.betaVec, t2));
+                const double tis = a.tis(transmit, glm::length(beta0));
+                if (!(tis > 0.0)) return ScatterSample{};
                 Vec2 beta;
-                if (!lobe->sample(beta0, u1, u2, beta)) return ScatterSample{f.axis, 0.0};
+                if (!a.sample(transmit, beta0, u1, u2, beta)) return ScatterSample{f.axis, 0.0};
                 const double cosO = std::sqrt(std::max(0.0, 1.0 - glm::dot(beta, beta)));
                 const Vec3 d = glm::normalize(beta.x * t1 + beta.y * t2 + cosO * f.side);
-                const double tis = lobe->tis(glm::length(beta0));
-                const double pdf =
-                    tis > 0.0 ? lobe->bsdf(glm::length(beta - beta0)) * cosO / tis : 0.0;
-                return ScatterSample{d, pdf};
+                return ScatterSample{d, a.bsdf(transmit, glm::length(beta - beta0)) * cosO / tis};
             },
             [&](const KCorrelationScatter& k) {
                 if (!(transmit ? k.transmits() : k.reflects())) return ScatterSample{};
@@ -648,12 +699,11 @@ double OpticalProperty::bsdf(const SurfaceContext& c, const Vec3& out) const {
                 return frac * g.pdf(f.axis, f.side, out) / std::abs(cosO);
             },
             [&](const AbgScatter& a) {
-                const AbgLobe* lobe = transmit ? a.transmitLobe() : a.reflectLobe();
-                if (!lobe) return 0.0;
+                if (!a.has(transmit)) return 0.0;
                 const LobeFrame f = lobeFrame(c, transmit);
                 if (!f.valid) return 0.0;
                 const Vec3 beta = out - glm::dot(out, c.normal) * c.normal;
-                return lobe->bsdf(glm::length(beta - f.betaVec));
+                return a.bsdf(transmit, glm::length(beta - f.betaVec));
             },
             [&](const KCorrelationScatter& k) {
                 if (!(transmit ? k.transmits() : k.reflects())) return 0.0;
@@ -694,13 +744,13 @@ double OpticalProperty::scatterPdf(const SurfaceContext& c, const Vec3& out) con
                 return f.valid ? g.pdf(f.axis, f.side, out) : 0.0;
             },
             [&](const AbgScatter& a) {
-                const AbgLobe* lobe = transmit ? a.transmitLobe() : a.reflectLobe();
-                if (!lobe) return 0.0;
+                if (!a.has(transmit)) return 0.0;
                 const LobeFrame f = lobeFrame(c, transmit);
                 if (!f.valid) return 0.0;
-                const double tis = lobe->tis(glm::length(f.betaVec));
+                const double tis = a.tis(transmit, glm::length(f.betaVec));
                 const Vec3 beta = out - glm::dot(out, c.normal) * c.normal;
-                return tis > 0.0 ? lobe->bsdf(glm::length(beta - f.betaVec)) * std::abs(cosO) / tis
+                return tis > 0.0 ? a.bsdf(transmit, glm::length(beta - f.betaVec)) *
+                                       std::abs(cosO) / tis
                                  : 0.0;
             },
             [&](const KCorrelationScatter& k) {

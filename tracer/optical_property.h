@@ -272,17 +272,33 @@ class AbgLobe {
     double maxTis_ = 0.0;
 };
 
+// One or more lobes per side, summed: a fit with several terms (a narrow core and a wide
+// skirt) is the sum of its lobes, sampled by choosing a lobe in proportion to its TIS at the
+// incidence, with the pdf of the sum.
 class AbgScatter {
   public:
-    // At least one lobe; throws std::invalid_argument for bad parameters or when the two
-    // lobes can scatter more than all the light (max TIS_R + max TIS_T > 1).
+    // At least one lobe; throws std::invalid_argument for bad parameters or when the lobes
+    // can scatter more than all the light (the sum of their largest TIS > 1).
     AbgScatter(std::optional<AbgParams> brdf, std::optional<AbgParams> btdf);
+    AbgScatter(const std::vector<AbgParams>& brdf, const std::vector<AbgParams>& btdf);
 
-    const AbgLobe* reflectLobe() const { return reflect_.get(); }
-    const AbgLobe* transmitLobe() const { return transmit_.get(); }
+    // The first lobe of a side, or null.
+    const AbgLobe* reflectLobe() const { return reflect_.empty() ? nullptr : reflect_[0].get(); }
+    const AbgLobe* transmitLobe() const {
+        return transmit_.empty() ? nullptr : transmit_[0].get();
+    }
+    const std::vector<std::shared_ptr<const AbgLobe>>& lobes(bool transmit) const {
+        return transmit ? transmit_ : reflect_;
+    }
+    bool has(bool transmit) const { return !lobes(transmit).empty(); }
+    // Sums over a side's lobes, at |beta0| = b0 and r = |beta - beta0|.
+    double tis(bool transmit, double b0) const;
+    double bsdf(bool transmit, double r) const;
+    // A point of the unit disk with density sum(bsdf) / sum(tis) (a lobe chosen by u1).
+    bool sample(bool transmit, const Vec2& beta0, double u1, double u2, Vec2& beta) const;
 
   private:
-    std::shared_ptr<const AbgLobe> reflect_, transmit_;
+    std::vector<std::shared_ptr<const AbgLobe>> reflect_, transmit_;
 };
 
 using ScatterModel = std::variant<NoScatter, LambertianScatter, GaussianScatter, AbgScatter,

@@ -92,7 +92,8 @@ SpecularModel readSpecular(const TomlValue& v) {
 // Scatter Part
 
 AbgParams readAbgParams(const TomlValue& v) {
-    if (!v.isTable()) v.failExpected("a table { a = ..., b = ..., g = ... }");
+    if (!v.isTable())
+        v.failExpected("a table { a = ..., b = ..., g = ... } (or an array of them)");
     const TomlTable t = v.asTable();
     AbgParams p;
     p.a = t.require("a", "ABg A, 1/sr").asNumber(NumberRange::atLeast(0.0));
@@ -102,7 +103,8 @@ AbgParams readAbgParams(const TomlValue& v) {
 }
 
 AbgParams readHarveyShackParams(const TomlValue& v) {
-    if (!v.isTable()) v.failExpected("a table { b0 = ..., l = ..., s = ... }");
+    if (!v.isTable())
+        v.failExpected("a table { b0 = ..., l = ..., s = ... } (or an array of them)");
     const TomlTable t = v.asTable();
     const double b0 =
         t.require("b0", "BSDF at the specular direction, 1/sr").asNumber(NumberRange::atLeast(0.0));
@@ -169,7 +171,8 @@ TabulatedScatter readTabulated(const TomlTable& t) {
         if (!v) return nullptr;
         if (!v->isString()) v->failExpected("the path of a .bsdf file");
         const std::filesystem::path path =
-            std::filesystem::path(v->loc().file).parent_path() / v->asString();
+            (std::filesystem::path(v->loc().file).parent_path() / v->asString())
+                .lexically_normal();
         if (!inputFileExists(path)) v->fail("BSDF file '" + path.string() + "' does not exist");
         const ZemaxBsdf data = readZemaxBsdf(path);
         if (data.transmission != transmission)
@@ -219,9 +222,23 @@ ScatterModel readScatter(const TomlValue& v) {
         if (!brdf && !btdf)
             t.fail(t.path() + ": " + (hs ? "Harvey-Shack" : "ABg") +
                    " scatter needs `brdf` or `btdf` (or both)");
-        std::optional<AbgParams> r, tr;
-        if (brdf) r = hs ? readHarveyShackParams(*brdf) : readAbgParams(*brdf);
-        if (btdf) tr = hs ? readHarveyShackParams(*btdf) : readAbgParams(*btdf);
+        // A lobe's table, or an array of them (a fit of several terms: their sum).
+        auto lobes = [&](const std::optional<TomlValue>& v) {
+            std::vector<AbgParams> out;
+            if (!v) return out;
+            auto one = [&](const TomlValue& x) {
+                return hs ? readHarveyShackParams(x) : readAbgParams(x);
+            };
+            if (v->isArray()) {
+                const std::vector<TomlValue> list = v->asArray();
+                if (list.empty()) v->fail(v->path() + " must list at least one lobe");
+                for (const TomlValue& x : list) out.push_back(one(x));
+            } else {
+                out.push_back(one(*v));
+            }
+            return out;
+        };
+        const std::vector<AbgParams> r = lobes(brdf), tr = lobes(btdf);
         try {
             return AbgScatter(r, tr);
         } catch (const std::invalid_argument& e) {
@@ -376,9 +393,11 @@ int PropertyTable::find(std::string_view name) const {
     return -1;
 }
 
-PropertyTable PropertyTable::read(const TomlDocument& doc) {
-    PropertyTable table;
-    const TomlTable root = doc.root();
+namespace {
+
+// The [properties.NAME] tables of a document, in file order (so the first error reported is
+// the first in the file).
+void readPropertyTables(const TomlTable& root, PropertyTable& table) {
     if (const std::optional<TomlValue> props = root.get("properties")) {
         if (!props->isTable()) props->failExpected("tables [properties.NAME]");
         const TomlTable t = props->asTable();
@@ -392,6 +411,39 @@ PropertyTable PropertyTable::read(const TomlDocument& doc) {
         });
         for (const auto& [pos, name] : keys) table.define(readProperty(name, *t.get(name)));
     }
+}
+
+}  // namespace
+
+PropertyTable PropertyTable::read(const TomlDocument& doc) {
+    PropertyTable table;
+    const TomlTable root = doc.root();
+    // Material libraries first: files of [properties.NAME] tables (nothing else), named
+    // relative to this file; the scene's own tables replace theirs of the same name.
+    if (const std::optional<TomlValue> materials = root.get("materials")) {
+        std::vector<TomlValue> files;
+        if (materials->isArray()) {
+            files = materials->asArray();
+        } else if (materials->isString()) {
+            files.push_back(*materials);
+        } else {
+            materials->failExpected("a material library file or an array of them");
+        }
+        for (const TomlValue& f : files) {
+            if (!f.isString()) f.failExpected("the path of a material library (.toml)");
+            const std::filesystem::path path =
+                std::filesystem::path(f.loc().file).parent_path() / f.asString();
+            if (!inputFileExists(path))
+                f.fail("material library '" + path.string() + "' does not exist");
+            const TomlDocument lib = TomlDocument::fromFile(path);
+            const TomlTable libRoot = lib.root();
+            if (!libRoot.has("properties"))
+                f.fail("'" + path.string() + "' has no [properties.NAME] tables");
+            readPropertyTables(libRoot, table);
+            lib.checkAllUsed();
+        }
+    }
+    readPropertyTables(root, table);
     if (const std::optional<TomlValue> assign = root.get("assign")) {
         if (!assign->isArray()) assign->failExpected("an array of tables [[assign]]");
         for (const TomlValue& entry : assign->asArray())

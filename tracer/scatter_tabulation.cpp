@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <sstream>
 #include <stdexcept>
 
 namespace veil {
@@ -16,6 +17,18 @@ std::ostream& operator<<(std::ostream& os, const TabulationGrid& g) {
               << (g.planeSymmetric ? ", plane-symmetric" : "") << "}";
 }
 
+TabulationGrid exportGrid() {
+    TabulationGrid g;
+    for (int a = 0; a <= 80; a += 10) g.incidenceDeg.push_back(a);
+    g.incidenceDeg.push_back(85.0);
+    g.incidenceDeg.push_back(89.0);
+    for (int a = 0; a <= 180; a += 10) g.azimuthDeg.push_back(a);
+    for (int r = 0; r < 20; ++r) g.radialDeg.push_back(0.25 * r);
+    for (int r = 5; r < 30; ++r) g.radialDeg.push_back(r);
+    for (int r = 30; r <= 180; r += 5) g.radialDeg.push_back(r);
+    return g;
+}
+
 ZemaxBsdf tabulateScatter(const OpticalProperty& property, bool transmit,
                           const TabulationGrid& grid, double wavelengthNm, double n1, double n2) {
     if (grid.azimuthDeg.size() < 2 || grid.radialDeg.size() < 2 || grid.incidenceDeg.empty())
@@ -25,9 +38,9 @@ ZemaxBsdf tabulateScatter(const OpticalProperty& property, bool transmit,
     d.transmission = transmit;
     d.azimuthDeg = grid.azimuthDeg;
     d.radialDeg = grid.radialDeg;
-    d.comments = {"Written by veil from the property '" + property.name() + "'",
-                  "Wavelength (nm) = " + std::to_string(wavelengthNm) + ", from index " +
-                      std::to_string(n1) + " to " + std::to_string(n2)};
+    std::ostringstream note;
+    note << "Wavelength (nm) = " << wavelengthNm << "; light from index " << n1 << " to " << n2;
+    d.comments = {"Written by veil from the property '" + property.name() + "'", note.str()};
     // The surface: normal +z, the light arriving in the x-z plane from -x (specular
     // direction leaning to +x), the frame of tracer/tabulated_bsdf.h.
     const Vec3 normal(0.0, 0.0, 1.0);

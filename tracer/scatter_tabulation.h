@@ -20,6 +20,11 @@ struct TabulationGrid {
 };
 std::ostream& operator<<(std::ostream& os, const TabulationGrid& g);
 
+// The grid `veil scatter --bsdf` writes: blocks every 10 degrees to 80, then 85 and 89;
+// azimuths every 10 degrees (plane-symmetric); radial angles every 0.25 degree to 5, every
+// degree to 30, every 5 degrees to 180.
+TabulationGrid exportGrid();
+
 // The light arrives from index n1 (n2 across the surface) at vacuum wavelength wavelengthNm.
 // For transmission the grid's incidence angles are refraction angles (the specular direction
 // of a BTDF); angles the light cannot refract to are left out of the table. Throws

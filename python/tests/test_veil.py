@@ -20,6 +20,7 @@ VEIL_EXE = os.environ.get("VEIL_EXE", os.path.join(ROOT, "build", "veil"))
 SUN = os.path.join(ROOT, "examples", "scenes", "longfocus_360mm_sun.toml")
 DOUBLE_GAUSS = os.path.join(ROOT, "examples", "lenses", "double_gauss_50mm.toml")
 SINGLET = os.path.join(ROOT, "examples", "lenses", "singlet.toml")
+PAINTED = os.path.join(ROOT, "examples", "scenes", "double_gauss_50mm_painted.toml")
 MOUNT_KEY = "properties.black_anodized.scatter.reflectance"
 
 
@@ -193,6 +194,21 @@ def test_view_writes_one_page(tmp_path):
     assert page.exists()
     assert result.report["paths_drawn"] >= 5
     assert result.report["objects"] == 42
+
+
+def test_scatter_reports_library_materials_and_follows_edits():
+    """The bundled paint is 5 % Lambertian; with the mounts edited to the library's 2 % flat
+    black, that is what the barrel carries."""
+    scene = veil.Scene(PAINTED)
+    report = scene.scatter(property=["black_polyurethane_paint"], wavelength=[550]).report
+    (paint,) = report["properties"]
+    assert paint["reflect_tis"][0][0] == pytest.approx(0.05, abs=1e-12)
+    assert "barrel" in paint["objects"]
+    flat = scene.set("mechanics.property", "flat_black_paint_2pct").scatter(wavelength=[550])
+    by_name = {p["name"]: p for p in flat.report["properties"]}
+    assert "black_polyurethane_paint" in by_name  # still the stop's
+    assert "barrel" in by_name["flat_black_paint_2pct"]["objects"]
+    assert by_name["flat_black_paint_2pct"]["reflect_tis"][3][0] == pytest.approx(0.02, abs=1e-12)
 
 
 def test_a_scene_reads_its_files_once(tmp_path):

@@ -271,6 +271,10 @@ class Scene:
         """The parts the sources light and the detector sees, ranked (``veil objects``)."""
         return self.command("objects", **options)
 
+    def scatter(self, **options):
+        """The scatter models: TIS against incidence, BRDF plots (``veil scatter``)."""
+        return self.command("scatter", **options)
+
     def view(self, output, **options):
         """The scene (and with ``where`` its ray paths) as a 3D HTML page (``veil view``)."""
         return self.command("view", output=output, **options)

@@ -33,7 +33,7 @@ std::vector<std::string> examples() {
 
 TEST(ExamplesSmoke, EveryExampleRunsThroughEveryCommand) {
     const std::vector<std::string> files = examples();
-    ASSERT_GE(files.size(), 20u);  // 8 lenses, 2 Zemax files, 10 scenes
+    ASSERT_GE(files.size(), 21u);  // 8 lenses, 2 Zemax files, 11 scenes
     const std::string out = ::testing::TempDir() + "veil_smoke";
     std::filesystem::remove_all(out);
     for (const std::string& f : files) {
@@ -54,6 +54,7 @@ TEST(ExamplesSmoke, EveryExampleRunsThroughEveryCommand) {
             "ghosts " + f + " -n 100 --grid 12 --top 0 --quiet -o " + dir + "/ghosts" +
                 (window ? " --field 0,0.3" : ""),
             "objects " + f + " -n 200 --quiet -o " + dir + "/objects",
+            "scatter " + f + " --quiet -o " + dir + "/scatter",
         };
         for (const std::string& c : commands) {
             SCOPED_TRACE(c);
@@ -69,7 +70,7 @@ TEST(ExamplesSmoke, EveryExampleRunsThroughEveryCommand) {
         for (const char* written :
              {"/trace/summary.json", "/ghosts/ghosts.md", "/ghosts/ghosts.csv",
               "/ghosts/ghosts.json", "/objects/objects.md", "/objects/objects.csv",
-              "/objects/objects.json"})
+              "/objects/objects.json", "/scatter/scatter.md", "/scatter/scatter.json"})
             EXPECT_FALSE(hasNonFinite(readText(dir + written))) << dir + written;
         EXPECT_TRUE(std::filesystem::exists(dir + "/layout/layout.png")) << f;
         EXPECT_TRUE(std::filesystem::exists(dir + "/scene.ply")) << f;

@@ -403,9 +403,10 @@ std::vector<double> abgBinProbabilities(const AbgParams& q, const Vec2& beta0,
 
 // The lobe's sampled directions against bin probabilities of `bsdf` (the model's own formula,
 // not the lobe's): chi-square, and the TIS the property reports against their quadrature.
-void lobeChi2(const char* what, const AbgParams& q, const std::function<double(double)>& bsdf,
-              double incidenceDeg, const std::vector<double>& rEdges, uint64_t seed) {
-    const OpticalProperty p("abg", AbsorberSpecular{}, AbgScatter(q, std::nullopt));
+void lobeChi2(const char* what, const AbgScatter& scatter,
+              const std::function<double(double)>& bsdf, double incidenceDeg,
+              const std::vector<double>& rEdges, uint64_t seed) {
+    const OpticalProperty p("abg", AbsorberSpecular{}, scatter);
     const SurfaceContext c = contextAt(incidenceDeg);
     const Vec3 t1 = perpendicular(kNormal), t2 = glm::cross(kNormal, t1);
     auto toBeta = [&](const Vec3& w) { return Vec2(glm::dot(w, t1), glm::dot(w, t2)); };
@@ -436,8 +437,8 @@ void lobeChi2(const char* what, const AbgParams& q, const std::function<double(d
 
 void abgChi2(const char* what, const AbgParams& q, double incidenceDeg,
              const std::vector<double>& rEdges, uint64_t seed) {
-    lobeChi2(what, q, [&](double r) { return q.a / (q.b + std::pow(r, q.g)); }, incidenceDeg,
-             rEdges, seed);
+    lobeChi2(what, AbgScatter(q, std::nullopt),
+             [&](double r) { return q.a / (q.b + std::pow(r, q.g)); }, incidenceDeg, rEdges, seed);
 }
 
 TEST(AbgScatter, TisAtNormalIncidenceMatchesTheClosedForm) {
@@ -585,13 +586,33 @@ TEST(HarveyShackScatter, TisTableMatchesDirectQuadratureAtEveryAngle) {
 TEST(HarveyShackScatter, SamplerPassesChiSquareAgainstTheModel) {
     const double b0 = 50.0, l = 0.01, s = -2.5;
     const auto hs = [&](double r) { return harveyShackBsdf(b0, l, s, r); };
-    lobeChi2("Harvey-Shack normal incidence", harveyShack(b0, l, s), hs, 0.0,
+    lobeChi2("Harvey-Shack normal incidence", AbgScatter(harveyShack(b0, l, s), std::nullopt), hs,
+             0.0,
              {0, 0.002, 0.005, 0.01, 0.02, 0.04, 0.08, 0.16, 0.32, 0.64, 1.0}, 601);
-    lobeChi2("Harvey-Shack 60 deg incidence", harveyShack(b0, l, s), hs, 60.0,
+    lobeChi2("Harvey-Shack 60 deg incidence", AbgScatter(harveyShack(b0, l, s), std::nullopt), hs,
+             60.0,
              {0, 0.002, 0.005, 0.01, 0.02, 0.04, 0.08, 0.16, 0.32, 0.64, 2.0}, 602);
     const auto wide = [&](double r) { return harveyShackBsdf(0.05, 0.3, -1.2, r); };
-    lobeChi2("Harvey-Shack wide, 80 deg incidence", harveyShack(0.05, 0.3, -1.2), wide, 80.0,
+    lobeChi2("Harvey-Shack wide, 80 deg incidence",
+             AbgScatter(harveyShack(0.05, 0.3, -1.2), std::nullopt), wide, 80.0,
              {0, 0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8, 1.0, 1.3, 2.0}, 603);
+}
+
+// A fit of two Harvey-Shack terms (a narrow core and a wide skirt, as contamination fits
+// are written) is the sum of its lobes: its TIS the sum of theirs, its samples distributed as
+// the summed BSDF.
+TEST(HarveyShackScatter, TwoTermFitIsTheSumOfItsLobes) {
+    const AbgParams core = harveyShack(3.93, 0.00411, -2.35), skirt = harveyShack(0.00429, 0.0431513, -1.11);
+    const AbgScatter both(std::vector<AbgParams>{core, skirt}, {});
+    const AbgLobe a(core), b(skirt);
+    for (double b0 : {0.0, 0.5, 0.9})
+        EXPECT_NEAR(both.tis(false, b0), a.tis(b0) + b.tis(b0), 1e-15);
+    const auto sum = [&](double r) {
+        return harveyShackBsdf(3.93, 0.00411, -2.35, r) + harveyShackBsdf(0.00429, 0.0431513, -1.11, r);
+    };
+    const std::vector<double> edges = {0, 0.002, 0.004, 0.008, 0.016, 0.03, 0.06, 0.12, 0.25, 0.5, 1.0, 2.0};
+    lobeChi2("two Harvey-Shack terms, normal incidence", both, sum, 0.0, edges, 611);
+    lobeChi2("two Harvey-Shack terms, 50 deg", both, sum, 50.0, edges, 612);
 }
 
 }  // namespace

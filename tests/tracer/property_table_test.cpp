@@ -155,6 +155,10 @@ scatter = { model = "k_correlation", sigma_nm = 2, b_um = 10, c = 3, reflectance
 specular = "mirror"
 scatter = { model = "k_correlation", a = 5.5, b_um = 2, c = 1.5, reflectance = 0.9 }
 
+[properties.dusty]
+specular = "mirror"
+scatter = { model = "harvey_shack", brdf = [{ b0 = 3.93, l = 0.00411, s = -2.35 }, { b0 = 0.00429, l = 0.0431513, s = -1.11 }] }
+
 [properties.gauss]
 scatter = { model = "gaussian", reflectance = 0.05, half_width_deg = 5 }
 
@@ -228,6 +232,9 @@ TEST(PropertyTable, ReadsEveryKey) {
     EXPECT_NEAR(polished.reflectLobe()->bsdf(0.0), 50.0, 1e-12);
     EXPECT_NEAR(polished.reflectLobe()->bsdf(0.01), 50.0 * std::pow(2.0, -1.25), 1e-10);
     // K-correlation from the roughness: A = sigma^2 B^2 (C - 2) / (2 pi); or A itself.
+    const auto& dusty = std::get<AbgScatter>(get("dusty").scatter());
+    ASSERT_EQ(dusty.lobes(false).size(), 2u);
+    EXPECT_NEAR(dusty.lobes(false)[1]->bsdf(0.0), 0.00429, 1e-12);
     const auto& kc = std::get<KCorrelationScatter>(get("roughness").scatter());
     EXPECT_NEAR(kc.params().aNm2Um2, 4.0 * 100.0 * 1.0 / (2.0 * std::numbers::pi), 1e-12);
     EXPECT_EQ(kc.params().reflectance, 0.04);
@@ -249,7 +256,7 @@ TEST(PropertyTable, ReadsEveryKey) {
 
     // A table replaces the built-in of its name, in place.
     EXPECT_EQ(std::get<LambertianScatter>(get("lens_edge").scatter()).reflectance, 0.1);
-    EXPECT_EQ(t.properties().size(), PropertyTable().properties().size() + 18);
+    EXPECT_EQ(t.properties().size(), PropertyTable().properties().size() + 19);
 
     ASSERT_EQ(t.rules().size(), 2u);
     EXPECT_EQ(t.rules()[0].patterns, std::vector<std::string>{"L1.*"});
@@ -322,6 +329,8 @@ TEST(PropertyTable, ScatterErrorsAreAtTheValue) {
     expectErrorAt(text, "0 }", "scatter nothing");
     text = "[properties.x]\nscatter = { model = \"k_correlation\", b_um = 1, c = 3, reflectance = 1 }\n";
     expectErrorAt(text, "{ model", "needs `a`");
+    text = "[properties.x]\nscatter = { model = \"harvey_shack\", brdf = [] }\n";
+    expectErrorAt(text, "[] }", "at least one lobe");
     text = "[properties.x]\nscatter = \"lambertian\"\n";
     expectErrorAt(text, "\"lambertian\"", "must be a table");
     text = "[properties.x]\nscatter = { model = \"harvey_shack\", brdf = { b0 = 1, l = 0.01 } }\n";

@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
+
 #include "tracer/prepared_scene.h"
 
 namespace veil {
@@ -134,6 +136,61 @@ TEST(SceneFile, RoughnessPastTheSmoothSurfaceLimitIsRefused) {
         EXPECT_NE(what.find("486.133 nm"), std::string::npos) << what;
         EXPECT_NE(what.find("too rough for the smooth-surface"), std::string::npos) << what;
     }
+}
+
+// Material libraries: their [properties] tables come before the scene's (which replace
+// them), .bsdf paths inside are relative to the library, and a bad library is an error at
+// its entry or in the library itself.
+TEST(SceneFile, MaterialLibrariesAreReadBeforeTheScenesProperties) {
+    namespace fs = std::filesystem;
+    const fs::path dir = fs::path(::testing::TempDir()) / "veil_materials";
+    fs::remove_all(dir);
+    fs::create_directories(dir / "lib");
+    auto write = [](const fs::path& p, const std::string& text) {
+        FILE* f = fopen(p.c_str(), "w");
+        ASSERT_TRUE(f);
+        fputs(text.c_str(), f);
+        fclose(f);
+    };
+    const std::string lens = std::string("lens = \"") + VEIL_SOURCE_DIR +
+                             "/examples/lenses/singlet.toml\"\n";
+    write(dir / "lib" / "mats.toml",
+          "[properties.paint]\nscatter = { model = \"lambertian\", reflectance = 0.04 }\n"
+          "[properties.shared]\nscatter = { model = \"lambertian\", reflectance = 0.3 }\n");
+    write(dir / "scene.toml", lens + "materials = \"lib/mats.toml\"\n"
+                                     "[properties.shared]\nscatter = { model = \"lambertian\", "
+                                     "reflectance = 0.1 }\n");
+    const SceneFile f = readSceneFile(dir / "scene.toml", GlassCatalog::builtIn());
+    const PropertyTable& t = f.properties;
+    ASSERT_GE(t.find("paint"), 0);
+    EXPECT_EQ(std::get<LambertianScatter>(t.property(t.find("paint")).scatter()).reflectance, 0.04);
+    EXPECT_EQ(std::get<LambertianScatter>(t.property(t.find("shared")).scatter()).reflectance, 0.1);
+
+    auto errorOf = [&](const std::string& scene) {
+        write(dir / "bad.toml", lens + scene);
+        try {
+            readSceneFile(dir / "bad.toml", GlassCatalog::builtIn());
+        } catch (const ParseError& e) {
+            return std::string(e.what());
+        }
+        return std::string("no error");
+    };
+    std::string e = errorOf("materials = [\"lib/none.toml\"]\n");
+    EXPECT_NE(e.find("bad.toml:2:14"), std::string::npos) << e;
+    EXPECT_NE(e.find("does not exist"), std::string::npos) << e;
+    write(dir / "lib" / "empty.toml", "# nothing\n");
+    e = errorOf("materials = \"lib/empty.toml\"\n");
+    EXPECT_NE(e.find("has no [properties.NAME] tables"), std::string::npos) << e;
+    write(dir / "lib" / "extra.toml",
+          "[properties.p]\nscatter = { model = \"lambertian\", reflectance = 0.04 }\n"
+          "[[source]]\nname = \"x\"\n");
+    e = errorOf("materials = \"lib/extra.toml\"\n");
+    EXPECT_NE(e.find("extra.toml:3"), std::string::npos) << e;
+    write(dir / "lib" / "typo.toml",
+          "[properties.p]\nscatter = { model = \"lambertian\", reflectanse = 0.04 }\n");
+    e = errorOf("materials = \"lib/typo.toml\"\n");
+    EXPECT_NE(e.find("typo.toml:2"), std::string::npos) << e;
+    EXPECT_NE(e.find("reflectanse"), std::string::npos) << e;
 }
 
 }  // namespace
