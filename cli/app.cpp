@@ -85,6 +85,8 @@ int runCommandLine(const std::vector<std::string>& args, bool rethrow) {
     addObjectsCommand(app, objectsOptions);
     ScatterOptions scatterOptions;
     addScatterCommand(app, scatterOptions);
+    GlareOptions glareOptions;
+    addGlareCommand(app, glareOptions);
 
     // A first word that is no command and no option: name the nearest command.
     if (argc > 1 && argv[1][0] != '-') {
@@ -129,6 +131,7 @@ int runCommandLine(const std::vector<std::string>& args, bool rethrow) {
             if (sub->get_name() == "pst") return runPstCommand(common, pstOptions);
             if (sub->get_name() == "objects") return runObjectsCommand(common, objectsOptions);
             if (sub->get_name() == "scatter") return runScatterCommand(common, scatterOptions);
+            if (sub->get_name() == "glare") return runGlareCommand(common, glareOptions);
         }
     } catch (const std::exception& e) {
         if (rethrow) throw;

@@ -194,4 +194,22 @@ struct ScatterOptions {
 void addScatterCommand(CLI::App& app, ScatterOptions& options);
 int runScatterCommand(const CommonOptions& common, const ScatterOptions& options);
 
+struct GlareOptions {
+    std::string file;
+    double spotDeg = 0.5;
+    double fieldDeg = 80.0;
+    std::vector<std::string> fields;
+    int passes = 8;
+    uint64_t photons = 100000;
+    uint64_t raysPerPixel = 64;
+    int pixels = 8;
+    std::string output;  // folder; default ./glare
+    int threads = 0;
+    uint64_t seed = 1;
+    bool json = false;
+    bool quiet = false;
+};
+void addGlareCommand(CLI::App& app, GlareOptions& options);
+int runGlareCommand(const CommonOptions& common, const GlareOptions& options);
+
 }  // namespace veil::cli

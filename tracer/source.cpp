@@ -354,6 +354,12 @@ double AreaEmitter::projectedSolidAngleSr() const {
     return kPi * s * s;
 }
 
+bool AreaEmitter::inBlackSpot(const Vec3& w) const {
+    if (!(blackSpotHalfAngleRad > 0.0)) return false;
+    const Vec3 d = w - blackSpotAxis;
+    return 0.5 * glm::dot(d, d) < oneMinusCos(blackSpotHalfAngleRad);
+}
+
 std::ostream& operator<<(std::ostream& os, const AreaEmitter& e) {
     os << "AreaEmitter{";
     if (e.shape == AreaEmitter::Shape::Disk)
@@ -460,6 +466,14 @@ EmittedRay Source::emit(const std::array<double, kEmitUniforms>& u, uint64_t ray
             }
         },
         shape_);
+    // A ray drawn into an area's black spot carries nothing.
+    std::visit(
+        [&](const auto& k) {
+            using T = std::decay_t<decltype(k)>;
+            if constexpr (std::is_same_v<T, WindowSource> || std::is_same_v<T, LambertianSource>)
+                if (k.area.inBlackSpot(out.ray.direction)) out.flux = 0.0;
+        },
+        shape_);
     return out;
 }
 
@@ -510,6 +524,7 @@ bool onArea(const AreaEmitter& e, const Vec3& p) {
 double areaCos(const AreaEmitter& e, const Vec3& w) {
     const Vec3 local = e.frame.toLocalDirection(w);
     if (!(local.z > 0.0)) return 0.0;
+    if (e.inBlackSpot(w)) return 0.0;
     const double s = std::sin(e.coneHalfAngleRad);
     if (local.x * local.x + local.y * local.y > s * s * (1.0 + kConeTolerance)) return 0.0;
     return local.z;

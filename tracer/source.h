@@ -171,9 +171,18 @@ struct AreaEmitter {
     double radiusMm = 0.0;  // Disk
     Vec2 sizeMm{0.0};       // Rectangle: full width along local x, height along local y
     double coneHalfAngleRad = 1.5707963267948966;
+    // A black spot in the field: no light along directions within blackSpotHalfAngleRad of
+    // the global unit direction blackSpotAxis (0: none). It takes nothing from the flux
+    // bookkeeping: the radiance elsewhere stays flux / (area * projected solid angle of the
+    // whole cone), and emit() gives the rays it draws into the spot no flux. (veil glare's
+    // test field, ISO 9358's black area.)
+    Vec3 blackSpotAxis{0.0, 0.0, 1.0};
+    double blackSpotHalfAngleRad = 0.0;
     double areaMm2() const;
     // Projected solid angle of the cone, pi sin^2(cone): flux = radiance * area * this.
     double projectedSolidAngleSr() const;
+    // Whether a global unit direction lies in the black spot.
+    bool inBlackSpot(const Vec3& w) const;
 };
 std::ostream& operator<<(std::ostream& os, const AreaEmitter& e);
 

@@ -508,6 +508,46 @@ unit = "lm"
     EXPECT_LT(chi, 2.0 + 5.0 * 2.0);
 }
 
+// A window with a black spot (veil glare's test field): no radiance, no flux and no
+// crossing along the spot's directions; the rest as without it.
+TEST(WindowSource, BlackSpotEmitsNothing) {
+    AreaEmitter e;
+    e.shape = AreaEmitter::Shape::Disk;
+    e.radiusMm = 50.0;
+    e.coneHalfAngleRad = 80.0 * kDeg;
+    e.frame.translation = Vec3(0.0, 0.0, -5.0);
+    const Vec3 spot = glm::normalize(Vec3(std::tan(10.0 * kDeg), 0.0, 1.0));
+    e.blackSpotAxis = spot;
+    e.blackSpotHalfAngleRad = 0.5 * kDeg;
+    const Source src("field", WindowSource{e}, 1.0,
+                     SpectralSampler({{550.0, 1.0}}, FluxUnit::Watt));
+    const Vec3 on(0.0, 0.0, -5.0);
+    const Vec3 inside = glm::normalize(spot + Vec3(0.0, 0.004, 0.0));  // 0.23 deg off its axis
+    const Vec3 outside = glm::normalize(spot + Vec3(0.0, 0.012, 0.0));
+    EXPECT_EQ(src.emitted(on, spot), 0.0);
+    EXPECT_EQ(src.emitted(on, inside), 0.0);
+    EXPECT_GT(src.emitted(on, outside), 0.0);
+    EXPECT_EQ(src.pdf({on, spot}), 0.0);
+    EXPECT_FALSE(src.crossing({on + 10.0 * spot, -spot}, 1e9));
+    EXPECT_TRUE(src.crossing({on + 10.0 * outside, -outside}, 1e9));
+    // Emitted rays into the spot carry nothing; the others the flux the radiance gives.
+    CounterRng rng(3, 3);
+    int dark = 0;
+    for (int i = 0; i < 200000; ++i) {
+        const EmittedRay r = src.emit(rng, 1);
+        if (e.inBlackSpot(r.ray.direction)) {
+            EXPECT_EQ(r.flux, 0.0);
+            ++dark;
+        } else {
+            EXPECT_EQ(r.flux, 1.0);
+        }
+    }
+    // The spot's share of the cone's projected solid angle.
+    const double share = std::pow(std::sin(0.5 * kDeg), 2) * std::cos(10.0 * kDeg) /
+                         std::pow(std::sin(80.0 * kDeg), 2);
+    EXPECT_NEAR(dark, 200000 * share, 5.0 * std::sqrt(200000 * share));
+}
+
 // Lambertian Area Sources
 
 TEST(LambertianSource, TiltedRectangleFollowsTheCosineLaw) {

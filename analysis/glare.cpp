@@ -1,0 +1,373 @@
+#include "analysis/glare.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <iomanip>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <sstream>
+
+#include "analysis/render_run.h"
+#include "geometry/exact_face.h"
+#include "lensdata/errors.h"
+#include "tracer/prepared_scene.h"
+#include "tracer/ray_aiming.h"
+#include "tracer/sequential_trace.h"
+#include "tracer/source.h"
+
+namespace veil {
+
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+std::string fmt(double v, int precision = 4) {
+    std::ostringstream os;
+    os << std::setprecision(precision) << v;
+    return os.str();
+}
+
+// The mean of the passes' values and its standard error.
+GlareValue meanOf(const std::vector<double>& x) {
+    GlareValue g;
+    const double n = static_cast<double>(x.size());
+    if (x.empty()) return g;
+    double sum = 0.0;
+    for (double v : x) sum += v;
+    g.value = sum / n;
+    if (x.size() < 2) return g;
+    double ss = 0.0;
+    for (double v : x) ss += (v - g.value) * (v - g.value);
+    g.error = std::sqrt(ss / (n * (n - 1.0)));
+    return g;
+}
+
+// Where the spot's chief ray meets the image surface (local x, y), at the primary wavelength.
+std::optional<Vec2> chiefImage(const SequentialModel& model, const RayAimer& aimer, Vec2 fieldDeg) {
+    const int w = model.primaryWavelength();
+    const AimedRay chief = aimer.aim(fieldDeg.x, fieldDeg.y, 0.0, 0.0, w);
+    if (chief.status != RayStatus::Ok) return std::nullopt;
+    SequentialTraceOptions o;
+    o.clipApertures = false;
+    const SequentialRayResult r = traceSequential(model, w, chief.ray, o);
+    if (!r.ok()) return std::nullopt;
+    const Vec3 q = model.localPoint(r.surface, r.ray.origin);
+    return Vec2(q.x, q.y);
+}
+
+// The lens's wavelengths and weights as the field's spectrum: photometric when the eye sees
+// every line, else radiometric.
+SpectralSampler fieldSpectrum(const SceneFile& file, std::string& described, std::string& unit) {
+    const SequentialModel& model = *file.model;
+    const auto& waves = file.prescription.system.wavelengths;
+    std::vector<Wavelength> lines;
+    bool visible = true;
+    for (int i = 0; i < model.wavelengthCount(); ++i) {
+        const double nm = model.wavelengthNm(i);
+        lines.push_back({nm, static_cast<int>(waves.size()) == model.wavelengthCount()
+                                 ? waves[static_cast<size_t>(i)].weight
+                                 : 1.0});
+        visible = visible && photopicEfficiency(nm) > 0.0;
+    }
+    std::ostringstream os;
+    for (size_t i = 0; i < lines.size(); ++i)
+        os << (i ? ", " : "") << fmt(lines[i].nm, 6) << " nm (weight " << fmt(lines[i].weight)
+           << ")";
+    if (visible) {
+        described = "photometric: the lens's wavelengths " + os.str() + ", times V(lambda)";
+        unit = "lm";
+        return SpectralSampler(lines, FluxUnit::Lumen, SpectralSampling::Photometric,
+                               "glare field");
+    }
+    described = "radiometric: the lens's wavelengths " + os.str() +
+                " (a line outside 360-830 nm: no photometric weighting)";
+    unit = "W";
+    return SpectralSampler(lines, FluxUnit::Watt, SpectralSampling::Radiometric, "glare field");
+}
+
+struct SceneExtent {
+    double frontZMm = 0.0, backZMm = 0.0;  // z range of everything but the detectors
+    double radiusMm = 0.0;                 // largest distance from the axis
+};
+
+SceneExtent extentOf(const PreparedScene& p) {
+    SceneExtent e;
+    Bounds3 b;
+    const Scene& scene = p.scene();
+    for (const SceneObject& o : scene.objects()) {
+        if (o.kind == ObjectKind::Detector) continue;
+        if (const auto* f = std::get_if<FaceGeometry>(&o.geometry))
+            b.extend(transformBounds(o.frame, faceBounds(*f)));
+        else
+            b.extend(
+                scene.meshes()[static_cast<size_t>(std::get<MeshRef>(o.geometry).mesh)].bounds());
+    }
+    if (b.empty()) return e;
+    e.frontZMm = b.lo.z;
+    e.backZMm = b.hi.z;
+    e.radiusMm = std::hypot(std::max(std::abs(b.lo.x), std::abs(b.hi.x)),
+                            std::max(std::abs(b.lo.y), std::abs(b.hi.y)));
+    return e;
+}
+
+}  // namespace
+
+GlareValue ratio(const GlareValue& a, const GlareValue& b) {
+    GlareValue r;
+    if (!(b.value > 0.0)) return r;
+    r.value = a.value / b.value;
+    const double ea = a.error / b.value;
+    const double eb = a.value * b.error / (b.value * b.value);
+    r.error = std::sqrt(ea * ea + eb * eb);
+    return r;
+}
+
+// Glare Bench
+
+GlareBench::GlareBench(const SceneFile& file, const GlassCatalog& catalog, const GlareSpec& spec)
+    : file_(file), spec_(spec), aimer_(std::make_unique<RayAimer>(*file.model)) {
+    const SequentialModel& model = *file.model;
+    if (file.prescription.system.fieldKind != SystemData::FieldKind::AngleDeg)
+        throw ModelError(file.path.string(),
+                         "veil glare needs a lens that images from infinity (fields as angles): "
+                         "the veiling glare index is defined for a field at infinity");
+    if (!(spec.spotDiameterDeg > 0.0 && spec.spotDiameterDeg < 20.0))
+        throw ModelError("--spot-deg", "the black spot's diameter must lie in (0, 20) degrees");
+    if (!(spec.fieldHalfAngleDeg > 0.0 && spec.fieldHalfAngleDeg <= 89.0))
+        throw ModelError("--field-deg",
+                         "the bright field's half angle must lie in (0, 89] degrees");
+    spectrum_ = std::make_unique<SpectralSampler>(fieldSpectrum(file, spectrumText_, unit_));
+
+    // The camera body the measurement puts the lens in: an absorbing box of revolution around
+    // the lens and its mechanics, open in front as wide as the first surface (mechanical
+    // semi-diameter: the sphere's port) and behind as wide as the last surface before the
+    // image, so that light reaches the image only through the lens's front and out of its
+    // back, as it does in the camera. The field is a window just in front of the port, wide
+    // enough that every point of the port sees the whole cone; the front plate reaches past
+    // the window, so no ray of the field passes outside it.
+    SceneFile bare = file;
+    bare.sources.clear();
+    const SceneExtent extent = extentOf(*PreparedScene::build(bare, catalog));
+    const EntranceAperture entrance = entranceAperture(file.prescription, model);
+    const double portRadiusMm = entrance.radiusMm > 0.0 ? entrance.radiusMm : extent.radiusMm;
+    const Surface& last = file.prescription.surfaces[static_cast<size_t>(model.imageIndex() - 1)];
+    double backRadiusMm =
+        last.mechSemiDiameterMm > 0.0 ? last.mechSemiDiameterMm : last.clearSemiDiameterMm;
+    if (!(backRadiusMm > 0.0)) backRadiusMm = extent.radiusMm;
+    const double gapMm = 0.5, wallMm = 1.0;
+    const double frontBackZ = extent.frontZMm - gapMm, frontFrontZ = frontBackZ - wallMm;
+    const double rearFrontZ = extent.backZMm + gapMm, rearBackZ = rearFrontZ + wallMm;
+    const double tubeInnerMm = std::max({extent.radiusMm, portRadiusMm, backRadiusMm}) + gapMm;
+    const double tubeOuterMm = tubeInnerMm + wallMm;
+    const double cone = spec.fieldHalfAngleDeg * kDeg;
+    windowZMm_ = frontFrontZ - gapMm;
+    windowRadiusMm_ = portRadiusMm + (frontBackZ - windowZMm_) * std::tan(cone) + 1.0;
+    const double plateOuterMm = std::max(windowRadiusMm_, tubeOuterMm) + 1.0;
+    MechanicsSpec::Part body;
+    body.name = "glare_body";
+    body.property = "absorber";
+    body.profileMm = {{portRadiusMm, frontFrontZ}, {plateOuterMm, frontFrontZ},
+                      {plateOuterMm, frontBackZ},  {tubeOuterMm, frontBackZ},
+                      {tubeOuterMm, rearBackZ},    {backRadiusMm, rearBackZ},
+                      {backRadiusMm, rearFrontZ},  {tubeInnerMm, rearFrontZ},
+                      {tubeInnerMm, frontBackZ},   {portRadiusMm, frontBackZ}};
+    double area2 = 0.0;  // twice the signed area in (r, z): counter-clockwise is positive
+    for (size_t i = 0; i < body.profileMm.size(); ++i) {
+        const Vec2 a = body.profileMm[i], b = body.profileMm[(i + 1) % body.profileMm.size()];
+        area2 += a.x * b.y - b.x * a.y;
+    }
+    if (area2 < 0.0) std::reverse(body.profileMm.begin(), body.profileMm.end());
+    if (!file_.mechanics) {
+        MechanicsSpec m;
+        m.barrel.enabled = m.retainers.enabled = m.spacers.enabled = m.stop.enabled = false;
+        file_.mechanics = m;
+    }
+    file_.mechanics->parts.push_back(body);
+    radiusHintMm_ = 0.01 * std::max(1.0, 2.0 * extent.radiusMm);
+}
+
+GlareBench::~GlareBench() = default;
+
+GlareField GlareBench::locate(Vec2 fieldDeg) const {
+    const SequentialModel& model = *file_.model;
+    GlareField gf;
+    gf.fieldDeg = fieldDeg;
+    const double spotRadius = 0.5 * spec_.spotDiameterDeg;
+    const Vec3 axis = fieldDirection(fieldDeg.x, fieldDeg.y);
+    const std::string name = "field " + fmt(fieldDeg.x) + "," + fmt(fieldDeg.y);
+    if (std::acos(std::clamp(axis.z, -1.0, 1.0)) / kDeg + spotRadius > spec_.fieldHalfAngleDeg)
+        throw ModelError(name, "the black spot reaches past the bright field (--field-deg " +
+                                   fmt(spec_.fieldHalfAngleDeg) + ")");
+    const auto centre = chiefImage(model, *aimer_, fieldDeg);
+    if (!centre) throw ModelError(name, "no real chief ray reaches the image from this direction");
+    gf.imageMm = *centre;
+    // The spot's image radius: the chief ray's image moves this far for the spot's angular
+    // radius, the least over four directions about the spot's centre.
+    double r = std::numeric_limits<double>::infinity();
+    for (const Vec2 d : {Vec2(1, 0), Vec2(-1, 0), Vec2(0, 1), Vec2(0, -1)})
+        if (const auto q = chiefImage(model, *aimer_, fieldDeg + spotRadius * d))
+            r = std::min(r, glm::length(*q - *centre));
+    if (!std::isfinite(r) || !(r > 0.0))
+        throw ModelError(name, "the spot's rim does not image: no size for its image");
+    gf.spotImageRadiusMm = r;
+    gf.measuredSideMm = 0.5 * r;
+    return gf;
+}
+
+SceneFile GlareBench::scene(const GlareField& f, bool black, double sideMm, int pixels) const {
+    SceneFile s = file_;
+    AreaEmitter e;
+    e.shape = AreaEmitter::Shape::Disk;
+    e.radiusMm = windowRadiusMm_;
+    e.coneHalfAngleRad = spec_.fieldHalfAngleDeg * kDeg;
+    e.frame.translation = Vec3(0.0, 0.0, windowZMm_);
+    if (black) {
+        e.blackSpotAxis = fieldDirection(f.fieldDeg.x, f.fieldDeg.y);
+        e.blackSpotHalfAngleRad = 0.5 * spec_.spotDiameterDeg * kDeg;
+    }
+    // Radiance 1 (unit/(mm^2 sr)) outside the spot.
+    s.sources = {Source(black ? "field with black spot" : "bright field", WindowSource{e},
+                        e.areaMm2() * e.projectedSolidAngleSr(), *spectrum_)};
+    DetectorSpec d;
+    d.name = "glare";
+    d.sizeMm = Vec2(sideMm);
+    d.pixelsX = d.pixelsY = pixels;
+    d.centerMm = f.imageMm;
+    s.detectors = {d};
+    return s;
+}
+
+GlareResult runGlare(const SceneFile& file, const GlassCatalog& catalog, const GlareSpec& spec) {
+    const auto start = std::chrono::steady_clock::now();
+    const GlareBench bench(file, catalog, spec);
+    GlareResult result;
+    result.spotDiameterDeg = spec.spotDiameterDeg;
+    result.fieldHalfAngleDeg = spec.fieldHalfAngleDeg;
+    result.passes = spec.passes;
+    result.raysPerPixel = spec.render.raysPerPixel;
+    result.photonsPerPass = spec.render.photonsPerPass;
+    result.spectrum = bench.spectrumText();
+    result.unit = bench.unit();
+
+    std::vector<Vec2> fields = spec.fieldsDeg;
+    if (fields.empty()) {
+        fields.push_back(Vec2(0.0));
+        for (const Field& f : file.prescription.system.fields)
+            if (f.x != 0.0 || f.y != 0.0) fields.push_back(Vec2(f.x, f.y));
+    }
+    // Every position is checked before the first render.
+    std::vector<GlareField> located;
+    for (const Vec2& f : fields) located.push_back(bench.locate(f));
+
+    for (size_t fi = 0; fi < located.size(); ++fi) {
+        GlareField gf = located[fi];
+        auto render = [&](bool black) {
+            const std::unique_ptr<PreparedScene> p = PreparedScene::build(
+                bench.scene(gf, black, gf.measuredSideMm, spec.pixels), catalog);
+            RenderRunSpec run;
+            run.options = spec.render;
+            run.options.splitBackward = true;
+            if (run.options.initialRadiusMm <= 0.0)
+                run.options.initialRadiusMm = bench.radiusHintMm();
+            run.passes = spec.passes;
+            std::vector<double> total, specular, diffuse;
+            const double area = gf.measuredSideMm * gf.measuredSideMm;
+            runRenderPasses(*p, run, [&](int pass, const RenderPassTotals& t) {
+                const double visible = t.components[static_cast<size_t>(RenderComponent::Visible)];
+                total.push_back(t.total() / area);
+                specular.push_back(visible / area);
+                diffuse.push_back((t.total() - visible) / area);
+                if (spec.progress) spec.progress(fi, black ? "black" : "white", pass, spec.passes);
+            });
+            if (black) {
+                gf.black = meanOf(total);
+                gf.blackSpecular = meanOf(specular);
+                gf.blackDiffuse = meanOf(diffuse);
+            } else {
+                gf.white = meanOf(total);
+            }
+        };
+        render(true);
+        render(false);
+        gf.vgi = ratio(gf.black, gf.white);
+        gf.specular = ratio(gf.blackSpecular, gf.white);
+        gf.diffuse = ratio(gf.blackDiffuse, gf.white);
+        result.fields.push_back(gf);
+    }
+    result.seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return result;
+}
+
+namespace {
+
+std::string percent(const GlareValue& v) {
+    std::ostringstream os;
+    os << std::fixed << std::setprecision(v.value < 0.1 ? 3 : 2) << 100.0 * v.value << " +- "
+       << std::setprecision(v.error < 0.001 ? 4 : 3) << 100.0 * v.error << " %";
+    return os.str();
+}
+
+nlohmann::json valueJson(const GlareValue& v) { return {{"value", v.value}, {"error", v.error}}; }
+
+}  // namespace
+
+std::string GlareResult::markdown() const {
+    std::ostringstream os;
+    os << "Veiling glare index (ISO 9358's definition: irradiance at the centre of a black "
+          "spot's image over the irradiance there without the spot), black spot "
+       << fmt(spotDiameterDeg) << " deg across in a uniform Lambertian field out to "
+       << fmt(fieldHalfAngleDeg) << " deg from the axis; " << spectrum << ". " << passes
+       << " render passes of " << raysPerPixel << " rays per pixel and " << photonsPerPass
+       << " photons; errors 1 sigma.\n\n";
+    os << "| field (deg) | image (mm) | VGI | specular (ghosts) | diffuse (scatter) |\n"
+          "|---|---|---:|---:|---:|\n";
+    for (const GlareField& f : fields)
+        os << "| " << fmt(f.fieldDeg.x) << ", " << fmt(f.fieldDeg.y) << " | " << fmt(f.imageMm.x, 5)
+           << ", " << fmt(f.imageMm.y, 5) << " | " << percent(f.vgi) << " | " << percent(f.specular)
+           << " | " << percent(f.diffuse) << " |\n";
+    return os.str();
+}
+
+std::string GlareResult::csv() const {
+    std::ostringstream os;
+    os << std::setprecision(9);
+    os << "field_x_deg,field_y_deg,image_x_mm,image_y_mm,spot_image_radius_mm,vgi,vgi_error,"
+          "specular,specular_error,diffuse,diffuse_error,black_"
+       << unit << "_mm2,black_error,white_" << unit << "_mm2,white_error\n";
+    for (const GlareField& f : fields)
+        os << f.fieldDeg.x << "," << f.fieldDeg.y << "," << f.imageMm.x << "," << f.imageMm.y << ","
+           << f.spotImageRadiusMm << "," << f.vgi.value << "," << f.vgi.error << ","
+           << f.specular.value << "," << f.specular.error << "," << f.diffuse.value << ","
+           << f.diffuse.error << "," << f.black.value << "," << f.black.error << ","
+           << f.white.value << "," << f.white.error << "\n";
+    return os.str();
+}
+
+std::string GlareResult::json() const {
+    nlohmann::json j;
+    j["spot_diameter_deg"] = spotDiameterDeg;
+    j["field_half_angle_deg"] = fieldHalfAngleDeg;
+    j["spectrum"] = spectrum;
+    j["unit"] = unit;
+    j["passes"] = passes;
+    j["rays_per_pixel"] = raysPerPixel;
+    j["photons_per_pass"] = photonsPerPass;
+    j["seconds"] = seconds;
+    j["fields"] = nlohmann::json::array();
+    for (const GlareField& f : fields)
+        j["fields"].push_back({{"field_deg", {f.fieldDeg.x, f.fieldDeg.y}},
+                               {"image_mm", {f.imageMm.x, f.imageMm.y}},
+                               {"spot_image_radius_mm", f.spotImageRadiusMm},
+                               {"measured_side_mm", f.measuredSideMm},
+                               {"vgi", valueJson(f.vgi)},
+                               {"specular", valueJson(f.specular)},
+                               {"diffuse", valueJson(f.diffuse)},
+                               {"black", valueJson(f.black)},
+                               {"white", valueJson(f.white)}});
+    return j.dump(2) + "\n";
+}
+
+}  // namespace veil

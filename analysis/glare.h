@@ -1,0 +1,118 @@
+#pragma once
+// Veiling glare (`veil glare`): the veiling glare index of ISO 9358, computed from the lens
+// model with its mechanics and finishes instead of measured.
+//
+// The test field is a uniform Lambertian field filling the object space out to
+// fieldHalfAngleDeg about the axis (the integrating sphere of the measurement) with a black
+// spot of spotDiameterDeg at the field position under test. The VGI is the irradiance at the
+// centre of the spot's image over the irradiance there when the spot is as bright as the rest:
+//
+//   VGI = E_black / E_white
+//
+// Both are rendered (tracer/render.h, veil render's method) on a small detector at the spot's
+// image (its centre from the real chief ray, its size from the image of the spot: a square
+// of side half the spot image's radius, so that the blur of the spot's rim stays outside it
+// unless the lens blurs by more than 0.6 of that radius):
+// the field is a window source in front of the lens, and E_black's source has the black spot
+// (AreaEmitter::blackSpotAxis). The render's components split E_black into
+//   specular  light that reached the detector through reflections and refractions alone: the
+//             ghosts, found by backward rays split at every interface (the visible component);
+//   diffuse   light that scattered on the way (mounts, lens edges, rough or dusty surfaces:
+//             the direct, caustic and secondary components).
+// With nothing that reflects or scatters, E_black is 0 exactly. Errors come from the spread of
+// the render's passes (1 sigma) and are carried through the ratio.
+//
+// The field's spectrum: the lens's wavelengths and weights, V(lambda)-weighted (photometric)
+// when the eye sees every line, else radiometric; the result states which.
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "geometry/vec.h"
+#include "lensdata/glass_catalog.h"
+#include "tracer/ray_aiming.h"
+#include "tracer/render.h"
+#include "tracer/scene_setup.h"
+#include "tracer/spectrum.h"
+
+namespace veil {
+
+struct GlareSpec {
+    std::vector<Vec2> fieldsDeg;      // spot positions; empty: the axis and the lens's fields
+    double spotDiameterDeg = 0.5;     // angular diameter of the black spot
+    double fieldHalfAngleDeg = 80.0;  // the bright field: a cone about the axis
+    int passes = 8;
+    int pixels = 8;        // of the measuring detector, per side
+    RenderOptions render;  // raysPerPixel, photonsPerPass, seed, ...; splitBackward is set
+    // Called after every pass: field index, "black" or "white", pass, passes.
+    std::function<void(size_t field, const std::string& run, int pass, int passes)> progress;
+};
+
+struct GlareValue {
+    double value = 0.0, error = 0.0;  // 1 sigma
+};
+
+struct GlareField {
+    Vec2 fieldDeg{0.0};
+    Vec2 imageMm{0.0};  // the spot's image centre (real chief ray)
+    double spotImageRadiusMm = 0.0;
+    double measuredSideMm = 0.0;  // the square detector's side
+    // Irradiance (unit/mm^2) over the measuring square.
+    GlareValue black, blackSpecular, blackDiffuse, white;
+    // Their ratios to white.
+    GlareValue vgi, specular, diffuse;
+};
+
+struct GlareResult {
+    std::vector<GlareField> fields;
+    std::string spectrum;  // how the field's spectrum is weighted
+    std::string unit;      // "lm" or "W"
+    double spotDiameterDeg = 0.0, fieldHalfAngleDeg = 0.0;
+    int passes = 0;
+    uint64_t raysPerPixel = 0, photonsPerPass = 0;
+    double seconds = 0.0;
+
+    std::string markdown() const;
+    std::string csv() const;
+    std::string json() const;
+};
+
+// The measurement's set-up around a scene (the header comment): the camera body, the field's
+// window and the measuring detector; for runGlare and for tests that trace the same scenes.
+class GlareBench {
+  public:
+    // ModelError for a lens that does not image from infinity or absurd spot and field sizes.
+    GlareBench(const SceneFile& file, const GlassCatalog& catalog, const GlareSpec& spec);
+    ~GlareBench();
+    GlareBench(const GlareBench&) = delete;
+    GlareBench& operator=(const GlareBench&) = delete;
+
+    // The spot's image (centre, radius, the measuring square's side); ModelError naming the
+    // position when the spot leaves the field or does not image.
+    GlareField locate(Vec2 fieldDeg) const;
+    // The scene of one measurement: the body, the field (with the black spot at f when
+    // black) and a square detector of side sideMm centred on f's image.
+    SceneFile scene(const GlareField& f, bool black, double sideMm, int pixels) const;
+    const std::string& spectrumText() const { return spectrumText_; }
+    const std::string& unit() const { return unit_; }
+    double radiusHintMm() const { return radiusHintMm_; }  // initial photon radius
+
+  private:
+    SceneFile file_;  // with the body
+    GlareSpec spec_;
+    std::unique_ptr<RayAimer> aimer_;
+    std::unique_ptr<SpectralSampler> spectrum_;
+    std::string spectrumText_, unit_;
+    double windowZMm_ = 0.0, windowRadiusMm_ = 0.0, radiusHintMm_ = 1.0;
+};
+
+// ModelError for a spot or field that does not fit (the spot outside the bright field, a
+// field direction the lens does not image), before the first render.
+GlareResult runGlare(const SceneFile& file, const GlassCatalog& catalog, const GlareSpec& spec);
+
+// A ratio with its error from the errors of its terms (independent).
+GlareValue ratio(const GlareValue& a, const GlareValue& b);
+
+}  // namespace veil

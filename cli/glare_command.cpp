@@ -1,0 +1,118 @@
+// veil glare SCENE: the veiling glare index (ISO 9358) at field positions, its specular
+// (ghost) and diffuse (scatter) parts, with errors (analysis/glare.h, docs/glare.md).
+//
+//   veil glare examples/scenes/double_gauss_50mm_painted.toml -o out/glare
+//   veil glare scene.toml --field 0,0 --field 0,15 --spot-deg 1 --passes 16
+//
+// Writes DIR/glare.md, glare.csv, glare.json and, for two positions or more, glare.png /
+// glare.svg (VGI and its parts against the field angle). The table goes to standard output
+// (or the JSON with --json), progress to standard error.
+
+#include <cmath>
+#include <iostream>
+#include <optional>
+
+#include "analysis/chart.h"
+#include "analysis/glare.h"
+#include "cli/commands.h"
+#include "cli/options.h"
+#include "cli/progress.h"
+#include "lensdata/output_file.h"
+
+namespace veil::cli {
+
+void addGlareCommand(CLI::App& app, GlareOptions& o) {
+    CLI::App* sub = app.add_subcommand(
+        "glare", "veiling glare index (ISO 9358) at field positions: ghosts and scatter");
+    sub->add_option("scene", o.file, "scene or lens file (.toml or .zmx)")->required();
+    sub->add_option("--spot-deg", o.spotDeg, "angular diameter of the black spot")
+        ->check(CLI::Range(1e-3, 20.0))
+        ->capture_default_str();
+    sub->add_option("--field-deg", o.fieldDeg,
+                    "half angle of the bright Lambertian field about the axis")
+        ->check(CLI::Range(1.0, 89.0))
+        ->capture_default_str();
+    addFields(sub, o.fields)
+        ->description(
+            "black spot position X,Y in degrees (repeatable; default: the axis and the lens's "
+            "fields)");
+    sub->add_option("--passes", o.passes, "render passes per position and field")
+        ->check(CLI::Range(2, 100000))
+        ->capture_default_str();
+    addCount(sub, "--photons", o.photons, "photons per pass");
+    addCount(sub, "--rays-per-pixel", o.raysPerPixel, "backward rays per pixel per pass");
+    sub->add_option("--pixels", o.pixels, "pixels per side of the measuring square")
+        ->check(CLI::Range(1, 256))
+        ->capture_default_str();
+    addOutputFolder(sub, o.output, "glare");
+    addRunControls(sub, o.threads, o.seed);
+    addReportFlags(sub, o.json, o.quiet);
+}
+
+int runGlareCommand(const CommonOptions& common, const GlareOptions& o) {
+    const GlassCatalog catalog = loadCatalog(common);
+    const std::filesystem::path dir = outputFolder(o.output, "glare", o.json);
+    const SceneFile file = readScene(common, o.file, catalog);
+    GlareSpec spec;
+    for (const auto& [x, y] : parseFields(o.fields)) spec.fieldsDeg.push_back(Vec2(x, y));
+    spec.spotDiameterDeg = o.spotDeg;
+    spec.fieldHalfAngleDeg = o.fieldDeg;
+    spec.passes = o.passes;
+    spec.pixels = o.pixels;
+    spec.render.photonsPerPass = o.photons;
+    spec.render.raysPerPixel = o.raysPerPixel;
+    spec.render.seed = o.seed;
+    const auto limit = limitThreads(o.threads);
+    std::optional<ProgressReporter> reporter;
+    if (!o.quiet)
+        spec.progress = [&](size_t field, const std::string& run, int pass, int passes) {
+            if (pass == 1)
+                reporter.emplace(
+                    "glare: position " + std::to_string(field + 1) + ", " + run + " field",
+                    static_cast<uint64_t>(passes));
+            reporter->update(static_cast<uint64_t>(pass));
+            if (pass == passes) {
+                reporter->finish();
+                reporter.reset();
+            }
+        };
+    const GlareResult result = runGlare(file, catalog, spec);
+
+    WrittenFiles written;
+    if (!dir.empty()) {
+        written.beginRun(dir);
+        std::filesystem::create_directories(dir);
+        for (const auto& [name, text] :
+             {std::pair<std::string, std::string>{"glare.md", result.markdown()},
+              {"glare.csv", result.csv()},
+              {"glare.json", result.json()}}) {
+            writeTextFile(dir / name, text);
+            written.add(dir / name);
+        }
+        if (result.fields.size() >= 2) {
+            ChartSpec chart;
+            chart.title = "Veiling glare index, black spot " +
+                          std::to_string(o.spotDeg).substr(0, 4) + " deg";
+            chart.xLabel = "field angle of the black spot (deg)";
+            chart.yLabel = "VGI (%)";
+            ChartSeries total{"VGI", {}, {}, {}}, specular{"specular (ghosts)", {}, {}, {}, true},
+                diffuse{"diffuse (scatter)", {}, {}, {}, true};
+            for (const GlareField& f : result.fields) {
+                const double angle = std::hypot(f.fieldDeg.x, f.fieldDeg.y);
+                for (auto [s, v] : {std::pair{&total, f.vgi}, std::pair{&specular, f.specular},
+                                    std::pair{&diffuse, f.diffuse}}) {
+                    s->x.push_back(angle);
+                    s->y.push_back(100.0 * v.value);
+                    s->yError.push_back(100.0 * v.error);
+                }
+            }
+            chart.series = {total, specular, diffuse};
+            writePicture(drawChart(chart), dir / "glare", 1600, written);
+        }
+        written.finishRun();
+    }
+    printReport(result.json(), result.markdown(), written, o.json, o.quiet);
+    return 0;
+}
+
+}  // namespace veil::cli

@@ -1,0 +1,116 @@
+// The veiling glare index against independent truth: a lens with nothing that reflects or
+// scatters has none at all; an uncoated singlet's ghost glare (its one two-reflection ghost)
+// against a forward Monte Carlo trace of the same bright field, split by path criterion, on
+// a wider detector; the bench's geometry (the spot's image where the chief ray lands, the
+// field reaching the image only through the lens) and its errors.
+
+#include "analysis/glare.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+#include "analysis/stray_light_run.h"
+#include "lensdata/errors.h"
+#include "tracer/prepared_scene.h"
+
+namespace veil {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A singlet scene: its faces as given, its butt end and flats absorbing.
+SceneFile singlet(const std::string& name, const std::string& faces) {
+    const fs::path path = fs::path(::testing::TempDir()) / ("veil_glare_" + name + ".toml");
+    FILE* f = fopen(path.c_str(), "w");
+    EXPECT_TRUE(f);
+    fprintf(f,
+            "lens = \"%s/examples/lenses/singlet.toml\"\n"
+            "[[assign]]\nobjects = [\"L1.edge\", \"L1.flat*\"]\nproperty = \"absorber\"\n"
+            "[[assign]]\nobjects = [\"L1.front\", \"L1.back\"]\nproperty = \"%s\"\n",
+            VEIL_SOURCE_DIR, faces.c_str());
+    fclose(f);
+    return readSceneFile(path, GlassCatalog::builtIn());
+}
+
+GlareSpec quick() {
+    GlareSpec spec;
+    spec.passes = 6;
+    spec.render.photonsPerPass = 10000;
+    spec.render.raysPerPixel = 64;
+    spec.fieldsDeg = {Vec2(0.0), Vec2(0.0, 4.0)};
+    return spec;
+}
+
+TEST(Glare, PerfectLensHasNone) {
+    // Ideal AR faces and black edges: no light reaches the black spot's image but the spot's
+    // own, which it does not emit. Exactly zero, on axis and off it.
+    const GlareResult r =
+        runGlare(singlet("perfect", "ideal_ar"), GlassCatalog::builtIn(), quick());
+    ASSERT_EQ(r.fields.size(), 2u);
+    for (const GlareField& f : r.fields) {
+        EXPECT_EQ(f.black.value, 0.0) << f.fieldDeg;
+        EXPECT_EQ(f.vgi.value, 0.0) << f.fieldDeg;
+        EXPECT_GT(f.white.value, 0.0) << f.fieldDeg;
+        EXPECT_GT(f.white.error, 0.0) << f.fieldDeg;
+    }
+}
+
+TEST(Glare, UncoatedSingletGhostMatchesForwardMonteCarlo) {
+    const GlassCatalog& catalog = GlassCatalog::builtIn();
+    const SceneFile file = singlet("uncoated", "uncoated");
+    const GlareSpec spec = quick();
+    const GlareResult r = runGlare(file, catalog, spec);
+    const GlareField& axis = r.fields.at(0);
+    // Nothing scatters: all of it is specular.
+    EXPECT_EQ(axis.diffuse.value, 0.0);
+    EXPECT_GT(axis.specular.value, 0.0);
+    EXPECT_DOUBLE_EQ(axis.vgi.value, axis.specular.value);
+
+    // The same bright field (no spot: the spot's own ghost is a fraction of a percent of
+    // it) traced forward onto a 2 mm square, its flux split into the one ghost and the image;
+    // the ghost's light is smooth over millimetres, so their ratio is the ghost VGI.
+    const GlareBench bench(file, catalog, spec);
+    const std::unique_ptr<PreparedScene> p =
+        PreparedScene::build(bench.scene(bench.locate(Vec2(0.0)), false, 2.0, 4), catalog);
+    StrayLightSpec mc;
+    mc.raysPerSource = 4000000;
+    mc.transport.seed = 7;
+    mc.where = {"seq(fresnel(L1.back), fresnel(L1.front)) and fresnel{2} and detector(glare)",
+                "not fresnel and detector(glare)"};
+    const std::vector<StrayLightRow> rows = runStrayLight(*p, mc).report();
+    ASSERT_EQ(rows.size(), 4u);  // total, where1, where2, rest
+    const double ghost = rows[1].flux, image = rows[2].flux;
+    const double mcRatio = ghost / image;
+    const double mcError = mcRatio * std::hypot(rows[1].relativeError, rows[2].relativeError);
+    const double z = (axis.specular.value - mcRatio) / std::hypot(axis.specular.error, mcError);
+    std::cout << "[ VGI      ] uncoated singlet ghost: glare " << axis.specular.value << " +- "
+              << axis.specular.error << ", forward Monte Carlo " << mcRatio << " +- " << mcError
+              << " (z " << z << ")\n";
+    EXPECT_LT(std::abs(z), 4.0);
+    EXPECT_LT(mcError, 0.2 * mcRatio);  // the check has teeth
+}
+
+TEST(Glare, BenchPlacesTheSpotWhereTheChiefRayLands) {
+    const GlassCatalog& catalog = GlassCatalog::builtIn();
+    GlareSpec spec = quick();
+    const GlareBench bench(singlet("bench", "uncoated"), catalog, spec);
+    const GlareField axis = bench.locate(Vec2(0.0));
+    EXPECT_NEAR(axis.imageMm.x, 0.0, 1e-9);
+    EXPECT_NEAR(axis.imageMm.y, 0.0, 1e-9);
+    // f = 100 mm: the 0.5 deg spot's image is about 100 tan(0.25 deg) in radius.
+    EXPECT_NEAR(axis.spotImageRadiusMm, 100.0 * std::tan(0.25 * M_PI / 180.0), 0.02);
+    EXPECT_NEAR(axis.measuredSideMm, 0.5 * axis.spotImageRadiusMm, 1e-12);
+    const GlareField off = bench.locate(Vec2(0.0, 4.0));
+    EXPECT_NEAR(off.imageMm.y, 100.0 * std::tan(4.0 * M_PI / 180.0), 0.2);
+    // A spot past the bright field, and a spot the lens does not image.
+    EXPECT_THROW(bench.locate(Vec2(0.0, 79.9)), ModelError);
+    spec.spotDiameterDeg = 30.0;
+    EXPECT_THROW(GlareBench(singlet("bench2", "uncoated"), catalog, spec), ModelError);
+}
+
+}  // namespace
+}  // namespace veil
