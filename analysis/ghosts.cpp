@@ -444,6 +444,65 @@ bool GhostTracer::land(const RayState& r, int w, DetectorRay& out) const {
     return true;
 }
 
+double GhostTracer::backwardIrradiance(const GhostPath& path, Vec2 imagePointMm, int w,
+                                       const std::function<double(const Vec3&)>& radiance,
+                                       int gridSide) const {
+    // The path reversed: the same surfaces in the opposite order, each step's sides swapped.
+    std::vector<Step> st = steps(path);
+    std::reverse(st.begin(), st.end());
+    for (Step& step : st) {
+        std::swap(step.gapBefore, step.gapAfter);
+        const bool before = step.forwardBefore;
+        step.forwardBefore = !step.forwardAfter;
+        step.forwardAfter = !before;
+    }
+    const int img = model_.imageIndex();
+    const SequentialSurface& image = model_.surface(img);
+    const Vec3 x = image.toGlobalPoint(Vec3(imagePointMm.x, imagePointMm.y, 0.0));
+    const Vec3 imageNormal = image.toGlobalDirection(Vec3(0.0, 0.0, 1.0));
+    // The grid: a disk on the vertex plane of the last surface before the image, as wide as
+    // what the surface lets through.
+    const int last = img - 1;
+    const SequentialSurface& ls = model_.surface(last);
+    const Surface& lp = model_.prescription().surfaces[static_cast<size_t>(last)];
+    double radius = clipRadius_[last];
+    if (!std::isfinite(radius))
+        radius = std::max(lp.mechSemiDiameterMm, lp.clearSemiDiameterMm) * 1.5;
+    if (!(radius > 0.0)) return 0.0;
+    const Vec3 planeNormal = ls.toGlobalDirection(Vec3(0.0, 0.0, 1.0));
+    const double h = 2.0 / gridSide;
+    const double cellArea = (h * radius) * (h * radius);
+    double sum = 0.0;
+    uint64_t count = 0;
+    for (int iy = 0; iy < gridSide; ++iy)
+        for (int ix = 0; ix < gridSide; ++ix) {
+            const double a = -1.0 + (ix + 0.5) * h, b = -1.0 + (iy + 0.5) * h;
+            if (a * a + b * b > 1.0) continue;
+            const Vec3 target = ls.toGlobalPoint(Vec3(a * radius, b * radius, 0.0));
+            const Vec3 d = target - x;
+            const double dist = glm::length(d);
+            if (!(dist > 0.0)) continue;
+            RayState r;
+            r.pos = x;
+            r.dir = d / dist;
+            r.flux = 1.0;
+            r.at = img;
+            // Projected solid angle at the point of this cell of the plane.
+            const double weight = cellArea * std::abs(glm::dot(r.dir, planeNormal)) *
+                                  std::abs(glm::dot(r.dir, imageNormal)) / (dist * dist);
+            bool alive = true;
+            for (const Step& step : st) {
+                ++count;
+                if (!(alive = advance(r, step, w))) break;
+            }
+            if (!alive) continue;
+            const double l = radiance(-r.dir);
+            if (l > 0.0) sum += weight * r.flux * l;
+        }
+    steps_ += count;
+    return sum;
+}
+
 std::vector<std::pair<Ray, int>> GhostTracer::gridRays(int source) const {
     std::vector<std::pair<Ray, int>> out;
     for (int w = 0; w < model_.wavelengthCount(); ++w)

@@ -50,6 +50,7 @@
 // Ranking: by the peak irradiance over all sources, brightest first.
 
 #include <atomic>
+#include <functional>
 #include <optional>
 #include <ostream>
 #include <string>
@@ -183,6 +184,16 @@ class GhostTracer {
     };
     std::vector<DetectorRay> traceGrid(const GhostPath& path, int source, int wavelength,
                                        int* traced = nullptr) const;
+    // The light a path brings to one point of the image from an extended source, walked
+    // backward (reciprocity): rays from the point (image surface local x, y) on a grid of
+    // gridSide^2 over the last surface's aperture, through the path's steps in reverse, each
+    // weighted by its projected solid angle at the point and by the same channels as forward;
+    // `radiance` gives the source's radiance (per unit) along a light direction leaving object
+    // space toward the lens (global, unit; 0 where nothing shines). The result is the
+    // irradiance at the point (radiance unit times sr) at model wavelength w.
+    double backwardIrradiance(const GhostPath& path, Vec2 imagePointMm, int w,
+                              const std::function<double(const Vec3&)>& radiance,
+                              int gridSide = 256) const;
     // The grid rays of one source as launched (ray, model wavelength index), for baselines.
     std::vector<std::pair<Ray, int>> gridRays(int source) const;
     // The paraxial focus relative to the detector (see GhostSourceResult::focusMm) and the

@@ -54,6 +54,12 @@ struct GlareValue {
     double value = 0.0, error = 0.0;  // 1 sigma
 };
 
+// One ghost's share of the VGI as the ghost analysis predicts it.
+struct GlareGhost {
+    std::string label;  // "L1.back > L1.front"
+    double vgi = 0.0;
+};
+
 struct GlareField {
     Vec2 fieldDeg{0.0};
     Vec2 imageMm{0.0};  // the spot's image centre (real chief ray)
@@ -63,6 +69,13 @@ struct GlareField {
     GlareValue black, blackSpecular, blackDiffuse, white;
     // Their ratios to white.
     GlareValue vgi, specular, diffuse;
+    // The specular part predicted by the ghost analysis (analysis/ghosts.h): every
+    // two-reflection ghost walked backward from the spot's image centre through its path,
+    // sequentially (GhostTracer::backwardIrradiance), over the rendered white irradiance;
+    // and the image's irradiance it predicts for the bright field (the nominal path), over
+    // the rendered one. Brightest ghosts first.
+    double ghostPrediction = 0.0, imagePrediction = 0.0;
+    std::vector<GlareGhost> ghosts;
 };
 
 struct GlareResult {
@@ -95,6 +108,10 @@ class GlareBench {
     // The scene of one measurement: the body, the field (with the black spot at f when
     // black) and a square detector of side sideMm centred on f's image.
     SceneFile scene(const GlareField& f, bool black, double sideMm, int pixels) const;
+    // The ghost analysis's irradiances at f's spot image centre (radiance 1 outside the
+    // spot): the black field's through every two-reflection ghost, and the bright field's
+    // through the nominal path. Fills f.ghosts (their irradiances, to be divided by white).
+    std::pair<double, double> ghostIrradiance(GlareField& f, const GlassCatalog& catalog) const;
     const std::string& spectrumText() const { return spectrumText_; }
     const std::string& unit() const { return unit_; }
     double radiusHintMm() const { return radiusHintMm_; }  // initial photon radius

@@ -1,7 +1,8 @@
 // The veiling glare index against independent truth: a lens with nothing that reflects or
 // scatters has none at all; an uncoated singlet's ghost glare (its one two-reflection ghost)
 // against a forward Monte Carlo trace of the same bright field, split by path criterion, on
-// a wider detector; the bench's geometry (the spot's image where the chief ray lands, the
+// a wider detector, and against the sequential ghost analysis walked backward from the
+// spot's image; the bench's geometry (the spot's image where the chief ray lands, the
 // field reaching the image only through the lens) and its errors.
 
 #include "analysis/glare.h"
@@ -56,6 +57,7 @@ TEST(Glare, PerfectLensHasNone) {
         EXPECT_EQ(f.vgi.value, 0.0) << f.fieldDeg;
         EXPECT_GT(f.white.value, 0.0) << f.fieldDeg;
         EXPECT_GT(f.white.error, 0.0) << f.fieldDeg;
+        EXPECT_EQ(f.ghostPrediction, 0.0) << f.fieldDeg;  // ideal AR: no ghost at all
     }
 }
 
@@ -92,6 +94,22 @@ TEST(Glare, UncoatedSingletGhostMatchesForwardMonteCarlo) {
               << " (z " << z << ")\n";
     EXPECT_LT(std::abs(z), 4.0);
     EXPECT_LT(mcError, 0.2 * mcRatio);  // the check has teeth
+
+    // The ghost analysis: the one ghost walked backward sequentially from the spot's image
+    // centre predicts the render's specular part (within its error and the backward grid's
+    // quadrature, 1 %), and the image through the nominal path the bright field's
+    // irradiance less the ghost light in it.
+    for (const GlareField& f : r.fields) {
+        ASSERT_EQ(f.ghosts.size(), 1u);
+        EXPECT_EQ(f.ghosts[0].label, "L1.back > L1.front");
+        std::cout << "[ VGI      ] field " << f.fieldDeg << ": render " << f.specular.value
+                  << " +- " << f.specular.error << ", ghost analysis " << f.ghostPrediction
+                  << ", image " << f.imagePrediction << "\n";
+        EXPECT_NEAR(f.ghostPrediction, f.specular.value,
+                    4.0 * f.specular.error + 0.01 * f.specular.value);
+        EXPECT_NEAR(f.imagePrediction, 1.0 - f.specular.value,
+                    4.0 * f.white.error / f.white.value + 0.01);
+    }
 }
 
 TEST(Glare, BenchPlacesTheSpotWhereTheChiefRayLands) {
