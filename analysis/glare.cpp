@@ -11,6 +11,7 @@
 #include <numbers>
 #include <sstream>
 
+#include "analysis/first_order.h"
 #include "analysis/ghosts.h"
 #include "analysis/render_run.h"
 #include "geometry/exact_face.h"
@@ -291,29 +292,66 @@ std::pair<double, double> GlareBench::ghostIrradiance(GlareField& f,
     return {ghosts, irradiance(tracer.nominalPath(), false)};
 }
 
+namespace {
+
+// The lens stopped down to image-space F/# n: the stop's semi-diameter scaled by the paraxial
+// F/# it has over n, the model rebuilt. ModelError for a scene without a stop plate or an
+// F/# faster than the lens's.
+SceneFile stoppedDown(const SceneFile& file, const GlassCatalog& catalog, double n, double own) {
+    const std::string name = "--f-number " + fmt(n);
+    if (!(n > 0.0) || !std::isfinite(n)) throw ModelError(name, "the F-number must be > 0");
+    if (!file.mechanics || !file.mechanics->stop.enabled)
+        throw ModelError(name, "the scene has no stop plate ([mechanics] stop) to stop down");
+    if (n < own * (1.0 - 1e-9))
+        throw ModelError(name, "faster than the lens's own f/" + fmt(own) +
+                                   ": glare stops a lens down, it cannot open it up");
+    SceneFile s = file;
+    Surface& stop = s.prescription.surfaces[static_cast<size_t>(s.prescription.stopIndex())];
+    if (!(stop.clearSemiDiameterMm > 0.0))
+        throw ModelError(name, "the stop has no semi-diameter to scale");
+    stop.clearSemiDiameterMm *= own / n;
+    s.model =
+        std::make_shared<const SequentialModel>(SequentialModel::build(s.prescription, catalog));
+    return s;
+}
+
+}  // namespace
+
 GlareResult runGlare(const SceneFile& file, const GlassCatalog& catalog, const GlareSpec& spec) {
     const auto start = std::chrono::steady_clock::now();
-    const GlareBench bench(file, catalog, spec);
-    GlareResult result;
-    result.spotDiameterDeg = spec.spotDiameterDeg;
-    result.fieldHalfAngleDeg = spec.fieldHalfAngleDeg;
-    result.passes = spec.passes;
-    result.raysPerPixel = spec.render.raysPerPixel;
-    result.photonsPerPass = spec.render.photonsPerPass;
-    result.spectrum = bench.spectrumText();
-    result.unit = bench.unit();
-
+    const double own =
+        computeFirstOrder(*file.model, file.model->primaryWavelength()).imageSpaceFNumber;
+    // Every aperture and position is checked before the first render.
+    std::vector<std::pair<double, SceneFile>> apertures;
+    if (spec.fNumbers.empty()) apertures.push_back({own, file});
+    for (double n : spec.fNumbers) apertures.push_back({n, stoppedDown(file, catalog, n, own)});
     std::vector<Vec2> fields = spec.fieldsDeg;
     if (fields.empty()) {
         fields.push_back(Vec2(0.0));
         for (const Field& f : file.prescription.system.fields)
             if (f.x != 0.0 || f.y != 0.0) fields.push_back(Vec2(f.x, f.y));
     }
-    // Every position is checked before the first render.
+    std::vector<std::unique_ptr<GlareBench>> benches;
     std::vector<GlareField> located;
-    for (const Vec2& f : fields) located.push_back(bench.locate(f));
+    for (size_t a = 0; a < apertures.size(); ++a) {
+        benches.push_back(std::make_unique<GlareBench>(apertures[a].second, catalog, spec));
+        for (const Vec2& f : fields) {
+            located.push_back(benches.back()->locate(f));
+            located.back().fNumber = apertures[a].first;
+        }
+    }
+
+    GlareResult result;
+    result.spotDiameterDeg = spec.spotDiameterDeg;
+    result.fieldHalfAngleDeg = spec.fieldHalfAngleDeg;
+    result.passes = spec.passes;
+    result.raysPerPixel = spec.render.raysPerPixel;
+    result.photonsPerPass = spec.render.photonsPerPass;
+    result.spectrum = benches.front()->spectrumText();
+    result.unit = benches.front()->unit();
 
     for (size_t fi = 0; fi < located.size(); ++fi) {
+        const GlareBench& bench = *benches[fi / fields.size()];
         GlareField gf = located[fi];
         auto render = [&](bool black) {
             const std::unique_ptr<PreparedScene> p = PreparedScene::build(
@@ -380,12 +418,13 @@ std::string GlareResult::markdown() const {
        << fmt(fieldHalfAngleDeg) << " deg from the axis; " << spectrum << ". " << passes
        << " render passes of " << raysPerPixel << " rays per pixel and " << photonsPerPass
        << " photons; errors 1 sigma.\n\n";
-    os << "| field (deg) | image (mm) | VGI | specular (ghosts) | diffuse (scatter) | ghost "
-          "analysis |\n|---|---|---:|---:|---:|---:|\n";
+    os << "| f/# | field (deg) | image (mm) | VGI | specular (ghosts) | diffuse (scatter) | "
+          "ghost analysis |\n|---:|---|---|---:|---:|---:|---:|\n";
     for (const GlareField& f : fields)
-        os << "| " << fmt(f.fieldDeg.x) << ", " << fmt(f.fieldDeg.y) << " | " << fmt(f.imageMm.x, 5)
-           << ", " << fmt(f.imageMm.y, 5) << " | " << percent(f.vgi) << " | " << percent(f.specular)
-           << " | " << percent(f.diffuse) << " | " << fmt(100.0 * f.ghostPrediction) << " % |\n";
+        os << "| " << fmt(f.fNumber, 3) << " | " << fmt(f.fieldDeg.x) << ", " << fmt(f.fieldDeg.y)
+           << " | " << fmt(f.imageMm.x, 5) << ", " << fmt(f.imageMm.y, 5) << " | " << percent(f.vgi)
+           << " | " << percent(f.specular) << " | " << percent(f.diffuse) << " | "
+           << fmt(100.0 * f.ghostPrediction) << " % |\n";
     os << "\nGhost analysis: the specular part as the sequential ghost analysis predicts it "
           "(every two-reflection ghost walked backward from the spot's image centre; it "
           "ignores the mechanics and higher-order ghosts, which the render includes).";
@@ -404,13 +443,14 @@ std::string GlareResult::markdown() const {
 std::string GlareResult::csv() const {
     std::ostringstream os;
     os << std::setprecision(9);
-    os << "field_x_deg,field_y_deg,image_x_mm,image_y_mm,spot_image_radius_mm,vgi,vgi_error,"
+    os << "f_number,field_x_deg,field_y_deg,image_x_mm,image_y_mm,spot_image_radius_mm,vgi,vgi_"
+          "error,"
           "specular,specular_error,diffuse,diffuse_error,ghost_prediction,black_"
        << unit << "_mm2,black_error,white_" << unit << "_mm2,white_error\n";
     for (const GlareField& f : fields)
-        os << f.fieldDeg.x << "," << f.fieldDeg.y << "," << f.imageMm.x << "," << f.imageMm.y << ","
-           << f.spotImageRadiusMm << "," << f.vgi.value << "," << f.vgi.error << ","
-           << f.specular.value << "," << f.specular.error << "," << f.diffuse.value << ","
+        os << f.fNumber << "," << f.fieldDeg.x << "," << f.fieldDeg.y << "," << f.imageMm.x << ","
+           << f.imageMm.y << "," << f.spotImageRadiusMm << "," << f.vgi.value << "," << f.vgi.error
+           << "," << f.specular.value << "," << f.specular.error << "," << f.diffuse.value << ","
            << f.diffuse.error << "," << f.ghostPrediction << "," << f.black.value << ","
            << f.black.error << "," << f.white.value << "," << f.white.error << "\n";
     return os.str();
@@ -428,7 +468,8 @@ std::string GlareResult::json() const {
     j["seconds"] = seconds;
     j["fields"] = nlohmann::json::array();
     for (const GlareField& f : fields)
-        j["fields"].push_back({{"field_deg", {f.fieldDeg.x, f.fieldDeg.y}},
+        j["fields"].push_back({{"f_number", f.fNumber},
+                               {"field_deg", {f.fieldDeg.x, f.fieldDeg.y}},
                                {"image_mm", {f.imageMm.x, f.imageMm.y}},
                                {"spot_image_radius_mm", f.spotImageRadiusMm},
                                {"measured_side_mm", f.measuredSideMm},

@@ -43,10 +43,15 @@ struct GlareSpec {
     std::vector<Vec2> fieldsDeg;      // spot positions; empty: the axis and the lens's fields
     double spotDiameterDeg = 0.5;     // angular diameter of the black spot
     double fieldHalfAngleDeg = 80.0;  // the bright field: a cone about the axis
+    // Apertures: the stop stopped down (its semi-diameter scaled) to these image-space
+    // F-numbers, each measured at every position; empty: the lens as given. Needs a stop plate
+    // ([mechanics] stop) and F-numbers no faster than the lens's own.
+    std::vector<double> fNumbers;
     int passes = 8;
     int pixels = 8;        // of the measuring detector, per side
     RenderOptions render;  // raysPerPixel, photonsPerPass, seed, ...; splitBackward is set
-    // Called after every pass: field index, "black" or "white", pass, passes.
+    // Called after every pass: measurement index (aperture-major), "black" or "white", pass,
+    // passes.
     std::function<void(size_t field, const std::string& run, int pass, int passes)> progress;
 };
 
@@ -61,6 +66,7 @@ struct GlareGhost {
 };
 
 struct GlareField {
+    double fNumber = 0.0;  // image-space F/# of the measurement (paraxial)
     Vec2 fieldDeg{0.0};
     Vec2 imageMm{0.0};  // the spot's image centre (real chief ray)
     double spotImageRadiusMm = 0.0;

@@ -199,6 +199,7 @@ struct GlareOptions {
     double spotDeg = 0.5;
     double fieldDeg = 80.0;
     std::vector<std::string> fields;
+    std::vector<double> fNumbers;
     int passes = 8;
     uint64_t photons = 100000;
     uint64_t raysPerPixel = 64;

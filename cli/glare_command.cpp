@@ -8,9 +8,12 @@
 // glare.svg (VGI and its parts against the field angle). The table goes to standard output
 // (or the JSON with --json), progress to standard error.
 
+#include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <iostream>
 #include <optional>
+#include <sstream>
 
 #include "analysis/chart.h"
 #include "analysis/glare.h"
@@ -36,6 +39,10 @@ void addGlareCommand(CLI::App& app, GlareOptions& o) {
         ->description(
             "black spot position X,Y in degrees (repeatable; default: the axis and the lens's "
             "fields)");
+    sub->add_option("--f-number", o.fNumbers,
+                    "stop the lens down to this image-space F-number (repeatable; needs a "
+                    "[mechanics] stop; default: the lens as given)")
+        ->check(CLI::Range(0.1, 1000.0));
     sub->add_option("--passes", o.passes, "render passes per position and field")
         ->check(CLI::Range(2, 100000))
         ->capture_default_str();
@@ -57,6 +64,7 @@ int runGlareCommand(const CommonOptions& common, const GlareOptions& o) {
     for (const auto& [x, y] : parseFields(o.fields)) spec.fieldsDeg.push_back(Vec2(x, y));
     spec.spotDiameterDeg = o.spotDeg;
     spec.fieldHalfAngleDeg = o.fieldDeg;
+    spec.fNumbers = o.fNumbers;
     spec.passes = o.passes;
     spec.pixels = o.pixels;
     spec.render.photonsPerPass = o.photons;
@@ -95,18 +103,36 @@ int runGlareCommand(const CommonOptions& common, const GlareOptions& o) {
                           std::to_string(o.spotDeg).substr(0, 4) + " deg";
             chart.xLabel = "field angle of the black spot (deg)";
             chart.yLabel = "VGI (%)";
-            ChartSeries total{"VGI", {}, {}, {}}, specular{"specular (ghosts)", {}, {}, {}, true},
-                diffuse{"diffuse (scatter)", {}, {}, {}, true};
-            for (const GlareField& f : result.fields) {
-                const double angle = std::hypot(f.fieldDeg.x, f.fieldDeg.y);
-                for (auto [s, v] : {std::pair{&total, f.vgi}, std::pair{&specular, f.specular},
-                                    std::pair{&diffuse, f.diffuse}}) {
-                    s->x.push_back(angle);
-                    s->y.push_back(100.0 * v.value);
-                    s->yError.push_back(100.0 * v.error);
+            std::vector<double> apertures;
+            for (const GlareField& f : result.fields)
+                if (std::find(apertures.begin(), apertures.end(), f.fNumber) == apertures.end())
+                    apertures.push_back(f.fNumber);
+            auto fnum = [](double n) {
+                std::ostringstream os;
+                os << "f/" << std::setprecision(3) << n;
+                return os.str();
+            };
+            for (double n : apertures) {
+                const std::string tag = apertures.size() > 1 ? " " + fnum(n) : "";
+                ChartSeries total{"VGI" + tag, {}, {}, {}},
+                    specular{"specular (ghosts)" + tag, {}, {}, {}, true},
+                    diffuse{"diffuse (scatter)" + tag, {}, {}, {}, true};
+                for (const GlareField& f : result.fields) {
+                    if (f.fNumber != n) continue;
+                    const double angle = std::hypot(f.fieldDeg.x, f.fieldDeg.y);
+                    for (auto [s, v] : {std::pair{&total, f.vgi}, std::pair{&specular, f.specular},
+                                        std::pair{&diffuse, f.diffuse}}) {
+                        s->x.push_back(angle);
+                        s->y.push_back(100.0 * v.value);
+                        s->yError.push_back(100.0 * v.error);
+                    }
+                }
+                chart.series.push_back(total);
+                if (apertures.size() == 1) {
+                    chart.series.push_back(specular);
+                    chart.series.push_back(diffuse);
                 }
             }
-            chart.series = {total, specular, diffuse};
             writePicture(drawChart(chart), dir / "glare", 1600, written);
         }
         written.finishRun();

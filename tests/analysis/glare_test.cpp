@@ -130,5 +130,31 @@ TEST(Glare, BenchPlacesTheSpotWhereTheChiefRayLands) {
     EXPECT_THROW(GlareBench(singlet("bench2", "uncoated"), catalog, spec), ModelError);
 }
 
+// Apertures: stopping the double Gauss down from f/2 to f/4 quarters the bright field's
+// image irradiance on axis (the stop's area); a scene without a stop plate, or an F-number
+// faster than the lens's, is refused before anything is rendered.
+TEST(Glare, StoppingDownScalesTheImageIrradiance) {
+    const GlassCatalog& catalog = GlassCatalog::builtIn();
+    const SceneFile dg = readSceneFile(
+        VEIL_SOURCE_DIR "/examples/scenes/double_gauss_50mm_painted.toml", catalog);
+    GlareSpec spec;
+    spec.passes = 3;
+    spec.render.photonsPerPass = 10000;
+    spec.render.raysPerPixel = 32;
+    spec.fieldsDeg = {Vec2(0.0)};
+    spec.fNumbers = {2.0, 4.0};
+    const GlareResult r = runGlare(dg, catalog, spec);
+    ASSERT_EQ(r.fields.size(), 2u);
+    EXPECT_EQ(r.fields[0].fNumber, 2.0);
+    EXPECT_EQ(r.fields[1].fNumber, 4.0);
+    const GlareValue q = ratio(r.fields[1].white, r.fields[0].white);
+    std::cout << "[ VGI      ] white f/4 over f/2: " << q.value << " +- " << q.error << "\n";
+    EXPECT_NEAR(q.value, 0.25, 4.0 * q.error + 0.005);
+    spec.fNumbers = {1.4};
+    EXPECT_THROW(runGlare(dg, catalog, spec), ModelError);
+    spec.fNumbers = {8.0};
+    EXPECT_THROW(runGlare(singlet("nostop", "uncoated"), catalog, spec), ModelError);
+}
+
 }  // namespace
 }  // namespace veil
