@@ -482,6 +482,23 @@ std::optional<double> parseNumber(std::string_view text) {
     return v;
 }
 
+// A string value as written: a value in TOML quotes ("x" or 'x', as a TOML user types it)
+// is the text inside them (\" and \\ unescaped in double quotes); anything else is itself.
+std::string unquoted(std::string_view text) {
+    if (text.size() >= 2 && text.front() == '\'' && text.back() == '\'')
+        return std::string(text.substr(1, text.size() - 2));
+    if (text.size() >= 2 && text.front() == '"' && text.back() == '"') {
+        std::string out;
+        for (size_t i = 1; i + 1 < text.size(); ++i) {
+            if (text[i] == '\\' && i + 2 < text.size() && (text[i + 1] == '"' || text[i + 1] == '\\'))
+                ++i;
+            out += text[i];
+        }
+        return out;
+    }
+    return std::string(text);
+}
+
 // The value `text` stands for where `old` stood (nullptr: a new key).
 template <class Fail>
 void assignValue(const toml::node* old, std::string_view text, const std::string& path, Fail fail,
@@ -497,7 +514,7 @@ void assignValue(const toml::node* old, std::string_view text, const std::string
         else if (isBool)
             put(toml::value<bool>(text == "true"));
         else
-            put(toml::value<std::string>(std::string(text)));
+            put(toml::value<std::string>(unquoted(text)));
         return;
     }
     if (old->is_table() || old->is_array())
@@ -514,7 +531,7 @@ void assignValue(const toml::node* old, std::string_view text, const std::string
         if (!isBool) fail(path + " is true or false in the file, not '" + std::string(text) + "'");
         put(toml::value<bool>(text == "true"));
     } else if (old->is_string()) {
-        put(toml::value<std::string>(std::string(text)));
+        put(toml::value<std::string>(unquoted(text)));
     } else {
         fail(path + " is " + withArticle(typeNameOf(*old)) + ", which cannot be varied");
     }

@@ -211,6 +211,19 @@ def test_scatter_reports_library_materials_and_follows_edits():
     assert by_name["flat_black_paint_2pct"]["reflect_tis"][3][0] == pytest.approx(0.02, abs=1e-12)
 
 
+def test_glare_of_a_singlet_follows_its_coating():
+    """An uncoated singlet has ghost glare; with ideal antireflection faces and black edges
+    it has none at all."""
+    quick = dict(field=["0,0"], passes=3, photons="5k", rays_per_pixel=16)
+    bare = veil.Scene(SINGLET).glare(**quick).report["fields"][0]
+    assert 0 < bare["specular"]["value"] < 0.01
+    perfect = (veil.Scene(SINGLET)
+               .set("system.surfaces[1].coating", "ideal_ar")
+               .set("system.surfaces[2].coating", "ideal_ar"))
+    report = perfect.glare(**quick).report["fields"][0]
+    assert report["specular"]["value"] == 0.0
+
+
 def test_a_scene_reads_its_files_once(tmp_path):
     """Scene holds the texts of its scene and lens files: a change on disk (or the files'
     removal) is not seen until reload()."""

@@ -271,6 +271,10 @@ class Scene:
         """The parts the sources light and the detector sees, ranked (``veil objects``)."""
         return self.command("objects", **options)
 
+    def glare(self, **options):
+        """Veiling glare index (ISO 9358) per position: ghosts and scatter (``veil glare``)."""
+        return self.command("glare", **options)
+
     def scatter(self, **options):
         """The scatter models: TIS against incidence, BRDF plots (``veil scatter``)."""
         return self.command("scatter", **options)

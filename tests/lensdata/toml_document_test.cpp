@@ -371,6 +371,22 @@ TEST(TomlDocument, SetReplacesValuesByPathKeepingTheirType) {
     EXPECT_THAT(e.what(), HasSubstr("--vary a: properties.black.reflectance must be"));
 }
 
+// A string given in TOML quotes, as a TOML user writes it, is the text inside them.
+TEST(TomlDocument, SetTakesQuotedStringsAsTheirText) {
+    TomlDocument doc = TomlDocument::fromString(kEditable, "scene.toml");
+    doc.set("system.surfaces[1].coating", "\"ideal_ar\"", "--set a");
+    doc.set("system.surfaces[2].coating", "'mgf2'", "--set b");
+    doc.set("properties.black.note", "\"say \\\"hi\\\"\"", "--set c");  // a new key
+    doc.set("properties.black.label", "\"", "--set d");                 // one quote is no quoting
+    const TomlTable root = doc.root();
+    const auto surfaces = root.require("system").asTable().require("surfaces").asArray();
+    EXPECT_EQ(surfaces[0].asTable().string("coating"), "ideal_ar");
+    EXPECT_EQ(surfaces[1].asTable().string("coating"), "mgf2");
+    const TomlTable black = root.require("properties").asTable().require("black").asTable();
+    EXPECT_EQ(black.string("note"), "say \"hi\"");
+    EXPECT_EQ(black.string("label"), "\"");
+}
+
 TEST(TomlDocument, SetRejectsPathsThatNameNothingAndValuesThatDoNotFit) {
     TomlDocument doc = TomlDocument::fromString(kEditable, "scene.toml");
     auto error = [&](const char* key, const char* value) {
