@@ -190,6 +190,14 @@ GlareBench::GlareBench(const SceneFile& file, const GlassCatalog& catalog, const
     }
     file_.mechanics->parts.push_back(body);
     radiusHintMm_ = 0.01 * std::max(1.0, 2.0 * extent.radiusMm);
+
+    SceneFile lens = file_;
+    const Beam beam = beamFillingAperture(entrance, Vec3(0.0, 0.0, 1.0), {});
+    lens.sources = {Source("axis", CollimatedSource{beam}, beam.areaMm2(), *spectrum_)};
+    lens.detectors.clear();
+    ghostScene_ = PreparedScene::build(std::move(lens), catalog);
+    ghostTracer_ =
+        std::make_unique<GhostTracer>(ghostScene_->setup(), ghostScene_->trace(), catalog);
 }
 
 GlareBench::~GlareBench() = default;
@@ -243,16 +251,8 @@ SceneFile GlareBench::scene(const GlareField& f, bool black, double sideMm, int 
     return s;
 }
 
-std::pair<double, double> GlareBench::ghostIrradiance(GlareField& f,
-                                                      const GlassCatalog& catalog) const {
-    // The ghost tracer needs a beam to be built; the irradiances do not use it.
-    SceneFile s = file_;
-    const EntranceAperture entrance = entranceAperture(s.prescription, *s.model);
-    const Beam beam = beamFillingAperture(entrance, Vec3(0.0, 0.0, 1.0), {});
-    s.sources = {Source("axis", CollimatedSource{beam}, beam.areaMm2(), *spectrum_)};
-    s.detectors.clear();
-    const std::unique_ptr<PreparedScene> p = PreparedScene::build(std::move(s), catalog);
-    const GhostTracer tracer(p->setup(), p->trace(), catalog);
+std::pair<double, double> GlareBench::ghostIrradiance(GlareField& f) const {
+    const GhostTracer& tracer = *ghostTracer_;
     const double cosField = std::cos(spec_.fieldHalfAngleDeg * kDeg);
     AreaEmitter spot;
     spot.blackSpotAxis = fieldDirection(f.fieldDeg.x, f.fieldDeg.y);
@@ -266,13 +266,11 @@ std::pair<double, double> GlareBench::ghostIrradiance(GlareField& f,
     // The lens's lines as the field's spectrum shares them (its radiance splits so).
     auto irradiance = [&](const GhostPath& path, bool black) {
         double e = 0.0;
+        // Line i of the field's spectrum is the model's wavelength i (fieldSpectrum).
         for (int i = 0; i < spectrum_->size(); ++i) {
             const double share = spectrum_->share(i);
-            if (!(share > 0.0)) continue;
-            int w = 0;
-            for (int k = 0; k < p->model().wavelengthCount(); ++k)
-                if (std::abs(p->model().wavelengthNm(k) - spectrum_->lines()[i].nm) < 1e-9) w = k;
-            e += share * tracer.backwardIrradiance(path, f.imageMm, w, field(black), 192);
+            if (share > 0.0)
+                e += share * tracer.backwardIrradiance(path, f.imageMm, i, field(black), 192);
         }
         return e;
     };
@@ -353,9 +351,13 @@ GlareResult runGlare(const SceneFile& file, const GlassCatalog& catalog, const G
     for (size_t fi = 0; fi < located.size(); ++fi) {
         const GlareBench& bench = *benches[fi / fields.size()];
         GlareField gf = located[fi];
+        // One geometry per position: the white field replaces the black one's transport.
+        const std::unique_ptr<PreparedScene> p =
+            PreparedScene::build(bench.scene(gf, true, gf.measuredSideMm, spec.pixels), catalog);
         auto render = [&](bool black) {
-            const std::unique_ptr<PreparedScene> p = PreparedScene::build(
-                bench.scene(gf, black, gf.measuredSideMm, spec.pixels), catalog);
+            if (!black)
+                p->replaceTransport(bench.scene(gf, false, gf.measuredSideMm, spec.pixels),
+                                    catalog);
             RenderRunSpec run;
             run.options = spec.render;
             run.options.splitBackward = true;
@@ -381,7 +383,7 @@ GlareResult runGlare(const SceneFile& file, const GlassCatalog& catalog, const G
         };
         render(true);
         render(false);
-        const auto [ghosts, image] = bench.ghostIrradiance(gf, catalog);
+        const auto [ghosts, image] = bench.ghostIrradiance(gf);
         if (gf.white.value > 0.0) {
             gf.ghostPrediction = ghosts / gf.white.value;
             gf.imagePrediction = image / gf.white.value;

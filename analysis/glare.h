@@ -39,6 +39,9 @@
 
 namespace veil {
 
+class GhostTracer;    // analysis/ghosts.h
+class PreparedScene;  // tracer/prepared_scene.h
+
 struct GlareSpec {
     std::vector<Vec2> fieldsDeg;      // spot positions; empty: the axis and the lens's fields
     double spotDiameterDeg = 0.5;     // angular diameter of the black spot
@@ -117,7 +120,7 @@ class GlareBench {
     // The ghost analysis's irradiances at f's spot image centre (radiance 1 outside the
     // spot): the black field's through every two-reflection ghost, and the bright field's
     // through the nominal path. Fills f.ghosts (their irradiances, to be divided by white).
-    std::pair<double, double> ghostIrradiance(GlareField& f, const GlassCatalog& catalog) const;
+    std::pair<double, double> ghostIrradiance(GlareField& f) const;
     const std::string& spectrumText() const { return spectrumText_; }
     const std::string& unit() const { return unit_; }
     double radiusHintMm() const { return radiusHintMm_; }  // initial photon radius
@@ -129,6 +132,10 @@ class GlareBench {
     std::unique_ptr<SpectralSampler> spectrum_;
     std::string spectrumText_, unit_;
     double windowZMm_ = 0.0, windowRadiusMm_ = 0.0, radiusHintMm_ = 1.0;
+    // The lens for the ghost analysis (built once; the tracer needs a beam, which the
+    // irradiances do not use).
+    std::unique_ptr<PreparedScene> ghostScene_;
+    std::unique_ptr<GhostTracer> ghostTracer_;
 };
 
 // ModelError for a spot or field that does not fit (the spot outside the bright field, a

@@ -10,6 +10,7 @@
 #include "analysis/chart.h"
 #include "lensdata/errors.h"
 #include "tracer/interaction.h"
+#include "tracer/scatter_tabulation.h"
 
 namespace veil {
 
@@ -22,20 +23,6 @@ std::string fmt(double v, int precision = 4) {
     std::ostringstream os;
     os << std::setprecision(precision) << v;
     return os.str();
-}
-
-// Light from index n1 at incidenceDeg onto a surface with normal +z, in the x-z plane.
-SurfaceContext contextAt(double incidenceDeg, double wavelengthNm, double n1, double n2,
-                         bool opaque) {
-    SurfaceContext c;
-    c.normal = Vec3(0.0, 0.0, 1.0);
-    const double i = incidenceDeg * kDeg;
-    c.direction = Vec3(std::sin(i), 0.0, -std::cos(i));
-    c.n1 = n1;
-    c.n2 = n2;
-    c.wavelengthNm = wavelengthNm;
-    c.opaque = opaque;
-    return c;
 }
 
 bool hasTransmission(const ScatterModel& m) {
@@ -131,10 +118,11 @@ ScatterReport scatterReport(const PropertyTable& table, const Scene& scene,
             for (size_t w = 0; w < report.wavelengthsNm.size(); ++w) {
                 const double nm = report.wavelengthsNm[w];
                 rr.push_back(
-                    prop.channels(contextAt(incidence, nm, 1.0, 1.0, true)).scatterReflect);
+                    prop.channels(incidenceContext(incidence, nm, 1.0, 1.0, true)).scatterReflect);
                 if (transmits)
-                    tt.push_back(prop.channels(contextAt(incidence, nm, 1.0, index[w], false))
-                                     .scatterTransmit);
+                    tt.push_back(
+                        prop.channels(incidenceContext(incidence, nm, 1.0, index[w], false))
+                            .scatterTransmit);
             }
             r.reflectTis.push_back(rr);
             if (transmits) r.transmitTis.push_back(tt);
@@ -273,7 +261,7 @@ Picture drawBrdfComparison(const std::vector<const OpticalProperty*>& properties
     spec.xLabel = "scatter angle from the normal (deg; positive on the specular side)";
     spec.yLabel = "BRDF (1/sr)";
     spec.logY = true;
-    const SurfaceContext c = contextAt(incidenceDeg, wavelengthNm, 1.0, 1.0, true);
+    const SurfaceContext c = incidenceContext(incidenceDeg, wavelengthNm, 1.0, 1.0, true);
     for (const OpticalProperty* p : properties) {
         ChartSeries s;
         s.label = p->name();
@@ -300,7 +288,7 @@ Picture drawBsdfChart(const OpticalProperty& property, bool transmit, double wav
     spec.logY = true;
     for (double incidence : incidencesDeg) {
         const SurfaceContext c =
-            contextAt(incidence, wavelengthNm, 1.0, transmit ? n2 : 1.0, !transmit);
+            incidenceContext(incidence, wavelengthNm, 1.0, transmit ? n2 : 1.0, !transmit);
         double specularDeg = incidence;
         if (transmit) specularDeg = std::asin(std::sin(incidence * kDeg) / n2) / kDeg;
         const std::vector<double> angles = planeAngles(specularDeg);

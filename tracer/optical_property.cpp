@@ -18,6 +18,7 @@ namespace veil {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
+constexpr double kDeg = kPi / 180.0;
 constexpr int kMaxTries = 256;
 
 template <class... Ts>
@@ -498,10 +499,14 @@ struct TableFrame {
     double thetaDeg = 0.0;
     Vec3 u{0.0}, v{0.0};
 };
+// The specular direction's angle from the side's normal, degrees.
+double specularAngleDeg(const LobeFrame& f) {
+    return std::acos(std::clamp(glm::dot(f.axis, f.side), -1.0, 1.0)) / kDeg;
+}
 TableFrame tableFrame(const LobeFrame& f) {
     TableFrame t;
     const double c = std::clamp(glm::dot(f.axis, f.side), -1.0, 1.0);
-    t.thetaDeg = std::acos(c) * 180.0 / kPi;
+    t.thetaDeg = specularAngleDeg(f);
     Vec3 u = f.side - c * f.axis;
     const double len = glm::length(u);
     if (len > 1e-12) {
@@ -546,7 +551,7 @@ Channels OpticalProperty::channels(const SurfaceContext& c) const {
                        if (!tir) sT = a.tis(true, std::min(1.0, c.n1 / c.n2 * b0));
                    },
                    [&](const KCorrelationScatter& k) {
-                       if (k.reflects()) sR = k.tis(kcLobe(k, c, lobeFrame(c, false)));
+                       if (k.reflects()) sR = k.tis(k.reflectLobe(c.wavelengthNm, c.n1, cosI));
                        if (k.transmits() && !tir && !c.opaque) {
                            const LobeFrame f = lobeFrame(c, true);
                            if (f.valid) sT = k.tis(kcLobe(k, c, f));
@@ -556,11 +561,12 @@ Channels OpticalProperty::channels(const SurfaceContext& c) const {
                        sT = std::min(sT, std::max(0.0, 1.0 - sR));
                    },
                    [&](const TabulatedScatter& t) {
-                       if (t.reflectLobe())
-                           sR = t.reflectLobe()->tis(tableFrame(lobeFrame(c, false)).thetaDeg);
+                       // The specular angle: the incidence for the BRDF, the refraction
+                       // angle for the BTDF.
+                       if (t.reflectLobe()) sR = t.reflectLobe()->tis(std::acos(cosI) / kDeg);
                        if (t.transmitLobe() && !tir && !c.opaque) {
                            const LobeFrame f = lobeFrame(c, true);
-                           if (f.valid) sT = t.transmitLobe()->tis(tableFrame(f).thetaDeg);
+                           if (f.valid) sT = t.transmitLobe()->tis(specularAngleDeg(f));
                        }
                        sT = std::min(sT, std::max(0.0, 1.0 - sR));
                    },

@@ -17,6 +17,19 @@ std::ostream& operator<<(std::ostream& os, const TabulationGrid& g) {
               << (g.planeSymmetric ? ", plane-symmetric" : "") << "}";
 }
 
+SurfaceContext incidenceContext(double incidenceDeg, double wavelengthNm, double n1, double n2,
+                                bool opaque) {
+    const double i = incidenceDeg * kDeg;
+    SurfaceContext c;
+    c.normal = Vec3(0.0, 0.0, 1.0);
+    c.direction = Vec3(std::sin(i), 0.0, -std::cos(i));
+    c.n1 = n1;
+    c.n2 = n2;
+    c.wavelengthNm = wavelengthNm;
+    c.opaque = opaque;
+    return c;
+}
+
 TabulationGrid exportGrid() {
     TabulationGrid g;
     for (int a = 0; a <= 80; a += 10) g.incidenceDeg.push_back(a);

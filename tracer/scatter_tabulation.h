@@ -20,6 +20,12 @@ struct TabulationGrid {
 };
 std::ostream& operator<<(std::ostream& os, const TabulationGrid& g);
 
+// Light from index n1 onto a surface with normal +z (n2 across it), arriving in the x-z
+// plane at incidenceDeg and leaning toward +x: the frame tabulateScatter() writes tables in,
+// and the one veil scatter plots in.
+SurfaceContext incidenceContext(double incidenceDeg, double wavelengthNm, double n1 = 1.0,
+                                double n2 = 1.0, bool opaque = false);
+
 // The grid `veil scatter --bsdf` writes: blocks every 10 degrees to 80, then 85 and 89;
 // azimuths every 10 degrees (plane-symmetric); radial angles every 0.25 degree to 5, every
 // degree to 30, every 5 degrees to 180.

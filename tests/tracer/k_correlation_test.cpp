@@ -158,10 +158,8 @@ void kcChi2(const char* what, const KCorrelationParams& p, double incidenceDeg, 
     SurfaceContext c = contextAt(incidenceDeg, 1.0, n2);
     c.wavelengthNm = 500.0;
     const double lambda = 0.5;
-    const Vec3 t1 = perpendicular(kNormal), t2 = glm::cross(kNormal, t1);
-    auto toBeta = [&](const Vec3& w) { return Vec2(glm::dot(w, t1), glm::dot(w, t2)); };
     const double ci = c.cosIncidence();
-    const Vec2 beta0 = toBeta(c.direction) * (transmit ? 1.0 / n2 : 1.0);
+    const Vec2 beta0 = projectOnSurface(c.direction) * (transmit ? 1.0 / n2 : 1.0);
     const double ct = std::sqrt(1.0 - glm::dot(beta0, beta0));
     const double a = p.aNm2Um2 * 1e-6;
     auto model = [&](const Vec2& beta, double r) {
@@ -173,30 +171,7 @@ void kcChi2(const char* what, const KCorrelationParams& p, double incidenceDeg, 
         return 4.0 * kPi * kPi * n2 * n2 * d * d / std::pow(lambda, 4) *
                abcPsd(a, p.bUm, p.c, n2 * r / lambda);
     };
-    const int nphi = 8;
-    double tis = 0.0;
-    const std::vector<double> prob = lobeBinProbabilities(model, beta0, rEdges, nphi, &tis);
-    const Channels ch = prop.channels(c);
-    const double fraction = transmit ? ch.scatterTransmit : ch.scatterReflect;
-    EXPECT_NEAR(fraction, tis, 2e-4 * tis) << what;
-    std::vector<double> obs(prob.size(), 0.0);
-    const int n = 200000;
-    CounterRng rng(seed, 0);
-    for (int i = 0; i < n; ++i) {
-        const double u1 = rng.uniform(), u2 = rng.uniform();
-        const ScatterSample s = prop.sampleScatter(c, transmit, u1, u2);
-        ASSERT_GT(s.pdf, 0.0) << what;
-        const double cosO = glm::dot(s.direction, kNormal);
-        ASSERT_GT(transmit ? -cosO : cosO, 0.0) << what;
-        ASSERT_NEAR(s.pdf, prop.scatterPdf(c, s.direction), 1e-9 * s.pdf) << what;
-        ASSERT_NEAR(prop.bsdf(c, s.direction) * std::abs(cosO) / s.pdf, fraction, 1e-12) << what;
-        const Vec2 rel = toBeta(s.direction) - beta0;
-        double phi = std::atan2(rel.y, rel.x);
-        if (phi < 0) phi += 2 * kPi;
-        obs[binOf(rEdges, glm::length(rel)) * nphi +
-            std::min(nphi - 1, static_cast<int>(phi / (2 * kPi) * nphi))] += 1;
-    }
-    expectChi2(what, chiSquare(obs, prob, n));
+    channelChi2(what, prop, c, transmit, beta0, model, rEdges, seed);
 }
 
 TEST(KCorrelationScatter, SamplerPassesChiSquareAgainstTheModel) {

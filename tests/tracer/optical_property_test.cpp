@@ -20,10 +20,10 @@
 #include <vector>
 
 #include "lensdata/errors.h"
+#include "tests/tracer/scatter_test_support.h"
 #include "tracer/fresnel.h"
 #include "tracer/rng.h"
 #include "tracer/sequential_trace.h"
-#include "tests/tracer/scatter_test_support.h"
 
 namespace veil {
 namespace {
@@ -406,39 +406,19 @@ std::vector<double> abgBinProbabilities(const AbgParams& q, const Vec2& beta0,
 void lobeChi2(const char* what, const AbgScatter& scatter,
               const std::function<double(double)>& bsdf, double incidenceDeg,
               const std::vector<double>& rEdges, uint64_t seed) {
-    const OpticalProperty p("abg", AbsorberSpecular{}, scatter);
     const SurfaceContext c = contextAt(incidenceDeg);
-    const Vec3 t1 = perpendicular(kNormal), t2 = glm::cross(kNormal, t1);
-    auto toBeta = [&](const Vec3& w) { return Vec2(glm::dot(w, t1), glm::dot(w, t2)); };
-    const Vec2 beta0 = toBeta(c.direction);  // the mirror direction has the same projection
-    const int nphi = 8;
-    double tis = 0.0;
-    const std::vector<double> prob = lobeBinProbabilities(bsdf, beta0, rEdges, nphi, &tis);
-    const double fraction = p.channels(c).scatterReflect;
-    EXPECT_NEAR(fraction, tis, 2e-4 * tis) << what;
-    std::vector<double> obs(prob.size(), 0.0);
-    const int n = 200000;
-    CounterRng rng(seed, 0);
-    for (int i = 0; i < n; ++i) {
-        const double u1 = rng.uniform(), u2 = rng.uniform();
-        const ScatterSample s = p.sampleScatter(c, false, u1, u2);
-        const double cosO = glm::dot(s.direction, kNormal);
-        ASSERT_GT(cosO, 0.0) << what;
-        ASSERT_NEAR(s.pdf, p.scatterPdf(c, s.direction), 1e-9 * s.pdf) << what;
-        ASSERT_NEAR(p.bsdf(c, s.direction) * cosO / s.pdf, fraction, 1e-12) << what;
-        const Vec2 rel = toBeta(s.direction) - beta0;
-        double phi = std::atan2(rel.y, rel.x);
-        if (phi < 0) phi += 2 * kPi;
-        obs[binOf(rEdges, glm::length(rel)) * nphi +
-            std::min(nphi - 1, static_cast<int>(phi / (2 * kPi) * nphi))] += 1;
-    }
-    expectChi2(what, chiSquare(obs, prob, n));
+    // The mirror direction has the incident one's projection.
+    channelChi2(
+        what, OpticalProperty("abg", AbsorberSpecular{}, scatter), c, false,
+        projectOnSurface(c.direction), [&](const Vec2&, double r) { return bsdf(r); }, rEdges,
+        seed);
 }
 
 void abgChi2(const char* what, const AbgParams& q, double incidenceDeg,
              const std::vector<double>& rEdges, uint64_t seed) {
-    lobeChi2(what, AbgScatter(q, std::nullopt),
-             [&](double r) { return q.a / (q.b + std::pow(r, q.g)); }, incidenceDeg, rEdges, seed);
+    lobeChi2(
+        what, AbgScatter(q, std::nullopt), [&](double r) { return q.a / (q.b + std::pow(r, q.g)); },
+        incidenceDeg, rEdges, seed);
 }
 
 TEST(AbgScatter, TisAtNormalIncidenceMatchesTheClosedForm) {
@@ -587,11 +567,9 @@ TEST(HarveyShackScatter, SamplerPassesChiSquareAgainstTheModel) {
     const double b0 = 50.0, l = 0.01, s = -2.5;
     const auto hs = [&](double r) { return harveyShackBsdf(b0, l, s, r); };
     lobeChi2("Harvey-Shack normal incidence", AbgScatter(harveyShack(b0, l, s), std::nullopt), hs,
-             0.0,
-             {0, 0.002, 0.005, 0.01, 0.02, 0.04, 0.08, 0.16, 0.32, 0.64, 1.0}, 601);
+             0.0, {0, 0.002, 0.005, 0.01, 0.02, 0.04, 0.08, 0.16, 0.32, 0.64, 1.0}, 601);
     lobeChi2("Harvey-Shack 60 deg incidence", AbgScatter(harveyShack(b0, l, s), std::nullopt), hs,
-             60.0,
-             {0, 0.002, 0.005, 0.01, 0.02, 0.04, 0.08, 0.16, 0.32, 0.64, 2.0}, 602);
+             60.0, {0, 0.002, 0.005, 0.01, 0.02, 0.04, 0.08, 0.16, 0.32, 0.64, 2.0}, 602);
     const auto wide = [&](double r) { return harveyShackBsdf(0.05, 0.3, -1.2, r); };
     lobeChi2("Harvey-Shack wide, 80 deg incidence",
              AbgScatter(harveyShack(0.05, 0.3, -1.2), std::nullopt), wide, 80.0,
@@ -602,15 +580,18 @@ TEST(HarveyShackScatter, SamplerPassesChiSquareAgainstTheModel) {
 // are written) is the sum of its lobes: its TIS the sum of theirs, its samples distributed as
 // the summed BSDF.
 TEST(HarveyShackScatter, TwoTermFitIsTheSumOfItsLobes) {
-    const AbgParams core = harveyShack(3.93, 0.00411, -2.35), skirt = harveyShack(0.00429, 0.0431513, -1.11);
+    const AbgParams core = harveyShack(3.93, 0.00411, -2.35),
+                    skirt = harveyShack(0.00429, 0.0431513, -1.11);
     const AbgScatter both(std::vector<AbgParams>{core, skirt}, {});
     const AbgLobe a(core), b(skirt);
     for (double b0 : {0.0, 0.5, 0.9})
         EXPECT_NEAR(both.tis(false, b0), a.tis(b0) + b.tis(b0), 1e-15);
     const auto sum = [&](double r) {
-        return harveyShackBsdf(3.93, 0.00411, -2.35, r) + harveyShackBsdf(0.00429, 0.0431513, -1.11, r);
+        return harveyShackBsdf(3.93, 0.00411, -2.35, r) +
+               harveyShackBsdf(0.00429, 0.0431513, -1.11, r);
     };
-    const std::vector<double> edges = {0, 0.002, 0.004, 0.008, 0.016, 0.03, 0.06, 0.12, 0.25, 0.5, 1.0, 2.0};
+    const std::vector<double> edges = {0,    0.002, 0.004, 0.008, 0.016, 0.03,
+                                       0.06, 0.12,  0.25,  0.5,   1.0,   2.0};
     lobeChi2("two Harvey-Shack terms, normal incidence", both, sum, 0.0, edges, 611);
     lobeChi2("two Harvey-Shack terms, 50 deg", both, sum, 50.0, edges, 612);
 }

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "tracer/optical_property.h"
+#include "tracer/rng.h"
 
 namespace veil::scatter_test {
 
@@ -150,6 +151,48 @@ inline std::vector<double> lobeBinProbabilities(const std::function<double(doubl
                                                 double* tis = nullptr) {
     return lobeBinProbabilities([&](const Vec2&, double r) { return bsdf(r); }, beta0, rEdges, nphi,
                                 tis);
+}
+
+// Directions on the test surface's plane (kNormal's), in a basis of the tests' own.
+inline Vec2 projectOnSurface(const Vec3& w) {
+    const Vec3 t1 = perpendicular(kNormal), t2 = glm::cross(kNormal, t1);
+    return Vec2(glm::dot(w, t1), glm::dot(w, t2));
+}
+
+// One scatter channel of `p` at context c (normal kNormal) sampled 200000 times against bin
+// probabilities of `model` (the BSDF per unit beta area, written by the test from the model's
+// definition; beta0 the specular direction's projection): the channel's fraction against the
+// model's integral (2e-4), every sample's pdf against scatterPdf (1e-9) and its weight
+// bsdf |cos| / pdf against the fraction (1e-12), and a chi-square of the samples' bins in
+// (|beta - beta0|, azimuth).
+inline void channelChi2(const char* what, const OpticalProperty& p, const SurfaceContext& c,
+                        bool transmit, const Vec2& beta0,
+                        const std::function<double(const Vec2&, double)>& model,
+                        const std::vector<double>& rEdges, uint64_t seed) {
+    const int nphi = 8;
+    double tis = 0.0;
+    const std::vector<double> prob = lobeBinProbabilities(model, beta0, rEdges, nphi, &tis);
+    const Channels ch = p.channels(c);
+    const double fraction = transmit ? ch.scatterTransmit : ch.scatterReflect;
+    EXPECT_NEAR(fraction, tis, 2e-4 * tis) << what;
+    std::vector<double> obs(prob.size(), 0.0);
+    const int n = 200000;
+    CounterRng rng(seed, 0);
+    for (int i = 0; i < n; ++i) {
+        const double u1 = rng.uniform(), u2 = rng.uniform();
+        const ScatterSample s = p.sampleScatter(c, transmit, u1, u2);
+        ASSERT_GT(s.pdf, 0.0) << what;
+        const double cosO = glm::dot(s.direction, kNormal);
+        ASSERT_GT(transmit ? -cosO : cosO, 0.0) << what;
+        ASSERT_NEAR(s.pdf, p.scatterPdf(c, s.direction), 1e-9 * s.pdf) << what;
+        ASSERT_NEAR(p.bsdf(c, s.direction) * std::abs(cosO) / s.pdf, fraction, 1e-12) << what;
+        const Vec2 rel = projectOnSurface(s.direction) - beta0;
+        double phi = std::atan2(rel.y, rel.x);
+        if (phi < 0) phi += 2 * kPi;
+        obs[binOf(rEdges, glm::length(rel)) * nphi +
+            std::min(nphi - 1, static_cast<int>(phi / (2 * kPi) * nphi))] += 1;
+    }
+    expectChi2(what, chiSquare(obs, prob, n));
 }
 
 }  // namespace veil::scatter_test
