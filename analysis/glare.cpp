@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <iomanip>
 #include <limits>
 #include <nlohmann/json.hpp>
@@ -118,6 +119,8 @@ SceneExtent extentOf(const PreparedScene& p) {
 
 }  // namespace
 
+double spreadRadius(double lo, double hi) { return lo > 0.0 ? std::sqrt(lo * hi) : 0.5 * hi; }
+
 GlareValue ratio(const GlareValue& a, const GlareValue& b) {
     GlareValue r;
     if (!(b.value > 0.0)) return r;
@@ -166,6 +169,9 @@ GlareBench::GlareBench(const SceneFile& file, const GlassCatalog& catalog, const
     const double tubeInnerMm = std::max({extent.radiusMm, portRadiusMm, backRadiusMm}) + gapMm;
     const double tubeOuterMm = tubeInnerMm + wallMm;
     const double cone = spec.fieldHalfAngleDeg * kDeg;
+    portRadiusMm_ = portRadiusMm;
+    portFrontZMm_ = frontFrontZ;
+    portBackZMm_ = frontBackZ;
     windowZMm_ = frontFrontZ - gapMm;
     windowRadiusMm_ = portRadiusMm + (frontBackZ - windowZMm_) * std::tan(cone) + 1.0;
     const double plateOuterMm = std::max(windowRadiusMm_, tubeOuterMm) + 1.0;
@@ -228,12 +234,17 @@ GlareField GlareBench::locate(Vec2 fieldDeg) const {
     return gf;
 }
 
-SceneFile GlareBench::scene(const GlareField& f, bool black, double sideMm, int pixels) const {
+SceneFile GlareBench::scene(const GlareField& f, bool black, double sideMm, int pixels,
+                            double fieldHalfAngleDeg) const {
     SceneFile s = file_;
     AreaEmitter e;
     e.shape = AreaEmitter::Shape::Disk;
     e.radiusMm = windowRadiusMm_;
-    e.coneHalfAngleRad = spec_.fieldHalfAngleDeg * kDeg;
+    // A narrower cone than the spec's still lights the whole port from every direction.
+    e.coneHalfAngleRad =
+        (fieldHalfAngleDeg > 0.0 ? std::min(fieldHalfAngleDeg, spec_.fieldHalfAngleDeg)
+                                 : spec_.fieldHalfAngleDeg) *
+        kDeg;
     e.frame.translation = Vec3(0.0, 0.0, windowZMm_);
     if (black) {
         e.blackSpotAxis = fieldDirection(f.fieldDeg.x, f.fieldDeg.y);
@@ -249,6 +260,77 @@ SceneFile GlareBench::scene(const GlareField& f, bool black, double sideMm, int 
     d.centerMm = f.imageMm;
     s.detectors = {d};
     return s;
+}
+
+SceneFile GlareBench::spreadScene(const GlareField& f, double radiusMm, int pixels,
+                                  double coreSideMm, int corePixels) const {
+    SceneFile s = file_;
+    // The beam: a cylinder along the source's direction over the port (its hole through the
+    // front plate, and 1 mm of the plate around it), starting in front of the plate.
+    Beam b;
+    b.direction = fieldDirection(f.fieldDeg.x, f.fieldDeg.y);
+    const Vec3 ref = std::abs(b.direction.x) < 0.9 ? Vec3(1.0, 0.0, 0.0) : Vec3(0.0, 1.0, 0.0);
+    b.axisU = glm::normalize(ref - glm::dot(ref, b.direction) * b.direction);
+    b.axisV = glm::cross(b.direction, b.axisU);
+    const double cosT = b.direction.z, sinT = std::sqrt(std::max(0.0, 1.0 - cosT * cosT));
+    b.apertureRadiusMm = portRadiusMm_;
+    b.marginMm = 1.0;
+    const double zMid = 0.5 * (portFrontZMm_ + portBackZMm_);
+    b.radiusMm = portRadiusMm_ + b.marginMm + 0.5 * (portBackZMm_ - portFrontZMm_) * sinT;
+    const double t0 = (zMid - windowZMm_ + b.radiusMm * sinT) / cosT;
+    b.startCenterMm = Vec3(0.0, 0.0, zMid) - t0 * b.direction;
+    s.sources = {Source("point source", CollimatedSource{b}, b.areaMm2(), *spectrum_)};
+    DetectorSpec coarse;
+    coarse.name = "gsf";
+    coarse.sizeMm = Vec2(2.0 * radiusMm);
+    coarse.pixelsX = coarse.pixelsY = pixels;
+    coarse.centerMm = f.imageMm;
+    DetectorSpec core = coarse;
+    core.name = "gsf_core";
+    core.sizeMm = Vec2(coreSideMm);
+    core.pixelsX = core.pixelsY = corePixels;
+    s.detectors = {coarse, core};
+    return s;
+}
+
+double GlareBench::spreadRadiusMm(const GlareField& f) const {
+    if (spec_.spreadRadiusMm > 0.0) return spec_.spreadRadiusMm;
+    double r = 0.0;
+    for (const Field& field : file_.prescription.system.fields)
+        if (const auto q = chiefImage(*file_.model, *aimer_, Vec2(field.x, field.y)))
+            r = std::max(r, glm::length(*q));
+    return r > 20.0 * f.spotImageRadiusMm ? r : 20.0 * f.spotImageRadiusMm;
+}
+
+double GlareBench::fieldAngleAtHeight(double heightMm) const {
+    // Up the y axis in half-degree steps until the chief ray lands past the height, then
+    // bisection; 0 when it never does within the bright field.
+    const double limit = spec_.fieldHalfAngleDeg - 0.5 * spec_.spotDiameterDeg;
+    auto height = [&](double deg) -> std::optional<double> {
+        const auto q = chiefImage(*file_.model, *aimer_, Vec2(0.0, deg));
+        if (!q) return std::nullopt;
+        return glm::length(*q);
+    };
+    double lo = 0.0, hi = 0.0;
+    for (double deg = 0.5;; deg += 0.5) {
+        if (deg > limit) return 0.0;
+        const auto h = height(deg);
+        if (!h) return 0.0;
+        if (*h >= heightMm) {
+            hi = deg;
+            break;
+        }
+        lo = deg;
+    }
+    for (int i = 0; i < 50; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        const auto h = height(mid);
+        if (h && *h < heightMm)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return 0.5 * (lo + hi);
 }
 
 std::pair<double, double> GlareBench::ghostIrradiance(GlareField& f) const {
@@ -315,6 +397,211 @@ SceneFile stoppedDown(const SceneFile& file, const GlassCatalog& catalog, double
 
 }  // namespace
 
+namespace {
+
+// Whether the GSF is measured at this position.
+bool spreadAt(const GlareSpec& spec, const GlareField& f) {
+    switch (spec.spread) {
+        case GlareSpreadAt::None:
+            return false;
+        case GlareSpreadAt::Axis:
+            return f.fieldDeg.x == 0.0 && f.fieldDeg.y == 0.0;
+        case GlareSpreadAt::All:
+            return true;
+    }
+    return false;
+}
+
+struct Measured {
+    GlareValue black, blackSpecular, blackDiffuse, white;
+};
+
+// The black and the white field (out to fieldHalfAngleDeg, 0: the spec's) rendered at f's
+// measuring square, on p's geometry (its transport replaced).
+Measured measure(PreparedScene& p, const GlareBench& bench, const GlareField& f,
+                 const GlareSpec& spec, double fieldHalfAngleDeg, const GlassCatalog& catalog,
+                 const std::function<void(int)>& blackProgress,
+                 const std::function<void(int)>& whiteProgress) {
+    Measured m;
+    for (const bool black : {true, false}) {
+        SceneFile file = bench.scene(f, black, f.measuredSideMm, spec.pixels, fieldHalfAngleDeg);
+        file.detectors = p.file().detectors;  // the geometry's (with the GSF's)
+        p.replaceTransport(std::move(file), catalog);
+        RenderRunSpec run;
+        run.detector = "glare";
+        run.options = spec.render;
+        run.options.splitBackward = true;
+        if (run.options.initialRadiusMm <= 0.0) run.options.initialRadiusMm = bench.radiusHintMm();
+        run.passes = spec.passes;
+        std::vector<double> total, specular, diffuse;
+        const double area = f.measuredSideMm * f.measuredSideMm;
+        (black ? blackProgress : whiteProgress)(0);
+        runRenderPasses(p, run, [&](int pass, const RenderPassTotals& t) {
+            const double visible = t.components[static_cast<size_t>(RenderComponent::Visible)];
+            total.push_back(t.total() / area);
+            specular.push_back(visible / area);
+            diffuse.push_back((t.total() - visible) / area);
+            (black ? blackProgress : whiteProgress)(pass);
+        });
+        if (black) {
+            m.black = meanOf(total);
+            m.blackSpecular = meanOf(specular);
+            m.blackDiffuse = meanOf(diffuse);
+        } else {
+            m.white = meanOf(total);
+        }
+    }
+    return m;
+}
+
+// Each pixel of a square detector (side sideMm, n pixels per side, centred on the point's
+// image) split into 4 x 4 parts, each part's share given to the annulus of `edges` its centre
+// lies in (none past the last edge): per pixel, its (annulus, share) pairs.
+using PixelShares = std::vector<std::vector<std::pair<size_t, double>>>;
+PixelShares annulusShares(double sideMm, int n, const std::vector<double>& edges) {
+    constexpr int kSub = 4;
+    constexpr double kShare = 1.0 / (kSub * kSub);
+    PixelShares shares(static_cast<size_t>(n) * static_cast<size_t>(n));
+    const double pitch = sideMm / n;
+    for (int row = 0; row < n; ++row)
+        for (int col = 0; col < n; ++col) {
+            auto& out = shares[static_cast<size_t>(row) * static_cast<size_t>(n) +
+                               static_cast<size_t>(col)];
+            for (int j = 0; j < kSub; ++j)
+                for (int i = 0; i < kSub; ++i) {
+                    const double x = -0.5 * sideMm + (col + (i + 0.5) / kSub) * pitch;
+                    const double y = 0.5 * sideMm - (row + (j + 0.5) / kSub) * pitch;
+                    const auto it = std::upper_bound(edges.begin(), edges.end(), std::hypot(x, y));
+                    if (it == edges.begin() || it == edges.end()) continue;
+                    const size_t a = static_cast<size_t>(it - edges.begin()) - 1;
+                    if (!out.empty() && out.back().first == a)
+                        out.back().second += kShare;
+                    else
+                        out.push_back({a, kShare});
+                }
+        }
+    return shares;
+}
+
+// A pass's flux per annulus (specular: the visible component; diffuse: the rest).
+struct AnnulusFlux {
+    std::vector<double> specular, diffuse;
+};
+AnnulusFlux binPass(const RenderPass& pass, const PixelShares& shares, size_t annuli) {
+    AnnulusFlux a{std::vector<double>(annuli, 0.0), std::vector<double>(annuli, 0.0)};
+    for (int c = 0; c < kRenderComponents; ++c) {
+        std::vector<double>& to =
+            c == static_cast<int>(RenderComponent::Visible) ? a.specular : a.diffuse;
+        const std::vector<double>& pixels = pass.pixels[static_cast<size_t>(c)];
+        for (size_t px = 0; px < pixels.size(); ++px)
+            if (pixels[px] != 0.0)
+                for (const auto& [k, share] : shares[px]) to[k] += share * pixels[px];
+    }
+    return a;
+}
+
+// The GSF's detectors about f's image: the core one covers 3.8 spot image radii.
+constexpr int kCorePixels = 64;
+double coreSideMm(const GlareField& f) { return 8.0 * f.spotImageRadiusMm; }
+
+// The glare spread function at f (the header comment), on p's geometry, which has its
+// detectors.
+GlareSpread measureSpread(PreparedScene& p, const GlareBench& bench, const GlareField& f,
+                          const GlareSpec& spec, const GlassCatalog& catalog,
+                          const std::function<void(int)>& progress) {
+    GlareSpread g;
+    const double rho = f.spotImageRadiusMm;
+    g.radiusMm = bench.spreadRadiusMm(f);
+    const int corePixels = kCorePixels;
+    const double coreSide = coreSideMm(f);
+    g.coreRadiusMm = 3.8 * rho;
+    SceneFile file = bench.spreadScene(f, g.radiusMm, spec.spreadPixels, coreSide, corePixels);
+    file.detectors = p.file().detectors;
+    p.replaceTransport(std::move(file), catalog);
+
+    // The annuli: a disc of the core detector's pitch, then ten per decade out to R.
+    const double first = coreSide / corePixels;
+    g.edgesMm = {0.0, first};
+    const double step = std::pow(10.0, 0.1);
+    while (g.edgesMm.back() * step < g.radiusMm * (1.0 - 1e-9))
+        g.edgesMm.push_back(g.edgesMm.back() * step);
+    g.edgesMm.push_back(g.radiusMm);
+    const size_t annuli = g.edgesMm.size() - 1;
+    // The VGI's three: the spot image, out to the core detector's reach, out to R.
+    const std::vector<double> vgiEdges = {0.0, rho, g.coreRadiusMm, g.radiusMm};
+
+    // [pass] flux per annulus, from the core detector and from the coarse one.
+    std::vector<AnnulusFlux> coreCurve, coarseCurve, coreVgi, coarseVgi;
+    RenderRunSpec run;
+    run.options = spec.render;
+    run.options.splitBackward = true;
+    // Annuli average many pixels: fewer rays per pixel, and each deposit in its own pixel.
+    run.options.raysPerPixel = std::max<uint64_t>(1, spec.render.raysPerPixel / 16);
+    run.options.detectorRadiusPixels = 0.0;
+    if (run.options.initialRadiusMm <= 0.0) run.options.initialRadiusMm = bench.radiusHintMm();
+    run.passes = spec.passes;
+    for (const bool core : {true, false}) {
+        const double side = core ? coreSide : 2.0 * g.radiusMm;
+        const int n = core ? corePixels : spec.spreadPixels;
+        const PixelShares curve = annulusShares(side, n, g.edgesMm);
+        const PixelShares vgi = annulusShares(side, n, vgiEdges);
+        run.detector = core ? "gsf_core" : "gsf";
+        if (core) progress(0);
+        runRenderPasses(p, run, [&](int pass, const RenderPassTotals& t) {
+            (core ? coreCurve : coarseCurve).push_back(binPass(*t.pass, curve, annuli));
+            (core ? coreVgi : coarseVgi).push_back(binPass(*t.pass, vgi, 3));
+            progress(core ? pass : spec.passes + pass);
+        });
+    }
+
+    // Per pass: the disc's flux, the VGI and its parts, the annuli's irradiance.
+    const size_t passes = coreVgi.size();
+    std::vector<double> disc(passes), vgi(passes), specular(passes), diffuse(passes);
+    for (size_t k = 0; k < passes; ++k) {
+        // Inside the core's reach from the core detector, past it from the coarse one.
+        double outsideSpecular = 0.0, outsideDiffuse = 0.0, inside = 0.0;
+        for (size_t b = 0; b < 3; ++b) {
+            const AnnulusFlux& from = b < 2 ? coreVgi[k] : coarseVgi[k];
+            if (b == 0) {
+                inside = from.specular[b] + from.diffuse[b];
+            } else {
+                outsideSpecular += from.specular[b];
+                outsideDiffuse += from.diffuse[b];
+            }
+        }
+        disc[k] = inside + outsideSpecular + outsideDiffuse;
+        if (disc[k] > 0.0) {
+            vgi[k] = (outsideSpecular + outsideDiffuse) / disc[k];
+            specular[k] = outsideSpecular / disc[k];
+            diffuse[k] = outsideDiffuse / disc[k];
+        }
+    }
+    g.discFlux = meanOf(disc);
+    g.vgi = meanOf(vgi);
+    g.vgiSpecular = meanOf(specular);
+    g.vgiDiffuse = meanOf(diffuse);
+    const double norm = g.discFlux.value;
+    for (size_t a = 0; a < annuli; ++a) {
+        const bool core = g.edgesMm[a + 1] <= g.coreRadiusMm * (1.0 + 1e-12);
+        const double area =
+            std::numbers::pi * (g.edgesMm[a + 1] * g.edgesMm[a + 1] - g.edgesMm[a] * g.edgesMm[a]);
+        std::vector<double> t(passes), s(passes), d(passes);
+        for (size_t k = 0; k < passes; ++k) {
+            const AnnulusFlux& from = core ? coreCurve[k] : coarseCurve[k];
+            const double scale = norm > 0.0 ? 1.0 / (area * norm) : 0.0;
+            s[k] = from.specular[a] * scale;
+            d[k] = from.diffuse[a] * scale;
+            t[k] = s[k] + d[k];
+        }
+        g.total.push_back(meanOf(t));
+        g.specular.push_back(meanOf(s));
+        g.diffuse.push_back(meanOf(d));
+    }
+    return g;
+}
+
+}  // namespace
+
 GlareResult runGlare(const SceneFile& file, const GlassCatalog& catalog, const GlareSpec& spec) {
     const auto start = std::chrono::steady_clock::now();
     const double own =
@@ -336,6 +623,13 @@ GlareResult runGlare(const SceneFile& file, const GlassCatalog& catalog, const G
         for (const Vec2& f : fields) {
             located.push_back(benches.back()->locate(f));
             located.back().fNumber = apertures[a].first;
+            const GlareField& gf = located.back();
+            const double radius = benches.back()->spreadRadiusMm(gf);
+            if (spreadAt(spec, gf) && !(radius > 3.8 * gf.spotImageRadiusMm))
+                throw ModelError("--gsf-radius-mm",
+                                 "the GSF's disc (" + fmt(radius) +
+                                     " mm) must reach past 3.8 spot image radii (" +
+                                     fmt(3.8 * gf.spotImageRadiusMm) + " mm)");
         }
     }
 
@@ -351,38 +645,29 @@ GlareResult runGlare(const SceneFile& file, const GlassCatalog& catalog, const G
     for (size_t fi = 0; fi < located.size(); ++fi) {
         const GlareBench& bench = *benches[fi / fields.size()];
         GlareField gf = located[fi];
-        // One geometry per position: the white field replaces the black one's transport.
-        const std::unique_ptr<PreparedScene> p =
-            PreparedScene::build(bench.scene(gf, true, gf.measuredSideMm, spec.pixels), catalog);
-        auto render = [&](bool black) {
-            if (!black)
-                p->replaceTransport(bench.scene(gf, false, gf.measuredSideMm, spec.pixels),
-                                    catalog);
-            RenderRunSpec run;
-            run.options = spec.render;
-            run.options.splitBackward = true;
-            if (run.options.initialRadiusMm <= 0.0)
-                run.options.initialRadiusMm = bench.radiusHintMm();
-            run.passes = spec.passes;
-            std::vector<double> total, specular, diffuse;
-            const double area = gf.measuredSideMm * gf.measuredSideMm;
-            runRenderPasses(*p, run, [&](int pass, const RenderPassTotals& t) {
-                const double visible = t.components[static_cast<size_t>(RenderComponent::Visible)];
-                total.push_back(t.total() / area);
-                specular.push_back(visible / area);
-                diffuse.push_back((t.total() - visible) / area);
-                if (spec.progress) spec.progress(fi, black ? "black" : "white", pass, spec.passes);
-            });
-            if (black) {
-                gf.black = meanOf(total);
-                gf.blackSpecular = meanOf(specular);
-                gf.blackDiffuse = meanOf(diffuse);
-            } else {
-                gf.white = meanOf(total);
-            }
+        // One geometry per position, with the measuring square and the GSF's detectors on the
+        // image surface: the white field, the point source and the check's fields replace the
+        // black field's transport.
+        SceneFile first = bench.scene(gf, true, gf.measuredSideMm, spec.pixels);
+        if (spreadAt(spec, gf)) {
+            const double radius = bench.spreadRadiusMm(gf);
+            const SceneFile s =
+                bench.spreadScene(gf, radius, spec.spreadPixels, coreSideMm(gf), kCorePixels);
+            first.detectors.insert(first.detectors.end(), s.detectors.begin(), s.detectors.end());
+        }
+        const std::unique_ptr<PreparedScene> p = PreparedScene::build(std::move(first), catalog);
+        auto progress = [&](const std::string& run, int passes) {
+            return [&, run, passes](int pass) {
+                if (spec.progress) spec.progress(fi, run, pass, passes);
+            };
         };
-        render(true);
-        render(false);
+        const Measured m =
+            measure(*p, bench, gf, spec, 0.0, catalog, progress("black field", spec.passes),
+                    progress("white field", spec.passes));
+        gf.black = m.black;
+        gf.blackSpecular = m.blackSpecular;
+        gf.blackDiffuse = m.blackDiffuse;
+        gf.white = m.white;
         const auto [ghosts, image] = bench.ghostIrradiance(gf);
         if (gf.white.value > 0.0) {
             gf.ghostPrediction = ghosts / gf.white.value;
@@ -392,6 +677,22 @@ GlareResult runGlare(const SceneFile& file, const GlassCatalog& catalog, const G
         gf.vgi = ratio(gf.black, gf.white);
         gf.specular = ratio(gf.blackSpecular, gf.white);
         gf.diffuse = ratio(gf.blackDiffuse, gf.white);
+        if (spreadAt(spec, gf)) {
+            gf.spread = measureSpread(*p, bench, gf, spec, catalog,
+                                      progress("point source", 2 * spec.passes));
+            GlareSpread& g = *gf.spread;
+            const bool onAxis = gf.fieldDeg.x == 0.0 && gf.fieldDeg.y == 0.0;
+            const double theta = onAxis ? bench.fieldAngleAtHeight(g.radiusMm) : 0.0;
+            if (theta > 0.0) {
+                g.fieldDeg = theta;
+                const Measured c = measure(*p, bench, gf, spec, theta, catalog,
+                                           progress("check, black field", spec.passes),
+                                           progress("check, white field", spec.passes));
+                g.directVgi = ratio(c.black, c.white);
+                g.directSpecular = ratio(c.blackSpecular, c.white);
+                g.directDiffuse = ratio(c.blackDiffuse, c.white);
+            }
+        }
         result.fields.push_back(gf);
     }
     result.seconds =
@@ -401,10 +702,19 @@ GlareResult runGlare(const SceneFile& file, const GlassCatalog& catalog, const G
 
 namespace {
 
+// In percent: three significant digits for values of 1 % and less (down to 0.0001 %), two
+// decimals above; the error to the value's last digit or its own first two.
 std::string percent(const GlareValue& v) {
+    const double p = 100.0 * v.value, e = 100.0 * v.error;
+    int decimals = 2;
+    if (p > 0.0 && p < 1.0) decimals = std::min(6, 2 - static_cast<int>(std::floor(std::log10(p))));
+    int errorDecimals = decimals;
+    if (e > 0.0)
+        errorDecimals =
+            std::max(decimals, std::min(6, 1 - static_cast<int>(std::floor(std::log10(e)))));
     std::ostringstream os;
-    os << std::fixed << std::setprecision(v.value < 0.1 ? 3 : 2) << 100.0 * v.value << " +- "
-       << std::setprecision(v.error < 0.001 ? 4 : 3) << 100.0 * v.error << " %";
+    os << std::fixed << std::setprecision(decimals) << p << " +- "
+       << std::setprecision(errorDecimals) << e << " %";
     return os.str();
 }
 
@@ -438,6 +748,33 @@ std::string GlareResult::markdown() const {
             os << "| " << f.ghosts[i].label << " | " << fmt(100.0 * f.ghosts[i].vgi) << " % |\n";
     } else {
         os << "\n";
+    }
+    bool spreads = false;
+    for (const GlareField& f : fields) spreads = spreads || f.spread.has_value();
+    if (spreads) {
+        os << "\nGlare spread function: a point source at each position, the irradiance at "
+              "distance r from its image over the flux it brings to a disc of radius R about "
+              "the image (gsf.csv, gsf.png). The VGI recomputed from it is the disc's flux "
+              "outside the spot's image over all of it: the VGI of a bright field whose image "
+              "is the disc, if the GSF were the same at every point of the image "
+              "(isoplanatic). On axis the disc is the image of a cone of the field (theta_R), "
+              "and that field's VGI is rendered directly as the check; ghosts, which move "
+              "across the image at their own rate, make the two differ (docs/glare.md).\n\n"
+              "| f/# | field (deg) | R (mm) | VGI from GSF | specular | diffuse | theta_R | "
+              "direct VGI, field to theta_R | specular | diffuse |\n"
+              "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+        for (const GlareField& f : fields) {
+            if (!f.spread) continue;
+            const GlareSpread& g = *f.spread;
+            os << "| " << fmt(f.fNumber, 3) << " | " << fmt(f.fieldDeg.x) << ", "
+               << fmt(f.fieldDeg.y) << " | " << fmt(g.radiusMm) << " | " << percent(g.vgi) << " | "
+               << percent(g.vgiSpecular) << " | " << percent(g.vgiDiffuse) << " | ";
+            if (g.fieldDeg > 0.0)
+                os << fmt(g.fieldDeg) << " deg | " << percent(g.directVgi) << " | "
+                   << percent(g.directSpecular) << " | " << percent(g.directDiffuse) << " |\n";
+            else
+                os << "- | - | - | - |\n";
+        }
     }
     return os.str();
 }
@@ -482,7 +819,55 @@ std::string GlareResult::json() const {
                                {"white", valueJson(f.white)},
                                {"ghost_prediction", f.ghostPrediction},
                                {"image_prediction", f.imagePrediction}});
+    for (size_t i = 0; i < fields.size(); ++i) {
+        if (!fields[i].spread) continue;
+        const GlareSpread& g = *fields[i].spread;
+        nlohmann::json gsf = {{"radius_mm", g.radiusMm},
+                              {"core_radius_mm", g.coreRadiusMm},
+                              {"edges_mm", g.edgesMm},
+                              {"disc_flux", valueJson(g.discFlux)},
+                              {"vgi", valueJson(g.vgi)},
+                              {"vgi_specular", valueJson(g.vgiSpecular)},
+                              {"vgi_diffuse", valueJson(g.vgiDiffuse)}};
+        for (const auto& [name, values] :
+             {std::pair{"gsf", &g.total}, std::pair{"gsf_specular", &g.specular},
+              std::pair{"gsf_diffuse", &g.diffuse}}) {
+            nlohmann::json v = nlohmann::json::array(), e = nlohmann::json::array();
+            for (const GlareValue& x : *values) {
+                v.push_back(x.value);
+                e.push_back(x.error);
+            }
+            gsf[name] = v;
+            gsf[std::string(name) + "_error"] = e;
+        }
+        if (g.fieldDeg > 0.0) {
+            gsf["field_deg"] = g.fieldDeg;
+            gsf["direct_vgi"] = valueJson(g.directVgi);
+            gsf["direct_specular"] = valueJson(g.directSpecular);
+            gsf["direct_diffuse"] = valueJson(g.directDiffuse);
+        }
+        j["fields"][i]["gsf"] = gsf;
+    }
     return j.dump(2) + "\n";
+}
+
+std::string GlareResult::spreadCsv() const {
+    std::ostringstream os;
+    os << std::setprecision(9);
+    os << "f_number,field_x_deg,field_y_deg,r_inner_mm,r_outer_mm,r_mm,gsf_per_mm2,gsf_error,"
+          "specular_per_mm2,specular_error,diffuse_per_mm2,diffuse_error\n";
+    for (const GlareField& f : fields) {
+        if (!f.spread) continue;
+        const GlareSpread& g = *f.spread;
+        for (size_t a = 0; a < g.total.size(); ++a) {
+            const double lo = g.edgesMm[a], hi = g.edgesMm[a + 1];
+            os << f.fNumber << "," << f.fieldDeg.x << "," << f.fieldDeg.y << "," << lo << "," << hi
+               << "," << spreadRadius(lo, hi) << "," << g.total[a].value << "," << g.total[a].error
+               << "," << g.specular[a].value << "," << g.specular[a].error << ","
+               << g.diffuse[a].value << "," << g.diffuse[a].error << "\n";
+        }
+    }
+    return os.str();
 }
 
 }  // namespace veil

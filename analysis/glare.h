@@ -24,9 +24,26 @@
 //
 // The field's spectrum: the lens's wavelengths and weights, V(lambda)-weighted (photometric)
 // when the eye sees every line, else radiometric; the result states which.
+//
+// The glare spread function (GSF) at the positions GlareSpec::spread names: the irradiance at
+// distance r from the image of a point source at the position's direction (a collimated beam
+// overfilling the port, the field's spectrum), averaged over azimuth, over the flux the source
+// brings to a disc of radius R about its image (so it integrates to 1 over the disc; unit 1/mm^2),
+// with its specular and diffuse parts. Rendered on two square detectors centred on the chief ray's
+// landing point: a coarse one of side 2R and a fine one of side 8 rho (rho the spot image's radius)
+// for r < 3.8 rho, each pixel split into 4 x 4 parts among the annuli. From it the VGI is
+// recomputed as ISO 9358 does when the GSF is the same everywhere in the image (isoplanatic): the
+// share of the disc's flux that lands outside rho, which is the VGI of a bright field whose image
+// is the disc. On axis, where the disc is the image of a cone of the field about the axis (theta_R,
+// the real chief ray's angle at height R), veil also renders that VGI directly, as the check. They
+// agree where the stray light moves with the image (scatter at or near the stop); a ghost moves
+// across the image at its own rate (its magnification m_g against the image's), so a point source's
+// ghost light lands spread over the disc while a bright field's ghosts pile up at the spot image in
+// the ratio 1/m_g^2: there the two differ, and the direct measurement is the VGI.
 
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -42,6 +59,8 @@ namespace veil {
 class GhostTracer;    // analysis/ghosts.h
 class PreparedScene;  // tracer/prepared_scene.h
 
+enum class GlareSpreadAt { None, Axis, All };
+
 struct GlareSpec {
     std::vector<Vec2> fieldsDeg;      // spot positions; empty: the axis and the lens's fields
     double spotDiameterDeg = 0.5;     // angular diameter of the black spot
@@ -51,15 +70,41 @@ struct GlareSpec {
     // ([mechanics] stop) and F-numbers no faster than the lens's own.
     std::vector<double> fNumbers;
     int passes = 8;
-    int pixels = 8;        // of the measuring detector, per side
+    int pixels = 8;  // of the measuring detector, per side
+    // The glare spread function (the header comment): at the positions on the axis (every
+    // aperture), at every position or none; over a disc of spreadRadiusMm about the point's
+    // image (0: the image height of the lens's largest field, at least 20 spot image radii),
+    // on a coarse detector of spreadPixels per side.
+    GlareSpreadAt spread = GlareSpreadAt::Axis;
+    double spreadRadiusMm = 0.0;
+    int spreadPixels = 128;
     RenderOptions render;  // raysPerPixel, photonsPerPass, seed, ...; splitBackward is set
-    // Called after every pass: measurement index (aperture-major), "black" or "white", pass,
-    // passes.
+    // Called when a run starts (pass 0) and after every pass: measurement index
+    // (aperture-major), the run ("black field", "white field", "point source", "check, black
+    // field", ...), pass, passes.
     std::function<void(size_t field, const std::string& run, int pass, int passes)> progress;
 };
 
 struct GlareValue {
     double value = 0.0, error = 0.0;  // 1 sigma
+};
+
+// The glare spread function at one position (the header comment).
+struct GlareSpread {
+    double radiusMm = 0.0;        // R: the disc about the point source's image
+    double coreRadiusMm = 0.0;    // inside: the fine detector (3.8 spot image radii)
+    std::vector<double> edgesMm;  // the annuli's edges, from 0 to R (log-spaced past the first)
+    // Per annulus: irradiance over the disc's flux (1/mm^2), 1 sigma from the passes.
+    std::vector<GlareValue> total, specular, diffuse;
+    GlareValue discFlux;  // the flux the source brings to the disc (unit, source irradiance 1/mm^2)
+    // The VGI recomputed from the GSF (isoplanatic): the disc's flux outside the spot image
+    // radius over all of it, and its specular and diffuse parts.
+    GlareValue vgi, vgiSpecular, vgiDiffuse;
+    // On axis: theta_R, the bright field cone whose image the disc is, and the VGI rendered
+    // for that field directly (the check). fieldDeg 0: not measured (off axis, or R beyond
+    // the bright field or the lens's reach).
+    double fieldDeg = 0.0;
+    GlareValue directVgi, directSpecular, directDiffuse;
 };
 
 // One ghost's share of the VGI as the ghost analysis predicts it.
@@ -85,6 +130,7 @@ struct GlareField {
     // the rendered one. Brightest ghosts first.
     double ghostPrediction = 0.0, imagePrediction = 0.0;
     std::vector<GlareGhost> ghosts;
+    std::optional<GlareSpread> spread;  // with GlareSpec::spread
 };
 
 struct GlareResult {
@@ -99,6 +145,8 @@ struct GlareResult {
     std::string markdown() const;
     std::string csv() const;
     std::string json() const;
+    // The glare spread functions: a row per position and annulus (empty without them).
+    std::string spreadCsv() const;
 };
 
 // The measurement's set-up around a scene (the header comment): the camera body, the field's
@@ -115,8 +163,21 @@ class GlareBench {
     // position when the spot leaves the field or does not image.
     GlareField locate(Vec2 fieldDeg) const;
     // The scene of one measurement: the body, the field (with the black spot at f when
-    // black) and a square detector of side sideMm centred on f's image.
-    SceneFile scene(const GlareField& f, bool black, double sideMm, int pixels) const;
+    // black; out to fieldHalfAngleDeg, 0: the spec's) and a square detector of side sideMm
+    // centred on f's image.
+    SceneFile scene(const GlareField& f, bool black, double sideMm, int pixels,
+                    double fieldHalfAngleDeg = 0.0) const;
+    // The glare spread function's scene: a point source at infinity in f's direction (a
+    // collimated beam over the port and 1 mm of the plate around it, irradiance 1/mm^2) and
+    // square detectors centred on f's image, "gsf" of side 2 radiusMm and "gsf_core" of side
+    // coreSideMm.
+    SceneFile spreadScene(const GlareField& f, double radiusMm, int pixels, double coreSideMm,
+                          int corePixels) const;
+    // The disc's radius R for f (GlareSpec::spreadRadiusMm or its default), and the angle of
+    // the cone about the axis whose chief ray lands R from the axis (0: none within the
+    // bright field).
+    double spreadRadiusMm(const GlareField& f) const;
+    double fieldAngleAtHeight(double heightMm) const;
     // The ghost analysis's irradiances at f's spot image centre (radiance 1 outside the
     // spot): the black field's through every two-reflection ghost, and the bright field's
     // through the nominal path. Fills f.ghosts (their irradiances, to be divided by white).
@@ -132,6 +193,7 @@ class GlareBench {
     std::unique_ptr<SpectralSampler> spectrum_;
     std::string spectrumText_, unit_;
     double windowZMm_ = 0.0, windowRadiusMm_ = 0.0, radiusHintMm_ = 1.0;
+    double portRadiusMm_ = 0.0, portFrontZMm_ = 0.0, portBackZMm_ = 0.0;
     // The lens for the ghost analysis (built once; the tracer needs a beam, which the
     // irradiances do not use).
     std::unique_ptr<PreparedScene> ghostScene_;
@@ -141,6 +203,10 @@ class GlareBench {
 // ModelError for a spot or field that does not fit (the spot outside the bright field, a
 // field direction the lens does not image), before the first render.
 GlareResult runGlare(const SceneFile& file, const GlassCatalog& catalog, const GlareSpec& spec);
+
+// Where an annulus [lo, hi) of the GSF is plotted: its geometric mean radius (the central
+// disc, lo = 0: half its radius).
+double spreadRadius(double lo, double hi);
 
 // A ratio with its error from the errors of its terms (independent).
 GlareValue ratio(const GlareValue& a, const GlareValue& b);

@@ -52,6 +52,7 @@ std::string runRenderPasses(const PreparedScene& scene, const RenderRunSpec& spe
         const RenderPass pass = renderer.runPass(k, state.radiusMm(), state.learned());
         state.add(pass);
         RenderPassTotals totals;
+        totals.pass = &pass;
         for (int c = 0; c < kRenderComponents; ++c)
             for (double v : pass.pixels[static_cast<size_t>(c)])
                 totals.components[static_cast<size_t>(c)] += v;

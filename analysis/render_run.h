@@ -31,6 +31,7 @@ struct RenderRunSpec {
 struct RenderPassTotals {
     std::array<double, kRenderComponents> components{};  // flux on the detector
     std::vector<double> criteria;                        // per criterion, all components
+    const RenderPass* pass = nullptr;  // the pass itself (its pixels), during the call only
     double total() const;
 };
 

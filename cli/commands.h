@@ -204,6 +204,9 @@ struct GlareOptions {
     uint64_t photons = 100000;
     uint64_t raysPerPixel = 64;
     int pixels = 8;
+    std::string gsf = "axis";
+    double gsfRadiusMm = 0.0;
+    int gsfPixels = 128;
     std::string output;  // folder; default ./glare
     int threads = 0;
     uint64_t seed = 1;

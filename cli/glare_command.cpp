@@ -24,6 +24,52 @@
 
 namespace veil::cli {
 
+namespace {
+
+// The glare spread functions, log-log: every position's total; with one position, its
+// specular and diffuse parts too. The spot image's radius of the first position marked.
+ChartSpec spreadChart(const GlareResult& result) {
+    ChartSpec chart;
+    chart.title = "Glare spread function: a point source's stray light around its image";
+    chart.xLabel = "distance from the point source's image (mm)";
+    chart.yLabel = "GSF (1/mm^2: irradiance over the disc's flux)";
+    chart.logX = chart.logY = true;
+    auto label = [](const GlareField& f) {
+        std::ostringstream os;
+        os << std::setprecision(4) << f.fieldDeg.x << ", " << f.fieldDeg.y << " deg, f/"
+           << std::setprecision(3) << f.fNumber;
+        return os.str();
+    };
+    size_t spreads = 0;
+    for (const GlareField& f : result.fields) spreads += f.spread ? 1 : 0;
+    for (const GlareField& f : result.fields) {
+        if (!f.spread) continue;
+        const GlareSpread& g = *f.spread;
+        auto series = [&](const std::string& name, const std::vector<GlareValue>& v, bool dashed) {
+            ChartSeries s{name, {}, {}, {}, dashed, false};
+            for (size_t a = 0; a < v.size(); ++a) {
+                s.x.push_back(spreadRadius(g.edgesMm[a], g.edgesMm[a + 1]));
+                s.y.push_back(v[a].value);
+                s.yError.push_back(v[a].error);
+            }
+            return s;
+        };
+        chart.series.push_back(series(spreads > 1 ? label(f) : "total", g.total, false));
+        if (spreads == 1) {
+            chart.series.push_back(series("specular (image and ghosts)", g.specular, true));
+            chart.series.push_back(series("diffuse (scatter)", g.diffuse, true));
+        }
+    }
+    for (const GlareField& f : result.fields)
+        if (f.spread) {
+            chart.xMarkers.push_back({f.spotImageRadiusMm, "spot image"});
+            break;
+        }
+    return chart;
+}
+
+}  // namespace
+
 void addGlareCommand(CLI::App& app, GlareOptions& o) {
     CLI::App* sub = app.add_subcommand(
         "glare", "veiling glare index (ISO 9358) at field positions: ghosts and scatter");
@@ -51,6 +97,18 @@ void addGlareCommand(CLI::App& app, GlareOptions& o) {
     sub->add_option("--pixels", o.pixels, "pixels per side of the measuring square")
         ->check(CLI::Range(1, 256))
         ->capture_default_str();
+    sub->add_option("--gsf", o.gsf,
+                    "where to measure the glare spread function (a point source's stray light): "
+                    "at the positions on the axis, at all, or none")
+        ->check(CLI::IsMember({"axis", "all", "none"}))
+        ->capture_default_str();
+    sub->add_option("--gsf-radius-mm", o.gsfRadiusMm,
+                    "radius of the GSF's disc about the point's image (default: the image height "
+                    "of the lens's largest field)")
+        ->check(CLI::Range(1e-3, 1e4));
+    sub->add_option("--gsf-pixels", o.gsfPixels, "pixels per side of the GSF's detector")
+        ->check(CLI::Range(16, 2048))
+        ->capture_default_str();
     addOutputFolder(sub, o.output, "glare");
     addRunControls(sub, o.threads, o.seed);
     addReportFlags(sub, o.json, o.quiet);
@@ -67,6 +125,11 @@ int runGlareCommand(const CommonOptions& common, const GlareOptions& o) {
     spec.fNumbers = o.fNumbers;
     spec.passes = o.passes;
     spec.pixels = o.pixels;
+    spec.spread = o.gsf == "all"    ? GlareSpreadAt::All
+                  : o.gsf == "none" ? GlareSpreadAt::None
+                                    : GlareSpreadAt::Axis;
+    spec.spreadRadiusMm = o.gsfRadiusMm;
+    spec.spreadPixels = o.gsfPixels;
     spec.render.photonsPerPass = o.photons;
     spec.render.raysPerPixel = o.raysPerPixel;
     spec.render.seed = o.seed;
@@ -74,10 +137,11 @@ int runGlareCommand(const CommonOptions& common, const GlareOptions& o) {
     std::optional<ProgressReporter> reporter;
     if (!o.quiet)
         spec.progress = [&](size_t field, const std::string& run, int pass, int passes) {
-            if (pass == 1)
-                reporter.emplace(
-                    "glare: position " + std::to_string(field + 1) + ", " + run + " field",
-                    static_cast<uint64_t>(passes));
+            if (pass == 0) {
+                reporter.emplace("glare: position " + std::to_string(field + 1) + ", " + run,
+                                 static_cast<uint64_t>(passes), "passes");
+                return;
+            }
             reporter->update(static_cast<uint64_t>(pass));
             if (pass == passes) {
                 reporter->finish();
@@ -90,13 +154,17 @@ int runGlareCommand(const CommonOptions& common, const GlareOptions& o) {
     if (!dir.empty()) {
         written.beginRun(dir);
         std::filesystem::create_directories(dir);
-        for (const auto& [name, text] :
-             {std::pair<std::string, std::string>{"glare.md", result.markdown()},
-              {"glare.csv", result.csv()},
-              {"glare.json", result.json()}}) {
+        std::vector<std::pair<std::string, std::string>> files = {{"glare.md", result.markdown()},
+                                                                  {"glare.csv", result.csv()},
+                                                                  {"glare.json", result.json()}};
+        bool spreads = false;
+        for (const GlareField& f : result.fields) spreads = spreads || f.spread.has_value();
+        if (spreads) files.push_back({"gsf.csv", result.spreadCsv()});
+        for (const auto& [name, text] : files) {
             writeTextFile(dir / name, text);
             written.add(dir / name);
         }
+        if (spreads) writePicture(drawChart(spreadChart(result)), dir / "gsf", 1600, written);
         if (result.fields.size() >= 2) {
             ChartSpec chart;
             chart.title = "Veiling glare index, black spot " +

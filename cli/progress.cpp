@@ -21,6 +21,16 @@ constexpr int kBarWidth = 30;
 
 double rate(uint64_t rays, double seconds) { return seconds > 0.0 ? rays / seconds : 0.0; }
 
+// A rate as text: whole numbers from 100 up, three significant digits below (passes/s).
+std::string rateText(double r) {
+    std::ostringstream os;
+    if (r >= 100.0)
+        os << std::fixed << std::setprecision(0) << r;
+    else
+        os << std::setprecision(3) << r;
+    return os.str();
+}
+
 }  // namespace
 
 std::string duration(double s) {
@@ -38,8 +48,9 @@ std::string elapsed(double s) {
     return os.str();
 }
 
-ProgressReporter::ProgressReporter(std::string label, uint64_t totalRays)
+ProgressReporter::ProgressReporter(std::string label, uint64_t totalRays, std::string unit)
     : label_(std::move(label)),
+      unit_(std::move(unit)),
       totalRays_(totalRays),
       terminal_(isatty(fileno(stderr)) != 0),
       start_(std::chrono::steady_clock::now()) {}
@@ -80,8 +91,8 @@ void ProgressReporter::finish() {
         std::cerr << "\n" << std::flush;
     } else {
         std::ostringstream os;
-        os << label_ << ": done, " << totalRays_ << " rays in " << elapsed(seconds) << ", "
-           << std::fixed << std::setprecision(0) << rate(totalRays_, seconds) << " rays/s\n";
+        os << label_ << ": done, " << totalRays_ << " " << unit_ << " in " << elapsed(seconds)
+           << ", " << rateText(rate(totalRays_, seconds)) << " " << unit_ << "/s\n";
         std::cerr << os.str() << std::flush;
     }
     finished_ = true;
@@ -98,7 +109,7 @@ void ProgressReporter::drawBar(uint64_t doneRays, double seconds) {
     std::ostringstream os;
     os << "\r" << label_ << " [" << std::string(filled, '#') << std::string(kBarWidth - filled, ' ')
        << "] " << std::setw(5) << std::fixed << std::setprecision(1) << 100.0 * fraction << "%  "
-       << std::setprecision(0) << raysPerSecond << " rays/s  ETA " << left << "   ";
+       << rateText(raysPerSecond) << " " << unit_ << "/s  ETA " << left << "   ";
     std::cerr << os.str() << std::flush;
     lastDrawSeconds_ = seconds;
     drawnRays_ = doneRays;
@@ -107,14 +118,15 @@ void ProgressReporter::drawBar(uint64_t doneRays, double seconds) {
 void ProgressReporter::writeLine(uint64_t doneRays, double seconds) {
     std::ostringstream os;
     os << label_ << ": " << std::fixed << std::setprecision(1) << 100.0 * doneRays / totalRays_
-       << " % (" << doneRays << " of " << totalRays_ << " rays), " << std::setprecision(0)
-       << rate(doneRays, seconds) << " rays/s, " << elapsed(seconds) << " elapsed\n";
+       << " % (" << doneRays << " of " << totalRays_ << " " << unit_ << "), "
+       << rateText(rate(doneRays, seconds)) << " " << unit_ << "/s, " << elapsed(seconds)
+       << " elapsed\n";
     std::cerr << os.str() << std::flush;
 }
 
 std::ostream& operator<<(std::ostream& os, const ProgressReporter& p) {
     return os << "ProgressReporter{'" << p.label_ << "', " << p.lastDoneRays_ << " of "
-              << p.totalRays_ << " rays, " << (p.terminal_ ? "terminal" : "log lines")
+              << p.totalRays_ << " " << p.unit_ << ", " << (p.terminal_ ? "terminal" : "log lines")
               << (p.finished_ ? ", finished" : "") << "}";
 }
 

@@ -29,9 +29,10 @@ std::string elapsed(double seconds);
 
 class ProgressReporter {
   public:
-    // `label` starts every report ("trace", "Monte Carlo"); `totalRays` is the run's size.
-    // The mode is chosen once here: a terminal when isatty(fileno(stderr)).
-    ProgressReporter(std::string label, uint64_t totalRays);
+    // `label` starts every report ("trace", "Monte Carlo"); `totalRays` is the run's size, in
+    // `unit` (plural: "rays", "passes"). The mode is chosen once here: a terminal when
+    // isatty(fileno(stderr)).
+    ProgressReporter(std::string label, uint64_t totalRays, std::string unit = "rays");
     // On a terminal, ends a line left open by a run that did not finish (an exception), so
     // the error message starts on a line of its own.
     ~ProgressReporter();
@@ -57,6 +58,7 @@ class ProgressReporter {
     double secondsSinceStart() const;
 
     std::string label_;
+    std::string unit_;
     uint64_t totalRays_ = 0;
     bool terminal_ = false;
     std::chrono::steady_clock::time_point start_;

@@ -37,6 +37,9 @@ SceneFile singlet(const std::string& name, const std::string& faces) {
     return readSceneFile(path, GlassCatalog::builtIn());
 }
 
+// The axis position's spot image radius.
+double f0SpotRadius(const GlareResult& r) { return r.fields.at(0).spotImageRadiusMm; }
+
 GlareSpec quick() {
     GlareSpec spec;
     spec.passes = 6;
@@ -59,6 +62,77 @@ TEST(Glare, PerfectLensHasNone) {
         EXPECT_GT(f.white.error, 0.0) << f.fieldDeg;
         EXPECT_EQ(f.ghostPrediction, 0.0) << f.fieldDeg;  // ideal AR: no ghost at all
     }
+    // The point source's light all lands in its image, well inside the spot's: the GSF is 0
+    // past it, and so are the VGIs recomputed from it and rendered for the disc's field.
+    ASSERT_TRUE(r.fields[0].spread.has_value());
+    EXPECT_FALSE(r.fields[1].spread.has_value());  // off axis: only with GlareSpreadAt::All
+    const GlareSpread& g = *r.fields[0].spread;
+    EXPECT_GT(g.discFlux.value, 0.0);
+    EXPECT_EQ(g.vgi.value, 0.0);
+    EXPECT_NEAR(g.fieldDeg, 5.0, 1e-6);  // the singlet's largest field
+    EXPECT_EQ(g.directVgi.value, 0.0);
+    for (size_t a = 0; a < g.total.size(); ++a)
+        if (g.edgesMm[a] >= f0SpotRadius(r)) EXPECT_EQ(g.total[a].value, 0.0) << g.edgesMm[a];
+}
+
+// Scatter at the stop spreads a point source's light the same way about its image wherever
+// the image is (to first order in the field angle): the isoplanatic case, where ISO 9358's
+// VGI from the GSF is the VGI. A singlet with ideal AR faces whose front face (1 mm behind
+// the stop) scatters by an ABg BTDF (A 5e-4, B 1e-3, g 2; TIS about 1 %):
+//   - the GSF's diffuse part follows the BTDF: a ray scattered by delta beta in the glass
+//     leaves the flat-ish back face n delta beta off the image ray and lands
+//     d = 96.71 + 4 / n mm further on (the image distance plus the glass's reduced
+//     thickness), so at distance r from the image, with solid angle n^2 larger in air,
+//         GSF(r) = BTDF(r / (n d)) / (n^2 d^2),   BTDF(x) = A / (B + x^2);
+//   - the VGI recomputed from the GSF is the VGI rendered for a bright field out to the
+//     disc's field angle (5 degrees).
+TEST(Glare, SpreadOfScatterAtTheStopIsIsoplanatic) {
+    const GlassCatalog& catalog = GlassCatalog::builtIn();
+    const fs::path path = fs::path(::testing::TempDir()) / "veil_glare_rough.toml";
+    FILE* f = fopen(path.c_str(), "w");
+    ASSERT_TRUE(f);
+    fprintf(f,
+            "lens = \"%s/examples/lenses/singlet.toml\"\n"
+            "[properties.rough_ar]\nspecular = \"ideal_ar\"\n"
+            "scatter = { model = \"abg\", btdf = { a = 5e-4, b = 1e-3, g = 2 } }\n"
+            "[[assign]]\nobjects = [\"L1.edge\", \"L1.flat*\"]\nproperty = \"absorber\"\n"
+            "[[assign]]\nobjects = [\"L1.back\"]\nproperty = \"ideal_ar\"\n"
+            "[[assign]]\nobjects = [\"L1.front\"]\nproperty = \"rough_ar\"\n",
+            VEIL_SOURCE_DIR);
+    fclose(f);
+    GlareSpec spec = quick();
+    spec.fieldsDeg = {Vec2(0.0)};
+    const GlareResult r = runGlare(readSceneFile(path, catalog), catalog, spec);
+    ASSERT_EQ(r.fields.size(), 1u);
+    ASSERT_TRUE(r.fields[0].spread.has_value());
+    const GlareSpread& g = *r.fields[0].spread;
+
+    const double n = 1.5168, d = 96.71 + 4.0 / n;  // N-BK7 at the d line
+    double worst = 0.0;
+    for (const double rMm : {0.5, 1.0, 2.0, 4.0, 8.0}) {
+        size_t a = 0;
+        while (g.edgesMm[a + 1] <= rMm) ++a;
+        const double at = spreadRadius(g.edgesMm[a], g.edgesMm[a + 1]);
+        const double x = at / (n * d);
+        const double expected = 5e-4 / (1e-3 + x * x) / (n * n * d * d);
+        const GlareValue& v = g.diffuse[a];
+        std::cout << "[ GSF      ] r " << at << " mm: " << v.value << " +- " << v.error << ", ABg "
+                  << expected << "\n";
+        EXPECT_NEAR(v.value, expected, 4.0 * v.error + 0.05 * expected) << at;
+        EXPECT_LT(v.error, 0.05 * v.value);   // the check has teeth
+        EXPECT_EQ(g.specular[a].value, 0.0);  // ideal AR: no ghost
+        worst = std::max(worst, std::abs(v.value / expected - 1.0));
+    }
+    std::cout << "[ GSF      ] worst ABg deviation " << worst << "\n";
+
+    ASSERT_NEAR(g.fieldDeg, 5.0, 1e-6);
+    std::cout << "[ GSF      ] VGI from the GSF " << g.vgi.value << " +- " << g.vgi.error
+              << ", rendered for the disc's field " << g.directVgi.value << " +- "
+              << g.directVgi.error << "\n";
+    EXPECT_GT(g.vgi.value, 1e-3);
+    EXPECT_NEAR(g.vgi.value, g.directVgi.value,
+                4.0 * std::hypot(g.vgi.error, g.directVgi.error) + 0.03 * g.directVgi.value);
+    EXPECT_LT(g.directVgi.error, 0.05 * g.directVgi.value);
 }
 
 TEST(Glare, UncoatedSingletGhostMatchesForwardMonteCarlo) {
@@ -99,6 +173,19 @@ TEST(Glare, UncoatedSingletGhostMatchesForwardMonteCarlo) {
     // centre predicts the render's specular part (within its error and the backward grid's
     // quadrature, 1 %), and the image through the nominal path the bright field's
     // irradiance less the ghost light in it.
+    // Over the 5 degree disc the ghost of a point source is a uniform patch far wider than the
+    // disc, and the same for every source in it: isoplanatic, so the VGI recomputed from the
+    // GSF is the one rendered for that field.
+    ASSERT_TRUE(axis.spread.has_value());
+    const GlareSpread& g = *axis.spread;
+    std::cout << "[ GSF      ] uncoated singlet: VGI from the GSF " << g.vgi.value << " +- "
+              << g.vgi.error << ", rendered for the disc's field " << g.directVgi.value << " +- "
+              << g.directVgi.error << "\n";
+    EXPECT_EQ(g.vgiDiffuse.value, 0.0);
+    EXPECT_GT(g.vgi.value, 0.0);
+    EXPECT_NEAR(g.vgi.value, g.directVgi.value,
+                4.0 * std::hypot(g.vgi.error, g.directVgi.error) + 0.03 * g.directVgi.value);
+
     for (const GlareField& f : r.fields) {
         ASSERT_EQ(f.ghosts.size(), 1u);
         EXPECT_EQ(f.ghosts[0].label, "L1.back > L1.front");
@@ -143,6 +230,7 @@ TEST(Glare, StoppingDownScalesTheImageIrradiance) {
     spec.render.raysPerPixel = 32;
     spec.fieldsDeg = {Vec2(0.0)};
     spec.fNumbers = {2.0, 4.0};
+    spec.spread = GlareSpreadAt::None;
     const GlareResult r = runGlare(dg, catalog, spec);
     ASSERT_EQ(r.fields.size(), 2u);
     EXPECT_EQ(r.fields[0].fNumber, 2.0);

@@ -40,9 +40,26 @@ TEST(GlareCommand, ReportsEachPositionWithItsParts) {
         EXPECT_GT(f.at("white").at("value").get<double>(), 0.0);
     }
     EXPECT_NEAR(j.at("fields")[1].at("image_mm")[1].get<double>(), 6.1, 0.1);
-    for (const char* f : {"glare.md", "glare.csv", "glare.json", "glare.png", "veil-run.json"})
+    for (const char* f : {"glare.md", "glare.csv", "glare.json", "glare.png", "gsf.csv", "gsf.png",
+                          "veil-run.json"})
         EXPECT_TRUE(fs::exists(fs::path(dir) / f)) << f;
     EXPECT_FALSE(veil_test::hasNonFinite(readText(dir + "/glare.csv")));
+    EXPECT_FALSE(veil_test::hasNonFinite(readText(dir + "/gsf.csv")));
+    // The GSF on axis only (the default), with the disc's field (the singlet's largest
+    // field, 5 deg) rendered as its check; the GSF integrates to 1 over the disc.
+    const nlohmann::json& g = j.at("fields")[0].at("gsf");
+    EXPECT_FALSE(j.at("fields")[1].contains("gsf"));
+    EXPECT_NEAR(g.at("field_deg").get<double>(), 5.0, 1e-6);
+    EXPECT_TRUE(g.at("direct_vgi").contains("error"));
+    const auto edges = g.at("edges_mm").get<std::vector<double>>();
+    const auto gsf = g.at("gsf").get<std::vector<double>>();
+    ASSERT_EQ(edges.size(), gsf.size() + 1);
+    EXPECT_EQ(edges.back(), g.at("radius_mm").get<double>());
+    double integral = 0.0;
+    for (size_t a = 0; a < gsf.size(); ++a)
+        integral += gsf[a] * M_PI * (edges[a + 1] * edges[a + 1] - edges[a] * edges[a]);
+    EXPECT_NEAR(integral, 1.0, 0.02);
+    EXPECT_NE(readText(dir + "/glare.md").find("VGI from GSF"), std::string::npos);
 }
 
 TEST(GlareCommand, PositionsItCannotMeasureAreRefusedFirst) {
@@ -57,6 +74,15 @@ TEST(GlareCommand, PositionsItCannotMeasureAreRefusedFirst) {
     EXPECT_EQ(r.exitCode, 2) << r.err;
     r = runVeil("glare examples/lenses/singlet.toml --field-deg 95 -o " + dir);
     EXPECT_EQ(r.exitCode, 2) << r.err;
+    r = runVeil("glare examples/lenses/singlet.toml --gsf some -o " + dir);
+    EXPECT_EQ(r.exitCode, 2) << r.err;
+    // A GSF disc inside the fine detector's reach (3.8 spot image radii, 1.66 mm here).
+    r = runVeil("glare examples/lenses/singlet.toml --gsf-radius-mm 1 -o " + dir);
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_NE(r.err.find("--gsf-radius-mm: the GSF's disc (1 mm) must reach past"),
+              std::string::npos)
+        << r.err;
+    EXPECT_FALSE(fs::exists(dir));
 }
 
 }  // namespace
