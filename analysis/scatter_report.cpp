@@ -25,7 +25,12 @@ std::string fmt(double v, int precision = 4) {
     return os.str();
 }
 
-bool hasTransmission(const ScatterModel& m) {
+bool hasTransmission(const OpticalProperty& p) {
+    // Dust scatters into a substrate that takes light in: not through a mirror or an absorber.
+    if (std::holds_alternative<ParticulateScatter>(p.scatter()))
+        return !std::holds_alternative<MirrorSpecular>(p.specular()) &&
+               !std::holds_alternative<AbsorberSpecular>(p.specular());
+    const ScatterModel& m = p.scatter();
     return std::visit(
         [](const auto& s) -> bool {
             using T = std::decay_t<decltype(s)>;
@@ -112,7 +117,7 @@ ScatterReport scatterReport(const PropertyTable& table, const Scene& scene,
             if (!(n > 1.0)) n = kAssumedIndex;
         }
         r.transmitIndex = index;
-        const bool transmits = hasTransmission(prop.scatter()) && !r.opaqueOnly;
+        const bool transmits = hasTransmission(prop) && !r.opaqueOnly;
         for (double incidence : report.incidencesDeg) {
             std::vector<double> rr, tt;
             for (size_t w = 0; w < report.wavelengthsNm.size(); ++w) {
@@ -131,6 +136,17 @@ ScatterReport scatterReport(const PropertyTable& table, const Scene& scene,
             addFileBlocks(t->reflectLobe(), r);
             addFileBlocks(t->transmitLobe(), r);
         }
+        if (const auto* d = std::get_if<ParticulateScatter>(&prop.scatter()))
+            for (const double nm : report.wavelengthsNm) {
+                const auto e = d->at(nm, 1.0);
+                r.notes.push_back("at " + fmt(nm, 6) + " nm in air: extinction " +
+                                  fmt(e->extinction()) + " and scatter " + fmt(e->scattering()) +
+                                  " of cross section per area of surface (albedo " +
+                                  fmt(e->albedo()) + "); the particles cover " +
+                                  fmt(100.0 * e->coverage()) +
+                                  " % of the surface (IEST-STD-CC1246's fit: " +
+                                  fmt(cc1246Pac(d->params().level)) + " %)");
+            }
         report.properties.push_back(std::move(r));
     }
     return report;
@@ -149,6 +165,8 @@ std::string ScatterReport::markdown() const {
           "given\n";
     for (const ScatterPropertyReport& r : properties) {
         os << "\n## " << r.name << "\n\n" << r.model << "\n\n";
+        for (const std::string& note : r.notes) os << "- " << note << "\n";
+        if (!r.notes.empty()) os << "\n";
         if (r.objects.empty()) {
             os << "Carried by no object of the scene.\n\n";
         } else {
@@ -216,6 +234,7 @@ std::string ScatterReport::json() const {
                          {"objects", r.objects},
                          {"opaque_only", r.opaqueOnly},
                          {"reflect_tis", r.reflectTis}};
+        if (!r.notes.empty()) p["notes"] = r.notes;
         if (!r.transmitTis.empty()) {
             p["transmit_tis"] = r.transmitTis;
             p["transmit_index"] = r.transmitIndex;

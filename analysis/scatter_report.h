@@ -45,6 +45,9 @@ struct ScatterPropertyReport {
     // [incidence][wavelength]; transmit is empty when the model has no transmitted channel.
     std::vector<std::vector<double>> reflectTis, transmitTis;
     std::vector<ScatterFileBlock> fileBlocks;
+    // Dust (particulate): per wavelength in air, its cross sections per unit area and its
+    // projected area against IEST-STD-CC1246's fit.
+    std::vector<std::string> notes;
 };
 
 struct ScatterReport {

@@ -40,10 +40,10 @@ void basisAround(const Vec3& n, Vec3& t1, Vec3& t2) {
 // Draws (u1, u2) pairs until `attempt` accepts one: first the given pair, then pairs from a
 // CounterRng keyed by their bits, so the outcome is a function of (u1, u2) alone.
 template <class F>
-bool sampleWithRejection(double u1, double u2, F&& attempt) {
+bool sampleWithRejection(double u1, double u2, F&& attempt, int maxTries = kMaxTries) {
     if (attempt(u1, u2)) return true;
     CounterRng rng(std::bit_cast<uint64_t>(u1), std::bit_cast<uint64_t>(u2));
-    for (int k = 1; k < kMaxTries; ++k) {
+    for (int k = 1; k < maxTries; ++k) {
         const double a = rng.uniform(), b = rng.uniform();
         if (attempt(a, b)) return true;
     }
@@ -153,6 +153,7 @@ std::ostream& operator<<(std::ostream& os, const ScatterModel& m) {
                    },
                    [&](const KCorrelationScatter& k) { os << k.params(); },
                    [&](const TabulatedScatter& t) { os << t; },
+                   [&](const ParticulateScatter& d) { os << d.params(); },
                },
                m);
     return os;
@@ -528,6 +529,134 @@ void tableAngles(const LobeFrame& f, const TableFrame& t, const Vec3& out, doubl
 
 }  // namespace
 
+namespace {
+
+// The specular model's reflected and transmitted shares of the light left to it (1).
+struct SpecularShares {
+    double r = 0.0, t = 0.0;
+    bool tir = false;
+};
+SpecularShares specularShares(const SpecularModel& model, const SurfaceContext& c, bool tir) {
+    const double cosI = c.cosIncidence();
+    SpecularShares s;
+    std::visit(Overloaded{
+                   [&](const FresnelSpecular&) {
+                       s.r = tir ? 1.0 : fresnelReflectance(c.n1, c.n2, cosI);
+                       s.t = 1.0 - s.r;
+                       s.tir = tir;
+                   },
+                   [&](const IdealArSpecular&) {
+                       s.r = tir ? 1.0 : 0.0;
+                       s.t = 1.0 - s.r;
+                       s.tir = tir;
+                   },
+                   [&](const FixedSpecular& f) {
+                       s.r = tir ? f.reflectance + f.transmittance : f.reflectance;
+                       s.t = tir ? 0.0 : f.transmittance;
+                       s.tir = tir;
+                   },
+                   [&](const QuarterWaveSpecular& q) {
+                       s.r = tir ? 1.0
+                                 : quarterWaveCoating(c.n1, q.index, q.designNm, c.n2, cosI,
+                                                      c.wavelengthNm)
+                                       .reflectance();
+                       s.t = 1.0 - s.r;
+                       s.tir = tir;
+                   },
+                   [&](const MirrorSpecular& m) { s.r = m.reflectance; },
+                   [&](const AbsorberSpecular&) {},
+               },
+               model);
+    if (c.opaque) s.t = 0.0;
+    return s;
+}
+
+// Where the light meets the dust of a particulate model (tracer/particulate.h): the dust sits
+// in the lower-index medium. Light from that side meets it before the surface; light from
+// the dense side meets it after refracting out (none under total internal reflection).
+// Scattered directions toward the light's side (dot(d, c.normal) > 0: the reflect channel)
+// and away from it (the transmit channel) are in the dust's medium on its side and refracted
+// into the dense medium on the other.
+struct DustFrame {
+    bool valid = false;
+    bool lightFromLow = true;
+    Vec3 incoming{0.0};  // the light's direction in the dust's medium
+    double cosLow = 1.0, nLow = 1.0, nHigh = 1.0;
+    double fExt = 0.0;       // share of the light reaching the dust that it intercepts
+    double scattered = 0.0;  // share of the incident light the dust scatters
+    double back = 0.0;       // of that, the share toward the light's side
+    // On an opaque surface that reflects (r > 0): the dust's forward light the substrate
+    // reflects, and the reflected beam's forward scatter on its way out, both a lobe about
+    // the mirror direction: r (2 - f_ext) scattered (1 - back) of the incident light.
+    Vec3 mirrored{0.0};
+    double image = 0.0;
+    // The substrate takes no light in (opaque, or a mirror or absorbing coating): the dust's
+    // forward light does not cross it.
+    bool sealed = false;
+    std::shared_ptr<const ParticulateEnsemble> dust;
+
+    // Whether a channel's directions lie in the dust's medium (no refraction).
+    bool direct(bool transmit) const { return transmit != lightFromLow; }
+    double tis(bool transmit) const {
+        if (transmit) return sealed ? 0.0 : scattered * (1.0 - back);
+        return scattered * back + image;
+    }
+};
+
+DustFrame dustFrame(const ParticulateScatter& ps, const SurfaceContext& c, double specularR,
+                    double specularT, bool tir) {
+    DustFrame f;
+    if (c.opaque || c.n1 <= c.n2) {
+        f.lightFromLow = true;
+        f.incoming = c.direction;
+        f.cosLow = c.cosIncidence();
+        f.nLow = c.n1;
+        f.nHigh = c.opaque ? c.n1 : c.n2;
+    } else {
+        if (tir) return f;
+        const auto t = refract(c.direction, c.normal, c.n1, c.n2);
+        if (!t) return f;
+        f.lightFromLow = false;
+        f.incoming = *t;
+        f.cosLow = std::clamp(-glm::dot(*t, c.normal), 0.0, 1.0);
+        f.nLow = c.n2;
+        f.nHigh = c.n1;
+    }
+    f.dust = ps.at(c.wavelengthNm, f.nLow);
+    f.fExt = f.cosLow > 0.0 ? -std::expm1(-f.dust->extinction() / f.cosLow) : 1.0;
+    f.scattered = (f.lightFromLow ? 1.0 : specularT) * f.fExt * f.dust->albedo();
+    f.back = f.dust->backShare(f.cosLow);
+    f.sealed = f.lightFromLow && (c.opaque || !(specularT > 0.0));
+    if (f.sealed && specularR > 0.0) {
+        f.mirrored = reflect(c.direction, c.normal);
+        f.image = specularR * (2.0 - f.fExt) * f.scattered * (1.0 - f.back);
+    }
+    f.valid = true;
+    return f;
+}
+
+// The dust's BSDF at `out` for the channel out lies in (0 where it cannot reach).
+double dustBsdf(const DustFrame& f, const SurfaceContext& c, const Vec3& out, bool transmit) {
+    if (transmit && f.sealed) return 0.0;
+    Vec3 low = out;
+    if (!f.direct(transmit)) {
+        // The direction in the dust's medium that refracts into out.
+        const Vec3 highSide = f.lightFromLow ? -c.normal : c.normal;
+        const auto back = refract(-out, highSide, f.nHigh, f.nLow);
+        if (!back) return 0.0;
+        low = -*back;
+    }
+    const double cosLow = std::abs(glm::dot(low, c.normal));
+    if (!(cosLow > 0.0)) return 0.0;
+    double v = f.scattered * f.dust->phase(glm::dot(f.incoming, low)) / cosLow;
+    if (f.image > 0.0 && !transmit && f.back < 1.0)
+        v += f.image / (1.0 - f.back) * f.dust->phase(glm::dot(f.mirrored, low)) / cosLow;
+    const double ratio = f.nHigh / f.nLow;
+    return f.direct(transmit) ? v : ratio * ratio * v;
+}
+
+}  // namespace
+
 Channels OpticalProperty::channels(const SurfaceContext& c) const {
     const double cosI = c.cosIncidence();
     const bool tir = !c.opaque && totalInternalReflection(c.n1, c.n2, cosI);
@@ -560,6 +689,7 @@ Channels OpticalProperty::channels(const SurfaceContext& c) const {
                        // refuses such scenes) the transmitted share is cut to what is left.
                        sT = std::min(sT, std::max(0.0, 1.0 - sR));
                    },
+                   [&](const ParticulateScatter&) {},  // below, with the specular part
                    [&](const TabulatedScatter& t) {
                        // The specular angle: the incidence for the BRDF, the refraction
                        // angle for the BTDF.
@@ -578,36 +708,28 @@ Channels OpticalProperty::channels(const SurfaceContext& c) const {
     const double rest = std::max(0.0, 1.0 - sR - sT);
 
     // The specular part shares the rest.
-    double r = 0.0, t = 0.0;
-    std::visit(Overloaded{
-                   [&](const FresnelSpecular&) {
-                       r = tir ? 1.0 : fresnelReflectance(c.n1, c.n2, cosI);
-                       t = 1.0 - r;
-                       ch.tir = tir;
-                   },
-                   [&](const IdealArSpecular&) {
-                       r = tir ? 1.0 : 0.0;
-                       t = 1.0 - r;
-                       ch.tir = tir;
-                   },
-                   [&](const FixedSpecular& f) {
-                       r = tir ? f.reflectance + f.transmittance : f.reflectance;
-                       t = tir ? 0.0 : f.transmittance;
-                       ch.tir = tir;
-                   },
-                   [&](const QuarterWaveSpecular& q) {
-                       r = tir ? 1.0
-                               : quarterWaveCoating(c.n1, q.index, q.designNm, c.n2, cosI,
-                                                    c.wavelengthNm)
-                                     .reflectance();
-                       t = 1.0 - r;
-                       ch.tir = tir;
-                   },
-                   [&](const MirrorSpecular& m) { r = m.reflectance; },
-                   [&](const AbsorberSpecular&) {},
-               },
-               specular_);
-    if (c.opaque) t = 0.0;
+    const SpecularShares spec = specularShares(specular_, c, tir);
+    ch.tir = spec.tir;
+    if (const auto* ps = std::get_if<ParticulateScatter>(&scatter_)) {
+        const DustFrame f = dustFrame(*ps, c, spec.r, spec.t, tir);
+        if (!f.valid) {
+            ch.specularReflect = spec.r;
+            ch.specularTransmit = spec.t;
+            return ch;
+        }
+        // Light from the dust's side passes it before the surface (both specular parts
+        // lose f_ext); from the dense side only the transmitted light meets it.
+        // On a sealed substrate (a mirror) the reflected beam crosses the dust again on its
+        // way out.
+        ch.specularReflect = !f.lightFromLow ? spec.r
+                             : f.sealed      ? (1.0 - f.fExt) * (1.0 - f.fExt) * spec.r
+                                             : (1.0 - f.fExt) * spec.r;
+        ch.specularTransmit = (1.0 - f.fExt) * spec.t;
+        ch.scatterReflect = f.tis(false);
+        ch.scatterTransmit = f.tis(true);
+        return ch;
+    }
+    const double r = spec.r, t = spec.t;
     ch.specularReflect = rest * r;
     ch.specularTransmit = rest * t;
     return ch;
@@ -665,6 +787,44 @@ ScatterSample OpticalProperty::sampleScatter(const SurfaceContext& c, bool trans
                 const double cosO = std::sqrt(std::max(0.0, 1.0 - glm::dot(beta, beta)));
                 const Vec3 d = glm::normalize(beta.x * t1 + beta.y * t2 + cosO * f.side);
                 return ScatterSample{d, k.bsdf(lobe, glm::length(beta - beta0), cosO) * cosO / tis};
+            },
+            [&](const ParticulateScatter& ps) {
+                const bool tir = !c.opaque && totalInternalReflection(c.n1, c.n2, c.cosIncidence());
+                const SpecularShares sp = specularShares(specular_, c, tir);
+                const DustFrame f = dustFrame(ps, c, sp.r, sp.t, tir);
+                if (!f.valid) return ScatterSample{};
+                const double tis = f.tis(transmit);
+                if (!(tis > 0.0)) return ScatterSample{};
+                // The lobe (about the light's direction, or the mirrored one for the image
+                // light) in proportion to its share, then directions of the phase function
+                // about it until one lies on the channel's side.
+                Vec3 axis = f.incoming;
+                const double imageShare = transmit ? 0.0 : f.image / tis;
+                if (u1 < imageShare) {
+                    axis = f.mirrored;
+                    u1 /= imageShare;
+                } else if (imageShare > 0.0) {
+                    u1 = std::min(1.0, (u1 - imageShare) / (1.0 - imageShare));
+                }
+                Vec3 low(0.0);
+                const bool ok = sampleWithRejection(
+                    u1, u2,
+                    [&](double a, double b) {
+                        low = f.dust->sample(axis, a, b);
+                        const double side = glm::dot(low, c.normal);
+                        return transmit ? side < 0.0 : side > 0.0;
+                    },
+                    1 << 16);
+                if (!ok) return ScatterSample{f.incoming, 0.0};
+                Vec3 out = low;
+                if (!f.direct(transmit)) {
+                    const auto r =
+                        refract(low, f.lightFromLow ? c.normal : -c.normal, f.nLow, f.nHigh);
+                    if (!r) return ScatterSample{low, 0.0};
+                    out = *r;
+                }
+                return ScatterSample{
+                    out, dustBsdf(f, c, out, transmit) * std::abs(glm::dot(out, c.normal)) / tis};
             },
             [&](const TabulatedScatter& t) {
                 const TabulatedLobe* lobe = transmit ? t.transmitLobe() : t.reflectLobe();
@@ -728,6 +888,12 @@ double OpticalProperty::bsdf(const SurfaceContext& c, const Vec3& out) const {
                 tableAngles(f, tf, out, r, phi);
                 return lobe->bsdf(tf.thetaDeg, r, phi);
             },
+            [&](const ParticulateScatter& ps) {
+                const bool tir = !c.opaque && totalInternalReflection(c.n1, c.n2, c.cosIncidence());
+                const SpecularShares sp = specularShares(specular_, c, tir);
+                const DustFrame f = dustFrame(ps, c, sp.r, sp.t, tir);
+                return f.valid ? dustBsdf(f, c, out, transmit) : 0.0;
+            },
         },
         scatter_);
 }
@@ -781,6 +947,14 @@ double OpticalProperty::scatterPdf(const SurfaceContext& c, const Vec3& out) con
                 double r = 0.0, phi = 0.0;
                 tableAngles(f, tf, out, r, phi);
                 return lobe->bsdf(tf.thetaDeg, r, phi) * std::abs(cosO) / tis;
+            },
+            [&](const ParticulateScatter& ps) {
+                const bool tir = !c.opaque && totalInternalReflection(c.n1, c.n2, c.cosIncidence());
+                const SpecularShares sp = specularShares(specular_, c, tir);
+                const DustFrame f = dustFrame(ps, c, sp.r, sp.t, tir);
+                if (!f.valid) return 0.0;
+                const double tis = f.tis(transmit);
+                return tis > 0.0 ? dustBsdf(f, c, out, transmit) * std::abs(cosO) / tis : 0.0;
             },
         },
         scatter_);

@@ -126,6 +126,7 @@
 
 #include "geometry/vec.h"
 #include "tracer/k_correlation.h"
+#include "tracer/particulate.h"
 #include "tracer/tabulated_bsdf.h"
 
 namespace veil {
@@ -302,7 +303,7 @@ class AbgScatter {
 };
 
 using ScatterModel = std::variant<NoScatter, LambertianScatter, GaussianScatter, AbgScatter,
-                                  KCorrelationScatter, TabulatedScatter>;
+                                  KCorrelationScatter, TabulatedScatter, ParticulateScatter>;
 std::ostream& operator<<(std::ostream& os, const ScatterModel& m);
 
 // Optical Property

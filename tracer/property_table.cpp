@@ -46,8 +46,9 @@ std::string joinNames(const std::vector<std::string>& names) {
 
 const std::vector<std::string> kSpecularModels = {"fresnel",      "uncoated", "ideal_ar", "fixed",
                                                   "quarter_wave", "mirror",   "absorber", "none"};
-const std::vector<std::string> kScatterModels = {
-    "lambertian", "gaussian", "abg", "harvey_shack", "k_correlation", "tabulated", "none"};
+const std::vector<std::string> kScatterModels = {"lambertian",   "gaussian",      "abg",
+                                                 "harvey_shack", "k_correlation", "tabulated",
+                                                 "particulate",  "none"};
 
 SpecularModel specularByName(const TomlValue& at, const std::string& model, bool inTable) {
     if (model == "fresnel" || model == "uncoated") return FresnelSpecular{};
@@ -113,6 +114,31 @@ AbgParams readHarveyShackParams(const TomlValue& v) {
     const double s =
         t.require("s", "slope beyond the shoulder, <= 0").asNumber(NumberRange::between(-1e3, 0.0));
     return harveyShack(b0, l, s);
+}
+
+// Dust at an IEST-STD-CC1246 level: the level, the smallest size counted and the particles'
+// complex refractive index.
+ParticulateScatter readParticulate(const TomlTable& t) {
+    ParticulateParams p;
+    p.level = t.require("level", "IEST-STD-CC1246 cleanliness level, 1 to 2000")
+                  .asNumber(NumberRange::between(1.0, 2000.0));
+    const std::optional<TomlValue> minUm = t.get("min_um");
+    p.minUm = t.number("min_um", 1.0, NumberRange::atLeast(1.0));
+    if (!(p.minUm < p.level)) {
+        const std::string message = t.path() + ": the smallest particle counted (min_um " +
+                                    number(p.minUm) + ") must be below the level " +
+                                    number(p.level);
+        if (minUm) minUm->fail(message);
+        t.fail(message);
+    }
+    p.index = t.require("index", "the particles' refractive index, real part")
+                  .asNumber(NumberRange::strictlyBetween(0.0, 10.0));
+    p.k = t.number("k", 0.0, NumberRange{0.0, 10.0, false, true});
+    try {
+        return ParticulateScatter(p);
+    } catch (const std::invalid_argument& e) {
+        t.fail(t.path() + ": " + e.what());
+    }
 }
 
 // The PSD as A, B and C, or as the RMS roughness, B and C (A = sigma^2 B^2 (C - 2) / 2 pi).
@@ -247,6 +273,7 @@ ScatterModel readScatter(const TomlValue& v) {
     }
     if (model == "k_correlation") return readKCorrelation(t);
     if (model == "tabulated") return readTabulated(t);
+    if (model == "particulate") return readParticulate(t);
     if (model == "none") return NoScatter{};
     const std::string hint = didYouMean(model, kScatterModels);
     modelValue.fail("unknown scatter model '" + model + "'" +

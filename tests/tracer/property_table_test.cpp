@@ -162,6 +162,10 @@ scatter = { model = "harvey_shack", brdf = [{ b0 = 3.93, l = 0.00411, s = -2.35 
 [properties.gauss]
 scatter = { model = "gaussian", reflectance = 0.05, half_width_deg = 5 }
 
+[properties.dust]
+specular = "fresnel"
+scatter = { model = "particulate", level = 300, min_um = 2, index = 1.53, k = 0.008 }
+
 [properties.gauss_t]
 specular = "none"
 scatter = { model = "gaussian", reflectance = 0.1, transmittance = 0.2, half_width_deg = 12.5 }
@@ -191,6 +195,12 @@ TEST(PropertyTable, ReadsEveryKey) {
         EXPECT_GE(i, 0) << name;
         return t.property(std::max(i, 0));
     };
+
+    const auto& dust = std::get<ParticulateScatter>(get("dust").scatter()).params();
+    EXPECT_EQ(dust.level, 300.0);
+    EXPECT_EQ(dust.minUm, 2.0);
+    EXPECT_EQ(dust.index, 1.53);
+    EXPECT_EQ(dust.k, 0.008);
 
     const auto& black = get("black_anodized");
     EXPECT_TRUE(std::holds_alternative<AbsorberSpecular>(black.specular()));  // default
@@ -256,7 +266,7 @@ TEST(PropertyTable, ReadsEveryKey) {
 
     // A table replaces the built-in of its name, in place.
     EXPECT_EQ(std::get<LambertianScatter>(get("lens_edge").scatter()).reflectance, 0.1);
-    EXPECT_EQ(t.properties().size(), PropertyTable().properties().size() + 19);
+    EXPECT_EQ(t.properties().size(), PropertyTable().properties().size() + 20);
 
     ASSERT_EQ(t.rules().size(), 2u);
     EXPECT_EQ(t.rules()[0].patterns, std::vector<std::string>{"L1.*"});
@@ -329,6 +339,19 @@ TEST(PropertyTable, ScatterErrorsAreAtTheValue) {
     expectErrorAt(text, "0 }", "scatter nothing");
     text = "[properties.x]\nscatter = { model = \"k_correlation\", b_um = 1, c = 3, reflectance = 1 }\n";
     expectErrorAt(text, "{ model", "needs `a`");
+    text = "[properties.x]\nscatter = { model = \"particulate\", index = 1.5 }\n";
+    expectErrorAt(text, "{ model", "missing key 'level'");
+    text = "[properties.x]\nscatter = { model = \"particulate\", level = 5000, index = 1.5 }\n";
+    expectErrorAt(text, "5000", "2000");
+    text =
+        "[properties.x]\nscatter = { model = \"particulate\", level = 100, min_um = 100, index = "
+        "1.5 }\n";
+    expectErrorAt(text, "100, index", "below the level 100");
+    text = "[properties.x]\nscatter = { model = \"particulate\", level = 100, index = 0 }\n";
+    expectErrorAt(text, "0 }", "index");
+    text =
+        "[properties.x]\nscatter = { model = \"particulate\", level = 100, index = 1.5, k = -1 }\n";
+    expectErrorAt(text, "-1 }", "k");
     text = "[properties.x]\nscatter = { model = \"harvey_shack\", brdf = [] }\n";
     expectErrorAt(text, "[] }", "at least one lobe");
     text = "[properties.x]\nscatter = \"lambertian\"\n";

@@ -159,6 +159,22 @@ inline Vec2 projectOnSurface(const Vec3& w) {
     return Vec2(glm::dot(w, t1), glm::dot(w, t2));
 }
 
+// One sampled direction of a channel (normal kNormal), checked: it exists and lies on the
+// channel's side, its pdf is scatterPdf's (1e-9) and its weight bsdf |cos| / pdf is the
+// channel's fraction (1e-12 relative). Fatal failures end the caller's loop (check
+// HasFatalFailure()).
+inline void sampleChecked(const char* what, const OpticalProperty& p, const SurfaceContext& c,
+                          bool transmit, double fraction, double u1, double u2,
+                          ScatterSample& s) {
+    s = p.sampleScatter(c, transmit, u1, u2);
+    ASSERT_GT(s.pdf, 0.0) << what;
+    const double cosO = glm::dot(s.direction, kNormal);
+    ASSERT_GT(transmit ? -cosO : cosO, 0.0) << what;
+    ASSERT_NEAR(s.pdf, p.scatterPdf(c, s.direction), 1e-9 * s.pdf) << what;
+    ASSERT_NEAR(p.bsdf(c, s.direction) * std::abs(cosO) / s.pdf, fraction, 1e-12 * fraction)
+        << what;
+}
+
 // One scatter channel of `p` at context c (normal kNormal) sampled 200000 times against bin
 // probabilities of `model` (the BSDF per unit beta area, written by the test from the model's
 // definition; beta0 the specular direction's projection): the channel's fraction against the
@@ -180,12 +196,9 @@ inline void channelChi2(const char* what, const OpticalProperty& p, const Surfac
     CounterRng rng(seed, 0);
     for (int i = 0; i < n; ++i) {
         const double u1 = rng.uniform(), u2 = rng.uniform();
-        const ScatterSample s = p.sampleScatter(c, transmit, u1, u2);
-        ASSERT_GT(s.pdf, 0.0) << what;
-        const double cosO = glm::dot(s.direction, kNormal);
-        ASSERT_GT(transmit ? -cosO : cosO, 0.0) << what;
-        ASSERT_NEAR(s.pdf, p.scatterPdf(c, s.direction), 1e-9 * s.pdf) << what;
-        ASSERT_NEAR(p.bsdf(c, s.direction) * std::abs(cosO) / s.pdf, fraction, 1e-12) << what;
+        ScatterSample s;
+        sampleChecked(what, p, c, transmit, fraction, u1, u2, s);
+        if (::testing::Test::HasFatalFailure()) return;
         const Vec2 rel = projectOnSurface(s.direction) - beta0;
         double phi = std::atan2(rel.y, rel.x);
         if (phi < 0) phi += 2 * kPi;

@@ -1,0 +1,209 @@
+#include "tracer/particulate.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+#include "tracer/mie.h"
+
+namespace veil {
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr int kAngleSteps = 1500;      // theta_k = pi (k / kAngleSteps)^2
+constexpr int kBinsPerOctave = 12;     // of particle diameter
+constexpr int kBackSteps = 1200;       // the backShare table: uniform in cos(incidence)
+constexpr double kUm2Per0p1M2 = 1e11;  // 0.1 m^2 in um^2
+
+// Fraction of a circle of angular radius alpha about an axis at angle thetaS from n that lies
+// in the open hemisphere about n.
+double circleFractionAbove(double cosAlpha, double sinAlpha, double cosS, double sinS) {
+    if (sinAlpha <= 0.0 || sinS <= 0.0) return cosAlpha * cosS > 0.0 ? 1.0 : 0.0;
+    const double c = -cosAlpha * cosS / (sinAlpha * sinS);
+    return std::acos(std::clamp(c, -1.0, 1.0)) / kPi;
+}
+
+std::string number(double v) {
+    std::string s = std::to_string(v);
+    s.erase(s.find_last_not_of('0') + 1);
+    if (!s.empty() && s.back() == '.') s.pop_back();
+    return s;
+}
+
+}  // namespace
+
+std::ostream& operator<<(std::ostream& os, const ParticulateParams& p) {
+    return os << "particulate{level " << p.level << ", " << p.minUm << " um up, index " << p.index
+              << " + " << p.k << "i}";
+}
+
+double cc1246Count(double level, double dUm) {
+    if (!(dUm <= level)) return 0.0;
+    const double a = std::log10(level), b = std::log10(dUm);
+    return std::pow(10.0, 0.926 * (a * a - b * b));
+}
+
+double cc1246Pac(double level) {
+    const double a = std::log10(level);
+    return std::pow(10.0, -7.245 + 0.926 * a * a);
+}
+
+// Particulate Ensemble
+
+ParticulateEnsemble::ParticulateEnsemble(const ParticulateParams& p, double wavelengthUm,
+                                         double mediumIndex) {
+    if (!(wavelengthUm > 0.0) || !(mediumIndex > 0.0))
+        throw std::invalid_argument("particulate ensemble needs a wavelength and a medium index");
+    // The nodes: theta_k = pi (k / K)^2, stored by ascending mu.
+    std::vector<double> muDescending(kAngleSteps + 1);
+    for (int k = 0; k <= kAngleSteps; ++k) {
+        const double t = static_cast<double>(k) / kAngleSteps;
+        muDescending[static_cast<size_t>(k)] = std::cos(kPi * t * t);
+    }
+    muDescending.back() = -1.0;
+    std::vector<double> sigma(muDescending.size(), 0.0);  // sum of N dsigma/dOmega (um^2/sr)
+
+    const std::complex<double> m(p.index / mediumIndex, p.k / mediumIndex);
+    const double wavenumber = 2.0 * kPi / wavelengthUm;
+    const double octaves = std::log2(p.level / p.minUm);
+    const int bins = std::max(4, static_cast<int>(std::ceil(kBinsPerOctave * octaves)));
+    std::vector<double> intensity;
+    auto add = [&](double diameterUm, double perUm2) {
+        if (!(perUm2 > 0.0)) return;
+        const double x = kPi * diameterUm / wavelengthUm;
+        const MieEfficiencies e = mieScatter(x, m, muDescending, &intensity);
+        const double area = 0.25 * kPi * diameterUm * diameterUm;
+        cExt_ += perUm2 * e.qext * area;
+        cSca_ += perUm2 * e.qsca * area;
+        cGeo_ += perUm2 * area;
+        for (size_t k = 0; k < sigma.size(); ++k)
+            sigma[k] += perUm2 * intensity[k] / (wavenumber * wavenumber);
+    };
+    for (int j = 0; j < bins; ++j) {
+        const double d0 = p.minUm * std::pow(p.level / p.minUm, static_cast<double>(j) / bins);
+        const double d1 = p.minUm * std::pow(p.level / p.minUm, static_cast<double>(j + 1) / bins);
+        add(std::sqrt(d0 * d1),
+            (cc1246Count(p.level, d0) - cc1246Count(p.level, d1)) / kUm2Per0p1M2);
+    }
+    add(p.level, cc1246Count(p.level, p.level) / kUm2Per0p1M2);  // the one of size L
+
+    mu_.assign(muDescending.rbegin(), muDescending.rend());
+    p_.assign(sigma.rbegin(), sigma.rend());
+    // Normalised so that the interpolant (linear in mu) integrates to 1 over the sphere.
+    cdf_.assign(mu_.size(), 0.0);
+    for (size_t k = 1; k < mu_.size(); ++k)
+        cdf_[k] = cdf_[k - 1] + kPi * (p_[k - 1] + p_[k]) * (mu_[k] - mu_[k - 1]);
+    const double total = cdf_.back();
+    if (!(total > 0.0)) throw std::invalid_argument("particulate ensemble scatters nothing");
+    for (double& v : p_) v /= total;
+    for (double& v : cdf_) v /= total;
+    cdf_.back() = 1.0;
+
+    back_.resize(static_cast<size_t>(kBackSteps) + 1);
+    for (int i = 0; i <= kBackSteps; ++i)
+        back_[static_cast<size_t>(i)] = backShareExact(static_cast<double>(i) / kBackSteps);
+}
+
+double ParticulateEnsemble::phase(double mu) const {
+    mu = std::clamp(mu, -1.0, 1.0);
+    const auto it = std::upper_bound(mu_.begin(), mu_.end(), mu);
+    if (it == mu_.end()) return p_.back();
+    const size_t k = static_cast<size_t>(it - mu_.begin());
+    if (k == 0) return p_.front();
+    const double t = (mu - mu_[k - 1]) / (mu_[k] - mu_[k - 1]);
+    return p_[k - 1] + t * (p_[k] - p_[k - 1]);
+}
+
+double ParticulateEnsemble::backShareExact(double cosIn) const {
+    cosIn = std::clamp(cosIn, 0.0, 1.0);
+    const double sinIn = std::sqrt(1.0 - cosIn * cosIn);
+    // Four-point Gauss-Legendre on every interval of the table.
+    static const double xs[4] = {-0.8611363115940526, -0.3399810435848563, 0.3399810435848563,
+                                 0.8611363115940526};
+    static const double ws[4] = {0.3478548451374538, 0.6521451548625461, 0.6521451548625461,
+                                 0.3478548451374538};
+    double sum = 0.0;
+    for (size_t k = 1; k < mu_.size(); ++k) {
+        const double a = mu_[k - 1], b = mu_[k], half = 0.5 * (b - a);
+        for (int q = 0; q < 4; ++q) {
+            const double t = 0.5 * (1.0 + xs[q]);
+            const double mu = a + t * (b - a);
+            const double pv = p_[k - 1] + t * (p_[k] - p_[k - 1]);
+            const double sinA = std::sqrt(std::max(0.0, 1.0 - mu * mu));
+            sum += ws[q] * half * pv * circleFractionAbove(mu, sinA, -cosIn, sinIn);
+        }
+    }
+    return std::clamp(2.0 * kPi * sum, 0.0, 1.0);
+}
+
+double ParticulateEnsemble::backShare(double cosIn) const {
+    // Uniform in cos: fine near grazing, where the forward peak crosses the surface's plane,
+    // and the share is linear in cos near the normal.
+    const double s = std::clamp(cosIn, 0.0, 1.0) * kBackSteps;
+    const size_t i = std::min(back_.size() - 2, static_cast<size_t>(s));
+    const double t = std::clamp(s - static_cast<double>(i), 0.0, 1.0);
+    return back_[i] + t * (back_[i + 1] - back_[i]);
+}
+
+double ParticulateEnsemble::sampleMu(double u) const {
+    u = std::clamp(u, 0.0, 1.0);
+    const auto it = std::upper_bound(cdf_.begin(), cdf_.end(), u);
+    const size_t k = std::clamp<size_t>(static_cast<size_t>(it - cdf_.begin()), 1, cdf_.size() - 1);
+    const double a = mu_[k - 1], width = mu_[k] - a;
+    const double pa = p_[k - 1], pb = p_[k];
+    // The interval's mass up to t: 2 pi width (pa t + (pb - pa) t^2 / 2) = u - cdf(a).
+    const double r = std::max(0.0, u - cdf_[k - 1]) / (2.0 * kPi * width);
+    const double disc = std::max(0.0, pa * pa + 2.0 * (pb - pa) * r);
+    const double denom = pa + std::sqrt(disc);
+    const double t = denom > 0.0 ? std::clamp(2.0 * r / denom, 0.0, 1.0) : 0.5;
+    return a + t * width;
+}
+
+Vec3 ParticulateEnsemble::sample(const Vec3& incoming, double u1, double u2) const {
+    const double mu = sampleMu(u1);
+    const double s = std::sqrt(std::max(0.0, 1.0 - mu * mu));
+    const Vec3 helper = std::abs(incoming.x) < 0.6 ? Vec3(1, 0, 0) : Vec3(0, 1, 0);
+    const Vec3 t1 = glm::normalize(glm::cross(incoming, helper));
+    const Vec3 t2 = glm::cross(incoming, t1);
+    const double phi = 2.0 * kPi * u2;
+    return glm::normalize(mu * incoming + s * (std::cos(phi) * t1 + std::sin(phi) * t2));
+}
+
+// Particulate Scatter
+
+ParticulateScatter::ParticulateScatter(const ParticulateParams& p)
+    : p_(p), cache_(std::make_shared<Cache>()) {
+    if (!(p.level >= 1.0 && p.level <= 2000.0))
+        throw std::invalid_argument("level must be in [1, 2000] (got " + number(p.level) + ")");
+    if (!(p.minUm >= 1.0 && p.minUm < p.level))
+        throw std::invalid_argument(
+            "min_um must be at least 1 (the distribution's range) and "
+            "below the level " +
+            number(p.level) + " (got " + number(p.minUm) + ")");
+    if (!(p.index > 0.0 && p.index < 10.0))
+        throw std::invalid_argument("index must be in (0, 10) (got " + number(p.index) + ")");
+    if (!(p.k >= 0.0 && p.k < 10.0))
+        throw std::invalid_argument("k must be in [0, 10) (got " + number(p.k) + ")");
+}
+
+std::shared_ptr<const ParticulateEnsemble> ParticulateScatter::at(double wavelengthNm,
+                                                                  double mediumIndex) const {
+    const std::pair<double, double> key(wavelengthNm, mediumIndex);
+    {
+        std::shared_lock lock(cache_->mutex);
+        for (const auto& [k, e] : cache_->entries)
+            if (k == key) return e;
+    }
+    auto e = std::make_shared<const ParticulateEnsemble>(p_, wavelengthNm * 1e-3 / mediumIndex,
+                                                         mediumIndex);
+    std::unique_lock lock(cache_->mutex);
+    for (const auto& [k, have] : cache_->entries)
+        if (k == key) return have;
+    cache_->entries.push_back({key, e});
+    return e;
+}
+
+}  // namespace veil
