@@ -413,7 +413,7 @@ bool spreadAt(const GlareSpec& spec, const GlareField& f) {
 }
 
 struct Measured {
-    GlareValue black, blackSpecular, blackDiffuse, white;
+    GlareValue black, blackSpecular, blackTir, blackBlur, blackDiffuse, white;
 };
 
 // The black and the white field (out to fieldHalfAngleDeg, 0: the spec's) rendered at f's
@@ -433,19 +433,32 @@ Measured measure(PreparedScene& p, const GlareBench& bench, const GlareField& f,
         run.options.splitBackward = true;
         if (run.options.initialRadiusMm <= 0.0) run.options.initialRadiusMm = bench.radiusHintMm();
         run.passes = spec.passes;
-        std::vector<double> total, specular, diffuse;
+        // The black field's visible light without a Fresnel reflection (the image's blur)
+        // and with a total internal reflection (ghosts the ghost analysis does not walk).
+        if (black) run.where = {"not fresnel", "tir and fresnel"};
+        std::vector<double> total, specular, tir, blur, diffuse;
         const double area = f.measuredSideMm * f.measuredSideMm;
         (black ? blackProgress : whiteProgress)(0);
         runRenderPasses(p, run, [&](int pass, const RenderPassTotals& t) {
-            const double visible = t.components[static_cast<size_t>(RenderComponent::Visible)];
+            constexpr auto kVisible = static_cast<size_t>(RenderComponent::Visible);
+            const double visible = t.components[kVisible];
+            double nominal = 0.0, internal = 0.0;
+            if (black) {
+                for (double v : t.pass->criteria.at(0)[kVisible]) nominal += v;
+                for (double v : t.pass->criteria.at(1)[kVisible]) internal += v;
+            }
             total.push_back(t.total() / area);
-            specular.push_back(visible / area);
+            specular.push_back((visible - nominal) / area);
+            tir.push_back(internal / area);
+            blur.push_back(nominal / area);
             diffuse.push_back((t.total() - visible) / area);
             (black ? blackProgress : whiteProgress)(pass);
         });
         if (black) {
             m.black = meanOf(total);
             m.blackSpecular = meanOf(specular);
+            m.blackTir = meanOf(tir);
+            m.blackBlur = meanOf(blur);
             m.blackDiffuse = meanOf(diffuse);
         } else {
             m.white = meanOf(total);
@@ -666,6 +679,8 @@ GlareResult runGlare(const SceneFile& file, const GlassCatalog& catalog, const G
                     progress("white field", spec.passes));
         gf.black = m.black;
         gf.blackSpecular = m.blackSpecular;
+        gf.blackTir = m.blackTir;
+        gf.blackBlur = m.blackBlur;
         gf.blackDiffuse = m.blackDiffuse;
         gf.white = m.white;
         const auto [ghosts, image] = bench.ghostIrradiance(gf);
@@ -676,6 +691,8 @@ GlareResult runGlare(const SceneFile& file, const GlassCatalog& catalog, const G
         }
         gf.vgi = ratio(gf.black, gf.white);
         gf.specular = ratio(gf.blackSpecular, gf.white);
+        gf.tir = ratio(gf.blackTir, gf.white);
+        gf.blur = ratio(gf.blackBlur, gf.white);
         gf.diffuse = ratio(gf.blackDiffuse, gf.white);
         if (spreadAt(spec, gf)) {
             gf.spread = measureSpread(*p, bench, gf, spec, catalog,
@@ -730,16 +747,28 @@ std::string GlareResult::markdown() const {
        << fmt(fieldHalfAngleDeg) << " deg from the axis; " << spectrum << ". " << passes
        << " render passes of " << raysPerPixel << " rays per pixel and " << photonsPerPass
        << " photons; errors 1 sigma.\n\n";
-    os << "| f/# | field (deg) | image (mm) | VGI | specular (ghosts) | diffuse (scatter) | "
-          "ghost analysis |\n|---:|---|---|---:|---:|---:|---:|\n";
+    os << "| f/# | field (deg) | image (mm) | VGI | specular (ghosts) | of which via TIR | "
+          "diffuse (scatter) | image blur | ghost analysis |\n"
+          "|---:|---|---|---:|---:|---:|---:|---:|---:|\n";
     for (const GlareField& f : fields)
         os << "| " << fmt(f.fNumber, 3) << " | " << fmt(f.fieldDeg.x) << ", " << fmt(f.fieldDeg.y)
            << " | " << fmt(f.imageMm.x, 5) << ", " << fmt(f.imageMm.y, 5) << " | " << percent(f.vgi)
-           << " | " << percent(f.specular) << " | " << percent(f.diffuse) << " | "
-           << fmt(100.0 * f.ghostPrediction) << " % |\n";
-    os << "\nGhost analysis: the specular part as the sequential ghost analysis predicts it "
-          "(every two-reflection ghost walked backward from the spot's image centre; it "
-          "ignores the mechanics and higher-order ghosts, which the render includes).";
+           << " | " << percent(f.specular) << " | " << percent(f.tir) << " | " << percent(f.diffuse)
+           << " | " << percent(f.blur) << " | " << fmt(100.0 * f.ghostPrediction) << " % |\n";
+    for (const GlareField& f : fields)
+        if (f.blur.value > 0.05 * f.vgi.value && f.vgi.value > 0.0)
+            os << "\nAt " << fmt(f.fieldDeg.x) << ", " << fmt(f.fieldDeg.y) << " deg (f/"
+               << fmt(f.fNumber, 3) << ") the lens's own image blur brings " << percent(f.blur)
+               << " into the spot's centre: the black spot is small for this lens's "
+                  "aberrations (ISO 9358's VGI is glare, not blur); a larger --spot-deg leaves "
+                  "it out.\n";
+    os << "\nVia TIR: ghosts one of whose two reflections is total internal reflection (light "
+          "of the wide field meeting a steep face from inside the glass). Image blur: light "
+          "through refractions alone (the lens's image of the field around the spot, spread into "
+          "its centre by aberrations). Ghost analysis: the specular part as the sequential ghost "
+          "analysis predicts it (every two-Fresnel-reflection ghost walked backward from the "
+          "spot's image centre; it leaves out the mechanics, TIR and higher-order ghosts, which "
+          "the render includes).";
     if (!fields.empty() && !fields.front().ghosts.empty()) {
         const GlareField& f = fields.front();
         os << " Its brightest ghosts at " << fmt(f.fieldDeg.x) << ", " << fmt(f.fieldDeg.y)
@@ -784,13 +813,15 @@ std::string GlareResult::csv() const {
     os << std::setprecision(9);
     os << "f_number,field_x_deg,field_y_deg,image_x_mm,image_y_mm,spot_image_radius_mm,vgi,vgi_"
           "error,"
-          "specular,specular_error,diffuse,diffuse_error,ghost_prediction,black_"
+          "specular,specular_error,tir,tir_error,diffuse,diffuse_error,blur,blur_error,ghost_"
+          "prediction,black_"
        << unit << "_mm2,black_error,white_" << unit << "_mm2,white_error\n";
     for (const GlareField& f : fields)
         os << f.fNumber << "," << f.fieldDeg.x << "," << f.fieldDeg.y << "," << f.imageMm.x << ","
            << f.imageMm.y << "," << f.spotImageRadiusMm << "," << f.vgi.value << "," << f.vgi.error
-           << "," << f.specular.value << "," << f.specular.error << "," << f.diffuse.value << ","
-           << f.diffuse.error << "," << f.ghostPrediction << "," << f.black.value << ","
+           << "," << f.specular.value << "," << f.specular.error << "," << f.tir.value << ","
+           << f.tir.error << "," << f.diffuse.value << "," << f.diffuse.error << "," << f.blur.value
+           << "," << f.blur.error << "," << f.ghostPrediction << "," << f.black.value << ","
            << f.black.error << "," << f.white.value << "," << f.white.error << "\n";
     return os.str();
 }
@@ -815,6 +846,8 @@ std::string GlareResult::json() const {
                                {"vgi", valueJson(f.vgi)},
                                {"specular", valueJson(f.specular)},
                                {"diffuse", valueJson(f.diffuse)},
+                               {"tir", valueJson(f.tir)},
+                               {"blur", valueJson(f.blur)},
                                {"black", valueJson(f.black)},
                                {"white", valueJson(f.white)},
                                {"ghost_prediction", f.ghostPrediction},

@@ -120,9 +120,9 @@ struct GlareField {
     double spotImageRadiusMm = 0.0;
     double measuredSideMm = 0.0;  // the square detector's side
     // Irradiance (unit/mm^2) over the measuring square.
-    GlareValue black, blackSpecular, blackDiffuse, white;
-    // Their ratios to white.
-    GlareValue vgi, specular, diffuse;
+    GlareValue black, blackSpecular, blackTir, blackBlur, blackDiffuse, white;
+    // Their ratios to white: vgi = specular + blur + diffuse; tir is part of specular.
+    GlareValue vgi, specular, tir, blur, diffuse;
     // The specular part predicted by the ghost analysis (analysis/ghosts.h): every
     // two-reflection ghost walked backward from the spot's image centre through its path,
     // sequentially (GhostTracer::backwardIrradiance), over the rendered white irradiance;

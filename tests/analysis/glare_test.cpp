@@ -235,6 +235,10 @@ TEST(Glare, StoppingDownScalesTheImageIrradiance) {
     ASSERT_EQ(r.fields.size(), 2u);
     EXPECT_EQ(r.fields[0].fNumber, 2.0);
     EXPECT_EQ(r.fields[1].fNumber, 4.0);
+    // The parts add up: ghosts (among them the TIR ghosts), image blur and scatter.
+    for (const GlareField& f : r.fields)
+        EXPECT_NEAR(f.vgi.value, f.specular.value + f.blur.value + f.diffuse.value,
+                    1e-12 * f.vgi.value);
     const GlareValue q = ratio(r.fields[1].white, r.fields[0].white);
     std::cout << "[ VGI      ] white f/4 over f/2: " << q.value << " +- " << q.error << "\n";
     EXPECT_NEAR(q.value, 0.25, 4.0 * q.error + 0.005);
@@ -242,6 +246,35 @@ TEST(Glare, StoppingDownScalesTheImageIrradiance) {
     EXPECT_THROW(runGlare(dg, catalog, spec), ModelError);
     spec.fNumbers = {8.0};
     EXPECT_THROW(runGlare(singlet("nostop", "uncoated"), catalog, spec), ModelError);
+}
+
+// The double Gauss on axis: its ghost light that the sequential ghost analysis does not walk
+// is total internal reflection's. Light of the 80 degree field meets a steep face from inside
+// the glass beyond the critical angle; with one Fresnel reflection it reaches the image. Take
+// those ghosts (path criterion `tir and fresnel`) out of the render's specular part and the
+// two-Fresnel-reflection ghosts agree with the ghost analysis.
+TEST(Glare, TotalInternalReflectionGhostsAreTheRest) {
+    const GlassCatalog& catalog = GlassCatalog::builtIn();
+    const SceneFile dg =
+        readSceneFile(VEIL_SOURCE_DIR "/examples/scenes/double_gauss_50mm_painted.toml", catalog);
+    GlareSpec spec;  // veil glare's defaults
+    spec.render.raysPerPixel = 64;
+    spec.fieldsDeg = {Vec2(0.0)};
+    spec.spread = GlareSpreadAt::None;
+    const GlareResult r = runGlare(dg, catalog, spec);
+    const GlareField& f = r.fields.at(0);
+    const double fresnel = f.specular.value - f.tir.value;
+    std::cout << "[ VGI      ] double Gauss on axis: ghosts " << f.specular.value << " +- "
+              << f.specular.error << ", via TIR " << f.tir.value << " +- " << f.tir.error
+              << ", two Fresnel reflections " << fresnel << ", ghost analysis " << f.ghostPrediction
+              << "\n";
+    EXPECT_GT(f.tir.value, 0.1 * f.specular.value);  // a tenth of the ghost light and more
+    EXPECT_GT(f.tir.value, 10.0 * f.tir.error);
+    EXPECT_NEAR(fresnel, f.ghostPrediction,
+                4.0 * std::hypot(f.specular.error, f.tir.error) + 0.03 * f.ghostPrediction);
+    // Without the TIR ghosts the two would be 14 % apart.
+    EXPECT_GT(f.specular.value, 1.1 * f.ghostPrediction);
+    EXPECT_EQ(f.blur.value, 0.0);  // the lens's blur stays inside the spot's image on axis
 }
 
 }  // namespace
