@@ -55,7 +55,7 @@
 namespace veil {
 
 struct ParticulateParams {
-    double level = 0.0;  // IEST-STD-CC1246 cleanliness level L, in [1, 2000]
+    double level = 0.0;  // IEST-STD-CC1246 cleanliness level L, in [1, 1000]
     double minUm = 1.0;  // smallest diameter counted, in (0, L)
     double index = 1.5;  // the particles' refractive index, real part (> 0)
     double k = 0.0;      // and imaginary part (>= 0: absorption)

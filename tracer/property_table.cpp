@@ -119,11 +119,20 @@ AbgParams readHarveyShackParams(const TomlValue& v) {
 // Dust at an IEST-STD-CC1246 level: the level, the smallest size counted and the particles'
 // complex refractive index.
 ParticulateScatter readParticulate(const TomlTable& t) {
+    // Every key read before any is judged against the others, so that an error is about the
+    // value, not a key left unread.
     ParticulateParams p;
-    p.level = t.require("level", "IEST-STD-CC1246 cleanliness level, 1 to 2000")
-                  .asNumber(NumberRange::between(1.0, 2000.0));
+    const TomlValue level = t.require("level", "IEST-STD-CC1246 cleanliness level, 1 to 1000");
+    p.level = level.asNumber(NumberRange::atLeast(1.0));
     const std::optional<TomlValue> minUm = t.get("min_um");
     p.minUm = t.number("min_um", 1.0, NumberRange::atLeast(1.0));
+    p.index = t.require("index", "the particles' refractive index, real part")
+                  .asNumber(NumberRange::strictlyBetween(0.0, 10.0));
+    p.k = t.number("k", 0.0, NumberRange{0.0, 10.0, false, true});
+    if (p.level > 1000.0)
+        level.fail(t.path() + ": level " + number(p.level) +
+                   " is past 1000, where the particles cover more than 11 % of the surface: "
+                   "the single-scatter dust model does not hold there");
     if (!(p.minUm < p.level)) {
         const std::string message = t.path() + ": the smallest particle counted (min_um " +
                                     number(p.minUm) + ") must be below the level " +
@@ -131,9 +140,6 @@ ParticulateScatter readParticulate(const TomlTable& t) {
         if (minUm) minUm->fail(message);
         t.fail(message);
     }
-    p.index = t.require("index", "the particles' refractive index, real part")
-                  .asNumber(NumberRange::strictlyBetween(0.0, 10.0));
-    p.k = t.number("k", 0.0, NumberRange{0.0, 10.0, false, true});
     try {
         return ParticulateScatter(p);
     } catch (const std::invalid_argument& e) {

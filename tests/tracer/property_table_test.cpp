@@ -342,7 +342,7 @@ TEST(PropertyTable, ScatterErrorsAreAtTheValue) {
     text = "[properties.x]\nscatter = { model = \"particulate\", index = 1.5 }\n";
     expectErrorAt(text, "{ model", "missing key 'level'");
     text = "[properties.x]\nscatter = { model = \"particulate\", level = 5000, index = 1.5 }\n";
-    expectErrorAt(text, "5000", "2000");
+    expectErrorAt(text, "5000", "past 1000");
     text =
         "[properties.x]\nscatter = { model = \"particulate\", level = 100, min_um = 100, index = "
         "1.5 }\n";
