@@ -433,9 +433,10 @@ Measured measure(PreparedScene& p, const GlareBench& bench, const GlareField& f,
         run.options.splitBackward = true;
         if (run.options.initialRadiusMm <= 0.0) run.options.initialRadiusMm = bench.radiusHintMm();
         run.passes = spec.passes;
-        // The black field's visible light without a Fresnel reflection (the image's blur)
-        // and with a total internal reflection (ghosts the ghost analysis does not walk).
-        if (black) run.where = {"not fresnel", "tir and fresnel"};
+        // The black field's visible light through refractions (and mirrors) alone: the
+        // image's blur; and with a total internal reflection: ghosts the ghost analysis does
+        // not walk.
+        if (black) run.where = {"not fresnel and not tir", "tir"};
         std::vector<double> total, specular, tir, blur, diffuse;
         const double area = f.measuredSideMm * f.measuredSideMm;
         (black ? blackProgress : whiteProgress)(0);

@@ -14,13 +14,21 @@
 // of side half the spot image's radius, so that the blur of the spot's rim stays outside it
 // unless the lens blurs by more than 0.6 of that radius):
 // the field is a window source in front of the lens, and E_black's source has the black spot
-// (AreaEmitter::blackSpotAxis). The render's components split E_black into
-//   specular  light that reached the detector through reflections and refractions alone: the
-//             ghosts, found by backward rays split at every interface (the visible component);
+// (AreaEmitter::blackSpotAxis). The render's components and two path criteria split E_black
+// into
+//   specular  light that reached the detector through reflections and refractions alone, with
+//             at least one Fresnel or total internal reflection: the ghosts, found by backward
+//             rays split at every interface (the visible component); among them (tir) those
+//             with a total internal reflection, which light of a wide field finds at steep
+//             faces and the sequential ghost analysis does not enumerate;
+//   blur      the visible light with neither: the lens's own image of the bright field around
+//             the spot, blurred into its centre by aberrations (the spot is too small for the
+//             lens; the report says so when it is 5 % of the VGI or more);
 //   diffuse   light that scattered on the way (mounts, lens edges, rough or dusty surfaces:
 //             the direct, caustic and secondary components).
-// With nothing that reflects or scatters, E_black is 0 exactly. Errors come from the spread of
-// the render's passes (1 sigma) and are carried through the ratio.
+// With nothing that reflects or scatters and a spot wider than the blur, E_black is 0 exactly.
+// Errors come from the spread of the render's passes (1 sigma) and are carried through the
+// ratio.
 //
 // The field's spectrum: the lens's wavelengths and weights, V(lambda)-weighted (photometric)
 // when the eye sees every line, else radiometric; the result states which.
