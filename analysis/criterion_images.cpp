@@ -60,7 +60,28 @@ void CriterionImages::collect(uint64_t ray, const PathHistory& h) {
     pending_[ray] = std::move(hits);
 }
 
-void CriterionImages::finish() {
+void CriterionImages::finish(const Ranks& ranks) {
+    if (!ranks.single()) {
+        ByteWriter w;
+        w.put(static_cast<uint64_t>(pending_.size()));
+        for (const auto& [ray, hits] : pending_) {
+            w.put(ray);
+            w.putVector(hits);
+        }
+        const std::vector<Bytes> all = ranks.gatherToRoot(w.take());
+        if (!ranks.root()) {
+            pending_.clear();
+            return;
+        }
+        for (size_t r = 1; r < all.size(); ++r) {
+            ByteReader in(all[r]);
+            const uint64_t n = in.get<uint64_t>();
+            for (uint64_t i = 0; i < n; ++i) {
+                const uint64_t ray = in.get<uint64_t>();
+                pending_[ray] = in.getVector<Hit>();
+            }
+        }
+    }
     std::vector<std::vector<RayContribution>> scratch(
         images_.size(), std::vector<RayContribution>(images_.empty() ? 0 : images_[0].size()));
     for (auto& [ray, hits] : pending_) {

@@ -30,8 +30,10 @@ class CriterionImages {
 
     // The onRay callback for traceNonsequential (thread-safe).
     RayCallback callback();
-    // Adds everything collected, in ray order. Call once after the trace.
-    void finish();
+    // Adds everything collected, in ray order. Call once after the trace. Traced across
+    // ranks: every rank calls it, and rank 0 adds all ranks' rays (the others' images stay
+    // empty).
+    void finish(const Ranks& ranks = Ranks::alone());
 
     size_t criterionCount() const { return texts_.size(); }
     const std::vector<CompiledCriterion>& criteria() const { return criteria_; }

@@ -102,7 +102,24 @@ PstResult runPst(const PstSpec& spec, const GlassCatalog& catalog) {
     const size_t ghostQuantity = result.quantities.size();
     result.quantities.push_back({"ghost_estimate", "sequential, all two-reflection ghosts"});
 
+    // Across ranks angle a is measured on rank a mod K; rank 0 takes the rows in order (its
+    // own as it measures them, the others' as they arrive).
+    const Ranks& ranks = spec.ranks;
     for (size_t a = 0; a < spec.anglesDeg.size(); ++a) {
+        if (!ranks.owns(a)) {
+            if (!ranks.root()) continue;
+            if (spec.progress) spec.progress(a, spec.anglesDeg.size());
+            const Bytes bytes = ranks.receive(static_cast<int>(a % ranks.size()));
+            ByteReader in(bytes);
+            PstRow row;
+            row.angleDeg = in.get<double>();
+            row.inField = in.get<uint8_t>() != 0;
+            row.pst = in.getVector<double>();
+            row.error = in.getVector<double>();
+            if (!in.done()) throw std::runtime_error("a PST row from another rank is damaged");
+            result.rows.push_back(std::move(row));
+            continue;
+        }
         if (spec.progress) spec.progress(a, spec.anglesDeg.size());
         const double theta = spec.anglesDeg[a];
         if (a > 0) {
@@ -160,6 +177,15 @@ PstResult runPst(const PstSpec& spec, const GlassCatalog& catalog) {
         for (const GhostEstimate& g : ghosts.ghosts) ghostFlux += g.flux();
         row.pst.push_back(ghostFlux / (emitted * throughPupil));
         row.error.push_back(0.0);
+        if (!ranks.root()) {
+            ByteWriter out;
+            out.put(row.angleDeg);
+            out.put(uint8_t(row.inField));
+            out.putVector(row.pst);
+            out.putVector(row.error);
+            ranks.send(0, out.take());
+            continue;
+        }
         result.rows.push_back(std::move(row));
     }
     return result;

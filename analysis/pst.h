@@ -51,6 +51,9 @@ struct PstSpec {
     TransportOptions transport;      // its seed is the first batch's
     std::vector<std::string> where;  // more criteria, each its own PST curve
     std::function<void(size_t angle, size_t angles)> progress;
+    // Under mpirun (tracer/ranks.h): angle a is measured on rank a mod K by that rank alone,
+    // and rank 0 gets every row (the others return theirs empty).
+    Ranks ranks = Ranks::alone();
 };
 
 struct PstQuantity {

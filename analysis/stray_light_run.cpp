@@ -62,7 +62,7 @@ StrayLightResult runStrayLight(const PreparedScene& scene, const StrayLightSpec&
     const auto start = std::chrono::steady_clock::now();
     TraceResult traced = traceNonsequential(ts.transport, ts.images, spec.raysPerSource, options,
                                             spec.progress, onRay);
-    if (result.layers) result.layers->finish();
+    if (result.layers) result.layers->finish(options.ranks);
     result.seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     result.budget = traced.budget;

@@ -23,6 +23,8 @@ namespace veil {
 
 struct StrayLightSpec {
     uint64_t raysPerSource = 0;
+    // transport.ranks: the rays split over MPI ranks (tracer/ranks.h); every rank calls
+    // runStrayLight, and the result is complete on rank 0 only.
     TransportOptions transport;
     // Path criteria (docs/criteria.md): one detector layer each, plus "rest".
     std::vector<std::string> where;

@@ -292,6 +292,62 @@ std::string_view toString(SweepMeasure m) {
     return "?";
 }
 
+namespace {
+
+// One variant as measured, with the quantities it measured and, when it was traced (not read
+// back), the record to save as variants/<k>.json.
+struct Measured {
+    SweepVariant variant;
+    std::vector<std::string> quantities, criteria;
+    std::string unit, record;
+
+    // Between ranks (tracer/ranks.h).
+    Bytes pack() const {
+        ByteWriter w;
+        const SweepVariant& v = variant;
+        w.put(int32_t(v.index));
+        w.put(uint64_t(v.values.size()));
+        for (const std::string& x : v.values) w.putString(x);
+        w.putString(v.error);
+        w.put(uint8_t(v.resumed));
+        w.put(uint8_t(v.geometryReused));
+        w.put(v.seconds);
+        w.put(uint64_t(v.batchValues.size()));
+        for (const auto& b : v.batchValues) w.putVector(b);
+        for (const auto* list : {&quantities, &criteria}) {
+            w.put(uint64_t(list->size()));
+            for (const std::string& x : *list) w.putString(x);
+        }
+        w.putString(unit);
+        w.putString(record);
+        return w.take();
+    }
+    static Measured unpack(const Bytes& bytes) {
+        ByteReader r(bytes);
+        Measured m;
+        SweepVariant& v = m.variant;
+        v.index = r.get<int32_t>();
+        v.values.resize(r.get<uint64_t>());
+        for (std::string& x : v.values) x = r.getString();
+        v.error = r.getString();
+        v.resumed = r.get<uint8_t>() != 0;
+        v.geometryReused = r.get<uint8_t>() != 0;
+        v.seconds = r.get<double>();
+        v.batchValues.resize(r.get<uint64_t>());
+        for (auto& b : v.batchValues) b = r.getVector<double>();
+        for (auto* list : {&m.quantities, &m.criteria}) {
+            list->resize(r.get<uint64_t>());
+            for (std::string& x : *list) x = r.getString();
+        }
+        m.unit = r.getString();
+        m.record = r.getString();
+        if (!r.done()) throw std::runtime_error("a sweep variant from another rank is damaged");
+        return m;
+    }
+};
+
+}  // namespace
+
 SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
     if (spec.axes.empty()) throw ModelError("sweep", "nothing to vary: give at least one --vary");
     const bool ghosts = spec.measure == SweepMeasure::Ghosts;
@@ -338,16 +394,23 @@ SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
     result.measure = std::string(toString(spec.measure));
     const nlohmann::json hashes = inputHashes(spec.scene);
     const std::filesystem::path store = spec.folder / "variants";
-    std::filesystem::create_directories(store);
+    const Ranks& ranks = spec.ranks;
+    if (ranks.root()) std::filesystem::create_directories(store);
     std::unique_ptr<PreparedScene> shared;  // transport-only sweeps: the geometry, built once
 
-    for (size_t k = 0; k < variants.size(); ++k) {
-        SweepVariant v;
-        v.index = static_cast<int>(k);
-        v.values = variants[k];
+    // Variant k measured (or read back from an earlier run's file), with its own quantities.
+    auto labelOf = [&](const std::vector<std::string>& values) {
         std::string label;
         for (size_t a = 0; a < spec.axes.size(); ++a)
-            label += (a ? ", " : "") + spec.axes[a].key + "=" + v.values[a];
+            label += (a ? ", " : "") + spec.axes[a].key + "=" + values[a];
+        return label;
+    };
+    auto measure = [&](size_t k) {
+        Measured m;
+        SweepVariant& v = m.variant;
+        v.index = static_cast<int>(k);
+        v.values = variants[k];
+        const std::string label = labelOf(v.values);
         if (spec.progress) spec.progress(v.index, static_cast<int>(variants.size()), -1, label);
         const nlohmann::json print = fingerprint(spec, hashes, v.values);
         const std::filesystem::path saved = store / (std::to_string(k) + ".json");
@@ -361,11 +424,9 @@ SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
                     v.resumed = true;
                     v.error = j.value("error", "");
                     if (v.error.empty()) {
-                        if (result.quantities.empty()) {
-                            result.quantities = j.at("quantities").get<std::vector<std::string>>();
-                            result.criteria = j.at("criteria").get<std::vector<std::string>>();
-                            result.unit = j.at("unit").get<std::string>();
-                        }
+                        m.quantities = j.at("quantities").get<std::vector<std::string>>();
+                        m.criteria = j.at("criteria").get<std::vector<std::string>>();
+                        m.unit = j.at("unit").get<std::string>();
                         for (const auto& q : j.at("batch_values")) {
                             std::vector<double> b;
                             for (const auto& x : q) b.push_back(numOf(x));
@@ -374,7 +435,7 @@ SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
                     }
                 }
             } catch (const std::exception&) {
-                v = SweepVariant{};  // unreadable: traced again
+                m = Measured{};  // unreadable: traced again
                 v.index = static_cast<int>(k);
                 v.values = variants[k];
             }
@@ -403,15 +464,9 @@ SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
                                   const std::vector<std::string>& criteria, const std::string& unit,
                                   const std::vector<double>& values) {
                     if (b == 0) {
-                        if (result.quantities.empty()) {
-                            result.quantities = names;
-                            result.criteria = criteria;
-                            result.unit = unit;
-                        } else if (names != result.quantities) {
-                            throw ModelError("sweep",
-                                             "its detectors differ from the first "
-                                             "variant's, so the rows cannot be compared");
-                        }
+                        m.quantities = names;
+                        m.criteria = criteria;
+                        m.unit = unit;
                         v.batchValues.assign(values.size(), {});
                     }
                     for (size_t q = 0; q < values.size(); ++q)
@@ -494,19 +549,58 @@ SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
             j["fingerprint"] = print;
             j["error"] = v.error;
             j["seconds"] = v.seconds;
-            j["quantities"] = result.quantities;
-            j["criteria"] = result.criteria;
-            j["unit"] = result.unit;
+            j["quantities"] = m.quantities;
+            j["criteria"] = m.criteria;
+            j["unit"] = m.unit;
             j["batch_values"] = nlohmann::json::array();
             for (const auto& q : v.batchValues) {
                 nlohmann::json b = nlohmann::json::array();
                 for (double x : q) b.push_back(num(x));
                 j["batch_values"].push_back(b);
             }
-            writeTextFile(saved, j.dump(1) + "\n");
+            m.record = j.dump(1) + "\n";
+        }
+        return m;
+    };
+    // Across ranks variant k is measured on rank k mod K; rank 0 takes the variants in order
+    // (its own as it measures them, the others' as they arrive: a round of K variants at a
+    // time), saves them and compares them with the first.
+    for (size_t k = 0; k < variants.size(); ++k) {
+        Measured m;
+        if (ranks.owns(k)) {
+            m = measure(k);
+            if (!ranks.root()) {
+                ranks.send(0, m.pack());
+                continue;
+            }
+        } else if (ranks.root()) {
+            if (spec.progress)
+                spec.progress(static_cast<int>(k), static_cast<int>(variants.size()), -1,
+                              labelOf(variants[k]));
+            m = Measured::unpack(ranks.receive(static_cast<int>(k % ranks.size())));
+            if (spec.progress)
+                spec.progress(static_cast<int>(k), static_cast<int>(variants.size()), spec.batches,
+                              labelOf(variants[k]));
+        } else {
+            continue;
+        }
+        SweepVariant& v = m.variant;
+        if (!m.record.empty()) writeTextFile(store / (std::to_string(k) + ".json"), m.record);
+        if (v.error.empty()) {
+            if (result.quantities.empty()) {
+                result.quantities = m.quantities;
+                result.criteria = m.criteria;
+                result.unit = m.unit;
+            } else if (m.quantities != result.quantities) {
+                v.error =
+                    "its detectors differ from the first variant's, so the rows cannot be "
+                    "compared";
+                v.batchValues.clear();
+            }
         }
         result.variants.push_back(std::move(v));
     }
+    if (!ranks.root()) return result;  // its variants went to rank 0
 
     // Values and the changes against the first variant, batch by batch.
     const SweepVariant& first = result.variants.front();

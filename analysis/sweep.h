@@ -92,6 +92,10 @@ struct SweepSpec {
     std::vector<std::string> where;  // criteria: one quantity each per detector, plus "rest"
     bool prune = false;
     std::filesystem::path folder;  // variants/<k>.json are kept here (resume)
+    // Under mpirun (tracer/ranks.h): variant k is measured on rank k mod K, by that rank
+    // alone with its threads, and rank 0 saves it and completes the result (the others
+    // return theirs empty); every rank reads the scene and the folder's earlier variants.
+    Ranks ranks = Ranks::alone();
     // Called before each variant and after each batch (from the calling thread).
     std::function<void(int variant, int variants, int batch, const std::string& label)> progress;
 };

@@ -7,8 +7,11 @@
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <chrono>
+#include <cstdio>
 #include <iostream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "cli/commands.h"
@@ -16,6 +19,7 @@
 #include "cli/paths_command.h"
 #include "cli/render_command.h"
 #include "lensdata/errors.h"
+#include "tracer/ranks.h"
 
 namespace veil::cli {
 
@@ -35,6 +39,32 @@ size_t distance(const std::string& a, const std::string& b) {
         }
     }
     return row[b.size()];
+}
+
+// A failure: the message and the exit code. Across ranks the failing rank ends the whole job
+// (abortRanks), rank 0 with its message as usual; another rank first gives rank 0 two seconds
+// (a bad input fails every rank alike, and rank 0's message is the one to read), then writes
+// its own, naming itself, to the standard error it kept.
+int fail(const std::string& message, int code) {
+    const Ranks world = Ranks::world();
+    if (world.single()) {
+        std::cerr << "veil: error: " << message << "\n";
+        return code;
+    }
+    if (world.root()) {
+        std::cerr << "veil: error: " << message << std::endl;
+    } else {
+        std::this_thread::sleep_for(std::chrono::seconds(2));
+        std::fprintf(stderr, "veil: error (rank %d of %d): %s\n", world.rank(), world.size(),
+                     message.c_str());
+        std::fflush(stderr);
+    }
+    abortRanks(code);
+}
+
+// The commands that split their work over the ranks of an mpirun job (docs/scaling.md).
+bool runsOnRanks(const std::string& command) {
+    return command == "trace" || command == "render" || command == "sweep" || command == "pst";
 }
 
 }  // namespace
@@ -117,6 +147,11 @@ int runCommandLine(const std::vector<std::string>& args, bool rethrow) {
         return app.exit(e) == 0 ? 0 : 2;
     }
     try {
+        for (CLI::App* sub : app.get_subcommands())
+            if (!Ranks::world().single() && !runsOnRanks(sub->get_name()))
+                throw UsageError("veil " + sub->get_name() +
+                                 " runs in one process: start it without mpirun (veil trace, "
+                                 "render, sweep and pst split their work over the ranks)");
         for (CLI::App* sub : app.get_subcommands()) {
             if (sub->get_name() == "info") return runInfo(common, info);
             if (sub->get_name() == "layout") return runLayout(common, layout);
@@ -133,10 +168,12 @@ int runCommandLine(const std::vector<std::string>& args, bool rethrow) {
             if (sub->get_name() == "scatter") return runScatterCommand(common, scatterOptions);
             if (sub->get_name() == "glare") return runGlareCommand(common, glareOptions);
         }
+    } catch (const UsageError& e) {
+        if (rethrow) throw;
+        return fail(e.what(), 2);
     } catch (const std::exception& e) {
         if (rethrow) throw;
-        std::cerr << "veil: error: " << e.what() << "\n";
-        return 1;
+        return fail(e.what(), 1);
     }
     return 2;
 }

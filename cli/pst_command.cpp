@@ -87,7 +87,10 @@ int runPstCommand(const CommonOptions& common, const PstOptions& o) {
             std::cerr << "pst: angle " << a + 1 << " of " << n << " (" << spec.anglesDeg[a]
                       << " deg)\n";
         };
+    // Under mpirun the angles split over the ranks; rank 0 writes (docs/scaling.md).
+    spec.ranks = Ranks::world();
     const PstResult result = runPst(spec, catalog);
+    if (!spec.ranks.root()) return 0;  // its rows went to rank 0
     WrittenFiles written;
     if (!o.json || !o.output.empty()) {
         written.beginRun(dir);

@@ -267,7 +267,10 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
     }
     const int criterionCount = static_cast<int>(o.where.size());
     const ExitAperture aperture = exitApertureFor(*ts.scene, geometry);
-    const Renderer renderer(ts, detector, aperture, ro, criteria.get());
+    // Under mpirun every pass splits over the ranks; rank 0 decides when to stop, writes the
+    // checkpoint and the images (docs/scaling.md).
+    const Ranks ranks = Ranks::world();
+    const Renderer renderer(ts, detector, aperture, ro, criteria.get(), ranks);
     const uint64_t print = fingerprint(ts, geometry, aperture, ro, o.where);
 
     // Where the run lives: -o, else the --resume folder, else ./render; with --json and
@@ -288,22 +291,25 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
             std::error_code ec;
             if (!dir.empty()) std::filesystem::remove_all(dir, ec);
         }
-    } removeAtEnd{scratchRun ? dir : std::filesystem::path()};
+    } removeAtEnd{scratchRun && ranks.root() ? dir : std::filesystem::path()};
     RenderState state(geometry, ro.initialRadiusMm, ro.alpha, criterionCount);
-    if (!o.resume.empty()) {
+    if (!o.resume.empty() && ranks.root()) {
         const std::filesystem::path cp = std::filesystem::path(o.resume) / kCheckpoint;
         if (!std::filesystem::exists(cp))
             throw ParseError({"--resume", 1, 1},
                              o.resume + " holds no " + kCheckpoint + " to continue");
         state = RenderState::read(cp, print, geometry);
     }
-    if (o.passes > 0 && state.passes() >= o.passes && !o.quiet)
+    state.shareFromRoot(ranks);
+    if (o.passes > 0 && state.passes() >= o.passes && !o.quiet && ranks.root())
         std::cerr << "veil: the run already has " << state.passes() << " passes (--passes "
                   << o.passes << "): writing its images\n";
     // A resumed run continues the folder's files; a new one clears the older run's away.
     WrittenFiles written;
-    written.beginRun(dir, !o.resume.empty());
-    std::filesystem::create_directories(dir);
+    if (ranks.root()) {
+        written.beginRun(dir, !o.resume.empty());
+        std::filesystem::create_directories(dir);
+    }
 
     const auto limit = limitThreads(o.threads);
     const bool terminal = !o.quiet && isatty(fileno(stderr));
@@ -323,22 +329,19 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
         return state.meanRelativeError();
     };
     while (true) {
-        const double error = targetError();
-        if (state.passes() >= 2 && error <= o.targetError) {
-            stopReason = "target error reached";
-            break;
+        if (ranks.root()) {
+            if (state.passes() >= 2 && targetError() <= o.targetError)
+                stopReason = "target error reached";
+            else if (o.passes > 0 && state.passes() >= o.passes)
+                stopReason = "pass limit reached";
+            else if (seconds() >= *timeLimit)
+                stopReason = "time limit reached";
         }
-        if (o.passes > 0 && state.passes() >= o.passes) {
-            stopReason = "pass limit reached";
-            break;
-        }
-        if (seconds() >= *timeLimit) {
-            stopReason = "time limit reached";
-            break;
-        }
+        if (!ranks.broadcastFlag(stopReason.empty())) break;
         const RenderPass pass =
             renderer.runPass(state.passes() + 1, state.radiusMm(), state.learned());
-        state.add(pass);
+        state.add(pass, ranks);
+        if (!ranks.root()) continue;
         state.write(dir / kCheckpoint, print);
         photons += pass.photons;
         gathers += pass.gathers;
@@ -371,6 +374,7 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
             lastLine = t;
         }
     }
+    if (!ranks.root()) return 0;  // its share went to rank 0
     if (terminal) std::cerr << "\n";
     if (o.prune && prunedBranches + prunedPhotons == 0 && state.passes() > startPasses)
         std::cerr << "veil: warning: --prune stopped no branch: no --where criterion turned "
@@ -442,6 +446,12 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
     summary["seconds_this_run"] = runSeconds;
     summary["stopped"] = stopReason;
     summary["seed"] = o.seed;
+    const RankTraffic traffic = rankTraffic();
+    if (!ranks.single())
+        summary["ranks"] = {{"count", ranks.size()},
+                            {"rank0_bytes_received", traffic.received},
+                            {"rank0_bytes_sent", traffic.sent},
+                            {"rank0_seconds_in_mpi", traffic.seconds}};
     summary["options"] = {{"rays_per_pixel", ro.raysPerPixel},
                           {"photons_per_source_per_pass", ro.photonsPerPass},
                           {"ghost_photons_per_source_per_pass", ro.ghostPhotons()},
@@ -547,6 +557,11 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
     text << "  radius " << ro.initialRadiusMm << " mm -> " << state.radiusMm() << " mm, "
          << ro.photonsPerPass << " photons per source and " << ro.raysPerPixel
          << " rays per pixel per pass\n";
+    if (!ranks.single())
+        text << "  across " << ranks.size() << " ranks: rank 0 received "
+             << static_cast<double>(traffic.received) / 1e6 << " MB and sent "
+             << static_cast<double>(traffic.sent) / 1e6 << " MB, " << elapsed(traffic.seconds)
+             << " in those calls\n";
     if (stopReason != "target error reached" && std::isfinite(finalTargetError) &&
         finalTargetError > o.targetError)
         text << "  the target error was not reached: continue with --resume " << dir.string()

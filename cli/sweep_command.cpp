@@ -96,6 +96,8 @@ int runSweepCommand(const CommonOptions& common, const SweepOptions& o) {
     const size_t count = sweepVariants(spec).size();
     const GlassCatalog catalog = loadCatalog(common);
     spec.folder = outputFolder(o.output, "sweep", false);
+    // Under mpirun the variants split over the ranks; rank 0 writes (docs/scaling.md).
+    spec.ranks = Ranks::world();
 
     const auto limit = limitThreads(o.threads);
     const auto started = std::chrono::steady_clock::now();
@@ -118,8 +120,9 @@ int runSweepCommand(const CommonOptions& common, const SweepOptions& o) {
     }
     // A sweep continues the variants an earlier run finished: its files stay.
     WrittenFiles written;
-    written.beginRun(spec.folder, true);
+    if (spec.ranks.root()) written.beginRun(spec.folder, true);
     const SweepResult result = runSweep(spec, catalog);
+    if (!spec.ranks.root()) return 0;  // its variants went to rank 0
     if (lineOpen) std::cerr << "\n";
 
     const std::vector<std::filesystem::path> files = writeSweep(result, spec.folder);

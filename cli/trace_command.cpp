@@ -227,6 +227,12 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
     TransportOptions& options = spec.transport;
     applyTransportFlags(o.transport, options);
     options.seed = o.seed;
+    // Under mpirun the rays split over the ranks; rank 0 writes everything (docs/scaling.md).
+    options.ranks = Ranks::world();
+    if (!options.ranks.single() && !o.saveRays.empty())
+        throw ParseError({"--save-rays " + o.saveRays, 0, 0},
+                         "the ray database is written by one process: run veil trace "
+                         "--save-rays without mpirun");
     spec.where = o.where;
     spec.prune = o.prune;
     const uint64_t total = spec.raysPerSource * ts.transport.sources.size();
@@ -253,6 +259,7 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
     // the folder's older run gives way (WrittenFiles::beginRun) and the ray database opens.
     std::unique_ptr<RayDatabaseWriter> db;
     spec.openConsumer = [&]() -> RayCallback {
+        if (!options.ranks.root()) return {};
         written.beginRun(dir);
         if (o.saveRays.empty()) return {};
         {
@@ -261,7 +268,8 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
             // A detector's own name names its object in criteria on the saved rays too.
             for (size_t d = 0; d < setup.detectors.size(); ++d) {
                 RayDatabaseObject& obj = info.objects[setup.detectors[d].object];
-                if (setup.detectors[d].name != obj.name) obj.aliases.push_back(setup.detectors[d].name);
+                if (setup.detectors[d].name != obj.name)
+                    obj.aliases.push_back(setup.detectors[d].name);
             }
             info.seed = o.seed;
             info.fluxUnit = ts.transport.sources.front().unit() == FluxUnit::Lumen ? "lm" : "W";
@@ -274,9 +282,10 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
     };
     const auto limit = limitThreads(o.threads);
     std::optional<ProgressReporter> reporter;
-    if (!o.quiet) reporter.emplace("trace", total);
+    if (!o.quiet && options.ranks.root()) reporter.emplace("trace", total);
     if (reporter) spec.progress = [&reporter](uint64_t done) { reporter->update(done); };
     const StrayLightResult result = runStrayLight(*prepared, spec);
+    if (!options.ranks.root()) return 0;  // its share went to rank 0
     if (db) {
         db->setEmittedRays(total);
         db->close();

@@ -231,23 +231,34 @@ BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& dete
     const size_t sources = ts.sources.size();
 
     std::vector<PixelOutput> out(static_cast<size_t>(pixels));
-    tbb::parallel_for(
-        tbb::blocked_range<int>(0, pixels, 64), [&](const tbb::blocked_range<int>& r) {
-            std::vector<Branch> stack;
-            EventTree tree;
-            std::vector<PathEvent> suffix;
-            std::vector<std::byte> state(judge ? judge->stateBytes() : 0),
-                scratch(judge ? judge->stateBytes() : 0);
-            std::vector<double> perSourceSide(2 * sources);
-            std::vector<uint64_t> strata;
-            // The criteria the path [Emit(source) head] + suffix matches.
-            auto judged = [&](int source, int medium, const PathEvent* head) {
-                judge->reset(state.data());
-                judge->push(state.data(), pathEvent(EventType::Emit, source, 0, medium, medium));
-                if (head) judge->push(state.data(), *head);
-                return judge->matches(state.data(), suffix, scratch.data());
-            };
-            for (int p = r.begin(); p != r.end(); ++p) {
+    // Blocks of 64 pixels; across ranks, block b on rank b mod K (local block j is j K + rank).
+    constexpr int kPixelBlock = 64;
+    const Ranks& ranks = options.ranks;
+    const int blocks = (pixels + kPixelBlock - 1) / kPixelBlock;
+    const int rankCount = ranks.size(), rankIndex = ranks.rank();
+    const int myBlocks = blocks > rankIndex ? (blocks - rankIndex + rankCount - 1) / rankCount : 0;
+    auto blockPixels = [&](int j) {
+        const int b = j * rankCount + rankIndex;
+        return std::pair(b * kPixelBlock, std::min(pixels, (b + 1) * kPixelBlock));
+    };
+    tbb::parallel_for(tbb::blocked_range<int>(0, myBlocks, 1), [&](const tbb::blocked_range<int>&
+                                                                       r) {
+        std::vector<Branch> stack;
+        EventTree tree;
+        std::vector<PathEvent> suffix;
+        std::vector<std::byte> state(judge ? judge->stateBytes() : 0),
+            scratch(judge ? judge->stateBytes() : 0);
+        std::vector<double> perSourceSide(2 * sources);
+        std::vector<uint64_t> strata;
+        // The criteria the path [Emit(source) head] + suffix matches.
+        auto judged = [&](int source, int medium, const PathEvent* head) {
+            judge->reset(state.data());
+            judge->push(state.data(), pathEvent(EventType::Emit, source, 0, medium, medium));
+            if (head) judge->push(state.data(), *head);
+            return judge->matches(state.data(), suffix, scratch.data());
+        };
+        for (int j = r.begin(); j != r.end(); ++j)
+            for (int p = blockPixels(j).first, pEnd = blockPixels(j).second; p != pEnd; ++p) {
                 PixelOutput& po = out[static_cast<size_t>(p)];
                 po.visible.assign(perPixel, 0.0);
                 po.direct.assign(perPixel, 0.0);
@@ -446,7 +457,47 @@ BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& dete
                     po.direct[k] = direct;
                 }
             }
-        });
+    });
+
+    if (!ranks.single()) {
+        // Every rank's pixels to every rank: the photons of each need all view points.
+        ByteWriter w;
+        for (int j = 0; j < myBlocks; ++j) {
+            const auto [pBegin, pEnd] = blockPixels(j);
+            for (int p = pBegin; p < pEnd; ++p) {
+                const PixelOutput& po = out[static_cast<size_t>(p)];
+                w.putVector(po.visible);
+                w.putVector(po.direct);
+                w.putVector(po.cell);
+                w.putVector(po.viewPoints);
+                w.putVector(po.events);
+                w.putVector(po.visibleBy);
+                w.putVector(po.directBy);
+                w.put(po.segments);
+                w.put(po.pruned);
+            }
+        }
+        const std::vector<Bytes> all = ranks.gatherAll(w.take());
+        for (int q = 0; q < rankCount; ++q) {
+            if (q == rankIndex) continue;
+            ByteReader in(all[static_cast<size_t>(q)]);
+            for (int b = q; b < blocks; b += rankCount) {
+                for (int p = b * kPixelBlock; p < std::min(pixels, (b + 1) * kPixelBlock); ++p) {
+                    PixelOutput& po = out[static_cast<size_t>(p)];
+                    po.visible = in.getVector<double>();
+                    po.direct = in.getVector<double>();
+                    po.cell = in.getVector<uint8_t>();
+                    po.viewPoints = in.getVector<ViewPoint>();
+                    po.events = in.getVector<PathEvent>();
+                    po.visibleBy = in.getVector<double>();
+                    po.directBy = in.getVector<double>();
+                    po.segments = in.get<uint64_t>();
+                    po.pruned = in.get<uint64_t>();
+                }
+            }
+            if (!in.done()) throw std::runtime_error("the pixels of another rank are damaged");
+        }
+    }
 
     BackwardResult result;
     result.visible = DetectorImage(detector.geometry());

@@ -74,6 +74,10 @@ struct BackwardOptions {
     // weight is divided by the warp's density; view points keep their ray's guide bin and
     // BackwardResult::learned holds the visible and direct light per bin.
     const ApertureGuide* guide = nullptr;
+    // The ranks the pixels are split over (tracer/ranks.h), in blocks of 64 by index: every
+    // rank traces its blocks, all ranks' pixels are shared, and every rank returns the whole
+    // result, bitwise that of one process.
+    Ranks ranks = Ranks::alone();
 };
 std::ostream& operator<<(std::ostream& os, const BackwardOptions& o);
 

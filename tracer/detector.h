@@ -56,6 +56,7 @@
 #include "geometry/frame.h"
 #include "geometry/scene.h"
 #include "lensdata/errors.h"
+#include "tracer/ranks.h"
 #include "tracer/rng.h"
 
 namespace veil {
@@ -166,6 +167,17 @@ class DetectorLog {
     void clear() {
         sums_.clear();
         rayEnds_.clear();
+    }
+    // As bytes, between ranks (tracer/ranks.h).
+    void pack(ByteWriter& w) const {
+        w.putVector(sums_);
+        w.putVector(rayEnds_);
+    }
+    static DetectorLog unpack(ByteReader& r) {
+        DetectorLog log;
+        log.sums_ = r.getVector<RayContribution::Entry>();
+        log.rayEnds_ = r.getVector<size_t>();
+        return log;
     }
 
   private:

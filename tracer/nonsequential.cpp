@@ -93,6 +93,22 @@ struct Accumulator {
     // The current ray's contributions, one list per detector, logged once the ray (with all
     // its branches) is done: sums of squares are per emitted ray, per pixel and in total.
     std::vector<RayContribution> scratch;
+    uint64_t rays = 0;  // emitted
+
+    Bytes pack() const {
+        ByteWriter w;
+        w.put(rays);
+        w.put(budget);
+        for (const DetectorLog& log : logs) log.pack(w);
+        return w.take();
+    }
+    void unpack(const Bytes& bytes) {
+        ByteReader r(bytes);
+        rays = r.get<uint64_t>();
+        budget = r.get<FluxBudget>();
+        for (DetectorLog& log : logs) log = DetectorLog::unpack(r);
+        if (!r.done()) throw std::runtime_error("a block of rays from another rank is damaged");
+    }
 
     explicit Accumulator(const std::vector<DetectorImage>& grids)
         : detectors(&grids), logs(grids.size()), scratch(grids.size()) {}
@@ -352,8 +368,8 @@ TraceResult traceNonsequential(const TransportScene& ts,
     FluxBudget budget;
     std::vector<DetectorImage> images = detectors;
     auto work = [&]() {
-        forBlocksInOrder(
-            total, options.raysPerBlock,  // 0 counts as 1
+        forBlocksInOrderOnRanks(
+            options.ranks, total, options.raysPerBlock,  // 0 counts as 1
             [&](uint64_t first, uint64_t last) {
                 Accumulator acc(detectors);
                 RayTracer tracer(ts, options);
@@ -363,12 +379,20 @@ TraceResult traceNonsequential(const TransportScene& ts,
                     tracer.trace(static_cast<int>(i / raysPerSource), i, raysPerSource, acc);
                     if (options.recordHistories && onRay) onRay(i, tracer.history());
                 }
-                done += last - first;
+                acc.rays = last - first;
+                if (options.ranks.single()) done += acc.rays;
                 return acc;
             },
             [&](const Accumulator& acc) {
                 budget.merge(acc.budget);
                 for (size_t d = 0; d < images.size(); ++d) images[d].add(acc.logs[d]);
+                if (!options.ranks.single()) done += acc.rays;  // rank 0 sees every block
+            },
+            [](const Accumulator& acc) { return acc.pack(); },
+            [&](const Bytes& bytes) {
+                Accumulator acc(detectors);
+                acc.unpack(bytes);
+                return acc;
             });
     };
     if (!progress) {

@@ -44,6 +44,7 @@
 #include "tracer/media.h"
 #include "tracer/optical_property.h"
 #include "tracer/path_history.h"
+#include "tracer/ranks.h"
 #include "tracer/source.h"
 
 namespace veil {
@@ -63,6 +64,10 @@ struct TransportOptions {
     // Online pruning (may be null): branches whose filter state turns false are culled with
     // CullReason::Criterion. Only what the filter may want is traced to the end.
     const BranchFilter* filter = nullptr;
+    // The ranks the rays are split over (tracer/ranks.h): blocks by index, the images and the
+    // budget complete on rank 0 only, bitwise those of one process. onRay is called on the
+    // rank that traced the ray.
+    Ranks ranks = Ranks::alone();
 };
 std::ostream& operator<<(std::ostream& os, const TransportOptions& o);
 

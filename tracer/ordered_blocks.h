@@ -17,6 +17,8 @@
 #include <cstdint>
 #include <memory>
 
+#include "tracer/ranks.h"
+
 namespace veil {
 
 // Results in flight: two per worker thread keeps every thread busy while the consumer runs.
@@ -54,6 +56,51 @@ void forBlocksInOrder(uint64_t count, uint64_t blockSize, Produce&& produce, Con
             tbb::make_filter<std::shared_ptr<Result>, void>(
                 tbb::filter_mode::serial_in_order,
                 [&](const std::shared_ptr<Result>& r) { consume(*r); }));
+}
+
+// The same across the ranks of `ranks` (tracer/ranks.h): block b is produced on rank
+// b mod K (by its threads, as above), and rank 0 consumes every block in block order, those of
+// the other ranks as they arrive (pack(Result) -> Bytes there, unpack(Bytes) -> Result on rank
+// 0). Rank 0's sums are then bitwise those of one process for any K; the other ranks consume
+// nothing. A rank sends a block once rank 0 is ready for it, so each holds at most `live`
+// results whatever the run's length.
+template <class Produce, class Consume, class Pack, class Unpack>
+void forBlocksInOrderOnRanks(const Ranks& ranks, uint64_t count, uint64_t blockSize,
+                             Produce&& produce, Consume&& consume, Pack&& pack, Unpack&& unpack,
+                             size_t live = defaultLiveBlocks()) {
+    if (ranks.single()) {
+        forBlocksInOrder(count, blockSize, produce, consume, live);
+        return;
+    }
+    blockSize = std::max<uint64_t>(1, blockSize);
+    const uint64_t blocks = (count + blockSize - 1) / blockSize;
+    const uint64_t k = static_cast<uint64_t>(ranks.size());
+    const uint64_t r = static_cast<uint64_t>(ranks.rank());
+    const uint64_t mine = blocks > r ? (blocks - r + k - 1) / k : 0;
+    // Local block j is global block j k + r.
+    auto produceLocal = [&](uint64_t j, uint64_t) {
+        const uint64_t first = (j * k + r) * blockSize;
+        return produce(first, std::min(count, first + blockSize));
+    };
+    using Result = decltype(produce(uint64_t{0}, uint64_t{0}));
+    if (!ranks.root()) {
+        forBlocksInOrder(
+            mine, 1, produceLocal, [&](Result& result) { ranks.send(0, pack(result)); }, live);
+        return;
+    }
+    // Rank 0: its block j k, then the blocks j k + 1 .. j k + K - 1 of the others.
+    uint64_t j = 0;
+    forBlocksInOrder(
+        mine, 1, produceLocal,
+        [&](Result& result) {
+            consume(result);
+            for (uint64_t q = 1; q < k && j * k + q < blocks; ++q) {
+                Result theirs = unpack(ranks.receive(static_cast<int>(q)));
+                consume(theirs);
+            }
+            ++j;
+        },
+        live);
 }
 
 }  // namespace veil

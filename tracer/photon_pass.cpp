@@ -104,7 +104,7 @@ struct PhotonBranch {
 
 PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detector,
                           const BackwardResult& back, const RenderOptions& options,
-                          const PathJudge* judge, int k, double radiusMm) {
+                          const PathJudge* judge, int k, double radiusMm, const Ranks& ranks) {
     const int pixels = detector.pixelCount();
     const std::vector<ViewPoint>& vps = back.viewPoints;
     const ViewPointGrid grid(vps, radiusMm);
@@ -204,8 +204,8 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
     result.secondary.assign(static_cast<size_t>(pixels), 0.0);
     result.by.assign(criteria, {result.visible, result.caustic, result.secondary});
     result.learned.assign(back.learned.size(), 0.0);
-    forBlocksInOrder(
-        total, block,
+    forBlocksInOrderOnRanks(
+        ranks, total, block,
         [&](uint64_t first, uint64_t last) {
             PhotonBlock a;
             a.learned.assign(back.learned.size(), 0.0);
@@ -494,6 +494,24 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
             result.segments += b.segments;
             result.gathers += b.gathers;
             result.pruned += b.pruned;
+        },
+        [](const PhotonBlock& b) {
+            ByteWriter w;
+            w.putVector(b.deposits);
+            w.putVector(b.learned);
+            for (uint64_t n : {b.photons, b.segments, b.gathers, b.pruned}) w.put(n);
+            return w.take();
+        },
+        [](const Bytes& bytes) {
+            ByteReader r(bytes);
+            PhotonBlock b;
+            b.deposits = r.getVector<Deposit>();
+            b.learned = r.getVector<double>();
+            for (uint64_t* n : {&b.photons, &b.segments, &b.gathers, &b.pruned})
+                *n = r.get<uint64_t>();
+            if (!r.done())
+                throw std::runtime_error("a block of photons from another rank is damaged");
+            return b;
         });
     return result;
 }

@@ -44,9 +44,12 @@ struct PhotonImages {
     uint64_t photons = 0, segments = 0, gathers = 0, pruned = 0;
 };
 
-// Pass k's photons, gathered at `back`'s view points with radius radiusMm.
+// Pass k's photons, gathered at `back`'s view points with radius radiusMm. Across `ranks`
+// (tracer/ranks.h) every rank holds the whole `back` and traces its blocks of photons; the
+// images are complete on rank 0, bitwise those of one process.
 PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detector,
                           const BackwardResult& back, const RenderOptions& options,
-                          const PathJudge* judge, int k, double radiusMm);
+                          const PathJudge* judge, int k, double radiusMm,
+                          const Ranks& ranks = Ranks::alone());
 
 }  // namespace veil

@@ -199,6 +199,36 @@ void RenderState::add(const RenderPass& pass) {
     radiusMm_ *= std::sqrt((k + alpha_) / (k + 1.0));
 }
 
+void RenderState::add(const RenderPass& pass, const Ranks& ranks) {
+    if (ranks.root()) {
+        add(pass);
+    } else {
+        ++passes_;  // rank 0's radius follows
+    }
+    shareFromRoot(ranks);
+}
+
+void RenderState::shareFromRoot(const Ranks& ranks) {
+    if (ranks.single()) return;
+    ByteWriter w;
+    if (ranks.root()) {
+        w.put(int32_t(passes_));
+        w.put(radiusMm_);
+        w.put(initialRadiusMm_);
+        w.put(alpha_);
+        w.putVector(learned_);
+    }
+    Bytes bytes = w.take();
+    ranks.broadcast(bytes);
+    if (ranks.root()) return;
+    ByteReader r(bytes);
+    passes_ = r.get<int32_t>();
+    radiusMm_ = r.get<double>();
+    initialRadiusMm_ = r.get<double>();
+    alpha_ = r.get<double>();
+    learned_ = r.getVector<double>();
+}
+
 DetectorImage RenderState::component(RenderComponent c) const {
     return sums_[static_cast<int>(c)].scaled(passes_ > 0 ? 1.0 / passes_ : 0.0);
 }
@@ -391,12 +421,13 @@ RenderState RenderState::read(const std::filesystem::path& path, uint64_t finger
 // Renderer
 
 Renderer::Renderer(const TransportScene& ts, const DetectorImage& detector, ExitAperture aperture,
-                   RenderOptions options, const PathJudge* judge)
+                   RenderOptions options, const PathJudge* judge, Ranks ranks)
     : ts_(ts),
       detector_(detector.geometry()),
       aperture_(aperture),
       options_(options),
-      judge_(judge) {
+      judge_(judge),
+      ranks_(ranks) {
     options_.check();
     if (options_.prune && !judge_)
         throw std::invalid_argument("pruning needs at least one path criterion");
@@ -494,6 +525,7 @@ BackwardOptions Renderer::backwardOptions(int k) const {
     bo.viewPointRelativeWeight = options_.viewPointRelativeWeight;
     bo.judge = judge_;
     bo.prune = options_.prune;
+    bo.ranks = ranks_;
     for (const Source& s : ts_.sources) bo.visibleSources.push_back(!photonsSeeSource(s));
     return bo;
 }
@@ -528,7 +560,7 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
     out.backwardSeconds = since(t0);
     const auto t1 = std::chrono::steady_clock::now();
     // 2. Forward photons gathered at the view points.
-    PhotonImages acc = tracePhotons(ts_, detector_, back, options_, judge_, k, radiusMm);
+    PhotonImages acc = tracePhotons(ts_, detector_, back, options_, judge_, k, radiusMm, ranks_);
     const size_t criteria = judge_ ? static_cast<size_t>(judge_->count()) : 0;
     std::vector<double>& visible = out.pixels[static_cast<int>(RenderComponent::Visible)];
     for (int p = 0; p < pixels; ++p) visible[static_cast<size_t>(p)] += acc.visible[p];

@@ -162,6 +162,13 @@ class RenderState {
     double alpha() const { return alpha_; }
     // Adds a pass's estimates and shrinks the radius for the next.
     void add(const RenderPass& pass);
+    // The same for a pass rendered across ranks (Renderer with ranks): rank 0, which holds the
+    // pass's images, adds it; every other rank takes rank 0's pass count, radius and learned
+    // light (what its next pass needs) and keeps no sums.
+    void add(const RenderPass& pass, const Ranks& ranks);
+    // Rank 0's pass count, radii, alpha and learned light on every rank (a run resumed from a
+    // checkpoint that rank 0 read).
+    void shareFromRoot(const Ranks& ranks);
 
     // The mean over the passes (flux per pixel) with the variance of the mean: read
     // pixelVariance(p, passes()) and totalVariance(passes()).
@@ -208,9 +215,11 @@ class Renderer {
   public:
     // `detector` gives the pixel grid (its sums are not used). Checks the options. `judge`:
     // path criteria to split the image by (tracer/path_judge.h), or none; it must outlive
-    // the renderer.
+    // the renderer. `ranks`: every pass split over them (tracer/ranks.h; pixels and photons
+    // by index), every rank calling runPass; the pass's images are complete on rank 0 only,
+    // bitwise those of one process (RenderState::add(pass, ranks) then keeps the ranks in step).
     Renderer(const TransportScene& ts, const DetectorImage& detector, ExitAperture aperture,
-             RenderOptions options, const PathJudge* judge = nullptr);
+             RenderOptions options, const PathJudge* judge = nullptr, Ranks ranks = Ranks::alone());
     const ExitAperture& aperture() const { return aperture_; }
     const RenderOptions& options() const { return options_; }
     // Pass k (1, 2, ...) at radius radiusMm, its pixel rays guided by the light learned in the
@@ -225,6 +234,7 @@ class Renderer {
     ExitAperture aperture_;
     RenderOptions options_;
     const PathJudge* judge_ = nullptr;
+    Ranks ranks_;
 };
 
 // Where photons land around a view point v, for the light that reaches it from one side of
