@@ -62,8 +62,8 @@ void forBlocksInOrder(uint64_t count, uint64_t blockSize, Produce&& produce, Con
 // b mod K (by its threads, as above), and rank 0 consumes every block in block order, those of
 // the other ranks as they arrive (pack(Result) -> Bytes there, unpack(Bytes) -> Result on rank
 // 0). Rank 0's sums are then bitwise those of one process for any K; the other ranks consume
-// nothing. A rank sends a block once rank 0 is ready for it, so each holds at most `live`
-// results whatever the run's length.
+// nothing. A rank posts its blocks and goes on; it waits once `live` of them are under way,
+// so each holds at most about 2 `live` results whatever the run's length.
 template <class Produce, class Consume, class Pack, class Unpack>
 void forBlocksInOrderOnRanks(const Ranks& ranks, uint64_t count, uint64_t blockSize,
                              Produce&& produce, Consume&& consume, Pack&& pack, Unpack&& unpack,
@@ -85,7 +85,9 @@ void forBlocksInOrderOnRanks(const Ranks& ranks, uint64_t count, uint64_t blockS
     using Result = decltype(produce(uint64_t{0}, uint64_t{0}));
     if (!ranks.root()) {
         forBlocksInOrder(
-            mine, 1, produceLocal, [&](Result& result) { ranks.send(0, pack(result)); }, live);
+            mine, 1, produceLocal, [&](Result& result) { ranks.post(0, pack(result), live); },
+            live);
+        ranks.waitPosted();
         return;
     }
     // Rank 0: its block j k, then the blocks j k + 1 .. j k + K - 1 of the others.

@@ -1,5 +1,7 @@
 #include "tracer/photon_pass.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <atomic>
 #include <bit>
@@ -129,6 +131,43 @@ PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detecto
         }
         return static_cast<double>(c);
     };
+    if (!ranks.single()) {
+        // Across ranks every rank's photons reach nearly every view point, and each rank
+        // would find the same corrections again: they are computed once, blocks of view
+        // points split over the ranks, and shared; the other side's only where light can
+        // come through (not on opaque parts, whose transmission is 0).
+        constexpr size_t kShareBlock = 1024;
+        auto transmissive = [&](size_t i) {
+            return !isOpaqueKind(ts.scene->object(vps[i].object).kind);
+        };
+        const size_t n = vps.size(), blocks = (n + kShareBlock - 1) / kShareBlock;
+        tbb::parallel_for(size_t(0), blocks, [&](size_t b) {
+            if (!ranks.owns(b)) return;
+            for (size_t i = b * kShareBlock; i < std::min(n, (b + 1) * kShareBlock); ++i) {
+                areaCorrection(static_cast<uint32_t>(i), false);
+                if (transmissive(i)) areaCorrection(static_cast<uint32_t>(i), true);
+            }
+        });
+        ByteWriter w;
+        for (size_t b = static_cast<size_t>(ranks.rank()); b < blocks;
+             b += static_cast<size_t>(ranks.size()))
+            for (size_t i = b * kShareBlock; i < std::min(n, (b + 1) * kShareBlock); ++i)
+                for (size_t side = 0; side < (transmissive(i) ? 2u : 1u); ++side)
+                    w.put(inverseShare[2 * i + side].load(std::memory_order_relaxed));
+        const std::vector<Bytes> all = ranks.gatherAll(w.take());
+        for (int q = 0; q < ranks.size(); ++q) {
+            if (q == ranks.rank()) continue;
+            ByteReader in(all[static_cast<size_t>(q)]);
+            for (size_t b = static_cast<size_t>(q); b < blocks;
+                 b += static_cast<size_t>(ranks.size()))
+                for (size_t i = b * kShareBlock; i < std::min(n, (b + 1) * kShareBlock); ++i)
+                    for (size_t side = 0; side < (transmissive(i) ? 2u : 1u); ++side)
+                        inverseShare[2 * i + side].store(in.get<float>(),
+                                                         std::memory_order_relaxed);
+            if (!in.done())
+                throw std::runtime_error("the view point shares of another rank are damaged");
+        }
+    }
     const double gapMm = kGapFraction * radiusMm;
     const uint64_t perSource = options.photonsPerPass;
     const uint64_t total = perSource * ts.sources.size();

@@ -3,6 +3,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdlib>
+#include <deque>
 #include <string>
 
 #ifdef VEIL_MPI
@@ -119,16 +120,51 @@ void broadcastFrom(int root, Bytes& data) {
 
 }  // namespace
 
-void Ranks::send(int to, const Bytes& data) const {
-    const CallClock clock;
-    const uint64_t n = data.size();
-    bytesSent += n;
-    check(MPI_Ssend(&n, 1, MPI_UINT64_T, to, kTag, MPI_COMM_WORLD), "send");
-    for (size_t at = 0; at < n; at += kPiece)
-        check(MPI_Send(data.data() + at, static_cast<int>(std::min<size_t>(kPiece, n - at)),
-                       MPI_BYTE, to, kTag, MPI_COMM_WORLD),
-              "send");
+namespace {
+
+// Sends under way (Ranks::post): their buffers live until MPI has taken them.
+struct Posted {
+    uint64_t size = 0;
+    Bytes data;
+    std::vector<MPI_Request> requests;
+};
+std::deque<Posted> posted;
+
+void waitOldest() {
+    Posted& p = posted.front();
+    check(MPI_Waitall(static_cast<int>(p.requests.size()), p.requests.data(), MPI_STATUSES_IGNORE),
+          "send");
+    posted.pop_front();
 }
+
+}  // namespace
+
+void Ranks::post(int to, Bytes data, size_t pending) const {
+    const CallClock clock;
+    bytesSent += data.size();
+    Posted& p = posted.emplace_back();
+    p.size = data.size();
+    p.data = std::move(data);
+    // The size, then the bytes in pieces (MPI counts are ints); one pair of ranks keeps its
+    // messages in order, so the receiver reads them as they were posted.
+    p.requests.emplace_back();
+    check(MPI_Isend(&p.size, 1, MPI_UINT64_T, to, kTag, MPI_COMM_WORLD, &p.requests.back()),
+          "send");
+    for (size_t at = 0; at < p.size; at += kPiece) {
+        p.requests.emplace_back();
+        check(MPI_Isend(p.data.data() + at, static_cast<int>(std::min<size_t>(kPiece, p.size - at)),
+                        MPI_BYTE, to, kTag, MPI_COMM_WORLD, &p.requests.back()),
+              "send");
+    }
+    while (posted.size() > pending) waitOldest();
+}
+
+void Ranks::waitPosted() const {
+    const CallClock clock;
+    while (!posted.empty()) waitOldest();
+}
+
+void Ranks::send(int to, const Bytes& data) const { post(to, data, 0); }
 
 Bytes Ranks::receive(int from) const {
     const CallClock clock;
@@ -188,6 +224,8 @@ namespace {
 }
 }  // namespace
 
+void Ranks::post(int, Bytes, size_t) const { noPeers(); }
+void Ranks::waitPosted() const {}
 void Ranks::send(int, const Bytes&) const { noPeers(); }
 Bytes Ranks::receive(int) const { noPeers(); }
 void Ranks::broadcast(Bytes&) const {}

@@ -111,9 +111,12 @@ class Ranks {
     // Item i of a split by index: rank i mod size.
     bool owns(uint64_t i) const { return i % static_cast<uint64_t>(size_) == uint64_t(rank_); }
 
-    // Point to point, in order between a pair of ranks. send returns once the receiver has
-    // started taking the message (synchronous: a fast rank cannot run ahead of rank 0 by
-    // more than what it holds).
+    // Point to point, in order between a pair of ranks. post starts sending and returns,
+    // keeping the bytes until MPI has taken them; once more than `pending` posted sends are
+    // under way it waits for the oldest (a fast rank runs ahead of its receiver by at most
+    // that many messages). waitPosted waits for all; send is post and waitPosted.
+    void post(int to, Bytes data, size_t pending) const;
+    void waitPosted() const;
     void send(int to, const Bytes& data) const;
     Bytes receive(int from) const;
     // Rank 0's bytes to every rank (others' `data` is replaced).
