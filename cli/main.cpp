@@ -30,7 +30,8 @@ int main(int argc, char** argv) {
     try {
         session.emplace(argc, argv);
     } catch (const std::exception& e) {
-        std::cerr << "veil: error: " << e.what() << "\n";
+        // Every rank fails alike here: the first one says why.
+        if (veil::launcherRank() == 0) std::cerr << "veil: error: " << e.what() << "\n";
         return 1;
     }
     static NullBuffer null;

@@ -21,6 +21,16 @@ int launcherSize() {
     return 0;
 }
 
+}  // namespace
+
+int launcherRank() {
+    for (const char* name : {"OMPI_COMM_WORLD_RANK", "PMIX_RANK", "PMI_RANK"})
+        if (const char* v = std::getenv(name)) return std::atoi(v);
+    return 0;
+}
+
+namespace {
+
 bool started = false;  // MPI_Init ran in this process
 int worldRank = 0, worldSize = 1;
 // Calls come from one thread at a time (MPI_THREAD_SERIALIZED); atomics let any thread read.

@@ -159,6 +159,10 @@ class RankSession {
     RankSession& operator=(const RankSession&) = delete;
 };
 
+// This process's rank as the launcher's environment gives it (OpenMPI, PMIx, Hydra), known
+// before MPI starts: 0 when not started by mpirun.
+int launcherRank();
+
 // Ends the whole job (every rank) with this exit code, after a failure on this rank.
 [[noreturn]] void abortRanks(int code);
 
