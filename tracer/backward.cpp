@@ -178,6 +178,30 @@ struct PixelOutput {
     std::vector<double> visibleBy, directBy;  // [criterion]: the pixel's sums
     uint64_t segments = 0;
     uint64_t pruned = 0;
+
+    // As bytes, between ranks (tracer/ranks.h).
+    void pack(ByteWriter& w) const {
+        w.putVector(visible);
+        w.putVector(direct);
+        w.putVector(cell);
+        w.putVector(viewPoints);
+        w.putVector(events);
+        w.putVector(visibleBy);
+        w.putVector(directBy);
+        w.put(segments);
+        w.put(pruned);
+    }
+    void unpack(ByteReader& r) {
+        visible = r.getVector<double>();
+        direct = r.getVector<double>();
+        cell = r.getVector<uint8_t>();
+        viewPoints = r.getVector<ViewPoint>();
+        events = r.getVector<PathEvent>();
+        visibleBy = r.getVector<double>();
+        directBy = r.getVector<double>();
+        segments = r.get<uint64_t>();
+        pruned = r.get<uint64_t>();
+    }
 };
 
 // The backward events of one pixel ray, as a tree: node 0 is the detector hit, every later
@@ -236,13 +260,13 @@ BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& dete
     const Ranks& ranks = options.ranks;
     const int blocks = (pixels + kPixelBlock - 1) / kPixelBlock;
     const int rankCount = ranks.size(), rankIndex = ranks.rank();
-    const int myBlocks = blocks > rankIndex ? (blocks - rankIndex + rankCount - 1) / rankCount : 0;
+    const int myBlocks = static_cast<int>(ranks.ownedCount(static_cast<uint64_t>(blocks)));
     auto blockPixels = [&](int j) {
         const int b = j * rankCount + rankIndex;
         return std::pair(b * kPixelBlock, std::min(pixels, (b + 1) * kPixelBlock));
     };
-    tbb::parallel_for(tbb::blocked_range<int>(0, myBlocks, 1), [&](const tbb::blocked_range<int>&
-                                                                       r) {
+    const tbb::blocked_range<int> myRange(0, myBlocks, 1);
+    tbb::parallel_for(myRange, [&](const tbb::blocked_range<int>& r) {
         std::vector<Branch> stack;
         EventTree tree;
         std::vector<PathEvent> suffix;
@@ -465,16 +489,7 @@ BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& dete
         for (int j = 0; j < myBlocks; ++j) {
             const auto [pBegin, pEnd] = blockPixels(j);
             for (int p = pBegin; p < pEnd; ++p) {
-                const PixelOutput& po = out[static_cast<size_t>(p)];
-                w.putVector(po.visible);
-                w.putVector(po.direct);
-                w.putVector(po.cell);
-                w.putVector(po.viewPoints);
-                w.putVector(po.events);
-                w.putVector(po.visibleBy);
-                w.putVector(po.directBy);
-                w.put(po.segments);
-                w.put(po.pruned);
+                out[static_cast<size_t>(p)].pack(w);
             }
         }
         const std::vector<Bytes> all = ranks.gatherAll(w.take());
@@ -483,16 +498,7 @@ BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& dete
             ByteReader in(all[static_cast<size_t>(q)]);
             for (int b = q; b < blocks; b += rankCount) {
                 for (int p = b * kPixelBlock; p < std::min(pixels, (b + 1) * kPixelBlock); ++p) {
-                    PixelOutput& po = out[static_cast<size_t>(p)];
-                    po.visible = in.getVector<double>();
-                    po.direct = in.getVector<double>();
-                    po.cell = in.getVector<uint8_t>();
-                    po.viewPoints = in.getVector<ViewPoint>();
-                    po.events = in.getVector<PathEvent>();
-                    po.visibleBy = in.getVector<double>();
-                    po.directBy = in.getVector<double>();
-                    po.segments = in.get<uint64_t>();
-                    po.pruned = in.get<uint64_t>();
+                    out[static_cast<size_t>(p)].unpack(in);
                 }
             }
             if (!in.done()) throw std::runtime_error("the pixels of another rank are damaged");

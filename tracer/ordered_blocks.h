@@ -76,7 +76,7 @@ void forBlocksInOrderOnRanks(const Ranks& ranks, uint64_t count, uint64_t blockS
     const uint64_t blocks = (count + blockSize - 1) / blockSize;
     const uint64_t k = static_cast<uint64_t>(ranks.size());
     const uint64_t r = static_cast<uint64_t>(ranks.rank());
-    const uint64_t mine = blocks > r ? (blocks - r + k - 1) / k : 0;
+    const uint64_t mine = ranks.ownedCount(blocks);
     // Local block j is global block j k + r.
     auto produceLocal = [&](uint64_t j, uint64_t) {
         const uint64_t first = (j * k + r) * blockSize;

@@ -110,6 +110,11 @@ class Ranks {
     bool single() const { return size_ == 1; }
     // Item i of a split by index: rank i mod size.
     bool owns(uint64_t i) const { return i % static_cast<uint64_t>(size_) == uint64_t(rank_); }
+    // How many of the items 0 .. n - 1 this rank owns; its j-th is item j size + rank.
+    uint64_t ownedCount(uint64_t n) const {
+        const auto k = static_cast<uint64_t>(size_), r = static_cast<uint64_t>(rank_);
+        return n > r ? (n - r + k - 1) / k : 0;
+    }
 
     // Point to point, in order between a pair of ranks. post starts sending and returns,
     // keeping the bytes until MPI has taken them; once more than `pending` posted sends are
