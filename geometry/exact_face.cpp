@@ -326,12 +326,12 @@ std::optional<ShapeHit> intersectPatch(const SurfacePatch& patch, const Ray& ray
 // the origin itself. The cylinder is convex: a ray leaving it (b >= 0) never meets it again,
 // and one entering it (b < 0) meets it once more at q / a with q = -b + sqrt(b^2 - a C) > 0,
 // the root of larger magnitude (the origin's own root is C / q). No epsilon is involved.
-std::optional<ShapeHit> intersectCylinder(const CylinderPatch& cyl, const Ray& ray, double tMin,
-                                          double tMax, bool startsOnFace) {
+bool crossCylinder(const CylinderPatch& cyl, const Ray& ray, double tMin, double tMax,
+                   bool startsOnFace, double& tOut, Vec3& pointOut) {
     const Vec3& o = ray.origin;
     const Vec3& d = ray.direction;
     const double a = d.x * d.x + d.y * d.y;
-    if (a == 0.0) return std::nullopt;  // parallel to the axis
+    if (a == 0.0) return false;  // parallel to the axis
     const double radius = cyl.radiusMm;
     // R^2 as an unevaluated sum hi + lo, so C does not inherit the rounding of R * R.
     const double rSqHi = radius * radius;
@@ -343,7 +343,7 @@ std::optional<ShapeHit> intersectCylinder(const CylinderPatch& cyl, const Ray& r
     int count = 0;
     if (startsOnFace) {
         const double b = o.x * d.x + o.y * d.y;
-        if (!(b < 0.0)) return std::nullopt;
+        if (!(b < 0.0)) return false;
         const double c = std::fma(o.x, o.x, std::fma(o.y, o.y, -rSqHi)) - rSqLo;
         const double disc = differenceOfProducts(b, b, a, c);
         const double q = -b + std::sqrt(std::max(disc, 0.0));
@@ -352,7 +352,7 @@ std::optional<ShapeHit> intersectCylinder(const CylinderPatch& cyl, const Ray& r
         tRef = -(o.x * d.x + o.y * d.y) / a;
         p = o + tRef * d;
         const double c = std::fma(p.x, p.x, std::fma(p.y, p.y, -rSqHi)) - rSqLo;
-        if (c > 0.0) return std::nullopt;
+        if (c > 0.0) return false;
         const double s = std::sqrt(-c / a);
         roots[count++] = -s;
         roots[count++] = s;
@@ -373,12 +373,26 @@ std::optional<ShapeHit> intersectCylinder(const CylinderPatch& cyl, const Ray& r
             if (rc.lower && point.z < rc.lower->zAt(point.x, point.y) - slack) continue;
             if (rc.upper && point.z > rc.upper->zAt(point.x, point.y) + slack) continue;
         }
-        Vec3 normal{point.x, point.y, 0.0};
-        normal /= std::hypot(point.x, point.y);
-        if (!cyl.outward) normal = -normal;
-        return ShapeHit{t, point, normal};
+        tOut = t;
+        pointOut = point;
+        return true;
     }
-    return std::nullopt;
+    return false;
+}
+
+Vec3 cylinderNormal(const CylinderPatch& cyl, const Vec3& point) {
+    Vec3 normal{point.x, point.y, 0.0};
+    normal /= std::hypot(point.x, point.y);
+    if (!cyl.outward) normal = -normal;
+    return normal;
+}
+
+std::optional<ShapeHit> intersectCylinder(const CylinderPatch& cyl, const Ray& ray, double tMin,
+                                          double tMax, bool startsOnFace) {
+    double t;
+    Vec3 point;
+    if (!crossCylinder(cyl, ray, tMin, tMax, startsOnFace, t, point)) return std::nullopt;
+    return ShapeHit{t, point, cylinderNormal(cyl, point)};
 }
 
 // Tessellation
@@ -595,6 +609,100 @@ std::optional<ShapeHit> intersectFace(const FaceGeometry& face, const Ray& local
             }
         },
         face);
+}
+
+Vec3 faceNormal(const FaceGeometry& face, const Vec3& localPoint) {
+    if (const auto* cyl = std::get_if<CylinderPatch>(&face))
+        return cylinderNormal(*cyl, localPoint);
+    return surfaceNormal(std::get<SurfacePatch>(face).shape, localPoint);
+}
+
+PreparedFace::PreparedFace(const FaceGeometry& face) {
+    if (std::holds_alternative<CylinderPatch>(face)) {
+        kind_ = Kind::Cylinder;
+        return;
+    }
+    const SurfacePatch& patch = std::get<SurfacePatch>(face);
+    if (const auto* a = std::get_if<AnnularAperture>(&patch.aperture)) {
+        annulus_ = true;
+        rInner_ = a->innerRadiusMm;
+    } else if (!std::holds_alternative<CircularAperture>(patch.aperture)) {
+        return;  // a rectangle: General
+    }
+    rMax_ = apertureBoundingRadius(patch.aperture);
+    if (std::holds_alternative<PlaneShape>(patch.shape)) {
+        kind_ = Kind::Plane;
+    } else if (const auto* s = std::get_if<SphereShape>(&patch.shape)) {
+        kind_ = Kind::Conic;
+        conic_ = {s->curvature, 0.0};
+    } else if (const auto* s = std::get_if<ConicShape>(&patch.shape)) {
+        kind_ = Kind::Conic;
+        conic_ = {s->curvature, s->conic};
+    } else if (const auto* s = std::get_if<EvenAsphereShape>(&patch.shape)) {
+        const auto zero = [](const auto& a) {
+            return std::all_of(a.begin(), a.end(), [](double v) { return v == 0.0; });
+        };
+        // intersectFirst() solves an asphere without terms as its conic.
+        if (zero(s->coefficients) && zero(s->odd) && zero(s->overW)) {
+            kind_ = Kind::Conic;
+            conic_ = {s->curvature, s->conic};
+        }
+    }
+}
+
+bool PreparedFace::insideRing(const Vec3& point, double magnitude) const {
+    // The arithmetic of insideAperture(), term for term.
+    const double rSq = point.x * point.x + point.y * point.y;
+    if (!annulus_) {
+        const double r = rMax_ + edgeSlack(rMax_, magnitude);
+        return rSq <= r * r;
+    }
+    const double slack = edgeSlack(rMax_, magnitude);
+    const double ro = rMax_ + slack;
+    const double ri = std::max(0.0, rInner_ - slack);
+    return rSq >= ri * ri && rSq <= ro * ro;
+}
+
+bool PreparedFace::cross(const FaceGeometry& face, const Ray& localRay, double tMin, double tMax,
+                         bool startsOnFace, FaceCrossing& out) const {
+    out.hasNormal = false;
+    switch (kind_) {
+        case Kind::Cylinder:
+            return crossCylinder(*std::get_if<CylinderPatch>(&face), localRay, tMin, tMax,
+                                 startsOnFace, out.t, out.point);
+        case Kind::Plane: {
+            // intersectFirst()'s plane, then intersectPatch()'s aperture test: a plane met
+            // outside its aperture is not met again.
+            const Vec3& o = localRay.origin;
+            const Vec3& d = localRay.direction;
+            if (startsOnFace || d.z == 0.0) return false;
+            const double t = -o.z / d.z;
+            if (!(t > tMin && t <= tMax)) return false;
+            const Vec3 point{o.x + t * d.x, o.y + t * d.y, 0.0};
+            const double originSize = glm::length(o);
+            if (!root_search::withinRadius(point, rMax_, originSize + std::abs(t))) return false;
+            if (!insideRing(point, originSize + std::abs(t))) return false;
+            out.t = t;
+            out.point = point;
+            return true;
+        }
+        case Kind::Conic: {
+            if (!conicFirstCrossing(conic_, localRay, tMin, tMax, rMax_, startsOnFace, out.t,
+                                    out.point))
+                return false;
+            if (insideRing(out.point, glm::length(localRay.origin) + std::abs(out.t))) return true;
+            break;  // in a hole: the next crossing, as intersectPatch() finds it
+        }
+        case Kind::General:
+            break;
+    }
+    const auto hit = intersectFace(face, localRay, tMin, tMax, startsOnFace);
+    if (!hit) return false;
+    out.t = hit->t;
+    out.point = hit->point;
+    out.normal = hit->normal;
+    out.hasNormal = true;
+    return true;
 }
 
 // Bounds are padded by a relative 1e-9 so that hits the intersection accepts a few ulps

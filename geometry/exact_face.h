@@ -17,6 +17,7 @@
 #include <variant>
 
 #include "geometry/aperture.h"
+#include "geometry/conic_roots.h"
 #include "geometry/frame.h"
 #include "geometry/surface_shape.h"
 #include "geometry/triangle_mesh.h"
@@ -55,6 +56,40 @@ std::ostream& operator<<(std::ostream& os, const FaceGeometry& f);
 // faces that share an edge overlap by rounding rather than leave a crack between them.
 std::optional<ShapeHit> intersectFace(const FaceGeometry& face, const Ray& localRay, double tMin,
                                       double tMax, bool startsOnFace);
+// The normal of a face at a point of it (local frame): what intersectFace() reports there.
+Vec3 faceNormal(const FaceGeometry& face, const Vec3& localPoint);
+
+// A face prepared for repeated queries (geometry/face_index.h). The faces a lens is made of
+// (a sphere, conic or plane with a circular or annular aperture; a butt end) are intersected
+// without the general dispatch, and their normal is left out: faceNormal() of the point gives
+// it, so a query that tests several faces pays for the normal of the nearest only. Other
+// faces go through intersectFace() and keep its normal. t and point are intersectFace()'s
+// bit for bit.
+struct FaceCrossing {
+    double t = 0.0;
+    Vec3 point{0.0};
+    Vec3 normal{0.0};
+    bool hasNormal = false;  // false: faceNormal(face, point)
+};
+class PreparedFace {
+  public:
+    explicit PreparedFace(const FaceGeometry& face);
+    // As intersectFace(face, ...), for the face this was prepared from.
+    bool cross(const FaceGeometry& face, const Ray& localRay, double tMin, double tMax,
+               bool startsOnFace, FaceCrossing& out) const;
+
+  private:
+    // intersectPatch()'s aperture test for a circle or an annulus.
+    bool insideRing(const Vec3& point, double magnitude) const;
+
+    enum class Kind : unsigned char { General, Conic, Plane, Cylinder };
+    Kind kind_ = Kind::General;
+    bool annulus_ = false;  // else a circular aperture
+    ConicBase conic_;
+    double rMax_ = 0.0;  // apertureBoundingRadius()
+    double rInner_ = 0.0;
+};
+
 // Local bounds: the aperture's box in x, y and an enclosure of the sag over it in z (exact
 // for planes, spheres and conics, whose sag is monotone in r; an interval enclosure over
 // 1024 radial pieces for aspheres, over cells of (x^2, y^2) for anamorphic shapes), padded

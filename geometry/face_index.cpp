@@ -38,8 +38,10 @@ FrameOffset offsetFrom(const Frame& g, const Frame& f) {
 }  // namespace
 
 ExactFaceIndex::ExactFaceIndex(std::vector<ExactFaceEntry> faces) : faces_(std::move(faces)) {
-    for (const ExactFaceEntry& e : faces_)
+    for (const ExactFaceEntry& e : faces_) {
         shiftOnly_.push_back(e.frame.rotation == glm::dmat3(1.0) ? 1 : 0);
+        prepared_.emplace_back(e.face);
+    }
     // Group faces by axis; the first face of a group gives its frame.
     std::vector<std::vector<int>> members;
     for (size_t i = 0; i < faces_.size(); ++i) {
@@ -112,6 +114,8 @@ ExactFaceIndex::ExactFaceIndex(std::vector<ExactFaceEntry> faces) : faces_(std::
 void ExactFaceIndex::nearest(const Ray& ray, int startObject, ExactCandidate& best) const {
     int tested[kMaxTested];
     int testedCount = 0;
+    bool normalPending = false;
+    Vec3 pendingPoint(0.0);
     auto intersect = [&](int entry) {
         for (int k = 0; k < testedCount; ++k)
             if (tested[k] == entry) return;
@@ -121,14 +125,20 @@ void ExactFaceIndex::nearest(const Ray& ray, int startObject, ExactCandidate& be
         // ray as the rotation by the identity, without its 18 products.
         const Ray local = shiftOnly_[entry] ? Ray{ray.origin - e.frame.translation, ray.direction}
                                             : e.frame.toLocal(ray);
-        const auto hit = intersectFace(e.face, local, 0.0, best.t, e.object == startObject);
-        if (!hit) return;
-        const bool nearer = hit->t < best.t || best.entry < 0 ||
-                            (hit->t == best.t && e.object < faces_[best.entry].object);
+        FaceCrossing hit;
+        if (!prepared_[entry].cross(e.face, local, 0.0, best.t, e.object == startObject, hit))
+            return;
+        const bool nearer = hit.t < best.t || best.entry < 0 ||
+                            (hit.t == best.t && e.object < faces_[best.entry].object);
         if (!nearer) return;
         best.entry = entry;
-        best.t = hit->t;
-        best.localNormal = hit->normal;
+        best.t = hit.t;
+        // The normal of the face that wins, once, at the end.
+        normalPending = !hit.hasNormal;
+        if (hit.hasNormal)
+            best.localNormal = hit.normal;
+        else
+            pendingPoint = hit.point;
     };
 
     for (const Group& g : groups_) {
@@ -224,6 +234,7 @@ void ExactFaceIndex::nearest(const Ray& ray, int startObject, ExactCandidate& be
             }
         }
     }
+    if (normalPending) best.localNormal = faceNormal(faces_[best.entry].face, pendingPoint);
 }
 
 }  // namespace veil

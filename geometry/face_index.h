@@ -79,6 +79,7 @@ class ExactFaceIndex {
     // with reach = the smallest zLo so far.
     std::vector<ExactFaceEntry> faces_;
     std::vector<unsigned char> shiftOnly_;  // per face: its rotation is the identity
+    std::vector<PreparedFace> prepared_;    // per face
     std::vector<Group> groups_;
     std::vector<Band> up_, down_;
     std::vector<double> upReach_, downReach_;

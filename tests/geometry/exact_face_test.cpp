@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iostream>
+#include <memory>
 #include <numbers>
 #include <random>
 #include <sstream>
@@ -520,6 +521,77 @@ TEST(ExactFace, SectionsFollowTheProfile) {
     ASSERT_EQ(wall.size(), 2u);
     EXPECT_EQ(wall[0], (std::vector<Vec2>{{-7.0, -1.0}, {-7.0, 2.0}}));
     EXPECT_EQ(wall[1], (std::vector<Vec2>{{7.0, -1.0}, {7.0, 2.0}}));
+}
+
+// Prepared faces
+
+// PreparedFace::cross() and faceNormal() against intersectFace(), the general path they must
+// reproduce bit for bit: every kind of face a lens has (spheres, conics, an asphere without
+// terms, planes, each with a disc or a ring; butt ends with and without rim curves) and the
+// kinds left to the general path (an asphere, a rectangle, a biconic), for rays from
+// everywhere, rays starting on the face, short ray ranges and rays along the axis.
+TEST(ExactFace, PreparedFacesCrossExactlyAsIntersectFace) {
+    EvenAsphereShape bare;
+    bare.curvature = 1.0 / 40.0;
+    bare.conic = -0.6;
+    EvenAsphereShape asphere = bare;
+    asphere.coefficients[1] = 2e-7;
+    BiconicShape biconic;
+    biconic.xCurvature = 1.0 / 50.0;
+    biconic.yCurvature = -1.0 / 80.0;
+    auto rims = std::make_shared<RimCurves>();
+    rims->upper = RimCurve{SphereShape{1.0 / 60.0}, 4.0};
+    const std::vector<FaceGeometry> faces = {
+        SurfacePatch{SphereShape{1.0 / 30.0}, CircularAperture{12.0}},
+        SurfacePatch{SphereShape{-1.0 / 55.0}, AnnularAperture{4.0, 20.0}},
+        SurfacePatch{ConicShape{1.0 / 25.0, -1.0}, CircularAperture{15.0}},
+        SurfacePatch{ConicShape{-1.0 / 70.0, 0.4}, AnnularAperture{6.0, 18.0}},
+        SurfacePatch{bare, CircularAperture{14.0}},
+        SurfacePatch{PlaneShape{}, CircularAperture{10.0}},
+        SurfacePatch{PlaneShape{}, AnnularAperture{10.0, 16.0}},
+        CylinderPatch{16.0, -3.0, 5.0, true, nullptr},
+        CylinderPatch{16.0, -3.0, 5.0, false, nullptr},
+        CylinderPatch{12.0, -2.0, 6.0, true, rims},
+        SurfacePatch{asphere, CircularAperture{14.0}},
+        SurfacePatch{SphereShape{1.0 / 30.0}, RectangularAperture{8.0, 5.0}},
+        SurfacePatch{biconic, CircularAperture{10.0}},
+    };
+    std::mt19937_64 rng(2024);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    auto same = [](const Vec3& a, const Vec3& b) { return a.x == b.x && a.y == b.y && a.z == b.z; };
+    for (size_t f = 0; f < faces.size(); ++f) {
+        const PreparedFace prepared(faces[f]);
+        int hits = 0, fromFace = 0;
+        for (int i = 0; i < 20000; ++i) {
+            // Most rays aim at a point near the faces; some go anywhere, some along the axis.
+            Ray ray{Vec3{25.0 * u(rng), 25.0 * u(rng), 25.0 * u(rng)}, unit(rng)};
+            const Vec3 target{18.0 * u(rng), 18.0 * u(rng), 4.0 * u(rng)};
+            if (i % 4 != 0) ray.direction = glm::normalize(target - ray.origin);
+            if (i % 10 == 0) ray.direction = Vec3{0.0, 0.0, i % 20 == 0 ? 1.0 : -1.0};
+            double tMax = i % 7 == 0 ? 10.0 * std::abs(u(rng)) : kInf;
+            bool starts = false;
+            // Every third ray restarts from a hit of the face, bounced at random.
+            if (i % 3 == 0) {
+                if (const auto h = intersectFace(faces[f], ray, 0.0, kInf, false)) {
+                    ray = Ray{h->point, unit(rng)};
+                    starts = true;
+                    ++fromFace;
+                }
+            }
+            const auto want = intersectFace(faces[f], ray, 0.0, tMax, starts);
+            FaceCrossing got;
+            const bool crossed = prepared.cross(faces[f], ray, 0.0, tMax, starts, got);
+            ASSERT_EQ(crossed, want.has_value()) << "face " << f << " ray " << i;
+            if (!crossed) continue;
+            ++hits;
+            const Vec3 normal = got.hasNormal ? got.normal : faceNormal(faces[f], got.point);
+            ASSERT_EQ(got.t, want->t) << "face " << f << " ray " << i;
+            ASSERT_TRUE(same(got.point, want->point)) << "face " << f << " ray " << i;
+            ASSERT_TRUE(same(normal, want->normal)) << "face " << f << " ray " << i;
+        }
+        EXPECT_GT(hits, 1000) << "face " << f;
+        EXPECT_GT(fromFace, 500) << "face " << f;
+    }
 }
 
 TEST(ExactFace, PrintsItself) {
