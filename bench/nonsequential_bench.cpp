@@ -170,6 +170,16 @@ void BM_SegmentRaysClosestHit(benchmark::State& state) {
     std::vector<size_t> chosen;
     for (size_t i = 0; i < f.segmentRays.size(); ++i) {
         const bool glass = scene.sealed(f.segmentMedia[i]);
+        const int so = f.segmentStarts[i].first;
+        const bool onMesh = so >= 0 && std::holds_alternative<MeshRef>(scene.object(so).geometry);
+        if (state.range(0) == 3) {
+            if (!glass && onMesh) chosen.push_back(i);
+            continue;
+        }
+        if (state.range(0) == 4) {
+            if (!glass && !onMesh) chosen.push_back(i);
+            continue;
+        }
         if (state.range(0) == 0 || (state.range(0) == 1) == glass) chosen.push_back(i);
     }
     long long rays = 0, hits = 0;
@@ -186,7 +196,7 @@ void BM_SegmentRaysClosestHit(benchmark::State& state) {
     state.counters["hit_fraction"] = static_cast<double>(hits) / static_cast<double>(rays);
     state.counters["rays"] = static_cast<double>(chosen.size());
 }
-BENCHMARK(BM_SegmentRaysClosestHit)->DenseRange(0, 2)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_SegmentRaysClosestHit)->DenseRange(0, 4)->Unit(benchmark::kMillisecond);
 
 void BM_SegmentRaysRawEmbree(benchmark::State& state) {
     const Fixture& f = sun7();

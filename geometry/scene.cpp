@@ -169,12 +169,26 @@ void Scene::commit() {
             }
         }
     }
-    trianglesOfVertex_.assign(meshes_.size(), {});
+    // Each triangle's fan: the other triangles that share a vertex with it, each once, in the
+    // order its vertices and their triangles come (the order closestHit() breaks ties in).
+    fans_.assign(meshes_.size(), {});
     for (size_t m = 0; m < meshes_.size(); ++m) {
-        trianglesOfVertex_[m].assign(meshes_[m].vertices.size(), {});
-        for (size_t t = 0; t < meshes_[m].triangles.size(); ++t)
-            for (uint32_t v : meshes_[m].triangles[t])
-                trianglesOfVertex_[m][v].push_back(static_cast<uint32_t>(t));
+        const TriangleMesh& mesh = meshes_[m];
+        std::vector<std::vector<uint32_t>> ofVertex(mesh.vertices.size());
+        for (size_t t = 0; t < mesh.triangles.size(); ++t)
+            for (uint32_t v : mesh.triangles[t]) ofVertex[v].push_back(static_cast<uint32_t>(t));
+        Fans& fan = fans_[m];
+        fan.first.reserve(mesh.triangles.size() + 1);
+        for (size_t t = 0; t < mesh.triangles.size(); ++t) {
+            fan.first.push_back(static_cast<uint32_t>(fan.members.size()));
+            const size_t begin = fan.members.size();
+            for (uint32_t v : mesh.triangles[t])
+                for (uint32_t n : ofVertex[v])
+                    if (n != t && std::find(fan.members.begin() + begin, fan.members.end(), n) ==
+                                      fan.members.end())
+                        fan.members.push_back(n);
+        }
+        fan.first.push_back(static_cast<uint32_t>(fan.members.size()));
     }
     // Triangles no object claims would be hit without a name: refuse such a scene.
     for (size_t m = 0; m < meshes_.size(); ++m)
@@ -283,15 +297,10 @@ std::optional<SceneHit> Scene::closestHit(const Ray& ray, double tMax, int start
         // double below instead. A fan too large for the list is partly left to Embree, whose
         // candidates are refined and refused as needed: slower, never wrong.
         skips[skipCount++] = {startMesh->mesh, startPrimitive};
-        const TriangleMesh& m = meshes_[startMesh->mesh];
-        for (uint32_t v : m.triangles[startPrimitive]) {
-            for (uint32_t t : trianglesOfVertex_[startMesh->mesh][v]) {
-                if (skipCount == EmbreeScene::kMaxSkips - 4) break;  // room for refusals
-                bool known = false;
-                for (int k = 0; k < skipCount && !known; ++k)
-                    known = skips[k].triangle == static_cast<int>(t);
-                if (!known) skips[skipCount++] = {startMesh->mesh, static_cast<int>(t)};
-            }
+        const Fans& fan = fans_[startMesh->mesh];
+        for (uint32_t i = fan.first[startPrimitive]; i < fan.first[startPrimitive + 1]; ++i) {
+            if (skipCount == EmbreeScene::kMaxSkips - 4) break;  // room for refusals
+            skips[skipCount++] = {startMesh->mesh, static_cast<int>(fan.members[i])};
         }
     }
     const float tFar = std::isfinite(tMax) ? EmbreeScene::floatBeyond(tMax)
@@ -338,18 +347,17 @@ std::optional<SceneHit> Scene::closestHit(const Ray& ray, double tMax, int start
     // triangle, where float candidates are unreliable (a concave corner nanometres away).
     if (startMesh) {
         const TriangleMesh& m = meshes_[startMesh->mesh];
-        for (uint32_t v : m.triangles[startPrimitive]) {
-            for (uint32_t t : trianglesOfVertex_[startMesh->mesh][v]) {
-                if (static_cast<int>(t) == startPrimitive) continue;
-                const auto& tri = m.triangles[t];
-                const auto th = intersectTriangle(m.vertices[tri[0]], m.vertices[tri[1]],
-                                                  m.vertices[tri[2]], ray, 0.0, bestT);
-                if (th && *th < bestT) {
-                    bestT = *th;
-                    bestObject = objectOfTriangle_[startMesh->mesh][t];
-                    bestPrimitive = static_cast<int>(t);
-                    bestNormal = m.triangleNormal(t);
-                }
+        const Fans& fan = fans_[startMesh->mesh];
+        for (uint32_t i = fan.first[startPrimitive]; i < fan.first[startPrimitive + 1]; ++i) {
+            const uint32_t t = fan.members[i];
+            const auto& tri = m.triangles[t];
+            const auto th = intersectTriangle(m.vertices[tri[0]], m.vertices[tri[1]],
+                                              m.vertices[tri[2]], ray, 0.0, bestT);
+            if (th && *th < bestT) {
+                bestT = *th;
+                bestObject = objectOfTriangle_[startMesh->mesh][t];
+                bestPrimitive = static_cast<int>(t);
+                bestNormal = m.triangleNormal(t);
             }
         }
     }

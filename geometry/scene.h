@@ -168,10 +168,15 @@ class Scene {
     std::vector<unsigned char> sealed_;               // per medium, set by commit()
     std::vector<std::string> bodiesNotClear_;         // "L4: barrel", set by commit()
     std::vector<std::vector<int>> objectOfTriangle_;  // [mesh][triangle] -> object id
-    // [mesh][vertex] -> triangles using it: a ray leaving a mesh is tested in double against
-    // the triangles around its start triangle, where float candidates are unreliable (a
-    // concave corner a few nanometres away).
-    std::vector<std::vector<std::vector<uint32_t>>> trianglesOfVertex_;
+    // Per mesh, the triangles around each triangle (sharing a vertex with it, itself left
+    // out), members[first[t] .. first[t + 1]): a ray leaving a mesh is tested in double
+    // against them, where float candidates are unreliable (a concave corner a few nanometres
+    // away), and Embree skips them.
+    struct Fans {
+        std::vector<uint32_t> first;
+        std::vector<uint32_t> members;
+    };
+    std::vector<Fans> fans_;
     std::unique_ptr<EmbreeScene> embree_;  // the exact faces' index and the meshes' BVH
     bool committed_ = false;
 };
