@@ -45,8 +45,10 @@ struct ExactCandidate {
 class ExactFaceIndex {
   public:
     // Radial bands per curved face (faceBands()): more bands hug a curved face more tightly
-    // (fewer exact intersections of rays passing inside a lens) at more tests per query.
-    static constexpr int kBandsPerCurvedFace = 4;
+    // (fewer exact intersections of rays passing inside a lens) at more tests per query. Since
+    // the faces are prepared (PreparedFace: a crossing costs little more than a band test),
+    // one band per face is fastest (docs/performance.md: 1, 2, 3, 4 bands measured).
+    static constexpr int kBandsPerCurvedFace = 1;
 
     ExactFaceIndex() = default;
     explicit ExactFaceIndex(std::vector<ExactFaceEntry> faces);

@@ -257,10 +257,14 @@ Bounds3 Scene::bounds() const {
     return b;
 }
 
-SceneHit Scene::makeHit(int object, int primitive, double t, const Ray& ray,
-                        const Vec3& normal) const {
+std::optional<SceneHit> Scene::makeHit(int object, int primitive, double t, const Ray& ray,
+                                       const Vec3& normal) const {
     const SceneObject& o = objects_[object];
-    SceneHit h;
+    // Written field by field into the returned optional: a SceneHit built aside and copied in
+    // would be read back through wider loads than it was written with (a store-forwarding
+    // stall on every query).
+    std::optional<SceneHit> out;
+    SceneHit& h = out.emplace();
     h.object = object;
     h.primitive = primitive;
     h.t = t;
@@ -269,7 +273,7 @@ SceneHit Scene::makeHit(int object, int primitive, double t, const Ray& ray,
     h.fromFront = glm::dot(ray.direction, normal) < 0.0;
     h.mediumFrom = h.fromFront ? o.mediumFront : o.mediumBack;
     h.mediumTo = h.fromFront ? o.mediumBack : o.mediumFront;
-    return h;
+    return out;
 }
 
 std::optional<SceneHit> Scene::closestHit(const Ray& ray, double tMax, int startObject,

@@ -158,7 +158,8 @@ class Scene {
 
   private:
     void sealMedia();  // commit(): sealed_ and bodiesNotClear_
-    SceneHit makeHit(int object, int primitive, double t, const Ray& ray, const Vec3& normal) const;
+    std::optional<SceneHit> makeHit(int object, int primitive, double t, const Ray& ray,
+                                    const Vec3& normal) const;
 
     std::vector<Medium> media_;
     std::vector<TriangleMesh> meshes_;

@@ -59,7 +59,15 @@ Interaction interact(const TransportScene& ts, const SceneHit& hit, const Vec3& 
             : EventType::SpecularReflect;
     auto add = [&](double share, const Vec3& d, int medium, bool scatter, bool transmit,
                    EventType event) {
-        in.children[in.count++] = {share, d, medium, scatter, transmit, event};
+        // Field by field into place: a temporary copied in whole would be read back through
+        // wider loads than it was written with, which stalls store forwarding.
+        InteractionChild& c = in.children[in.count++];
+        c.share = share;
+        c.direction = d;
+        c.medium = medium;
+        c.scatter = scatter;
+        c.transmit = transmit;
+        c.event = event;
     };
     const bool importance = mode == TransportMode::Importance;
     if (ch.specularReflect > 0.0)

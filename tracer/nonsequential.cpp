@@ -157,7 +157,7 @@ class RayTracer {
         }
         stack_.push_back(std::move(first));
         while (!stack_.empty()) {
-            Branch br = stack_.back();
+            Branch br = std::move(stack_.back());
             stack_.pop_back();
             ++b.branches;
             follow(br, w, e.wavelengthNm, cullFlux, rouletteFlux, rayIndex, acc);
@@ -253,7 +253,7 @@ class RayTracer {
         return true;
     }
 
-    void follow(Branch br, int w, double wavelengthNm, double cullFlux, double rouletteFlux,
+    void follow(Branch& br, int w, double wavelengthNm, double cullFlux, double rouletteFlux,
                 uint64_t rayIndex, Accumulator& acc) {
         FluxBudget& b = acc.budget;
         CounterRng& rng = br.rng;
@@ -319,20 +319,25 @@ class RayTracer {
                     cull(br, CullReason::MaxSplitDepth, b);
                     return;
                 }
-                // Every child its share: push all but the first, continue with the first.
+                // Every child its share: push all but the first, continue with the first. A
+                // child is made in its place on the stack (and taken off again if it ends
+                // here), not built aside and copied in whole just after its fields were written.
                 for (int k = in.count - 1; k >= 1; --k) {
-                    Branch c = br;
+                    stack_.push_back(br);
+                    Branch& c = stack_.back();
                     if (br.filter) c.filter = br.filter->clone();
                     c.flux = br.flux * in.children[k].share;
                     c.depth = br.depth + 1;
                     c.key = childKey(br.key, br.depth, k);
                     c.rng = CounterRng(o_.seed ^ c.key, rayIndex);
-                    if (!continueAs(c, in, k, *hit, parent, arriving, c.rng, b)) continue;
-                    if (c.flux < cullFlux) {
-                        cull(c, CullReason::MinFlux, b);
+                    if (!continueAs(c, in, k, *hit, parent, arriving, c.rng, b)) {
+                        stack_.pop_back();
                         continue;
                     }
-                    stack_.push_back(std::move(c));
+                    if (c.flux < cullFlux) {
+                        cull(c, CullReason::MinFlux, b);
+                        stack_.pop_back();
+                    }
                 }
                 br.flux *= in.children[0].share;
                 br.depth += 1;
