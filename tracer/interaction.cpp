@@ -74,8 +74,9 @@ Interaction interact(const TransportScene& ts, const SceneHit& hit, const Vec3& 
         add(importance ? prop.specularReflectWeight(ctx, mode) : ch.specularReflect,
             reflect(direction, ctx.normal), hit.mediumFrom, false, false, specularEvent);
     if (ch.specularTransmit > 0.0) {
-        if (const auto t = refract(direction, ctx.normal, ctx.n1, ctx.n2)) {
-            add(importance ? prop.specularTransmitWeight(ctx, mode) : ch.specularTransmit, *t,
+        Vec3 t;
+        if (refractInto(direction, ctx.normal, ctx.n1, ctx.n2, t)) {
+            add(importance ? prop.specularTransmitWeight(ctx, mode) : ch.specularTransmit, t,
                 hit.mediumTo, false, true, EventType::Refract);
         } else {
             in.dropped += ch.specularTransmit;

@@ -10,6 +10,12 @@ std::ostream& operator<<(std::ostream& os, const SequentialRayResult& r) {
 }
 
 std::optional<Vec3> refract(const Vec3& d, const Vec3& nrm, double n1, double n2) {
+    Vec3 out;
+    if (!refractInto(d, nrm, n1, n2, out)) return std::nullopt;
+    return out;
+}
+
+bool refractInto(const Vec3& d, const Vec3& nrm, double n1, double n2, Vec3& result) {
     // Orient the normal against the incoming ray so cosI >= 0.
     Vec3 nn = nrm;
     double cosI = -glm::dot(d, nn);
@@ -19,10 +25,11 @@ std::optional<Vec3> refract(const Vec3& d, const Vec3& nrm, double n1, double n2
     }
     const double mu = n1 / n2;
     const double sin2T = mu * mu * std::max(0.0, 1.0 - cosI * cosI);
-    if (sin2T > 1.0) return std::nullopt;
+    if (sin2T > 1.0) return false;
     const double cosT = std::sqrt(1.0 - sin2T);
     const Vec3 out = mu * d + (mu * cosI - cosT) * nn;
-    return glm::normalize(out);
+    result = glm::normalize(out);
+    return true;
 }
 
 Vec3 reflect(const Vec3& d, const Vec3& nrm) { return d - 2.0 * glm::dot(d, nrm) * nrm; }

@@ -44,6 +44,10 @@ SequentialRayResult traceSequential(const SequentialModel& model, int w, const R
 // Refraction of unit direction d at a surface with unit normal nrm (either orientation),
 // from |n| = n1 into |n| = n2. nullopt on total internal reflection.
 std::optional<Vec3> refract(const Vec3& d, const Vec3& nrm, double n1, double n2);
+// The same written into `out` (false under total internal reflection, `out` untouched): for
+// the transport's hot path, where a returned optional is read back through wider loads than
+// it was written with.
+bool refractInto(const Vec3& d, const Vec3& nrm, double n1, double n2, Vec3& out);
 Vec3 reflect(const Vec3& d, const Vec3& nrm);
 
 }  // namespace veil
