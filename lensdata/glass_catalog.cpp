@@ -15,7 +15,8 @@
 namespace veil {
 
 namespace detail {
-// lensdata/data/builtin_glass.agf and crystals.agf, joined by a newline (tools/embed_file.cmake).
+// lensdata/data/builtin_glass.agf, crystals.agf and vendor_glass.agf, joined by newlines
+// (tools/embed_file.cmake).
 extern const char kBuiltinGlassData[];
 extern const unsigned long kBuiltinGlassDataSize;
 }  // namespace detail

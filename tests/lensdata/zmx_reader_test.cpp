@@ -647,19 +647,49 @@ TEST(ZmxReader, UnknownGlassIsReportedWithItsLine) {
 // GCAT naming a catalog veil has not loaded explains every glass that falls back: a warning,
 // with the way to load it, not an info line among the others.
 TEST(ZmxReader, UnloadedGcatCatalogIsAWarningWithTheFix) {
+    // LightPath's moldable D-ZK3M (nd 1.58913, Vd 61.15 in the file's model glass).
     const std::string text =
-        "GCAT HOYA\nENPD 10\nSURF 0\n DISZ INFINITY\nSURF 1\n STOP\n CURV 0.02\n DISZ 2\n"
-        " GLAS BACD5 0 0 1.58913 61.25 0 0 0 0 0 0\nSURF 2\n DISZ 40\nSURF 3\n";
-    const Prescription rx = readZmxText(text, "hoya.zmx", GlassCatalog::builtIn());
-    const ImportNote* gcat = findNote(rx, "glass catalog HOYA named by GCAT is not loaded");
+        "GCAT LIGHTPATH\nENPD 10\nSURF 0\n DISZ INFINITY\nSURF 1\n STOP\n CURV 0.02\n DISZ 2\n"
+        " GLAS D-ZK3M 0 0 1.58913 61.15 0 0 0 0 0 0\nSURF 2\n DISZ 40\nSURF 3\n";
+    const Prescription rx = readZmxText(text, "lightpath.zmx", GlassCatalog::builtIn());
+    const ImportNote* gcat = findNote(rx, "glass catalog LIGHTPATH named by GCAT is not loaded");
     ASSERT_NE(gcat, nullptr) << reportText(rx);
     EXPECT_EQ(gcat->severity, ImportNote::Severity::Warning);
     EXPECT_EQ(gcat->loc.line, 1);
     EXPECT_NE(gcat->message.find("--glass-catalog"), std::string::npos) << gcat->message;
-    const ImportNote* glass = findNote(rx, "unknown glass 'BACD5'");
+    const ImportNote* glass = findNote(rx, "unknown glass 'D-ZK3M'");
     ASSERT_NE(glass, nullptr) << reportText(rx);
     EXPECT_EQ(glass->severity, ImportNote::Severity::Warning);
-    EXPECT_EQ(rx.surfaces[1].material, Material::model(1.58913, 61.25));
+    EXPECT_EQ(rx.surfaces[1].material, Material::model(1.58913, 61.15));
+}
+
+// The built-in Hoya, Nikon and Sumita catalogs answer GCAT lines naming them: each glass
+// below comes from the catalog GCAT names, with the nd and Vd the file's GLAS line carries
+// (what the designer's program read from the same vendor catalog), and no note about it.
+TEST(ZmxReader, GcatHoyaNikonSumitaGlassesAreBuiltIn) {
+    struct Case {
+        const char* catalog;
+        const char* glass;
+        double nd, vd;
+    };
+    for (const Case& c :
+         {Case{"HOYA", "BACD5", 1.58913, 61.25}, Case{"HOYA", "FCD1", 1.497, 81.61},
+          Case{"NIKON", "E-BK7", 1.5168, 64.11}, Case{"SUMITA", "K-BK7", 1.51633, 64.1}}) {
+        const std::string text = std::string("GCAT ") + c.catalog +
+                                 "\nENPD 10\nSURF 0\n DISZ INFINITY\nSURF 1\n STOP\n"
+                                 " CURV 0.02\n DISZ 2\n GLAS " +
+                                 c.glass + " 0 0 " + std::to_string(c.nd) + " " +
+                                 std::to_string(c.vd) + " 0 0 0 0 0 0\nSURF 2\n DISZ 40\nSURF 3\n";
+        const Prescription rx = readZmxText(text, "vendor.zmx", GlassCatalog::builtIn());
+        EXPECT_EQ(findNote(rx, "GCAT"), nullptr) << reportText(rx);
+        EXPECT_EQ(findNote(rx, c.glass), nullptr) << reportText(rx);
+        EXPECT_EQ(rx.surfaces[1].material, Material::catalog(c.glass)) << c.glass;
+        const Glass* g = GlassCatalog::builtIn().find(c.glass, std::vector<std::string>{c.catalog});
+        ASSERT_NE(g, nullptr) << c.glass;
+        EXPECT_EQ(g->catalog(), c.catalog);
+        EXPECT_NEAR(g->index(kLineD), c.nd, 1e-5) << c.glass;
+        EXPECT_NEAR(g->abbeNumber(), c.vd, 0.05) << c.glass;
+    }
 }
 
 TEST(ZmxReader, ConstantIndexModelGlassHasNoDispersion) {
