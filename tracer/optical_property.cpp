@@ -593,7 +593,7 @@ struct DustFrame {
     // The substrate takes no light in (opaque, or a mirror or absorbing coating): the dust's
     // forward light does not cross it.
     bool sealed = false;
-    std::shared_ptr<const ParticulateEnsemble> dust;
+    const ParticulateEnsemble* dust = nullptr;  // owned by the model's cache
 
     // Whether a channel's directions lie in the dust's medium (no refraction).
     bool direct(bool transmit) const { return transmit != lightFromLow; }
@@ -807,14 +807,9 @@ ScatterSample OpticalProperty::sampleScatter(const SurfaceContext& c, bool trans
                     u1 = std::min(1.0, (u1 - imageShare) / (1.0 - imageShare));
                 }
                 Vec3 low(0.0);
+                const ParticulateEnsemble::SideSampler side(*f.dust, axis, c.normal, !transmit);
                 const bool ok = sampleWithRejection(
-                    u1, u2,
-                    [&](double a, double b) {
-                        low = f.dust->sample(axis, a, b);
-                        const double side = glm::dot(low, c.normal);
-                        return transmit ? side < 0.0 : side > 0.0;
-                    },
-                    1 << 16);
+                    u1, u2, [&](double a, double b) { return side.attempt(a, b, low); }, 1 << 16);
                 if (!ok) return ScatterSample{f.incoming, 0.0};
                 Vec3 out = low;
                 if (!f.direct(transmit)) {

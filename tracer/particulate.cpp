@@ -101,6 +101,12 @@ ParticulateEnsemble::ParticulateEnsemble(const ParticulateParams& p, double wave
     for (double& v : p_) v /= total;
     for (double& v : cdf_) v /= total;
     cdf_.back() = 1.0;
+    guide_.resize(static_cast<size_t>(kGuideBuckets) + 1);
+    for (int g = 0; g <= kGuideBuckets; ++g) {
+        const double threshold = static_cast<double>(g) / kGuideBuckets;
+        guide_[static_cast<size_t>(g)] = static_cast<uint32_t>(
+            std::upper_bound(cdf_.begin(), cdf_.end(), threshold) - cdf_.begin());
+    }
 
     back_.resize(static_cast<size_t>(kBackSteps) + 1);
     for (int i = 0; i <= kBackSteps; ++i)
@@ -150,7 +156,14 @@ double ParticulateEnsemble::backShare(double cosIn) const {
 
 double ParticulateEnsemble::sampleMu(double u) const {
     u = std::clamp(u, 0.0, 1.0);
-    const auto it = std::upper_bound(cdf_.begin(), cdf_.end(), u);
+    // The first node whose cdf exceeds u (std::upper_bound over all of cdf_), searched between
+    // the guide entries a bucket either side of u's: the answer lies between those of u's own
+    // bucket, and the margin covers the rounding of u * kGuideBuckets.
+    const int g = static_cast<int>(u * kGuideBuckets);
+    const size_t lo = guide_[static_cast<size_t>(std::max(g - 1, 0))];
+    const size_t hi = std::min(
+        cdf_.size(), size_t{guide_[static_cast<size_t>(std::min(g + 2, kGuideBuckets))]} + 1);
+    const auto it = std::upper_bound(cdf_.begin() + lo, cdf_.begin() + hi, u);
     const size_t k = std::clamp<size_t>(static_cast<size_t>(it - cdf_.begin()), 1, cdf_.size() - 1);
     const double a = mu_[k - 1], width = mu_[k] - a;
     const double pa = p_[k - 1], pb = p_[k];
@@ -162,14 +175,52 @@ double ParticulateEnsemble::sampleMu(double u) const {
     return a + t * width;
 }
 
+namespace {
+
+// The frame sample() draws about, and its direction for polar cosine mu and azimuth u2.
+void frameAbout(const Vec3& incoming, Vec3& t1, Vec3& t2) {
+    const Vec3 helper = std::abs(incoming.x) < 0.6 ? Vec3(1, 0, 0) : Vec3(0, 1, 0);
+    t1 = glm::normalize(glm::cross(incoming, helper));
+    t2 = glm::cross(incoming, t1);
+}
+Vec3 directionAbout(const Vec3& incoming, const Vec3& t1, const Vec3& t2, double mu, double s,
+                    double u2) {
+    const double phi = 2.0 * kPi * u2;
+    return glm::normalize(mu * incoming + s * (std::cos(phi) * t1 + std::sin(phi) * t2));
+}
+
+// A try is refused early only when the best azimuth misses the side by this much: the frame
+// is orthonormal to rounding, far inside it.
+constexpr double kSideMargin = 1e-9;
+
+}  // namespace
+
 Vec3 ParticulateEnsemble::sample(const Vec3& incoming, double u1, double u2) const {
     const double mu = sampleMu(u1);
     const double s = std::sqrt(std::max(0.0, 1.0 - mu * mu));
-    const Vec3 helper = std::abs(incoming.x) < 0.6 ? Vec3(1, 0, 0) : Vec3(0, 1, 0);
-    const Vec3 t1 = glm::normalize(glm::cross(incoming, helper));
-    const Vec3 t2 = glm::cross(incoming, t1);
-    const double phi = 2.0 * kPi * u2;
-    return glm::normalize(mu * incoming + s * (std::cos(phi) * t1 + std::sin(phi) * t2));
+    Vec3 t1, t2;
+    frameAbout(incoming, t1, t2);
+    return directionAbout(incoming, t1, t2, mu, s, u2);
+}
+
+ParticulateEnsemble::SideSampler::SideSampler(const ParticulateEnsemble& e, const Vec3& incoming,
+                                              const Vec3& normal, bool above)
+    : e_(e), incoming_(incoming), normal_(normal), above_(above) {
+    frameAbout(incoming, t1_, t2_);
+    along_ = glm::dot(incoming, normal);
+    across_ = std::hypot(glm::dot(t1_, normal), glm::dot(t2_, normal));
+}
+
+bool ParticulateEnsemble::SideSampler::attempt(double u1, double u2, Vec3& out) const {
+    const double mu = e_.sampleMu(u1);
+    const double s = std::sqrt(std::max(0.0, 1.0 - mu * mu));
+    // Over all azimuths the direction's height above the plane spans
+    // mu along -+ s across (before normalisation, which keeps its sign).
+    if (above_ ? mu * along_ + s * across_ < -kSideMargin : mu * along_ - s * across_ > kSideMargin)
+        return false;
+    out = directionAbout(incoming_, t1_, t2_, mu, s, u2);
+    const double side = glm::dot(out, normal_);
+    return above_ ? side > 0.0 : side < 0.0;
 }
 
 // Particulate Scatter
@@ -193,21 +244,33 @@ ParticulateScatter::ParticulateScatter(const ParticulateParams& p)
         throw std::invalid_argument("k must be in [0, 10) (got " + number(p.k) + ")");
 }
 
-std::shared_ptr<const ParticulateEnsemble> ParticulateScatter::at(double wavelengthNm,
-                                                                  double mediumIndex) const {
-    const std::pair<double, double> key(wavelengthNm, mediumIndex);
-    {
-        std::shared_lock lock(cache_->mutex);
-        for (const auto& [k, e] : cache_->entries)
-            if (k == key) return e;
+ParticulateScatter::Cache::~Cache() {
+    const Entry* e = newest.load(std::memory_order_acquire);
+    while (e) {
+        const Entry* next = e->next;
+        delete e;
+        e = next;
     }
-    auto e = std::make_shared<const ParticulateEnsemble>(p_, wavelengthNm * 1e-3 / mediumIndex,
-                                                         mediumIndex);
-    std::unique_lock lock(cache_->mutex);
-    for (const auto& [k, have] : cache_->entries)
-        if (k == key) return have;
-    cache_->entries.push_back({key, e});
-    return e;
+}
+
+const ParticulateEnsemble* ParticulateScatter::Cache::find(double wavelengthNm,
+                                                           double mediumIndex) const {
+    for (const Entry* e = newest.load(std::memory_order_acquire); e; e = e->next)
+        if (e->wavelengthNm == wavelengthNm && e->mediumIndex == mediumIndex)
+            return e->ensemble.get();
+    return nullptr;
+}
+
+const ParticulateEnsemble* ParticulateScatter::at(double wavelengthNm, double mediumIndex) const {
+    if (const ParticulateEnsemble* e = cache_->find(wavelengthNm, mediumIndex)) return e;
+    std::lock_guard lock(cache_->writing);
+    if (const ParticulateEnsemble* e = cache_->find(wavelengthNm, mediumIndex)) return e;
+    auto* entry = new Entry{wavelengthNm, mediumIndex,
+                            std::make_unique<const ParticulateEnsemble>(
+                                p_, wavelengthNm * 1e-3 / mediumIndex, mediumIndex),
+                            cache_->newest.load(std::memory_order_relaxed)};
+    cache_->newest.store(entry, std::memory_order_release);
+    return entry->ensemble.get();
 }
 
 }  // namespace veil

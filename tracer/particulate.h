@@ -43,11 +43,12 @@
 // between particles, and multiple scatter; on a substrate that neither transmits nor
 // reflects specularly the forward-scattered light is absorbed.
 
+#include <atomic>
 #include <complex>
+#include <cstdint>
 #include <memory>
 #include <mutex>
 #include <ostream>
-#include <shared_mutex>
 #include <vector>
 
 #include "geometry/vec.h"
@@ -86,6 +87,25 @@ class ParticulateEnsemble {
     double backShareExact(double cosIn) const;  // by quadrature (the table's reference)
     // A direction about `incoming` (unit) with density phase(mu) over the sphere.
     Vec3 sample(const Vec3& incoming, double u1, double u2) const;
+    // The tries of a rejection loop that keeps the directions sample(incoming, u1, u2) on one
+    // side of a plane: dot(direction, normal) > 0 when `above`, < 0 otherwise. The frame about
+    // `incoming` is set up once, and a try whose polar angle alone puts the whole cone of
+    // azimuths on the wrong side (by far more than rounding) is refused before the azimuth is
+    // drawn; the others are sample()'s direction bit for bit. For a forward-peaked phase
+    // function kept on the backward side most tries end at the first test.
+    class SideSampler {
+      public:
+        SideSampler(const ParticulateEnsemble& e, const Vec3& incoming, const Vec3& normal,
+                    bool above);
+        // True when sample(incoming, u1, u2) lies on the side, written to `out`.
+        bool attempt(double u1, double u2, Vec3& out) const;
+
+      private:
+        const ParticulateEnsemble& e_;
+        Vec3 incoming_, normal_, t1_, t2_;
+        bool above_;
+        double along_, across_;  // incoming . normal, |(t1 . normal, t2 . normal)|
+    };
 
     const std::vector<double>& mu() const { return mu_; }  // the table's nodes, ascending
 
@@ -95,6 +115,10 @@ class ParticulateEnsemble {
     double cExt_ = 0.0, cSca_ = 0.0, cGeo_ = 0.0;
     std::vector<double> mu_, p_, cdf_;  // ascending mu; cdf over mu (times 2 pi)
     std::vector<double> back_;          // backShare at cos(theta) = 0 .. 1 in 1200 steps
+    // guide_[g]: the first node whose cdf exceeds g / kGuideBuckets (cdf_.size() if none), so
+    // that sampleMu() searches a few nodes instead of all of them.
+    static constexpr int kGuideBuckets = 1024;
+    std::vector<uint32_t> guide_;
 };
 
 // The property's scatter model: the parameters and the ensembles, computed once per
@@ -106,15 +130,25 @@ class ParticulateScatter {
 
     const ParticulateParams& params() const { return p_; }
     // The ensemble at this vacuum wavelength in a medium of this index (computed on first
-    // use: a second or so for large particles at short wavelengths).
-    std::shared_ptr<const ParticulateEnsemble> at(double wavelengthNm, double mediumIndex) const;
+    // use: a second or so for large particles at short wavelengths; a thread asking for one
+    // being computed waits for it rather than computing it again). It lives as long as this
+    // model or any copy of it. Finding one already computed takes no lock and writes no
+    // shared memory: the transport asks at every event on a dusty face, from every thread.
+    const ParticulateEnsemble* at(double wavelengthNm, double mediumIndex) const;
 
   private:
+    // The ensembles computed so far, newest first: published once written (release), read
+    // without a lock (acquire); the mutex orders the writers.
+    struct Entry {
+        double wavelengthNm, mediumIndex;
+        std::unique_ptr<const ParticulateEnsemble> ensemble;
+        const Entry* next;
+    };
     struct Cache {
-        std::shared_mutex mutex;
-        std::vector<
-            std::pair<std::pair<double, double>, std::shared_ptr<const ParticulateEnsemble>>>
-            entries;
+        std::mutex writing;
+        std::atomic<const Entry*> newest{nullptr};
+        ~Cache();
+        const ParticulateEnsemble* find(double wavelengthNm, double mediumIndex) const;
     };
     ParticulateParams p_;
     std::shared_ptr<Cache> cache_;
