@@ -107,10 +107,9 @@ EmbreeScene::~EmbreeScene() {
     if (device_) rtcReleaseDevice(static_cast<RTCDevice>(device_));
 }
 
-std::optional<MeshCandidate> EmbreeScene::query(const Ray& ray, float tNear, float tFar,
-                                                int startObject, const Skip* skips, int skipCount,
-                                                ExactCandidate& exact) const {
-    if (empty()) return std::nullopt;
+bool EmbreeScene::query(const Ray& ray, float tNear, float tFar, int startObject, const Skip* skips,
+                        int skipCount, ExactCandidate& exact, MeshCandidate& mesh) const {
+    if (empty()) return false;
     QueryContext ctx;
     rtcInitIntersectContext(&ctx.context);
     ctx.count = 0;
@@ -124,7 +123,7 @@ std::optional<MeshCandidate> EmbreeScene::query(const Ray& ray, float tNear, flo
     // Exact faces first, in double. A repeated query (tNear > 0, beyond a refused
     // triangle) has seen every face already.
     if (tNear == 0.0f) faces_.nearest(ray, startObject, exact);
-    if (meshCount_ == 0) return std::nullopt;
+    if (meshCount_ == 0) return false;
 
     // A far origin (a point source metres away) is moved to where the ray enters the scene's
     // box, so float rounding of the origin stays small where the triangles are. `shift` is the
@@ -134,7 +133,7 @@ std::optional<MeshCandidate> EmbreeScene::query(const Ray& ray, float tNear, flo
     const Vec3 offset = glm::max(sceneBox_.lo - ray.origin, ray.origin - sceneBox_.hi);
     if (std::max({offset.x, offset.y, offset.z}) > farDistance_) {
         double t0 = 0.0, t1 = std::numeric_limits<double>::infinity();
-        if (!sceneBox_.clip(ray, t0, t1)) return std::nullopt;  // misses every triangle
+        if (!sceneBox_.clip(ray, t0, t1)) return false;  // misses every triangle
         shift = t0;
         origin = ray.origin + shift * ray.direction;
     }
@@ -161,9 +160,11 @@ std::optional<MeshCandidate> EmbreeScene::query(const Ray& ray, float tNear, flo
     if (exact.entry >= 0) tFarMoved = std::min(tFarMoved, floatBeyond(exact.t, shift));
     RTCRayHit rh = floatRay(tFarMoved);
     rtcIntersect1(static_cast<RTCScene>(scene_), &ctx.context, &rh);
-    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
-    return MeshCandidate{static_cast<int>(rh.hit.geomID), static_cast<int>(rh.hit.primID),
-                         static_cast<float>(rh.ray.tfar + shift)};
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
+    mesh.mesh = static_cast<int>(rh.hit.geomID);
+    mesh.triangle = static_cast<int>(rh.hit.primID);
+    mesh.t = static_cast<float>(rh.ray.tfar + shift);
+    return true;
 }
 
 }  // namespace veil

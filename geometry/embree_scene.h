@@ -63,9 +63,11 @@ class EmbreeScene {
     // t in [tNear, tFar], skipping up to kMaxSkips triangles. startObject: the scene object
     // the ray starts on (its own root at t ~ 0 is skipped by intersectFace). `exact` is
     // updated in place so repeated queries (beyond a refused triangle) keep what they found.
-    std::optional<MeshCandidate> query(const Ray& ray, float tNear, float tFar, int startObject,
-                                       const Skip* skips, int skipCount,
-                                       ExactCandidate& exact) const;
+    // Returns whether a triangle candidate was found, written to `mesh` (left as it was
+    // otherwise; written in place, not returned in an optional: a small struct assembled in
+    // the callee and read back whole in the caller stalls store forwarding on every query).
+    bool query(const Ray& ray, float tNear, float tFar, int startObject, const Skip* skips,
+               int skipCount, ExactCandidate& exact, MeshCandidate& mesh) const;
 
     // The exact faces alone (the first half of query()): for a ray that provably meets no
     // triangle before its nearest face (Scene's sealed media).

@@ -149,10 +149,12 @@ void ExactFaceIndex::nearest(const Ray& ray, int startObject, ExactCandidate& be
         // The ray's part inside the group's enclosing cylinder: [t0, t1], always finite (a
         // unit direction has d.z != 0 or a radial part).
         double t0 = 0.0, t1 = best.t;
+        const double invDz = 1.0 / d.z;  // +-inf when d.z is 0 (used only when it is not)
         if (d.z != 0.0) {
-            const double ta = (g.zMin - o.z) / d.z, tb = (g.zMax - o.z) / d.z;
+            const double ta = (g.zMin - o.z) * invDz, tb = (g.zMax - o.z) * invDz;
             t0 = std::max(t0, std::min(ta, tb));
             t1 = std::min(t1, std::max(ta, tb));
+            if (!(t0 <= t1)) continue;  // beside the group's z slab, or behind the origin
         } else if (o.z < g.zMin || o.z > g.zMax) {
             continue;
         }
@@ -164,12 +166,14 @@ void ExactFaceIndex::nearest(const Ray& ray, int startObject, ExactCandidate& be
         } else {
             const double disc = b * b - a * (c - g.rMaxSq);
             if (disc < 0.0) continue;
-            const double q = -(b + std::copysign(std::sqrt(disc), b));
-            // Roots q / a and (c - R^2) / q; q = 0 only when b = 0 and c = R^2 (tangent at t 0).
-            double ta = q / a, tb = q != 0.0 ? (c - g.rMaxSq) / q : 0.0;
-            if (ta > tb) std::swap(ta, tb);
-            t0 = std::max(t0, ta);
-            t1 = std::min(t1, tb);
+            // The roots (-b -+ sqrt(disc)) / a, the reciprocal taken beside the square root
+            // (one division, off the square root's path). The cancelling form loses at most
+            // 2 eps c in r^2 at the roots (b^2 <= a c), far inside the group's padding: this
+            // is a cull. A subnormal a makes a root infinite or NaN, which culls nothing.
+            const double invA = 1.0 / a;
+            const double root = std::sqrt(disc);
+            t0 = std::max(t0, (-b - root) * invA);
+            t1 = std::min(t1, (root - b) * invA);
         }
         if (!(t0 <= t1)) continue;
         const double tAxis = a > 0.0 ? -b / a : 0.0;  // where r^2 is smallest
@@ -203,7 +207,6 @@ void ExactFaceIndex::nearest(const Ray& ray, int startObject, ExactCandidate& be
             const double* reach = upReach_.data() + g.first;
             const int start =
                 static_cast<int>(std::lower_bound(reach, reach + g.count, zStart) - reach);
-            const double invDz = 1.0 / d.z;
             for (int i = g.first + start; i < g.first + g.count; ++i) {
                 const Band& band = up_[i];
                 if (band.zLo > zEnd) break;
@@ -215,7 +218,6 @@ void ExactFaceIndex::nearest(const Ray& ray, int startObject, ExactCandidate& be
             const double* reach = downReach_.data() + g.first;
             const int start = static_cast<int>(
                 std::lower_bound(reach, reach + g.count, zStart, std::greater<>()) - reach);
-            const double invDz = 1.0 / d.z;
             for (int i = g.first + start; i < g.first + g.count; ++i) {
                 const Band& band = down_[i];
                 if (band.zHi < zEnd) break;

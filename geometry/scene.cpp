@@ -151,9 +151,17 @@ bool triangleClearOf(const ExactBody& body, const Vec3& a, const Vec3& b, const 
 
 void Scene::commit() {
     exactObjects_.clear();
-    objectOfTriangle_.assign(meshes_.size(), {});
-    for (size_t m = 0; m < meshes_.size(); ++m)
-        objectOfTriangle_[m].assign(meshes_[m].triangles.size(), -1);
+    triangles_.assign(meshes_.size(), {});
+    for (size_t m = 0; m < meshes_.size(); ++m) {
+        const TriangleMesh& mesh = meshes_[m];
+        triangles_[m].resize(mesh.triangles.size());
+        for (size_t t = 0; t < mesh.triangles.size(); ++t) {
+            const auto& tri = mesh.triangles[t];
+            TriangleRecord& r = triangles_[m][t];
+            r.a = mesh.vertices[tri[0]];
+            r.n = glm::cross(mesh.vertices[tri[1]] - r.a, mesh.vertices[tri[2]] - r.a);
+        }
+    }
     for (const SceneObject& o : objects_) {
         if (std::holds_alternative<FaceGeometry>(o.geometry)) {
             exactObjects_.push_back(o.id);
@@ -162,10 +170,10 @@ void Scene::commit() {
             const uint32_t n = static_cast<uint32_t>(meshes_[r.mesh].triangles.size());
             const uint32_t end = r.triangleCount == 0 ? n : r.firstTriangle + r.triangleCount;
             for (uint32_t t = r.firstTriangle; t < end; ++t) {
-                if (objectOfTriangle_[r.mesh][t] >= 0)
-                    throw ModelError(o.name, "shares triangles with " +
-                                                 objects_[objectOfTriangle_[r.mesh][t]].name);
-                objectOfTriangle_[r.mesh][t] = o.id;
+                int& owner = triangles_[r.mesh][t].object;
+                if (owner >= 0)
+                    throw ModelError(o.name, "shares triangles with " + objects_[owner].name);
+                owner = o.id;
             }
         }
     }
@@ -192,8 +200,8 @@ void Scene::commit() {
     }
     // Triangles no object claims would be hit without a name: refuse such a scene.
     for (size_t m = 0; m < meshes_.size(); ++m)
-        for (size_t t = 0; t < objectOfTriangle_[m].size(); ++t)
-            if (objectOfTriangle_[m][t] < 0)
+        for (size_t t = 0; t < triangles_[m].size(); ++t)
+            if (triangles_[m][t].object < 0)
                 throw ModelError("mesh " + std::to_string(m),
                                  "triangle " + std::to_string(t) + " belongs to no object");
     std::vector<ExactFaceEntry> faces;
@@ -225,7 +233,7 @@ void Scene::sealMedia() {
                 const Vec3 b = body.frame.toLocalPoint(mesh.vertices[tri[1]]);
                 const Vec3 c = body.frame.toLocalPoint(mesh.vertices[tri[2]]);
                 if (!triangleClearOf(body, a, b, c, margin)) {
-                    near = &objects_[objectOfTriangle_[m][t]];
+                    near = &objects_[triangles_[m][t].object];
                     break;
                 }
             }
@@ -309,31 +317,28 @@ std::optional<SceneHit> Scene::closestHit(const Ray& ray, double tMax, int start
     }
     const float tFar = std::isfinite(tMax) ? EmbreeScene::floatBeyond(tMax)
                                            : std::numeric_limits<float>::infinity();
-    auto candidate = embree_->query(ray, 0.0f, tFar, startObject, skips, skipCount, exact);
+    MeshCandidate candidate;
+    bool found = embree_->query(ray, 0.0f, tFar, startObject, skips, skipCount, exact, candidate);
 
     // The triangle candidate (float) gets its t in double from its plane. A candidate whose
     // double t is not ahead of the origin (a neighbour of the start triangle seen through
     // float rounding) is skipped and the query repeated beyond it; exact faces the first
     // query culled behind that candidate are seen by the repeat (`exact` accumulates).
     double meshT = 0.0;
-    Vec3 meshNormal(0.0);
-    while (candidate) {
-        const TriangleMesh& m = meshes_[candidate->mesh];
-        const auto& tri = m.triangles[candidate->triangle];
-        const Vec3 a = m.vertices[tri[0]];
-        const Vec3 n = glm::cross(m.vertices[tri[1]] - a, m.vertices[tri[2]] - a);
+    const TriangleRecord* meshTriangle = nullptr;
+    while (found) {
+        meshTriangle = &triangles_[candidate.mesh][candidate.triangle];
+        const Vec3& n = meshTriangle->n;
         const double denom = glm::dot(ray.direction, n);
-        meshT = denom != 0.0 ? glm::dot(a - ray.origin, n) / denom : 0.0;
-        if (meshT > 0.0) {
-            meshNormal = n;
-            break;
-        }
+        meshT = denom != 0.0 ? glm::dot(meshTriangle->a - ray.origin, n) / denom : 0.0;
+        if (meshT > 0.0) break;
         if (skipCount == EmbreeScene::kMaxSkips) {
-            candidate.reset();
+            found = false;
             break;
         }
-        skips[skipCount++] = {candidate->mesh, candidate->triangle};
-        candidate = embree_->query(ray, candidate->t, tFar, startObject, skips, skipCount, exact);
+        skips[skipCount++] = {candidate.mesh, candidate.triangle};
+        found =
+            embree_->query(ray, candidate.t, tFar, startObject, skips, skipCount, exact, candidate);
     }
 
     // In double, in a fixed order: the nearest exact face, then the start triangle's
@@ -359,17 +364,17 @@ std::optional<SceneHit> Scene::closestHit(const Ray& ray, double tMax, int start
                                               m.vertices[tri[2]], ray, 0.0, bestT);
             if (th && *th < bestT) {
                 bestT = *th;
-                bestObject = objectOfTriangle_[startMesh->mesh][t];
+                bestObject = triangles_[startMesh->mesh][t].object;
                 bestPrimitive = static_cast<int>(t);
                 bestNormal = m.triangleNormal(t);
             }
         }
     }
-    if (candidate && meshT < bestT) {
+    if (found && meshT < bestT) {
         bestT = meshT;
-        bestObject = objectOfTriangle_[candidate->mesh][candidate->triangle];
-        bestPrimitive = candidate->triangle;
-        bestNormal = glm::normalize(meshNormal);
+        bestObject = meshTriangle->object;
+        bestPrimitive = candidate.triangle;
+        bestNormal = glm::normalize(meshTriangle->n);
     }
     if (bestObject < 0) return std::nullopt;
     return makeHit(bestObject, bestPrimitive, bestT, ray, bestNormal);

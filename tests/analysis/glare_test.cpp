@@ -71,8 +71,11 @@ TEST(Glare, PerfectLensHasNone) {
     EXPECT_EQ(g.vgi.value, 0.0);
     EXPECT_NEAR(g.fieldDeg, 5.0, 1e-6);  // the singlet's largest field
     EXPECT_EQ(g.directVgi.value, 0.0);
-    for (size_t a = 0; a < g.total.size(); ++a)
-        if (g.edgesMm[a] >= f0SpotRadius(r)) EXPECT_EQ(g.total[a].value, 0.0) << g.edgesMm[a];
+    for (size_t a = 0; a < g.total.size(); ++a) {
+        if (g.edgesMm[a] >= f0SpotRadius(r)) {
+            EXPECT_EQ(g.total[a].value, 0.0) << g.edgesMm[a];
+        }
+    }
 }
 
 // Scatter at the stop spreads a point source's light the same way about its image wherever
