@@ -281,15 +281,11 @@ void setFieldSources(SceneFile& file, const GlassCatalog& catalog,
 // pruned online: a branch is traced only while one of the criteria can still match it.
 struct GhostMonteCarloOptions {
     uint64_t raysPerSource = 20000;
-    // Split mode; minRelativeFlux 1e-9 (pruning bounds the tree); blocks of 256 rays, so the
-    // few thousand rays a ghost table needs still spread over the cores (the blocks are fixed,
-    // so the result is the same for any thread count).
+    // Split mode; minRelativeFlux 1e-9 (pruning bounds the tree); the transport's blocks of
+    // 256 rays, so the few thousand rays a ghost table needs spread over the cores.
     TransportOptions transport;
     std::function<void(uint64_t)> progress;
-    GhostMonteCarloOptions() {
-        transport.minRelativeFlux = 1e-9;
-        transport.raysPerBlock = 256;
-    }
+    GhostMonteCarloOptions() { transport.minRelativeFlux = 1e-9; }
 };
 
 struct GhostMonteCarlo {

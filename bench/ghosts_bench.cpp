@@ -35,8 +35,8 @@
 // cpu_seconds (that run's CPU time, all threads: equal to the wall time of one thread on an
 // otherwise idle core); search_seconds (all attempts); rel_error reached; rays_per_source_at_5pct
 // (that run's error extrapolated by 1/sqrt(N) to exactly 5 %); segments_per_ray. T = threads; B =
-// TransportOptions::raysPerBlock (0 = GhostMonteCarloOptions' default, 256, as veil ghosts runs
-// it). The label names the top ghost.
+// TransportOptions::raysPerBlock (0 = the default, 256, as veil ghosts runs it). The label names
+// the top ghost.
 
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>

@@ -57,7 +57,12 @@ struct TransportOptions {
     double rouletteRelativeFlux = 0.0;  // 0 = no Russian roulette
     int maxSegments = 1000;             // per branch
     uint64_t seed = 1;
-    uint64_t raysPerBlock = 4096;  // reduction block (fixed: part of reproducibility)
+    // Rays per reduction block. Blocks are traced in parallel and added in block order, so
+    // the result is the same for any thread or rank count; the block size is part of the
+    // result (the budget's sums change in their last bits with it). 256 keeps the few
+    // thousand rays of a slow scene on every core (a run of fewer rays than one block is one
+    // thread's work) and costs nothing per block measurable (docs/performance.md).
+    uint64_t raysPerBlock = 256;
     // Record every ray's path history (tracer/path_history.h) and hand it to the onRay
     // callback of traceNonsequential(). Costs a node append per event.
     bool recordHistories = false;
