@@ -412,17 +412,13 @@ bool spreadAt(const GlareSpec& spec, const GlareField& f) {
     return false;
 }
 
-struct Measured {
-    GlareValue black, blackSpecular, blackTir, blackBlur, blackDiffuse, white;
-};
-
 // The black and the white field (out to fieldHalfAngleDeg, 0: the spec's) rendered at f's
-// measuring square, on p's geometry (its transport replaced).
-Measured measure(PreparedScene& p, const GlareBench& bench, const GlareField& f,
-                 const GlareSpec& spec, double fieldHalfAngleDeg, const GlassCatalog& catalog,
-                 const std::function<void(int)>& blackProgress,
-                 const std::function<void(int)>& whiteProgress) {
-    Measured m;
+// measuring square, on p's geometry (its transport replaced): f's irradiances (black, its
+// parts, white) are set.
+void measure(PreparedScene& p, const GlareBench& bench, GlareField& f, const GlareSpec& spec,
+             double fieldHalfAngleDeg, const GlassCatalog& catalog,
+             const std::function<void(int)>& blackProgress,
+             const std::function<void(int)>& whiteProgress) {
     for (const bool black : {true, false}) {
         SceneFile file = bench.scene(f, black, f.measuredSideMm, spec.pixels, fieldHalfAngleDeg);
         file.detectors = p.file().detectors;  // the geometry's (with the GSF's)
@@ -456,16 +452,15 @@ Measured measure(PreparedScene& p, const GlareBench& bench, const GlareField& f,
             (black ? blackProgress : whiteProgress)(pass);
         });
         if (black) {
-            m.black = meanOf(total);
-            m.blackSpecular = meanOf(specular);
-            m.blackTir = meanOf(tir);
-            m.blackBlur = meanOf(blur);
-            m.blackDiffuse = meanOf(diffuse);
+            f.black = meanOf(total);
+            f.blackSpecular = meanOf(specular);
+            f.blackTir = meanOf(tir);
+            f.blackBlur = meanOf(blur);
+            f.blackDiffuse = meanOf(diffuse);
         } else {
-            m.white = meanOf(total);
+            f.white = meanOf(total);
         }
     }
-    return m;
 }
 
 // Each pixel of a square detector (side sideMm, n pixels per side, centred on the point's
@@ -675,15 +670,8 @@ GlareResult runGlare(const SceneFile& file, const GlassCatalog& catalog, const G
                 if (spec.progress) spec.progress(fi, run, pass, passes);
             };
         };
-        const Measured m =
-            measure(*p, bench, gf, spec, 0.0, catalog, progress("black field", spec.passes),
-                    progress("white field", spec.passes));
-        gf.black = m.black;
-        gf.blackSpecular = m.blackSpecular;
-        gf.blackTir = m.blackTir;
-        gf.blackBlur = m.blackBlur;
-        gf.blackDiffuse = m.blackDiffuse;
-        gf.white = m.white;
+        measure(*p, bench, gf, spec, 0.0, catalog, progress("black field", spec.passes),
+                progress("white field", spec.passes));
         const auto [ghosts, image] = bench.ghostIrradiance(gf);
         if (gf.white.value > 0.0) {
             gf.ghostPrediction = ghosts / gf.white.value;
@@ -703,9 +691,10 @@ GlareResult runGlare(const SceneFile& file, const GlassCatalog& catalog, const G
             const double theta = onAxis ? bench.fieldAngleAtHeight(g.radiusMm) : 0.0;
             if (theta > 0.0) {
                 g.fieldDeg = theta;
-                const Measured c = measure(*p, bench, gf, spec, theta, catalog,
-                                           progress("check, black field", spec.passes),
-                                           progress("check, white field", spec.passes));
+                GlareField c = gf;  // the same square, the field out to theta
+                measure(*p, bench, c, spec, theta, catalog,
+                        progress("check, black field", spec.passes),
+                        progress("check, white field", spec.passes));
                 g.directVgi = ratio(c.black, c.white);
                 g.directSpecular = ratio(c.blackSpecular, c.white);
                 g.directDiffuse = ratio(c.blackDiffuse, c.white);

@@ -163,24 +163,30 @@ BENCHMARK(BM_RawEmbree)->Unit(benchmark::kMicrosecond);
 // rays that matter; segments/s of BM_TraceSun7 over this closestHit rate is the share of
 // the tracer's time spent outside the closest hit.
 // Argument 0: every segment ray; 1: those travelling in glass (a sealed medium, the exact
-// faces alone); 2: the others (in air: the exact faces, then the triangles).
+// faces alone); 2: the others (in air: the exact faces, then the triangles); 3: those in air
+// leaving a mesh; 4: those in air leaving an exact face or a source.
 void BM_SegmentRaysClosestHit(benchmark::State& state) {
     const Fixture& f = sun7();
     const Scene& scene = f.setup->scene;
+    const auto wanted = [arg = state.range(0)](bool glass, bool onMesh) {
+        switch (arg) {
+            case 0:
+                return true;
+            case 1:
+                return glass;
+            case 2:
+                return !glass;
+            case 3:
+                return !glass && onMesh;
+            default:
+                return !glass && !onMesh;
+        }
+    };
     std::vector<size_t> chosen;
     for (size_t i = 0; i < f.segmentRays.size(); ++i) {
-        const bool glass = scene.sealed(f.segmentMedia[i]);
         const int so = f.segmentStarts[i].first;
         const bool onMesh = so >= 0 && std::holds_alternative<MeshRef>(scene.object(so).geometry);
-        if (state.range(0) == 3) {
-            if (!glass && onMesh) chosen.push_back(i);
-            continue;
-        }
-        if (state.range(0) == 4) {
-            if (!glass && !onMesh) chosen.push_back(i);
-            continue;
-        }
-        if (state.range(0) == 0 || (state.range(0) == 1) == glass) chosen.push_back(i);
+        if (wanted(scene.sealed(f.segmentMedia[i]), onMesh)) chosen.push_back(i);
     }
     long long rays = 0, hits = 0;
     for (auto _ : state) {

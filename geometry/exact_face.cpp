@@ -623,12 +623,8 @@ PreparedFace::PreparedFace(const FaceGeometry& face) {
         return;
     }
     const SurfacePatch& patch = std::get<SurfacePatch>(face);
-    if (const auto* a = std::get_if<AnnularAperture>(&patch.aperture)) {
-        annulus_ = true;
-        rInner_ = a->innerRadiusMm;
-    } else if (!std::holds_alternative<CircularAperture>(patch.aperture)) {
-        return;  // a rectangle: General
-    }
+    if (std::holds_alternative<RectangularAperture>(patch.aperture))
+        return;  // General: a circle or a ring is what the crossings below assume
     rMax_ = apertureBoundingRadius(patch.aperture);
     if (std::holds_alternative<PlaneShape>(patch.shape)) {
         kind_ = Kind::Plane;
@@ -650,19 +646,6 @@ PreparedFace::PreparedFace(const FaceGeometry& face) {
     }
 }
 
-bool PreparedFace::insideRing(const Vec3& point, double magnitude) const {
-    // The arithmetic of insideAperture(), term for term.
-    const double rSq = point.x * point.x + point.y * point.y;
-    if (!annulus_) {
-        const double r = rMax_ + edgeSlack(rMax_, magnitude);
-        return rSq <= r * r;
-    }
-    const double slack = edgeSlack(rMax_, magnitude);
-    const double ro = rMax_ + slack;
-    const double ri = std::max(0.0, rInner_ - slack);
-    return rSq >= ri * ri && rSq <= ro * ro;
-}
-
 bool PreparedFace::cross(const FaceGeometry& face, const Ray& localRay, double tMin, double tMax,
                          bool startsOnFace, FaceCrossing& out) const {
     out.hasNormal = false;
@@ -681,7 +664,9 @@ bool PreparedFace::cross(const FaceGeometry& face, const Ray& localRay, double t
             const Vec3 point{o.x + t * d.x, o.y + t * d.y, 0.0};
             const double originSize = glm::length(o);
             if (!root_search::withinRadius(point, rMax_, originSize + std::abs(t))) return false;
-            if (!insideRing(point, originSize + std::abs(t))) return false;
+            if (!insideAperture(std::get_if<SurfacePatch>(&face)->aperture, point.x, point.y,
+                                originSize + std::abs(t)))
+                return false;
             out.t = t;
             out.point = point;
             return true;
@@ -690,7 +675,9 @@ bool PreparedFace::cross(const FaceGeometry& face, const Ray& localRay, double t
             if (!conicFirstCrossing(conic_, localRay, tMin, tMax, rMax_, startsOnFace, out.t,
                                     out.point))
                 return false;
-            if (insideRing(out.point, glm::length(localRay.origin) + std::abs(out.t))) return true;
+            if (insideAperture(std::get_if<SurfacePatch>(&face)->aperture, out.point.x, out.point.y,
+                               glm::length(localRay.origin) + std::abs(out.t)))
+                return true;
             break;  // in a hole: the next crossing, as intersectPatch() finds it
         }
         case Kind::General:

@@ -79,15 +79,10 @@ class PreparedFace {
                bool startsOnFace, FaceCrossing& out) const;
 
   private:
-    // intersectPatch()'s aperture test for a circle or an annulus.
-    bool insideRing(const Vec3& point, double magnitude) const;
-
     enum class Kind : unsigned char { General, Conic, Plane, Cylinder };
     Kind kind_ = Kind::General;
-    bool annulus_ = false;  // else a circular aperture
     ConicBase conic_;
     double rMax_ = 0.0;  // apertureBoundingRadius()
-    double rInner_ = 0.0;
 };
 
 // Local bounds: the aperture's box in x, y and an enclosure of the sag over it in z (exact

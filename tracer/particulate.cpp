@@ -244,15 +244,6 @@ ParticulateScatter::ParticulateScatter(const ParticulateParams& p)
         throw std::invalid_argument("k must be in [0, 10) (got " + number(p.k) + ")");
 }
 
-ParticulateScatter::Cache::~Cache() {
-    const Entry* e = newest.load(std::memory_order_acquire);
-    while (e) {
-        const Entry* next = e->next;
-        delete e;
-        e = next;
-    }
-}
-
 const ParticulateEnsemble* ParticulateScatter::Cache::find(double wavelengthNm,
                                                            double mediumIndex) const {
     for (const Entry* e = newest.load(std::memory_order_acquire); e; e = e->next)
@@ -265,10 +256,13 @@ const ParticulateEnsemble* ParticulateScatter::at(double wavelengthNm, double me
     if (const ParticulateEnsemble* e = cache_->find(wavelengthNm, mediumIndex)) return e;
     std::lock_guard lock(cache_->writing);
     if (const ParticulateEnsemble* e = cache_->find(wavelengthNm, mediumIndex)) return e;
-    auto* entry = new Entry{wavelengthNm, mediumIndex,
-                            std::make_unique<const ParticulateEnsemble>(
-                                p_, wavelengthNm * 1e-3 / mediumIndex, mediumIndex),
-                            cache_->newest.load(std::memory_order_relaxed)};
+    const Entry* entry = cache_->owned
+                             .emplace_back(std::make_unique<const Entry>(
+                                 Entry{wavelengthNm, mediumIndex,
+                                       std::make_unique<const ParticulateEnsemble>(
+                                           p_, wavelengthNm * 1e-3 / mediumIndex, mediumIndex),
+                                       cache_->newest.load(std::memory_order_relaxed)}))
+                             .get();
     cache_->newest.store(entry, std::memory_order_release);
     return entry->ensemble.get();
 }

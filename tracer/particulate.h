@@ -137,8 +137,9 @@ class ParticulateScatter {
     const ParticulateEnsemble* at(double wavelengthNm, double mediumIndex) const;
 
   private:
-    // The ensembles computed so far, newest first: published once written (release), read
-    // without a lock (acquire); the mutex orders the writers.
+    // The ensembles computed so far: a list, newest first, published once an entry is
+    // written (release) and read without a lock (acquire); the mutex orders the writers,
+    // and `owned` (written under it, never read by the readers) holds every entry.
     struct Entry {
         double wavelengthNm, mediumIndex;
         std::unique_ptr<const ParticulateEnsemble> ensemble;
@@ -146,8 +147,8 @@ class ParticulateScatter {
     };
     struct Cache {
         std::mutex writing;
+        std::vector<std::unique_ptr<const Entry>> owned;
         std::atomic<const Entry*> newest{nullptr};
-        ~Cache();
         const ParticulateEnsemble* find(double wavelengthNm, double mediumIndex) const;
     };
     ParticulateParams p_;
