@@ -14,7 +14,21 @@ thermal data. This tool turns them back into AGF, one veil-catalog block per ven
   2, 4, -2 ... -8 (and 6)         12 Extended 2
   2, 4, -2 ... -12                13 Extended 3
 
-(the same polynomial, its terms in the AGF formula's order); k becomes internal transmittance
+(the same polynomial, its terms in the AGF formula's order). It also keeps materials outside
+those catalogs as the makers' data sheets give them: Schott's glasses that left the optical
+catalog or were never in it (ZERODUR, BOROFLOAT 33, LF7; LITHOSIL-Q, LITHOTEC-CAF2, D 263 T
+eco and AF 32 eco are in builtin_glass.agf already) and its IRG infrared chalcogenides, added
+to SCHOTT, and the infrared glasses
+of Amorphous Materials (AMTIR-2, AMTIR-3) and Vitron (IG2 to IG6) as an INFRARED catalog.
+Their fits are Sellmeier sums ("formula 1": n^2 - 1 = C0 + sum B_i lambda^2 / (lambda^2 - C_i^2);
+"formula 2": the same with C_i for C_i^2):
+
+  C0 = 0, up to 3 / 4 / 5 terms   AGF 2 Sellmeier 1 / 6 Sellmeier 3 / 11 Sellmeier 5
+  C0 != 0, up to 2 terms          AGF 9 Sellmeier 4 (A = 1 + C0)
+
+and each such glass carries its source (the database's references) in a GC line. Where the
+source gives no nd and Vd they are the fit's at d, F and C, extrapolated for an infrared glass
+(labels, as in the makers' Zemax catalogs). k becomes internal transmittance
 rows for 10 mm of glass, tau = exp(-4 pi k d / lambda); the thermal dispersion ("formula A":
 D0 D1 D2 E0 E1 lambda_tk) a TD row at the stated temperature. A glass whose fit fits none of
 the formulas above stops the tool with its file named.
@@ -25,16 +39,27 @@ Needs python3-yaml. Not part of the build: the AGF it writes is committed.
 
 import glob
 import math
+import re
 import os
 import sys
 
 import yaml
 
+# In lensdata/data/builtin_glass.agf already (Schott's own catalog): not written again.
+BUILT_IN = {"AF32ECO", "D263TECO", "LITHOSIL-Q", "LITHOTEC-CAF2"}
+
 VENDORS = [
-    # (catalog name, folder under database/data/specs, source named in the file)
-    ("HOYA", "hoya", "HOYA Zemax catalog 2017-04-01"),
-    ("NIKON", "hikari", "NIKON Zemax catalog 2017-11 (Hikari glasses)"),
-    ("SUMITA", "sumita", "SUMITA Zemax catalog 2017-02-02"),
+    # (catalog name, folders under database/data/specs, source named in the file, whether
+    # each glass names its own source)
+    ("HOYA", ["hoya/optical"], "HOYA Zemax catalog 2017-04-01", False),
+    ("NIKON", ["hikari/optical"], "NIKON Zemax catalog 2017-11 (Hikari glasses)", False),
+    ("SUMITA", ["sumita/optical"], "SUMITA Zemax catalog 2017-02-02", False),
+    ("SCHOTT", ["schott/misc", "schott/obsolete", "schott/infrared"],
+     "SCHOTT materials outside its optical glass catalog: data sheets and the 2017-01-20b "
+     "Zemax catalog, each glass's source in its GC line", True),
+    ("INFRARED", ["ami/infrared", "vitron/infrared"],
+     "infrared glasses of Amorphous Materials and Vitron: data sheets, each glass's source in "
+     "its GC line", True),
 ]
 
 # AGF formula number -> the exponent of lambda each coefficient after the constant multiplies.
@@ -70,36 +95,108 @@ def agf_formula(path, coefficients):
     sys.exit(f"{path}: no AGF formula has the exponents {sorted(terms)}")
 
 
+SELLMEIER_TERMS = {2: 3, 6: 4, 11: 5}  # AGF formula -> its terms (no constant)
+
+
+def sellmeier_formula(path, kind, coefficients):
+    """AGF formula and coefficients of a database Sellmeier fit ("formula 1" or "formula 2")."""
+    c = [float(v) for v in str(coefficients).split()]
+    if len(c) % 2 != 1:
+        sys.exit(f"{path}: a Sellmeier fit needs C0 and pairs of coefficients")
+    constant = c[0]
+    terms = [(b, p * p if kind == "formula 1" else p) for b, p in zip(c[1::2], c[2::2])]
+    if constant == 0.0:
+        for agf, count in sorted(SELLMEIER_TERMS.items(), key=lambda x: x[1]):
+            if len(terms) <= count:
+                terms += [(0.0, 0.0)] * (count - len(terms))
+                return agf, [v for t in terms for v in t]
+    elif len(terms) <= 2:
+        terms += [(0.0, 0.0)] * (2 - len(terms))
+        return 9, [1.0 + constant] + [v for t in terms for v in t]
+    sys.exit(f"{path}: no AGF formula holds this Sellmeier fit ({len(terms)} terms, "
+             f"C0 = {constant})")
+
+
 def index(agf, cd, lam):
-    exponents = dict(FORMULAS)[agf]
-    n2 = cd[0] + sum(v * lam**e for v, e in zip(cd[1:], exponents))
+    l2 = lam * lam
+    if agf in SELLMEIER_TERMS:
+        n2 = 1.0 + sum(k * l2 / (l2 - l) for k, l in zip(cd[0::2], cd[1::2]))
+    elif agf == 9:
+        n2 = cd[0] + cd[1] * l2 / (l2 - cd[2]) + cd[3] * l2 / (l2 - cd[4])
+    else:
+        exponents = dict(FORMULAS)[agf]
+        n2 = cd[0] + sum(v * lam**e for v, e in zip(cd[1:], exponents))
+    if not n2 > 0.0:
+        sys.exit(f"formula {agf} gives n^2 = {n2} at {lam} um")
     return math.sqrt(n2)
 
 
-def glass_lines(path, name):
+def ascii_text(text):
+    """AGF comments in ASCII: the few non-ASCII signs of the sources spelled out."""
+    for sign, word in (("\u00b0", "deg "), ("\u2013", "-"), ("\u2014", "-"), ("\u00ae", ""),
+                       ("\u00b5", "u")):
+        text = text.replace(sign, word)
+    return text.encode("ascii", "replace").decode("ascii")
+
+
+def plain(html):
+    """The database's references as one line of text: tags dropped, links kept."""
+    text = re.sub(r'<a href="([^"]*)">(.*?)</a>', r"\2 (\1)", str(html or ""))
+    text = re.sub(r"<[^>]+>", " ", text).replace("&amp;", "&")
+    return " ".join(text.split())
+
+
+def glass_lines(path, name, cite):
     d = yaml.safe_load(open(path, encoding="utf-8"))
-    formula = [e for e in d["DATA"] if e["type"] == "formula 3"]
+    formula = [e for e in d["DATA"] if e["type"] in ("formula 1", "formula 2", "formula 3")]
+    if cite and not formula:
+        # A data sheet's table of n alone: no fit to carry over.
+        print(f"{path}: tabulated n only, left out", file=sys.stderr)
+        return [f"! {name}: the source tabulates n without a dispersion fit; not included"]
     if len(formula) != 1:
-        sys.exit(f"{path}: expected one 'formula 3' entry")
-    agf, cd = agf_formula(path, formula[0]["coefficients"])
+        sys.exit(f"{path}: expected one 'formula 1', '2' or '3' entry")
+    if formula[0]["type"] == "formula 3":
+        agf, cd = agf_formula(path, formula[0]["coefficients"])
+    else:
+        agf, cd = sellmeier_formula(path, formula[0]["type"], formula[0]["coefficients"])
     lo, hi = (float(v) for v in str(formula[0]["wavelength_range"]).split())
     p = d.get("PROPERTIES") or {}
     nd = p.get("nd")
     vd = p.get("Vd")
-    if nd is None or vd is None:
+    visible = lo <= 0.4861327 and 0.6562725 <= hi
+    if (nd is None or vd is None) and not visible:
+        # An infrared glass opaque at d: as GERMANIUM in crystals.agf, the NM line's nd and Vd
+        # label the entry with the index at 10.6 um and the 8-12 um Abbe number.
+        if not (lo <= 8.0 and 12.0 <= hi):
+            sys.exit(f"{path}: no nd and Vd given, and the fit covers neither F and C nor 8-12 um")
+        n8, n10, n106, n12 = (index(agf, cd, l) for l in (8.0, 10.0, 10.6, 12.0))
+        nd, vd = n106, (n10 - 1.0) / (n8 - n12)
+    elif nd is None or vd is None:
         # d, F and C lines (um): the values the vendor's fit gives.
         n_d, n_f, n_c = (index(agf, cd, l) for l in (0.5875618, 0.4861327, 0.6562725))
         nd, vd = n_d, (n_d - 1.0) / (n_f - n_c)
     code = p.get("glass_code")
-    mil = f"{code:06d}" if isinstance(code, int) else (
-        f"{round((float(nd) - 1.0) * 1000):03d}{round(float(vd) * 10):03d}")
+    if isinstance(code, int):
+        mil = f"{code:06d}"
+    elif visible or p.get("nd") is not None:
+        mil = f"{round((float(nd) - 1.0) * 1000):03d}{round(float(vd) * 10):03d}"
+    else:
+        mil = "0"  # no glass code for an infrared label
     status = STATUS.get(p.get("glass_status"))
     if status is None:
         sys.exit(f"{path}: unknown glass_status {p.get('glass_status')!r}")
     lines = [f"NM {name} {agf} {mil} {number(nd)} {number(vd)} 0 {status}"]
     comment = " ".join(str(d.get("COMMENTS") or "").split())
-    if comment:
-        lines.append(f"GC {comment}")
+    # One GC line per glass: the file's comment, and for a cited glass its source and what
+    # its nd and Vd are.
+    gc = [ascii_text(comment) if cite else comment] if comment else []
+    if cite:
+        gc.append(f"source: {ascii_text(plain(d.get('REFERENCES')))}")
+        if p.get("nd") is None and not visible:
+            gc.append("opaque at d: nd and Vd label the entry, n at 10.6 um and the 8-12 um "
+                      "Abbe number (n10 - 1) / (n8 - n12)")
+    if gc:
+        lines.append("GC " + "; ".join(gc))
 
     def first(key, pick):
         v = p.get(key)
@@ -146,21 +243,25 @@ def main():
         sys.exit(__doc__)
     root = os.path.join(sys.argv[1], "database", "data", "specs")
     out = [
-        "! veil built-in vendor catalogs: HOYA, NIKON (Hikari glasses) and SUMITA. Generated by",
+        "! veil built-in vendor catalogs: HOYA, NIKON (Hikari glasses), SUMITA, Schott materials",
+        "! outside its optical glass catalog (added to SCHOTT) and INFRARED. Generated by",
         "! tools/agf_from_refractiveindex.py from the refractiveindex.info database",
         "! (github.com/polyanskiy/refractiveindex.info-database, public domain, CC0 1.0), which",
         "! keeps the vendors' Zemax catalogs glass by glass. Internal transmittance rows are for",
         f"! {IT_THICKNESS_MM:g} mm of glass, from the tabulated extinction coefficient k. Do not edit:",
         "! run the tool again.",
     ]
-    for catalog, folder, source in VENDORS:
-        files = sorted(glob.glob(os.path.join(root, folder, "optical", "*.yml")))
-        if not files:
-            sys.exit(f"{root}/{folder}/optical: no glasses")
+    for catalog, folders, source, cite in VENDORS:
         out.append(f"CC veil-catalog {catalog}")
         out.append(f"CC {source}, via the refractiveindex.info database (CC0 1.0)")
-        for f in files:
-            out.extend(glass_lines(f, os.path.splitext(os.path.basename(f))[0]))
+        for folder in folders:
+            files = sorted(glob.glob(os.path.join(root, folder, "*.yml")))
+            if not files:
+                sys.exit(f"{root}/{folder}: no glasses")
+            for f in files:
+                name = os.path.splitext(os.path.basename(f))[0]
+                if name not in BUILT_IN:
+                    out.extend(glass_lines(f, name, cite))
     sys.stdout.write("\n".join(out) + "\n")
 
 

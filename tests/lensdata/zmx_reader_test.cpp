@@ -666,7 +666,7 @@ TEST(ZmxReader, UnloadedGcatCatalogIsAWarningWithTheFix) {
 // The built-in Hoya, Nikon and Sumita catalogs answer GCAT lines naming them: each glass
 // below comes from the catalog GCAT names, with the nd and Vd the file's GLAS line carries
 // (what the designer's program read from the same vendor catalog), and no note about it.
-TEST(ZmxReader, GcatHoyaNikonSumitaGlassesAreBuiltIn) {
+TEST(ZmxReader, GcatVendorGlassesAreBuiltIn) {
     struct Case {
         const char* catalog;
         const char* glass;
@@ -674,7 +674,8 @@ TEST(ZmxReader, GcatHoyaNikonSumitaGlassesAreBuiltIn) {
     };
     for (const Case& c :
          {Case{"HOYA", "BACD5", 1.58913, 61.25}, Case{"HOYA", "FCD1", 1.497, 81.61},
-          Case{"NIKON", "E-BK7", 1.5168, 64.11}, Case{"SUMITA", "K-BK7", 1.51633, 64.1}}) {
+          Case{"NIKON", "E-BK7", 1.5168, 64.11}, Case{"SUMITA", "K-BK7", 1.51633, 64.1},
+          Case{"SCHOTT", "ZERODUR", 1.54236, 56.12}}) {
         const std::string text = std::string("GCAT ") + c.catalog +
                                  "\nENPD 10\nSURF 0\n DISZ INFINITY\nSURF 1\n STOP\n"
                                  " CURV 0.02\n DISZ 2\n GLAS " +
