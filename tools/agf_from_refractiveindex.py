@@ -19,7 +19,8 @@ those catalogs as the makers' data sheets give them: Schott's glasses that left 
 catalog or were never in it (ZERODUR, BOROFLOAT 33, LF7; LITHOSIL-Q, LITHOTEC-CAF2, D 263 T
 eco and AF 32 eco are in builtin_glass.agf already) and its IRG infrared chalcogenides, added
 to SCHOTT, and the infrared glasses
-of Amorphous Materials (AMTIR-2, AMTIR-3) and Vitron (IG2 to IG6) as an INFRARED catalog.
+of Amorphous Materials (AMTIR-2, AMTIR-3) and Vitron (IG2 to IG6), added to the INFRARED
+catalog that lensdata/data/crystals.agf starts.
 Their fits are Sellmeier sums ("formula 1": n^2 - 1 = C0 + sum B_i lambda^2 / (lambda^2 - C_i^2);
 "formula 2": the same with C_i for C_i^2):
 
