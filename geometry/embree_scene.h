@@ -16,7 +16,6 @@
 //                                  candidate (float t)
 //     -> ExactCandidate (double) + MeshCandidate (float), compared in double by Scene.
 
-#include <optional>
 #include <vector>
 
 #include "geometry/face_index.h"
