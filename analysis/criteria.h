@@ -26,8 +26,8 @@
 #include <vector>
 
 #include "lensdata/errors.h"
-#include "tracer/path_history.h"
-#include "tracer/property_table.h"  // globMatch
+#include "tracer/records/path_history.h"
+#include "tracer/surfaces/property_table.h"  // globMatch
 
 namespace veil {
 

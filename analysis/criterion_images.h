@@ -1,7 +1,7 @@
 #pragma once
 // Detector images split by path criteria, in the same run as the plain images.
 //
-// Every complete path of every ray (root to leaf, tracer/path_history.h) that ends in a
+// Every complete path of every ray (root to leaf, tracer/records/path_history.h) that ends in a
 // detector hit is tested against each criterion (skipping those a PathSummary of the path
 // rules out, analysis/criteria.h); its flux goes into that criterion's image of that detector
 // when it matches, and into the "rest" image when it matches none. Images are filled in ray
@@ -14,9 +14,9 @@
 #include <vector>
 
 #include "analysis/criteria.h"
-#include "tracer/branch_filter.h"
-#include "tracer/detector.h"
-#include "tracer/nonsequential.h"
+#include "tracer/records/detector.h"
+#include "tracer/transport/branch_filter.h"
+#include "tracer/transport/nonsequential.h"
 
 namespace veil {
 
@@ -62,8 +62,8 @@ class CriterionImages {
 
 namespace veil {
 
-// Online pruning by criteria (tracer/branch_filter.h): a branch is traced on while at least
-// one criterion may still be true for it, and culled as soon as all are false. A branch's
+// Online pruning by criteria (tracer/transport/branch_filter.h): a branch is traced on while at
+// least one criterion may still be true for it, and culled as soon as all are false. A branch's
 // state is one EvaluatorBank buffer, so the copy at every split is a single allocation.
 class CriteriaFilter : public BranchFilter {
   public:

@@ -5,7 +5,7 @@
 
 #include "analysis/criteria.h"
 #include "geometry/scene.h"
-#include "tracer/interaction.h"
+#include "tracer/transport/interaction.h"
 
 namespace veil {
 

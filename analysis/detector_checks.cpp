@@ -7,7 +7,7 @@
 
 #include "analysis/first_order.h"
 #include "geometry/lens_solid.h"
-#include "tracer/sequential_model.h"
+#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
 

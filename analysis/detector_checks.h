@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "lensdata/prescription.h"
-#include "tracer/scene_setup.h"
+#include "tracer/scene/scene_setup.h"
 
 namespace veil {
 

@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "tracer/paraxial.h"
+#include "tracer/sequential/paraxial.h"
 
 namespace veil {
 

@@ -15,8 +15,8 @@
 #include <ostream>
 #include <vector>
 
-#include "tracer/pupil.h"
-#include "tracer/sequential_model.h"
+#include "tracer/sequential/pupil.h"
+#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
 

@@ -13,9 +13,9 @@
 #include "analysis/first_order.h"
 #include "geometry/lens_solid.h"
 #include "geometry/mechanics.h"
-#include "tracer/fresnel.h"
-#include "tracer/paraxial.h"
-#include "tracer/sequential_trace.h"
+#include "tracer/sequential/paraxial.h"
+#include "tracer/sequential/sequential_trace.h"
+#include "tracer/surfaces/fresnel.h"
 
 namespace veil {
 

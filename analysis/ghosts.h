@@ -57,9 +57,9 @@
 #include <vector>
 
 #include "analysis/criterion_images.h"
-#include "tracer/scene_setup.h"
-#include "tracer/trace_setup.h"
-#include "tracer/sequential_model.h"
+#include "tracer/scene/scene_setup.h"
+#include "tracer/scene/trace_setup.h"
+#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
 

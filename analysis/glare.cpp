@@ -17,10 +17,10 @@
 #include "analysis/render_run.h"
 #include "geometry/exact_face.h"
 #include "lensdata/errors.h"
-#include "tracer/prepared_scene.h"
-#include "tracer/ray_aiming.h"
-#include "tracer/sequential_trace.h"
-#include "tracer/source.h"
+#include "tracer/light/source.h"
+#include "tracer/scene/prepared_scene.h"
+#include "tracer/sequential/ray_aiming.h"
+#include "tracer/sequential/sequential_trace.h"
 
 namespace veil {
 

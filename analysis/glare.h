@@ -9,8 +9,8 @@
 //
 //   VGI = E_black / E_white
 //
-// Both are rendered (tracer/render.h, veil render's method) on a small detector at the spot's
-// image (its centre from the real chief ray, its size from the image of the spot: a square
+// Both are rendered (tracer/render/render.h, veil render's method) on a small detector at the
+// spot's image (its centre from the real chief ray, its size from the image of the spot: a square
 // of side half the spot image's radius, so that the blur of the spot's rim stays outside it
 // unless the lens blurs by more than 0.6 of that radius):
 // the field is a window source in front of the lens, and E_black's source has the black spot
@@ -57,15 +57,15 @@
 
 #include "geometry/vec.h"
 #include "lensdata/glass_catalog.h"
-#include "tracer/ray_aiming.h"
-#include "tracer/render.h"
-#include "tracer/scene_setup.h"
-#include "tracer/spectrum.h"
+#include "tracer/light/spectrum.h"
+#include "tracer/render/render.h"
+#include "tracer/scene/scene_setup.h"
+#include "tracer/sequential/ray_aiming.h"
 
 namespace veil {
 
 class GhostTracer;    // analysis/ghosts.h
-class PreparedScene;  // tracer/prepared_scene.h
+class PreparedScene;  // tracer/scene/prepared_scene.h
 
 enum class GlareSpreadAt { None, Axis, All };
 

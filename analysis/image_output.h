@@ -4,7 +4,7 @@
 // OpenEXR (scan lines, ZIP compressed, lossless). One layer per DetectorImage (one per
 // criterion or component later), all on the same pixel grid. A layer named "" writes plain
 // channel names; a layer named "ghosts" writes "ghosts.value" and so on. Channels, 32-bit
-// float, first scan line = top edge of the detector (+y, see tracer/detector.h):
+// float, first scan line = top edge of the detector (+y, see tracer/records/detector.h):
 //
 //   value       flux per pixel (fluxUnit: W or lm), the sum estimator of the pixel
 //   irradiance  value / pixel area (fluxUnit/mm^2)
@@ -69,7 +69,7 @@
 #include <vector>
 
 #include "analysis/picture.h"
-#include "tracer/detector.h"
+#include "tracer/records/detector.h"
 
 namespace veil {
 

@@ -16,8 +16,8 @@
 
 #include "analysis/picture.h"
 #include "geometry/scene.h"
-#include "tracer/sequential_model.h"
-#include "tracer/source.h"
+#include "tracer/light/source.h"
+#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
 

@@ -14,7 +14,7 @@
 #include "analysis/scene_section.h"
 #include "geometry/exact_face.h"
 #include "lensdata/errors.h"
-#include "tracer/render.h"
+#include "tracer/render/render.h"
 
 namespace veil {
 

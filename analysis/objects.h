@@ -48,8 +48,8 @@
 #include <vector>
 
 #include "analysis/picture.h"
-#include "tracer/nonsequential.h"
-#include "tracer/prepared_scene.h"
+#include "tracer/scene/prepared_scene.h"
+#include "tracer/transport/nonsequential.h"
 
 namespace veil {
 

@@ -12,7 +12,7 @@
 
 #include "analysis/criterion_names.h"
 #include "analysis/image_output.h"  // falseColour
-#include "tracer/trace_setup.h"
+#include "tracer/scene/trace_setup.h"
 
 namespace veil {
 

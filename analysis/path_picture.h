@@ -26,7 +26,7 @@
 
 #include "analysis/criteria.h"
 #include "analysis/picture.h"
-#include "tracer/nonsequential.h"
+#include "tracer/transport/nonsequential.h"
 
 namespace veil {
 

@@ -12,7 +12,7 @@
 #include "analysis/render_run.h"
 #include "analysis/stray_light_run.h"
 #include "lensdata/output_file.h"
-#include "tracer/prepared_scene.h"
+#include "tracer/scene/prepared_scene.h"
 
 namespace veil {
 

@@ -30,9 +30,9 @@
 #include <vector>
 
 #include "lensdata/glass_catalog.h"
-#include "tracer/nonsequential.h"
-#include "tracer/render.h"
-#include "tracer/scene_setup.h"
+#include "tracer/render/render.h"
+#include "tracer/scene/scene_setup.h"
+#include "tracer/transport/nonsequential.h"
 
 namespace veil {
 
@@ -51,8 +51,8 @@ struct PstSpec {
     TransportOptions transport;      // its seed is the first batch's
     std::vector<std::string> where;  // more criteria, each its own PST curve
     std::function<void(size_t angle, size_t angles)> progress;
-    // Under mpirun (tracer/ranks.h): angle a is measured on rank a mod K by that rank alone,
-    // and rank 0 gets every row (the others return theirs empty).
+    // Under mpirun (tracer/runtime/ranks.h): angle a is measured on rank a mod K by that rank
+    // alone, and rank 0 gets every row (the others return theirs empty).
     Ranks ranks = Ranks::alone();
 };
 

@@ -7,12 +7,11 @@
 #include <filesystem>
 #include <map>
 #include <string>
-
 #include <vector>
 
 #include "analysis/criteria.h"
-#include "tracer/path_history.h"
-#include "tracer/ray_database.h"
+#include "tracer/records/path_history.h"
+#include "tracer/records/ray_database.h"
 
 namespace veil {
 

@@ -1,6 +1,6 @@
 #pragma once
-// Path criteria for the renderer (tracer/path_judge.h): `veil render --where` splits the image
-// by the joined path, photon events first, then the view point's backward events in the order
+// Path criteria for the renderer (tracer/render/path_judge.h): `veil render --where` splits the
+// image by the joined path, photon events first, then the view point's backward events in the order
 // light travels them, with the seed's three-state evaluator (analysis/criteria.h).
 //
 // Prefixes stream through an EvaluatorBank buffer; a suffix is judged on a copy. Pruning the
@@ -21,7 +21,7 @@
 #include <vector>
 
 #include "analysis/criteria.h"
-#include "tracer/path_judge.h"
+#include "tracer/render/path_judge.h"
 
 namespace veil {
 

@@ -1,6 +1,6 @@
 #pragma once
 // A render as a value, for studies: a prepared scene rendered for a fixed number of passes
-// (veil render's method, tracer/render.h), each pass's totals handed out as it finishes.
+// (veil render's method, tracer/render/render.h), each pass's totals handed out as it finishes.
 //
 //   PreparedScene + RenderRunSpec (options, passes, detector, criteria)
 //     --runRenderPasses--> per pass: the flux on the detector per component (visible,
@@ -16,8 +16,8 @@
 #include <string>
 #include <vector>
 
-#include "tracer/prepared_scene.h"
-#include "tracer/render.h"
+#include "tracer/render/render.h"
+#include "tracer/scene/prepared_scene.h"
 
 namespace veil {
 

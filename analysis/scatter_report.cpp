@@ -9,8 +9,8 @@
 
 #include "analysis/chart.h"
 #include "lensdata/errors.h"
-#include "tracer/interaction.h"
-#include "tracer/scatter_tabulation.h"
+#include "tracer/surfaces/scatter_tabulation.h"
+#include "tracer/transport/interaction.h"
 
 namespace veil {
 

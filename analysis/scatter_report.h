@@ -14,8 +14,8 @@
 
 #include "analysis/picture.h"
 #include "geometry/scene.h"
-#include "tracer/property_table.h"
-#include "tracer/sequential_model.h"
+#include "tracer/sequential/sequential_model.h"
+#include "tracer/surfaces/property_table.h"
 
 namespace veil {
 

@@ -19,7 +19,7 @@
 
 #include "analysis/path_picture.h"
 #include "geometry/scene.h"
-#include "tracer/source.h"
+#include "tracer/light/source.h"
 
 namespace veil {
 

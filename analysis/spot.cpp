@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "tracer/sequential_trace.h"
+#include "tracer/sequential/sequential_trace.h"
 
 namespace veil {
 

@@ -5,8 +5,8 @@
 #include <vector>
 
 #include "geometry/vec.h"
-#include "tracer/ray_aiming.h"
-#include "tracer/sequential_model.h"
+#include "tracer/sequential/ray_aiming.h"
+#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
 

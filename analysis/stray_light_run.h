@@ -17,13 +17,13 @@
 #include <vector>
 
 #include "analysis/criterion_images.h"
-#include "tracer/prepared_scene.h"
+#include "tracer/scene/prepared_scene.h"
 
 namespace veil {
 
 struct StrayLightSpec {
     uint64_t raysPerSource = 0;
-    // transport.ranks: the rays split over MPI ranks (tracer/ranks.h); every rank calls
+    // transport.ranks: the rays split over MPI ranks (tracer/runtime/ranks.h); every rank calls
     // runStrayLight, and the result is complete on rank 0 only.
     TransportOptions transport;
     // Path criteria (docs/criteria.md): one detector layer each, plus "rest".

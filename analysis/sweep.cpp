@@ -17,7 +17,7 @@
 #include "lensdata/input_file.h"
 #include "lensdata/output_file.h"
 #include "lensdata/toml_document.h"
-#include "tracer/prepared_scene.h"
+#include "tracer/scene/prepared_scene.h"
 
 namespace veil {
 
@@ -301,7 +301,7 @@ struct Measured {
     std::vector<std::string> quantities, criteria;
     std::string unit, record;
 
-    // Between ranks (tracer/ranks.h).
+    // Between ranks (tracer/runtime/ranks.h).
     Bytes pack() const {
         ByteWriter w;
         const SweepVariant& v = variant;

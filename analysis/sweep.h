@@ -31,9 +31,9 @@
 #include <vector>
 
 #include "lensdata/glass_catalog.h"
-#include "tracer/nonsequential.h"
-#include "tracer/render.h"
-#include "tracer/scene_setup.h"
+#include "tracer/render/render.h"
+#include "tracer/scene/scene_setup.h"
+#include "tracer/transport/nonsequential.h"
 
 namespace veil {
 
@@ -92,7 +92,7 @@ struct SweepSpec {
     std::vector<std::string> where;  // criteria: one quantity each per detector, plus "rest"
     bool prune = false;
     std::filesystem::path folder;  // variants/<k>.json are kept here (resume)
-    // Under mpirun (tracer/ranks.h): variant k is measured on rank k mod K, by that rank
+    // Under mpirun (tracer/runtime/ranks.h): variant k is measured on rank k mod K, by that rank
     // alone with its threads, and rank 0 saves it and completes the result (the others
     // return theirs empty); every rank reads the scene and the folder's earlier variants.
     Ranks ranks = Ranks::alone();

@@ -19,9 +19,9 @@
 #include <memory>
 #include <random>
 
-#include "tracer/scene_setup.h"
 #include "bench/raw_embree.h"
 #include "geometry/embree_scene.h"
+#include "tracer/scene/scene_setup.h"
 
 namespace {
 

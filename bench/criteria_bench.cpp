@@ -20,7 +20,7 @@
 
 #include "analysis/criteria.h"
 #include "analysis/criterion_names.h"
-#include "tracer/trace_setup.h"
+#include "tracer/scene/trace_setup.h"
 
 namespace {
 

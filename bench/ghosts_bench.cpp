@@ -21,7 +21,7 @@
 //     the detector; the image counts as a surface), in the unit of the baseline.
 //
 // BM_NominalSequential/F: the baseline in the same process. traceSequential
-// (tracer/sequential_trace.h) on the same SequentialModel, for the same grid of rays
+// (tracer/sequential/sequential_trace.h) on the same SequentialModel, for the same grid of rays
 // (GhostTracer::gridRays: the same launch points, every wavelength), nominal path, apertures
 // clipped; ray-surfaces counted exactly (SequentialRayResult::surface: the surfaces each ray
 // reached, the failing one included).
@@ -47,9 +47,9 @@
 #include <memory>
 
 #include "analysis/ghosts.h"
-#include "tracer/scene_setup.h"
-#include "tracer/trace_setup.h"
-#include "tracer/sequential_trace.h"
+#include "tracer/scene/scene_setup.h"
+#include "tracer/scene/trace_setup.h"
+#include "tracer/sequential/sequential_trace.h"
 
 namespace {
 

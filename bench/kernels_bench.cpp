@@ -32,10 +32,10 @@
 #include <string_view>
 #include <vector>
 
-#include "tracer/trace_setup.h"
 #include "geometry/surface_shape.h"
 #include "lensdata/glass_catalog.h"
-#include "tracer/path_history.h"
+#include "tracer/records/path_history.h"
+#include "tracer/scene/trace_setup.h"
 
 namespace veil::detail {
 extern const char kBuiltinGlassData[];

@@ -20,7 +20,7 @@
 #include "analysis/criterion_names.h"
 #include "bench/raw_embree.h"
 #include "geometry/embree_scene.h"
-#include "tracer/trace_setup.h"
+#include "tracer/scene/trace_setup.h"
 
 namespace {
 

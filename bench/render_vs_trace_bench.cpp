@@ -27,7 +27,7 @@
 #include "analysis/image_output.h"
 #include "analysis/render_criteria.h"
 #include "analysis/stray_light_run.h"
-#include "tracer/render.h"
+#include "tracer/render/render.h"
 
 namespace {
 

@@ -14,8 +14,8 @@
 
 #include "analysis/spot.h"
 #include "lensdata/lens_file.h"
-#include "tracer/ray_aiming.h"
-#include "tracer/sequential_trace.h"
+#include "tracer/sequential/ray_aiming.h"
+#include "tracer/sequential/sequential_trace.h"
 
 namespace {
 

@@ -19,7 +19,7 @@
 
 #include "analysis/stray_light_run.h"
 #include "analysis/sweep.h"
-#include "tracer/prepared_scene.h"
+#include "tracer/scene/prepared_scene.h"
 
 namespace {
 

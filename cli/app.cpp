@@ -19,7 +19,7 @@
 #include "cli/paths_command.h"
 #include "cli/render_command.h"
 #include "lensdata/errors.h"
-#include "tracer/ranks.h"
+#include "tracer/runtime/ranks.h"
 
 namespace veil::cli {
 

@@ -10,8 +10,8 @@
 
 #include "cli/options.h"
 #include "lensdata/glass_catalog.h"
-#include "tracer/prepared_scene.h"
-#include "tracer/scene_setup.h"
+#include "tracer/scene/prepared_scene.h"
+#include "tracer/scene/scene_setup.h"
 
 namespace veil::cli {
 

@@ -20,8 +20,8 @@
 #include "analysis/spot.h"
 #include "cli/commands.h"
 #include "cli/options.h"
-#include "tracer/scene_setup.h"
-#include "tracer/sequential_model.h"
+#include "tracer/scene/scene_setup.h"
+#include "tracer/sequential/sequential_model.h"
 
 namespace veil::cli {
 

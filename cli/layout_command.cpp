@@ -15,9 +15,9 @@
 #include "analysis/layout.h"
 #include "cli/commands.h"
 #include "cli/options.h"
-#include "lensdata/errors.h"
 #include "geometry/mesh_io.h"
-#include "tracer/prepared_scene.h"
+#include "lensdata/errors.h"
+#include "tracer/scene/prepared_scene.h"
 
 namespace veil::cli {
 

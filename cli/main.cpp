@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "cli/app.h"
-#include "tracer/ranks.h"
+#include "tracer/runtime/ranks.h"
 
 namespace {
 

@@ -20,8 +20,8 @@
 #include "analysis/picture.h"
 #include "lensdata/errors.h"
 #include "lensdata/output_file.h"
-#include "tracer/nonsequential.h"
-#include "tracer/ray_database.h"
+#include "tracer/records/ray_database.h"
+#include "tracer/transport/nonsequential.h"
 
 namespace veil::cli {
 

@@ -24,7 +24,7 @@
 #include "analysis/path_picture.h"
 #include "cli/options.h"
 #include "cli/progress.h"
-#include "tracer/prepared_scene.h"
+#include "tracer/scene/prepared_scene.h"
 
 namespace veil::cli {
 

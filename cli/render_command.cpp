@@ -1,5 +1,5 @@
 // veil render SCENE -o DIR: progressive bidirectional rendering of the stray light a detector
-// receives (tracer/render.h; the method and every knob in docs/render.md).
+// receives (tracer/render/render.h; the method and every knob in docs/render.md).
 //
 //   veil render examples/scenes/longfocus_360mm_sun.toml -o out/render
 //   veil render scene.toml --target-error 0.02 --time-limit 30m -o out/r
@@ -31,7 +31,7 @@
 #include "cli/progress.h"
 #include "lensdata/errors.h"
 #include "lensdata/output_file.h"
-#include "tracer/render.h"
+#include "tracer/render/render.h"
 
 namespace veil::cli {
 

@@ -1,6 +1,6 @@
 #pragma once
 // veil render: diffuse stray light images by bidirectional stochastic ray tracing with photon
-// maps, progressive until a target error, a time limit or a pass count (tracer/render.h,
+// maps, progressive until a target error, a time limit or a pass count (tracer/render/render.h,
 // docs/render.md).
 
 #include <CLI/CLI.hpp>

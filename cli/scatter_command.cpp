@@ -17,8 +17,8 @@
 #include "cli/commands.h"
 #include "cli/options.h"
 #include "lensdata/output_file.h"
-#include "tracer/prepared_scene.h"
-#include "tracer/scatter_tabulation.h"
+#include "tracer/scene/prepared_scene.h"
+#include "tracer/surfaces/scatter_tabulation.h"
 
 namespace veil::cli {
 

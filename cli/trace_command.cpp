@@ -31,7 +31,7 @@
 #include "cli/options.h"
 #include "cli/progress.h"
 #include "lensdata/output_file.h"
-#include "tracer/prepared_scene.h"
+#include "tracer/scene/prepared_scene.h"
 
 namespace veil::cli {
 

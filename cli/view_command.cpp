@@ -25,7 +25,7 @@
 #include "cli/paths_command.h"
 #include "cli/progress.h"
 #include "lensdata/errors.h"
-#include "tracer/prepared_scene.h"
+#include "tracer/scene/prepared_scene.h"
 
 namespace veil::cli {
 

@@ -1,6 +1,6 @@
-// libFuzzer target: a ray database (.vrdb, tracer/ray_database.h), opened and read through.
+// libFuzzer target: a ray database (.vrdb, tracer/records/ray_database.h), opened and read through.
 #include "fuzz/fuzz_common.h"
-#include "tracer/ray_database.h"
+#include "tracer/records/ray_database.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const auto path = veil::fuzz::writeScratch("input.vrdb", veil::fuzz::asText(data, size));

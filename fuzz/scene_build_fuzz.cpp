@@ -17,8 +17,8 @@
 #include "analysis/stray_light_run.h"
 #include "fuzz/fuzz_common.h"
 #include "lensdata/glass_catalog.h"
-#include "tracer/prepared_scene.h"
-#include "tracer/scene_setup.h"
+#include "tracer/scene/prepared_scene.h"
+#include "tracer/scene/scene_setup.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     static tbb::global_control oneThread(tbb::global_control::max_allowed_parallelism, 1);

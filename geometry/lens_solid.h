@@ -67,9 +67,9 @@
 // and in y); rimZ is NaN and rimZLo, rimZHi enclose the rim.
 //
 // Placement. Surface 1's vertex is at z = 0 and z accumulates the thicknesses (negative
-// after a mirror), as in tracer/sequential_model.cpp; faces and flats are placed at their z
-// along the element's axis (LensSolid::placement), the edge cylinder with that frame itself.
-// In a coaxial system the placement is the identity and z is global. After a coordinate
+// after a mirror), as in tracer/sequential/sequential_model.cpp; faces and flats are placed at
+// their z along the element's axis (LensSolid::placement), the edge cylinder with that frame
+// itself. In a coaxial system the placement is the identity and z is global. After a coordinate
 // break (geometry/surface_frames.h) an element sits on the axis of its front surface's
 // frame; a break between an element's faces (a wedge, a tilted face) is a ModelError, and
 // neighbours on different axes are not checked against each other for overlap. Mirrors in

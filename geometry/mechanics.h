@@ -3,7 +3,7 @@
 // barrel with lens seats, retaining rings, spacers, the aperture stop with its knife edge, a
 // field stop, baffles and vanes. Every part is a solid of revolution about the optical axis
 // (geometry/revolve.h), a closed outward triangle mesh in global coordinates (surface 1's
-// vertex at z = 0, as in tracer/sequential_model.h), named as users type it in criteria.
+// vertex at z = 0, as in tracer/sequential/sequential_model.h), named as users type it in criteria.
 //
 //   TomlDocument doc = TomlDocument::fromFile("scene.toml");
 //   Prescription rx = readTomlPrescription(doc, GlassCatalog::builtIn());

@@ -1,8 +1,8 @@
 #pragma once
 // Errors for bad input and inconsistent models.
 //
-// Per-ray outcomes are never exceptions (see tracer/ray_status.h); these are thrown only when
-// the user's input cannot be used. A ParseError always names file:line:col, a ModelError
+// Per-ray outcomes are never exceptions (see tracer/sequential/ray_status.h); these are thrown only
+// when the user's input cannot be used. A ParseError always names file:line:col, a ModelError
 // always names the object at fault.
 
 #include <ostream>

@@ -183,8 +183,8 @@ struct SystemData {
     SystemAperture aperture;
     // Image heights (paraxial: on the paraxial image plane; real: where the real chief ray
     // meets the image surface) are what a file may give; resolveImageHeightFields()
-    // (tracer/image_fields.h) turns them into angles or object heights before any trace, and
-    // keeps them in imageHeights.
+    // (tracer/sequential/image_fields.h) turns them into angles or object heights before any trace,
+    // and keeps them in imageHeights.
     enum class FieldKind { AngleDeg, ObjectHeightMm, ParaxialImageHeightMm, RealImageHeightMm };
     FieldKind fieldKind = FieldKind::AngleDeg;
     FieldKind givenFieldKind = FieldKind::AngleDeg;  // as the file gave them

@@ -881,7 +881,7 @@ void ZmxParser::buildFields() {
         for (Field& f : sys.fields) f.x *= mmPerUnit_, f.y *= mmPerUnit_;
     } else if (type == 2 || type == 3) {
         // Image heights: resolved into angles or object heights once the model exists
-        // (tracer/image_fields.h).
+        // (tracer/sequential/image_fields.h).
         sys.fieldKind = type == 2 ? SystemData::FieldKind::ParaxialImageHeightMm
                                   : SystemData::FieldKind::RealImageHeightMm;
         for (Field& f : sys.fields) f.x *= mmPerUnit_, f.y *= mmPerUnit_;

@@ -26,11 +26,11 @@
 #include "lensdata/glass_catalog.h"
 #include "lensdata/input_file.h"
 #include "lensdata/toml_document.h"
-#include "tracer/ray_aiming.h"
-#include "tracer/ray_status.h"
-#include "tracer/scene_setup.h"
-#include "tracer/sequential_model.h"
-#include "tracer/sequential_trace.h"
+#include "tracer/scene/scene_setup.h"
+#include "tracer/sequential/ray_aiming.h"
+#include "tracer/sequential/ray_status.h"
+#include "tracer/sequential/sequential_model.h"
+#include "tracer/sequential/sequential_trace.h"
 
 namespace py = pybind11;
 

@@ -19,7 +19,7 @@
 #include "analysis/criterion_images.h"
 #include "analysis/criterion_names.h"
 #include "analysis/first_order.h"
-#include "tracer/trace_setup.h"
+#include "tracer/scene/trace_setup.h"
 
 namespace veil {
 namespace {

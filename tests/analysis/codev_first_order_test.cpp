@@ -8,10 +8,10 @@
 #include "analysis/first_order.h"
 #include "lensdata/codev_reader.h"
 #include "lensdata/glass_catalog.h"
-#include "tracer/ray_aiming.h"
-#include "tracer/scene_setup.h"
-#include "tracer/sequential_model.h"
-#include "tracer/sequential_trace.h"
+#include "tracer/scene/scene_setup.h"
+#include "tracer/sequential/ray_aiming.h"
+#include "tracer/sequential/sequential_model.h"
+#include "tracer/sequential/sequential_trace.h"
 
 namespace veil {
 namespace {

@@ -14,9 +14,9 @@
 #include "lensdata/errors.h"
 #include "lensdata/glass_catalog.h"
 #include "lensdata/lens_file.h"
-#include "tracer/prepared_scene.h"
-#include "tracer/scene_setup.h"
-#include "tracer/trace_setup.h"
+#include "tracer/scene/prepared_scene.h"
+#include "tracer/scene/scene_setup.h"
+#include "tracer/scene/trace_setup.h"
 
 namespace veil {
 namespace {

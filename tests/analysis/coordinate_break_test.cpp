@@ -9,9 +9,9 @@
 #include "analysis/first_order.h"
 #include "geometry/surface_frames.h"
 #include "tests/test_lenses.h"
-#include "tracer/ray_aiming.h"
-#include "tracer/sequential_model.h"
-#include "tracer/sequential_trace.h"
+#include "tracer/sequential/ray_aiming.h"
+#include "tracer/sequential/sequential_model.h"
+#include "tracer/sequential/sequential_trace.h"
 
 namespace veil {
 namespace {

@@ -11,7 +11,7 @@
 #include "analysis/first_order.h"
 #include "analysis/spot.h"
 #include "lensdata/lens_file.h"
-#include "tracer/sequential_trace.h"
+#include "tracer/sequential/sequential_trace.h"
 
 namespace veil {
 namespace {

@@ -8,8 +8,8 @@
 
 #include "lensdata/zmx_reader.h"
 #include "tests/test_lenses.h"
-#include "tracer/paraxial.h"
-#include "tracer/pupil.h"
+#include "tracer/sequential/paraxial.h"
+#include "tracer/sequential/pupil.h"
 
 namespace veil {
 namespace {

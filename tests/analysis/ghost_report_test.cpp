@@ -9,7 +9,7 @@
 #include <limits>
 #include <sstream>
 
-#include "tracer/prepared_scene.h"
+#include "tracer/scene/prepared_scene.h"
 
 namespace veil {
 namespace {

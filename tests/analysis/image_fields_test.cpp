@@ -1,9 +1,9 @@
-// Fields given as image heights (tracer/image_fields.h), checked by what the resolved fields
-// do: the paraxial first-order data put the paraxial chief ray at the given height, the real
+// Fields given as image heights (tracer/sequential/image_fields.h), checked by what the resolved
+// fields do: the paraxial first-order data put the paraxial chief ray at the given height, the real
 // chief ray (aimed and traced as veil info's spots do) lands at the real height, and a finite
 // object gets heights scaled by the paraxial magnification.
 
-#include "tracer/image_fields.h"
+#include "tracer/sequential/image_fields.h"
 
 #include <gtest/gtest.h>
 
@@ -16,9 +16,9 @@
 #include "analysis/spot.h"
 #include "lensdata/errors.h"
 #include "lensdata/glass_catalog.h"
-#include "tracer/ray_aiming.h"
-#include "tracer/scene_setup.h"
-#include "tracer/sequential_model.h"
+#include "tracer/scene/scene_setup.h"
+#include "tracer/sequential/ray_aiming.h"
+#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
 namespace {

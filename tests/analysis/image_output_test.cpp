@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "tracer/rng.h"
+#include "tracer/runtime/rng.h"
 
 namespace veil {
 namespace {

@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "tracer/rng.h"
+#include "tracer/runtime/rng.h"
 
 namespace veil {
 namespace {

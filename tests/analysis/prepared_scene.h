@@ -9,7 +9,7 @@
 #include <memory>
 #include <string>
 
-#include "tracer/trace_setup.h"
+#include "tracer/scene/trace_setup.h"
 
 namespace veil::test {
 

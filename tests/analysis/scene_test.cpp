@@ -11,7 +11,7 @@
 #include <random>
 #include <sstream>
 
-#include "tracer/scene_setup.h"
+#include "tracer/scene/scene_setup.h"
 
 namespace veil {
 namespace {

@@ -14,7 +14,7 @@
 #include <numbers>
 
 #include "tests/analysis/prepared_scene.h"
-#include "tracer/sequential_trace.h"
+#include "tracer/sequential/sequential_trace.h"
 
 namespace veil {
 namespace {

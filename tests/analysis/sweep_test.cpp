@@ -16,7 +16,7 @@
 #include "analysis/stray_light_run.h"
 #include "lensdata/errors.h"
 #include "tests/text_checks.h"
-#include "tracer/prepared_scene.h"
+#include "tracer/scene/prepared_scene.h"
 
 namespace veil {
 namespace {

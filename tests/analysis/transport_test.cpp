@@ -15,9 +15,9 @@
 #include "analysis/criterion_names.h"
 #include "analysis/ray_statistics.h"
 #include "tests/analysis/prepared_scene.h"
-#include "tracer/ray_aiming.h"
-#include "tracer/sequential_trace.h"
-#include "tracer/trace_setup.h"
+#include "tracer/scene/trace_setup.h"
+#include "tracer/sequential/ray_aiming.h"
+#include "tracer/sequential/sequential_trace.h"
 
 namespace veil {
 namespace {

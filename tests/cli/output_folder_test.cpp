@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "run_veil.h"
-#include "tracer/ray_database.h"
+#include "tracer/records/ray_database.h"
 
 namespace {
 

@@ -63,8 +63,8 @@ TEST(RenderVsTrace, ScatteredLightAgreesInTotalAndOnBlocks) {
     const veil::ExrLayer* rl = re.layer("where1");
     ASSERT_TRUE(tl && rl);
     // The gathering's remaining bias: the rim correction's 16 probes (within 1 % on average,
-    // tests/tracer/render_test.cpp) and the radiance's curvature over the disk, (r / L)^2 for
-    // r = 0.56 mm and the millimetre scale L of the mounts' light: 2 % in all.
+    // tests/tracer/render/render_test.cpp) and the radiance's curvature over the disk, (r / L)^2
+    // for r = 0.56 mm and the millimetre scale L of the mounts' light: 2 % in all.
     const double bias = 0.02;
     const double tf = tl->totalFlux, rf = rl->totalFlux;
     const double ts = tl->totalRelativeError * tf, rs = rl->totalRelativeError * rf;

@@ -806,7 +806,7 @@ TEST(ZmxReader, UnsupportedSurfacesAndCommandsAreReported) {
     EXPECT_EQ(wibl->loc.line, 45);
 
     // FTYP 2: paraxial image heights, kept as given (in mm) for the scene to resolve
-    // (tracer/image_fields.h); nothing to report.
+    // (tracer/sequential/image_fields.h); nothing to report.
     EXPECT_EQ(findNote(rx, "field type"), nullptr) << reportText(rx);
     EXPECT_EQ(rx.system.fieldKind, SystemData::FieldKind::ParaxialImageHeightMm);
     ASSERT_EQ(rx.system.fields.size(), 3u);

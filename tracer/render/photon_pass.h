@@ -1,0 +1,55 @@
+#pragma once
+// The forward stage of a render pass (tracer/render/render.h, the seed's figure 7, second stage):
+// photons leave the sources through the interaction step (flux mode). The first
+// RenderOptions::ghostPhotonsPerPass of a source split at every interface until their first
+// scatter (every Fresnel branch; below photonMinRelativeFlux of the photon a branch plays
+// roulette, kept at photonRescueRelativeFlux); the others follow one child by weight. Where a
+// branch first scatters, the light it scatters plays roulette below rouletteRelativeFlux of the
+// emitted flux (on the incident flux: weak ghosts rarely scatter); after that one child by
+// weight, with Russian roulette below rouletteRelativeFlux of its flux just after that first
+// scatter (scale-free: light scattered once by a 0.1 % mount is followed as far as light
+// scattered by a 30 % one, the seed's dark-mount claim). They add three images:
+//   visible    a splitting photon of the sun, a collimated or a point source that reaches the
+//              detector without scattering (its flux times photons / ghost photons), spread
+//              over the pixels within the detector smoothing disk
+//              (RenderOptions::detectorRadiusPixels, shrinking with the radius)
+//   caustic    gathered at the pass's view points (a spatial hash of cells 2r wide) when the
+//              photon has seen specular events only: weight x flux x bsdf / (share pi r^2),
+//              share the view point's own part of its disk (viewPointAreaShare)
+//   secondary  the same once the photon has scattered before
+// and, with path criteria, the same three per criterion on the joined paths.
+// Emission: photon j of a source takes point j of an Owen-scrambled Sobol sequence
+// (tracer/runtime/qmc.h), scrambled by passSeed(seed, k, 3) and the source, for its origin,
+// direction and line (RenderOptions::quasiRandomPhotons; otherwise its own random numbers).
+// Deterministic: photon i of pass k draws its other choices from
+// CounterRng(passSeed(seed, k, 1), i), blocks of 4096 photons are reduced in a fixed order.
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "tracer/render/backward.h"
+#include "tracer/render/path_judge.h"
+#include "tracer/render/render.h"
+
+namespace veil {
+
+struct PhotonImages {
+    std::vector<double> visible, caustic, secondary;  // flux per pixel
+    // With criteria: [criterion] {visible, caustic, secondary}.
+    std::vector<std::array<std::vector<double>, 3>> by;
+    // With a guide (back.learned not empty): the gathered light per guide bin of its view
+    // points (tracer/render/aperture_guide.h).
+    std::vector<double> learned;
+    uint64_t photons = 0, segments = 0, gathers = 0, pruned = 0;
+};
+
+// Pass k's photons, gathered at `back`'s view points with radius radiusMm. Across `ranks`
+// (tracer/runtime/ranks.h) every rank holds the whole `back` and traces its blocks of photons; the
+// images are complete on rank 0, bitwise those of one process.
+PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detector,
+                          const BackwardResult& back, const RenderOptions& options,
+                          const PathJudge* judge, int k, double radiusMm,
+                          const Ranks& ranks = Ranks::alone());
+
+}  // namespace veil

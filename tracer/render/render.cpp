@@ -1,0 +1,592 @@
+#include "tracer/render/render.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
+
+#include <algorithm>
+#include <atomic>
+#include <bit>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+#include "geometry/exact_face.h"
+#include "lensdata/errors.h"
+#include "tracer/render/photon_pass.h"
+
+namespace veil {
+
+std::string_view toString(RenderComponent c) {
+    switch (c) {
+        case RenderComponent::Visible:
+            return "visible";
+        case RenderComponent::Direct:
+            return "direct";
+        case RenderComponent::Caustic:
+            return "caustic";
+        case RenderComponent::Secondary:
+            return "secondary";
+    }
+    return "?";
+}
+
+std::ostream& operator<<(std::ostream& os, RenderComponent c) { return os << toString(c); }
+
+void RenderOptions::check() const {
+    auto fail = [](const std::string& what) { throw std::invalid_argument(what); };
+    if (raysPerPixel == 0) fail("rays per pixel must be at least 1");
+    if (photonsPerPass == 0) fail("photons per pass must be at least 1");
+    if (!(initialRadiusMm >= 0.0) || !std::isfinite(initialRadiusMm))
+        fail("the initial radius must be a finite length >= 0 (0: automatic)");
+    if (!(alpha > 0.0 && alpha < 1.0)) fail("alpha must lie in (0, 1)");
+    if (!(minRelativeWeight >= 0.0 && minRelativeWeight < 1.0))
+        fail("the minimum relative weight must lie in [0, 1)");
+    if (!(viewPointRelativeWeight >= 0.0 && viewPointRelativeWeight <= 1.0))
+        fail("the view point roulette threshold must lie in [0, 1]");
+    if (maxSpecularDepth < 1) fail("the maximum specular depth must be at least 1");
+    if (!(rouletteRelativeFlux >= 0.0 && rouletteRelativeFlux <= 1.0))
+        fail("the roulette threshold must lie in [0, 1]");
+    if (maxPhotonSegments < 1) fail("the maximum photon segments must be at least 1");
+    if (!(photonMinRelativeFlux >= 0.0 && photonMinRelativeFlux < 1.0))
+        fail("the photon cull threshold must lie in [0, 1)");
+    if (ghostPhotonsPerPass == 0) fail("ghost photons per pass must be at least 1");
+    if (!(photonRescueRelativeFlux > 0.0 && photonRescueRelativeFlux <= 1.0 &&
+          photonRescueRelativeFlux >= photonMinRelativeFlux))
+        fail("the photon rescue level must lie in [cull threshold, 1] and be > 0");
+    if (areaSamples < 0 || areaSamples > 4096)
+        fail("the area samples per view point must lie in [0, 4096]");
+    if (!(detectorRadiusPixels >= 0.0 && detectorRadiusPixels <= 1000.0))
+        fail("the detector smoothing radius must lie in [0, 1000] pixels");
+    if (!(guideFraction >= 0.0 && guideFraction < 1.0))
+        fail("the guided fraction of the pixel rays must lie in [0, 1)");
+}
+
+std::ostream& operator<<(std::ostream& os, const RenderOptions& o) {
+    return os << "RenderOptions{" << o.raysPerPixel << " rays per pixel, " << o.photonsPerPass
+              << " photons per source per pass, r1 " << o.initialRadiusMm << " mm, alpha "
+              << o.alpha << ", seed " << o.seed << (o.splitBackward ? ", split" : ", random")
+              << ", roulette " << o.rouletteRelativeFlux
+              << (o.quasiRandomPhotons ? ", sobol photons" : ", random photons") << ", guide "
+              << o.guideFraction << "}";
+}
+
+uint64_t passSeed(uint64_t seed, uint64_t pass, uint32_t purpose) {
+    const auto b = CounterRng::philox(
+        {uint32_t(pass), uint32_t(pass >> 32), purpose, 0x52454e44u /* "REND" */},
+        {uint32_t(seed), uint32_t(seed >> 32)});
+    return (uint64_t(b[0]) << 32) | b[1];
+}
+
+// Exit Aperture
+
+namespace {
+
+// Points that bound an object: mesh vertices, or the corners of an exact face's piece boxes.
+template <class F>
+void forEachBoundingPoint(const Scene& scene, const SceneObject& o, F&& f) {
+    if (const auto* face = std::get_if<FaceGeometry>(&o.geometry)) {
+        for (const Bounds3& b : facePieceBounds(*face))
+            for (int c = 0; c < 8; ++c)
+                f(o.frame.toGlobalPoint(Vec3(c & 1 ? b.hi.x : b.lo.x, c & 2 ? b.hi.y : b.lo.y,
+                                             c & 4 ? b.hi.z : b.lo.z)));
+        return;
+    }
+    const MeshRef& ref = std::get<MeshRef>(o.geometry);
+    const TriangleMesh& m = scene.meshes()[ref.mesh];
+    const size_t end =
+        ref.triangleCount == 0 ? m.triangles.size() : size_t(ref.firstTriangle) + ref.triangleCount;
+    for (size_t t = ref.firstTriangle; t < end; ++t)
+        for (uint32_t v : m.triangles[t]) f(m.vertices[v]);
+}
+
+}  // namespace
+
+ExitAperture exitApertureFor(const Scene& scene, const DetectorGeometry& detector) {
+    // Detector-local frame: the sensitive side faces -z, the grid is centred on the axis.
+    double nearestZ = -kInfinity;  // local z of the object point nearest the detector (< 0)
+    double radius = 0.5 * std::hypot(detector.widthMm, detector.heightMm);
+    bool any = false;
+    for (const SceneObject& o : scene.objects()) {
+        if (o.id == detector.object || o.kind == ObjectKind::Detector ||
+            o.kind == ObjectKind::Dummy)
+            continue;
+        double objectZ = -kInfinity;
+        forEachBoundingPoint(scene, o, [&](const Vec3& g) {
+            const Vec3 p = detector.frame.toLocalPoint(g);
+            objectZ = std::max(objectZ, p.z);
+            radius = std::max(radius, std::hypot(p.x, p.y));
+        });
+        if (objectZ == -kInfinity) continue;
+        if (!(objectZ < 0.0))
+            throw ModelError(o.name, "lies beside or behind detector '" + detector.name + "' (" +
+                                         std::to_string(objectZ) +
+                                         " mm past its plane): the renderer needs every object "
+                                         "in front of the detector's sensitive side");
+        nearestZ = std::max(nearestZ, objectZ);
+        any = true;
+    }
+    if (!any) throw ModelError(detector.name, "no object in front of the detector to render");
+    ExitAperture a;
+    a.centerMm = detector.frame.toGlobalPoint(Vec3(0.0, 0.0, nearestZ));
+    a.normal = detector.normal();
+    a.radiusMm = radius * (1.0 + 1e-9);
+    return a;
+}
+
+double defaultInitialRadius(const TransportScene& ts) {
+    const Scene& scene = *ts.scene;
+    Bounds3 b;
+    for (const SceneObject& o : scene.objects()) {
+        if (ts.detectorOfObject[o.id] >= 0) continue;
+        if (!ts.properties[ts.propertyOfObject[o.id]].hasScatter()) continue;
+        forEachBoundingPoint(scene, o, [&](const Vec3& p) { b.extend(p); });
+    }
+    if (b.empty())
+        throw ModelError("scene",
+                         "no surface scatters: there is no diffuse stray light to render "
+                         "(give mechanics or lens edges a property with a scatter model)");
+    return 0.01 * glm::length(b.hi - b.lo);
+}
+
+// Render State
+
+RenderState::RenderState(const DetectorGeometry& geometry, double initialRadiusMm, double alpha,
+                         int criteria)
+    : radiusMm_(initialRadiusMm), initialRadiusMm_(initialRadiusMm), alpha_(alpha) {
+    for (DetectorImage& s : sums_) s = DetectorImage(geometry);
+    criterionSums_.assign(static_cast<size_t>(std::max(criteria, 0)), sums_);
+}
+
+void RenderState::addTo(Sums& sums, const std::array<std::vector<double>, kRenderComponents>& x) {
+    const int pixels = sums[0].pixelCount();
+    RayContribution rc;
+    std::vector<double> total(static_cast<size_t>(pixels), 0.0);
+    for (int c = 0; c < kRenderComponents; ++c) {
+        for (int p = 0; p < pixels; ++p) {
+            if (x[c][p] == 0.0) continue;
+            rc.add(p, x[c][p]);
+            total[p] += x[c][p];
+        }
+        sums[c].add(rc);
+    }
+    for (int p = 0; p < pixels; ++p)
+        if (total[p] != 0.0) rc.add(p, total[p]);
+    sums[kRenderComponents].add(rc);
+}
+
+void RenderState::add(const RenderPass& pass) {
+    if (pass.criteria.size() != criterionSums_.size())
+        throw std::invalid_argument("RenderState::add: the pass has " +
+                                    std::to_string(pass.criteria.size()) + " criteria, the state " +
+                                    std::to_string(criterionSums_.size()));
+    addTo(sums_, pass.pixels);
+    for (size_t k = 0; k < criterionSums_.size(); ++k) addTo(criterionSums_[k], pass.criteria[k]);
+    if (!pass.learned.empty()) {
+        if (learned_.empty()) learned_.assign(pass.learned.size(), 0.0);
+        if (learned_.size() != pass.learned.size())
+            throw std::invalid_argument("RenderState::add: the pass's guide has " +
+                                        std::to_string(pass.learned.size()) + " bins, the state " +
+                                        std::to_string(learned_.size()));
+        for (size_t b = 0; b < learned_.size(); ++b) learned_[b] += pass.learned[b];
+    }
+    ++passes_;
+    // Knaus and Zwicker: r_{k+1}^2 = r_k^2 (k + alpha) / (k + 1), k the pass just added.
+    const double k = passes_;
+    radiusMm_ *= std::sqrt((k + alpha_) / (k + 1.0));
+}
+
+void RenderState::add(const RenderPass& pass, const Ranks& ranks) {
+    if (ranks.root()) {
+        add(pass);
+    } else {
+        ++passes_;  // rank 0's radius follows
+    }
+    shareFromRoot(ranks);
+}
+
+void RenderState::shareFromRoot(const Ranks& ranks) {
+    if (ranks.single()) return;
+    ByteWriter w;
+    if (ranks.root()) {
+        w.put(int32_t(passes_));
+        w.put(radiusMm_);
+        w.put(initialRadiusMm_);
+        w.put(alpha_);
+        w.putVector(learned_);
+    }
+    Bytes bytes = w.take();
+    ranks.broadcast(bytes);
+    if (ranks.root()) return;
+    ByteReader r(bytes);
+    passes_ = r.get<int32_t>();
+    radiusMm_ = r.get<double>();
+    initialRadiusMm_ = r.get<double>();
+    alpha_ = r.get<double>();
+    learned_ = r.getVector<double>();
+}
+
+DetectorImage RenderState::component(RenderComponent c) const {
+    return sums_[static_cast<int>(c)].scaled(passes_ > 0 ? 1.0 / passes_ : 0.0);
+}
+
+DetectorImage RenderState::total() const {
+    return sums_[kRenderComponents].scaled(passes_ > 0 ? 1.0 / passes_ : 0.0);
+}
+
+namespace {
+
+// Lit pixels of a mean image and the mean of their relative errors.
+std::pair<int, double> litError(const DetectorImage& mean, uint64_t passes) {
+    const int pixels = mean.pixelCount();
+    const double threshold = RenderState::kLitFraction * mean.totalFlux() / pixels;
+    int lit = 0;
+    double sum = 0.0;
+    for (int p = 0; p < pixels; ++p) {
+        const double v = mean.flux(p);
+        if (!(v > 0.0) || v < threshold) continue;
+        ++lit;
+        sum += std::sqrt(mean.pixelVariance(p, passes)) / v;
+    }
+    return {lit, lit > 0 ? sum / lit : kInfinity};
+}
+
+}  // namespace
+
+double RenderState::meanRelativeError() const {
+    if (passes_ < 2) return kInfinity;
+    return litError(total(), static_cast<uint64_t>(passes_)).second;
+}
+
+double RenderState::meanRelativeError(RenderComponent c) const {
+    if (passes_ < 2) return kInfinity;
+    return litError(component(c), static_cast<uint64_t>(passes_)).second;
+}
+
+DetectorImage RenderState::criterionComponent(int k, RenderComponent c) const {
+    return criterionSums_.at(static_cast<size_t>(k))[static_cast<int>(c)].scaled(
+        passes_ > 0 ? 1.0 / passes_ : 0.0);
+}
+
+DetectorImage RenderState::criterionTotal(int k) const {
+    return criterionSums_.at(static_cast<size_t>(k))[kRenderComponents].scaled(
+        passes_ > 0 ? 1.0 / passes_ : 0.0);
+}
+
+double RenderState::criterionMeanRelativeError(int k) const {
+    if (passes_ < 2) return kInfinity;
+    return litError(criterionTotal(k), static_cast<uint64_t>(passes_)).second;
+}
+
+int RenderState::litPixels() const {
+    if (passes_ < 1) return 0;
+    return litError(total(), static_cast<uint64_t>(passes_)).first;
+}
+
+bool RenderState::sameSums(const RenderState& o) const {
+    for (size_t i = 0; i < sums_.size(); ++i)
+        if (!sums_[i].sameSums(o.sums_[i])) return false;
+    if (criterionSums_.size() != o.criterionSums_.size()) return false;
+    for (size_t k = 0; k < criterionSums_.size(); ++k)
+        for (size_t i = 0; i < sums_.size(); ++i)
+            if (!criterionSums_[k][i].sameSums(o.criterionSums_[k][i])) return false;
+    return passes_ == o.passes_ && learned_ == o.learned_ && radiusMm_ == o.radiusMm_ &&
+           initialRadiusMm_ == o.initialRadiusMm_ && alpha_ == o.alpha_;
+}
+
+namespace {
+
+constexpr char kMagic[8] = {'V', 'E', 'I', 'L', 'R', 'N', 'D', 'R'};
+constexpr uint32_t kVersion = 3;  // 2: the criteria's sums follow the plain ones; 3: the guide
+
+template <class T>
+void put(std::ostream& os, const T& v) {
+    os.write(reinterpret_cast<const char*>(&v), sizeof(T));
+}
+template <class T>
+void putVector(std::ostream& os, const std::vector<T>& v) {
+    os.write(reinterpret_cast<const char*>(v.data()), std::streamsize(v.size() * sizeof(T)));
+}
+template <class T>
+T get(std::istream& is) {
+    T v{};
+    is.read(reinterpret_cast<char*>(&v), sizeof(T));
+    return v;
+}
+template <class T>
+std::vector<T> getVector(std::istream& is, size_t n) {
+    std::vector<T> v(n);
+    is.read(reinterpret_cast<char*>(v.data()), std::streamsize(n * sizeof(T)));
+    return v;
+}
+
+}  // namespace
+
+void RenderState::write(const std::filesystem::path& path, uint64_t fingerprint) const {
+    const std::filesystem::path tmp = path.string() + ".tmp";
+    {
+        std::ofstream os(tmp, std::ios::binary | std::ios::trunc);
+        if (!os) throw std::runtime_error(tmp.string() + ": cannot write the checkpoint");
+        os.write(kMagic, sizeof kMagic);
+        put(os, kVersion);
+        put(os, fingerprint);
+        put(os, int32_t(sums_[0].pixelsX()));
+        put(os, int32_t(sums_[0].pixelsY()));
+        put(os, int32_t(passes_));
+        put(os, radiusMm_);
+        put(os, initialRadiusMm_);
+        put(os, alpha_);
+        put(os, int32_t(criterionSums_.size()));
+        auto putSums = [&](const Sums& sums) {
+            for (const DetectorImage& s : sums) {
+                putVector(os, s.fluxes());
+                putVector(os, s.fluxesSquared());
+                putVector(os, s.counts());
+                put(os, s.totalFlux());
+                put(os, s.totalFluxSquared());
+                put(os, s.totalCount());
+            }
+        };
+        putSums(sums_);
+        for (const Sums& sums : criterionSums_) putSums(sums);
+        put(os, uint64_t(learned_.size()));
+        putVector(os, learned_);
+        os.flush();
+        if (!os) {
+            std::error_code ec;
+            std::filesystem::remove(tmp, ec);
+            throw std::runtime_error(tmp.string() + ": writing the checkpoint failed");
+        }
+    }
+    std::error_code ec;
+    std::filesystem::rename(tmp, path, ec);
+    if (ec) {
+        std::filesystem::remove(tmp, ec);
+        throw std::runtime_error(path.string() + ": cannot move the checkpoint into place");
+    }
+}
+
+RenderState RenderState::read(const std::filesystem::path& path, uint64_t fingerprint,
+                              const DetectorGeometry& geometry) {
+    std::ifstream is(path, std::ios::binary);
+    if (!is) throw std::runtime_error(path.string() + ": cannot read the checkpoint");
+    auto fail = [&](const std::string& why) {
+        throw std::runtime_error(path.string() + ": " + why);
+    };
+    char magic[sizeof kMagic];
+    is.read(magic, sizeof magic);
+    if (!is || std::memcmp(magic, kMagic, sizeof kMagic) != 0) fail("not a veil render checkpoint");
+    if (get<uint32_t>(is) != kVersion) fail("a checkpoint of another veil version");
+    if (get<uint64_t>(is) != fingerprint)
+        fail(
+            "the checkpoint belongs to another scene or other render options (seed, rays per "
+            "pixel, photons, radius, alpha, roulette, criteria must match)");
+    const int32_t nx = get<int32_t>(is), ny = get<int32_t>(is);
+    if (nx != geometry.pixelsX || ny != geometry.pixelsY)
+        fail("the checkpoint's detector grid differs from the scene's");
+    RenderState s;
+    s.passes_ = get<int32_t>(is);
+    s.radiusMm_ = get<double>(is);
+    s.initialRadiusMm_ = get<double>(is);
+    s.alpha_ = get<double>(is);
+    const int32_t criteria = get<int32_t>(is);
+    if (!is || criteria < 0 || criteria > 64) fail("the checkpoint is damaged");
+    const size_t n = static_cast<size_t>(geometry.pixelCount());
+    auto getSums = [&](Sums& sums) {
+        for (DetectorImage& img : sums) {
+            auto flux = getVector<double>(is, n);
+            auto flux2 = getVector<double>(is, n);
+            auto counts = getVector<uint64_t>(is, n);
+            const double t = get<double>(is), t2 = get<double>(is);
+            const uint64_t tc = get<uint64_t>(is);
+            if (!is) fail("the checkpoint is truncated");
+            img = DetectorImage::fromSums(geometry, std::move(flux), std::move(flux2),
+                                          std::move(counts), t, t2, tc);
+        }
+    };
+    getSums(s.sums_);
+    s.criterionSums_.resize(static_cast<size_t>(criteria));
+    for (Sums& sums : s.criterionSums_) getSums(sums);
+    const uint64_t bins = get<uint64_t>(is);
+    if (!is || bins > (uint64_t{1} << 28)) fail("the checkpoint is damaged");
+    s.learned_ = getVector<double>(is, static_cast<size_t>(bins));
+    if (!is) fail("the checkpoint is truncated");
+    if (s.passes_ < 0 || !(s.radiusMm_ > 0.0)) fail("the checkpoint is damaged");
+    return s;
+}
+
+// Renderer
+
+Renderer::Renderer(const TransportScene& ts, const DetectorImage& detector, ExitAperture aperture,
+                   RenderOptions options, const PathJudge* judge, Ranks ranks)
+    : ts_(ts),
+      detector_(detector.geometry()),
+      aperture_(aperture),
+      options_(options),
+      judge_(judge),
+      ranks_(ranks) {
+    options_.check();
+    if (options_.prune && !judge_)
+        throw std::invalid_argument("pruning needs at least one path criterion");
+}
+
+bool inGapAt(const Scene& scene, const Vec3& point, int object, int primitive, const Vec3& side,
+             double gapMm) {
+    return scene.closestHit({point, side}, gapMm, object, primitive).has_value();
+}
+
+DiskShare viewPointAreaShare(const Scene& scene, const ViewPoint& v, double radiusMm, int samples,
+                             double turn, bool otherSide) {
+    // The side the photons come from (the view point's own, or the other for the light the
+    // face transmits to it), and a tangent basis (Duff et al. 2017).
+    const Vec3 side = v.fromFront != otherSide ? v.normal : -v.normal;
+    const double gap = kGapFraction * radiusMm;
+    DiskShare out;
+    out.inGap = inGapAt(scene, v.positionMm, v.object, v.primitive, side, gap);
+    if (samples <= 0) return out;
+    const double sign = std::copysign(1.0, side.z);
+    const double a = -1.0 / (sign + side.z), b = side.x * side.y * a;
+    const Vec3 t1(1.0 + sign * side.x * side.x * a, sign * b, -sign * side.x);
+    const Vec3 t2(b, sign + side.y * side.y * a, -side.y);
+    // Each probe starts a gap's height off the tangent plane on the photons' side and looks
+    // along the normal toward the face, then, if it missed, the other way, up to r: a face
+    // that curves away from the plane (a sag of rho^2 / 2R) is found below it, one that
+    // curves toward it (a bore seen from inside) above. Only the view point's object, with its
+    // normal (kGatherNormalCos), within r of it and in the view point's kind of place (in a
+    // gap on the photons' side or not) counts. Other objects do not block a probe: it passes
+    // through them, since a face is reached through a gap however thin (a lens flat under a
+    // spacer 1 um away), and the last one it crossed within the gap's height of the face puts
+    // the probe's point in a gap, which costs no ray of its own.
+    const double lift = std::max(gap, std::max(1e-3 * radiusMm, 1e-4));
+    constexpr double kGolden = 2.39996322972865332;  // pi (3 - sqrt 5)
+    constexpr int kMaxCrossings = 8;
+    auto lands = [&](Vec3 origin, const Vec3& direction, double reach, bool towardFace) {
+        int skipObject = -1, skipPrimitive = -1;
+        double travelled = 0.0, crossedAt = -kInfinity;
+        for (int crossing = 0; crossing <= kMaxCrossings; ++crossing) {
+            const auto hit =
+                scene.closestHit({origin, direction}, reach, skipObject, skipPrimitive);
+            if (!hit) return false;
+            if (hit->object == v.object) {
+                if (!(glm::dot(hit->normal, v.normal) > kGatherNormalCos)) return false;
+                const Vec3 d = hit->point - v.positionMm;
+                if (glm::dot(d, d) > radiusMm * radiusMm) return false;
+                if (towardFace) return (travelled + hit->t - crossedAt <= gap) == out.inGap;
+                const Vec3 facing = glm::dot(hit->normal, side) > 0.0 ? hit->normal : -hit->normal;
+                return inGapAt(scene, hit->point, hit->object, hit->primitive, facing, gap) ==
+                       out.inGap;
+            }
+            origin = hit->point;
+            reach -= hit->t;
+            travelled += hit->t;
+            crossedAt = travelled;
+            skipObject = hit->object;
+            skipPrimitive = hit->primitive;
+        }
+        return false;
+    };
+    // The outer half of the spiral first (radii above r / sqrt 2, spread around the circle by
+    // the golden angle): when all of it lands, the disk is taken as whole. A straight rim
+    // that leaves every outer probe on the face leaves the inner ones there too (with 16
+    // probes, averaged over the turns, the shortcut's 1 / share equals the full count's to
+    // 1e-4 at every distance from the rim); what it would miss is a hole or a patch of
+    // another kind of place inside r / sqrt 2 that reaches no outer probe.
+    int on = 0;
+    const int outer = samples - samples / 2;
+    for (int i = samples - 1; i >= 0; --i) {
+        if (i == samples / 2 - 1 && on == outer) {
+            out.share = 1.0;
+            return out;
+        }
+        const double rho = radiusMm * std::sqrt((i + 0.5) / samples);
+        const double phi = turn + kGolden * i;
+        const Vec3 q = v.positionMm + rho * (std::cos(phi) * t1 + std::sin(phi) * t2) + lift * side;
+        if (lands(q, -side, lift + radiusMm, true) || lands(q, side, radiusMm, false)) ++on;
+    }
+    out.share = static_cast<double>(std::max(on, 1)) / samples;
+    return out;
+}
+
+bool photonsSeeSource(const Source& s) {
+    return s.delta() != Source::Delta::None || std::holds_alternative<SunSource>(s.shape());
+}
+
+BackwardOptions Renderer::backwardOptions(int k) const {
+    BackwardOptions bo;
+    bo.raysPerPixel = options_.raysPerPixel;
+    bo.seed = passSeed(options_.seed, static_cast<uint64_t>(k), 0);
+    bo.split = options_.splitBackward;
+    bo.maxSpecularDepth = options_.maxSpecularDepth;
+    bo.minRelativeWeight = options_.minRelativeWeight;
+    bo.direct = true;
+    bo.viewPointRelativeWeight = options_.viewPointRelativeWeight;
+    bo.judge = judge_;
+    bo.prune = options_.prune;
+    bo.ranks = ranks_;
+    for (const Source& s : ts_.sources) bo.visibleSources.push_back(!photonsSeeSource(s));
+    return bo;
+}
+
+RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& learned) const {
+    if (k < 1) throw std::invalid_argument("Renderer::runPass: passes count from 1");
+    if (!(radiusMm > 0.0)) throw std::invalid_argument("Renderer::runPass: radius must be > 0");
+    RenderPass out;
+    out.radiusMm = radiusMm;
+    const int pixels = detector_.pixelCount();
+
+    const auto t0 = std::chrono::steady_clock::now();
+    auto since = [](std::chrono::steady_clock::time_point t) {
+        return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+    };
+    // 1. Backward: visible, direct, view points.
+    BackwardOptions bo = backwardOptions(k);
+    ApertureGuide guide;
+    if (options_.guideFraction > 0.0) {
+        guide = ApertureGuide(detector_.geometry().pixelsX, detector_.geometry().pixelsY);
+        guide.prepare(learned.empty() ? std::vector<double>(guide.bins(), 0.0) : learned,
+                      options_.guideFraction);
+        bo.guide = &guide;
+    }
+    BackwardResult back = traceBackward(ts_, detector_, aperture_, bo);
+    out.pixels[static_cast<int>(RenderComponent::Visible)] = back.visible.fluxes();
+    out.pixels[static_cast<int>(RenderComponent::Direct)] = back.direct.fluxes();
+    out.backwardRays = back.rays;
+    out.backwardSegments = back.segments;
+    out.viewPoints = back.viewPoints.size();
+
+    out.backwardSeconds = since(t0);
+    const auto t1 = std::chrono::steady_clock::now();
+    // 2. Forward photons gathered at the view points.
+    PhotonImages acc = tracePhotons(ts_, detector_, back, options_, judge_, k, radiusMm, ranks_);
+    const size_t criteria = judge_ ? static_cast<size_t>(judge_->count()) : 0;
+    std::vector<double>& visible = out.pixels[static_cast<int>(RenderComponent::Visible)];
+    for (int p = 0; p < pixels; ++p) visible[static_cast<size_t>(p)] += acc.visible[p];
+    out.pixels[static_cast<int>(RenderComponent::Caustic)] = std::move(acc.caustic);
+    out.pixels[static_cast<int>(RenderComponent::Secondary)] = std::move(acc.secondary);
+    out.criteria.resize(criteria);
+    for (size_t k = 0; k < criteria; ++k) {
+        auto& x = out.criteria[k];
+        x[static_cast<int>(RenderComponent::Visible)] = std::move(back.visibleByCriterion[k]);
+        x[static_cast<int>(RenderComponent::Direct)] = std::move(back.directByCriterion[k]);
+        std::vector<double>& v = x[static_cast<int>(RenderComponent::Visible)];
+        for (int p = 0; p < pixels; ++p) v[static_cast<size_t>(p)] += acc.by[k][0][p];
+        x[static_cast<int>(RenderComponent::Caustic)] = std::move(acc.by[k][1]);
+        x[static_cast<int>(RenderComponent::Secondary)] = std::move(acc.by[k][2]);
+    }
+    if (bo.guide) {
+        out.learned = std::move(back.learned);
+        for (size_t b = 0; b < out.learned.size(); ++b) out.learned[b] += acc.learned[b];
+    }
+    out.photons = acc.photons;
+    out.photonSegments = acc.segments;
+    out.gathers = acc.gathers;
+    out.prunedPhotons = acc.pruned;
+    out.prunedBranches = back.prunedBranches;
+    out.photonSeconds = since(t1);
+    return out;
+}
+
+}  // namespace veil

@@ -1,0 +1,281 @@
+#pragma once
+// Diffuse stray light images by bidirectional stochastic ray tracing with photon maps (the
+// seed's section 3, figure 7), made progressive and consistent.
+//
+// One pass (Renderer::runPass):
+//   1. Backward (tracer/render/backward.h): raysPerPixel rays from every pixel through the exit
+//      aperture (drawn partly where the passes before found light: guideFraction,
+//      tracer/render/aperture_guide.h), through the specular chain. They give the visible component
+//      of extended sources (window, lambertian) seen through the lens, store view points where they
+//      meet scattering surfaces, and at every view point next-event estimation toward each source
+//      gives the direct component.
+//   2. Forward (tracer/render/photon_pass.h): photonsPerPass photons per source on quasi-random
+//      points of the emission, the same transport (tracer/transport/interaction.h, flux mode).
+//      Until its first scatter a photon splits at every interface (every Fresnel branch; the first
+//      ghostPhotonsPerPass follow every branch, the others' weak branches play roulette);
+//      then it follows one child chosen by weight, with Russian roulette relative to its flux
+//      just after that first scatter (however dark the surface was). A splitting photon
+//      of the sun or of a collimated or point source that reaches the detector without
+//      scattering adds its flux (times photons / ghost photons) to its pixels: the visible
+//      component of those sources (their ghosts, or their image in the field), which a
+//      backward ray would have to hit a 0.5 degree disk to find. At every hit on a scattering
+//      surface after at least one event, the photon is gathered by the view points within
+//      the pass radius r on the same object and side, at the same wavelength, through a
+//      spatial hash: each adds weight * flux * bsdf(photon -> detector) / (share pi r^2) to
+//      its pixel (share: the part of its disk on its own object, viewPointAreaShare), the
+//      caustic component when the photon has seen only specular events, the secondary one
+//      when it scattered before. (A photon's first hit is the direct light, which step 1
+//      counts.)
+//   With path criteria (tracer/render/path_judge.h), every contribution is also judged on its
+//   joined path (the photon's or the sampled source's events, the scatter at the view point, the
+//   view point's backward events) and added to the images of the criteria it matches.
+// The pass's four images estimate the flux per pixel; visible and direct without bias, the
+// two gathered ones with the bias of averaging the radiance over a disk of radius r.
+//
+// Progressive and consistent (Knaus and Zwicker, "Progressive photon mapping: a
+// probabilistic approach", 2011): passes are independent (with the guide: each unbiased given
+// the passes before it, their deviations uncorrelated), pass k uses the radius
+//     r_{k+1}^2 = r_k^2 (k + alpha) / (k + 1),   r_1 the initial radius,
+// so r_k^2 ~ k^(alpha - 1), and the image is the mean of the passes. The variance of the
+// mean falls as n^-alpha and the bias as n^(alpha - 1): both vanish, and alpha = 2/3
+// balances them. Errors come from the spread of the independent passes (RenderState): the
+// variance of the mean over n passes from the per-pixel sums of the pass estimates and of
+// their squares (n >= 2), the same formula as a forward run's per-ray statistics with a pass
+// in the role of a ray (tracer/records/detector.h).
+//
+// Determinism: pass k draws its backward rays and photons from streams keyed by (seed, k),
+// blocks are reduced in a fixed order, and the state after pass k holds exact sums: a run
+// resumed from a checkpoint after pass k gives bitwise the images of an uninterrupted one,
+// for any thread count.
+
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <ostream>
+#include <string_view>
+#include <vector>
+
+#include "tracer/records/detector.h"
+#include "tracer/render/backward.h"
+#include "tracer/transport/interaction.h"
+
+namespace veil {
+
+enum class RenderComponent { Visible = 0, Direct = 1, Caustic = 2, Secondary = 3 };
+inline constexpr int kRenderComponents = 4;
+std::string_view toString(RenderComponent c);  // "visible", "direct", "caustic", "secondary"
+std::ostream& operator<<(std::ostream& os, RenderComponent c);
+
+struct RenderOptions {
+    uint64_t raysPerPixel = 16;        // backward rays per pixel per pass
+    uint64_t photonsPerPass = 100000;  // per source
+    double initialRadiusMm = 0.0;      // r_1; 0: defaultInitialRadius()
+    double alpha = 2.0 / 3.0;          // radius reduction, in (0, 1)
+    uint64_t seed = 1;
+    bool splitBackward = false;             // backward: every specular child, or one by weight
+    double minRelativeWeight = 1e-4;        // backward split: branches below this share end
+    double viewPointRelativeWeight = 0.05;  // view point roulette (BackwardOptions)
+    int maxSpecularDepth = 64;              // backward specular events per branch
+    double rouletteRelativeFlux = 0.1;      // photons below this share of their emitted flux
+                                            // (after their first scatter: of their flux just
+                                            // after it) play Russian roulette; 0 = off
+    int maxPhotonSegments = 1000;
+    // The first ghostPhotonsPerPass photons of each source (of the quasi-random sequence,
+    // at most photonsPerPass) follow every specular branch until their first scatter (every
+    // Fresnel branch, as veil trace does): they alone deposit the visible light of the sun,
+    // collimated and point sources (their ghosts), for all photons; their branches below
+    // photonMinRelativeFlux of the photon play Russian roulette, kept at
+    // photonRescueRelativeFlux. The others' branches play roulette below
+    // rouletteRelativeFlux (kept at it): they serve the gathered light.
+    uint64_t ghostPhotonsPerPass = 16384;
+    uint64_t ghostPhotons() const { return std::min(ghostPhotonsPerPass, photonsPerPass); }
+    double photonMinRelativeFlux = 1e-4;
+    double photonRescueRelativeFlux = 1e-2;
+    // The photons' visible deposits (the sun's ghosts) are spread evenly over the pixels whose
+    // centres lie within this many pixel pitches of the hit, shrinking with the gathering
+    // radius (rho_k = rho_1 r_k / r_1): density estimation on the detector, consistent as
+    // the passes go on. 0: every deposit in its own pixel (no bias, more noise).
+    double detectorRadiusPixels = 2.0;
+    // Probes per view point of how much of its gathering disk lies on its own object (the
+    // rim correction, viewPointAreaShare); 0: every disk counts as pi r^2 (biased low within r
+    // of a face's rim).
+    int areaSamples = 16;
+    // How the photons of a pass spread over each source's emission (its origin, direction and
+    // line): quasi-random points (Owen-scrambled Sobol, one scramble per source and pass:
+    // still unbiased, passes still independent) or independent random ones.
+    bool quasiRandomPhotons = true;
+    // With criteria (Renderer's judge): stop photons and backward branches as soon as no
+    // criterion can match their path; the plain images then hold only light that matches at
+    // least one criterion.
+    bool prune = false;
+    // Learned aperture sampling (tracer/render/aperture_guide.h): the fraction of each pass's pixel
+    // rays drawn where the passes before it found light, in [0, 1); 0 = uniform over the
+    // aperture (every pass the same distribution).
+    double guideFraction = 0.5;
+    // Throws std::invalid_argument naming the option when a value is out of range.
+    void check() const;
+};
+std::ostream& operator<<(std::ostream& os, const RenderOptions& o);
+
+// What one pass estimated: the flux per pixel of each component (the pass's estimate, not yet
+// averaged), and what it cost.
+struct RenderPass {
+    std::array<std::vector<double>, kRenderComponents> pixels;
+    // With criteria: [criterion][component], the flux per pixel of the light whose joined
+    // path matches the criterion.
+    std::vector<std::array<std::vector<double>, kRenderComponents>> criteria;
+    uint64_t prunedBranches = 0, prunedPhotons = 0;  // stopped by the criteria (prune)
+    double radiusMm = 0.0;
+    uint64_t backwardRays = 0, backwardSegments = 0, viewPoints = 0;
+    uint64_t photons = 0, photonSegments = 0, gathers = 0;
+    double backwardSeconds = 0.0, photonSeconds = 0.0;  // wall clock of the two stages
+    // With a guide: the light the pass's pixel rays brought back per guide bin (visible,
+    // direct and gathered), which the passes after it learn from.
+    std::vector<double> learned;
+};
+
+// The exit aperture pixel rays aim at, from the scene: a disk on the detector's axis,
+// parallel to it, at the object point nearest to it (in front of its sensitive side), wide
+// enough that every straight line from a pixel to any point of any other object crosses it
+// (the radius of the farthest object point or detector corner from the axis; exact faces
+// by their bounding boxes). Light from every object of the scene thus reaches the pixels
+// through it. Throws ModelError naming an object that lies beside or behind the detector
+// (then no such disk exists).
+ExitAperture exitApertureFor(const Scene& scene, const DetectorGeometry& detector);
+
+// r_1 when none is given: 1 % of the diagonal of the bounding box of the scene's objects
+// that scatter (those with a scatter model). ModelError when no object scatters.
+double defaultInitialRadius(const TransportScene& ts);
+
+// The progressive accumulators: per component and for the total, the sums over passes of
+// each pixel's estimate and of its square (DetectorImage sums, one pass as one sample).
+class RenderState {
+  public:
+    RenderState() = default;
+    RenderState(const DetectorGeometry& geometry, double initialRadiusMm, double alpha,
+                int criteria = 0);
+
+    int passes() const { return passes_; }
+    double radiusMm() const { return radiusMm_; }  // of the next pass
+    double initialRadiusMm() const { return initialRadiusMm_; }
+    double alpha() const { return alpha_; }
+    // Adds a pass's estimates and shrinks the radius for the next.
+    void add(const RenderPass& pass);
+    // The same for a pass rendered across ranks (Renderer with ranks): rank 0, which holds the
+    // pass's images, adds it; every other rank takes rank 0's pass count, radius and learned
+    // light (what its next pass needs) and keeps no sums.
+    void add(const RenderPass& pass, const Ranks& ranks);
+    // Rank 0's pass count, radii, alpha and learned light on every rank (a run resumed from a
+    // checkpoint that rank 0 read).
+    void shareFromRoot(const Ranks& ranks);
+
+    // The mean over the passes (flux per pixel) with the variance of the mean: read
+    // pixelVariance(p, passes()) and totalVariance(passes()).
+    DetectorImage component(RenderComponent c) const;
+    DetectorImage total() const;
+    // The mean relative standard error of the total over the lit pixels: those whose mean
+    // is at least litFraction of the image's mean pixel value. Infinity before two passes or
+    // when nothing is lit.
+    static constexpr double kLitFraction = 0.01;
+    double meanRelativeError() const;
+    int litPixels() const;
+    // The same for one component's image (its own lit pixels).
+    double meanRelativeError(RenderComponent c) const;
+
+    // Criterion k's images (the light whose path matches it), as component() and total().
+    int criteria() const { return static_cast<int>(criterionSums_.size()); }
+    DetectorImage criterionComponent(int k, RenderComponent c) const;
+    DetectorImage criterionTotal(int k) const;
+    double criterionMeanRelativeError(int k) const;
+
+    // Atomic write (a temporary renamed), with a fingerprint of the scene and options that
+    // read() checks. std::runtime_error naming the path on failure, or when the file is not a
+    // checkpoint of this fingerprint and grid.
+    void write(const std::filesystem::path& path, uint64_t fingerprint) const;
+    static RenderState read(const std::filesystem::path& path, uint64_t fingerprint,
+                            const DetectorGeometry& geometry);
+    bool sameSums(const RenderState& o) const;
+
+    // The light learned per aperture guide bin over the passes (empty before the first pass
+    // and without a guide): what the next pass's guide is prepared from.
+    const std::vector<double>& learned() const { return learned_; }
+
+  private:
+    using Sums = std::array<DetectorImage, kRenderComponents + 1>;  // components, then total
+    static void addTo(Sums& sums, const std::array<std::vector<double>, kRenderComponents>& x);
+    Sums sums_;
+    std::vector<Sums> criterionSums_;
+    std::vector<double> learned_;
+    int passes_ = 0;
+    double radiusMm_ = 0.0, initialRadiusMm_ = 0.0, alpha_ = 2.0 / 3.0;
+};
+
+class Renderer {
+  public:
+    // `detector` gives the pixel grid (its sums are not used). Checks the options. `judge`:
+    // path criteria to split the image by (tracer/render/path_judge.h), or none; it must outlive
+    // the renderer. `ranks`: every pass split over them (tracer/runtime/ranks.h; pixels and photons
+    // by index), every rank calling runPass; the pass's images are complete on rank 0 only,
+    // bitwise those of one process (RenderState::add(pass, ranks) then keeps the ranks in step).
+    Renderer(const TransportScene& ts, const DetectorImage& detector, ExitAperture aperture,
+             RenderOptions options, const PathJudge* judge = nullptr, Ranks ranks = Ranks::alone());
+    const ExitAperture& aperture() const { return aperture_; }
+    const RenderOptions& options() const { return options_; }
+    // Pass k (1, 2, ...) at radius radiusMm, its pixel rays guided by the light learned in the
+    // passes before it (RenderState::learned(); empty: nothing learned yet).
+    RenderPass runPass(int k, double radiusMm, const std::vector<double>& learned = {}) const;
+    // The backward stage of pass k.
+    BackwardOptions backwardOptions(int k) const;
+
+  private:
+    const TransportScene& ts_;
+    DetectorImage detector_;
+    ExitAperture aperture_;
+    RenderOptions options_;
+    const PathJudge* judge_ = nullptr;
+    Ranks ranks_;
+};
+
+// Where photons land around a view point v, for the light that reaches it from one side of
+// its face (its own side: reflected light; the other: transmitted light).
+//   inGap  the view point lies in a gap on that side: another surface within kGapFraction x r
+//          in front of it (a lens flat under a spacer's end 1 um away, an edge 50 um from the
+//          barrel's bore). A photon is gathered only by view points in the same kind of place
+//          as itself: the light in a gap differs by orders of magnitude from the light beside
+//          it, and a disk reaching across the gap's border would carry one into the other.
+//   share  the part of v's gathering disk (radius r, in its tangent plane) where such photons
+//          land: on v's object, with its orientation, in v's kind of place. `samples` points
+//          of the disk (a Fibonacci spiral turned by `turn` radians, equal areas) are projected
+//          along the normal onto v's object, through anything else. 1 inside a face, about
+//          1/2 at a straight rim, about 2 w / (pi r) on a strip of width w < r. The photon
+//          estimate divides by share x pi r^2, the area photons can land on, instead of
+//          pi r^2; at least 1/samples (the view point's own point counts); 1 with samples 0.
+struct DiskShare {
+    double share = 1.0;
+    bool inGap = false;
+};
+inline constexpr double kGapFraction = 0.1;
+DiskShare viewPointAreaShare(const Scene& scene, const ViewPoint& v, double radiusMm, int samples,
+                             double turn, bool otherSide = false);
+// Whether the surface point (on object, primitive) has another surface within gapMm in
+// direction side.
+bool inGapAt(const Scene& scene, const Vec3& point, int object, int primitive, const Vec3& side,
+             double gapMm);
+
+// A photon is gathered by a view point, and a probe counts toward its share, only on the same
+// object where the surface normal is within 25.8 degrees of the view point's: the disk stays
+// on the view point's face and does not reach across a sharp edge (a stop's 45 degree knife
+// chamfer gathered the sunlit front's photons into the view points behind it and doubled the
+// stop's light). Gathering and share use the same rule, so a bend within r is left out of
+// both the photons and the area.
+inline constexpr double kGatherNormalCos = 0.9;
+
+// Whether the photons, rather than the backward rays, count a source's visible component:
+// the sun and the delta kinds (collimated, point), which a backward ray cannot find.
+bool photonsSeeSource(const Source& s);
+
+// The seed of stream family `purpose` of pass k: distinct for every (seed, k, purpose).
+uint64_t passSeed(uint64_t seed, uint64_t pass, uint32_t purpose);
+
+}  // namespace veil

@@ -1,0 +1,251 @@
+#include "tracer/scene/scene_setup.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <sstream>
+
+#include "geometry/lens_solid.h"
+#include "geometry/surface_frames.h"
+#include "lensdata/input_file.h"
+#include "lensdata/lens_file.h"
+#include "lensdata/toml_reader.h"
+#include "tracer/sequential/auto_apertures.h"
+#include "tracer/sequential/image_fields.h"
+#include "tracer/sequential/sequential_model.h"
+
+namespace veil {
+
+namespace {
+
+std::string lowerExtension(const std::filesystem::path& p) {
+    std::string ext = p.extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    return ext;
+}
+
+// Every surface gets a clear semi-diameter (traced where the file leaves it open), and the
+// file its sequential model: built once, or twice when semi-diameters had to be traced (the
+// model clips at them).
+// The model of an imported prescription (size() has stopped at any error in its report).
+std::shared_ptr<const SequentialModel> modelOf(const Prescription& p, const GlassCatalog& catalog) {
+    return std::make_shared<const SequentialModel>(SequentialModel::build(p, catalog));
+}
+
+void size(SceneFile& f, const Prescription& given, const GlassCatalog& catalog) {
+    // An error in the import report (a glass no catalog has, a surface type veil does not
+    // model, a field type it cannot read) stops here, before anything is built: the first at
+    // its place in the file, every other one after it.
+    std::vector<const ImportNote*> errors;
+    for (const ImportNote& n : given.report)
+        if (n.severity == ImportNote::Severity::Error) errors.push_back(&n);
+    if (!errors.empty()) {
+        std::ostringstream more;
+        for (size_t i = 1; i < errors.size(); ++i) more << "\n  and " << *errors[i];
+        throw ParseError(errors.front()->loc, errors.front()->message + more.str());
+    }
+    // Image-height fields become angles or object heights first: everything after traces
+    // from object space.
+    const Prescription p = resolveImageHeightFields(given, catalog);
+    auto model = modelOf(p, catalog);
+    bool open = false;
+    for (size_t i = 1; i < p.surfaces.size(); ++i)
+        open |= !(p.surfaces[i].clearSemiDiameterMm > 0.0) && !p.surfaces[i].coordinateBreak;
+    if (!open) {
+        f.prescription = p;
+        f.model = std::move(model);
+        return;
+    }
+    f.prescription = withAutomaticSemiDiameters(*model);
+    f.model =
+        std::make_shared<const SequentialModel>(SequentialModel::build(f.prescription, catalog));
+}
+
+}  // namespace
+
+namespace {
+
+bool editsLens(const SceneEdit& e) {
+    return e.key == "system" || e.key.starts_with("system.") || e.key.starts_with("system[");
+}
+
+[[noreturn]] void editOfNonToml(const SceneEdit& e, const std::filesystem::path& file) {
+    throw ParseError({e.origin, 0, 0}, file.filename().string() +
+                                           " is not a TOML file; only TOML scenes and lenses can "
+                                           "be edited");
+}
+
+}  // namespace
+
+bool editsTransportOnly(const std::string& key) {
+    for (const char* top : {"properties", "assign", "source"})
+        if (key == top || key.starts_with(std::string(top) + ".") ||
+            key.starts_with(std::string(top) + "["))
+            return true;
+    return false;
+}
+
+void checkSceneEdits(const std::filesystem::path& path, const std::vector<SceneEdit>& edits) {
+    if (edits.empty()) return;
+    if (lowerExtension(path) != ".toml") editOfNonToml(edits.front(), path);
+    if (!inputFileExists(path)) throw ParseError({path.string(), 0, 0}, "no such file");
+    TomlDocument doc = TomlDocument::fromFile(path);
+    const TomlTable root = doc.root();
+    const auto lens = root.has("lens") ? root.get("lens") : std::nullopt;
+    std::optional<TomlDocument> lensDoc;
+    for (const SceneEdit& e : edits) {
+        if (!(lens && editsLens(e))) {
+            doc.set(e.key, e.value, e.origin);
+            continue;
+        }
+        const std::filesystem::path lensPath = path.parent_path() / lens->asString();
+        if (lowerExtension(lensPath) != ".toml") editOfNonToml(e, lensPath);
+        if (!lensDoc) lensDoc = TomlDocument::fromFile(lensPath);
+        lensDoc->set(e.key, e.value, e.origin);
+    }
+}
+
+SceneFile readSceneFile(const std::filesystem::path& path, const GlassCatalog& catalog,
+                        const std::vector<SceneEdit>& edits) {
+    SceneFile f;
+    f.path = path;
+    if (lowerExtension(path) != ".toml") {
+        if (!edits.empty()) editOfNonToml(edits.front(), path);
+        size(f, readLensFile(path, catalog), catalog);
+        return f;
+    }
+    if (!inputFileExists(path)) throw ParseError({path.string(), 0, 0}, "no such file");
+    TomlDocument doc = TomlDocument::fromFile(path);
+    const TomlTable root = doc.root();
+    const auto lens = root.has("lens") ? root.get("lens") : std::nullopt;
+    for (const SceneEdit& e : edits)
+        if (!(lens && editsLens(e))) doc.set(e.key, e.value, e.origin);
+    if (lens) {
+        if (root.has("system"))
+            lens->fail(
+                "a scene names its lens either with `lens = \"file\"` or inline in "
+                "[system], not both");
+        const std::filesystem::path lensPath = path.parent_path() / lens->asString();
+        if (!inputFileExists(lensPath))
+            lens->fail("lens file '" + lensPath.string() + "' does not exist");
+        std::vector<SceneEdit> lensEdits;
+        for (const SceneEdit& e : edits)
+            if (editsLens(e)) lensEdits.push_back(e);
+        if (lensEdits.empty()) {
+            size(f, readLensFile(lensPath, catalog), catalog);
+        } else {
+            if (lowerExtension(lensPath) != ".toml") editOfNonToml(lensEdits.front(), lensPath);
+            TomlDocument lensDoc = TomlDocument::fromFile(lensPath);
+            for (const SceneEdit& e : lensEdits) lensDoc.set(e.key, e.value, e.origin);
+            Prescription p = readTomlPrescription(lensDoc, catalog);
+            lensDoc.checkAllUsed();
+            size(f, std::move(p), catalog);
+        }
+    } else {
+        size(f, readTomlPrescription(doc, catalog), catalog);
+    }
+    // A misspelt key explains more than the validation error it may cause in a later
+    // section (a default used in its place): on any error, unknown keys are reported first.
+    try {
+        f.mechanics = readMechanics(doc);
+        f.meshes = readMeshImports(doc);
+        f.sources = readSources(doc, f.prescription, *f.model);
+        f.detectors = readDetectors(doc);
+        f.properties = PropertyTable::read(doc);
+        f.properties.checkScatterEnergy(*f.model);
+    } catch (const std::exception&) {
+        doc.checkUsedInOpenedTables();
+        throw;
+    }
+    doc.checkAllUsed();
+    return f;
+}
+
+SceneSetup buildScene(const SceneFile& file, const GlassCatalog& catalog,
+                      const SceneOptions& options) {
+    SceneSetup s;
+    s.model = file.model ? file.model
+                         : std::make_shared<const SequentialModel>(
+                               SequentialModel::build(file.prescription, catalog));
+    const SequentialModel& model = *s.model;
+    s.prescription = file.prescription;
+    s.notes = s.prescription.report;
+    const Prescription& p = s.prescription;
+
+    LensSolidOptions lensOptions;
+    if (options.mechanics && file.mechanics && !file.mechanics->lensEdgeProperty.empty()) {
+        lensOptions.edgeProperty = file.mechanics->lensEdgeProperty;
+        lensOptions.flatProperty = file.mechanics->lensEdgeProperty;
+    }
+    addLensSolids(p, s.scene, lensOptions);
+
+    if (options.mechanics && file.mechanics) {
+        std::vector<std::string> left;
+        s.mechanicalParts = buildMechanics(p, *file.mechanics, &left);
+        for (const std::string& n : left) {
+            ImportNote note;
+            note.severity = ImportNote::Severity::Info;
+            note.loc.file = file.path.string();
+            note.message = n;
+            s.notes.push_back(std::move(note));
+        }
+        for (const MechanicalPart& part : s.mechanicalParts) {
+            const int mesh = s.scene.addMesh(part.mesh);
+            for (const NamedTriangleRange& r : part.namedRanges) {
+                SceneObject o;
+                o.name = r.name;
+                o.kind = r.name.rfind("stop", 0) == 0 ? ObjectKind::Stop : ObjectKind::Mechanics;
+                o.part = part.name;
+                o.property = r.property;
+                o.geometry = MeshRef{mesh, r.firstTriangle, r.triangleCount};
+                s.scene.addObject(std::move(o));
+            }
+        }
+    }
+    if (options.meshes) {
+        for (const MeshImportSpec& spec : file.meshes) {
+            ImportedMesh im = loadMeshImport(spec);
+            s.notes.insert(s.notes.end(), im.notes.begin(), im.notes.end());
+            const uint32_t count = static_cast<uint32_t>(im.mesh.triangles.size());
+            const int mesh = s.scene.addMesh(std::move(im.mesh));
+            SceneObject o;
+            o.name = im.name;
+            o.kind = ObjectKind::ImportedMesh;
+            o.part = im.name;
+            o.property = im.property;
+            o.geometry = MeshRef{mesh, 0, count};
+            s.scene.addObject(std::move(o));
+        }
+    }
+
+    // The image surface is the detector: its shape, the traced image semi-diameter.
+    const int image = model.imageIndex();
+    const Surface& is = p.surfaces[image];
+    SceneObject det;
+    det.name = "sensor";
+    det.aliases = {"image"};
+    det.kind = ObjectKind::Detector;
+    det.part = "sensor";
+    det.frame = model.surface(image).frame;
+    // Large enough for the image circle and for every detector rectangle placed on it.
+    double sensorRadius = is.clearSemiDiameterMm;
+    for (const DetectorSpec& d : file.detectors)
+        if ((d.object.empty() || d.object == "sensor" || d.object == "image") && !d.zMm && d.sizeMm)
+            sensorRadius =
+                std::max(sensorRadius, std::hypot(0.5 * d.sizeMm->x + std::abs(d.centerMm.x),
+                                                  0.5 * d.sizeMm->y + std::abs(d.centerMm.y)));
+    det.geometry = FaceGeometry{SurfacePatch{surfaceShape(is), CircularAperture{sensorRadius}}};
+    det.sequentialSurface = image;
+    s.scene.addObject(std::move(det));
+    // Detectors: on scene objects (the sensor by default) or free rectangles of their own.
+    std::vector<DetectorSpec> specs = file.detectors;
+    if (specs.empty()) specs.push_back(DetectorSpec{});
+    s.detectors = placeDetectors(specs, s.scene);
+    for (DetectorGeometry& g : s.detectors)
+        if (g.object < 0) g.object = s.scene.addObject(detectorSceneObject(g));
+    s.scene.commit();
+    return s;
+}
+
+}  // namespace veil
