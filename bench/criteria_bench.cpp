@@ -18,8 +18,8 @@
 #include <mutex>
 #include <random>
 
-#include "analysis/criteria.h"
-#include "analysis/criterion_names.h"
+#include "analysis/criteria/criteria.h"
+#include "analysis/criteria/criterion_names.h"
 #include "tracer/scene/trace_setup.h"
 
 namespace {

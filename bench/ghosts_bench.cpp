@@ -1,4 +1,4 @@
-// Automated ghost analysis (analysis/ghosts.h) on the seed's 6-lens 360 mm lens
+// Automated ghost analysis (analysis/ghosts/ghosts.h) on the seed's 6-lens 360 mm lens
 // (examples/lenses/longfocus_360mm.toml), a bare lens file set up as `veil ghosts` does:
 // readSceneFile -> addDefaultGhostScene (a collimated 1 W source per system field filling the
 // first surface, an absorbing stop plate, the detector on the image surface) -> buildScene
@@ -46,7 +46,7 @@
 #include <map>
 #include <memory>
 
-#include "analysis/ghosts.h"
+#include "analysis/ghosts/ghosts.h"
 #include "tracer/scene/scene_setup.h"
 #include "tracer/scene/trace_setup.h"
 #include "tracer/sequential/sequential_trace.h"

@@ -16,8 +16,8 @@
 #include <mutex>
 #include <random>
 
-#include "analysis/criterion_images.h"
-#include "analysis/criterion_names.h"
+#include "analysis/criteria/criterion_images.h"
+#include "analysis/criteria/criterion_names.h"
 #include "bench/raw_embree.h"
 #include "geometry/embree_scene.h"
 #include "tracer/scene/trace_setup.h"
@@ -117,7 +117,7 @@ BENCHMARK(BM_TraceSun7Threads)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::k
 // (two-reflection ghosts without any diffuse event). Argument 0: the criterion evaluated on
 // the histories after each ray (every branch traced); 1: branches culled as soon as the
 // criterion is false. The criterion image is the same within Monte Carlo error
-// (tests/analysis/transport_test.cpp, PruningKeepsTheCriterionFluxAndTracesLess).
+// (tests/analysis/runs/transport_test.cpp, PruningKeepsTheCriterionFluxAndTracesLess).
 void BM_TraceSun7Ghosts(benchmark::State& state) {
     const Fixture& f = sun7();
     tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);

@@ -23,10 +23,10 @@
 #include <string>
 #include <vector>
 
-#include "analysis/criterion_names.h"
-#include "analysis/image_output.h"
-#include "analysis/render_criteria.h"
-#include "analysis/stray_light_run.h"
+#include "analysis/criteria/criterion_names.h"
+#include "analysis/criteria/render_criteria.h"
+#include "analysis/reports/image_output.h"
+#include "analysis/runs/stray_light_run.h"
 #include "tracer/render/render.h"
 
 namespace {

@@ -12,7 +12,7 @@
 
 #include <cmath>
 
-#include "analysis/spot.h"
+#include "analysis/lens/spot.h"
 #include "lensdata/lens_file.h"
 #include "tracer/sequential/ray_aiming.h"
 #include "tracer/sequential/sequential_trace.h"

@@ -1,4 +1,4 @@
-// Time per variant of a sweep (analysis/sweep.h): a property-only edit, which reuses the
+// Time per variant of a sweep (analysis/studies/sweep.h): a property-only edit, which reuses the
 // first variant's geometry, against a geometry edit, which rebuilds the scene (lens solids,
 // mechanics meshed and checked with CGAL, the Embree scene), each against the trace alone in
 // the same process.
@@ -17,8 +17,8 @@
 #include <chrono>
 #include <filesystem>
 
-#include "analysis/stray_light_run.h"
-#include "analysis/sweep.h"
+#include "analysis/runs/stray_light_run.h"
+#include "analysis/studies/sweep.h"
 #include "tracer/scene/prepared_scene.h"
 
 namespace {

@@ -31,7 +31,7 @@ SceneFile readScene(const CommonOptions& common, const std::string& path,
 // Caps the worker threads while the result lives (threads <= 0: all cores, returns null).
 std::unique_ptr<tbb::global_control> limitThreads(int threads);
 // The scene's warnings and errors on standard error: import notes, parts left out, and a
-// detector that looks misplaced (analysis/detector_checks.h).
+// detector that looks misplaced (analysis/lens/detector_checks.h).
 void reportSceneNotes(const PreparedScene& scene);
 // The scene of a command that traces: its sources replaced by one beam per --field when
 // given; a scene without [[source]] gets one beam per system field (said on standard error).

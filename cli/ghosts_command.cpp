@@ -5,7 +5,7 @@
 //   veil ghosts examples/scenes/longfocus_360mm_sun.toml --top 5 -o out/ghosts
 //   veil ghosts lens.zmx --field 0,0 --field 0,10 --coating 'L3.*=uncoated' --json
 //
-// A bare lens file (no [[source]]) gets the default scene of analysis/ghosts.h: a collimated
+// A bare lens file (no [[source]]) gets the default scene of analysis/ghosts/ghosts.h: a collimated
 // 1 W beam per system field filling the first surface, an absorbing stop plate, the detector
 // on the image surface. Writes to the output folder (default ./ghosts; with --json only when
 // -o is given): ghosts.csv, ghosts.json, ghosts.md (the
@@ -24,12 +24,12 @@
 #include <optional>
 #include <sstream>
 
-#include "analysis/criterion_names.h"
-#include "analysis/ghost_report.h"
-#include "analysis/ghosts.h"
-#include "analysis/image_output.h"
-#include "analysis/layout.h"
-#include "analysis/path_picture.h"
+#include "analysis/criteria/criterion_names.h"
+#include "analysis/ghosts/ghost_report.h"
+#include "analysis/ghosts/ghosts.h"
+#include "analysis/pictures/layout.h"
+#include "analysis/pictures/path_picture.h"
+#include "analysis/reports/image_output.h"
 #include "cli/options.h"
 #include "cli/progress.h"
 #include "lensdata/output_file.h"
@@ -148,7 +148,7 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
     }
     const bool haveMc = mc.images != nullptr;
 
-    // The table: one set of rows, every format written from it (analysis/ghost_report.h).
+    // The table: one set of rows, every format written from it (analysis/ghosts/ghost_report.h).
     GhostReportSpec rs;
     rs.scene = o.file;
     rs.defaultScene = defaultScene;

@@ -1,5 +1,5 @@
 #pragma once
-// veil ghosts: automated ghost analysis (analysis/ghosts.h).
+// veil ghosts: automated ghost analysis (analysis/ghosts/ghosts.h).
 
 #include <CLI/CLI.hpp>
 #include <string>

@@ -1,5 +1,5 @@
 // veil glare SCENE: the veiling glare index (ISO 9358) at field positions, its specular
-// (ghost) and diffuse (scatter) parts, with errors (analysis/glare.h, docs/glare.md).
+// (ghost) and diffuse (scatter) parts, with errors (analysis/studies/glare.h, docs/glare.md).
 //
 //   veil glare examples/scenes/double_gauss_50mm_painted.toml -o out/glare
 //   veil glare scene.toml --field 0,0 --field 0,15 --spot-deg 1 --passes 16
@@ -15,8 +15,8 @@
 #include <optional>
 #include <sstream>
 
-#include "analysis/chart.h"
-#include "analysis/glare.h"
+#include "analysis/pictures/chart.h"
+#include "analysis/studies/glare.h"
 #include "cli/commands.h"
 #include "cli/options.h"
 #include "cli/progress.h"

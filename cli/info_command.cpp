@@ -15,9 +15,9 @@
 #include <optional>
 #include <sstream>
 
-#include "analysis/detector_checks.h"
-#include "analysis/first_order.h"
-#include "analysis/spot.h"
+#include "analysis/lens/detector_checks.h"
+#include "analysis/lens/first_order.h"
+#include "analysis/lens/spot.h"
 #include "cli/commands.h"
 #include "cli/options.h"
 #include "tracer/scene/scene_setup.h"

@@ -12,7 +12,7 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "analysis/layout.h"
+#include "analysis/pictures/layout.h"
 #include "cli/commands.h"
 #include "cli/options.h"
 #include "geometry/mesh_io.h"

@@ -1,5 +1,5 @@
 // veil objects SCENE: the objects the sources light and the detector sees, ranked by the
-// product (analysis/objects.h).
+// product (analysis/studies/objects.h).
 //
 //   veil objects examples/scenes/longfocus_360mm_sun.toml -n 20000 -o out/objects
 //
@@ -10,7 +10,7 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "analysis/objects.h"
+#include "analysis/studies/objects.h"
 #include "cli/commands.h"
 #include "cli/options.h"
 #include "cli/progress.h"

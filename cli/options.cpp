@@ -17,7 +17,7 @@
 #include <random>
 #include <sstream>
 
-#include "analysis/picture.h"
+#include "analysis/pictures/picture.h"
 #include "lensdata/errors.h"
 #include "lensdata/output_file.h"
 #include "tracer/records/ray_database.h"

@@ -20,8 +20,8 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
-#include "analysis/layout.h"
-#include "analysis/path_picture.h"
+#include "analysis/pictures/layout.h"
+#include "analysis/pictures/path_picture.h"
 #include "cli/options.h"
 #include "cli/progress.h"
 #include "tracer/scene/prepared_scene.h"

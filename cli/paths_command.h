@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "analysis/path_picture.h"
+#include "analysis/pictures/path_picture.h"
 #include "cli/commands.h"
 
 namespace veil::cli {

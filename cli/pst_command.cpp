@@ -1,5 +1,5 @@
 // veil pst SCENE --angles 0:85:1 -n RAYS -o DIR: point source transmittance against the
-// source's angle off the axis (analysis/pst.h).
+// source's angle off the axis (analysis/studies/pst.h).
 //
 //   veil pst examples/lenses/double_gauss_50mm.toml --angles 0:80:5 -n 20000 -o out/pst
 //
@@ -10,8 +10,8 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "analysis/pst.h"
-#include "analysis/sweep.h"
+#include "analysis/studies/pst.h"
+#include "analysis/studies/sweep.h"
 #include "cli/commands.h"
 #include "cli/options.h"
 #include "cli/progress.h"

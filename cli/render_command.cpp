@@ -23,10 +23,10 @@
 #include <optional>
 #include <sstream>
 
-#include "analysis/criterion_names.h"
-#include "analysis/image_output.h"
-#include "analysis/render_criteria.h"
-#include "analysis/render_run.h"
+#include "analysis/criteria/criterion_names.h"
+#include "analysis/criteria/render_criteria.h"
+#include "analysis/reports/image_output.h"
+#include "analysis/runs/render_run.h"
 #include "cli/options.h"
 #include "cli/progress.h"
 #include "lensdata/errors.h"

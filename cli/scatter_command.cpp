@@ -1,4 +1,4 @@
-// veil scatter SCENE: what the scene's scatter models do (analysis/scatter_report.h): each
+// veil scatter SCENE: what the scene's scatter models do (analysis/studies/scatter_report.h): each
 // scattering property's TIS against incidence at the scene's wavelengths, its BRDF (and
 // BTDF) against scatter angle, and measured tables' stated TIS beside the model's.
 //
@@ -13,7 +13,7 @@
 
 #include <iostream>
 
-#include "analysis/scatter_report.h"
+#include "analysis/studies/scatter_report.h"
 #include "cli/commands.h"
 #include "cli/options.h"
 #include "lensdata/output_file.h"

@@ -1,4 +1,5 @@
-// veil sweep SCENE --vary KEY=VALUES ... -n RAYS -o DIR: what-if studies (analysis/sweep.h).
+// veil sweep SCENE --vary KEY=VALUES ... -n RAYS -o DIR: what-if studies
+// (analysis/studies/sweep.h).
 //
 //   veil sweep examples/scenes/longfocus_360mm_sun.toml -n 20000 -o out/finish
 //       --vary properties.black_anodized.scatter.reflectance=0.01:0.09:0.02
@@ -16,7 +17,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "analysis/sweep.h"
+#include "analysis/studies/sweep.h"
 #include "cli/commands.h"
 #include "cli/options.h"
 #include "cli/progress.h"

@@ -4,7 +4,7 @@
 //   veil trace scene.toml -n 1e6 --threads 2 --seed 7 --mode random --roulette 1e-4 -o out/
 //
 // Writes, for every detector, DIR/<name>.exr (float channels value, irradiance, variance,
-// count; the first three scaled by header attributes, analysis/image_output.h) and
+// count; the first three scaled by header attributes, analysis/reports/image_output.h) and
 // DIR/<name>.png (false-colour log preview with a colour bar), and DIR/summary.json (the flux
 // budget and every detector's total flux with its relative error). Progress goes to standard
 // error (cli/progress.h: a bar with rays/s and the time left on a terminal, a few plain lines
@@ -21,12 +21,12 @@
 #include <optional>
 #include <sstream>
 
-#include "analysis/criterion_images.h"
-#include "analysis/criterion_names.h"
-#include "analysis/ghosts.h"
-#include "analysis/image_output.h"
-#include "analysis/ray_statistics.h"
-#include "analysis/stray_light_run.h"
+#include "analysis/criteria/criterion_images.h"
+#include "analysis/criteria/criterion_names.h"
+#include "analysis/ghosts/ghosts.h"
+#include "analysis/reports/image_output.h"
+#include "analysis/runs/ray_statistics.h"
+#include "analysis/runs/stray_light_run.h"
 #include "cli/commands.h"
 #include "cli/options.h"
 #include "cli/progress.h"

@@ -1,5 +1,6 @@
 // veil view SCENE [--where EXPR --first N] -o scene.html: the scene in 3D as one self-contained
-// HTML page (analysis/scene_view.h): lens solids, mechanics, detectors and sources, and with
+// HTML page (analysis/pictures/scene_view.h): lens solids, mechanics, detectors and sources, and
+// with
 // --where the first N rays with a matching path (selected as `veil paths` selects them),
 // coloured by log flux or by event.
 //
@@ -18,8 +19,8 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
-#include "analysis/path_picture.h"
-#include "analysis/scene_view.h"
+#include "analysis/pictures/path_picture.h"
+#include "analysis/pictures/scene_view.h"
 #include "cli/commands.h"
 #include "cli/options.h"
 #include "cli/paths_command.h"

@@ -1,9 +1,9 @@
-// libFuzzer target: a path criterion and a Zemax-style filter (analysis/criteria.h). A
+// libFuzzer target: a path criterion and a Zemax-style filter (analysis/criteria/criteria.h). A
 // criterion that parses must print as text that parses back to the same criterion.
 #include <cstdlib>
 #include <iostream>
 
-#include "analysis/criteria.h"
+#include "analysis/criteria/criteria.h"
 #include "fuzz/fuzz_common.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

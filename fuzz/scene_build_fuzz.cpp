@@ -14,7 +14,7 @@
 #include <algorithm>
 #include <filesystem>
 
-#include "analysis/stray_light_run.h"
+#include "analysis/runs/stray_light_run.h"
 #include "fuzz/fuzz_common.h"
 #include "lensdata/glass_catalog.h"
 #include "tracer/scene/prepared_scene.h"

@@ -19,7 +19,7 @@
 #include <string>
 #include <vector>
 
-#include "analysis/image_output.h"
+#include "analysis/reports/image_output.h"
 #include "cli/app.h"
 #include "cli/commands.h"
 #include "lensdata/errors.h"

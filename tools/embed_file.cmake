@@ -1,13 +1,17 @@
-# Concatenates INPUTS (a list of text files, separated by '|' or ';') into OUTPUT, a C++
-# source defining
+# Concatenates INPUTS (a list of files, separated by '|' or ';'; a newline between two files)
+# into OUTPUT, a C++ source defining
 #   extern const char SYMBOL[];  extern const unsigned long SYMBOLSize;
-# in namespace veil::detail. Used for the built-in glass catalog. The caller passes '|':
-# a ';' list on a custom command line would be split by the shell.
+# in namespace veil::detail (SYMBOL holds SYMBOLSize bytes and a '\0' after them). Used for
+# the built-in glass catalogs and the 3D viewer page. The caller passes '|': a ';' list on a
+# custom command line would be split by the shell.
 string(REPLACE "|" ";" INPUTS "${INPUTS}")
 set(_hex "")
 foreach(_in IN LISTS INPUTS)
+  if(NOT _hex STREQUAL "")
+    string(APPEND _hex "0a")
+  endif()
   file(READ ${_in} _content HEX)
-  string(APPEND _hex "${_content}0a")
+  string(APPEND _hex "${_content}")
 endforeach()
 string(LENGTH "${_hex}" _len)
 math(EXPR _bytes "${_len} / 2")

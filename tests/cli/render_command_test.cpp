@@ -9,7 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "analysis/image_output.h"
+#include "analysis/reports/image_output.h"
 #include "tests/cli/run_veil.h"
 #include "tests/text_checks.h"
 

@@ -19,7 +19,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "analysis/image_output.h"
+#include "analysis/reports/image_output.h"
 #include "tests/cli/run_veil.h"
 
 namespace {

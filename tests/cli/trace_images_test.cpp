@@ -1,5 +1,5 @@
 // The EXR images `veil trace` writes, read back with readDetectorExr(): the scaled channels
-// (analysis/image_output.h) come back in physical units and add up to summary.json's flux.
+// (analysis/reports/image_output.h) come back in physical units and add up to summary.json's flux.
 
 #include <gtest/gtest.h>
 
@@ -12,7 +12,7 @@
 #include <numeric>
 #include <string>
 
-#include "analysis/image_output.h"
+#include "analysis/reports/image_output.h"
 #include "run_veil.h"
 
 namespace {

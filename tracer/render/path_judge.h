@@ -3,8 +3,8 @@
 // two halves traced at different times: the forward half (a photon's events from its emission to
 // the surface where a view point gathers it, or a source sampled from a view point) and the
 // backward half (the view point's specular events back to the detector, reversed into the
-// order light travels them). The criteria module (analysis/render_criteria.h) implements this
-// interface with the seed's three-state evaluator; the tracer knows only this, as it knows
+// order light travels them). The criteria module (analysis/criteria/render_criteria.h) implements
+// this interface with the seed's three-state evaluator; the tracer knows only this, as it knows
 // only BranchFilter for the forward tracer's pruning.
 //
 //   photon:   Emit(sun) Refract(L1.front) ... ScatterReflect(spacer2) ─┐ prefix state

@@ -1,0 +1,77 @@
+#pragma once
+// Detector images split by path criteria, in the same run as the plain images.
+//
+// Every complete path of every ray (root to leaf, tracer/records/path_history.h) that ends in a
+// detector hit is tested against each criterion (skipping those a PathSummary of the path
+// rules out, analysis/criteria/criteria.h); its flux goes into that criterion's image of that
+// detector when it matches, and into the "rest" image when it matches none. Images are filled in
+// ray order after the trace, so they are the same for any thread count, and each ray's
+// contributions are added once per image (per-ray statistics, like the plain images).
+
+#include <map>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "analysis/criteria/criteria.h"
+#include "tracer/records/detector.h"
+#include "tracer/transport/branch_filter.h"
+#include "tracer/transport/nonsequential.h"
+
+namespace veil {
+
+class CriterionImages {
+  public:
+    // `detectors`: empty images of the run (as given to traceNonsequential); `detectorOfObject`
+    // maps object ids to detector indices.
+    CriterionImages(std::vector<std::string> criterionTexts,
+                    std::vector<CompiledCriterion> criteria,
+                    const std::vector<DetectorImage>& detectors, std::vector<int> detectorOfObject);
+
+    // The onRay callback for traceNonsequential (thread-safe).
+    RayCallback callback();
+    // Adds everything collected, in ray order. Call once after the trace. Traced across
+    // ranks: every rank calls it, and rank 0 adds all ranks' rays (the others' images stay
+    // empty).
+    void finish(const Ranks& ranks = Ranks::alone());
+
+    size_t criterionCount() const { return texts_.size(); }
+    const std::vector<CompiledCriterion>& criteria() const { return criteria_; }
+    const std::string& text(size_t c) const { return texts_[c]; }
+    // images[c][d]: criterion c (c == criterionCount() is "the rest") on detector d.
+    const std::vector<std::vector<DetectorImage>>& images() const { return images_; }
+
+  private:
+    struct Hit {
+        int layer;
+        int detector;
+        int pixel;
+        double flux;
+    };
+    void collect(uint64_t ray, const PathHistory& h);
+
+    std::vector<std::string> texts_;
+    std::vector<CompiledCriterion> criteria_;
+    std::vector<int> detectorOfObject_;
+    std::vector<std::vector<DetectorImage>> images_;
+    std::mutex mutex_;
+    std::map<uint64_t, std::vector<Hit>> pending_;
+};
+
+}  // namespace veil
+
+namespace veil {
+
+// Online pruning by criteria (tracer/transport/branch_filter.h): a branch is traced on while at
+// least one criterion may still be true for it, and culled as soon as all are false. A branch's
+// state is one EvaluatorBank buffer, so the copy at every split is a single allocation.
+class CriteriaFilter : public BranchFilter {
+  public:
+    explicit CriteriaFilter(const std::vector<CompiledCriterion>& criteria) : bank_(criteria) {}
+    std::unique_ptr<BranchState> start() const override;
+
+  private:
+    EvaluatorBank bank_;  // refers to the caller's criteria, which must outlive the filter
+};
+
+}  // namespace veil

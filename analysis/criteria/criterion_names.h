@@ -1,0 +1,14 @@
+#pragma once
+// What path criteria may name in a prepared scene: objects (with aliases, resolved optical
+// property and whether they are detectors), media and sources, indexed as in the path
+// histories (analysis/criteria/criteria.h resolves names against this table).
+
+#include "analysis/criteria/criteria.h"
+#include "geometry/scene.h"
+#include "tracer/transport/interaction.h"
+
+namespace veil {
+
+NameTable criterionNames(const Scene& scene, const TransportScene& transport);
+
+}  // namespace veil

@@ -1,0 +1,82 @@
+#pragma once
+// A stray light run as a value: a spec in, a result out, independent of the command line.
+//
+//   PreparedScene + StrayLightSpec (rays per source, transport options, path criteria, online
+//   pruning, a per-ray consumer such as the ray database)
+//     --runStrayLight--> StrayLightResult: the flux budget, every detector's image, the
+//       criterion layers (one per criterion plus "rest"), and report() -> the rows every
+//       output format prints: flux per detector and per criterion with relative errors.
+//
+// Criteria are compiled against the scene before the first ray is traced: a typo costs
+// nothing. `veil trace` is this plus writing images and the summary; studies (sweeps, point
+// source transmittance) compose runs.
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "analysis/criteria/criterion_images.h"
+#include "tracer/scene/prepared_scene.h"
+
+namespace veil {
+
+struct StrayLightSpec {
+    uint64_t raysPerSource = 0;
+    // transport.ranks: the rays split over MPI ranks (tracer/runtime/ranks.h); every rank calls
+    // runStrayLight, and the result is complete on rank 0 only.
+    TransportOptions transport;
+    // Path criteria (docs/criteria.md): one detector layer each, plus "rest".
+    std::vector<std::string> where;
+    // Cull branches once no criterion can match them (needs at least one criterion; then only
+    // the criterion layers are complete).
+    bool prune = false;
+    // Opens a per-ray consumer (the ray database) once the spec has been checked, just
+    // before the first ray, so a bad spec writes nothing; the consumer is then called once
+    // per emitted ray with its history, from worker threads (histories are recorded).
+    std::function<RayCallback()> openConsumer;
+    // Rays done so far, from one thread (may be empty).
+    std::function<void(uint64_t)> progress;
+};
+
+// One row of the report: a detector's total or one of its criterion layers.
+struct StrayLightRow {
+    std::string detector;
+    std::string layer;           // "" for the detector's total, "where1", ..., "rest"
+    std::string criterion;       // the criterion's text; "none of the above" for "rest"
+    double flux = 0.0;           // W or lm
+    double relativeError = 0.0;  // 1 sigma; NaN where no ray arrived
+};
+
+struct StrayLightResult {
+    FluxBudget budget;
+    std::vector<DetectorImage> images;        // one per detector
+    std::unique_ptr<CriterionImages> layers;  // null without criteria
+    uint64_t emittedRays = 0;
+    std::string fluxUnit;  // "W" or "lm"
+    double seconds = 0.0;  // wall time of the trace
+
+    // Per detector: its total, then its criterion layers in order (when there are criteria).
+    std::vector<StrayLightRow> report() const;
+};
+
+// Throws ParseError for a criterion that does not parse or names nothing in the scene, and
+// ModelError when the scene has no source or prune is asked without criteria, before tracing.
+StrayLightResult runStrayLight(const PreparedScene& scene, const StrayLightSpec& spec);
+
+// The spec's rays in `batches` runs with the seeds seed, seed + 1, ... (the first
+// raysPerSource % batches runs one ray more): the common random numbers of the studies
+// (sweep, pst), whose errors come from the spread of the batch values. Each batch's result
+// goes to `onBatch` in order.
+void runStrayLightBatches(const PreparedScene& scene, const StrayLightSpec& spec, int batches,
+                          const std::function<void(int batch, const StrayLightResult&)>& onBatch);
+
+// The mean of batch values and its standard error from their spread (NaN error below two
+// values, NaN mean for none).
+struct BatchMean {
+    double value = 0.0;
+    double error = 0.0;
+};
+BatchMean batchMean(const std::vector<double>& values);
+
+}  // namespace veil

@@ -1,0 +1,308 @@
+#include "analysis/studies/pst.h"
+
+#include <cmath>
+#include <iomanip>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "analysis/ghosts/ghosts.h"
+#include "analysis/lens/first_order.h"
+#include "analysis/pictures/chart.h"
+#include "analysis/runs/render_run.h"
+#include "analysis/runs/stray_light_run.h"
+#include "lensdata/output_file.h"
+#include "tracer/scene/prepared_scene.h"
+
+namespace veil {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+const char* kNominal = "not fresnel and not scatter";
+const char* kStray = "fresnel or scatter";
+
+std::string sci(double v, int digits) {
+    if (!std::isfinite(v)) return "";
+    std::ostringstream os;
+    os << std::scientific << std::setprecision(digits - 1) << v;
+    return os.str();
+}
+nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
+
+}  // namespace
+
+PstResult runPst(const PstSpec& spec, const GlassCatalog& catalog) {
+    if (spec.anglesDeg.empty()) throw ParseError({"--angles", 0, 0}, "no angle to trace");
+    for (double a : spec.anglesDeg)
+        if (!(a >= 0.0 && a < 90.0))
+            throw ParseError({"--angles", 0, 0}, "an off-axis angle must be in [0, 90) degrees");
+    if (!std::isfinite(spec.azimuthDeg))
+        throw ParseError({"--azimuth", 0, 0}, "the azimuth must be a number of degrees");
+    if (spec.batches < 2)
+        throw ParseError({"--batches", 0, 0},
+                         "PST needs at least 2 batches (render: passes) for its errors");
+    if (!spec.render && spec.raysPerAngle < static_cast<uint64_t>(spec.batches))
+        throw ParseError({"-n", 0, 0}, "fewer rays than batches");
+    if (spec.render) {
+        RenderOptions checked = spec.renderOptions;
+        if (checked.initialRadiusMm <= 0.0) checked.initialRadiusMm = 1.0;  // set per scene
+        try {
+            checked.check();
+        } catch (const std::invalid_argument& e) {
+            throw ParseError({"--measure render", 0, 0}, e.what());
+        }
+    }
+
+    const double phi = spec.azimuthDeg * M_PI / 180.0;
+    auto fieldOf = [&](double theta) {
+        return std::pair<double, double>{theta * std::sin(phi), theta * std::cos(phi)};
+    };
+    const SceneFile base = readSceneFile(spec.scene, catalog, spec.edits);
+    if (base.prescription.system.fieldKind != SystemData::FieldKind::AngleDeg)
+        throw ModelError(spec.scene.string(),
+                         "PST needs a lens with an object at infinity (fields in degrees)");
+    SceneFile first = base;
+    setFieldSources(first, catalog, {fieldOf(spec.anglesDeg.front())});
+    const std::unique_ptr<PreparedScene> prepared = PreparedScene::build(std::move(first), catalog);
+
+    PstResult result;
+    for (const Field& f : base.prescription.system.fields)
+        result.fieldDeg = std::max(result.fieldDeg, std::hypot(f.x, f.y));
+    // The beam is uniform over the first surface's aperture disk (mech_sd, else sd) and
+    // brings 1 W through it; the entrance pupil, a disk of the paraxial entrance pupil
+    // diameter, takes (pupil / beam)^2 of that at any angle (collimated light crosses every
+    // disk of the same radius alike, whatever its plane).
+    const EntranceAperture ap = entranceAperture(base.prescription, *base.model);
+    const FirstOrderData fo = computeFirstOrder(*base.model, base.model->primaryWavelength());
+    result.pupilRadiusMm = 0.5 * fo.entrancePupilDiameterMm;
+    result.beamRadiusMm = ap.radiusMm;
+    if (!(result.pupilRadiusMm > 0.0) || !(result.beamRadiusMm >= result.pupilRadiusMm))
+        throw ModelError(spec.scene.string(),
+                         "the beam over the first surface (radius " +
+                             std::to_string(result.beamRadiusMm) +
+                             " mm) does not cover the entrance pupil (radius " +
+                             std::to_string(result.pupilRadiusMm) + " mm)");
+    result.apertureAreaMm2 = M_PI * result.pupilRadiusMm * result.pupilRadiusMm;
+    const double throughPupil = std::pow(result.pupilRadiusMm / result.beamRadiusMm, 2);
+    const DetectorGeometry& det = prepared->setup().detectors.front();
+    result.detector = det.name;
+    result.detectorAreaMm2 = det.widthMm * det.heightMm;
+    std::vector<std::string> where = {kNominal, kStray};
+    where.insert(where.end(), spec.where.begin(), spec.where.end());
+    result.measure = spec.render ? "render" : "trace";
+    if (spec.render)
+        result.quantities = {{"total", ""},
+                             {"specular", "render: visible (nominal image and ghosts)"},
+                             {"scattered", "render: direct + caustic + secondary"}};
+    else
+        result.quantities = {{"total", ""}, {"nominal", kNominal}, {"stray", kStray}};
+    for (size_t k = 0; k < spec.where.size(); ++k)
+        result.quantities.push_back({"where" + std::to_string(k + 1), spec.where[k]});
+    const size_t ghostQuantity = result.quantities.size();
+    result.quantities.push_back({"ghost_estimate", "sequential, all two-reflection ghosts"});
+
+    // Across ranks angle a is measured on rank a mod K; rank 0 takes the rows in order (its
+    // own as it measures them, the others' as they arrive).
+    const Ranks& ranks = spec.ranks;
+    for (size_t a = 0; a < spec.anglesDeg.size(); ++a) {
+        if (!ranks.owns(a)) {
+            if (!ranks.root()) continue;
+            if (spec.progress) spec.progress(a, spec.anglesDeg.size());
+            const Bytes bytes = ranks.receive(static_cast<int>(a % ranks.size()));
+            ByteReader in(bytes);
+            PstRow row;
+            row.angleDeg = in.get<double>();
+            row.inField = in.get<uint8_t>() != 0;
+            row.pst = in.getVector<double>();
+            row.error = in.getVector<double>();
+            if (!in.done()) throw std::runtime_error("a PST row from another rank is damaged");
+            result.rows.push_back(std::move(row));
+            continue;
+        }
+        if (spec.progress) spec.progress(a, spec.anglesDeg.size());
+        const double theta = spec.anglesDeg[a];
+        if (a > 0) {
+            SceneFile file = base;
+            setFieldSources(file, catalog, {fieldOf(theta)});
+            prepared->replaceTransport(std::move(file), catalog);
+        }
+        // [quantity][batch]: flux on the first detector over the flux emitted.
+        std::vector<std::vector<double>> shares(ghostQuantity);
+        const double emitted = prepared->trace().transport.sources.front().totalFlux();
+        if (spec.render) {
+            RenderRunSpec run;
+            run.options = spec.renderOptions;
+            run.options.seed = spec.transport.seed;
+            run.passes = spec.batches;
+            run.detector = det.name;
+            run.where = spec.where;
+            runRenderPasses(*prepared, run, [&](int, const RenderPassTotals& t) {
+                const double incident = emitted * throughPupil;
+                const double visible = t.components[static_cast<size_t>(RenderComponent::Visible)];
+                std::vector<double> values = {t.total(), visible, t.total() - visible};
+                values.insert(values.end(), t.criteria.begin(), t.criteria.end());
+                for (size_t q = 0; q < ghostQuantity; ++q)
+                    shares[q].push_back(values[q] / incident);
+            });
+        } else {
+            StrayLightSpec run;
+            run.raysPerSource = spec.raysPerAngle;
+            run.transport = spec.transport;
+            run.where = where;
+            runStrayLightBatches(*prepared, run, spec.batches, [&](int, const StrayLightResult& r) {
+                // The first detector's rows: its total, then the nominal image, the stray
+                // light, the user's criteria, and the rest (not kept). Each over the flux the
+                // beam brings through the entrance pupil.
+                const std::vector<StrayLightRow> rows = r.report();
+                const double incident = r.budget.emitted * throughPupil;
+                for (size_t q = 0; q < ghostQuantity; ++q)
+                    shares[q].push_back(incident > 0.0 ? rows[q].flux / incident : 0.0);
+            });
+        }
+        PstRow row;
+        row.angleDeg = theta;
+        row.inField = theta <= result.fieldDeg;
+        for (const auto& s : shares) {
+            const BatchMean m = batchMean(s);
+            row.pst.push_back(m.value);
+            row.error.push_back(m.error);
+        }
+        // The sequential ghost estimate: exact for its model, no error.
+        GhostOptions go;
+        go.detector = det.name;
+        const GhostAnalysis ghosts =
+            GhostTracer(prepared->setup(), prepared->trace(), catalog, go).analyse();
+        double ghostFlux = 0.0;
+        for (const GhostEstimate& g : ghosts.ghosts) ghostFlux += g.flux();
+        row.pst.push_back(ghostFlux / (emitted * throughPupil));
+        row.error.push_back(0.0);
+        if (!ranks.root()) {
+            ByteWriter out;
+            out.put(row.angleDeg);
+            out.put(uint8_t(row.inField));
+            out.putVector(row.pst);
+            out.putVector(row.error);
+            ranks.send(0, out.take());
+            continue;
+        }
+        result.rows.push_back(std::move(row));
+    }
+    return result;
+}
+
+std::string PstResult::csv() const {
+    std::ostringstream os;
+    os << "angle_deg,in_field";
+    for (const PstQuantity& q : quantities) os << ",pst_" << q.name << ",error_" << q.name;
+    os << ",irradiance_ratio_total\n";
+    const double toIrradiance = detectorAreaMm2 > 0.0 ? apertureAreaMm2 / detectorAreaMm2 : kNaN;
+    for (const PstRow& r : rows) {
+        os << r.angleDeg << "," << (r.inField ? "yes" : "no");
+        for (size_t q = 0; q < quantities.size(); ++q)
+            os << "," << sci(r.pst[q], 6) << "," << sci(r.error[q], 3);
+        os << "," << sci(r.pst[0] * toIrradiance * std::cos(r.angleDeg * M_PI / 180.0), 6) << "\n";
+    }
+    return os.str();
+}
+
+std::string PstResult::markdown() const {
+    std::ostringstream os;
+    os << "| angle (deg) | in field |";
+    for (const PstQuantity& q : quantities) os << " PST " << q.name << " |";
+    os << "\n|---|---|";
+    for (size_t q = 0; q < quantities.size(); ++q) os << "---|";
+    os << "\n";
+    for (const PstRow& r : rows) {
+        os << "| " << r.angleDeg << " | " << (r.inField ? "yes" : "no") << " |";
+        for (size_t q = 0; q < quantities.size(); ++q) {
+            if (r.pst[q] == 0.0 && !(r.error[q] > 0.0))
+                os << " 0 |";
+            else if (r.error[q] == 0.0)  // the sequential estimate
+                os << " " << sci(r.pst[q], 3) << " |";
+            else
+                os << " " << sci(r.pst[q], 3) << " +- " << sci(r.error[q], 2) << " |";
+        }
+        os << "\n";
+    }
+    os << "\nPST = flux on " << detector
+       << " / flux the collimated beam brings through the entrance pupil (radius " << pupilRadiusMm
+       << " mm; the beam fills the first surface out to " << beamRadiusMm
+       << " mm). The system's field reaches " << fieldDeg << " deg.\n";
+    for (const PstQuantity& q : quantities)
+        if (!q.criterion.empty()) os << "- " << q.name << ": `" << q.criterion << "`\n";
+    return os.str();
+}
+
+std::string PstResult::json() const {
+    nlohmann::json j;
+    j["detector"] = detector;
+    j["measure"] = measure;
+    j["field_deg"] = fieldDeg;
+    j["aperture_area_mm2"] = apertureAreaMm2;
+    j["pupil_radius_mm"] = pupilRadiusMm;
+    j["beam_radius_mm"] = beamRadiusMm;
+    j["detector_area_mm2"] = detectorAreaMm2;
+    j["quantities"] = nlohmann::json::array();
+    for (const PstQuantity& q : quantities)
+        j["quantities"].push_back({{"name", q.name}, {"criterion", q.criterion}});
+    j["rows"] = nlohmann::json::array();
+    for (const PstRow& r : rows) {
+        nlohmann::json row{{"angle_deg", r.angleDeg}, {"in_field", r.inField}};
+        for (size_t q = 0; q < quantities.size(); ++q) {
+            row["pst"][quantities[q].name] = num(r.pst[q]);
+            row["error"][quantities[q].name] = num(r.error[q]);
+        }
+        j["rows"].push_back(row);
+    }
+    return j.dump(2) + "\n";
+}
+
+std::vector<std::filesystem::path> writePst(const PstResult& r,
+                                            const std::filesystem::path& folder) {
+    std::filesystem::create_directories(folder);
+    std::vector<std::filesystem::path> written;
+    auto text = [&](const char* name, const std::string& body) {
+        writeTextFile(folder / name, body);
+        written.push_back(folder / name);
+    };
+    text("pst.csv", r.csv());
+    text("pst.md", r.markdown());
+    text("pst.json", r.json());
+    ChartSpec chart;
+    chart.title = "veil pst: point source transmittance on " + r.detector;
+    chart.xLabel = "source angle off axis (deg)";
+    chart.yLabel = "PST (detector flux / flux through the entrance pupil)";
+    chart.logY = true;
+    if (r.fieldDeg > 0.0) {
+        std::ostringstream edge;
+        edge << "field edge, " << r.fieldDeg << " deg";
+        chart.xMarkers.push_back({r.fieldDeg, edge.str()});
+    }
+    for (size_t q = 0; q < r.quantities.size(); ++q) {
+        ChartSeries s;
+        s.label = r.quantities[q].name;
+        if (!r.quantities[q].criterion.empty()) s.label += " (" + r.quantities[q].criterion + ")";
+        s.dashed = q == 0;
+        // The ghost estimate: points where it is above 0 (no error bars: it has none).
+        const bool estimate = r.quantities[q].name == "ghost_estimate";
+        for (const PstRow& row : r.rows) {
+            s.x.push_back(row.angleDeg);
+            s.y.push_back(row.pst[q]);
+            s.yError.push_back(estimate ? 0.0 : row.error[q]);
+        }
+        chart.series.push_back(std::move(s));
+    }
+    try {
+        const Picture pic = drawChart(chart);
+        pic.writeSvg(folder / "pst.svg");
+        pic.writePng(folder / "pst.png", 1600);
+        written.push_back(folder / "pst.svg");
+        written.push_back(folder / "pst.png");
+    } catch (const std::invalid_argument&) {
+        // Nothing reached the detector at any angle: the tables say so, there is no curve.
+    }
+    return written;
+}
+
+}  // namespace veil

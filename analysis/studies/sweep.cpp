@@ -1,0 +1,813 @@
+#include "analysis/studies/sweep.h"
+
+#include <algorithm>
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "analysis/ghosts/ghosts.h"
+#include "analysis/pictures/chart.h"
+#include "analysis/runs/render_run.h"
+#include "analysis/runs/stray_light_run.h"
+#include "lensdata/input_file.h"
+#include "lensdata/output_file.h"
+#include "lensdata/toml_document.h"
+#include "tracer/scene/prepared_scene.h"
+
+namespace veil {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// Ranges longer than this are a mistake (a step of 1e-9 typed for 1e-3).
+constexpr size_t kMaxValues = 10000;
+
+std::optional<double> number(const std::string& s) {
+    double v = 0.0;
+    const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+    if (ec != std::errc() || end != s.data() + s.size() || !std::isfinite(v)) return std::nullopt;
+    return v;
+}
+
+// Shortest text that reads back to the same double, without float noise from the range
+// arithmetic: a value within 1e-12 of a 12-significant-digit rounding is written rounded.
+std::string numberText(double v) {
+    std::ostringstream os;
+    os << std::setprecision(12) << v;
+    const double rounded = std::stod(os.str());
+    if (std::abs(rounded - v) <= 1e-12 * std::max(std::abs(v), 1e-300)) v = rounded;
+    char buf[64];
+    const auto [end, ec] = std::to_chars(buf, buf + sizeof(buf), v);
+    return std::string(buf, end);
+}
+
+std::vector<std::string> split(const std::string& s, char sep) {
+    std::vector<std::string> out;
+    std::string cur;
+    for (char c : s) {
+        if (c == sep) {
+            out.push_back(cur);
+            cur.clear();
+        } else {
+            cur += c;
+        }
+    }
+    out.push_back(cur);
+    return out;
+}
+
+// FNV-1a, 64 bit: a stable fingerprint of a file's text.
+std::string textHash(const std::filesystem::path& path) {
+    const std::string text = readInputFile(path).value_or("");
+    uint64_t h = 1469598103934665603ull;
+    for (unsigned char c : text) {
+        h ^= c;
+        h *= 1099511628211ull;
+    }
+    std::ostringstream os;
+    os << std::hex << std::setw(16) << std::setfill('0') << h;
+    return os.str();
+}
+
+// The measured scatter tables (`scatter = { model = "tabulated", brdf/btdf = "x.bsdf" }`)
+// a document's [properties.NAME] tables name, by path relative to it.
+void addTableHashes(const TomlDocument& doc, const std::filesystem::path& dir,
+                    nlohmann::json& tables) {
+    const auto props = doc.root().get("properties");
+    if (!props || !props->isTable()) return;
+    for (auto&& [name, node] : props->asTable().table()) {
+        const auto* scatter = node.as_table() ? node.as_table()->get("scatter") : nullptr;
+        if (!scatter || !scatter->as_table()) continue;
+        for (const char* key : {"brdf", "btdf"})
+            if (const auto* f = scatter->as_table()->get(key); f && f->is_string()) {
+                const std::filesystem::path path = dir / f->as_string()->get();
+                tables[path.lexically_normal().string()] = textHash(path);
+            }
+    }
+}
+
+// The files a variant depends on: the scene and, when it names them, its lens file, its
+// material libraries and the scatter tables either names.
+nlohmann::json inputHashes(const std::filesystem::path& scene) {
+    nlohmann::json j;
+    j["scene"] = textHash(scene);
+    try {
+        if (scene.extension() == ".toml") {
+            TomlDocument doc = TomlDocument::fromFile(scene);
+            if (const auto lens = doc.root().get("lens"); lens && lens->isString())
+                j["lens"] = textHash(scene.parent_path() / lens->asString());
+            nlohmann::json tables = nlohmann::json::object();
+            addTableHashes(doc, scene.parent_path(), tables);
+            if (const auto m = doc.root().get("materials")) {
+                std::vector<TomlValue> files;
+                if (m->isArray()) files = m->asArray();
+                if (m->isString()) files.push_back(*m);
+                for (const TomlValue& f : files) {
+                    if (!f.isString()) continue;
+                    const std::filesystem::path path = scene.parent_path() / f.asString();
+                    j["materials"][path.lexically_normal().string()] = textHash(path);
+                    addTableHashes(TomlDocument::fromFile(path), path.parent_path(), tables);
+                }
+            }
+            if (!tables.empty()) j["scatter_tables"] = tables;
+        }
+    } catch (const std::exception&) {
+        // Unreadable here: readSceneFile reports it for the variant.
+    }
+    return j;
+}
+
+nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
+double numOf(const nlohmann::json& j) { return j.is_number() ? j.get<double>() : kNaN; }
+
+std::string csvField(const std::string& s) {
+    if (s.find_first_of(",\"\n") == std::string::npos) return s;
+    std::string out = "\"";
+    for (char c : s) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+    return out + "\"";
+}
+
+std::string sci(double v, int digits = 4) {
+    if (!std::isfinite(v)) return "";
+    std::ostringstream os;
+    os << std::scientific << std::setprecision(digits - 1) << v;
+    return os.str();
+}
+
+}  // namespace
+
+// Axes
+
+std::vector<std::string> parseSweepValues(const std::string& text, const std::string& origin) {
+    auto fail = [&](const std::string& m) -> void { throw ParseError({origin, 0, 0}, m); };
+    if (text.empty()) fail("no values after '='");
+    std::vector<std::string> out;
+    const std::vector<std::string> range = split(text, ':');
+    if (range.size() == 1) {
+        for (const std::string& v : split(text, ',')) {
+            if (v.empty()) fail("an empty value in the list '" + text + "'");
+            out.push_back(v);
+        }
+        return out;
+    }
+    if (range.size() != 3)
+        fail("a range is START:STOP:STEP or START:STOP:xFACTOR, not '" + text + "'");
+    const auto start = number(range[0]), stop = number(range[1]);
+    if (!start || !stop) fail("the ends of the range '" + text + "' must be numbers");
+    const bool geometric = !range[2].empty() && (range[2][0] == 'x' || range[2][0] == '*');
+    const auto step = number(geometric ? range[2].substr(1) : range[2]);
+    if (!step) fail("the step of the range '" + text + "' must be a number");
+    if (geometric) {
+        if (!(*start > 0.0) || !(*stop > 0.0) || !(*step > 0.0) || *step == 1.0)
+            fail("a geometric range needs positive ends and a factor other than 1: '" + text + "'");
+        const double f = *stop >= *start ? *step : 1.0 / *step;
+        if ((*stop > *start) != (f > 1.0) && *stop != *start)
+            fail("the factor of '" + text + "' moves away from its end");
+        const double n = std::log(*stop / *start) / std::log(f);
+        if (n + 1 > kMaxValues) fail("'" + text + "' has more than 10000 values");
+        for (int k = 0; k <= static_cast<int>(std::floor(n + 1e-9)); ++k)
+            out.push_back(numberText(*start * std::pow(f, k)));
+        return out;
+    }
+    if (*step == 0.0) fail("the step of '" + text + "' is 0");
+    if ((*stop - *start) * *step < 0.0) fail("the step of '" + text + "' moves away from its end");
+    const double n = (*stop - *start) / *step;
+    if (n + 1 > kMaxValues) fail("'" + text + "' has more than 10000 values");
+    for (int k = 0; k <= static_cast<int>(std::floor(n + 1e-9)); ++k)
+        out.push_back(numberText(*start + k * *step));
+    return out;
+}
+
+SweepAxis parseSweepAxis(const std::string& option) {
+    SweepAxis a;
+    a.option = "--vary " + option;
+    const size_t eq = option.find('=');
+    if (eq == std::string::npos || eq == 0)
+        throw ParseError({a.option, 0, 0},
+                         "expected KEY=VALUES, as in "
+                         "properties.black.reflectance=0.01,0.05,0.1");
+    a.key = option.substr(0, eq);
+    a.values = parseSweepValues(option.substr(eq + 1), a.option);
+    return a;
+}
+
+std::vector<std::vector<std::string>> sweepVariants(const SweepSpec& spec) {
+    std::vector<std::vector<std::string>> out;
+    if (spec.axes.empty()) return out;
+    if (spec.zip) {
+        const size_t n = spec.axes.front().values.size();
+        for (const SweepAxis& a : spec.axes)
+            if (a.values.size() != n)
+                throw ParseError({a.option, 0, 0},
+                                 "--zip pairs the values of every --vary: this one has " +
+                                     std::to_string(a.values.size()) + ", the first " +
+                                     std::to_string(n));
+        for (size_t i = 0; i < n; ++i) {
+            std::vector<std::string> v;
+            for (const SweepAxis& a : spec.axes) v.push_back(a.values[i]);
+            out.push_back(std::move(v));
+        }
+        return out;
+    }
+    std::vector<size_t> index(spec.axes.size(), 0);
+    while (true) {
+        std::vector<std::string> v;
+        for (size_t k = 0; k < spec.axes.size(); ++k) v.push_back(spec.axes[k].values[index[k]]);
+        out.push_back(std::move(v));
+        size_t k = spec.axes.size();
+        while (k > 0) {
+            --k;
+            if (++index[k] < spec.axes[k].values.size()) break;
+            index[k] = 0;
+            if (k == 0) return out;
+        }
+    }
+}
+
+// Running
+
+namespace {
+
+std::vector<SceneEdit> editsOf(const SweepSpec& spec, const std::vector<std::string>& values) {
+    std::vector<SceneEdit> edits = spec.baseEdits;
+    for (size_t k = 0; k < spec.axes.size(); ++k)
+        edits.push_back(
+            {spec.axes[k].key, values[k], "--vary " + spec.axes[k].key + "=" + values[k]});
+    return edits;
+}
+
+nlohmann::json fingerprint(const SweepSpec& spec, const nlohmann::json& hashes,
+                           const std::vector<std::string>& values) {
+    const TransportOptions& t = spec.transport;
+    nlohmann::json j;
+    j["format"] = 1;
+    j["measure"] = std::string(toString(spec.measure));
+    j["detector"] = spec.detector;
+    if (spec.measure == SweepMeasure::Render) {
+        std::ostringstream render;
+        render << spec.render;
+        j["render"] = render.str();
+    }
+    j["inputs"] = hashes;
+    for (const SceneEdit& e : spec.baseEdits) j["set"][e.key] = e.value;
+    for (size_t k = 0; k < spec.axes.size(); ++k) j["values"][spec.axes[k].key] = values[k];
+    j["rays_per_source"] = spec.raysPerSource;
+    j["batches"] = spec.batches;
+    j["seed"] = t.seed;
+    j["mode"] = t.mode == TransportOptions::Mode::Random ? "random" : "split";
+    j["min_flux"] = t.minRelativeFlux;
+    j["max_split_depth"] = t.maxSplitDepth;
+    j["roulette"] = t.rouletteRelativeFlux;
+    j["max_segments"] = t.maxSegments;
+    j["where"] = spec.where;
+    j["prune"] = spec.prune;
+    j["fields_deg"] = spec.fieldsDeg;
+    return j;
+}
+
+// The quantities of a run: each detector's total and criterion layers.
+std::vector<std::string> quantityNames(const std::vector<StrayLightRow>& rows) {
+    std::vector<std::string> names;
+    for (const StrayLightRow& r : rows)
+        names.push_back(r.layer.empty() ? r.detector : r.detector + ": " + r.layer);
+    return names;
+}
+
+}  // namespace
+
+std::string_view toString(SweepMeasure m) {
+    switch (m) {
+        case SweepMeasure::Trace:
+            return "trace";
+        case SweepMeasure::Render:
+            return "render";
+        case SweepMeasure::Ghosts:
+            return "ghosts";
+    }
+    return "?";
+}
+
+namespace {
+
+// One variant as measured, with the quantities it measured and, when it was traced (not read
+// back), the record to save as variants/<k>.json.
+struct Measured {
+    SweepVariant variant;
+    std::vector<std::string> quantities, criteria;
+    std::string unit, record;
+
+    // Between ranks (tracer/runtime/ranks.h).
+    Bytes pack() const {
+        ByteWriter w;
+        const SweepVariant& v = variant;
+        w.put(int32_t(v.index));
+        w.put(uint64_t(v.values.size()));
+        for (const std::string& x : v.values) w.putString(x);
+        w.putString(v.error);
+        w.put(uint8_t(v.resumed));
+        w.put(uint8_t(v.geometryReused));
+        w.put(v.seconds);
+        w.put(uint64_t(v.batchValues.size()));
+        for (const auto& b : v.batchValues) w.putVector(b);
+        for (const auto* list : {&quantities, &criteria}) {
+            w.put(uint64_t(list->size()));
+            for (const std::string& x : *list) w.putString(x);
+        }
+        w.putString(unit);
+        w.putString(record);
+        return w.take();
+    }
+    static Measured unpack(const Bytes& bytes) {
+        ByteReader r(bytes);
+        Measured m;
+        SweepVariant& v = m.variant;
+        v.index = r.get<int32_t>();
+        v.values.resize(r.get<uint64_t>());
+        for (std::string& x : v.values) x = r.getString();
+        v.error = r.getString();
+        v.resumed = r.get<uint8_t>() != 0;
+        v.geometryReused = r.get<uint8_t>() != 0;
+        v.seconds = r.get<double>();
+        v.batchValues.resize(r.get<uint64_t>());
+        for (auto& b : v.batchValues) b = r.getVector<double>();
+        for (auto* list : {&m.quantities, &m.criteria}) {
+            list->resize(r.get<uint64_t>());
+            for (std::string& x : *list) x = r.getString();
+        }
+        m.unit = r.getString();
+        m.record = r.getString();
+        if (!r.done()) throw std::runtime_error("a sweep variant from another rank is damaged");
+        return m;
+    }
+};
+
+}  // namespace
+
+SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
+    if (spec.axes.empty()) throw ModelError("sweep", "nothing to vary: give at least one --vary");
+    const bool ghosts = spec.measure == SweepMeasure::Ghosts;
+    if (!ghosts && spec.batches < 2)
+        throw ParseError({"--batches", 0, 0},
+                         "a sweep needs at least 2 batches (render: passes) for its errors");
+    if (spec.measure == SweepMeasure::Trace &&
+        spec.raysPerSource < static_cast<uint64_t>(spec.batches))
+        throw ParseError({"-n", 0, 0}, "fewer rays (" + std::to_string(spec.raysPerSource) +
+                                           ") than batches (" + std::to_string(spec.batches) + ")");
+    if (ghosts && !spec.where.empty())
+        throw ParseError({"--where", 0, 0},
+                         "criteria split traced or rendered light: --measure ghosts has its own "
+                         "(each ghost's), see veil ghosts");
+    if (ghosts && spec.prune)
+        throw ParseError({"--prune", 0, 0}, "--prune needs --measure trace or render");
+    if (spec.measure == SweepMeasure::Render) {
+        RenderOptions checked = spec.render;
+        if (checked.initialRadiusMm <= 0.0) checked.initialRadiusMm = 1.0;  // set per scene
+        try {
+            checked.check();
+        } catch (const std::invalid_argument& e) {
+            throw ParseError({"--measure render", 0, 0}, e.what());
+        }
+    }
+    for (size_t a = 0; a < spec.axes.size(); ++a)
+        for (size_t b = 0; b < a; ++b)
+            if (spec.axes[a].key == spec.axes[b].key)
+                throw ParseError({spec.axes[a].option, 0, 0},
+                                 spec.axes[a].key + " is varied twice (also by " +
+                                     spec.axes[b].option + "): give its values once");
+    const std::vector<std::vector<std::string>> variants = sweepVariants(spec);
+    // Every edit checked before anything is built: a key that names nothing stops the sweep.
+    checkSceneEdits(spec.scene, spec.baseEdits);
+    for (const SweepAxis& a : spec.axes)
+        for (const std::string& v : a.values)
+            checkSceneEdits(spec.scene, {{a.key, v, "--vary " + a.key + "=" + v}});
+    bool transportOnly = true;
+    for (const SweepAxis& a : spec.axes) transportOnly = transportOnly && editsTransportOnly(a.key);
+
+    SweepResult result;
+    for (const SweepAxis& a : spec.axes) result.keys.push_back(a.key);
+    result.batches = ghosts ? 1 : spec.batches;
+    result.measure = std::string(toString(spec.measure));
+    const nlohmann::json hashes = inputHashes(spec.scene);
+    const std::filesystem::path store = spec.folder / "variants";
+    const Ranks& ranks = spec.ranks;
+    if (ranks.root()) std::filesystem::create_directories(store);
+    std::unique_ptr<PreparedScene> shared;  // transport-only sweeps: the geometry, built once
+
+    // Variant k measured (or read back from an earlier run's file), with its own quantities.
+    auto labelOf = [&](const std::vector<std::string>& values) {
+        std::string label;
+        for (size_t a = 0; a < spec.axes.size(); ++a)
+            label += (a ? ", " : "") + spec.axes[a].key + "=" + values[a];
+        return label;
+    };
+    auto measure = [&](size_t k) {
+        Measured m;
+        SweepVariant& v = m.variant;
+        v.index = static_cast<int>(k);
+        v.values = variants[k];
+        const std::string label = labelOf(v.values);
+        if (spec.progress) spec.progress(v.index, static_cast<int>(variants.size()), -1, label);
+        const nlohmann::json print = fingerprint(spec, hashes, v.values);
+        const std::filesystem::path saved = store / (std::to_string(k) + ".json");
+
+        // A finished variant with the same fingerprint is read back.
+        if (std::filesystem::exists(saved)) {
+            try {
+                std::ifstream in(saved);
+                const nlohmann::json j = nlohmann::json::parse(in);
+                if (j.at("fingerprint") == print) {
+                    v.resumed = true;
+                    v.error = j.value("error", "");
+                    if (v.error.empty()) {
+                        m.quantities = j.at("quantities").get<std::vector<std::string>>();
+                        m.criteria = j.at("criteria").get<std::vector<std::string>>();
+                        m.unit = j.at("unit").get<std::string>();
+                        for (const auto& q : j.at("batch_values")) {
+                            std::vector<double> b;
+                            for (const auto& x : q) b.push_back(numOf(x));
+                            v.batchValues.push_back(std::move(b));
+                        }
+                    }
+                }
+            } catch (const std::exception&) {
+                m = Measured{};  // unreadable: traced again
+                v.index = static_cast<int>(k);
+                v.values = variants[k];
+            }
+        }
+
+        if (!v.resumed) {
+            const auto started = std::chrono::steady_clock::now();
+            try {
+                SceneFile file = readSceneFile(spec.scene, catalog, editsOf(spec, v.values));
+                if (!spec.fieldsDeg.empty())
+                    setFieldSources(file, catalog, spec.fieldsDeg);
+                else if (file.sources.empty())
+                    addSystemFieldSources(file, catalog);
+                PreparedScene* prepared = nullptr;
+                std::unique_ptr<PreparedScene> own;
+                if (transportOnly && shared) {
+                    shared->replaceTransport(std::move(file), catalog);
+                    prepared = shared.get();
+                    v.geometryReused = true;
+                } else {
+                    own = PreparedScene::build(std::move(file), catalog);
+                    prepared = own.get();
+                }
+                // One batch's values: the first names the quantities.
+                auto record = [&](int b, const std::vector<std::string>& names,
+                                  const std::vector<std::string>& criteria, const std::string& unit,
+                                  const std::vector<double>& values) {
+                    if (b == 0) {
+                        m.quantities = names;
+                        m.criteria = criteria;
+                        m.unit = unit;
+                        v.batchValues.assign(values.size(), {});
+                    }
+                    for (size_t q = 0; q < values.size(); ++q)
+                        v.batchValues[q].push_back(values[q]);
+                    if (spec.progress)
+                        spec.progress(v.index, static_cast<int>(variants.size()), b + 1, label);
+                };
+                const TransportScene& ts = prepared->trace().transport;
+                const std::string unit = ts.sources.front().unit() == FluxUnit::Lumen ? "lm" : "W";
+                if (spec.measure == SweepMeasure::Trace) {
+                    StrayLightSpec run;
+                    run.raysPerSource = spec.raysPerSource;
+                    run.transport = spec.transport;
+                    run.where = spec.where;
+                    run.prune = spec.prune;
+                    runStrayLightBatches(
+                        *prepared, run, spec.batches, [&](int b, const StrayLightResult& r) {
+                            const std::vector<StrayLightRow> rows = r.report();
+                            std::vector<std::string> criteria;
+                            std::vector<double> values;
+                            for (const StrayLightRow& row : rows) {
+                                criteria.push_back(row.criterion);
+                                values.push_back(row.flux);
+                            }
+                            record(b, quantityNames(rows), criteria, r.fluxUnit, values);
+                        });
+                } else if (spec.measure == SweepMeasure::Render) {
+                    RenderRunSpec run;
+                    run.options = spec.render;
+                    run.options.seed = spec.transport.seed;
+                    run.options.prune = spec.prune;
+                    run.passes = spec.batches;
+                    run.detector = spec.detector;
+                    run.where = spec.where;
+                    std::vector<std::string> names, criteria;
+                    runRenderPasses(*prepared, run, [&](int pass, const RenderPassTotals& t) {
+                        if (names.empty()) {
+                            const std::string d = spec.detector.empty()
+                                                      ? prepared->trace().images[0].geometry().name
+                                                      : spec.detector;
+                            names.push_back(d + ": render");
+                            criteria.push_back("");
+                            for (int c = 0; c < kRenderComponents; ++c) {
+                                names.push_back(d + ": " +
+                                                std::string(toString(RenderComponent(c))));
+                                criteria.push_back("");
+                            }
+                            for (size_t k = 0; k < spec.where.size(); ++k) {
+                                names.push_back(d + ": where" + std::to_string(k + 1));
+                                criteria.push_back(spec.where[k]);
+                            }
+                        }
+                        std::vector<double> values{t.total()};
+                        for (double c : t.components) values.push_back(c);
+                        for (double c : t.criteria) values.push_back(c);
+                        record(pass - 1, names, criteria, unit, values);
+                    });
+                } else {
+                    GhostOptions go;
+                    go.detector = spec.detector;
+                    const GhostTracer tracer(prepared->setup(), prepared->trace(), catalog, go);
+                    const GhostAnalysis a = tracer.analyse();
+                    double all = 0.0;
+                    for (const GhostEstimate& g : a.ghosts) all += g.flux();
+                    const std::string& d = a.detector;
+                    record(
+                        0, {d + ": nominal", d + ": ghosts", d + ": brightest ghost"},
+                        // The brightest ghost may be another pair in each variant.
+                        {nominalCriterion(d), a.allGhostsCriterion, ""}, unit,
+                        {a.nominal.flux(), all, a.ghosts.empty() ? 0.0 : a.ghosts.front().flux()});
+                }
+                if (transportOnly && !shared) shared = std::move(own);
+            } catch (const std::exception& e) {
+                v.error = e.what();
+                v.batchValues.clear();
+            }
+            v.seconds =
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+            nlohmann::json j;
+            j["fingerprint"] = print;
+            j["error"] = v.error;
+            j["seconds"] = v.seconds;
+            j["quantities"] = m.quantities;
+            j["criteria"] = m.criteria;
+            j["unit"] = m.unit;
+            j["batch_values"] = nlohmann::json::array();
+            for (const auto& q : v.batchValues) {
+                nlohmann::json b = nlohmann::json::array();
+                for (double x : q) b.push_back(num(x));
+                j["batch_values"].push_back(b);
+            }
+            m.record = j.dump(1) + "\n";
+        }
+        return m;
+    };
+    // Across ranks variant k is measured on rank k mod K; rank 0 takes the variants in order
+    // (its own as it measures them, the others' as they arrive: a round of K variants at a
+    // time), saves them and compares them with the first.
+    for (size_t k = 0; k < variants.size(); ++k) {
+        Measured m;
+        if (ranks.owns(k)) {
+            m = measure(k);
+            if (!ranks.root()) {
+                ranks.send(0, m.pack());
+                continue;
+            }
+        } else if (ranks.root()) {
+            if (spec.progress)
+                spec.progress(static_cast<int>(k), static_cast<int>(variants.size()), -1,
+                              labelOf(variants[k]));
+            m = Measured::unpack(ranks.receive(static_cast<int>(k % ranks.size())));
+            if (spec.progress)
+                spec.progress(static_cast<int>(k), static_cast<int>(variants.size()), spec.batches,
+                              labelOf(variants[k]));
+        } else {
+            continue;
+        }
+        SweepVariant& v = m.variant;
+        if (!m.record.empty()) writeTextFile(store / (std::to_string(k) + ".json"), m.record);
+        if (v.error.empty()) {
+            if (result.quantities.empty()) {
+                result.quantities = m.quantities;
+                result.criteria = m.criteria;
+                result.unit = m.unit;
+            } else if (m.quantities != result.quantities) {
+                v.error =
+                    "its detectors differ from the first variant's, so the rows cannot be "
+                    "compared";
+                v.batchValues.clear();
+            }
+        }
+        result.variants.push_back(std::move(v));
+    }
+    if (!ranks.root()) return result;  // its variants went to rank 0
+
+    // Values and the changes against the first variant, batch by batch.
+    const SweepVariant& first = result.variants.front();
+    for (SweepVariant& v : result.variants) {
+        if (!v.error.empty()) continue;
+        for (size_t q = 0; q < v.batchValues.size(); ++q) {
+            SweepValue m;
+            const BatchMean own = batchMean(v.batchValues[q]);
+            m.value = own.value;
+            m.error = ghosts ? 0.0 : own.error;  // the sequential estimate is exact
+            if (first.error.empty() && q < first.batchValues.size() &&
+                first.batchValues[q].size() == v.batchValues[q].size()) {
+                std::vector<double> d;
+                for (size_t b = 0; b < v.batchValues[q].size(); ++b)
+                    d.push_back(v.batchValues[q][b] - first.batchValues[q][b]);
+                const BatchMean change = batchMean(d);
+                m.change = change.value;
+                m.changeError = ghosts ? 0.0 : change.error;
+            } else {
+                m.change = m.changeError = kNaN;
+            }
+            v.measured.push_back(m);
+        }
+    }
+    return result;
+}
+
+// Tables
+
+std::string SweepResult::csv() const {
+    std::ostringstream os;
+    os << "variant";
+    for (const std::string& k : keys) os << "," << csvField(k);
+    os << ",quantity,criterion,value,error,change,change_error,unit,status\n";
+    for (const SweepVariant& v : variants) {
+        auto lead = [&] {
+            os << v.index;
+            for (const std::string& x : v.values) os << "," << csvField(x);
+        };
+        if (!v.error.empty()) {
+            lead();
+            os << ",,,,,,," << unit << "," << csvField("error: " + v.error) << "\n";
+            continue;
+        }
+        for (size_t q = 0; q < v.measured.size(); ++q) {
+            const SweepValue& m = v.measured[q];
+            lead();
+            os << "," << csvField(quantities[q]) << "," << csvField(criteria[q]) << ","
+               << sci(m.value, 6) << "," << sci(m.error, 3) << "," << sci(m.change, 6) << ","
+               << sci(m.changeError, 3) << "," << unit << "," << (v.resumed ? "resumed" : "ok")
+               << "\n";
+        }
+    }
+    return os.str();
+}
+
+std::string SweepResult::markdown() const {
+    std::ostringstream os;
+    os << "| variant |";
+    for (const std::string& k : keys) os << " " << k << " |";
+    os << " quantity | value (" << unit << ") | change against variant 0 |\n|---|";
+    for (size_t k = 0; k < keys.size(); ++k) os << "---|";
+    os << "---|---|---|\n";
+    auto pm = [](double v, double e) {
+        if (!std::isfinite(v)) return std::string("-");
+        std::string s = sci(v, 4);
+        if (std::isfinite(e) && e > 0.0) s += " +- " + sci(e, 2);
+        return s;
+    };
+    for (const SweepVariant& v : variants) {
+        auto lead = [&] {
+            os << "| " << v.index << " |";
+            for (const std::string& x : v.values) os << " " << x << " |";
+        };
+        if (!v.error.empty()) {
+            lead();
+            std::string e = v.error;
+            std::replace(e.begin(), e.end(), '|', '/');
+            std::replace(e.begin(), e.end(), '\n', ' ');
+            os << " (not run) | error: " << e << " | |\n";
+            continue;
+        }
+        for (size_t q = 0; q < v.measured.size(); ++q) {
+            lead();
+            const SweepValue& m = v.measured[q];
+            os << " " << quantities[q] << " | " << pm(m.value, m.error) << " | "
+               << (v.index == 0 ? std::string("(reference)") : pm(m.change, m.changeError))
+               << " |\n";
+        }
+    }
+    bool anyCriterion = false;
+    for (const std::string& c : criteria) anyCriterion = anyCriterion || !c.empty();
+    if (anyCriterion) {
+        os << "\n";
+        for (size_t q = 0; q < quantities.size(); ++q)
+            if (!criteria[q].empty()) os << "- " << quantities[q] << ": `" << criteria[q] << "`\n";
+    }
+    return os.str();
+}
+
+std::string SweepResult::json() const {
+    nlohmann::json j;
+    j["keys"] = keys;
+    j["quantities"] = quantities;
+    j["criteria"] = criteria;
+    j["unit"] = unit;
+    j["measure"] = measure;
+    j["batches"] = batches;
+    j["variants"] = nlohmann::json::array();
+    for (const SweepVariant& v : variants) {
+        nlohmann::json r;
+        r["index"] = v.index;
+        for (size_t k = 0; k < keys.size(); ++k) r["values"][keys[k]] = v.values[k];
+        r["error"] = v.error;
+        r["resumed"] = v.resumed;
+        r["geometry_reused"] = v.geometryReused;
+        r["seconds"] = v.seconds;
+        r["measured"] = nlohmann::json::array();
+        for (size_t q = 0; q < v.measured.size(); ++q) {
+            const SweepValue& m = v.measured[q];
+            nlohmann::json b = nlohmann::json::array();
+            for (double x : v.batchValues[q]) b.push_back(num(x));
+            r["measured"].push_back({{"quantity", quantities[q]},
+                                     {"value", num(m.value)},
+                                     {"error", num(m.error)},
+                                     {"change", num(m.change)},
+                                     {"change_error", num(m.changeError)},
+                                     {"batch_values", b}});
+        }
+        j["variants"].push_back(r);
+    }
+    return j.dump(2) + "\n";
+}
+
+// Plot
+
+std::vector<std::filesystem::path> writeSweep(const SweepResult& r,
+                                              const std::filesystem::path& folder) {
+    std::filesystem::create_directories(folder);
+    std::vector<std::filesystem::path> written;
+    auto text = [&](const char* name, const std::string& body) {
+        writeTextFile(folder / name, body);
+        written.push_back(folder / name);
+    };
+    text("sweep.csv", r.csv());
+    text("sweep.md", r.markdown());
+    text("sweep.json", r.json());
+
+    // x: the first axis's values (numbers, else categories in order of appearance); a series
+    // per quantity and per combination of the other axes' values.
+    std::vector<std::string> xTexts;
+    for (const SweepVariant& v : r.variants)
+        if (std::find(xTexts.begin(), xTexts.end(), v.values[0]) == xTexts.end())
+            xTexts.push_back(v.values[0]);
+    bool numeric = true;
+    for (const std::string& t : xTexts) numeric = numeric && number(t).has_value();
+    ChartSpec chart;
+    chart.xLabel = r.keys[0];
+    chart.yLabel = "flux on the detector (" + r.unit + ")";
+    chart.title = "veil sweep: stray light against " + r.keys[0];
+    if (!numeric) chart.xCategories = xTexts;
+    std::vector<double> xs, ys;
+    std::vector<std::string> seriesKeys;
+    for (const SweepVariant& v : r.variants) {
+        if (!v.error.empty()) continue;
+        std::string others;
+        for (size_t k = 1; k < r.keys.size(); ++k) others += ", " + r.keys[k] + "=" + v.values[k];
+        const double x =
+            numeric ? *number(v.values[0])
+                    : static_cast<double>(std::find(xTexts.begin(), xTexts.end(), v.values[0]) -
+                                          xTexts.begin());
+        for (size_t q = 0; q < v.measured.size(); ++q) {
+            const std::string key = r.quantities[q] + others;
+            auto it = std::find(seriesKeys.begin(), seriesKeys.end(), key);
+            if (it == seriesKeys.end()) {
+                seriesKeys.push_back(key);
+                ChartSeries s;
+                s.label = key;
+                if (!r.criteria[q].empty()) s.label += " (" + r.criteria[q] + ")";
+                // A detector's total is dashed when its criteria are drawn too (the rest
+                // often lies on it).
+                // The detector's total (trace: its name alone; render: "D: render") is
+                // dashed, drawn under its parts.
+                const std::string& name = r.quantities[q];
+                const bool total =
+                    name.find(": ") == std::string::npos || name.ends_with(": render");
+                s.dashed = total && r.quantities.size() > 1;
+                chart.series.push_back(s);
+                it = seriesKeys.end() - 1;
+            }
+            ChartSeries& s = chart.series[static_cast<size_t>(it - seriesKeys.begin())];
+            s.x.push_back(x);
+            s.y.push_back(v.measured[q].value);
+            s.yError.push_back(v.measured[q].error);
+            xs.push_back(x);
+            ys.push_back(v.measured[q].value);
+        }
+    }
+    if (chart.series.empty()) return written;  // every variant failed: nothing to plot
+    chart.logX = numeric && chooseLogAxis(xs);
+    chart.logY = chooseLogAxis(ys);
+    const Picture pic = drawChart(chart);
+    pic.writeSvg(folder / "sweep.svg");
+    pic.writePng(folder / "sweep.png", 1600);
+    written.push_back(folder / "sweep.svg");
+    written.push_back(folder / "sweep.png");
+    return written;
+}
+
+}  // namespace veil
