@@ -46,7 +46,8 @@
 #include <map>
 #include <memory>
 
-#include "analysis/ghosts/ghosts.h"
+#include "analysis/ghosts/ghost_monte_carlo.h"
+#include "analysis/lens/default_scene.h"
 #include "tracer/scene/scene_setup.h"
 #include "tracer/scene/trace_setup.h"
 #include "tracer/sequential/sequential_trace.h"

@@ -8,6 +8,8 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
+#include <functional>
+#include <memory>
 #include <cstdio>
 #include <iostream>
 #include <string>
@@ -67,6 +69,56 @@ bool runsOnRanks(const std::string& command) {
     return command == "trace" || command == "render" || command == "sweep" || command == "pst";
 }
 
+// A subcommand: how its options are declared and how it runs, over options it owns.
+struct Subcommand {
+    std::function<void(CLI::App&)> declare;
+    std::function<int(const CommonOptions&)> run;
+};
+
+template <class Options>
+Subcommand subcommand(void (*declare)(CLI::App&, Options&),
+                      int (*run)(const CommonOptions&, const Options&)) {
+    auto options = std::make_shared<Options>();
+    return {[options, declare](CLI::App& app) { declare(app, *options); },
+            [options, run](const CommonOptions& common) { return run(common, *options); }};
+}
+
+// Every command of veil, by name, in the order --help lists them.
+std::vector<std::pair<std::string, Subcommand>> subcommands() {
+    return {{"info", subcommand(addInfoCommand, runInfo)},
+            {"layout", subcommand(addLayoutCommand, runLayout)},
+            {"export", subcommand(addExportCommand, runExport)},
+            {"trace", subcommand(addTraceCommand, runTrace)},
+            {"rays", subcommand(addRaysCommand, runRays)},
+            {"paths", subcommand(addPathsCommand, runPaths)},
+            {"view", subcommand(addViewCommand, runView)},
+            {"ghosts", subcommand(addGhostsCommand, runGhosts)},
+            {"render", subcommand(addRenderCommand, runRender)},
+            {"sweep", subcommand(addSweepCommand, runSweepCommand)},
+            {"pst", subcommand(addPstCommand, runPstCommand)},
+            {"objects", subcommand(addObjectsCommand, runObjectsCommand)},
+            {"scatter", subcommand(addScatterCommand, runScatterCommand)},
+            {"glare", subcommand(addGlareCommand, runGlareCommand)}};
+}
+
+// The message for a first word that is no command (empty when it is one): the nearest
+// command, at most two edits away.
+std::string unknownCommand(const CLI::App& app, const std::string& word) {
+    std::string best;
+    size_t bestDistance = 3;
+    for (const CLI::App* sub : app.get_subcommands({})) {
+        if (sub->get_name() == word) return "";
+        const size_t d = distance(word, sub->get_name());
+        if (d < bestDistance) {
+            bestDistance = d;
+            best = sub->get_name();
+        }
+    }
+    std::string message = "unknown command '" + word + "'";
+    if (!best.empty()) message += "; did you mean '" + best + "'?";
+    return message;
+}
+
 }  // namespace
 
 int runCommandLine(const std::vector<std::string>& args, bool rethrow) {
@@ -88,54 +140,12 @@ int runCommandLine(const std::vector<std::string>& args, bool rethrow) {
     app.add_option("--set", common.sets,
                    "KEY=VALUE: edit the scene (or its lens) file as it is read, as sweep's "
                    "--vary does (repeatable)");
-
-    InfoOptions info;
-    addInfoCommand(app, info);
-    LayoutOptions layout;
-    addLayoutCommand(app, layout);
-    ExportOptions exportOptions;
-    addExportCommand(app, exportOptions);
-    TraceOptions traceOptions;
-    addTraceCommand(app, traceOptions);
-    RaysOptions raysOptions;
-    addRaysCommand(app, raysOptions);
-    PathsOptions pathsOptions;
-    addPathsCommand(app, pathsOptions);
-    ViewOptions viewOptions;
-    addViewCommand(app, viewOptions);
-    GhostsOptions ghostsOptions;
-    addGhostsCommand(app, ghostsOptions);
-    RenderCommandOptions renderOptions;
-    addRenderCommand(app, renderOptions);
-    SweepOptions sweepOptions;
-    addSweepCommand(app, sweepOptions);
-    PstOptions pstOptions;
-    addPstCommand(app, pstOptions);
-    ObjectsOptions objectsOptions;
-    addObjectsCommand(app, objectsOptions);
-    ScatterOptions scatterOptions;
-    addScatterCommand(app, scatterOptions);
-    GlareOptions glareOptions;
-    addGlareCommand(app, glareOptions);
-
-    // A first word that is no command and no option: name the nearest command.
+    const auto commands = subcommands();
+    for (const auto& [name, command] : commands) command.declare(app);
     if (argc > 1 && argv[1][0] != '-') {
-        const std::string word = argv[1];
-        std::string best;
-        size_t bestDistance = 3;  // at most two edits away
-        bool known = false;
-        for (const CLI::App* sub : app.get_subcommands({})) {
-            known |= sub->get_name() == word;
-            const size_t d = distance(word, sub->get_name());
-            if (d < bestDistance) {
-                bestDistance = d;
-                best = sub->get_name();
-            }
-        }
-        if (!known) {
-            std::string message = "unknown command '" + word + "'";
-            if (!best.empty()) message += "; did you mean '" + best + "'?";
-            if (rethrow) throw UsageError(message);
+        const std::string message = unknownCommand(app, argv[1]);
+        if (!message.empty() && rethrow) throw UsageError(message);
+        if (!message.empty()) {
             std::cerr << "veil: error: " << message << "\nRun veil --help for the commands.\n";
             return 2;
         }
@@ -152,22 +162,9 @@ int runCommandLine(const std::vector<std::string>& args, bool rethrow) {
                 throw UsageError("veil " + sub->get_name() +
                                  " runs in one process: start it without mpirun (veil trace, "
                                  "render, sweep and pst split their work over the ranks)");
-        for (CLI::App* sub : app.get_subcommands()) {
-            if (sub->get_name() == "info") return runInfo(common, info);
-            if (sub->get_name() == "layout") return runLayout(common, layout);
-            if (sub->get_name() == "export") return runExport(common, exportOptions);
-            if (sub->get_name() == "trace") return runTrace(common, traceOptions);
-            if (sub->get_name() == "rays") return runRays(common, raysOptions);
-            if (sub->get_name() == "paths") return runPaths(common, pathsOptions);
-            if (sub->get_name() == "view") return runView(common, viewOptions);
-            if (sub->get_name() == "ghosts") return runGhosts(common, ghostsOptions);
-            if (sub->get_name() == "render") return runRender(common, renderOptions);
-            if (sub->get_name() == "sweep") return runSweepCommand(common, sweepOptions);
-            if (sub->get_name() == "pst") return runPstCommand(common, pstOptions);
-            if (sub->get_name() == "objects") return runObjectsCommand(common, objectsOptions);
-            if (sub->get_name() == "scatter") return runScatterCommand(common, scatterOptions);
-            if (sub->get_name() == "glare") return runGlareCommand(common, glareOptions);
-        }
+        for (CLI::App* sub : app.get_subcommands())
+            for (const auto& [name, command] : commands)
+                if (sub->get_name() == name) return command.run(common);
     } catch (const UsageError& e) {
         if (rethrow) throw;
         return fail(e.what(), 2);

@@ -24,52 +24,6 @@
 
 namespace veil::cli {
 
-namespace {
-
-// The glare spread functions, log-log: every position's total; with one position, its
-// specular and diffuse parts too. The spot image's radius of the first position marked.
-ChartSpec spreadChart(const GlareResult& result) {
-    ChartSpec chart;
-    chart.title = "Glare spread function: a point source's stray light around its image";
-    chart.xLabel = "distance from the point source's image (mm)";
-    chart.yLabel = "GSF (1/mm^2: irradiance over the disc's flux)";
-    chart.logX = chart.logY = true;
-    auto label = [](const GlareField& f) {
-        std::ostringstream os;
-        os << std::setprecision(4) << f.fieldDeg.x << ", " << f.fieldDeg.y << " deg, f/"
-           << std::setprecision(3) << f.fNumber;
-        return os.str();
-    };
-    size_t spreads = 0;
-    for (const GlareField& f : result.fields) spreads += f.spread ? 1 : 0;
-    for (const GlareField& f : result.fields) {
-        if (!f.spread) continue;
-        const GlareSpread& g = *f.spread;
-        auto series = [&](const std::string& name, const std::vector<GlareValue>& v, bool dashed) {
-            ChartSeries s{name, {}, {}, {}, dashed, false};
-            for (size_t a = 0; a < v.size(); ++a) {
-                s.x.push_back(spreadRadius(g.edgesMm[a], g.edgesMm[a + 1]));
-                s.y.push_back(v[a].value);
-                s.yError.push_back(v[a].error);
-            }
-            return s;
-        };
-        chart.series.push_back(series(spreads > 1 ? label(f) : "total", g.total, false));
-        if (spreads == 1) {
-            chart.series.push_back(series("specular (image and ghosts)", g.specular, true));
-            chart.series.push_back(series("diffuse (scatter)", g.diffuse, true));
-        }
-    }
-    for (const GlareField& f : result.fields)
-        if (f.spread) {
-            chart.xMarkers.push_back({f.spotImageRadiusMm, "spot image"});
-            break;
-        }
-    return chart;
-}
-
-}  // namespace
-
 void addGlareCommand(CLI::App& app, GlareOptions& o) {
     CLI::App* sub = app.add_subcommand(
         "glare", "veiling glare index (ISO 9358) at field positions: ghosts and scatter");
@@ -134,75 +88,15 @@ int runGlareCommand(const CommonOptions& common, const GlareOptions& o) {
     spec.render.raysPerPixel = o.raysPerPixel;
     spec.render.seed = o.seed;
     const auto limit = limitThreads(o.threads);
-    std::optional<ProgressReporter> reporter;
-    if (!o.quiet)
-        spec.progress = [&](size_t field, const std::string& run, int pass, int passes) {
-            if (pass == 0) {
-                reporter.emplace("glare: position " + std::to_string(field + 1) + ", " + run,
-                                 static_cast<uint64_t>(passes), "passes");
-                return;
-            }
-            reporter->update(static_cast<uint64_t>(pass));
-            if (pass == passes) {
-                reporter->finish();
-                reporter.reset();
-            }
-        };
+    ProgressReporter reporter;
+    if (!o.quiet) spec.progress = reporter.sink();
     const GlareResult result = runGlare(file, catalog, spec);
+    reporter.finish();
 
     WrittenFiles written;
     if (!dir.empty()) {
         written.beginRun(dir);
-        std::filesystem::create_directories(dir);
-        std::vector<std::pair<std::string, std::string>> files = {{"glare.md", result.markdown()},
-                                                                  {"glare.csv", result.csv()},
-                                                                  {"glare.json", result.json()}};
-        bool spreads = false;
-        for (const GlareField& f : result.fields) spreads = spreads || f.spread.has_value();
-        if (spreads) files.push_back({"gsf.csv", result.spreadCsv()});
-        for (const auto& [name, text] : files) {
-            writeTextFile(dir / name, text);
-            written.add(dir / name);
-        }
-        if (spreads) writePicture(drawChart(spreadChart(result)), dir / "gsf", 1600, written);
-        if (result.fields.size() >= 2) {
-            ChartSpec chart;
-            chart.title = "Veiling glare index, black spot " +
-                          std::to_string(o.spotDeg).substr(0, 4) + " deg";
-            chart.xLabel = "field angle of the black spot (deg)";
-            chart.yLabel = "VGI (%)";
-            std::vector<double> apertures;
-            for (const GlareField& f : result.fields)
-                if (std::find(apertures.begin(), apertures.end(), f.fNumber) == apertures.end())
-                    apertures.push_back(f.fNumber);
-            auto fnum = [](double n) {
-                std::ostringstream os;
-                os << "f/" << std::setprecision(3) << n;
-                return os.str();
-            };
-            for (double n : apertures) {
-                const std::string tag = apertures.size() > 1 ? " " + fnum(n) : "";
-                ChartSeries total{"VGI" + tag, {}, {}, {}},
-                    specular{"specular (ghosts)" + tag, {}, {}, {}, true},
-                    diffuse{"diffuse (scatter)" + tag, {}, {}, {}, true};
-                for (const GlareField& f : result.fields) {
-                    if (f.fNumber != n) continue;
-                    const double angle = std::hypot(f.fieldDeg.x, f.fieldDeg.y);
-                    for (auto [s, v] : {std::pair{&total, f.vgi}, std::pair{&specular, f.specular},
-                                        std::pair{&diffuse, f.diffuse}}) {
-                        s->x.push_back(angle);
-                        s->y.push_back(100.0 * v.value);
-                        s->yError.push_back(100.0 * v.error);
-                    }
-                }
-                chart.series.push_back(total);
-                if (apertures.size() == 1) {
-                    chart.series.push_back(specular);
-                    chart.series.push_back(diffuse);
-                }
-            }
-            writePicture(drawChart(chart), dir / "glare", 1600, written);
-        }
+        for (const std::filesystem::path& f : writeGlareFiles(result, dir)) written.add(f);
         written.finishRun();
     }
     printReport(result.json(), result.markdown(), written, o.json, o.quiet);

@@ -62,21 +62,10 @@ int runObjectsCommand(const CommonOptions& common, const ObjectsOptions& o) {
     spec.rank = o.rank == "estimate" ? ObjectsSpec::Rank::Estimate : ObjectsSpec::Rank::Product;
     const std::filesystem::path dir = outputFolder(o.output, "objects", o.json);
     const auto limit = limitThreads(o.threads);
-    std::optional<ProgressReporter> reporter;
-    std::string pass;
-    if (!o.quiet)
-        spec.progress = [&](const std::string& p, uint64_t done, uint64_t total) {
-            if (p != pass) {
-                if (reporter) reporter->finish();
-                reporter.emplace(
-                    p == "source" ? "objects: lit by the sources" : "objects: seen by the detector",
-                    total);
-                pass = p;
-            }
-            reporter->update(done);
-        };
+    ProgressReporter reporter;
+    if (!o.quiet) spec.progress = reporter.sink();
     const ObjectsResult result = runObjects(*prepared, spec);
-    if (reporter) reporter->finish();
+    reporter.finish();
 
     WrittenFiles written;
     if (!dir.empty()) {

@@ -205,20 +205,6 @@ std::vector<std::pair<double, double>> parseFields(const std::vector<std::string
     return out;
 }
 
-std::string formatFlux(double flux, double relativeError, const std::string& unit) {
-    std::ostringstream os;
-    if (flux == 0.0) {
-        os << "0 " << unit << " (no hits)";
-        return os.str();
-    }
-    os << std::scientific << std::setprecision(6) << flux << " " << unit << " +- ";
-    if (std::isfinite(relativeError))
-        os << std::fixed << std::setprecision(3) << 100.0 * relativeError << " %";
-    else
-        os << "? %";
-    return os.str();
-}
-
 void requireWritableFolder(const std::filesystem::path& folder, const std::string& option,
                            const std::string& shown) {
     namespace fs = std::filesystem;

@@ -68,9 +68,6 @@ CLI::Option* addFields(CLI::App* sub, std::vector<std::string>& fields);
 // The --field values as (x, y); a malformed one is a ParseError naming it.
 std::vector<std::pair<double, double>> parseFields(const std::vector<std::string>& fields);
 
-// A Monte Carlo flux with its relative standard error: "1.234560e-03 W +- 0.512 %"; a flux
-// of exactly zero (no ray arrived) reads "0 W (no hits)", not "+- inf %".
-std::string formatFlux(double flux, double relativeError, const std::string& unit);
 
 // Throws ParseError naming `option` unless `folder` (or the nearest existing folder above it)
 // is a folder veil may create files in.

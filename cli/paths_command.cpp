@@ -97,13 +97,13 @@ int runPaths(const CommonOptions& common, const PathsOptions& o) {
                                                    o.mode, o.minRelativeFlux);
     po.whereSource = "--where 1";  // as trace names its criteria
     // Progress by batch; the run ends early once --first rays are found.
-    std::optional<ProgressReporter> reporter;
+    ProgressReporter reporter;
     if (!o.quiet) {
-        reporter.emplace("paths", po.maxRays);
-        po.progress = [&reporter](uint64_t done) { reporter->update(done); };
+        po.progress = reporter.sink();
+        po.progress({po.task, 0, po.maxRays});
     }
     const PathSelection sel = selectPaths(ts.transport, ts.images, po);
-    if (reporter) reporter->finishAt(sel.raysTraced);
+    reporter.finishAt(sel.raysTraced);
 
     veil::LayoutOptions lo;
     lo.title = setup.prescription.system.name.empty() ? o.file : setup.prescription.system.name;

@@ -10,6 +10,8 @@
 #include <sstream>
 #include <utility>
 
+#include "analysis/reports/format.h"
+
 namespace veil::cli {
 
 namespace {
@@ -18,8 +20,10 @@ namespace {
 // keeps a call that comes a hair early from skipping a whole frame.
 constexpr double kRedrawSeconds = 0.18;
 constexpr int kBarWidth = 30;
+// A task of unknown size in a log: a line at most this often.
+constexpr double kOpenLineSeconds = 10.0;
 
-double rate(uint64_t rays, double seconds) { return seconds > 0.0 ? rays / seconds : 0.0; }
+double rate(uint64_t units, double seconds) { return seconds > 0.0 ? units / seconds : 0.0; }
 
 // A rate as text: whole numbers from 100 up, three significant digits below (passes/s).
 std::string rateText(double r) {
@@ -31,103 +35,144 @@ std::string rateText(double r) {
     return os.str();
 }
 
+std::string etaText(const ProgressEvent& e, double seconds) {
+    if (std::isfinite(e.etaSeconds)) return duration(std::max(e.etaSeconds, 0.0));
+    const double r = rate(e.done, seconds);
+    if (e.total == 0 || !(r > 0.0)) return "-";
+    return duration(static_cast<double>(e.total - std::min(e.done, e.total)) / r);
+}
+
 }  // namespace
 
-std::string duration(double s) {
-    std::ostringstream os;
-    if (s >= 3600) os << static_cast<int>(s / 3600) << "h";
-    if (s >= 60) os << static_cast<int>(std::fmod(s, 3600) / 60) << "m";
-    os << static_cast<int>(std::fmod(s, 60)) << "s";
-    return os.str();
-}
-
-std::string elapsed(double s) {
-    if (s >= 60.0) return duration(s);
-    std::ostringstream os;
-    os << std::fixed << std::setprecision(1) << s << " s";
-    return os.str();
-}
-
-ProgressReporter::ProgressReporter(std::string label, uint64_t totalRays, std::string unit)
-    : label_(std::move(label)),
-      unit_(std::move(unit)),
-      totalRays_(totalRays),
-      terminal_(isatty(fileno(stderr)) != 0),
-      start_(std::chrono::steady_clock::now()) {}
+ProgressReporter::ProgressReporter() : terminal_(isatty(fileno(stderr)) != 0) {}
 
 ProgressReporter::~ProgressReporter() {
-    if (terminal_ && !finished_ && lastDrawSeconds_ >= 0.0) std::cerr << "\n" << std::flush;
+    if (terminal_ && open_ && lastDrawSeconds_ >= 0.0) std::cerr << "\n" << std::flush;
 }
 
 double ProgressReporter::secondsSinceStart() const {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
 }
 
-void ProgressReporter::update(uint64_t doneRays) {
-    if (finished_) return;
-    doneRays = std::min(doneRays, totalRays_);
-    lastDoneRays_ = doneRays;
+void ProgressReporter::start(const ProgressEvent& e) {
+    finish();
+    open_ = true;
+    last_ = e;
+    last_.done = 0;
+    start_ = std::chrono::steady_clock::now();
+    lastDrawSeconds_ = -1.0;
+    drawnUnits_ = 0;
+    nextQuarter_ = 0;
+    lastLineSeconds_ = -1e9;
+}
+
+void ProgressReporter::report(const ProgressEvent& e) {
+    if (!open_ || e.task != last_.task) start(e);
+    last_ = e;
+    if (last_.total > 0) last_.done = std::min(last_.done, last_.total);
     const double seconds = secondsSinceStart();
     if (terminal_) {
-        if (lastDrawSeconds_ < 0.0 || seconds - lastDrawSeconds_ >= kRedrawSeconds)
-            drawBar(doneRays, seconds);
+        if (lastDrawSeconds_ < 0.0 || seconds - lastDrawSeconds_ >= kRedrawSeconds) {
+            if (last_.total > 0)
+                drawBar(seconds);
+            else
+                drawOpen(seconds);
+        }
         return;
     }
-    // The end of the run is finish()'s "done" line, not a quarter.
-    if (doneRays >= totalRays_) return;
-    const double fraction = static_cast<double>(doneRays) / totalRays_;
+    if (last_.total == 0) {
+        if (seconds - lastLineSeconds_ < kOpenLineSeconds) return;
+        writeLine(seconds);
+        lastLineSeconds_ = seconds;
+        return;
+    }
+    // The end of the task is finish()'s "done" line, not a quarter.
+    if (last_.done >= last_.total) return;
+    const double fraction = static_cast<double>(last_.done) / last_.total;
     if (fraction * 4.0 < nextQuarter_) return;
-    writeLine(doneRays, seconds);
+    writeLine(seconds);
     nextQuarter_ = static_cast<int>(std::floor(fraction * 4.0)) + 1;
 }
 
+void ProgressReporter::finishAt(uint64_t done) {
+    if (!open_) return;
+    last_.total = done;
+    last_.done = done;
+    finish();
+}
+
 void ProgressReporter::finish() {
-    if (finished_) return;
+    if (!open_) return;
     const double seconds = secondsSinceStart();
-    lastDoneRays_ = totalRays_;
+    if (last_.total > 0) last_.done = last_.total;
     if (terminal_) {
-        // The tracer's last update is usually the full bar already.
-        if (lastDrawSeconds_ < 0.0 || drawnRays_ != totalRays_) drawBar(totalRays_, seconds);
+        // The run's last event is usually the full bar already.
+        if (lastDrawSeconds_ < 0.0 || drawnUnits_ != last_.done) {
+            if (last_.total > 0)
+                drawBar(seconds);
+            else
+                drawOpen(seconds);
+        }
         std::cerr << "\n" << std::flush;
     } else {
         std::ostringstream os;
-        os << label_ << ": done, " << totalRays_ << " " << unit_ << " in " << elapsed(seconds)
-           << ", " << rateText(rate(totalRays_, seconds)) << " " << unit_ << "/s\n";
-        std::cerr << os.str() << std::flush;
+        os << last_.task << ": done, " << last_.done << " " << last_.unit << " in "
+           << elapsed(seconds) << ", " << rateText(rate(last_.done, seconds)) << " "
+           << last_.unit << "/s";
+        if (last_.total == 0 && !last_.state.empty()) os << ", " << last_.state;
+        std::cerr << os.str() << "\n" << std::flush;
     }
-    finished_ = true;
+    open_ = false;
 }
 
-void ProgressReporter::drawBar(uint64_t doneRays, double seconds) {
-    const double fraction = totalRays_ ? static_cast<double>(doneRays) / totalRays_ : 1.0;
+void ProgressReporter::drawBar(double seconds) {
+    const double fraction =
+        last_.total ? static_cast<double>(last_.done) / last_.total : 1.0;
     const int filled = static_cast<int>(kBarWidth * fraction);
-    const double raysPerSecond = rate(doneRays, seconds);
-    const std::string left =
-        raysPerSecond > 0.0 ? duration((totalRays_ - doneRays) / raysPerSecond) : "-";
     // Formatted aside so std::cerr keeps its own format flags; trailing blanks wipe what a
     // longer previous line left behind.
     std::ostringstream os;
-    os << "\r" << label_ << " [" << std::string(filled, '#') << std::string(kBarWidth - filled, ' ')
-       << "] " << std::setw(5) << std::fixed << std::setprecision(1) << 100.0 * fraction << "%  "
-       << rateText(raysPerSecond) << " " << unit_ << "/s  ETA " << left << "   ";
+    os << "\r" << last_.task << " [" << std::string(filled, '#')
+       << std::string(kBarWidth - filled, ' ') << "] " << std::setw(5) << std::fixed
+       << std::setprecision(1) << 100.0 * fraction << "%  "
+       << rateText(rate(last_.done, seconds)) << " " << last_.unit << "/s  ETA "
+       << etaText(last_, seconds);
+    if (!last_.state.empty()) os << "  " << last_.state;
+    os << "   ";
     std::cerr << os.str() << std::flush;
     lastDrawSeconds_ = seconds;
-    drawnRays_ = doneRays;
+    drawnUnits_ = last_.done;
 }
 
-void ProgressReporter::writeLine(uint64_t doneRays, double seconds) {
+void ProgressReporter::drawOpen(double seconds) {
     std::ostringstream os;
-    os << label_ << ": " << std::fixed << std::setprecision(1) << 100.0 * doneRays / totalRays_
-       << " % (" << doneRays << " of " << totalRays_ << " " << unit_ << "), "
-       << rateText(rate(doneRays, seconds)) << " " << unit_ << "/s, " << elapsed(seconds)
-       << " elapsed\n";
+    os << "\r" << last_.task << ": " << last_.done << " " << last_.unit;
+    if (!last_.state.empty()) os << ", " << last_.state;
+    os << ", ETA " << etaText(last_, seconds) << "\033[K";
+    std::cerr << os.str() << std::flush;
+    lastDrawSeconds_ = seconds;
+    drawnUnits_ = last_.done;
+}
+
+void ProgressReporter::writeLine(double seconds) {
+    std::ostringstream os;
+    os << last_.task << ": ";
+    if (last_.total > 0)
+        os << std::fixed << std::setprecision(1) << 100.0 * last_.done / last_.total << " % ("
+           << last_.done << " of " << last_.total << " " << last_.unit << "), "
+           << rateText(rate(last_.done, seconds)) << " " << last_.unit << "/s, ";
+    else
+        os << last_.done << " " << last_.unit << ", "
+           << (last_.state.empty() ? "" : last_.state + ", ") << "ETA "
+           << etaText(last_, seconds) << ", ";
+    os << elapsed(seconds) << " elapsed\n";
     std::cerr << os.str() << std::flush;
 }
 
 std::ostream& operator<<(std::ostream& os, const ProgressReporter& p) {
-    return os << "ProgressReporter{'" << p.label_ << "', " << p.lastDoneRays_ << " of "
-              << p.totalRays_ << " " << p.unit_ << ", " << (p.terminal_ ? "terminal" : "log lines")
-              << (p.finished_ ? ", finished" : "") << "}";
+    return os << "ProgressReporter{'" << p.last_.task << "', " << p.last_.done << " of "
+              << p.last_.total << " " << p.last_.unit << ", "
+              << (p.terminal_ ? "terminal" : "log lines") << (p.open_ ? "" : ", finished") << "}";
 }
 
 }  // namespace veil::cli

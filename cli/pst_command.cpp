@@ -82,15 +82,13 @@ int runPstCommand(const CommonOptions& common, const PstOptions& o) {
     const GlassCatalog catalog = loadCatalog(common);
     const std::filesystem::path dir = outputFolder(o.output, "pst", o.json);
     const auto limit = limitThreads(o.threads);
-    if (!o.quiet)
-        spec.progress = [&](size_t a, size_t n) {
-            std::cerr << "pst: angle " << a + 1 << " of " << n << " (" << spec.anglesDeg[a]
-                      << " deg)\n";
-        };
+    ProgressReporter reporter;
+    if (!o.quiet) spec.progress = reporter.sink();
     // Under mpirun the angles split over the ranks; rank 0 writes (docs/scaling.md).
     spec.ranks = Ranks::world();
     const PstResult result = runPst(spec, catalog);
     if (!spec.ranks.root()) return 0;  // its rows went to rank 0
+    reporter.finish();
     WrittenFiles written;
     if (!o.json || !o.output.empty()) {
         written.beginRun(dir);

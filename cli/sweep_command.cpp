@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "analysis/reports/format.h"
 #include "analysis/studies/sweep.h"
 #include "cli/commands.h"
 #include "cli/options.h"
@@ -105,26 +106,14 @@ int runSweepCommand(const CommonOptions& common, const SweepOptions& o) {
     auto since = [&] {
         return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     };
-    // A line per variant, ended when the next one starts or the sweep ends.
-    bool lineOpen = false;
-    if (!o.quiet) {
-        spec.progress = [&](int variant, int variants, int batch, const std::string& label) {
-            if (batch == -1) {
-                if (lineOpen) std::cerr << "\n";
-                std::cerr << "sweep: variant " << variant + 1 << " of " << variants << " (" << label
-                          << ")" << std::flush;
-                lineOpen = true;
-            } else if (batch == o.batches) {
-                std::cerr << ": " << elapsed(since()) << " elapsed" << std::flush;
-            }
-        };
-    }
+    ProgressReporter reporter;
+    if (!o.quiet) spec.progress = reporter.sink();
     // A sweep continues the variants an earlier run finished: its files stay.
     WrittenFiles written;
     if (spec.ranks.root()) written.beginRun(spec.folder, true);
     const SweepResult result = runSweep(spec, catalog);
     if (!spec.ranks.root()) return 0;  // its variants went to rank 0
-    if (lineOpen) std::cerr << "\n";
+    reporter.finish();
 
     const std::vector<std::filesystem::path> files = writeSweep(result, spec.folder);
     for (const auto& f : files) written.add(f);

@@ -54,8 +54,12 @@ void addViewCommand(CLI::App& app, ViewOptions& o) {
     addReportFlags(sub, o.json, o.quiet);
 }
 
-int runView(const CommonOptions& common, const ViewOptions& o) {
-    namespace fs = std::filesystem;
+namespace {
+
+namespace fs = std::filesystem;
+
+// -o names an HTML file veil may write; --colour event needs paths.
+void checkViewOptions(const ViewOptions& o) {
     const fs::path out(o.output);
     if (out.empty() || !out.has_filename())
         throw ParseError({"-o " + o.output, 0, 0}, "expected an HTML file name");
@@ -65,6 +69,65 @@ int runView(const CommonOptions& common, const ViewOptions& o) {
                           o.output);
     if (o.where.empty() && o.colour == "event")
         throw ParseError({"--colour event", 0, 0}, "colours ray paths: give --where too");
+}
+
+// The first --first rays with a path matching --where, as veil paths selects them.
+PathSelection viewPaths(const PreparedScene& prepared, const ViewOptions& o) {
+    const TraceSetup& ts = prepared.trace();
+    const auto limit = limitThreads(o.threads);
+    PathSelectionOptions po = pathSelectionOptions(ts, o.where, o.first, o.rays, o.batch, o.seed,
+                                                   o.mode, o.minRelativeFlux);
+    ProgressReporter reporter;
+    po.task = "view";
+    if (!o.quiet && !o.json) {
+        po.progress = reporter.sink();
+        po.progress({po.task, 0, po.maxRays});
+    }
+    PathSelection sel = selectPaths(ts.transport, ts.images, po);
+    reporter.finishAt(sel.raysTraced);
+    if (sel.rays.size() < static_cast<size_t>(o.first))
+        std::cerr << "veil: only " << sel.rays.size() << " of " << sel.raysTraced
+                  << " rays have a matching path; raise -n to find more\n";
+    return sel;
+}
+
+void printViewReport(const ViewOptions& o, const nlohmann::json& data, size_t sources,
+                     const std::optional<PathSelection>& sel) {
+    const fs::path out(o.output);
+    size_t triangles = 0, objects = 0;
+    for (const nlohmann::json& obj : data["objects"])
+        if (obj["triangles"].get<size_t>() > 0) {
+            ++objects;
+            triangles += obj["triangles"].get<size_t>();
+        }
+    WrittenFiles written;
+    written.add(out);
+    if (o.json) {
+        nlohmann::json j{{"scene", o.file},   {"objects", objects},          {"triangles", triangles},
+                         {"sources", sources}, {"bytes", fs::file_size(out)}, {"files", written.json()}};
+        if (sel) {
+            j["where"] = o.where;
+            j["rays_found"] = sel->rays.size();
+            j["paths_drawn"] = sel->pathCount();
+            j["rays_traced"] = sel->raysTraced;
+            j["seed"] = o.seed;
+        }
+        std::cout << j.dump(2) << "\n";
+        return;
+    }
+    std::cout << objects << " objects (" << triangles << " triangles), " << sources << " source"
+              << (sources == 1 ? "" : "s");
+    if (sel)
+        std::cout << ", " << sel->pathCount() << " paths of " << sel->rays.size()
+                  << " rays matching '" << o.where << "' in " << sel->raysTraced << " rays";
+    std::cout << "; " << fs::file_size(out) / 1024 << " KB, nothing fetched when opened\n";
+    if (!o.quiet) written.print(std::cout);
+}
+
+}  // namespace
+
+int runView(const CommonOptions& common, const ViewOptions& o) {
+    checkViewOptions(o);
     const ThreeJs three = loadThreeJs();
     const GlassCatalog catalog = loadCatalog(common);
     SceneOptions so;
@@ -78,63 +141,21 @@ int runView(const CommonOptions& common, const ViewOptions& o) {
     const std::vector<Source> noSources;
     const std::vector<Source>& sources =
         prepared->hasSources() ? prepared->trace().transport.sources : noSources;
-
     SceneViewOptions vo;
     vo.title = setup.prescription.system.name.empty() ? o.file : setup.prescription.system.name;
     vo.chordToleranceMm = o.chordToleranceMm;
     vo.colouring = o.colour == "event" ? PathColouring::EventType : PathColouring::LogFlux;
     std::optional<PathSelection> sel;
     if (!o.where.empty()) {
-        const TraceSetup& ts = prepared->trace();
-        const auto limit = limitThreads(o.threads);
-        PathSelectionOptions po = pathSelectionOptions(ts, o.where, o.first, o.rays, o.batch,
-                                                       o.seed, o.mode, o.minRelativeFlux);
-        std::optional<ProgressReporter> reporter;
-        if (!o.quiet && !o.json) {
-            reporter.emplace("view", po.maxRays);
-            po.progress = [&reporter](uint64_t done) { reporter->update(done); };
-        }
-        sel = selectPaths(ts.transport, ts.images, po);
-        if (reporter) reporter->finishAt(sel->raysTraced);
+        sel = viewPaths(*prepared, o);
         vo.paths = &*sel;
         vo.title += " -- " + std::to_string(sel->pathCount()) + " paths matching '" + o.where + "'";
-        if (sel->rays.size() < static_cast<size_t>(o.first))
-            std::cerr << "veil: only " << sel->rays.size() << " of " << sel->raysTraced
-                      << " rays have a matching path; raise -n to find more\n";
     }
     const nlohmann::json data = sceneViewData(setup.scene, sources, vo);
+    const fs::path out(o.output);
     if (out.has_parent_path()) fs::create_directories(out.parent_path());
     writeSceneView(out, data, three);
-
-    size_t triangles = 0, objects = 0;
-    for (const nlohmann::json& obj : data["objects"])
-        if (obj["triangles"].get<size_t>() > 0) {
-            ++objects;
-            triangles += obj["triangles"].get<size_t>();
-        }
-    WrittenFiles written;
-    written.add(out);
-    if (o.json) {
-        nlohmann::json j{
-            {"scene", o.file},           {"objects", objects},          {"triangles", triangles},
-            {"sources", sources.size()}, {"bytes", fs::file_size(out)}, {"files", written.json()}};
-        if (sel) {
-            j["where"] = o.where;
-            j["rays_found"] = sel->rays.size();
-            j["paths_drawn"] = sel->pathCount();
-            j["rays_traced"] = sel->raysTraced;
-            j["seed"] = o.seed;
-        }
-        std::cout << j.dump(2) << "\n";
-        return 0;
-    }
-    std::cout << objects << " objects (" << triangles << " triangles), " << sources.size()
-              << " source" << (sources.size() == 1 ? "" : "s");
-    if (sel)
-        std::cout << ", " << sel->pathCount() << " paths of " << sel->rays.size()
-                  << " rays matching '" << o.where << "' in " << sel->raysTraced << " rays";
-    std::cout << "; " << fs::file_size(out) / 1024 << " KB, nothing fetched when opened\n";
-    if (!o.quiet) written.print(std::cout);
+    printViewReport(o, data, sources.size(), sel);
     return 0;
 }
 

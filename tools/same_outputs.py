@@ -2,18 +2,21 @@
 """Fixed-seed outputs of every example, to show that a change left them byte for byte alone.
 
     tools/same_outputs.py run VEIL DIR        run VEIL (the executable) on every example into DIR
+                                              (a new or empty folder)
     tools/same_outputs.py compare DIR1 DIR2   compare two such folders file by file (cmp)
 
 What `run` writes, per example scene (examples/scenes/*.toml): a forward trace (EXR, PNG,
 summary), a 3-pass render (checkpoint, EXR, PNGs, summary), and for every example lens and
-Zemax file the ghost table; then a sweep, a PST (forward and rendered), `objects` and
-`info --json` of every lens. Every command has a fixed seed and runs on 2 threads (veil's
-results do not depend on the thread count).
+Zemax file the ghost table and `info` (text and JSON); then sweeps (trace, render, ghosts),
+PSTs (forward and rendered), `objects`, a ghost coating what-if, `glare` and `scatter`. Every
+command has a fixed seed and runs on 2 threads (veil's results do not depend on the thread
+count).
 
 Clocks are the one thing two runs may differ in: `compare` drops JSON members whose name says
 they are a time (`seconds`, `*_seconds*`), the run manifest `veil-run.json` (its id and time,
-and file sizes that follow from the rest), the `seconds` column of sweep tables, and durations
-and rates in what the commands print (NAME.stdout); everything else must be the same bytes.
+and file sizes that follow from the rest), the `seconds` column of sweep tables, and durations,
+rates and trailing blanks in what the commands print (NAME.stdout); everything else must be the
+same bytes.
 Exit status 0 when every file matches, 1 otherwise. Used before and after a change that must
 not alter a result (a move, a refactor): run it with the old and the new executable.
 """
@@ -43,6 +46,7 @@ def jobs(veil):
         yield f"ghosts/{lens.stem}", [veil, "ghosts", str(lens), "-n", "1k", "--no-images",
                                       "--top", "0"] + common
         yield f"info/{lens.stem}.json", [veil, "info", str(lens), "--json"]
+        yield f"info/{lens.stem}.txt", [veil, "info", str(lens)]
     sun = str(ROOT / "examples/scenes/longfocus_360mm_sun.toml")
     dg = str(ROOT / "examples/scenes/double_gauss_50mm.toml")
     yield "sweep/trace", [
@@ -56,17 +60,30 @@ def jobs(veil):
                          "--batches", "2", "--photons", "3k", "--rays-per-pixel", "1"] + common
     yield "objects/sun", [veil, "objects", sun, "-n", "2k"] + common
     yield "ghosts/double_gauss_images", [veil, "ghosts", dg, "-n", "1k", "--top", "3"] + common
+    yield "ghosts/double_gauss_whatif", [veil, "ghosts", str(ROOT / "examples/lenses/double_gauss_50mm.toml"),
+                                         "-n", "1k", "--no-images", "--coating", "L3.*=ideal_ar"] + common
+    yield "glare/singlet", [veil, "glare", str(ROOT / "examples/lenses/singlet.toml"), "--field", "0,0",
+                            "--field", "0,3.5", "--passes", "3", "--photons", "5k",
+                            "--rays-per-pixel", "16"] + common
+    yield "scatter/painted", [veil, "scatter", str(ROOT / "examples/scenes/double_gauss_50mm_painted.toml")]
+    yield "sweep/render", [veil, "sweep", sun, "--vary", "properties.black_anodized.scatter.reflectance=0.01,0.05",
+                           "--measure", "render", "--batches", "2", "--photons", "3k",
+                           "--rays-per-pixel", "1"] + common
 
 
 def run(veil, out):
     # Commands run inside DIR with relative output paths, so that what they print (kept as
     # NAME.stdout) does not depend on where DIR is.
     out = Path(out).resolve()
+    if out.exists() and any(out.iterdir()):
+        # A sweep resumes the variants it finds: every run starts from an empty folder.
+        print(f"{out} is not empty: give a new folder", file=sys.stderr)
+        return 2
     out.mkdir(parents=True, exist_ok=True)
     failed = 0
     for name, cmd in jobs(str(Path(veil).resolve())):
         (out / name).parent.mkdir(parents=True, exist_ok=True)
-        if name.endswith(".json"):
+        if name.endswith((".json", ".txt")):  # what the command prints is the output
             with open(out / name, "w") as f:
                 rc = subprocess.run(cmd, stdout=f, cwd=out).returncode
         else:
@@ -98,7 +115,9 @@ def comparable(path):
         except ValueError:
             return data
     if path.suffix == ".stdout":
-        return TEXT_CLOCK.sub("<clock>", data.decode()).encode()
+        # Trailing blanks are invisible on a terminal: not a difference.
+        text = TEXT_CLOCK.sub("<clock>", data.decode())
+        return "\n".join(l.rstrip() for l in text.split("\n")).encode()
     if path.suffix in (".csv", ".md") and b"seconds" in data:
         # Drop the column headed 'seconds' (sweep tables).
         lines = data.decode().splitlines()

@@ -870,4 +870,13 @@ CompiledCriterion compileCriterion(std::string_view text, const NameTable& names
     return compile(parseCriterion(text, source), names, source);
 }
 
+std::vector<CompiledCriterion> compileWhereList(const std::vector<std::string>& where,
+                                                const NameTable& names) {
+    std::vector<CompiledCriterion> compiled;
+    compiled.reserve(where.size());
+    for (size_t k = 0; k < where.size(); ++k)
+        compiled.push_back(compileCriterion(where[k], names, "--where " + std::to_string(k + 1)));
+    return compiled;
+}
+
 }  // namespace veil

@@ -148,6 +148,10 @@ CompiledCriterion compile(const Criterion& c, const NameTable& names,
 // the ghost the text belongs to) and the column.
 CompiledCriterion compileCriterion(std::string_view text, const NameTable& names,
                                    std::string_view source = "<criterion>");
+// A command's --where list, compiled in the one place every command and run does it: entry
+// k's errors name "--where k" (1-based), so a mistake points at the option that holds it.
+std::vector<CompiledCriterion> compileWhereList(const std::vector<std::string>& where,
+                                                const NameTable& names);
 
 // Streaming Evaluation
 enum class CriterionState : uint8_t { Undefined, True, False };

@@ -1,4 +1,5 @@
 #include "analysis/ghosts/ghost_report.h"
+#include "analysis/reports/format.h"
 
 #include <cmath>
 #include <iomanip>
@@ -9,12 +10,18 @@ namespace veil {
 
 namespace {
 
-nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
 
 std::string sci(double v, int digits = 3) {
     if (!std::isfinite(v)) return "-";
     std::ostringstream os;
     os << std::scientific << std::setprecision(digits - 1) << v;
+    return os.str();
+}
+
+// A number as a stream writes it by default (CSV).
+std::string plain(double v) {
+    std::ostringstream os;
+    os << v;
     return os.str();
 }
 
@@ -146,76 +153,130 @@ nlohmann::json GhostReport::json() const {
     j["coating_changes"] = coatingChanges;
     j["sources"] = sources;
     j["nominal"] = {{"flux", nominalFlux},
-                    {"mc_flux", haveMc ? num(mcNominalFlux) : nlohmann::json()},
-                    {"mc_relative_error", haveMc ? num(mcNominalError) : nlohmann::json()}};
+                    {"mc_flux", haveMc ? jsonNumber(mcNominalFlux) : nlohmann::json()},
+                    {"mc_relative_error", haveMc ? jsonNumber(mcNominalError) : nlohmann::json()}};
     j["all_ghosts"] = {{"flux", allGhostsFlux}};
     if (haveMc) {
         j["all_ghosts"]["mc_flux"] = mcAllGhostsFlux;
-        j["all_ghosts"]["mc_relative_error"] = num(mcAllGhostsError);
+        j["all_ghosts"]["mc_relative_error"] = jsonNumber(mcAllGhostsError);
         j["monte_carlo"] = {{"rays_per_source", mcRaysPerSource},
                             {"emitted_rays", mcEmittedRays},
                             {"seed", seed},
                             {"seconds", mcSeconds},
                             {"segments", mcSegments}};
     }
-    j["ghosts"] = nlohmann::json::array();
-    for (const GhostReportRow& g : rows) {
-        nlohmann::json row;
-        row["rank"] = g.rank;
-        row["ghost"] = g.label;
-        row["surfaces"] = g.surfaces;
-        row["criterion"] = g.criterion;
-        row["flux"] = g.flux;
-        row["relative_flux"] = g.relativeFlux;
-        row["peak_irradiance"] = g.peakIrradiance;
-        row["relative_irradiance"] = g.relativeIrradiance;
-        row["source"] = g.source;
-        row["near_focus"] = g.nearFocus;
-        row["focus_in_glass"] = g.glassFocus;
-        if (haveMc) {
-            row["mc_flux"] = g.mcFlux;
-            row["mc_relative_flux"] = num(g.mcRelativeFlux);
-            row["mc_relative_error"] = num(g.mcRelativeError);
-        }
-        if (g.baselineRank > 0) {
-            row["baseline_rank"] = g.baselineRank;
-            row["baseline_relative_flux"] = g.baselineRelativeFlux;
-        }
-        row["per_source"] = nlohmann::json::array();
-        for (const GhostSourceResult& s : g.perSource)
-            row["per_source"].push_back({{"source", s.source},
-                                         {"flux", s.flux},
-                                         {"relative_flux", s.relativeFlux},
-                                         {"focus_mm", num(s.focusMm)},
-                                         {"footprint_mm", s.footprintMm},
-                                         {"centroid_mm", {s.centroidMm.x, s.centroidMm.y}},
-                                         {"peak_irradiance", s.peakIrradiance},
-                                         {"relative_irradiance", s.relativeIrradiance},
-                                         {"near_focus", s.nearFocus},
-                                         {"focus_in_glass", s.glassFocus},
-                                         {"rays_traced", s.raysTraced},
-                                         {"rays_arrived", s.raysArrived}});
-        j["ghosts"].push_back(row);
-    }
+    j["ghosts"] = table().json();
     return j;
 }
 
-std::string GhostReport::csv() const {
-    std::ostringstream csv;
-    csv << "rank,ghost,flux_" << unit << ",relative_flux,mc_flux_" << unit
-        << ",mc_relative_flux,mc_relative_error,"
-        << "focus_mm,footprint_mm,peak_irradiance_" << unit << "_per_mm2,relative_irradiance,"
-        << "near_focus,focus_in_glass,baseline_rank,criterion,source\n";
+ReportTable GhostReport::table() const {
+    ReportTable table;
+    // key, Markdown heading, CSV header (empty: the key), terminal heading and layout.
+    auto column = [&](std::string key, std::string heading, std::string csvHeader,
+                      std::string terminalHeading, int width, Align align = Align::Right,
+                      std::string gap = "") {
+        ReportColumn c{std::move(key), std::move(heading), std::move(csvHeader)};
+        c.terminalHeading = std::move(terminalHeading);
+        c.width = width;
+        c.align = align;
+        c.gap = std::move(gap);
+        c.json = c.key != "flags";  // flags is text made of near_focus and focus_in_glass
+        table.addColumn(std::move(c));
+    };
+    column("rank", "rank", "", "", 5, Align::Left);
+    column("ghost", "ghost", "", "", 30, Align::Left);
+    column("flux", "flux (" + unit + ")", "flux_" + unit, "flux " + unit, 11);
+    column("relative_flux", "flux / nominal", "", "flux/nom", 10);
+    column("mc_flux", "Monte Carlo (" + unit + ")", "mc_flux_" + unit, "Monte Carlo", 20);
+    column("mc_relative_flux", "", "", "", 0);
+    column("mc_relative_error", "", "", "", 0);
+    column("focus_mm", "focus - detector (mm)", "", "focus mm", 10);
+    column("footprint_mm", "footprint (mm)", "", "foot mm", 9);
+    column("peak_irradiance", "peak irradiance (" + unit + "/mm²)",
+           "peak_irradiance_" + unit + "_per_mm2", "peak/mm2", 11);
+    column("relative_irradiance", "peak / nominal peak", "", "", 0);
+    column("near_focus", "", "", "", 0);
+    column("focus_in_glass", "", "", "", 0);
+    column("flags", "flags", "", "", 0, Align::Left, "  ");
+    column("baseline_rank", "was", "", "(was)", 0, Align::Left, "  ");
+    column("baseline_relative_flux", "", "", "", 0);
+    column("criterion", "", "", "", 0);
+    column("source", "source", "", "", 8, Align::Left, "  ");
+    column("surfaces", "", "", "", 0);
+    column("per_source", "", "", "", 0);
     for (const GhostReportRow& g : rows) {
-        csv << g.rank << ",\"" << g.label << "\"," << g.flux << "," << g.relativeFlux << ","
-            << (haveMc ? sci(g.mcFlux, 6) : "") << "," << (haveMc ? sci(g.mcRelativeFlux, 6) : "")
-            << "," << (haveMc ? sci(g.mcRelativeError, 3) : "") << "," << csvNumber(g.focusMm)
-            << "," << csvNumber(g.footprintMm) << "," << g.peakIrradiance << ","
-            << g.relativeIrradiance << "," << (g.nearFocus ? 1 : 0) << ",\"" << g.glassFocus
-            << "\"," << (g.baselineRank > 0 ? std::to_string(g.baselineRank) : "") << ",\""
-            << g.criterion << "\",\"" << g.source << "\"\n";
+        ReportCell rank = ReportCell::count(static_cast<long long>(g.rank));
+        ReportCell ghost = ReportCell::text(g.label, true);
+        ReportCell flux = ReportCell::number(g.flux, plain(g.flux), sci(g.flux), sci(g.flux));
+        const std::string relFlux = nominalFlux > 0 ? sci(g.relativeFlux) : "-";
+        ReportCell relativeFlux =
+            ReportCell::number(g.relativeFlux, plain(g.relativeFlux), relFlux, relFlux);
+        ReportCell mc = ReportCell::number(
+            g.mcFlux, haveMc ? sci(g.mcFlux, 6) : "",
+            haveMc ? mcText(g.mcFlux, g.mcRelativeError, " ± ", " %") : "-",
+            haveMc ? mcText(g.mcFlux, g.mcRelativeError) : "-");
+        ReportCell mcRel = ReportCell::number(g.mcRelativeFlux, haveMc ? sci(g.mcRelativeFlux, 6) : "", "", "");
+        ReportCell mcErr = ReportCell::number(g.mcRelativeError, haveMc ? sci(g.mcRelativeError, 3) : "", "", "");
+        if (!haveMc) {
+            mc.withoutJson();
+            mcRel.withoutJson();
+            mcErr.withoutJson();
+        }
+        ReportCell focus = ReportCell::number(g.focusMm, csvNumber(g.focusMm), fix(g.focusMm, 2),
+                                              fix(g.focusMm, 1));
+        focus.withoutJson();
+        ReportCell footprint = ReportCell::number(g.footprintMm, csvNumber(g.footprintMm),
+                                                  fix(g.footprintMm, 3), fix(g.footprintMm, 2));
+        footprint.withoutJson();
+        ReportCell peak = ReportCell::number(g.peakIrradiance, plain(g.peakIrradiance),
+                                             sci(g.peakIrradiance), sci(g.peakIrradiance));
+        const std::string relPeak = nominalPeak > 0 ? sci(g.relativeIrradiance) : "-";
+        ReportCell relativePeak = ReportCell::number(
+            g.relativeIrradiance, plain(g.relativeIrradiance), relPeak, relPeak);
+        ReportCell nearFocus = ReportCell::flag(g.nearFocus, "1", "0");
+        ReportCell glass = ReportCell::text(g.glassFocus, true);
+        ReportCell flags = ReportCell::text(g.flags());
+        flags.markdown += g.glassFocus.empty() ? "" : " (" + g.glassFocus + ")";
+        ReportCell baseline = ReportCell::count(g.baselineRank);
+        baseline.csv = g.baselineRank > 0 ? std::to_string(g.baselineRank) : "";
+        baseline.markdown = g.baselineRank > 0 ? std::to_string(g.baselineRank) : "-";
+        baseline.terminal = g.baselineRank > 0 ? "(" + std::to_string(g.baselineRank) + ")" : "";
+        ReportCell baselineFlux = ReportCell::number(g.baselineRelativeFlux, "", "", "");
+        if (g.baselineRank <= 0) {
+            baseline.withoutJson();
+            baselineFlux.withoutJson();
+        }
+        ReportCell criterion = ReportCell::text(g.criterion, true);
+        ReportCell source = ReportCell::text(g.source, true);
+        ReportCell surfaces = ReportCell::text("");
+        surfaces.json = g.surfaces;
+        ReportCell perSource = ReportCell::text("");
+        perSource.json = nlohmann::json::array();
+        for (const GhostSourceResult& s : g.perSource)
+            perSource.json.push_back({{"source", s.source},
+                                      {"flux", s.flux},
+                                      {"relative_flux", s.relativeFlux},
+                                      {"focus_mm", jsonNumber(s.focusMm)},
+                                      {"footprint_mm", s.footprintMm},
+                                      {"centroid_mm", {s.centroidMm.x, s.centroidMm.y}},
+                                      {"peak_irradiance", s.peakIrradiance},
+                                      {"relative_irradiance", s.relativeIrradiance},
+                                      {"near_focus", s.nearFocus},
+                                      {"focus_in_glass", s.glassFocus},
+                                      {"rays_traced", s.raysTraced},
+                                      {"rays_arrived", s.raysArrived}});
+        table.addRow({rank, ghost, flux, relativeFlux, mc, mcRel, mcErr, focus, footprint, peak,
+                      relativePeak, nearFocus, glass, flags, baseline, baselineFlux, criterion,
+                      source, surfaces, perSource});
     }
-    return csv.str();
+    return table;
+}
+
+std::string GhostReport::csv() const {
+    return table().csv({"rank", "ghost", "flux", "relative_flux", "mc_flux", "mc_relative_flux",
+                        "mc_relative_error", "focus_mm", "footprint_mm", "peak_irradiance",
+                        "relative_irradiance", "near_focus", "focus_in_glass", "baseline_rank",
+                        "criterion", "source"});
 }
 
 std::string GhostReport::markdown() const {
@@ -237,24 +298,13 @@ std::string GhostReport::markdown() const {
         for (const std::string& c : coatingChanges) md << "- " << c << "\n";
         md << "\n";
     }
-    const bool whatIf = !coatingChanges.empty();
-    md << "| rank | ghost | flux (" << unit << ") | Monte Carlo (" << unit
-       << ") | flux / nominal | focus - detector (mm) | footprint (mm) | peak irradiance (" << unit
-       << "/mm²) | peak / nominal peak | flags |" << (whatIf ? " was |" : "")
-       << (several ? " source |" : "") << "\n|---|---|---|---|---|---|---|---|---|---|"
-       << (whatIf ? "---|" : "") << (several ? "---|" : "") << "\n";
-    for (const GhostReportRow& g : rows) {
-        md << "| " << g.rank << " | " << g.label << " | " << sci(g.flux) << " | "
-           << (haveMc ? mcText(g.mcFlux, g.mcRelativeError, " ± ", " %") : "-") << " | "
-           << (nominalFlux > 0 ? sci(g.relativeFlux) : "-") << " | " << fix(g.focusMm, 2) << " | "
-           << fix(g.footprintMm, 3) << " | " << sci(g.peakIrradiance) << " | "
-           << (nominalPeak > 0 ? sci(g.relativeIrradiance) : "-") << " | " << g.flags()
-           << (g.glassFocus.empty() ? "" : " (" + g.glassFocus + ")") << " |";
-        if (whatIf)
-            md << " " << (g.baselineRank > 0 ? std::to_string(g.baselineRank) : "-") << " |";
-        if (several) md << " " << g.source << " |";
-        md << "\n";
-    }
+    std::vector<std::string> columns{"rank",          "ghost",           "flux",
+                                     "mc_flux",       "relative_flux",   "focus_mm",
+                                     "footprint_mm",  "peak_irradiance", "relative_irradiance",
+                                     "flags"};
+    if (!coatingChanges.empty()) columns.push_back("baseline_rank");
+    if (several) columns.push_back("source");
+    md << table().markdown(columns);
     md << "\nCriteria (docs/criteria.md) of the ranked ghosts, usable with veil trace --where and "
           "veil paths --where:\n\n";
     for (const GhostReportRow& g : rows) md << g.rank << ". `" << g.criterion << "`\n";
@@ -287,26 +337,13 @@ std::string GhostReport::terminal(size_t topRows, const std::string& footer) con
         out << "  flux sums all " << sources.size()
             << " sources; focus, footprint, peak and flags are of the source where the ghost "
                "peaks (source column)\n";
-    out << "\n"
-        << std::left << std::setw(5) << "rank" << std::setw(30) << "ghost" << std::right
-        << std::setw(11) << "flux " + unit << std::setw(20) << "Monte Carlo" << std::setw(10)
-        << "flux/nom" << std::setw(10) << "focus mm" << std::setw(9) << "foot mm" << std::setw(11)
-        << "peak/mm2" << (several ? "  source  " : "") << "  flags"
-        << (coatingChanges.empty() ? "" : "  (was)") << "\n";
-    const size_t n = topRows > 0 ? std::min(topRows, rows.size()) : rows.size();
-    for (size_t k = 0; k < n; ++k) {
-        const GhostReportRow& g = rows[k];
-        std::string mc = "-";
-        if (haveMc) mc = mcText(g.mcFlux, g.mcRelativeError);
-        out << std::left << std::setw(5) << g.rank << std::setw(30) << g.label << std::right
-            << std::setw(11) << sci(g.flux) << std::setw(20) << mc << std::setw(10)
-            << (nominalFlux > 0 ? sci(g.relativeFlux) : "-") << std::setw(10) << fix(g.focusMm, 1)
-            << std::setw(9) << fix(g.footprintMm, 2) << std::setw(11) << sci(g.peakIrradiance);
-        if (several) out << "  " << std::left << std::setw(8) << g.source << std::right;
-        out << "  " << g.flags();
-        if (g.baselineRank > 0) out << "  (" << g.baselineRank << ")";
-        out << "\n";
-    }
+    std::vector<std::string> columns{"rank",    "ghost",         "flux",
+                                     "mc_flux", "relative_flux", "focus_mm",
+                                     "footprint_mm", "peak_irradiance"};
+    if (several) columns.push_back("source");
+    columns.push_back("flags");
+    if (!coatingChanges.empty()) columns.push_back("baseline_rank");
+    out << "\n" << table().terminal(topRows, columns);
     out << footer;
     return out.str();
 }

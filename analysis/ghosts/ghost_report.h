@@ -17,7 +17,8 @@
 #include <utility>
 #include <vector>
 
-#include "analysis/ghosts/ghosts.h"
+#include "analysis/ghosts/ghost_monte_carlo.h"
+#include "analysis/reports/report_table.h"
 
 namespace veil {
 
@@ -79,6 +80,8 @@ struct GhostReport {
 
     std::vector<GhostReportRow> rows;  // rank order
 
+    // One row per ghost (analysis/reports/report_table.h); every format is written from it.
+    ReportTable table() const;
     nlohmann::json json() const;
     std::string csv() const;
     std::string markdown() const;

@@ -161,7 +161,7 @@ PathSelection selectPaths(const TransportScene& ts, const std::vector<DetectorIm
         };
         traceNonsequential(ts, detectors, perSource, to, {}, onRay);
         result.raysTraced += perSource * sources;
-        if (options.progress) options.progress(result.raysTraced);
+        if (options.progress) options.progress({options.task, result.raysTraced, options.maxRays});
         if (first.stored() >= options.count) break;
     }
     result.rays = first.take();

@@ -26,6 +26,7 @@
 
 #include "analysis/criteria/criteria.h"
 #include "analysis/pictures/picture.h"
+#include "analysis/reports/progress.h"
 #include "tracer/transport/nonsequential.h"
 
 namespace veil {
@@ -65,8 +66,10 @@ struct PathSelectionOptions {
     TransportOptions transport;  // recordHistories is forced on; seed is the base seed
     // How errors in `where` name it ("--where": "--where:1:13").
     std::string whereSource = "--where";
-    // Called with the emitted rays traced so far (all sources), after each batch; may be empty.
-    std::function<void(uint64_t)> progress;
+    // After each batch: the emitted rays traced so far (all sources) of maxRays, as `task`
+    // events; may be empty. A selection that finds its rays early ends before maxRays.
+    ProgressSink progress;
+    std::string task = "paths";
 };
 
 struct PathSelection {

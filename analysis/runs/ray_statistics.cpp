@@ -1,4 +1,9 @@
+#include "analysis/reports/format.h"
 #include "analysis/runs/ray_statistics.h"
+
+#include <sstream>
+
+#include <iomanip>
 
 #include <algorithm>
 #include <cmath>
@@ -49,9 +54,7 @@ std::vector<CriterionFlux> criterionFluxes(RayDatabaseReader& reader,
                                            const std::vector<std::string>& where) {
     const RayDatabaseInfo& info = reader.info();
     const NameTable names = criterionNames(info);
-    std::vector<CompiledCriterion> compiled;
-    for (size_t k = 0; k < where.size(); ++k)
-        compiled.push_back(compileCriterion(where[k], names, "--where " + std::to_string(k + 1)));
+    const std::vector<CompiledCriterion> compiled = compileWhereList(where, names);
     std::vector<StreamingEvaluator> evaluators;
     for (const CompiledCriterion& c : compiled) evaluators.emplace_back(c);
 
@@ -106,6 +109,65 @@ std::vector<CriterionFlux> criterionFluxes(RayDatabaseReader& reader,
             out[k].relativeError[name] = s.first > 0.0 ? std::sqrt(rays * variance) / s.first : 0.0;
         }
     return out;
+}
+
+nlohmann::json rayStatisticsJson(const RayDatabaseInfo& info, const RayStatistics& s,
+                                 const std::vector<CriterionFlux>& split) {
+    nlohmann::json j;
+    j["scene"] = info.sceneName;
+    j["seed"] = info.seed;
+    j["unit"] = info.fluxUnit;
+    j["rays"] = s.rays;
+    j["paths"] = s.paths;
+    j["events"] = s.events;
+    j["geometry"] = info.encoding.positions;
+    for (int t = 0; t < kEventTypeCount; ++t)
+        j["events_by_type"][std::string(toString(static_cast<EventType>(t)))] =
+            s.eventsByType[t];
+    for (const auto& [name, flux] : s.detectedFlux) j["detected_flux"][name] = flux;
+    if (!split.empty()) {
+        j["by_criterion"] = nlohmann::json::array();
+        for (size_t k = 0; k < split.size(); ++k) {
+            nlohmann::json c{{"layer", k + 1 < split.size() ? "where" + std::to_string(k + 1)
+                                                            : std::string("rest")},
+                             {"criterion", split[k].criterion},
+                             {"paths", split[k].paths},
+                             {"detected_flux", nlohmann::json::object()},
+                             {"relative_error", nlohmann::json::object()}};
+            for (const auto& [name, flux] : split[k].detectedFlux) {
+                c["detected_flux"][name] = flux;
+                c["relative_error"][name] = split[k].relativeError.at(name);
+            }
+            j["by_criterion"].push_back(c);
+        }
+    }
+    return j;
+}
+
+std::string rayStatisticsText(const std::string& path, const RayDatabaseInfo& info,
+                              const RayStatistics& s, const std::vector<CriterionFlux>& split) {
+    std::ostringstream os;
+    os << path << ": scene " << info.sceneName << ", seed " << info.seed << "\n  "
+              << s.rays << " rays, " << s.paths << " paths, " << s.events << " events"
+              << (info.encoding.positions ? "" : " (events only, no geometry)") << "\n";
+    for (int t = 0; t < kEventTypeCount; ++t)
+        if (s.eventsByType[t])
+            os << "  " << std::left << std::setw(18) << toString(static_cast<EventType>(t))
+                      << std::right << std::setw(12) << s.eventsByType[t] << "\n";
+    for (const auto& [name, flux] : s.detectedFlux)
+        os << "  detected on " << name << ": " << std::scientific << std::setprecision(6)
+                  << flux << " " << info.fluxUnit << "\n";
+    for (size_t k = 0; k < split.size(); ++k) {
+        const bool rest = k + 1 == split.size();
+        os << "  " << std::left << std::setw(8)
+                  << (rest ? std::string("rest") : "where" + std::to_string(k + 1)) << std::right
+                  << split[k].paths << " paths  "
+                  << (rest ? std::string("none of the above") : split[k].criterion) << "\n";
+        for (const auto& [name, flux] : split[k].detectedFlux)
+            os << "      on " << name << ": "
+                      << formatFlux(flux, split[k].relativeError.at(name), info.fluxUnit) << "\n";
+    }
+    return os.str();
 }
 
 }  // namespace veil

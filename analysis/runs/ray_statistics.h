@@ -6,6 +6,7 @@
 #include <array>
 #include <filesystem>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -41,5 +42,12 @@ struct CriterionFlux {
 };
 std::vector<CriterionFlux> criterionFluxes(RayDatabaseReader& reader,
                                            const std::vector<std::string>& where);
+
+// What veil rays prints and writes as JSON: the counts, the detected flux and its split by
+// criteria (`split`: criterionFluxes(), empty without criteria).
+nlohmann::json rayStatisticsJson(const RayDatabaseInfo& info, const RayStatistics& s,
+                                 const std::vector<CriterionFlux>& split);
+std::string rayStatisticsText(const std::string& path, const RayDatabaseInfo& info,
+                              const RayStatistics& s, const std::vector<CriterionFlux>& split);
 
 }  // namespace veil

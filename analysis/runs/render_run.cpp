@@ -1,12 +1,110 @@
 #include "analysis/runs/render_run.h"
 
-#include <memory>
+#include <chrono>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
 
 #include "analysis/criteria/criterion_names.h"
 #include "analysis/criteria/render_criteria.h"
+#include "analysis/reports/format.h"
+#include "analysis/reports/image_output.h"
 #include "lensdata/errors.h"
+#include "lensdata/output_file.h"
 
 namespace veil {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// FNV-1a over the text that determines a run's numbers: the scene as the renderer sees it and
+// the options that change what a pass computes.
+uint64_t fingerprintOf(const TransportScene& ts, const DetectorGeometry& g, const ExitAperture& a,
+                       const RenderOptions& o, const std::vector<std::string>& where) {
+    std::ostringstream os;
+    os << std::setprecision(17);
+    for (const SceneObject& obj : ts.scene->objects()) os << obj << "\n";
+    os << ts.scene->bounds() << "\n";
+    for (const OpticalProperty& p : ts.properties) os << p << "\n";
+    for (int p : ts.propertyOfObject) os << p << ",";
+    for (const Source& s : ts.sources) os << s << "\n";
+    os << g << "\n" << a << "\n";
+    os << o.raysPerPixel << " " << o.photonsPerPass << " " << o.initialRadiusMm << " " << o.alpha
+       << " " << o.seed << " " << o.splitBackward << " " << o.minRelativeWeight << " "
+       << o.maxSpecularDepth << " " << o.detectorRadiusPixels << " " << o.viewPointRelativeWeight
+       << " " << o.rouletteRelativeFlux << " " << o.maxPhotonSegments << " " << o.prune << " "
+       << o.areaSamples << " " << o.quasiRandomPhotons << " " << o.ghostPhotons() << " "
+       << o.photonRescueRelativeFlux << " " << o.guideFraction;
+    for (const std::string& w : where) os << "\nwhere " << w;
+    const std::string text = os.str();
+    uint64_t h = 1469598103934665603ull;
+    for (unsigned char c : text) {
+        h ^= c;
+        h *= 1099511628211ull;
+    }
+    return h;
+}
+
+double targetErrorOf(const RenderState& state, const RenderTarget& target) {
+    if (target.component) return state.meanRelativeError(*target.component);
+    if (target.criterion >= 0) return state.criterionMeanRelativeError(target.criterion);
+    return state.meanRelativeError();
+}
+
+std::string percent(double relativeError) {
+    return std::isfinite(relativeError) ? std::to_string(100.0 * relativeError).substr(0, 5) + " %"
+                                        : "-";
+}
+
+std::string layerName(int k) { return "where" + std::to_string(k + 1); }
+
+}  // namespace
+
+// Spec
+
+RenderTarget RenderTarget::parse(const std::string& text, size_t criteria) {
+    RenderTarget t;
+    t.text = text;
+    if (text == "total") return t;
+    for (int c = 0; c < kRenderComponents; ++c)
+        if (text == toString(static_cast<RenderComponent>(c)))
+            t.component = static_cast<RenderComponent>(c);
+    if (t.component) return t;
+    int k = 0;
+    if (text.rfind("where", 0) == 0 && text.size() > 5 &&
+        text.find_first_not_of("0123456789", 5) == std::string::npos)
+        k = std::stoi(text.substr(5, 3));
+    if (k < 1 || k > static_cast<int>(criteria))
+        throw ParseError({"--target-on", 1, 1},
+                         "'" + text +
+                             "' is no image of this run: total, visible, direct, "
+                             "caustic, secondary" +
+                             (criteria == 0 ? std::string(", or where<k> with --where")
+                                            : ", where1 to where" + std::to_string(criteria)));
+    t.criterion = k - 1;
+    return t;
+}
+
+double RenderPassTotals::total() const {
+    double t = 0.0;
+    for (double c : components) t += c;
+    return t;
+}
+
+RenderPassTotals passTotals(const RenderPass& pass) {
+    RenderPassTotals totals;
+    for (int c = 0; c < kRenderComponents; ++c)
+        for (double v : pass.pixels[static_cast<size_t>(c)])
+            totals.components[static_cast<size_t>(c)] += v;
+    for (const auto& byComponent : pass.criteria) {
+        double sum = 0.0;
+        for (const auto& pixels : byComponent)
+            for (double v : pixels) sum += v;
+        totals.criteria.push_back(sum);
+    }
+    return totals;
+}
 
 size_t findDetector(const TraceSetup& trace, const std::string& name) {
     if (name.empty()) return 0;
@@ -19,52 +117,312 @@ size_t findDetector(const TraceSetup& trace, const std::string& name) {
                      "no detector '" + name + "' in the scene (it has " + names + ")");
 }
 
-double RenderPassTotals::total() const {
-    double t = 0.0;
-    for (double c : components) t += c;
-    return t;
+// The Run
+
+RenderRun::RenderRun(const PreparedScene& scene, RenderRunSpec spec)
+    : scene_(scene), spec_(std::move(spec)) {
+    const TraceSetup& trace = scene_.trace();
+    const TransportScene& ts = trace.transport;
+    const std::string file = spec_.scene.empty() ? scene_.file().path.string() : spec_.scene;
+    if (ts.sources.empty()) throw ModelError(file, "the scene has no light source to render");
+    if (trace.images.empty()) throw ModelError(file, "the scene has no detector to render");
+    detector_ = &trace.images[findDetector(trace, spec_.detector)];
+    const DetectorGeometry& geometry = detector_->geometry();
+    RenderOptions& o = spec_.options;
+    if (o.initialRadiusMm <= 0.0) o.initialRadiusMm = defaultInitialRadius(ts);
+    o.check();
+    if (!spec_.where.empty()) {
+        const NameTable names = criterionNames(*ts.scene, ts);
+        criteria_ = std::make_unique<RenderCriteria>(compileWhereList(spec_.where, names), names);
+    }
+    aperture_ = exitApertureFor(*ts.scene, geometry);
+    renderer_ =
+        std::make_unique<Renderer>(ts, *detector_, aperture_, o, criteria_.get(), spec_.ranks);
+    fingerprint_ = fingerprintOf(ts, geometry, aperture_, o, spec_.where);
+    state_ = RenderState(geometry, o.initialRadiusMm, o.alpha, static_cast<int>(spec_.where.size()));
+    if (!spec_.resume.empty() && spec_.ranks.root()) {
+        if (!std::filesystem::exists(spec_.resume))
+            throw ParseError({"--resume", 1, 1}, spec_.resume.parent_path().string() +
+                                                     " holds no " +
+                                                     spec_.resume.filename().string() +
+                                                     " to continue");
+        state_ = RenderState::read(spec_.resume, fingerprint_, geometry);
+    }
+    state_.shareFromRoot(spec_.ranks);
 }
 
-std::string runRenderPasses(const PreparedScene& scene, const RenderRunSpec& spec,
-                            const std::function<void(int pass, const RenderPassTotals&)>& onPass) {
-    const TraceSetup& trace = scene.trace();
-    const TransportScene& ts = trace.transport;
-    if (trace.images.empty())
-        throw ModelError(scene.file().path.string(), "the scene has no detector to render");
-    const DetectorImage& detector = trace.images[findDetector(trace, spec.detector)];
-    RenderOptions options = spec.options;
-    if (options.initialRadiusMm <= 0.0) options.initialRadiusMm = defaultInitialRadius(ts);
-    options.check();
-    std::unique_ptr<RenderCriteria> criteria;
-    if (!spec.where.empty()) {
-        const NameTable names = criterionNames(*ts.scene, ts);
-        std::vector<CompiledCriterion> compiled;
-        for (size_t i = 0; i < spec.where.size(); ++i)
-            compiled.push_back(
-                compileCriterion(spec.where[i], names, "--where " + std::to_string(i + 1)));
-        criteria = std::make_unique<RenderCriteria>(std::move(compiled), names);
-    }
-    const ExitAperture aperture = exitApertureFor(*ts.scene, detector.geometry());
-    const Renderer renderer(ts, detector, aperture, options, criteria.get());
-    RenderState state(detector.geometry(), options.initialRadiusMm, options.alpha,
-                      static_cast<int>(spec.where.size()));
-    for (int k = 1; k <= spec.passes; ++k) {
-        const RenderPass pass = renderer.runPass(k, state.radiusMm(), state.learned());
-        state.add(pass);
-        RenderPassTotals totals;
-        totals.pass = &pass;
-        for (int c = 0; c < kRenderComponents; ++c)
-            for (double v : pass.pixels[static_cast<size_t>(c)])
-                totals.components[static_cast<size_t>(c)] += v;
-        for (const auto& byComponent : pass.criteria) {
-            double sum = 0.0;
-            for (const auto& pixels : byComponent)
-                for (double v : pixels) sum += v;
-            totals.criteria.push_back(sum);
+RenderRun::~RenderRun() = default;
+
+std::string RenderRun::stopReason(double seconds) const {
+    const RenderStopRules& s = spec_.stop;
+    if (s.targetError > 0.0 && state_.passes() >= 2 &&
+        targetErrorOf(state_, s.target) <= s.targetError)
+        return "target error reached";
+    if (s.passes > 0 && state_.passes() >= s.passes) return "pass limit reached";
+    if (seconds >= s.timeLimitSeconds) return "time limit reached";
+    return "";
+}
+
+RenderResult RenderRun::run(const std::function<void(const RenderPassEvent&)>& onPass) {
+    const Ranks& ranks = spec_.ranks;
+    RenderResult r;
+    r.passesBefore = state_.passes();
+    const auto start = std::chrono::steady_clock::now();
+    auto seconds = [&] {
+        return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    };
+    while (true) {
+        if (ranks.root()) r.stopReason = stopReason(seconds());
+        if (!ranks.broadcastFlag(r.stopReason.empty())) break;
+        const RenderPass pass =
+            renderer_->runPass(state_.passes() + 1, state_.radiusMm(), state_.learned());
+        state_.add(pass, ranks);
+        if (!ranks.root()) continue;
+        if (!spec_.checkpoint.empty()) state_.write(spec_.checkpoint, fingerprint_);
+        r.photons += pass.photons;
+        r.gathers += pass.gathers;
+        r.viewPoints += pass.viewPoints;
+        r.prunedBranches += pass.prunedBranches;
+        r.prunedPhotons += pass.prunedPhotons;
+        r.backwardSeconds += pass.backwardSeconds;
+        r.photonSeconds += pass.photonSeconds;
+        const double t = seconds();
+        if (onPass) onPass({state_.passes(), &pass, &state_, t});
+        if (spec_.progress) {
+            // Passes still needed: the error falls as n^(-alpha / 2).
+            const double err = targetErrorOf(state_, spec_.stop.target);
+            const double target = spec_.stop.targetError;
+            ProgressEvent e{"render", static_cast<uint64_t>(state_.passes()),
+                            static_cast<uint64_t>(std::max(spec_.stop.passes, 0)), "passes"};
+            if (std::isfinite(err) && target > 0.0 && err > target) {
+                const double need =
+                    state_.passes() * std::pow(err / target, 2.0 / spec_.options.alpha);
+                e.etaSeconds = (need - state_.passes()) * t / (state_.passes() - r.passesBefore);
+            } else if (std::isfinite(err) && target > 0.0) {
+                e.etaSeconds = 0.0;
+            }
+            std::ostringstream s;
+            s << "error " << percent(err) << ", radius " << std::setprecision(3) << pass.radiusMm
+              << " mm, " << std::fixed << std::setprecision(0) << r.photons / std::max(t, 1e-9)
+              << " photons/s";
+            e.state = s.str();
+            spec_.progress(e);
         }
-        onPass(k, totals);
     }
-    return detector.geometry().name;
+    r.seconds = seconds();
+    r.root = ranks.root();
+    r.spec = spec_;
+    r.aperture = aperture_;
+    r.state = state_;
+    if (!r.root) return r;  // its share went to rank 0
+    if (state_.passes() == 0)
+        throw ModelError(spec_.scene.empty() ? scene_.file().path.string() : spec_.scene,
+                         "no pass finished (the time limit ended the run first)");
+    const TransportScene& ts = scene_.trace().transport;
+    r.scene = spec_.scene;
+    r.detector = detector_->geometry().name;
+    r.unit = ts.sources.front().unit() == FluxUnit::Lumen ? "lm" : "W";
+    for (const Source& s : ts.sources) r.emittedFlux += s.totalFlux();
+    r.traffic = rankTraffic();
+    return r;
+}
+
+// Result
+
+double RenderResult::targetError() const { return targetErrorOf(state, spec.stop.target); }
+
+nlohmann::json RenderResult::summary() const {
+    const RenderOptions& ro = spec.options;
+    const uint64_t n = static_cast<uint64_t>(state.passes());
+    const int criterionCount = state.criteria();
+    nlohmann::json summary;
+    summary["scene"] = scene;
+    summary["detector"] = detector;
+    summary["unit"] = unit;
+    summary["passes"] = state.passes();
+    summary["passes_this_run"] = state.passes() - passesBefore;
+    summary["seconds_this_run"] = seconds;
+    summary["stopped"] = stopReason;
+    summary["seed"] = ro.seed;
+    if (!spec.ranks.single())
+        summary["ranks"] = {{"count", spec.ranks.size()},
+                            {"rank0_bytes_received", traffic.received},
+                            {"rank0_bytes_sent", traffic.sent},
+                            {"rank0_seconds_in_mpi", traffic.seconds}};
+    summary["options"] = {{"rays_per_pixel", ro.raysPerPixel},
+                          {"photons_per_source_per_pass", ro.photonsPerPass},
+                          {"ghost_photons_per_source_per_pass", ro.ghostPhotons()},
+                          {"initial_radius_mm", ro.initialRadiusMm},
+                          {"alpha", ro.alpha},
+                          {"roulette", ro.rouletteRelativeFlux},
+                          {"area_samples", ro.areaSamples},
+                          {"guide", ro.guideFraction},
+                          {"photon_points", ro.quasiRandomPhotons ? "sobol" : "random"}};
+    summary["final_radius_mm"] = state.radiusMm();
+    summary["exit_aperture"] = {
+        {"center_mm", {aperture.centerMm.x, aperture.centerMm.y, aperture.centerMm.z}},
+        {"radius_mm", aperture.radiusMm}};
+    summary["mean_relative_error"] = jsonNumber(state.meanRelativeError());
+    summary["target_error"] = spec.stop.targetError;
+    summary["target_on"] = spec.stop.target.text;
+    summary["target_mean_relative_error"] = jsonNumber(targetError());
+    summary["lit_pixels"] = state.litPixels();
+    summary["emitted_flux"] = emittedFlux;
+    auto fluxJson = [&](const DetectorImage& img) {
+        const double f = img.totalFlux();
+        const double rel = f != 0.0 ? std::sqrt(img.totalVariance(n)) / std::abs(f) : kInf;
+        return nlohmann::json{{"flux", f},
+                              {"relative_error", jsonNumber(rel)},
+                              {"transmittance", emittedFlux > 0.0 ? f / emittedFlux : 0.0}};
+    };
+    summary["total"] = fluxJson(state.total());
+    for (int c = 0; c < kRenderComponents; ++c) {
+        const auto rc = static_cast<RenderComponent>(c);
+        nlohmann::json j = fluxJson(state.component(rc));
+        j["mean_relative_error"] = jsonNumber(state.meanRelativeError(rc));
+        summary["components"][std::string(toString(rc))] = j;
+    }
+    summary["criteria"] = nlohmann::json::array();
+    for (int k = 0; k < criterionCount; ++k) {
+        nlohmann::json j = fluxJson(state.criterionTotal(k));
+        j["layer"] = layerName(k);
+        j["where"] = spec.where[static_cast<size_t>(k)];
+        j["mean_relative_error"] = jsonNumber(state.criterionMeanRelativeError(k));
+        for (int c = 0; c < kRenderComponents; ++c) {
+            const auto rc = static_cast<RenderComponent>(c);
+            j["components"][std::string(toString(rc))] = fluxJson(state.criterionComponent(k, rc));
+        }
+        summary["criteria"].push_back(j);
+    }
+    summary["prune"] = ro.prune;
+    if (ro.prune) {
+        summary["pruned_backward_branches_this_run"] = prunedBranches;
+        summary["pruned_photon_branches_this_run"] = prunedPhotons;
+    }
+    summary["photons_this_run"] = photons;
+    summary["view_points_this_run"] = viewPoints;
+    summary["gathers_this_run"] = gathers;
+    summary["backward_seconds_this_run"] = backwardSeconds;
+    summary["photon_seconds_this_run"] = photonSeconds;
+    return summary;
+}
+
+std::string RenderResult::text(const std::string& folder) const {
+    const RenderOptions& ro = spec.options;
+    const uint64_t n = static_cast<uint64_t>(state.passes());
+    const double error = state.meanRelativeError();
+    std::ostringstream text;
+    auto rel = [&](const DetectorImage& img) {
+        return img.totalFlux() != 0.0 ? std::sqrt(img.totalVariance(n)) / std::abs(img.totalFlux())
+                                      : kInf;
+    };
+    const DetectorImage total = state.total();
+    text << "Stray light on " << detector << " (" << unit << ", mean of " << passesText(n) << ")"
+         << (ro.prune ? ": only light whose path matches a --where (--prune)" : "") << "\n";
+    text << "  total       " << formatFlux(total.totalFlux(), rel(total), unit)
+         << "   transmittance " << std::scientific << std::setprecision(3)
+         << (emittedFlux > 0 ? total.totalFlux() / emittedFlux : 0.0) << "\n";
+    for (int c = 0; c < kRenderComponents; ++c) {
+        const auto rc = static_cast<RenderComponent>(c);
+        const DetectorImage img = state.component(rc);
+        text << "  " << std::left << std::setw(11) << std::string(toString(rc)) << " "
+             << std::right << formatFlux(img.totalFlux(), rel(img), unit) << "\n";
+    }
+    for (int k = 0; k < state.criteria(); ++k) {
+        const DetectorImage img = state.criterionTotal(k);
+        text << "  " << std::left << std::setw(11) << layerName(k) << " " << std::right
+             << formatFlux(img.totalFlux(), rel(img), unit) << "   "
+             << spec.where[static_cast<size_t>(k)] << "\n";
+    }
+    if (ro.prune)
+        text << "  pruned " << prunedBranches << " backward and " << prunedPhotons
+             << " photon branches (--prune)\n";
+    text << std::defaultfloat << std::setprecision(4) << "  " << passesText(state.passes()) << " ("
+         << state.passes() - passesBefore << " this run, " << elapsed(seconds) << "), "
+         << stopReason << "; mean pixel error "
+         << (std::isfinite(error)
+                 ? std::to_string(100.0 * error).substr(0, 5) + " %"
+                 : std::string(state.passes() < 2 ? "unknown (it takes two passes)" : "unknown"))
+         << " over " << state.litPixels() << " lit pixels (target "
+         << 100.0 * spec.stop.targetError << " %";
+    const double finalTargetError = targetError();
+    if (spec.stop.target.text != "total")
+        text << " on " << spec.stop.target.text << ": "
+             << (std::isfinite(finalTargetError)
+                     ? std::to_string(100.0 * finalTargetError).substr(0, 5) + " %"
+                     : "unknown");
+    text << ")\n";
+    text << "  radius " << ro.initialRadiusMm << " mm -> " << state.radiusMm() << " mm, "
+         << ro.photonsPerPass << " photons per source and " << ro.raysPerPixel
+         << " rays per pixel per pass\n";
+    if (!spec.ranks.single())
+        text << "  across " << spec.ranks.size() << " ranks: rank 0 received "
+             << static_cast<double>(traffic.received) / 1e6 << " MB and sent "
+             << static_cast<double>(traffic.sent) / 1e6 << " MB, " << elapsed(traffic.seconds)
+             << " in those calls\n";
+    if (stopReason != "target error reached" && std::isfinite(finalTargetError) &&
+        finalTargetError > spec.stop.targetError)
+        text << "  the target error was not reached: continue with --resume " << folder << "\n";
+    return text.str();
+}
+
+// Files
+
+std::vector<std::filesystem::path> writeRenderFiles(const RenderResult& r,
+                                                    const std::filesystem::path& dir) {
+    std::vector<std::filesystem::path> written;
+    const RenderState& state = r.state;
+    const int criterionCount = state.criteria();
+    const DetectorImage total = state.total();
+    std::vector<DetectorImage> components;
+    for (int c = 0; c < kRenderComponents; ++c)
+        components.push_back(state.component(static_cast<RenderComponent>(c)));
+    const uint64_t n = static_cast<uint64_t>(state.passes());
+    // Criterion k: its total, then its components.
+    std::vector<std::vector<DetectorImage>> byCriterion(static_cast<size_t>(criterionCount));
+    for (int k = 0; k < criterionCount; ++k) {
+        byCriterion[k].push_back(state.criterionTotal(k));
+        for (int c = 0; c < kRenderComponents; ++c)
+            byCriterion[k].push_back(state.criterionComponent(k, static_cast<RenderComponent>(c)));
+    }
+    const std::string& name = r.detector;
+    std::vector<ImageLayer> layers{{"total", &total}};
+    for (int c = 0; c < kRenderComponents; ++c)
+        layers.push_back({std::string(toString(static_cast<RenderComponent>(c))), &components[c]});
+    for (int k = 0; k < criterionCount; ++k) {
+        layers.push_back({layerName(k), &byCriterion[k][0]});
+        for (int c = 0; c < kRenderComponents; ++c)
+            layers.push_back(
+                {layerName(k) + "." + std::string(toString(static_cast<RenderComponent>(c))),
+                 &byCriterion[k][c + 1]});
+    }
+    writeDetectorExr(dir / (name + ".exr"), layers, ExrInfo{r.unit, n});
+    written.push_back(dir / (name + ".exr"));
+    PreviewOptions po;
+    po.fluxUnit = r.unit;
+    po.emittedRays = n;
+    po.decades = 3.0;  // stray light spans a few decades; 6 would flatten it
+    po.title = name + ": stray light, " + passesText(n);
+    writeDetectorPng(dir / (name + ".png"), total, po);
+    written.push_back(dir / (name + ".png"));
+    for (int c = 0; c < kRenderComponents; ++c) {
+        const std::string comp(toString(static_cast<RenderComponent>(c)));
+        if (components[c].totalFlux() == 0.0) continue;
+        PreviewOptions cp = po;
+        cp.title = name + ": " + comp + " component, " + passesText(n);
+        writeDetectorPng(dir / (name + "." + comp + ".png"), components[c], cp);
+        written.push_back(dir / (name + "." + comp + ".png"));
+    }
+    for (int k = 0; k < criterionCount; ++k) {
+        PreviewOptions cp = po;
+        cp.title = name + ": " + r.spec.where[static_cast<size_t>(k)] + ", " + passesText(n);
+        const std::filesystem::path png = dir / (name + "." + layerName(k) + ".png");
+        writeDetectorPng(png, byCriterion[k][0], cp);
+        written.push_back(png);
+    }
+    writeTextFile(dir / "summary.json", r.summary().dump(2) + "\n");
+    written.push_back(dir / "summary.json");
+    return written;
 }
 
 }  // namespace veil

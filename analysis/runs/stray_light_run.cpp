@@ -1,10 +1,16 @@
 #include "analysis/runs/stray_light_run.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <iomanip>
 #include <limits>
+#include <sstream>
 
 #include "analysis/criteria/criterion_names.h"
+#include "analysis/reports/format.h"
+#include "analysis/reports/image_output.h"
+#include "lensdata/output_file.h"
 
 namespace veil {
 
@@ -29,6 +35,12 @@ std::vector<StrayLightRow> StrayLightResult::report() const {
 StrayLightResult runStrayLight(const PreparedScene& scene, const StrayLightSpec& spec) {
     const TraceSetup& ts = scene.trace();
     StrayLightResult result;
+    result.scene = spec.scene.empty() ? scene.file().path.string() : spec.scene;
+    result.raysPerSource = spec.raysPerSource;
+    result.seed = spec.transport.seed;
+    result.prune = spec.prune;
+    for (const DetectorImage& img : ts.images)
+        result.detectorObjects.push_back(scene.scene().object(img.geometry().object).name);
     result.emittedRays = spec.raysPerSource * ts.transport.sources.size();
     result.fluxUnit = ts.transport.sources.front().unit() == FluxUnit::Lumen ? "lm" : "W";
     if (spec.prune && spec.where.empty())
@@ -37,11 +49,7 @@ StrayLightResult runStrayLight(const PreparedScene& scene, const StrayLightSpec&
     TransportOptions options = spec.transport;
     if (!spec.where.empty()) {
         const NameTable names = criterionNames(scene.scene(), ts.transport);
-        std::vector<CompiledCriterion> compiled;
-        for (size_t i = 0; i < spec.where.size(); ++i)
-            compiled.push_back(
-                compileCriterion(spec.where[i], names, "--where " + std::to_string(i + 1)));
-        result.layers = std::make_unique<CriterionImages>(spec.where, std::move(compiled),
+        result.layers = std::make_unique<CriterionImages>(spec.where, compileWhereList(spec.where, names),
                                                           ts.images, ts.transport.detectorOfObject);
     }
     std::unique_ptr<CriteriaFilter> filter;
@@ -60,14 +68,142 @@ StrayLightResult runStrayLight(const PreparedScene& scene, const StrayLightSpec&
         };
     }
     const auto start = std::chrono::steady_clock::now();
+    std::function<void(uint64_t)> progress;
+    if (spec.progress) {
+        const uint64_t total = spec.raysPerSource * ts.transport.sources.size();
+        progress = [&spec, total](uint64_t done) { spec.progress({"trace", done, total}); };
+        progress(0);
+    }
     TraceResult traced = traceNonsequential(ts.transport, ts.images, spec.raysPerSource, options,
-                                            spec.progress, onRay);
+                                            progress, onRay);
     if (result.layers) result.layers->finish(options.ranks);
     result.seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     result.budget = traced.budget;
     result.images = std::move(traced.detectors);
     return result;
+}
+
+nlohmann::json StrayLightResult::summary() const {
+    nlohmann::json summary;
+    const FluxBudget& b = budget;
+    summary["scene"] = scene;
+    summary["rays_per_source"] = raysPerSource;
+    summary["seed"] = seed;
+    summary["seconds"] = seconds;
+    summary["unit"] = fluxUnit;
+    summary["budget"] = {{"emitted", b.emitted},
+                         {"detected", b.detected},
+                         {"absorbed_surface", b.absorbedSurface},
+                         {"absorbed_volume", b.absorbedVolume},
+                         {"escaped", b.escaped},
+                         {"culled", b.culled},
+                         {"dropped", b.dropped},
+                         {"dropped_branches",
+                          {{"no_refracted_direction", b.droppedBranches[0]},
+                           {"no_scatter_direction", b.droppedBranches[1]}}},
+                         {"roulette_gain", b.rouletteGain},
+                         {"imbalance", b.imbalance()},
+                         {"segments", b.segments},
+                         {"branches", b.branches},
+                         {"pruned_branches", b.prunedBranches}};
+    summary["detectors"] = nlohmann::json::array();
+    size_t d = 0;
+    for (const StrayLightRow& row : report()) {
+        if (row.layer.empty()) {
+            nlohmann::json jd{{"name", row.detector},
+                              {"object", detectorObjects[d++]},
+                              {"flux", row.flux},
+                              {"relative_error", jsonNumber(row.relativeError)}};
+            if (layers) jd["by_criterion"] = nlohmann::json::array();
+            summary["detectors"].push_back(jd);
+            continue;
+        }
+        summary["detectors"].back()["by_criterion"].push_back(
+            {{"layer", row.layer},
+             {"criterion", row.criterion},
+             {"flux", row.flux},
+             {"relative_error", jsonNumber(row.relativeError)}});
+    }
+    return summary;
+}
+
+std::string StrayLightResult::text() const {
+    const FluxBudget& b = budget;
+    std::ostringstream text;
+    text << "Flux budget (" << fluxUnit << ")\n";
+    auto line = [&](const char* what, double v) {
+        text << "  " << std::left << std::setw(18) << what << std::right << std::setw(16)
+             << std::scientific << std::setprecision(6) << v << "  " << std::fixed
+             << std::setprecision(3) << std::setw(8)
+             << (b.emitted > 0 ? 100.0 * v / b.emitted : 0.0) << " %\n";
+    };
+    line("emitted", b.emitted);
+    line("detected", b.detected);
+    line("absorbed", b.absorbed());
+    line("escaped", b.escaped);
+    line("culled", b.culled);
+    if (b.dropped > 0 || b.droppedBranches[0] + b.droppedBranches[1] > 0) {
+        line("dropped", b.dropped);
+        text << "    (" << b.droppedBranches[0] << " " << DropReason::NoRefractedDirection << ", "
+             << b.droppedBranches[1] << " " << DropReason::NoScatterDirection << ")\n";
+    }
+    if (b.rouletteGain > 0) line("roulette gain", b.rouletteGain);
+    if (prune) text << "  pruned " << b.prunedBranches << " branches (--prune)\n";
+    text << "  imbalance " << std::scientific << b.imbalance() << " (relative "
+         << (b.emitted > 0 ? b.imbalance() / b.emitted : 0.0) << ")\n";
+    text << std::fixed << std::setprecision(1) << "  " << emittedRays << " rays, " << b.segments
+         << " segments in " << seconds << " s (" << std::setprecision(0)
+         << emittedRays / std::max(seconds, 1e-9) << " rays/s)\n\nDetectors\n";
+    // A detector named apart from its object is shown with it: "sensor_image (on sensor)",
+    // the object name veil rays and criteria use as well.
+    size_t d = 0;
+    for (const StrayLightRow& row : report()) {
+        if (row.layer.empty()) {
+            const std::string& object = detectorObjects[d++];
+            text << "  " << row.detector << (object != row.detector ? " (on " + object + ")" : "")
+                 << ": " << formatFlux(row.flux, row.relativeError, fluxUnit) << "\n";
+            continue;
+        }
+        text << "    " << std::left << std::setw(8) << row.layer << std::right
+             << formatFlux(row.flux, row.relativeError, fluxUnit) << "  " << row.criterion << "\n";
+    }
+    return text.str();
+}
+
+std::vector<std::filesystem::path> writeTraceFiles(const StrayLightResult& result,
+                                                   const std::filesystem::path& dir) {
+    std::vector<std::filesystem::path> written;
+    std::filesystem::create_directories(dir);
+    const uint64_t total = result.emittedRays;
+    for (size_t d = 0; d < result.images.size(); ++d) {
+        const DetectorImage& img = result.images[d];
+        const std::string name = img.geometry().name;
+        std::vector<ImageLayer> layers{{result.layers ? "all" : "", &img}};
+        const size_t n = result.layers ? result.layers->criterionCount() : 0;
+        auto tag = [n](size_t c) { return c < n ? "where" + std::to_string(c + 1) : "rest"; };
+        if (result.layers)
+            for (size_t c = 0; c <= n; ++c)
+                layers.push_back({tag(c), &result.layers->images()[c][d]});
+        writeDetectorExr(dir / (name + ".exr"), layers, ExrInfo{result.fluxUnit, total});
+        written.push_back(dir / (name + ".exr"));
+        PreviewOptions po;
+        po.fluxUnit = result.fluxUnit;
+        po.emittedRays = total;
+        writeDetectorPng(dir / (name + ".png"), img, po);
+        written.push_back(dir / (name + ".png"));
+        if (!result.layers) continue;
+        for (size_t c = 0; c <= n; ++c) {
+            PreviewOptions lp = po;
+            lp.title = name + ": " + (c < n ? result.layers->text(c) : "none of the above");
+            const std::filesystem::path png = dir / (name + "." + tag(c) + ".png");
+            writeDetectorPng(png, result.layers->images()[c][d], lp);
+            written.push_back(png);
+        }
+    }
+    writeTextFile(dir / "summary.json", result.summary().dump(2) + "\n");
+    written.push_back(dir / "summary.json");
+    return written;
 }
 
 void runStrayLightBatches(const PreparedScene& scene, const StrayLightSpec& spec, int batches,

@@ -5,23 +5,29 @@
 //   pruning, a per-ray consumer such as the ray database)
 //     --runStrayLight--> StrayLightResult: the flux budget, every detector's image, the
 //       criterion layers (one per criterion plus "rest"), and report() -> the rows every
-//       output format prints: flux per detector and per criterion with relative errors.
+//       output format prints: flux per detector and per criterion with relative errors;
+//       summary() and text(), what veil trace writes and prints
+//     --writeTraceFiles--> DETECTOR.exr, DETECTOR[.whereK|.rest].png, summary.json
 //
 // Criteria are compiled against the scene before the first ray is traced: a typo costs
 // nothing. `veil trace` is this plus writing images and the summary; studies (sweeps, point
 // source transmittance) compose runs.
 
+#include <filesystem>
 #include <functional>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 #include "analysis/criteria/criterion_images.h"
+#include "analysis/reports/progress.h"
 #include "tracer/scene/prepared_scene.h"
 
 namespace veil {
 
 struct StrayLightSpec {
+    std::string scene;  // the scene as the user named it (the summary); empty: the file's path
     uint64_t raysPerSource = 0;
     // transport.ranks: the rays split over MPI ranks (tracer/runtime/ranks.h); every rank calls
     // runStrayLight, and the result is complete on rank 0 only.
@@ -35,8 +41,8 @@ struct StrayLightSpec {
     // before the first ray, so a bad spec writes nothing; the consumer is then called once
     // per emitted ray with its history, from worker threads (histories are recorded).
     std::function<RayCallback()> openConsumer;
-    // Rays done so far, from one thread (may be empty).
-    std::function<void(uint64_t)> progress;
+    // "trace" events, the rays done of every source's (from one thread; may be empty).
+    ProgressSink progress;
 };
 
 // One row of the report: a detector's total or one of its criterion layers.
@@ -55,10 +61,25 @@ struct StrayLightResult {
     uint64_t emittedRays = 0;
     std::string fluxUnit;  // "W" or "lm"
     double seconds = 0.0;  // wall time of the trace
+    // What the run was, for its reports.
+    std::string scene;
+    uint64_t raysPerSource = 0, seed = 0;
+    bool prune = false;
+    std::vector<std::string> detectorObjects;  // per detector: the object it records on
 
     // Per detector: its total, then its criterion layers in order (when there are criteria).
     std::vector<StrayLightRow> report() const;
+    // What veil trace writes as summary.json: the flux budget and every detector's flux with
+    // its error, split by criterion.
+    nlohmann::json summary() const;
+    // What veil trace prints: the budget, then the detectors.
+    std::string text() const;
 };
+
+// One EXR per detector (its total, "all", and its criterion layers), a PNG of each, and
+// summary.json, into `folder` (created as needed); returns them in that order.
+std::vector<std::filesystem::path> writeTraceFiles(const StrayLightResult& result,
+                                                   const std::filesystem::path& folder);
 
 // Throws ParseError for a criterion that does not parse or names nothing in the scene, and
 // ModelError when the scene has no source or prune is asked without criteria, before tracing.

@@ -12,11 +12,12 @@
 #include <numbers>
 #include <sstream>
 
-#include "analysis/ghosts/ghosts.h"
+#include "analysis/ghosts/ghost_tracer.h"
 #include "analysis/lens/first_order.h"
 #include "analysis/runs/render_run.h"
 #include "geometry/exact_face.h"
 #include "lensdata/errors.h"
+#include "lensdata/output_file.h"
 #include "tracer/light/source.h"
 #include "tracer/scene/prepared_scene.h"
 #include "tracer/sequential/ray_aiming.h"
@@ -428,7 +429,7 @@ void measure(PreparedScene& p, const GlareBench& bench, GlareField& f, const Gla
         run.options = spec.render;
         run.options.splitBackward = true;
         if (run.options.initialRadiusMm <= 0.0) run.options.initialRadiusMm = bench.radiusHintMm();
-        run.passes = spec.passes;
+        run.stop.passes = spec.passes;
         // The black field's visible light through refractions (and mirrors) alone: the
         // image's blur; and with a total internal reflection: ghosts the ghost analysis does
         // not walk.
@@ -436,13 +437,15 @@ void measure(PreparedScene& p, const GlareBench& bench, GlareField& f, const Gla
         std::vector<double> total, specular, tir, blur, diffuse;
         const double area = f.measuredSideMm * f.measuredSideMm;
         (black ? blackProgress : whiteProgress)(0);
-        runRenderPasses(p, run, [&](int pass, const RenderPassTotals& t) {
+        RenderRun(p, run).run([&](const RenderPassEvent& e) {
+            const int pass = e.pass;
+            const RenderPassTotals t = passTotals(*e.rendered);
             constexpr auto kVisible = static_cast<size_t>(RenderComponent::Visible);
             const double visible = t.components[kVisible];
             double nominal = 0.0, internal = 0.0;
             if (black) {
-                for (double v : t.pass->criteria.at(0)[kVisible]) nominal += v;
-                for (double v : t.pass->criteria.at(1)[kVisible]) internal += v;
+                for (double v : e.rendered->criteria.at(0)[kVisible]) nominal += v;
+                for (double v : e.rendered->criteria.at(1)[kVisible]) internal += v;
             }
             total.push_back(t.total() / area);
             specular.push_back((visible - nominal) / area);
@@ -548,7 +551,7 @@ GlareSpread measureSpread(PreparedScene& p, const GlareBench& bench, const Glare
     run.options.raysPerPixel = std::max<uint64_t>(1, spec.render.raysPerPixel / 16);
     run.options.detectorRadiusPixels = 0.0;
     if (run.options.initialRadiusMm <= 0.0) run.options.initialRadiusMm = bench.radiusHintMm();
-    run.passes = spec.passes;
+    run.stop.passes = spec.passes;
     for (const bool core : {true, false}) {
         const double side = core ? coreSide : 2.0 * g.radiusMm;
         const int n = core ? corePixels : spec.spreadPixels;
@@ -556,9 +559,11 @@ GlareSpread measureSpread(PreparedScene& p, const GlareBench& bench, const Glare
         const PixelShares vgi = annulusShares(side, n, vgiEdges);
         run.detector = core ? "gsf_core" : "gsf";
         if (core) progress(0);
-        runRenderPasses(p, run, [&](int pass, const RenderPassTotals& t) {
-            (core ? coreCurve : coarseCurve).push_back(binPass(*t.pass, curve, annuli));
-            (core ? coreVgi : coarseVgi).push_back(binPass(*t.pass, vgi, 3));
+        RenderRun(p, run).run([&](const RenderPassEvent& e) {
+            const int pass = e.pass;
+            const RenderPassTotals t = passTotals(*e.rendered);
+            (core ? coreCurve : coarseCurve).push_back(binPass(*e.rendered, curve, annuli));
+            (core ? coreVgi : coarseVgi).push_back(binPass(*e.rendered, vgi, 3));
             progress(core ? pass : spec.passes + pass);
         });
     }
@@ -667,7 +672,10 @@ GlareResult runGlare(const SceneFile& file, const GlassCatalog& catalog, const G
         const std::unique_ptr<PreparedScene> p = PreparedScene::build(std::move(first), catalog);
         auto progress = [&](const std::string& run, int passes) {
             return [&, run, passes](int pass) {
-                if (spec.progress) spec.progress(fi, run, pass, passes);
+                if (spec.progress)
+                    spec.progress({"glare: position " + std::to_string(fi + 1) + ", " + run,
+                                   static_cast<uint64_t>(pass), static_cast<uint64_t>(passes),
+                                   "passes"});
             };
         };
         measure(*p, bench, gf, spec, 0.0, catalog, progress("black field", spec.passes),
@@ -727,6 +735,62 @@ std::string percent(const GlareValue& v) {
 
 nlohmann::json valueJson(const GlareValue& v) { return {{"value", v.value}, {"error", v.error}}; }
 
+// CSV numbers: nine significant digits.
+std::string csv9(double v) {
+    std::ostringstream os;
+    os << std::setprecision(9) << v;
+    return os.str();
+}
+
+ReportCell csvNumber(double v) { return ReportCell::number(v, csv9(v), "", ""); }
+
+// A measured value: its CSV number, its percent with error in Markdown, {value, error} in JSON.
+ReportCell measured(const GlareValue& v) {
+    ReportCell c = ReportCell::number(v.value, csv9(v.value), percent(v), percent(v));
+    c.json = valueJson(v);
+    return c;
+}
+
+ReportColumn only(const std::string& key, const std::string& heading, bool csv, bool markdown,
+                  bool json, const std::string& rule = "---:") {
+    ReportColumn c{key, heading};
+    c.csv = csv;
+    c.markdown = markdown;
+    c.json = json;
+    c.terminal = markdown;
+    c.markdownRule = rule;
+    return c;
+}
+
+
+nlohmann::json spreadJson(const GlareSpread& g) {
+    nlohmann::json gsf = {{"radius_mm", g.radiusMm},
+                          {"core_radius_mm", g.coreRadiusMm},
+                          {"edges_mm", g.edgesMm},
+                          {"disc_flux", valueJson(g.discFlux)},
+                          {"vgi", valueJson(g.vgi)},
+                          {"vgi_specular", valueJson(g.vgiSpecular)},
+                          {"vgi_diffuse", valueJson(g.vgiDiffuse)}};
+    for (const auto& [name, values] :
+         {std::pair{"gsf", &g.total}, std::pair{"gsf_specular", &g.specular},
+          std::pair{"gsf_diffuse", &g.diffuse}}) {
+        nlohmann::json v = nlohmann::json::array(), e = nlohmann::json::array();
+        for (const GlareValue& x : *values) {
+            v.push_back(x.value);
+            e.push_back(x.error);
+        }
+        gsf[name] = v;
+        gsf[std::string(name) + "_error"] = e;
+    }
+    if (g.fieldDeg > 0.0) {
+        gsf["field_deg"] = g.fieldDeg;
+        gsf["direct_vgi"] = valueJson(g.directVgi);
+        gsf["direct_specular"] = valueJson(g.directSpecular);
+        gsf["direct_diffuse"] = valueJson(g.directDiffuse);
+    }
+    return gsf;
+}
+
 }  // namespace
 
 std::string GlareResult::markdown() const {
@@ -737,14 +801,7 @@ std::string GlareResult::markdown() const {
        << fmt(fieldHalfAngleDeg) << " deg from the axis; " << spectrum << ". " << passes
        << " render passes of " << raysPerPixel << " rays per pixel and " << photonsPerPass
        << " photons; errors 1 sigma.\n\n";
-    os << "| f/# | field (deg) | image (mm) | VGI | specular (ghosts) | of which via TIR | "
-          "diffuse (scatter) | image blur | ghost analysis |\n"
-          "|---:|---|---|---:|---:|---:|---:|---:|---:|\n";
-    for (const GlareField& f : fields)
-        os << "| " << fmt(f.fNumber, 3) << " | " << fmt(f.fieldDeg.x) << ", " << fmt(f.fieldDeg.y)
-           << " | " << fmt(f.imageMm.x, 5) << ", " << fmt(f.imageMm.y, 5) << " | " << percent(f.vgi)
-           << " | " << percent(f.specular) << " | " << percent(f.tir) << " | " << percent(f.diffuse)
-           << " | " << percent(f.blur) << " | " << fmt(100.0 * f.ghostPrediction) << " % |\n";
+    os << table().markdown();
     for (const GlareField& f : fields)
         if (f.blur.value > 0.05 * f.vgi.value && f.vgi.value > 0.0)
             os << "\nAt " << fmt(f.fieldDeg.x) << ", " << fmt(f.fieldDeg.y) << " deg (f/"
@@ -762,9 +819,13 @@ std::string GlareResult::markdown() const {
     if (!fields.empty() && !fields.front().ghosts.empty()) {
         const GlareField& f = fields.front();
         os << " Its brightest ghosts at " << fmt(f.fieldDeg.x) << ", " << fmt(f.fieldDeg.y)
-           << " deg:\n\n| ghost | VGI |\n|---|---:|\n";
+           << " deg:\n\n";
+        ReportTable ghosts(std::vector<ReportColumn>{only("ghost", "ghost", false, true, false, "---"),
+                                                     only("vgi", "VGI", false, true, false)});
         for (size_t i = 0; i < f.ghosts.size() && i < 5; ++i)
-            os << "| " << f.ghosts[i].label << " | " << fmt(100.0 * f.ghosts[i].vgi) << " % |\n";
+            ghosts.addRow({ReportCell::text(f.ghosts[i].label),
+                           ReportCell::text(fmt(100.0 * f.ghosts[i].vgi) + " %")});
+        os << ghosts.markdown();
     } else {
         os << "\n";
     }
@@ -778,43 +839,119 @@ std::string GlareResult::markdown() const {
               "is the disc, if the GSF were the same at every point of the image "
               "(isoplanatic). On axis the disc is the image of a cone of the field (theta_R), "
               "and that field's VGI is rendered directly as the check; ghosts, which move "
-              "across the image at their own rate, make the two differ (docs/glare.md).\n\n"
-              "| f/# | field (deg) | R (mm) | VGI from GSF | specular | diffuse | theta_R | "
-              "direct VGI, field to theta_R | specular | diffuse |\n"
-              "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
-        for (const GlareField& f : fields) {
-            if (!f.spread) continue;
-            const GlareSpread& g = *f.spread;
-            os << "| " << fmt(f.fNumber, 3) << " | " << fmt(f.fieldDeg.x) << ", "
-               << fmt(f.fieldDeg.y) << " | " << fmt(g.radiusMm) << " | " << percent(g.vgi) << " | "
-               << percent(g.vgiSpecular) << " | " << percent(g.vgiDiffuse) << " | ";
-            if (g.fieldDeg > 0.0)
-                os << fmt(g.fieldDeg) << " deg | " << percent(g.directVgi) << " | "
-                   << percent(g.directSpecular) << " | " << percent(g.directDiffuse) << " |\n";
-            else
-                os << "- | - | - | - |\n";
-        }
+              "across the image at their own rate, make the two differ (docs/glare.md).\n\n";
+        os << spreadSummaryTable().markdown();
     }
     return os.str();
 }
 
-std::string GlareResult::csv() const {
-    std::ostringstream os;
-    os << std::setprecision(9);
-    os << "f_number,field_x_deg,field_y_deg,image_x_mm,image_y_mm,spot_image_radius_mm,vgi,vgi_"
-          "error,"
-          "specular,specular_error,tir,tir_error,diffuse,diffuse_error,blur,blur_error,ghost_"
-          "prediction,black_"
-       << unit << "_mm2,black_error,white_" << unit << "_mm2,white_error\n";
-    for (const GlareField& f : fields)
-        os << f.fNumber << "," << f.fieldDeg.x << "," << f.fieldDeg.y << "," << f.imageMm.x << ","
-           << f.imageMm.y << "," << f.spotImageRadiusMm << "," << f.vgi.value << "," << f.vgi.error
-           << "," << f.specular.value << "," << f.specular.error << "," << f.tir.value << ","
-           << f.tir.error << "," << f.diffuse.value << "," << f.diffuse.error << "," << f.blur.value
-           << "," << f.blur.error << "," << f.ghostPrediction << "," << f.black.value << ","
-           << f.black.error << "," << f.white.value << "," << f.white.error << "\n";
-    return os.str();
+ReportTable GlareResult::table() const {
+    std::vector<ReportColumn> columns{
+        only("f_number", "f/#", true, true, true),
+        only("field_x_deg", "", true, false, false),
+        only("field_y_deg", "", true, false, false),
+        only("field_deg", "field (deg)", false, true, true, "---"),
+        only("image_x_mm", "", true, false, false),
+        only("image_y_mm", "", true, false, false),
+        only("image_mm", "image (mm)", false, true, true, "---"),
+        only("spot_image_radius_mm", "", true, false, true),
+        only("measured_side_mm", "", false, false, true),
+        only("vgi", "VGI", true, true, true),
+        only("vgi_error", "", true, false, false),
+        only("specular", "specular (ghosts)", true, true, true),
+        only("specular_error", "", true, false, false),
+        only("tir", "of which via TIR", true, true, true),
+        only("tir_error", "", true, false, false),
+        only("diffuse", "diffuse (scatter)", true, true, true),
+        only("diffuse_error", "", true, false, false),
+        only("blur", "image blur", true, true, true),
+        only("blur_error", "", true, false, false),
+        only("ghost_prediction", "ghost analysis", true, true, true),
+        only("image_prediction", "", false, false, true),
+        only("black", "", true, false, true).withCsvHeader("black_" + unit + "_mm2"),
+        only("black_error", "", true, false, false),
+        only("white", "", true, false, true).withCsvHeader("white_" + unit + "_mm2"),
+        only("white_error", "", true, false, false),
+        only("gsf", "", false, false, true)};
+    ReportTable table(std::move(columns));
+    for (const GlareField& f : fields) {
+        ReportCell fNumber = csvNumber(f.fNumber);
+        fNumber.markdown = fmt(f.fNumber, 3);
+        ReportCell field = ReportCell::text(fmt(f.fieldDeg.x) + ", " + fmt(f.fieldDeg.y));
+        field.json = {f.fieldDeg.x, f.fieldDeg.y};
+        ReportCell image = ReportCell::text(fmt(f.imageMm.x, 5) + ", " + fmt(f.imageMm.y, 5));
+        image.json = {f.imageMm.x, f.imageMm.y};
+        ReportCell side = csvNumber(f.measuredSideMm);
+        ReportCell ghosts = csvNumber(f.ghostPrediction);
+        ghosts.markdown = fmt(100.0 * f.ghostPrediction) + " %";
+        ReportCell gsf = ReportCell::text("");
+        if (f.spread)
+            gsf.json = spreadJson(*f.spread);
+        else
+            gsf.withoutJson();
+        table.addRow({fNumber, csvNumber(f.fieldDeg.x), csvNumber(f.fieldDeg.y), field,
+                      csvNumber(f.imageMm.x), csvNumber(f.imageMm.y), image,
+                      csvNumber(f.spotImageRadiusMm), side, measured(f.vgi),
+                      csvNumber(f.vgi.error), measured(f.specular), csvNumber(f.specular.error),
+                      measured(f.tir), csvNumber(f.tir.error), measured(f.diffuse),
+                      csvNumber(f.diffuse.error), measured(f.blur), csvNumber(f.blur.error),
+                      ghosts, csvNumber(f.imagePrediction), measured(f.black),
+                      csvNumber(f.black.error), measured(f.white), csvNumber(f.white.error), gsf});
+    }
+    return table;
 }
+
+ReportTable GlareResult::spreadSummaryTable() const {
+    ReportTable table(std::vector<ReportColumn>{
+        only("f_number", "f/#", false, true, false),
+        only("field_deg", "field (deg)", false, true, false, "---"),
+        only("radius_mm", "R (mm)", false, true, false),
+        only("vgi", "VGI from GSF", false, true, false),
+        only("vgi_specular", "specular", false, true, false),
+        only("vgi_diffuse", "diffuse", false, true, false),
+        only("theta_r", "theta_R", false, true, false),
+        only("direct_vgi", "direct VGI, field to theta_R", false, true, false),
+        only("direct_specular", "specular", false, true, false),
+        only("direct_diffuse", "diffuse", false, true, false)});
+    for (const GlareField& f : fields) {
+        if (!f.spread) continue;
+        const GlareSpread& g = *f.spread;
+        const bool direct = g.fieldDeg > 0.0;
+        auto text = [](const std::string& s) { return ReportCell::text(s); };
+        table.addRow({text(fmt(f.fNumber, 3)), text(fmt(f.fieldDeg.x) + ", " + fmt(f.fieldDeg.y)),
+                      text(fmt(g.radiusMm)), text(percent(g.vgi)), text(percent(g.vgiSpecular)),
+                      text(percent(g.vgiDiffuse)), text(direct ? fmt(g.fieldDeg) + " deg" : "-"),
+                      text(direct ? percent(g.directVgi) : "-"),
+                      text(direct ? percent(g.directSpecular) : "-"),
+                      text(direct ? percent(g.directDiffuse) : "-")});
+    }
+    return table;
+}
+
+ReportTable GlareResult::spreadTable() const {
+    ReportTable table;
+    for (const char* k : {"f_number", "field_x_deg", "field_y_deg", "r_inner_mm", "r_outer_mm",
+                          "r_mm", "gsf_per_mm2", "gsf_error", "specular_per_mm2",
+                          "specular_error", "diffuse_per_mm2", "diffuse_error"})
+        table.addColumn(only(k, k, true, false, true));
+    for (const GlareField& f : fields) {
+        if (!f.spread) continue;
+        const GlareSpread& g = *f.spread;
+        for (size_t a = 0; a < g.total.size(); ++a) {
+            const double lo = g.edgesMm[a], hi = g.edgesMm[a + 1];
+            table.addRow({csvNumber(f.fNumber), csvNumber(f.fieldDeg.x), csvNumber(f.fieldDeg.y),
+                          csvNumber(lo), csvNumber(hi), csvNumber(spreadRadius(lo, hi)),
+                          csvNumber(g.total[a].value), csvNumber(g.total[a].error),
+                          csvNumber(g.specular[a].value), csvNumber(g.specular[a].error),
+                          csvNumber(g.diffuse[a].value), csvNumber(g.diffuse[a].error)});
+        }
+    }
+    return table;
+}
+
+std::string GlareResult::csv() const { return table().csv(); }
+
+std::string GlareResult::spreadCsv() const { return spreadTable().csv(); }
 
 std::string GlareResult::json() const {
     nlohmann::json j;
@@ -826,71 +963,115 @@ std::string GlareResult::json() const {
     j["rays_per_pixel"] = raysPerPixel;
     j["photons_per_pass"] = photonsPerPass;
     j["seconds"] = seconds;
-    j["fields"] = nlohmann::json::array();
-    for (const GlareField& f : fields)
-        j["fields"].push_back({{"f_number", f.fNumber},
-                               {"field_deg", {f.fieldDeg.x, f.fieldDeg.y}},
-                               {"image_mm", {f.imageMm.x, f.imageMm.y}},
-                               {"spot_image_radius_mm", f.spotImageRadiusMm},
-                               {"measured_side_mm", f.measuredSideMm},
-                               {"vgi", valueJson(f.vgi)},
-                               {"specular", valueJson(f.specular)},
-                               {"diffuse", valueJson(f.diffuse)},
-                               {"tir", valueJson(f.tir)},
-                               {"blur", valueJson(f.blur)},
-                               {"black", valueJson(f.black)},
-                               {"white", valueJson(f.white)},
-                               {"ghost_prediction", f.ghostPrediction},
-                               {"image_prediction", f.imagePrediction}});
-    for (size_t i = 0; i < fields.size(); ++i) {
-        if (!fields[i].spread) continue;
-        const GlareSpread& g = *fields[i].spread;
-        nlohmann::json gsf = {{"radius_mm", g.radiusMm},
-                              {"core_radius_mm", g.coreRadiusMm},
-                              {"edges_mm", g.edgesMm},
-                              {"disc_flux", valueJson(g.discFlux)},
-                              {"vgi", valueJson(g.vgi)},
-                              {"vgi_specular", valueJson(g.vgiSpecular)},
-                              {"vgi_diffuse", valueJson(g.vgiDiffuse)}};
-        for (const auto& [name, values] :
-             {std::pair{"gsf", &g.total}, std::pair{"gsf_specular", &g.specular},
-              std::pair{"gsf_diffuse", &g.diffuse}}) {
-            nlohmann::json v = nlohmann::json::array(), e = nlohmann::json::array();
-            for (const GlareValue& x : *values) {
-                v.push_back(x.value);
-                e.push_back(x.error);
-            }
-            gsf[name] = v;
-            gsf[std::string(name) + "_error"] = e;
-        }
-        if (g.fieldDeg > 0.0) {
-            gsf["field_deg"] = g.fieldDeg;
-            gsf["direct_vgi"] = valueJson(g.directVgi);
-            gsf["direct_specular"] = valueJson(g.directSpecular);
-            gsf["direct_diffuse"] = valueJson(g.directDiffuse);
-        }
-        j["fields"][i]["gsf"] = gsf;
-    }
+    j["fields"] = table().json();
     return j.dump(2) + "\n";
 }
 
-std::string GlareResult::spreadCsv() const {
-    std::ostringstream os;
-    os << std::setprecision(9);
-    os << "f_number,field_x_deg,field_y_deg,r_inner_mm,r_outer_mm,r_mm,gsf_per_mm2,gsf_error,"
-          "specular_per_mm2,specular_error,diffuse_per_mm2,diffuse_error\n";
+// The glare spread functions, log-log: every position's total; with one position, its
+// specular and diffuse parts too. The spot image's radius of the first position marked.
+ChartSpec GlareResult::spreadChart() const {
+    ChartSpec chart;
+    chart.title = "Glare spread function: a point source's stray light around its image";
+    chart.xLabel = "distance from the point source's image (mm)";
+    chart.yLabel = "GSF (1/mm^2: irradiance over the disc's flux)";
+    chart.logX = chart.logY = true;
+    auto label = [](const GlareField& f) {
+        std::ostringstream os;
+        os << std::setprecision(4) << f.fieldDeg.x << ", " << f.fieldDeg.y << " deg, f/"
+           << std::setprecision(3) << f.fNumber;
+        return os.str();
+    };
+    size_t spreads = 0;
+    for (const GlareField& f : fields) spreads += f.spread ? 1 : 0;
     for (const GlareField& f : fields) {
         if (!f.spread) continue;
         const GlareSpread& g = *f.spread;
-        for (size_t a = 0; a < g.total.size(); ++a) {
-            const double lo = g.edgesMm[a], hi = g.edgesMm[a + 1];
-            os << f.fNumber << "," << f.fieldDeg.x << "," << f.fieldDeg.y << "," << lo << "," << hi
-               << "," << spreadRadius(lo, hi) << "," << g.total[a].value << "," << g.total[a].error
-               << "," << g.specular[a].value << "," << g.specular[a].error << ","
-               << g.diffuse[a].value << "," << g.diffuse[a].error << "\n";
+        auto series = [&](const std::string& name, const std::vector<GlareValue>& v, bool dashed) {
+            ChartSeries s{name, {}, {}, {}, dashed, false};
+            for (size_t a = 0; a < v.size(); ++a) {
+                s.x.push_back(spreadRadius(g.edgesMm[a], g.edgesMm[a + 1]));
+                s.y.push_back(v[a].value);
+                s.yError.push_back(v[a].error);
+            }
+            return s;
+        };
+        chart.series.push_back(series(spreads > 1 ? label(f) : "total", g.total, false));
+        if (spreads == 1) {
+            chart.series.push_back(series("specular (image and ghosts)", g.specular, true));
+            chart.series.push_back(series("diffuse (scatter)", g.diffuse, true));
         }
     }
-    return os.str();
+    for (const GlareField& f : fields)
+        if (f.spread) {
+            chart.xMarkers.push_back({f.spotImageRadiusMm, "spot image"});
+            break;
+        }
+    return chart;
+}
+
+ChartSpec GlareResult::vgiChart() const {
+    ChartSpec chart;
+    chart.title = "Veiling glare index, black spot " +
+                  std::to_string(spotDiameterDeg).substr(0, 4) + " deg";
+    chart.xLabel = "field angle of the black spot (deg)";
+    chart.yLabel = "VGI (%)";
+    std::vector<double> apertures;
+    for (const GlareField& f : fields)
+        if (std::find(apertures.begin(), apertures.end(), f.fNumber) == apertures.end())
+            apertures.push_back(f.fNumber);
+    auto fnum = [](double n) {
+        std::ostringstream os;
+        os << "f/" << std::setprecision(3) << n;
+        return os.str();
+    };
+    for (double n : apertures) {
+        const std::string tag = apertures.size() > 1 ? " " + fnum(n) : "";
+        ChartSeries total{"VGI" + tag, {}, {}, {}},
+            specular{"specular (ghosts)" + tag, {}, {}, {}, true},
+            diffuse{"diffuse (scatter)" + tag, {}, {}, {}, true};
+        for (const GlareField& f : fields) {
+            if (f.fNumber != n) continue;
+            const double angle = std::hypot(f.fieldDeg.x, f.fieldDeg.y);
+            for (auto [s, v] : {std::pair{&total, f.vgi}, std::pair{&specular, f.specular},
+                                std::pair{&diffuse, f.diffuse}}) {
+                s->x.push_back(angle);
+                s->y.push_back(100.0 * v.value);
+                s->yError.push_back(100.0 * v.error);
+            }
+        }
+        chart.series.push_back(total);
+        if (apertures.size() == 1) {
+            chart.series.push_back(specular);
+            chart.series.push_back(diffuse);
+        }
+    }
+    return chart;
+}
+
+std::vector<std::filesystem::path> writeGlareFiles(const GlareResult& result,
+                                                   const std::filesystem::path& dir) {
+    std::vector<std::filesystem::path> written;
+    std::filesystem::create_directories(dir);
+    std::vector<std::pair<std::string, std::string>> files = {{"glare.md", result.markdown()},
+                                                              {"glare.csv", result.csv()},
+                                                              {"glare.json", result.json()}};
+    bool spreads = false;
+    for (const GlareField& f : result.fields) spreads = spreads || f.spread.has_value();
+    if (spreads) files.push_back({"gsf.csv", result.spreadCsv()});
+    for (const auto& [name, text] : files) {
+        writeTextFile(dir / name, text);
+        written.push_back(dir / name);
+    }
+    auto picture = [&](const ChartSpec& chart, const std::string& stem) {
+        const Picture pic = drawChart(chart);
+        pic.writeSvg(dir / (stem + ".svg"));
+        written.push_back(dir / (stem + ".svg"));
+        pic.writePng(dir / (stem + ".png"), 1600);
+        written.push_back(dir / (stem + ".png"));
+    };
+    if (spreads) picture(result.spreadChart(), "gsf");
+    if (result.fields.size() >= 2) picture(result.vgiChart(), "glare");
+    return written;
 }
 
 }  // namespace veil

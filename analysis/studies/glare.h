@@ -49,12 +49,16 @@
 // ghost light lands spread over the disc while a bright field's ghosts pile up at the spot image in
 // the ratio 1/m_g^2: there the two differ, and the direct measurement is the VGI.
 
+#include <filesystem>
 #include <functional>
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "analysis/pictures/chart.h"
+#include "analysis/reports/progress.h"
+#include "analysis/reports/report_table.h"
 #include "geometry/vec.h"
 #include "lensdata/glass_catalog.h"
 #include "tracer/light/spectrum.h"
@@ -87,10 +91,10 @@ struct GlareSpec {
     double spreadRadiusMm = 0.0;
     int spreadPixels = 128;
     RenderOptions render;  // raysPerPixel, photonsPerPass, seed, ...; splitBackward is set
-    // Called when a run starts (pass 0) and after every pass: measurement index
-    // (aperture-major), the run ("black field", "white field", "point source", "check, black
-    // field", ...), pass, passes.
-    std::function<void(size_t field, const std::string& run, int pass, int passes)> progress;
+    // When a run starts (pass 0) and after every pass: one task per run, "glare: position 2,
+    // white field" (positions aperture-major; runs "black field", "white field", "point
+    // source", "check, black field", ...), its passes counted.
+    ProgressSink progress;
 };
 
 struct GlareValue {
@@ -150,6 +154,15 @@ struct GlareResult {
     uint64_t raysPerPixel = 0, photonsPerPass = 0;
     double seconds = 0.0;
 
+    // One row per position and aperture (analysis/reports/report_table.h): glare.csv, the
+    // JSON's fields and the Markdown table; the GSF's annuli (gsf.csv) and its summary.
+    ReportTable table() const;
+    ReportTable spreadTable() const;
+    ReportTable spreadSummaryTable() const;
+    // The GSF against the distance from the image (gsf.png), and the VGI and its parts
+    // against the spot's field angle, one line per aperture (glare.png, two positions or more).
+    ChartSpec spreadChart() const;
+    ChartSpec vgiChart() const;
     std::string markdown() const;
     std::string csv() const;
     std::string json() const;
@@ -218,5 +231,10 @@ double spreadRadius(double lo, double hi);
 
 // A ratio with its error from the errors of its terms (independent).
 GlareValue ratio(const GlareValue& a, const GlareValue& b);
+
+// glare.md, glare.csv, glare.json, gsf.csv and the charts (gsf and glare, SVG and PNG) into
+// `dir` (created as needed); returns them in that order.
+std::vector<std::filesystem::path> writeGlareFiles(const GlareResult& result,
+                                                   const std::filesystem::path& dir);
 
 }  // namespace veil

@@ -11,6 +11,7 @@
 
 #include "analysis/pictures/layout.h"
 #include "analysis/pictures/scene_section.h"
+#include "analysis/reports/format.h"
 #include "analysis/runs/render_run.h"
 #include "geometry/exact_face.h"
 #include "lensdata/errors.h"
@@ -291,7 +292,6 @@ std::string percent(double value, double error) {
     return buf;
 }
 
-nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
 
 }  // namespace
 
@@ -354,8 +354,10 @@ ObjectsResult runObjects(const PreparedScene& prepared, const ObjectsSpec& spec)
     result.detectorRays = spec.rays;
     TransportOptions options = spec.transport;
     auto progressOf = [&](const std::string& pass, uint64_t total) {
-        return spec.progress ? std::function<void(uint64_t)>([&spec, pass, total](uint64_t d) {
-            spec.progress(pass, d, total);
+        const std::string task =
+            pass == "source" ? "objects: lit by the sources" : "objects: seen by the detector";
+        return spec.progress ? std::function<void(uint64_t)>([&spec, task, total](uint64_t d) {
+            spec.progress({task, d, total});
         })
                              : std::function<void(uint64_t)>();
     };
@@ -491,20 +493,76 @@ ObjectsResult runObjects(const PreparedScene& prepared, const ObjectsSpec& spec)
     return result;
 }
 
-std::string ObjectsResult::csv() const {
-    std::ostringstream os;
-    os << "rank,object,part,kind,optical,lit,lit_error,scattered,scattered_error,seen,"
-          "seen_error,product,product_error,estimate,estimate_error,main_side\n";
-    os.precision(9);
-    for (const ObjectRow& r : rows) {
-        os << r.rank << ',' << r.name << ',' << r.part << ',' << r.kind << ','
-           << (r.optical ? "yes" : "no") << ',' << r.lit << ',' << r.litError << ',' << r.scattered
-           << ',' << r.scatteredError << ',' << r.seen << ',' << r.seenError << ',' << r.product
-           << ',' << r.productError << ',' << r.estimate << ',' << r.estimateError << ','
-           << (r.product > 0.0 ? r.sides.front().name : "") << '\n';
+ReportTable ObjectsResult::table() const {
+    ReportTable table;
+    auto column = [&](const std::string& key, const std::string& heading, bool right,
+                      bool csv = true, bool markdown = true, bool json = true) {
+        ReportColumn c{key, heading};
+        c.markdownRule = right ? "---:" : "---";
+        c.csv = csv;
+        c.markdown = markdown;
+        c.json = json;
+        table.addColumn(std::move(c));
+    };
+    column("rank", "rank", true);
+    column("object", "object", false);
+    column("part", "", false, true, false);
+    column("kind", "kind", false);
+    column("optical", "", false, true, false);
+    for (const char* k : {"lit", "scattered", "seen", "product", "estimate"}) {
+        const std::string key = k;
+        const std::string heading = key == "product"    ? "lit x seen"
+                                    : key == "estimate" ? "first-order estimate"
+                                                        : key;
+        column(key, heading, true, true, key != "scattered");
+        column(key + "_error", "", true, true, false);
     }
-    return os.str();
+    column("scatter_product", "", true, false, false);
+    column("scatter_product_error", "", true, false, false);
+    column("main_side", "where", false, true, true, false);
+    column("sides", "", false, false, false);
+    // CSV: nine significant digits.
+    auto number = [](double v, double e) {
+        std::ostringstream os;
+        os.precision(9);
+        os << v;
+        return ReportCell::number(v, os.str(), percent(v, e), percent(v, e));
+    };
+    auto error = [](double e) {
+        std::ostringstream os;
+        os.precision(9);
+        os << e;
+        return ReportCell::number(e, os.str(), "", "");
+    };
+    for (const ObjectRow& r : rows) {
+        ReportCell rank = ReportCell::count(r.rank);
+        rank.markdown = r.rank > 0 ? std::to_string(r.rank) : r.optical ? "optical" : "-";
+        ReportCell sides = ReportCell::text("");
+        sides.json = nlohmann::json::array();
+        for (const ObjectSide& s : r.sides)
+            sides.json.push_back({{"side", s.name},
+                                  {"lit", jsonNumber(s.lit)},
+                                  {"lit_error", jsonNumber(s.litError)},
+                                  {"scattered", jsonNumber(s.scattered)},
+                                  {"scattered_error", jsonNumber(s.scatteredError)},
+                                  {"seen", jsonNumber(s.seen)},
+                                  {"seen_error", jsonNumber(s.seenError)},
+                                  {"area_mm2", jsonNumber(s.areaMm2)}});
+        table.addRow({rank, ReportCell::text(r.name), ReportCell::text(r.part),
+                      ReportCell::text(r.kind), ReportCell::flag(r.optical),
+                      number(r.lit, r.litError), error(r.litError),
+                      number(r.scattered, r.scatteredError), error(r.scatteredError),
+                      number(r.seen, r.seenError), error(r.seenError),
+                      number(r.product, r.productError), error(r.productError),
+                      number(r.estimate, r.estimateError), error(r.estimateError),
+                      number(r.scatterProduct, r.scatterProductError),
+                      error(r.scatterProductError),
+                      ReportCell::text(r.product > 0.0 ? r.sides.front().name : ""), sides});
+    }
+    return table;
 }
+
+std::string ObjectsResult::csv() const { return table().csv(); }
 
 std::string ObjectsResult::markdown() const {
     std::ostringstream os;
@@ -514,18 +572,7 @@ std::string ObjectsResult::markdown() const {
        << (rankedBy == "estimate" ? "the first-order estimate" : "lit x seen") << " (" << sourceRays
        << " source rays, " << detectorRays
        << " detector rays; shares of the emitted flux, 1 sigma)\n\n";
-    os << "| rank | object | kind | lit | seen | lit x seen | first-order estimate | where |\n";
-    os << "|---:|---|---|---:|---:|---:|---:|---|\n";
-    for (const ObjectRow& r : rows) {
-        os << "| "
-           << (r.rank > 0  ? std::to_string(r.rank)
-               : r.optical ? "optical"
-                           : "-")
-           << " | " << r.name << " | " << r.kind << " | " << percent(r.lit, r.litError) << " | "
-           << percent(r.seen, r.seenError) << " | " << percent(r.product, r.productError) << " | "
-           << percent(r.estimate, r.estimateError) << " | "
-           << (r.product > 0.0 ? r.sides.front().name : "") << " |\n";
-    }
+    os << table().markdown();
     return os.str();
 }
 
@@ -538,37 +585,7 @@ std::string ObjectsResult::json() const {
     j["source_rays"] = sourceRays;
     j["detector_rays"] = detectorRays;
     j["seconds"] = seconds;
-    j["objects"] = nlohmann::json::array();
-    for (const ObjectRow& r : rows) {
-        nlohmann::json o{{"rank", r.rank},
-                         {"object", r.name},
-                         {"part", r.part},
-                         {"kind", r.kind},
-                         {"optical", r.optical},
-                         {"lit", num(r.lit)},
-                         {"lit_error", num(r.litError)},
-                         {"seen", num(r.seen)},
-                         {"seen_error", num(r.seenError)},
-                         {"product", num(r.product)},
-                         {"product_error", num(r.productError)},
-                         {"scattered", num(r.scattered)},
-                         {"scattered_error", num(r.scatteredError)},
-                         {"scatter_product", num(r.scatterProduct)},
-                         {"scatter_product_error", num(r.scatterProductError)},
-                         {"estimate", num(r.estimate)},
-                         {"estimate_error", num(r.estimateError)}};
-        o["sides"] = nlohmann::json::array();
-        for (const ObjectSide& s : r.sides)
-            o["sides"].push_back({{"side", s.name},
-                                  {"lit", num(s.lit)},
-                                  {"lit_error", num(s.litError)},
-                                  {"scattered", num(s.scattered)},
-                                  {"scattered_error", num(s.scatteredError)},
-                                  {"seen", num(s.seen)},
-                                  {"seen_error", num(s.seenError)},
-                                  {"area_mm2", num(s.areaMm2)}});
-        j["objects"].push_back(o);
-    }
+    j["objects"] = table().json();
     return j.dump(2);
 }
 

@@ -48,6 +48,8 @@
 #include <vector>
 
 #include "analysis/pictures/picture.h"
+#include "analysis/reports/progress.h"
+#include "analysis/reports/report_table.h"
 #include "tracer/scene/prepared_scene.h"
 #include "tracer/transport/nonsequential.h"
 
@@ -63,9 +65,9 @@ struct ObjectsSpec {
     // estimate (the scene's finishes and the sides' areas).
     enum class Rank { Product, Estimate };
     Rank rank = Rank::Product;
-    // Rays done so far in the pass ("source" or "detector") out of its total, from one
-    // thread (may be empty).
-    std::function<void(const std::string& pass, uint64_t done, uint64_t total)> progress;
+    // The rays done in each pass, from one thread (may be empty): "objects: lit by the
+    // sources", then "objects: seen by the detector".
+    ProgressSink progress;
 };
 
 // One side of an object (see the header comment) and what arrives on it.
@@ -102,6 +104,8 @@ struct ObjectsResult {
     double detectorAreaMm2 = 0.0;  // where the detector records: its grid on its object
     double seconds = 0.0;
 
+    // One row per object (analysis/reports/report_table.h); every format is written from it.
+    ReportTable table() const;
     std::string csv() const;
     std::string markdown() const;
     std::string json() const;

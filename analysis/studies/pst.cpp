@@ -6,9 +6,11 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "analysis/ghosts/ghosts.h"
+#include "analysis/ghosts/ghost_tracer.h"
+#include "analysis/lens/default_scene.h"
 #include "analysis/lens/first_order.h"
 #include "analysis/pictures/chart.h"
+#include "analysis/reports/format.h"
 #include "analysis/runs/render_run.h"
 #include "analysis/runs/stray_light_run.h"
 #include "lensdata/output_file.h"
@@ -22,13 +24,6 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 const char* kNominal = "not fresnel and not scatter";
 const char* kStray = "fresnel or scatter";
 
-std::string sci(double v, int digits) {
-    if (!std::isfinite(v)) return "";
-    std::ostringstream os;
-    os << std::scientific << std::setprecision(digits - 1) << v;
-    return os.str();
-}
-nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
 
 }  // namespace
 
@@ -105,11 +100,21 @@ PstResult runPst(const PstSpec& spec, const GlassCatalog& catalog) {
     // Across ranks angle a is measured on rank a mod K; rank 0 takes the rows in order (its
     // own as it measures them, the others' as they arrive).
     const Ranks& ranks = spec.ranks;
+    // Progress: one task per angle, its batches counted.
+    auto progress = [&](size_t a, int batchesDone) {
+        if (!spec.progress) return;
+        std::ostringstream task;
+        task << "pst: angle " << a + 1 << " of " << spec.anglesDeg.size() << " ("
+             << spec.anglesDeg[a] << " deg)";
+        spec.progress({task.str(), static_cast<uint64_t>(batchesDone),
+                       static_cast<uint64_t>(spec.batches), "batches"});
+    };
     for (size_t a = 0; a < spec.anglesDeg.size(); ++a) {
         if (!ranks.owns(a)) {
             if (!ranks.root()) continue;
-            if (spec.progress) spec.progress(a, spec.anglesDeg.size());
+            progress(a, 0);
             const Bytes bytes = ranks.receive(static_cast<int>(a % ranks.size()));
+            progress(a, spec.batches);
             ByteReader in(bytes);
             PstRow row;
             row.angleDeg = in.get<double>();
@@ -120,7 +125,7 @@ PstResult runPst(const PstSpec& spec, const GlassCatalog& catalog) {
             result.rows.push_back(std::move(row));
             continue;
         }
-        if (spec.progress) spec.progress(a, spec.anglesDeg.size());
+        progress(a, 0);
         const double theta = spec.anglesDeg[a];
         if (a > 0) {
             SceneFile file = base;
@@ -134,10 +139,12 @@ PstResult runPst(const PstSpec& spec, const GlassCatalog& catalog) {
             RenderRunSpec run;
             run.options = spec.renderOptions;
             run.options.seed = spec.transport.seed;
-            run.passes = spec.batches;
+            run.stop.passes = spec.batches;
             run.detector = det.name;
             run.where = spec.where;
-            runRenderPasses(*prepared, run, [&](int, const RenderPassTotals& t) {
+            RenderRun(*prepared, run).run([&](const RenderPassEvent& e) {
+                const RenderPassTotals t = passTotals(*e.rendered);
+                progress(a, e.pass);
                 const double incident = emitted * throughPupil;
                 const double visible = t.components[static_cast<size_t>(RenderComponent::Visible)];
                 std::vector<double> values = {t.total(), visible, t.total() - visible};
@@ -150,7 +157,8 @@ PstResult runPst(const PstSpec& spec, const GlassCatalog& catalog) {
             run.raysPerSource = spec.raysPerAngle;
             run.transport = spec.transport;
             run.where = where;
-            runStrayLightBatches(*prepared, run, spec.batches, [&](int, const StrayLightResult& r) {
+            runStrayLightBatches(*prepared, run, spec.batches, [&](int b, const StrayLightResult& r) {
+                progress(a, b + 1);
                 // The first detector's rows: its total, then the nominal image, the stray
                 // light, the user's criteria, and the rest (not kept). Each over the flux the
                 // beam brings through the entrance pupil.
@@ -191,40 +199,47 @@ PstResult runPst(const PstSpec& spec, const GlassCatalog& catalog) {
     return result;
 }
 
-std::string PstResult::csv() const {
-    std::ostringstream os;
-    os << "angle_deg,in_field";
-    for (const PstQuantity& q : quantities) os << ",pst_" << q.name << ",error_" << q.name;
-    os << ",irradiance_ratio_total\n";
+ReportTable PstResult::table() const {
+    ReportTable table(std::vector<ReportColumn>{{"angle_deg", "angle (deg)"}, {"in_field", "in field"}});
+    for (const PstQuantity& q : quantities) {
+        table.addColumn({"pst/" + q.name, "PST " + q.name, "pst_" + q.name});
+        ReportColumn error{"error/" + q.name, "", "error_" + q.name};
+        error.markdown = error.terminal = false;
+        table.addColumn(error);
+    }
+    ReportColumn ratio{"irradiance_ratio_total"};
+    ratio.markdown = ratio.terminal = ratio.json = false;
+    table.addColumn(ratio);
     const double toIrradiance = detectorAreaMm2 > 0.0 ? apertureAreaMm2 / detectorAreaMm2 : kNaN;
     for (const PstRow& r : rows) {
-        os << r.angleDeg << "," << (r.inField ? "yes" : "no");
-        for (size_t q = 0; q < quantities.size(); ++q)
-            os << "," << sci(r.pst[q], 6) << "," << sci(r.error[q], 3);
-        os << "," << sci(r.pst[0] * toIrradiance * std::cos(r.angleDeg * M_PI / 180.0), 6) << "\n";
+        std::ostringstream angle;
+        angle << r.angleDeg;
+        std::vector<ReportCell> cells{ReportCell::number(r.angleDeg, angle.str(), angle.str(), angle.str()),
+                                      ReportCell::flag(r.inField)};
+        for (size_t q = 0; q < quantities.size(); ++q) {
+            const double v = r.pst[q], e = r.error[q];
+            std::string shown;
+            if (v == 0.0 && !(e > 0.0))
+                shown = "0";
+            else if (e == 0.0)  // the sequential estimate
+                shown = scientific(v, 3);
+            else
+                shown = scientific(v, 3) + " +- " + scientific(e, 2);
+            cells.push_back(ReportCell::number(v, scientific(v, 6), shown, shown));
+            cells.push_back(ReportCell::number(e, scientific(e, 3), "", ""));
+        }
+        const double irradiance = r.pst[0] * toIrradiance * std::cos(r.angleDeg * M_PI / 180.0);
+        cells.push_back(ReportCell::number(irradiance, scientific(irradiance, 6), "", ""));
+        table.addRow(std::move(cells));
     }
-    return os.str();
+    return table;
 }
+
+std::string PstResult::csv() const { return table().csv(); }
 
 std::string PstResult::markdown() const {
     std::ostringstream os;
-    os << "| angle (deg) | in field |";
-    for (const PstQuantity& q : quantities) os << " PST " << q.name << " |";
-    os << "\n|---|---|";
-    for (size_t q = 0; q < quantities.size(); ++q) os << "---|";
-    os << "\n";
-    for (const PstRow& r : rows) {
-        os << "| " << r.angleDeg << " | " << (r.inField ? "yes" : "no") << " |";
-        for (size_t q = 0; q < quantities.size(); ++q) {
-            if (r.pst[q] == 0.0 && !(r.error[q] > 0.0))
-                os << " 0 |";
-            else if (r.error[q] == 0.0)  // the sequential estimate
-                os << " " << sci(r.pst[q], 3) << " |";
-            else
-                os << " " << sci(r.pst[q], 3) << " +- " << sci(r.error[q], 2) << " |";
-        }
-        os << "\n";
-    }
+    os << table().markdown();
     os << "\nPST = flux on " << detector
        << " / flux the collimated beam brings through the entrance pupil (radius " << pupilRadiusMm
        << " mm; the beam fills the first surface out to " << beamRadiusMm
@@ -246,15 +261,7 @@ std::string PstResult::json() const {
     j["quantities"] = nlohmann::json::array();
     for (const PstQuantity& q : quantities)
         j["quantities"].push_back({{"name", q.name}, {"criterion", q.criterion}});
-    j["rows"] = nlohmann::json::array();
-    for (const PstRow& r : rows) {
-        nlohmann::json row{{"angle_deg", r.angleDeg}, {"in_field", r.inField}};
-        for (size_t q = 0; q < quantities.size(); ++q) {
-            row["pst"][quantities[q].name] = num(r.pst[q]);
-            row["error"][quantities[q].name] = num(r.error[q]);
-        }
-        j["rows"].push_back(row);
-    }
+    j["rows"] = table().json();
     return j.dump(2) + "\n";
 }
 

@@ -29,6 +29,8 @@
 #include <string>
 #include <vector>
 
+#include "analysis/reports/progress.h"
+#include "analysis/reports/report_table.h"
 #include "lensdata/glass_catalog.h"
 #include "tracer/render/render.h"
 #include "tracer/scene/scene_setup.h"
@@ -50,7 +52,9 @@ struct PstSpec {
     int batches = 16;
     TransportOptions transport;      // its seed is the first batch's
     std::vector<std::string> where;  // more criteria, each its own PST curve
-    std::function<void(size_t angle, size_t angles)> progress;
+    // Before each angle and after each batch: one task per angle, "pst: angle 2 of 9 (10 deg)",
+    // its batches counted.
+    ProgressSink progress;
     // Under mpirun (tracer/runtime/ranks.h): angle a is measured on rank a mod K by that rank
     // alone, and rank 0 gets every row (the others return theirs empty).
     Ranks ranks = Ranks::alone();
@@ -78,6 +82,9 @@ struct PstResult {
     double detectorAreaMm2 = 0.0;
     std::string detector;
 
+    // One row per angle: its PST and error per quantity (analysis/reports/report_table.h);
+    // the files below are written from it.
+    ReportTable table() const;
     std::string csv() const;
     std::string markdown() const;
     std::string json() const;

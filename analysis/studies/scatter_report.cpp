@@ -177,79 +177,111 @@ std::string ScatterReport::markdown() const {
             if (r.objects.size() > 8) os << ", ...";
             os << (r.opaqueOnly ? " (all opaque: no transmission)" : "") << "\n\n";
         }
-        os << "| incidence (deg) |";
-        for (double nm : wavelengthsNm) os << " R " << fmt(nm, 6) << " nm |";
-        if (!r.transmitTis.empty())
-            for (size_t w = 0; w < wavelengthsNm.size(); ++w)
-                os << " T " << fmt(wavelengthsNm[w], 6) << " nm (n " << fmt(r.transmitIndex[w], 5)
-                   << (r.indexAssumed ? ", assumed" : "") << ") |";
-        os << "\n|---:|";
-        for (size_t w = 0; w < wavelengthsNm.size() * (r.transmitTis.empty() ? 1 : 2); ++w)
-            os << "---:|";
-        os << "\n";
-        for (size_t i = 0; i < incidencesDeg.size(); ++i) {
-            os << "| " << fmt(incidencesDeg[i]) << " |";
-            for (double v : r.reflectTis[i]) os << " " << fmt(v) << " |";
-            if (!r.transmitTis.empty())
-                for (double v : r.transmitTis[i]) os << " " << fmt(v) << " |";
-            os << "\n";
-        }
+        os << tisTable(r).markdown();
         if (!r.fileBlocks.empty()) {
             os << "\nThe tables' blocks: the TIS each file states and the model's TIS at that "
-                  "angle\n\n| table | angle (deg) | file TIS | model TIS | model / file |\n"
-                  "|---|---:|---:|---:|---:|\n";
-            for (const ScatterFileBlock& b : r.fileBlocks)
-                os << "| " << (b.transmission ? "BTDF" : "BRDF") << " | " << fmt(b.angleDeg)
-                   << " | " << fmt(b.fileTis) << " | " << fmt(b.modelTis) << " | "
-                   << (b.fileTis > 0.0 ? fmt(b.modelTis / b.fileTis) : std::string("-")) << " |\n";
+                  "angle\n\n"
+               << fileBlockTable(r).markdown();
         }
     }
     return os.str();
 }
 
-std::string ScatterReport::csv() const {
+namespace {
+
+ReportColumn right(const std::string& key, const std::string& heading) {
+    ReportColumn c{key, heading};
+    c.markdownRule = "---:";
+    return c;
+}
+
+ReportCell shown(double v) {
     std::ostringstream os;
-    os << "property,channel,incidence_deg,wavelength_nm,index,tis\n";
-    os << std::setprecision(9);
+    os << std::setprecision(9) << v;
+    return ReportCell::number(v, os.str(), fmt(v), fmt(v));
+}
+
+}  // namespace
+
+ReportTable ScatterReport::tisTable(const ScatterPropertyReport& r) const {
+    ReportTable table(std::vector<ReportColumn>{right("incidence_deg", "incidence (deg)")});
+    for (double nm : wavelengthsNm)
+        table.addColumn(right("reflect_" + fmt(nm, 6), "R " + fmt(nm, 6) + " nm"));
+    if (!r.transmitTis.empty())
+        for (size_t w = 0; w < wavelengthsNm.size(); ++w)
+            table.addColumn(right("transmit_" + fmt(wavelengthsNm[w], 6),
+                                  "T " + fmt(wavelengthsNm[w], 6) + " nm (n " +
+                                      fmt(r.transmitIndex[w], 5) +
+                                      (r.indexAssumed ? ", assumed" : "") + ")"));
+    for (size_t i = 0; i < incidencesDeg.size(); ++i) {
+        std::vector<ReportCell> row{shown(incidencesDeg[i])};
+        for (double v : r.reflectTis[i]) row.push_back(shown(v));
+        if (!r.transmitTis.empty())
+            for (double v : r.transmitTis[i]) row.push_back(shown(v));
+        table.addRow(std::move(row));
+    }
+    return table;
+}
+
+ReportTable ScatterReport::fileBlockTable(const ScatterPropertyReport& r) const {
+    ReportColumn table_{"table", "table"};
+    ReportTable table(std::vector<ReportColumn>{table_, right("angle_deg", "angle (deg)"),
+                                                right("file_tis", "file TIS"),
+                                                right("model_tis", "model TIS"),
+                                                right("model_over_file", "model / file")});
+    for (const ScatterFileBlock& b : r.fileBlocks) {
+        ReportCell ratio = ReportCell::text(b.fileTis > 0.0 ? fmt(b.modelTis / b.fileTis) : "-");
+        ratio.withoutJson();
+        table.addRow({ReportCell::text(b.transmission ? "BTDF" : "BRDF"), shown(b.angleDeg),
+                      shown(b.fileTis), shown(b.modelTis), ratio});
+    }
+    return table;
+}
+
+ReportTable ScatterReport::tisRows() const {
+    ReportTable table;
+    for (const char* k : {"property", "channel", "incidence_deg", "wavelength_nm", "index", "tis"})
+        table.addColumn({k, k});
     for (const ScatterPropertyReport& r : properties)
         for (size_t i = 0; i < incidencesDeg.size(); ++i)
             for (size_t w = 0; w < wavelengthsNm.size(); ++w) {
-                os << r.name << ",reflect," << incidencesDeg[i] << "," << wavelengthsNm[w] << ",1,"
-                   << r.reflectTis[i][w] << "\n";
+                table.addRow({ReportCell::text(r.name), ReportCell::text("reflect"),
+                              shown(incidencesDeg[i]), shown(wavelengthsNm[w]),
+                              ReportCell::count(1), shown(r.reflectTis[i][w])});
                 if (!r.transmitTis.empty())
-                    os << r.name << ",transmit," << incidencesDeg[i] << "," << wavelengthsNm[w]
-                       << "," << r.transmitIndex[w] << "," << r.transmitTis[i][w] << "\n";
+                    table.addRow({ReportCell::text(r.name), ReportCell::text("transmit"),
+                                  shown(incidencesDeg[i]), shown(wavelengthsNm[w]),
+                                  shown(r.transmitIndex[w]), shown(r.transmitTis[i][w])});
             }
-    return os.str();
+    return table;
 }
+
+std::string ScatterReport::csv() const { return tisRows().csv(); }
 
 std::string ScatterReport::json() const {
     nlohmann::json j;
     j["wavelengths_nm"] = wavelengthsNm;
     j["incidences_deg"] = incidencesDeg;
-    j["properties"] = nlohmann::json::array();
+    ReportTable table;
+    for (const char* k : {"name", "model", "objects", "opaque_only", "reflect_tis", "notes",
+                          "transmit_tis", "transmit_index", "transmit_index_assumed",
+                          "file_blocks"})
+        table.addColumn({k});
     for (const ScatterPropertyReport& r : properties) {
-        nlohmann::json p{{"name", r.name},
-                         {"model", r.model},
-                         {"objects", r.objects},
-                         {"opaque_only", r.opaqueOnly},
-                         {"reflect_tis", r.reflectTis}};
-        if (!r.notes.empty()) p["notes"] = r.notes;
-        if (!r.transmitTis.empty()) {
-            p["transmit_tis"] = r.transmitTis;
-            p["transmit_index"] = r.transmitIndex;
-            p["transmit_index_assumed"] = r.indexAssumed;
-        }
-        if (!r.fileBlocks.empty()) {
-            p["file_blocks"] = nlohmann::json::array();
-            for (const ScatterFileBlock& b : r.fileBlocks)
-                p["file_blocks"].push_back({{"table", b.transmission ? "BTDF" : "BRDF"},
-                                            {"angle_deg", b.angleDeg},
-                                            {"file_tis", b.fileTis},
-                                            {"model_tis", b.modelTis}});
-        }
-        j["properties"].push_back(std::move(p));
+        auto value = [](nlohmann::json v, bool present = true) {
+            ReportCell c;
+            c.json = std::move(v);
+            if (!present) c.withoutJson();
+            return c;
+        };
+        const bool transmit = !r.transmitTis.empty();
+        table.addRow({value(r.name), value(r.model), value(r.objects), value(r.opaqueOnly),
+                      value(r.reflectTis), value(r.notes, !r.notes.empty()),
+                      value(r.transmitTis, transmit), value(r.transmitIndex, transmit),
+                      value(r.indexAssumed, transmit),
+                      value(fileBlockTable(r).json(), !r.fileBlocks.empty())});
     }
+    j["properties"] = table.json();
     return j.dump(2) + "\n";
 }
 

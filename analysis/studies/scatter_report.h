@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "analysis/pictures/picture.h"
+#include "analysis/reports/report_table.h"
 #include "geometry/scene.h"
 #include "tracer/sequential/sequential_model.h"
 #include "tracer/surfaces/property_table.h"
@@ -54,6 +55,12 @@ struct ScatterReport {
     std::vector<double> wavelengthsNm, incidencesDeg;
     std::vector<ScatterPropertyReport> properties;
 
+    // The tables (analysis/reports/report_table.h): every property's TIS per incidence and
+    // wavelength as rows (scatter.csv), one property's TIS against incidence (the Markdown),
+    // a measured table's blocks against the model.
+    ReportTable tisRows() const;
+    ReportTable tisTable(const ScatterPropertyReport& property) const;
+    ReportTable fileBlockTable(const ScatterPropertyReport& property) const;
     std::string markdown() const;
     std::string csv() const;  // property, channel, incidence, wavelength, TIS
     std::string json() const;

@@ -10,8 +10,10 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "analysis/ghosts/ghosts.h"
+#include "analysis/ghosts/ghost_tracer.h"
+#include "analysis/lens/default_scene.h"
 #include "analysis/pictures/chart.h"
+#include "analysis/reports/format.h"
 #include "analysis/runs/render_run.h"
 #include "analysis/runs/stray_light_run.h"
 #include "lensdata/input_file.h"
@@ -122,22 +124,7 @@ nlohmann::json inputHashes(const std::filesystem::path& scene) {
     return j;
 }
 
-nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
 double numOf(const nlohmann::json& j) { return j.is_number() ? j.get<double>() : kNaN; }
-
-std::string csvField(const std::string& s) {
-    if (s.find_first_of(",\"\n") == std::string::npos) return s;
-    std::string out = "\"";
-    for (char c : s) out += c == '"' ? std::string("\"\"") : std::string(1, c);
-    return out + "\"";
-}
-
-std::string sci(double v, int digits = 4) {
-    if (!std::isfinite(v)) return "";
-    std::ostringstream os;
-    os << std::scientific << std::setprecision(digits - 1) << v;
-    return os.str();
-}
 
 }  // namespace
 
@@ -405,13 +392,21 @@ SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
             label += (a ? ", " : "") + spec.axes[a].key + "=" + values[a];
         return label;
     };
+    // Progress: one task per variant, its batches counted.
+    auto progress = [&](size_t k, int batchesDone) {
+        if (!spec.progress) return;
+        spec.progress({"sweep: variant " + std::to_string(k + 1) + " of " +
+                           std::to_string(variants.size()) + " (" + labelOf(variants[k]) + ")",
+                       static_cast<uint64_t>(batchesDone), static_cast<uint64_t>(result.batches),
+                       "batches"});
+    };
     auto measure = [&](size_t k) {
         Measured m;
         SweepVariant& v = m.variant;
         v.index = static_cast<int>(k);
         v.values = variants[k];
         const std::string label = labelOf(v.values);
-        if (spec.progress) spec.progress(v.index, static_cast<int>(variants.size()), -1, label);
+        progress(k, 0);
         const nlohmann::json print = fingerprint(spec, hashes, v.values);
         const std::filesystem::path saved = store / (std::to_string(k) + ".json");
 
@@ -471,8 +466,7 @@ SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
                     }
                     for (size_t q = 0; q < values.size(); ++q)
                         v.batchValues[q].push_back(values[q]);
-                    if (spec.progress)
-                        spec.progress(v.index, static_cast<int>(variants.size()), b + 1, label);
+                    progress(k, b + 1);
                 };
                 const TransportScene& ts = prepared->trace().transport;
                 const std::string unit = ts.sources.front().unit() == FluxUnit::Lumen ? "lm" : "W";
@@ -498,11 +492,13 @@ SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
                     run.options = spec.render;
                     run.options.seed = spec.transport.seed;
                     run.options.prune = spec.prune;
-                    run.passes = spec.batches;
+                    run.stop.passes = spec.batches;
                     run.detector = spec.detector;
                     run.where = spec.where;
                     std::vector<std::string> names, criteria;
-                    runRenderPasses(*prepared, run, [&](int pass, const RenderPassTotals& t) {
+                    RenderRun(*prepared, run).run([&](const RenderPassEvent& e) {
+                        const int pass = e.pass;
+                        const RenderPassTotals t = passTotals(*e.rendered);
                         if (names.empty()) {
                             const std::string d = spec.detector.empty()
                                                       ? prepared->trace().images[0].geometry().name
@@ -555,7 +551,7 @@ SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
             j["batch_values"] = nlohmann::json::array();
             for (const auto& q : v.batchValues) {
                 nlohmann::json b = nlohmann::json::array();
-                for (double x : q) b.push_back(num(x));
+                for (double x : q) b.push_back(jsonNumber(x));
                 j["batch_values"].push_back(b);
             }
             m.record = j.dump(1) + "\n";
@@ -574,13 +570,9 @@ SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
                 continue;
             }
         } else if (ranks.root()) {
-            if (spec.progress)
-                spec.progress(static_cast<int>(k), static_cast<int>(variants.size()), -1,
-                              labelOf(variants[k]));
+            progress(k, 0);
             m = Measured::unpack(ranks.receive(static_cast<int>(k % ranks.size())));
-            if (spec.progress)
-                spec.progress(static_cast<int>(k), static_cast<int>(variants.size()), spec.batches,
-                              labelOf(variants[k]));
+            progress(k, result.batches);
         } else {
             continue;
         }
@@ -630,67 +622,84 @@ SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
 
 // Tables
 
-std::string SweepResult::csv() const {
-    std::ostringstream os;
-    os << "variant";
-    for (const std::string& k : keys) os << "," << csvField(k);
-    os << ",quantity,criterion,value,error,change,change_error,unit,status\n";
-    for (const SweepVariant& v : variants) {
-        auto lead = [&] {
-            os << v.index;
-            for (const std::string& x : v.values) os << "," << csvField(x);
-        };
-        if (!v.error.empty()) {
-            lead();
-            os << ",,,,,,," << unit << "," << csvField("error: " + v.error) << "\n";
-            continue;
-        }
-        for (size_t q = 0; q < v.measured.size(); ++q) {
-            const SweepValue& m = v.measured[q];
-            lead();
-            os << "," << csvField(quantities[q]) << "," << csvField(criteria[q]) << ","
-               << sci(m.value, 6) << "," << sci(m.error, 3) << "," << sci(m.change, 6) << ","
-               << sci(m.changeError, 3) << "," << unit << "," << (v.resumed ? "resumed" : "ok")
-               << "\n";
-        }
+ReportTable SweepResult::table() const {
+    // Every measured quantity of every variant, the variant's values repeated on its rows; a
+    // variant that could not be run has one row with its error.
+    ReportTable table(std::vector<ReportColumn>{{"variant", "variant"}});
+    for (const std::string& k : keys) table.addColumn({k, k});
+    table.addColumn({"quantity", "quantity"});
+    ReportColumn criterion{"criterion"};
+    criterion.markdown = false;
+    table.addColumn(criterion);
+    table.addColumn({"value", "value (" + unit + ")"});
+    ReportColumn error{"error"};
+    error.markdown = false;
+    table.addColumn(error);
+    table.addColumn({"change", "change against variant 0"});
+    for (const char* k : {"change_error", "unit", "status"}) {
+        ReportColumn c{k};
+        c.markdown = false;
+        table.addColumn(c);
     }
-    return os.str();
-}
-
-std::string SweepResult::markdown() const {
-    std::ostringstream os;
-    os << "| variant |";
-    for (const std::string& k : keys) os << " " << k << " |";
-    os << " quantity | value (" << unit << ") | change against variant 0 |\n|---|";
-    for (size_t k = 0; k < keys.size(); ++k) os << "---|";
-    os << "---|---|---|\n";
     auto pm = [](double v, double e) {
         if (!std::isfinite(v)) return std::string("-");
-        std::string s = sci(v, 4);
-        if (std::isfinite(e) && e > 0.0) s += " +- " + sci(e, 2);
+        std::string s = scientific(v, 4);
+        if (std::isfinite(e) && e > 0.0) s += " +- " + scientific(e, 2);
         return s;
     };
+    auto number = [](double v, int digits, std::string shown = "") {
+        return ReportCell::number(v, scientific(v, digits), shown, shown);
+    };
     for (const SweepVariant& v : variants) {
-        auto lead = [&] {
-            os << "| " << v.index << " |";
-            for (const std::string& x : v.values) os << " " << x << " |";
-        };
+        std::vector<ReportCell> lead{ReportCell::count(v.index)};
+        for (const std::string& x : v.values) lead.push_back(ReportCell::text(x));
         if (!v.error.empty()) {
-            lead();
             std::string e = v.error;
             std::replace(e.begin(), e.end(), '|', '/');
             std::replace(e.begin(), e.end(), '\n', ' ');
-            os << " (not run) | error: " << e << " | |\n";
+            // CSV: empty quantities, the error as the status; Markdown: "(not run)" and the
+            // error (one line, no '|') in the value column.
+            auto shown = [](const std::string& csv, const std::string& markdown) {
+                ReportCell c = ReportCell::text(csv);
+                c.markdown = c.terminal = markdown;
+                return c;
+            };
+            std::vector<ReportCell> row = lead;
+            row.push_back(shown("", "(not run)"));      // quantity
+            row.push_back(shown("", ""));               // criterion
+            row.push_back(shown("", "error: " + e));    // value
+            row.push_back(shown("", ""));               // error
+            row.push_back(shown("", "-"));              // change
+            row.push_back(shown("", ""));               // change_error
+            row.push_back(ReportCell::text(unit));
+            row.push_back(ReportCell::text("error: " + v.error));
+            table.addRow(std::move(row));
             continue;
         }
         for (size_t q = 0; q < v.measured.size(); ++q) {
-            lead();
             const SweepValue& m = v.measured[q];
-            os << " " << quantities[q] << " | " << pm(m.value, m.error) << " | "
-               << (v.index == 0 ? std::string("(reference)") : pm(m.change, m.changeError))
-               << " |\n";
+            std::vector<ReportCell> row = lead;
+            row.push_back(ReportCell::text(quantities[q]));
+            row.push_back(ReportCell::text(criteria[q]));
+            row.push_back(number(m.value, 6, pm(m.value, m.error)));
+            row.push_back(number(m.error, 3));
+            row.push_back(number(m.change, 6,
+                                 v.index == 0 ? std::string("(reference)")
+                                              : pm(m.change, m.changeError)));
+            row.push_back(number(m.changeError, 3));
+            row.push_back(ReportCell::text(unit));
+            row.push_back(ReportCell::text(v.resumed ? "resumed" : "ok"));
+            table.addRow(std::move(row));
         }
     }
+    return table;
+}
+
+std::string SweepResult::csv() const { return table().csv(); }
+
+std::string SweepResult::markdown() const {
+    std::ostringstream os;
+    os << table().markdown();
     bool anyCriterion = false;
     for (const std::string& c : criteria) anyCriterion = anyCriterion || !c.empty();
     if (anyCriterion) {
@@ -701,6 +710,41 @@ std::string SweepResult::markdown() const {
     return os.str();
 }
 
+ReportTable SweepResult::variantTable() const {
+    // One row per variant for the JSON report: its values, how it was measured, and every
+    // quantity with its batch values.
+    ReportTable table(std::vector<ReportColumn>{{"index"}});
+    for (const std::string& k : keys) table.addColumn({"values/" + k});
+    for (const char* k : {"error", "resumed", "geometry_reused", "seconds", "measured"})
+        table.addColumn({k});
+    for (const SweepVariant& v : variants) {
+        std::vector<ReportCell> row{ReportCell::count(v.index)};
+        for (const std::string& x : v.values) row.push_back(ReportCell::text(x));
+        row.push_back(ReportCell::text(v.error));
+        row.push_back(ReportCell::flag(v.resumed));
+        row.push_back(ReportCell::flag(v.geometryReused));
+        ReportCell seconds = ReportCell::text("");
+        seconds.json = v.seconds;
+        row.push_back(seconds);
+        ReportCell measured = ReportCell::text("");
+        measured.json = nlohmann::json::array();
+        for (size_t q = 0; q < v.measured.size(); ++q) {
+            const SweepValue& m = v.measured[q];
+            nlohmann::json b = nlohmann::json::array();
+            for (double x : v.batchValues[q]) b.push_back(jsonNumber(x));
+            measured.json.push_back({{"quantity", quantities[q]},
+                                     {"value", jsonNumber(m.value)},
+                                     {"error", jsonNumber(m.error)},
+                                     {"change", jsonNumber(m.change)},
+                                     {"change_error", jsonNumber(m.changeError)},
+                                     {"batch_values", b}});
+        }
+        row.push_back(measured);
+        table.addRow(std::move(row));
+    }
+    return table;
+}
+
 std::string SweepResult::json() const {
     nlohmann::json j;
     j["keys"] = keys;
@@ -709,29 +753,7 @@ std::string SweepResult::json() const {
     j["unit"] = unit;
     j["measure"] = measure;
     j["batches"] = batches;
-    j["variants"] = nlohmann::json::array();
-    for (const SweepVariant& v : variants) {
-        nlohmann::json r;
-        r["index"] = v.index;
-        for (size_t k = 0; k < keys.size(); ++k) r["values"][keys[k]] = v.values[k];
-        r["error"] = v.error;
-        r["resumed"] = v.resumed;
-        r["geometry_reused"] = v.geometryReused;
-        r["seconds"] = v.seconds;
-        r["measured"] = nlohmann::json::array();
-        for (size_t q = 0; q < v.measured.size(); ++q) {
-            const SweepValue& m = v.measured[q];
-            nlohmann::json b = nlohmann::json::array();
-            for (double x : v.batchValues[q]) b.push_back(num(x));
-            r["measured"].push_back({{"quantity", quantities[q]},
-                                     {"value", num(m.value)},
-                                     {"error", num(m.error)},
-                                     {"change", num(m.change)},
-                                     {"change_error", num(m.changeError)},
-                                     {"batch_values", b}});
-        }
-        j["variants"].push_back(r);
-    }
+    j["variants"] = variantTable().json();
     return j.dump(2) + "\n";
 }
 

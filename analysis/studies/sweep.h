@@ -30,6 +30,8 @@
 #include <string>
 #include <vector>
 
+#include "analysis/reports/progress.h"
+#include "analysis/reports/report_table.h"
 #include "lensdata/glass_catalog.h"
 #include "tracer/render/render.h"
 #include "tracer/scene/scene_setup.h"
@@ -96,8 +98,9 @@ struct SweepSpec {
     // alone with its threads, and rank 0 saves it and completes the result (the others
     // return theirs empty); every rank reads the scene and the folder's earlier variants.
     Ranks ranks = Ranks::alone();
-    // Called before each variant and after each batch (from the calling thread).
-    std::function<void(int variant, int variants, int batch, const std::string& label)> progress;
+    // Before each variant and after each batch (from the calling thread): one task per
+    // variant, "sweep: variant 2 of 5 (KEY=VALUE)", its batches counted.
+    ProgressSink progress;
 };
 
 // One variant's measurement of one quantity; NaN where nothing reached it.
@@ -129,6 +132,11 @@ struct SweepResult {
     std::vector<SweepVariant> variants;
 
     // The tables: one row per variant and quantity.
+    // One row per variant and quantity (analysis/reports/report_table.h): the CSV and the
+    // Markdown table; the JSON report's variants, each with its quantities and batch values,
+    // are variantTable()'s rows.
+    ReportTable table() const;
+    ReportTable variantTable() const;
     std::string csv() const;
     std::string markdown() const;
     std::string json() const;  // also holds each variant's batch values

@@ -9,6 +9,7 @@
 #include <cstring>
 #include <numbers>
 
+#include "tracer/render/render.h"
 #include "tracer/runtime/ordered_blocks.h"
 #include "tracer/runtime/qmc.h"
 

@@ -30,7 +30,7 @@
 
 #include "tracer/render/backward.h"
 #include "tracer/render/path_judge.h"
-#include "tracer/render/render.h"
+#include "tracer/render/render_options.h"
 
 namespace veil {
 

@@ -36,44 +36,6 @@ std::string_view toString(RenderComponent c) {
 
 std::ostream& operator<<(std::ostream& os, RenderComponent c) { return os << toString(c); }
 
-void RenderOptions::check() const {
-    auto fail = [](const std::string& what) { throw std::invalid_argument(what); };
-    if (raysPerPixel == 0) fail("rays per pixel must be at least 1");
-    if (photonsPerPass == 0) fail("photons per pass must be at least 1");
-    if (!(initialRadiusMm >= 0.0) || !std::isfinite(initialRadiusMm))
-        fail("the initial radius must be a finite length >= 0 (0: automatic)");
-    if (!(alpha > 0.0 && alpha < 1.0)) fail("alpha must lie in (0, 1)");
-    if (!(minRelativeWeight >= 0.0 && minRelativeWeight < 1.0))
-        fail("the minimum relative weight must lie in [0, 1)");
-    if (!(viewPointRelativeWeight >= 0.0 && viewPointRelativeWeight <= 1.0))
-        fail("the view point roulette threshold must lie in [0, 1]");
-    if (maxSpecularDepth < 1) fail("the maximum specular depth must be at least 1");
-    if (!(rouletteRelativeFlux >= 0.0 && rouletteRelativeFlux <= 1.0))
-        fail("the roulette threshold must lie in [0, 1]");
-    if (maxPhotonSegments < 1) fail("the maximum photon segments must be at least 1");
-    if (!(photonMinRelativeFlux >= 0.0 && photonMinRelativeFlux < 1.0))
-        fail("the photon cull threshold must lie in [0, 1)");
-    if (ghostPhotonsPerPass == 0) fail("ghost photons per pass must be at least 1");
-    if (!(photonRescueRelativeFlux > 0.0 && photonRescueRelativeFlux <= 1.0 &&
-          photonRescueRelativeFlux >= photonMinRelativeFlux))
-        fail("the photon rescue level must lie in [cull threshold, 1] and be > 0");
-    if (areaSamples < 0 || areaSamples > 4096)
-        fail("the area samples per view point must lie in [0, 4096]");
-    if (!(detectorRadiusPixels >= 0.0 && detectorRadiusPixels <= 1000.0))
-        fail("the detector smoothing radius must lie in [0, 1000] pixels");
-    if (!(guideFraction >= 0.0 && guideFraction < 1.0))
-        fail("the guided fraction of the pixel rays must lie in [0, 1)");
-}
-
-std::ostream& operator<<(std::ostream& os, const RenderOptions& o) {
-    return os << "RenderOptions{" << o.raysPerPixel << " rays per pixel, " << o.photonsPerPass
-              << " photons per source per pass, r1 " << o.initialRadiusMm << " mm, alpha "
-              << o.alpha << ", seed " << o.seed << (o.splitBackward ? ", split" : ", random")
-              << ", roulette " << o.rouletteRelativeFlux
-              << (o.quasiRandomPhotons ? ", sobol photons" : ", random photons") << ", guide "
-              << o.guideFraction << "}";
-}
-
 uint64_t passSeed(uint64_t seed, uint64_t pass, uint32_t purpose) {
     const auto b = CounterRng::philox(
         {uint32_t(pass), uint32_t(pass >> 32), purpose, 0x52454e44u /* "REND" */},

@@ -58,6 +58,7 @@
 
 #include "tracer/records/detector.h"
 #include "tracer/render/backward.h"
+#include "tracer/render/render_options.h"
 #include "tracer/transport/interaction.h"
 
 namespace veil {
@@ -66,57 +67,6 @@ enum class RenderComponent { Visible = 0, Direct = 1, Caustic = 2, Secondary = 3
 inline constexpr int kRenderComponents = 4;
 std::string_view toString(RenderComponent c);  // "visible", "direct", "caustic", "secondary"
 std::ostream& operator<<(std::ostream& os, RenderComponent c);
-
-struct RenderOptions {
-    uint64_t raysPerPixel = 16;        // backward rays per pixel per pass
-    uint64_t photonsPerPass = 100000;  // per source
-    double initialRadiusMm = 0.0;      // r_1; 0: defaultInitialRadius()
-    double alpha = 2.0 / 3.0;          // radius reduction, in (0, 1)
-    uint64_t seed = 1;
-    bool splitBackward = false;             // backward: every specular child, or one by weight
-    double minRelativeWeight = 1e-4;        // backward split: branches below this share end
-    double viewPointRelativeWeight = 0.05;  // view point roulette (BackwardOptions)
-    int maxSpecularDepth = 64;              // backward specular events per branch
-    double rouletteRelativeFlux = 0.1;      // photons below this share of their emitted flux
-                                            // (after their first scatter: of their flux just
-                                            // after it) play Russian roulette; 0 = off
-    int maxPhotonSegments = 1000;
-    // The first ghostPhotonsPerPass photons of each source (of the quasi-random sequence,
-    // at most photonsPerPass) follow every specular branch until their first scatter (every
-    // Fresnel branch, as veil trace does): they alone deposit the visible light of the sun,
-    // collimated and point sources (their ghosts), for all photons; their branches below
-    // photonMinRelativeFlux of the photon play Russian roulette, kept at
-    // photonRescueRelativeFlux. The others' branches play roulette below
-    // rouletteRelativeFlux (kept at it): they serve the gathered light.
-    uint64_t ghostPhotonsPerPass = 16384;
-    uint64_t ghostPhotons() const { return std::min(ghostPhotonsPerPass, photonsPerPass); }
-    double photonMinRelativeFlux = 1e-4;
-    double photonRescueRelativeFlux = 1e-2;
-    // The photons' visible deposits (the sun's ghosts) are spread evenly over the pixels whose
-    // centres lie within this many pixel pitches of the hit, shrinking with the gathering
-    // radius (rho_k = rho_1 r_k / r_1): density estimation on the detector, consistent as
-    // the passes go on. 0: every deposit in its own pixel (no bias, more noise).
-    double detectorRadiusPixels = 2.0;
-    // Probes per view point of how much of its gathering disk lies on its own object (the
-    // rim correction, viewPointAreaShare); 0: every disk counts as pi r^2 (biased low within r
-    // of a face's rim).
-    int areaSamples = 16;
-    // How the photons of a pass spread over each source's emission (its origin, direction and
-    // line): quasi-random points (Owen-scrambled Sobol, one scramble per source and pass:
-    // still unbiased, passes still independent) or independent random ones.
-    bool quasiRandomPhotons = true;
-    // With criteria (Renderer's judge): stop photons and backward branches as soon as no
-    // criterion can match their path; the plain images then hold only light that matches at
-    // least one criterion.
-    bool prune = false;
-    // Learned aperture sampling (tracer/render/aperture_guide.h): the fraction of each pass's pixel
-    // rays drawn where the passes before it found light, in [0, 1); 0 = uniform over the
-    // aperture (every pass the same distribution).
-    double guideFraction = 0.5;
-    // Throws std::invalid_argument naming the option when a value is out of range.
-    void check() const;
-};
-std::ostream& operator<<(std::ostream& os, const RenderOptions& o);
 
 // What one pass estimated: the flux per pixel of each component (the pass's estimate, not yet
 // averaged), and what it cost.

@@ -2,6 +2,7 @@
 // numbers for the same ghosts, in rank order.
 
 #include "analysis/ghosts/ghost_report.h"
+#include "analysis/lens/default_scene.h"
 
 #include <gtest/gtest.h>
 

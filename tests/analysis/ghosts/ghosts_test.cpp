@@ -3,7 +3,9 @@
 // example lens, the shared-prefix estimate against path-by-path tracing, and the sequential
 // estimate against the Monte Carlo run binned by the generated criteria.
 
-#include "analysis/ghosts/ghosts.h"
+#include "analysis/ghosts/coating_whatif.h"
+#include "analysis/ghosts/ghost_monte_carlo.h"
+#include "analysis/lens/default_scene.h"
 
 #include <gtest/gtest.h>
 

@@ -8,7 +8,8 @@
 #include <filesystem>
 #include <fstream>
 
-#include "analysis/ghosts/ghosts.h"
+#include "analysis/ghosts/ghost_tracer.h"
+#include "analysis/lens/default_scene.h"
 #include "analysis/runs/stray_light_run.h"
 #include "geometry/mechanics.h"
 #include "lensdata/errors.h"

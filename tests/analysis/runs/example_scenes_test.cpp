@@ -13,7 +13,8 @@
 
 #include "analysis/criteria/criterion_images.h"
 #include "analysis/criteria/criterion_names.h"
-#include "analysis/ghosts/ghosts.h"
+#include "analysis/ghosts/ghost_tracer.h"
+#include "analysis/lens/default_scene.h"
 #include "analysis/lens/first_order.h"
 
 namespace veil {

@@ -12,7 +12,7 @@
 #include <fstream>
 #include <iostream>
 
-#include "analysis/ghosts/ghosts.h"
+#include "analysis/ghosts/ghost_tracer.h"
 #include "analysis/runs/stray_light_run.h"
 #include "lensdata/errors.h"
 #include "tests/text_checks.h"

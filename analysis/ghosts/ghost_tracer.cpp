@@ -1,4 +1,4 @@
-#include "analysis/ghosts/ghosts.h"
+#include "analysis/ghosts/ghost_tracer.h"
 
 #include <tbb/parallel_for.h>
 
@@ -9,8 +9,8 @@
 #include <numbers>
 #include <sstream>
 
-#include "analysis/criteria/criterion_names.h"
 #include "analysis/lens/first_order.h"
+#include "analysis/reports/format.h"
 #include "geometry/lens_solid.h"
 #include "geometry/mechanics.h"
 #include "tracer/sequential/paraxial.h"
@@ -23,17 +23,7 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 
-std::string join(const std::vector<std::string>& parts, const std::string& sep) {
-    std::string out;
-    for (size_t i = 0; i < parts.size(); ++i) out += (i ? sep : "") + parts[i];
-    return out;
-}
-
 }  // namespace
-
-std::ostream& operator<<(std::ostream& os, const GhostPath& g) {
-    return os << "GhostPath{" << g.label << ", " << g.criterion << "}";
-}
 
 std::ostream& operator<<(std::ostream& os, const GhostOptions& o) {
     return os << "GhostOptions{order " << o.order << ", grid " << o.gridRays << ", min R^4 "
@@ -44,56 +34,6 @@ std::ostream& operator<<(std::ostream& os, const GhostSourceResult& r) {
     return os << "GhostSourceResult{" << r.source << ": flux " << r.flux << " (" << r.relativeFlux
               << " of nominal), focus " << r.focusMm << " mm, footprint " << r.footprintMm
               << " mm, peak " << r.peakIrradiance << " /mm^2}";
-}
-
-std::vector<int> ghostSurfaces(const SequentialModel& model) {
-    std::vector<int> out;
-    const int w = model.primaryWavelength();
-    for (int s = 1; s < model.imageIndex(); ++s) {
-        if (model.surface(s).mirror) continue;
-        const double n1 = std::abs(model.index(s - 1, w));
-        const double n2 = std::abs(model.index(s, w));
-        if (std::abs(n1 - n2) > 1e-12 || !(model.prescription().surfaces[s - 1].material ==
-                                           model.prescription().surfaces[s].material))
-            out.push_back(s);
-    }
-    return out;
-}
-
-namespace {
-
-// The conditions every criterion of a path shares besides its reflections.
-std::string pathConditions(int reflections, int mirrorReflections, const std::string& firstFace,
-                           const std::string& detector) {
-    std::string text = " and not scatter and not tir";
-    if (mirrorReflections > 0)
-        text += " and reflect{" + std::to_string(reflections + mirrorReflections) + "}";
-    if (!firstFace.empty()) text += " and refract(" + firstFace + ")";
-    return text + " and detector(" + detector + ")";
-}
-
-}  // namespace
-
-std::string ghostCriterion(const std::vector<std::string>& names, const std::string& detector,
-                           int mirrorReflections, const std::string& firstFace) {
-    std::vector<std::string> leaves;
-    for (const std::string& n : names) leaves.push_back("fresnel(" + n + ")");
-    const int n = static_cast<int>(names.size());
-    return "seq(" + join(leaves, ", ") + ") and fresnel{" + std::to_string(n) + "}" +
-           pathConditions(n, mirrorReflections, firstFace, detector);
-}
-
-std::string allGhostsCriterion(int order, const std::string& detector,
-                               const std::string& firstFace) {
-    std::string count = "fresnel{2}";
-    for (int k = 4; k <= order; k += 2) count += " or fresnel{" + std::to_string(k) + "}";
-    if (order > 2) count = "(" + count + ")";
-    return count + pathConditions(0, 0, firstFace, detector);
-}
-
-std::string nominalCriterion(const std::string& detector, int mirrorReflections,
-                             const std::string& firstFace) {
-    return "not fresnel" + pathConditions(0, mirrorReflections, firstFace, detector);
 }
 
 int GhostTracer::mirrorReflections(const GhostPath& path) const {
@@ -766,190 +706,6 @@ GhostAnalysis GhostTracer::analyse() const {
     a.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     a.raySurfaceSteps = steps_ - steps0;
     return a;
-}
-
-// Coating What-If
-
-std::vector<std::string> applyCoatingOverrides(TraceSetup& trace, const Scene& scene,
-                                               const PropertyTable& properties,
-                                               const std::vector<std::string>& overrides) {
-    std::vector<std::string> changes;
-    for (size_t k = 0; k < overrides.size(); ++k) {
-        const std::string& o = overrides[k];
-        const std::string where = "--coating " + std::to_string(k + 1);
-        const size_t eq = o.find('=');
-        if (eq == std::string::npos || eq == 0 || eq + 1 == o.size())
-            throw ParseError({where, 1, 1},
-                             "expected GLOB=PROPERTY (for example 'L3.*=ideal_ar'), "
-                             "got '" +
-                                 o + "'");
-        const std::string glob = o.substr(0, eq), name = o.substr(eq + 1);
-        int index = -1;
-        for (size_t p = 0; p < trace.transport.properties.size(); ++p)
-            if (trace.transport.properties[p].name() == name) index = static_cast<int>(p);
-        if (index < 0) {
-            const int t = properties.find(name);
-            if (t < 0) {
-                std::vector<std::string> known;
-                for (const OpticalProperty& p : properties.properties()) known.push_back(p.name());
-                throw ParseError(
-                    {where, 1, static_cast<int>(eq + 2)},
-                    "unknown optical property '" + name + "' (known: " + join(known, ", ") + ")");
-            }
-            trace.transport.properties.push_back(properties.property(t));
-            index = static_cast<int>(trace.transport.properties.size()) - 1;
-        }
-        bool any = false;
-        for (const SceneObject& obj : scene.objects()) {
-            bool match = globMatch(glob, obj.name);
-            for (const std::string& a : obj.aliases) match = match || globMatch(glob, a);
-            if (!match) continue;
-            any = true;
-            int& cur = trace.transport.propertyOfObject[obj.id];
-            if (cur == index) continue;
-            changes.push_back(obj.name + ": " + trace.transport.properties[cur].name() + " -> " +
-                              name);
-            cur = index;
-        }
-        if (!any)
-            throw ParseError({where, 1, 1}, "object pattern '" + glob + "' matches no object");
-    }
-    return changes;
-}
-
-// Default Scene
-
-namespace {
-
-std::vector<Source> fieldSources(const SceneFile& file, const GlassCatalog& catalog,
-                                 const std::vector<std::pair<double, double>>& fields) {
-    const std::shared_ptr<const SequentialModel> built =
-        file.model ? file.model
-                   : std::make_shared<const SequentialModel>(
-                         SequentialModel::build(file.prescription, catalog));
-    const SequentialModel& model = *built;
-    const EntranceAperture ap = entranceAperture(file.prescription, model);
-    std::vector<Wavelength> lines = file.prescription.system.wavelengths;
-    if (lines.empty()) lines.push_back({kLineD, 1.0});
-    std::vector<Source> out;
-    for (size_t f = 0; f < fields.size(); ++f) {
-        std::ostringstream name;
-        name << "field" << f + 1;
-        SpectralSampler spectrum(lines, FluxUnit::Watt, name.str());
-        if (model.objectAtInfinity()) {
-            const Vec3 d = fieldDirection(fields[f].first, fields[f].second);
-            BeamOptions o;
-            const Beam beam = beamFillingAperture(ap, d, o);
-            // 1 W through the first surface's aperture disk, as [[source]] does by default.
-            const double irradiance =
-                1.0 / (kPi * beam.apertureRadiusMm * beam.apertureRadiusMm * d.z);
-            out.emplace_back(name.str(), CollimatedSource{beam}, irradiance * beam.areaMm2(),
-                             spectrum);
-        } else {
-            const double zObject = -file.prescription.surfaces[0].thicknessMm;
-            const Vec3 pos(fields[f].first, fields[f].second, zObject);
-            const PointSource ps = pointSourceCoveringAperture(ap, pos, 0.0);
-            out.emplace_back(name.str(), ps, 1.0, spectrum);
-        }
-    }
-    return out;
-}
-
-}  // namespace
-
-void setFieldSources(SceneFile& file, const GlassCatalog& catalog,
-                     const std::vector<std::pair<double, double>>& fieldsDeg) {
-    file.sources = fieldSources(file, catalog, fieldsDeg);
-}
-
-std::vector<std::pair<double, double>> addSystemFieldSources(SceneFile& file,
-                                                             const GlassCatalog& catalog) {
-    if (!file.sources.empty()) return {};
-    std::vector<std::pair<double, double>> fields;
-    for (const Field& f : file.prescription.system.fields) fields.emplace_back(f.x, f.y);
-    if (fields.empty()) fields.emplace_back(0.0, 0.0);
-    file.sources = fieldSources(file, catalog, fields);
-    return fields;
-}
-
-bool addDefaultGhostScene(SceneFile& file, const GlassCatalog& catalog, double* imageShiftMm) {
-    if (imageShiftMm) *imageShiftMm = 0.0;
-    if (!file.sources.empty()) return false;
-    // The detector at the paraxial image plane of the primary wavelength (an afocal lens
-    // keeps its image surface).
-    {
-        if (!file.model)
-            file.model = std::make_shared<const SequentialModel>(
-                SequentialModel::build(file.prescription, catalog));
-        const SequentialModel& model = *file.model;
-        const double dz =
-            computeFirstOrder(model, model.primaryWavelength()).paraxialImageDistanceMm;
-        if (std::isfinite(dz) && dz != 0.0) {
-            file.prescription.surfaces[model.imageIndex() - 1].thicknessMm += dz;
-            // The prescription changed: its model is built anew, once.
-            file.model = std::make_shared<const SequentialModel>(
-                SequentialModel::build(file.prescription, catalog));
-            if (imageShiftMm) *imageShiftMm = dz;
-        }
-    }
-    std::vector<std::pair<double, double>> fields;
-    for (const Field& f : file.prescription.system.fields) fields.emplace_back(f.x, f.y);
-    if (fields.empty()) fields.emplace_back(0.0, 0.0);
-    file.sources = fieldSources(file, catalog, fields);
-    // The stop plate, unless a coordinate break takes the lens off one axis or a surface is
-    // anamorphic (the mount generator builds about one axis, on rims of revolution): the
-    // stop's sd then clips sequential rays alone.
-    if (!file.mechanics && file.model->coaxial() && file.prescription.firstAnamorphic() < 0) {
-        MechanicsSpec m;
-        m.barrel.enabled = false;
-        m.retainers.enabled = false;
-        m.spacers.enabled = false;
-        m.stop.enabled = true;
-        file.mechanics = m;
-    }
-    return true;
-}
-
-// Monte Carlo Verification
-
-double GhostMonteCarlo::flux(size_t layer, int detector) const {
-    return images ? images->images()[layer][detector].totalFlux() : 0.0;
-}
-
-double GhostMonteCarlo::relativeError(size_t layer, int detector) const {
-    return images ? images->images()[layer][detector].totalRelativeError(emittedRays) : kInfinity;
-}
-
-GhostMonteCarlo runGhostMonteCarlo(const SceneSetup& setup, const TraceSetup& trace,
-                                   const GhostAnalysis& analysis, const GhostMonteCarloOptions& o) {
-    const auto start = std::chrono::steady_clock::now();
-    const NameTable names = criterionNames(setup.scene, trace.transport);
-    std::vector<std::string> texts{analysis.nominal.path.criterion};
-    for (const GhostEstimate& g : analysis.ghosts) texts.push_back(g.path.criterion);
-    texts.push_back(analysis.allGhostsCriterion);
-    std::vector<CompiledCriterion> compiled;
-    for (size_t i = 0; i < texts.size(); ++i) {
-        const std::string source = i == 0 ? "nominal"
-                                   : i == texts.size() - 1
-                                       ? "all ghosts"
-                                       : "ghost " + analysis.ghosts[i - 1].path.label;
-        compiled.push_back(compileCriterion(texts[i], names, source));
-    }
-    GhostMonteCarlo mc;
-    mc.images = std::make_unique<CriterionImages>(texts, std::move(compiled), trace.images,
-                                                  trace.transport.detectorOfObject);
-    const CriteriaFilter filter(mc.images->criteria());
-    TransportOptions to = o.transport;
-    to.mode = TransportOptions::Mode::Split;
-    to.recordHistories = true;
-    to.filter = &filter;
-    const TraceResult r = traceNonsequential(trace.transport, trace.images, o.raysPerSource, to,
-                                             o.progress, mc.images->callback());
-    mc.images->finish();
-    mc.budget = r.budget;
-    mc.emittedRays = o.raysPerSource * trace.transport.sources.size();
-    mc.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    return mc;
 }
 
 }  // namespace veil

@@ -1,29 +1,12 @@
 #pragma once
-// Automated ghost analysis: every ghost path of a lens enumerated, estimated sequentially,
-// ranked, and defined by a generated criterion that bins the Monte Carlo run.
+// The sequential ghost estimate: every ghost path of a lens traced unfolded, on a grid of
+// real rays, and ranked.
 //
 //   SceneSetup + TraceSetup ──GhostTracer──> per ghost, per source: flux, focus, footprint,
 //                                             peak irradiance (deterministic, fast)
-//   enumerateGhosts ──criterion text──> CriterionImages (one forward split run, pruned)
-//                                             per ghost: Monte Carlo flux +- error, image
 //
-// Ghost surfaces. A ghost reflection is the weak specular reflection of a refracting
-// surface: every sequential surface where the refractive index changes (air-glass and
-// cemented glass-glass interfaces; N of them). Mirrors are not ghost surfaces (their
-// unwanted light is transmission, which leaves the sequential path) but ghost paths cross
-// them as mirrors, both ways. Dummy surfaces and the stop in air are not ghost surfaces.
-//
-// Ghost paths. A two-reflection ghost (i, j), j < i, goes forward through surfaces 1..i-1,
-// reflects at i, runs backward through i-1..j+1, reflects at j and runs forward through
-// j+1.. to the image: N(N-1)/2 of them. A four-reflection ghost (i, j, k, l) reflects at i,
-// then j < i, then k > j, then l < k; those whose product of normal-incidence reflectances
-// falls below GhostOptions::minFourthOrderReflectance are pruned before tracing.
-//
-// Generated criterion (docs/criteria.md) of ghost (i, j) on detector D:
-//   seq(fresnel(Si), fresnel(Sj)) and fresnel{2} and not scatter and not tir and detector(D)
-// exactly two Fresnel reflections, at Si then Sj, nothing scattered, no total internal
-// reflection, recorded by D. The same text drives the Monte Carlo binning (veil ghosts),
-// veil trace --where and veil paths --where.
+// The paths and their criteria: ghost_paths.h. The Monte Carlo check of the same paths:
+// ghost_monte_carlo.h.
 //
 // Sequential estimate. The unfolded path is traced with the exact surfaces (the same shapes
 // as the scene), real rays on a square grid over each source's beam (or its cone, for point
@@ -50,48 +33,17 @@
 // Ranking: by the peak irradiance over all sources, brightest first.
 
 #include <atomic>
-#include <functional>
-#include <optional>
 #include <ostream>
 #include <string>
+#include <utility>
 #include <vector>
 
-#include "analysis/criteria/criterion_images.h"
+#include "analysis/ghosts/ghost_paths.h"
 #include "tracer/scene/scene_setup.h"
 #include "tracer/scene/trace_setup.h"
 #include "tracer/sequential/sequential_model.h"
 
 namespace veil {
-
-// One ghost path: its reflections in time order (sequential surface indices).
-struct GhostPath {
-    std::vector<int> reflections;
-    std::vector<std::string> names;  // object names of those surfaces
-    std::string label;               // "L4.back > L4.front"
-    std::string criterion;           // generated criterion text
-    int order() const { return static_cast<int>(reflections.size()); }
-};
-std::ostream& operator<<(std::ostream& os, const GhostPath& g);
-
-// Sequential indices of the ghost surfaces of a model (see the header comment), in order.
-std::vector<int> ghostSurfaces(const SequentialModel& model);
-
-// The criterion of a ghost path with these reflection names on detector `detector`, and of
-// the nominal image (no Fresnel reflection, scatter or TIR).
-// A path that crosses mirrors (mirrorReflections > 0) also requires exactly that many
-// specular reflections besides its Fresnel ones (reflect{n}), so light that skips the
-// mirrors (through a Cassegrain's central hole) is not counted as that path; `firstFace`
-// (when not empty) requires a refraction at the first lens face, so light that passes beside
-// the lens (when a stop or aperture ring before it is larger) is not counted either.
-std::string ghostCriterion(const std::vector<std::string>& reflectionNames,
-                           const std::string& detector, int mirrorReflections = 0,
-                           const std::string& firstFace = "");
-std::string nominalCriterion(const std::string& detector, int mirrorReflections = 0,
-                             const std::string& firstFace = "");
-// Every ghost of the given order or less (2 or 4) together: the sum of the ghost criteria
-// (for a lens without mirrors).
-std::string allGhostsCriterion(int order, const std::string& detector,
-                               const std::string& firstFace = "");
 
 struct GhostOptions {
     int order = 2;                            // 2, or 4 (two- and four-reflection ghosts)
@@ -247,59 +199,5 @@ class GhostTracer {
     std::vector<int> mediumOfGap_;         // per gap: scene medium id
     std::vector<std::string> objectName_;  // per sequential surface ("" = no object)
 };
-
-// Coating what-if: "glob=property" overrides applied to the resolved transport scene (before
-// any [[assign]] rule and any surface's own coating). Returns one line per changed object,
-// "L3.front: uncoated -> ideal_ar". Throws ParseError for a malformed override, a glob that
-// matches no object, or an unknown property.
-std::vector<std::string> applyCoatingOverrides(TraceSetup& trace, const Scene& scene,
-                                               const PropertyTable& properties,
-                                               const std::vector<std::string>& overrides);
-
-// The default scene of a bare lens file (no [[source]]): one collimated 1 W source per
-// system field (object at infinity) or one point source per field point (finite object),
-// each filling the first surface, at the system wavelengths and weights; an absorbing stop
-// plate (no barrel); the image surface moved to the paraxial image plane of the primary
-// wavelength (unless the lens is afocal), with the detector on it. Changes `file` in place;
-// returns false (and does nothing) when the file has sources. `imageShiftMm` (may be null):
-// how far the image surface moved along z.
-bool addDefaultGhostScene(SceneFile& file, const GlassCatalog& catalog,
-                          double* imageShiftMm = nullptr);
-
-// A scene without [[source]] gets one collimated (or point) 1 W source per system field, as
-// setFieldSources() makes them, and nothing else changes; returns the fields used, empty
-// (and does nothing) when the file has sources.
-std::vector<std::pair<double, double>> addSystemFieldSources(SceneFile& file,
-                                                             const GlassCatalog& catalog);
-
-// Collimated sources replacing the scene's: one per field (degrees x, y), 1 W each.
-void setFieldSources(SceneFile& file, const GlassCatalog& catalog,
-                     const std::vector<std::pair<double, double>>& fieldsDeg);
-
-// Monte Carlo Verification
-// One forward split run binned by the ghosts' criteria (and the nominal image's, first),
-// pruned online: a branch is traced only while one of the criteria can still match it.
-struct GhostMonteCarloOptions {
-    uint64_t raysPerSource = 20000;
-    // Split mode; minRelativeFlux 1e-9 (pruning bounds the tree); the transport's blocks of
-    // 256 rays, so the few thousand rays a ghost table needs spread over the cores.
-    TransportOptions transport;
-    std::function<void(uint64_t)> progress;
-    GhostMonteCarloOptions() { transport.minRelativeFlux = 1e-9; }
-};
-
-struct GhostMonteCarlo {
-    uint64_t emittedRays = 0;  // all sources
-    double seconds = 0.0;
-    FluxBudget budget;
-    // images->images()[0][d]: the nominal image; [1 + g][d]: ghost g of the analysis order;
-    // [1 + ghosts][d]: all ghosts together (allGhostsCriterion), with its own error bars.
-    std::unique_ptr<CriterionImages> images;
-    double flux(size_t layer, int detector) const;
-    double relativeError(size_t layer, int detector) const;  // of flux (1 sigma)
-};
-
-GhostMonteCarlo runGhostMonteCarlo(const SceneSetup& setup, const TraceSetup& trace,
-                                   const GhostAnalysis& analysis, const GhostMonteCarloOptions& o);
 
 }  // namespace veil

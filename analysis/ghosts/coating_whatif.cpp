@@ -1,0 +1,55 @@
+#include "analysis/ghosts/coating_whatif.h"
+
+#include "analysis/reports/format.h"
+#include "lensdata/errors.h"
+
+namespace veil {
+
+std::vector<std::string> applyCoatingOverrides(TraceSetup& trace, const Scene& scene,
+                                               const PropertyTable& properties,
+                                               const std::vector<std::string>& overrides) {
+    std::vector<std::string> changes;
+    for (size_t k = 0; k < overrides.size(); ++k) {
+        const std::string& o = overrides[k];
+        const std::string where = "--coating " + std::to_string(k + 1);
+        const size_t eq = o.find('=');
+        if (eq == std::string::npos || eq == 0 || eq + 1 == o.size())
+            throw ParseError({where, 1, 1},
+                             "expected GLOB=PROPERTY (for example 'L3.*=ideal_ar'), "
+                             "got '" +
+                                 o + "'");
+        const std::string glob = o.substr(0, eq), name = o.substr(eq + 1);
+        int index = -1;
+        for (size_t p = 0; p < trace.transport.properties.size(); ++p)
+            if (trace.transport.properties[p].name() == name) index = static_cast<int>(p);
+        if (index < 0) {
+            const int t = properties.find(name);
+            if (t < 0) {
+                std::vector<std::string> known;
+                for (const OpticalProperty& p : properties.properties()) known.push_back(p.name());
+                throw ParseError(
+                    {where, 1, static_cast<int>(eq + 2)},
+                    "unknown optical property '" + name + "' (known: " + join(known, ", ") + ")");
+            }
+            trace.transport.properties.push_back(properties.property(t));
+            index = static_cast<int>(trace.transport.properties.size()) - 1;
+        }
+        bool any = false;
+        for (const SceneObject& obj : scene.objects()) {
+            bool match = globMatch(glob, obj.name);
+            for (const std::string& a : obj.aliases) match = match || globMatch(glob, a);
+            if (!match) continue;
+            any = true;
+            int& cur = trace.transport.propertyOfObject[obj.id];
+            if (cur == index) continue;
+            changes.push_back(obj.name + ": " + trace.transport.properties[cur].name() + " -> " +
+                              name);
+            cur = index;
+        }
+        if (!any)
+            throw ParseError({where, 1, 1}, "object pattern '" + glob + "' matches no object");
+    }
+    return changes;
+}
+
+}  // namespace veil

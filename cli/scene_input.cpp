@@ -1,0 +1,63 @@
+// What every command that reads a scene shares: the glass catalogs, the --set edits, the
+// scene's notes on standard error, and the scene of a command that traces (--field beams, or
+// one beam per system field for a file without sources).
+
+#include <iostream>
+
+#include "analysis/lens/default_scene.h"
+#include "analysis/lens/detector_checks.h"
+#include "cli/commands.h"
+#include "cli/options.h"
+
+namespace veil::cli {
+
+GlassCatalog loadCatalog(const CommonOptions& common) {
+    GlassCatalog catalog = GlassCatalog::withEnvironment();
+    for (const std::string& f : common.glassCatalogs) catalog.loadAgf(f);
+    return catalog;
+}
+
+std::vector<SceneEdit> sceneEdits(const CommonOptions& common) {
+    std::vector<SceneEdit> edits;
+    for (size_t k = 0; k < common.sets.size(); ++k) {
+        const std::string& s = common.sets[k];
+        const size_t eq = s.find('=');
+        if (eq == std::string::npos || eq == 0)
+            throw ParseError({"--set " + s, 0, 0},
+                             "expected KEY=VALUE, as in properties.black.scatter.reflectance=0.02");
+        edits.push_back({s.substr(0, eq), s.substr(eq + 1), "--set " + s});
+    }
+    return edits;
+}
+
+SceneFile readScene(const CommonOptions& common, const std::string& path,
+                    const GlassCatalog& catalog) {
+    return readSceneFile(path, catalog, sceneEdits(common));
+}
+
+std::unique_ptr<tbb::global_control> limitThreads(int threads) {
+    if (threads <= 0) return nullptr;
+    return std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                 static_cast<size_t>(threads));
+}
+
+void reportSceneNotes(const PreparedScene& scene) {
+    for (const ImportNote& n : scene.setup().notes)
+        if (n.severity != ImportNote::Severity::Info) std::cerr << "veil: " << n << "\n";
+    for (const ImportNote& n : detectorPlacementWarnings(scene.file(), scene.setup()))
+        std::cerr << "veil: " << n << "\n";
+}
+
+std::unique_ptr<PreparedScene> prepareTracedScene(const CommonOptions& common,
+                                                  const std::string& path,
+                                                  const std::vector<std::string>& fields,
+                                                  const GlassCatalog& catalog,
+                                                  const SceneOptions& options) {
+    std::string note;
+    std::unique_ptr<PreparedScene> scene = veil::prepareTracedScene(
+        readScene(common, path, catalog), catalog, parseFields(fields), options, &note);
+    if (!note.empty()) std::cerr << "veil: note: " << note << "\n";
+    return scene;
+}
+
+}  // namespace veil::cli
