@@ -58,6 +58,13 @@ def jobs(veil):
                         "3"] + common
     yield "pst/render", [veil, "pst", sun, "--angles", "6,9", "--measure", "render",
                          "--batches", "2", "--photons", "3k", "--rays-per-pixel", "1"] + common
+    yield "render/sun_criteria", [veil, "render", sun, "--passes", "2", "--photons", "4k",
+                                  "--rays-per-pixel", "2", "--where", "scatter",
+                                  "--where", "fresnel{2}", "--time-limit", "none"] + common
+    yield "render/fig13_split_pruned", [
+        veil, "render", str(ROOT / "examples/scenes/seed_fig13_butt_ends.toml"), "--passes", "2",
+        "--photons", "4k", "--rays-per-pixel", "2", "--backward", "split", "--where",
+        "scatter(L*.edge)", "--prune", "--photon-points", "random", "--time-limit", "none"] + common
     yield "objects/sun", [veil, "objects", sun, "-n", "2k"] + common
     yield "ghosts/double_gauss_images", [veil, "ghosts", dg, "-n", "1k", "--top", "3"] + common
     yield "ghosts/double_gauss_whatif", [veil, "ghosts", str(ROOT / "examples/lenses/double_gauss_50mm.toml"),

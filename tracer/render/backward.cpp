@@ -234,277 +234,363 @@ double bookByCriteria(uint64_t matched, bool prune, double value, std::vector<do
     return prune && matched == 0 ? 0.0 : value;
 }
 
-}  // namespace
+// One pixel ray as traced: its sample of the aperture and the pixel, and what it carries.
+struct PixelRaySample {
+    CounterRng rng;
+    int wavelength = 0;
+    double wavelengthNm = 0.0;
+    double start = 0.0;  // the importance it starts with
+    uint32_t guideBin = 0;
+};
 
-BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& detector,
-                             const ExitAperture& aperture, const BackwardOptions& options) {
-    if (options.raysPerPixel == 0)
-        throw std::invalid_argument("traceBackward: raysPerPixel must be at least 1");
-    if (!(aperture.radiusMm > 0.0))
-        throw std::invalid_argument("traceBackward: the exit aperture has no area");
-    const Scene& scene = *ts.scene;
-    const MediaOptics& media = *ts.media;
-    const int wavelengths = media.wavelengthCount();
-    const int detectorObject = detector.geometry().object;
-    const uint64_t perPixel = options.raysPerPixel;
-    const int pixels = detector.pixelCount();
+// The rays of the pixels one thread traces: its scratch (branch stack, event tree, judge
+// state) and the steps of a pixel ray.
+class PixelTracer {
+  public:
+    PixelTracer(const TransportScene& ts, const DetectorImage& detector,
+                const ExitAperture& aperture, const BackwardOptions& options)
+        : ts_(ts),
+          detector_(detector),
+          aperture_(aperture),
+          o_(options),
+          judge_(options.judge),
+          prune_(options.judge && options.prune),
+          detectorObject_(detector.geometry().object),
+          state_(judge_ ? judge_->stateBytes() : 0),
+          scratch_(judge_ ? judge_->stateBytes() : 0),
+          perSourceSide_(2 * ts.sources.size()) {}
 
-    const PathJudge* judge = options.judge;
-    const size_t criteria = judge ? static_cast<size_t>(judge->count()) : 0;
-    const bool prune = judge && options.prune;
-    const size_t sources = ts.sources.size();
+    // Every ray of pixel p.
+    void tracePixel(int p, PixelOutput& po);
 
-    std::vector<PixelOutput> out(static_cast<size_t>(pixels));
-    // Blocks of 64 pixels; across ranks, block b on rank b mod K (local block j is j K + rank).
-    constexpr int kPixelBlock = 64;
-    const Ranks& ranks = options.ranks;
-    const int blocks = (pixels + kPixelBlock - 1) / kPixelBlock;
-    const int rankCount = ranks.size(), rankIndex = ranks.rank();
-    const int myBlocks = static_cast<int>(ranks.ownedCount(static_cast<uint64_t>(blocks)));
-    auto blockPixels = [&](int j) {
-        const int b = j * rankCount + rankIndex;
-        return std::pair(b * kPixelBlock, std::min(pixels, (b + 1) * kPixelBlock));
-    };
-    const tbb::blocked_range<int> myRange(0, myBlocks, 1);
-    tbb::parallel_for(myRange, [&](const tbb::blocked_range<int>& r) {
-        std::vector<Branch> stack;
-        EventTree tree;
-        std::vector<PathEvent> suffix;
-        std::vector<std::byte> state(judge ? judge->stateBytes() : 0),
-            scratch(judge ? judge->stateBytes() : 0);
-        std::vector<double> perSourceSide(2 * sources);
-        std::vector<uint64_t> strata;
-        // The criteria the path [Emit(source) head] + suffix matches.
-        auto judged = [&](int source, int medium, const PathEvent* head) {
-            judge->reset(state.data());
-            judge->push(state.data(), pathEvent(EventType::Emit, source, 0, medium, medium));
-            if (head) judge->push(state.data(), *head);
-            return judge->matches(state.data(), suffix, scratch.data());
-        };
-        for (int j = r.begin(); j != r.end(); ++j)
-            for (int p = blockPixels(j).first, pEnd = blockPixels(j).second; p != pEnd; ++p) {
-                PixelOutput& po = out[static_cast<size_t>(p)];
-                po.visible.assign(perPixel, 0.0);
-                po.direct.assign(perPixel, 0.0);
-                if (options.guide) po.cell.assign(perPixel, 0);
-                po.visibleBy.assign(criteria, 0.0);
-                po.directBy.assign(criteria, 0.0);
-                // Stratified pixel rays: the first m^2 rays take one cell each of an m x m
-                // grid over the aperture disk's (equal-area) square and, in a shuffled order,
-                // one of another over the pixel; the rest are independent. Each cell has the
-                // same measure, so the mean stays unbiased; it varies less across the
-                // aperture view, where a pixel's light changes most.
-                const uint64_t m = static_cast<uint64_t>(std::sqrt(static_cast<double>(perPixel)));
-                strata.resize(m * m);
-                for (uint64_t i = 0; i < m * m; ++i) strata[i] = i;
-                CounterRng shuffle(options.seed ^ 0x5354524154554dull /* "STRATUM" */,
-                                   static_cast<uint64_t>(p));
-                for (uint64_t i = m * m; i > 1; --i)
-                    std::swap(
-                        strata[i - 1],
-                        strata[std::min(i - 1, static_cast<uint64_t>(shuffle.uniform() * i))]);
-                for (uint64_t k = 0; k < perPixel; ++k) {
-                    CounterRng rng(options.seed, static_cast<uint64_t>(p) * perPixel + k);
-                    std::array<double, kPixelRayUniforms> uk;
-                    for (double& x : uk) x = rng.uniform();
-                    if (k < m * m) {
-                        const uint64_t s = strata[k];
-                        uk[0] = (static_cast<double>(s % m) + uk[0]) / static_cast<double>(m);
-                        uk[1] = (static_cast<double>(s / m) + uk[1]) / static_cast<double>(m);
-                        uk[2] = (static_cast<double>(k % m) + uk[2]) / static_cast<double>(m);
-                        uk[3] = (static_cast<double>(k / m) + uk[3]) / static_cast<double>(m);
-                    }
-                    // The aperture point's uniforms (uk[2], uk[3]) through the guide.
-                    double density = 1.0;
-                    uint32_t guideBin = 0;
-                    if (options.guide) {
-                        const ApertureGuide::Warped g = options.guide->warp(p, uk[2], uk[3]);
-                        uk[2] = g.u;
-                        uk[3] = g.v;
-                        density = g.density;
-                        po.cell[k] = static_cast<uint8_t>(g.cell);
-                        guideBin = static_cast<uint32_t>(options.guide->bin(p, g.cell));
-                    }
-                    const PixelRay pr = samplePixelRay(detector, p, aperture, uk);
-                    const double u = rng.uniform();  // the wavelength
-                    if (!(pr.pdf > 0.0) || !(pr.importance > 0.0) || !(pr.cosPixel > 0.0)) continue;
-                    const int w = std::min(wavelengths - 1, static_cast<int>(u * wavelengths));
-                    const double wavelengthNm = media.wavelengthNm(w);
-                    const double start = pr.importance * pr.cosPixel / (pr.pdf * density) /
-                                         static_cast<double>(perPixel) * wavelengths;
-                    double seen = 0.0, direct = 0.0;
-                    stack.clear();
-                    stack.push_back({pr.ray, start, detectorObject, -1, 0, 0, 0});
-                    if (judge) {
-                        tree.start(pathEvent(EventType::DetectorHit, detectorObject, 0, 0, 0));
-                    }
-                    while (!stack.empty()) {
-                        Branch br = stack.back();
-                        stack.pop_back();
-                        const auto hit = scene.closestHit(br.ray, kInfinity, br.startObject,
-                                                          br.startPrimitive, br.medium);
-                        const double tHit = hit ? hit->t : kInfinity;
-                        // Sources seen along the segment (they block nothing).
-                        const double alpha = media.absorptionPerMm(br.medium, w);
-                        for (size_t si = 0; si < ts.sources.size(); ++si) {
-                            if (!options.visibleSources.empty() && !options.visibleSources[si])
-                                continue;
-                            const Source& s = ts.sources[si];
-                            const auto t = s.crossing(br.ray, tHit);
-                            if (!t) continue;
-                            const Vec3 x = br.ray.origin + *t * br.ray.direction;
-                            const double radiance = s.emitted(x, -br.ray.direction, w);
-                            const double value =
-                                br.weight * (alpha > 0.0 ? std::exp(-alpha * *t) : 1.0) * radiance;
-                            if (!judge) {
-                                seen += value;
-                                continue;
-                            }
-                            suffix.clear();
-                            tree.suffix(br.node, suffix);
-                            seen += bookByCriteria(judged(static_cast<int>(si), br.medium, nullptr),
-                                                   prune, value, po.visibleBy);
-                        }
-                        if (!hit) continue;
-                        ++po.segments;
-                        if (alpha > 0.0) br.weight *= std::exp(-alpha * hit->t);
-                        if (hit->object == detectorObject || ts.detectorOfObject[hit->object] >= 0)
-                            continue;  // a detector absorbs
-                        const Interaction in = interact(ts, *hit, br.ray.direction, w, wavelengthNm,
-                                                        TransportMode::Importance);
-                        bool scatters = false;
-                        double specular = 0.0;
-                        for (int c = 0; c < in.count; ++c) {
-                            scatters |= in.children[c].scatter;
-                            if (!in.children[c].scatter) specular += in.children[c].share;
-                        }
-                        bool store = scatters;
-                        double vpWeight = br.weight;
-                        if (scatters && options.viewPointRelativeWeight > 0.0) {
-                            const double floor = options.viewPointRelativeWeight * start;
-                            const double u = rng.uniform();  // drawn at every scattering hit
-                            if (vpWeight < floor) {
-                                store = u * floor < vpWeight;
-                                vpWeight = floor;
-                            }
-                        }
-                        if (store) {
-                            ViewPoint v;
-                            v.positionMm = hit->point;
-                            v.normal = hit->normal;
-                            v.toDetector = -br.ray.direction;
-                            v.object = hit->object;
-                            v.primitive = hit->primitive;
-                            v.pixel = p;
-                            v.wavelength = w;
-                            v.medium = hit->mediumFrom;
-                            v.otherMedium = hit->mediumTo;
-                            v.fromFront = hit->fromFront;
-                            v.weight = vpWeight;
-                            v.guideBin = guideBin;
-                            if (judge) {
-                                v.firstEvent = static_cast<uint32_t>(po.events.size());
-                                suffix.clear();
-                                tree.suffix(br.node, suffix);
-                                v.eventCount = static_cast<uint32_t>(suffix.size());
-                                po.events.insert(po.events.end(), suffix.begin(), suffix.end());
-                            }
-                            if (options.direct && !judge) {
-                                direct += directAt(ts, v, wavelengthNm, rng);
-                            } else if (options.direct) {
-                                std::fill(perSourceSide.begin(), perSourceSide.end(), 0.0);
-                                directAt(ts, v, wavelengthNm, rng, perSourceSide);
-                                for (size_t k = 0; k < perSourceSide.size(); ++k) {
-                                    if (perSourceSide[k] == 0.0) continue;
-                                    // The light's own scatter event: from its side of the surface.
-                                    const bool crosses = k % 2 == 1;
-                                    const PathEvent scatter =
-                                        pathEvent(crosses ? EventType::ScatterTransmit
-                                                          : EventType::ScatterReflect,
-                                                  v.object, v.primitive,
-                                                  crosses ? v.otherMedium : v.medium, v.medium);
-                                    direct += bookByCriteria(judged(static_cast<int>(k / 2),
-                                                                    scatter.mediumBefore, &scatter),
-                                                             prune, perSourceSide[k], po.directBy);
-                                }
-                            }
-                            po.viewPoints.push_back(v);
-                        }
-                        if (!(specular > 0.0) || br.depth >= options.maxSpecularDepth) continue;
-                        auto push = [&](const InteractionChild& c, double weight) {
-                            Branch next;
-                            next.ray = {hit->point, c.direction};
-                            next.weight = weight;
-                            next.startObject = hit->object;
-                            next.startPrimitive = hit->primitive;
-                            next.medium = c.medium;
-                            next.depth = br.depth + 1;
-                            if (judge) {
-                                // Forward, light comes from the child's side and leaves into ours.
-                                next.node = tree.add(pathEvent(c.event, hit->object, hit->primitive,
-                                                               c.medium, br.medium),
-                                                     br.node);
-                                if (prune) {
-                                    suffix.clear();
-                                    tree.suffix(next.node, suffix);
-                                    if (judge->suffixMayMatch(suffix) == 0) {
-                                        ++po.pruned;
-                                        return;
-                                    }
-                                }
-                            }
-                            stack.push_back(next);
-                        };
-                        if (options.split) {
-                            for (int c = 0; c < in.count; ++c) {
-                                const InteractionChild& child = in.children[c];
-                                if (child.scatter || !(child.share > 0.0)) continue;
-                                const double weight = br.weight * child.share;
-                                if (weight < options.minRelativeWeight * start) continue;
-                                push(child, weight);
-                            }
-                        } else {
-                            // One specular child, chosen by weight, carries their sum.
-                            const double x = rng.uniform() * specular;
-                            double sum = 0.0;
-                            int chosen = -1;
-                            for (int c = 0; c < in.count; ++c) {
-                                if (in.children[c].scatter) continue;
-                                chosen = c;
-                                sum += in.children[c].share;
-                                if (x < sum) break;
-                            }
-                            push(in.children[chosen], br.weight * specular);
-                        }
-                    }
-                    po.visible[k] = seen;
-                    po.direct[k] = direct;
-                }
-            }
-    });
-
-    if (!ranks.single()) {
-        // Every rank's pixels to every rank: the photons of each need all view points.
-        ByteWriter w;
-        for (int j = 0; j < myBlocks; ++j) {
-            const auto [pBegin, pEnd] = blockPixels(j);
-            for (int p = pBegin; p < pEnd; ++p) {
-                out[static_cast<size_t>(p)].pack(w);
-            }
-        }
-        const std::vector<Bytes> all = ranks.gatherAll(w.take());
-        for (int q = 0; q < rankCount; ++q) {
-            if (q == rankIndex) continue;
-            ByteReader in(all[static_cast<size_t>(q)]);
-            for (int b = q; b < blocks; b += rankCount) {
-                for (int p = b * kPixelBlock; p < std::min(pixels, (b + 1) * kPixelBlock); ++p) {
-                    out[static_cast<size_t>(p)].unpack(in);
-                }
-            }
-            if (!in.done()) throw std::runtime_error("the pixels of another rank are damaged");
-        }
+  private:
+    // Stratified pixel rays: the first m^2 rays take one cell each of an m x m grid over the
+    // aperture disk's (equal-area) square and, in a shuffled order, one of another over the
+    // pixel; the rest are independent. Each cell has the same measure, so the mean stays
+    // unbiased; it varies less across the aperture view, where a pixel's light changes most.
+    void shuffleStrata(int p, uint64_t m);
+    // Ray k of pixel p: its uniforms (stratified, through the guide) and its pixel ray; false
+    // when the ray carries nothing.
+    bool sample(int p, uint64_t k, uint64_t m, PixelOutput& po, PixelRaySample& s,
+                PixelRay& pr);
+    // The ray's branches through the specular chain: the sources it sees and, at scattering
+    // surfaces, view points with their direct light.
+    void walk(int p, const PixelRay& pr, PixelRaySample& s, PixelOutput& po, double& seen,
+              double& direct);
+    // Sources seen along a branch's segment (they block nothing), up to tHit, added to `seen`.
+    void sourcesSeen(const Branch& br, double tHit, double alpha, int w, PixelOutput& po,
+                     double& seen);
+    // A view point where the branch meets a scattering surface (view point roulette first),
+    // and its direct light.
+    void storeViewPoint(int p, const Branch& br, const SceneHit& hit, PixelRaySample& s,
+                        PixelOutput& po, double& direct);
+    // The specular children the walk continues with: every one (split) or one by weight.
+    void pushChildren(const Branch& br, const SceneHit& hit, const Interaction& in,
+                      double specular, PixelRaySample& s, PixelOutput& po);
+    void push(const Branch& br, const SceneHit& hit, const InteractionChild& c, double weight,
+              PixelOutput& po);
+    // The criteria the path [Emit(source) head] + suffix matches.
+    uint64_t judged(int source, int medium, const PathEvent* head) {
+        judge_->reset(state_.data());
+        judge_->push(state_.data(), pathEvent(EventType::Emit, source, 0, medium, medium));
+        if (head) judge_->push(state_.data(), *head);
+        return judge_->matches(state_.data(), suffix_, scratch_.data());
     }
 
+    const TransportScene& ts_;
+    const DetectorImage& detector_;
+    const ExitAperture& aperture_;
+    const BackwardOptions& o_;
+    const PathJudge* judge_;
+    const bool prune_;
+    const int detectorObject_;
+    std::vector<Branch> stack_;
+    EventTree tree_;
+    std::vector<PathEvent> suffix_;
+    std::vector<std::byte> state_, scratch_;
+    std::vector<double> perSourceSide_;
+    std::vector<uint64_t> strata_;
+};
+
+void PixelTracer::tracePixel(int p, PixelOutput& po) {
+    const uint64_t perPixel = o_.raysPerPixel;
+    const size_t criteria = judge_ ? static_cast<size_t>(judge_->count()) : 0;
+    po.visible.assign(perPixel, 0.0);
+    po.direct.assign(perPixel, 0.0);
+    if (o_.guide) po.cell.assign(perPixel, 0);
+    po.visibleBy.assign(criteria, 0.0);
+    po.directBy.assign(criteria, 0.0);
+    const uint64_t m = static_cast<uint64_t>(std::sqrt(static_cast<double>(perPixel)));
+    shuffleStrata(p, m);
+    for (uint64_t k = 0; k < perPixel; ++k) {
+        PixelRaySample s{CounterRng(o_.seed, static_cast<uint64_t>(p) * perPixel + k)};
+        PixelRay pr;
+        if (!sample(p, k, m, po, s, pr)) continue;
+        double seen = 0.0, direct = 0.0;
+        walk(p, pr, s, po, seen, direct);
+        po.visible[k] = seen;
+        po.direct[k] = direct;
+    }
+}
+
+void PixelTracer::shuffleStrata(int p, uint64_t m) {
+    strata_.resize(m * m);
+    for (uint64_t i = 0; i < m * m; ++i) strata_[i] = i;
+    CounterRng shuffle(o_.seed ^ 0x5354524154554dull /* "STRATUM" */, static_cast<uint64_t>(p));
+    for (uint64_t i = m * m; i > 1; --i)
+        std::swap(strata_[i - 1],
+                  strata_[std::min(i - 1, static_cast<uint64_t>(shuffle.uniform() * i))]);
+}
+
+bool PixelTracer::sample(int p, uint64_t k, uint64_t m, PixelOutput& po, PixelRaySample& s,
+                         PixelRay& pr) {
+    std::array<double, kPixelRayUniforms> uk;
+    for (double& x : uk) x = s.rng.uniform();
+    if (k < m * m) {
+        const uint64_t st = strata_[k];
+        uk[0] = (static_cast<double>(st % m) + uk[0]) / static_cast<double>(m);
+        uk[1] = (static_cast<double>(st / m) + uk[1]) / static_cast<double>(m);
+        uk[2] = (static_cast<double>(k % m) + uk[2]) / static_cast<double>(m);
+        uk[3] = (static_cast<double>(k / m) + uk[3]) / static_cast<double>(m);
+    }
+    // The aperture point's uniforms (uk[2], uk[3]) through the guide.
+    double density = 1.0;
+    if (o_.guide) {
+        const ApertureGuide::Warped g = o_.guide->warp(p, uk[2], uk[3]);
+        uk[2] = g.u;
+        uk[3] = g.v;
+        density = g.density;
+        po.cell[k] = static_cast<uint8_t>(g.cell);
+        s.guideBin = static_cast<uint32_t>(o_.guide->bin(p, g.cell));
+    }
+    pr = samplePixelRay(detector_, p, aperture_, uk);
+    const double u = s.rng.uniform();  // the wavelength
+    if (!(pr.pdf > 0.0) || !(pr.importance > 0.0) || !(pr.cosPixel > 0.0)) return false;
+    const MediaOptics& media = *ts_.media;
+    const int wavelengths = media.wavelengthCount();
+    s.wavelength = std::min(wavelengths - 1, static_cast<int>(u * wavelengths));
+    s.wavelengthNm = media.wavelengthNm(s.wavelength);
+    s.start = pr.importance * pr.cosPixel / (pr.pdf * density) /
+              static_cast<double>(o_.raysPerPixel) * wavelengths;
+    return true;
+}
+
+void PixelTracer::walk(int p, const PixelRay& pr, PixelRaySample& s, PixelOutput& po,
+                       double& seen, double& direct) {
+    const int w = s.wavelength;
+    stack_.clear();
+    stack_.push_back({pr.ray, s.start, detectorObject_, -1, 0, 0, 0});
+    if (judge_) tree_.start(pathEvent(EventType::DetectorHit, detectorObject_, 0, 0, 0));
+    while (!stack_.empty()) {
+        Branch br = stack_.back();
+        stack_.pop_back();
+        const auto hit = ts_.scene->closestHit(br.ray, kInfinity, br.startObject,
+                                               br.startPrimitive, br.medium);
+        const double tHit = hit ? hit->t : kInfinity;
+        const double alpha = ts_.media->absorptionPerMm(br.medium, w);
+        sourcesSeen(br, tHit, alpha, w, po, seen);
+        if (!hit) continue;
+        ++po.segments;
+        if (alpha > 0.0) br.weight *= std::exp(-alpha * hit->t);
+        if (hit->object == detectorObject_ || ts_.detectorOfObject[hit->object] >= 0)
+            continue;  // a detector absorbs
+        const Interaction in = interact(ts_, *hit, br.ray.direction, w, s.wavelengthNm,
+                                        TransportMode::Importance);
+        bool scatters = false;
+        double specular = 0.0;
+        for (int c = 0; c < in.count; ++c) {
+            scatters |= in.children[c].scatter;
+            if (!in.children[c].scatter) specular += in.children[c].share;
+        }
+        if (scatters) storeViewPoint(p, br, *hit, s, po, direct);
+        if (!(specular > 0.0) || br.depth >= o_.maxSpecularDepth) continue;
+        pushChildren(br, *hit, in, specular, s, po);
+    }
+}
+
+void PixelTracer::sourcesSeen(const Branch& br, double tHit, double alpha, int w,
+                              PixelOutput& po, double& seen) {
+    for (size_t si = 0; si < ts_.sources.size(); ++si) {
+        if (!o_.visibleSources.empty() && !o_.visibleSources[si]) continue;
+        const Source& src = ts_.sources[si];
+        const auto t = src.crossing(br.ray, tHit);
+        if (!t) continue;
+        const Vec3 x = br.ray.origin + *t * br.ray.direction;
+        const double radiance = src.emitted(x, -br.ray.direction, w);
+        const double value = br.weight * (alpha > 0.0 ? std::exp(-alpha * *t) : 1.0) * radiance;
+        if (!judge_) {
+            seen += value;
+            continue;
+        }
+        suffix_.clear();
+        tree_.suffix(br.node, suffix_);
+        seen += bookByCriteria(judged(static_cast<int>(si), br.medium, nullptr), prune_, value,
+                               po.visibleBy);
+    }
+}
+
+void PixelTracer::storeViewPoint(int p, const Branch& br, const SceneHit& hit,
+                                 PixelRaySample& s, PixelOutput& po, double& direct) {
+    bool store = true;
+    double vpWeight = br.weight;
+    if (o_.viewPointRelativeWeight > 0.0) {
+        const double floor = o_.viewPointRelativeWeight * s.start;
+        const double u = s.rng.uniform();  // drawn at every scattering hit
+        if (vpWeight < floor) {
+            store = u * floor < vpWeight;
+            vpWeight = floor;
+        }
+    }
+    if (!store) return;
+    ViewPoint v;
+    v.positionMm = hit.point;
+    v.normal = hit.normal;
+    v.toDetector = -br.ray.direction;
+    v.object = hit.object;
+    v.primitive = hit.primitive;
+    v.pixel = p;
+    v.wavelength = s.wavelength;
+    v.medium = hit.mediumFrom;
+    v.otherMedium = hit.mediumTo;
+    v.fromFront = hit.fromFront;
+    v.weight = vpWeight;
+    v.guideBin = s.guideBin;
+    if (judge_) {
+        v.firstEvent = static_cast<uint32_t>(po.events.size());
+        suffix_.clear();
+        tree_.suffix(br.node, suffix_);
+        v.eventCount = static_cast<uint32_t>(suffix_.size());
+        po.events.insert(po.events.end(), suffix_.begin(), suffix_.end());
+    }
+    if (o_.direct && !judge_) {
+        direct += directAt(ts_, v, s.wavelengthNm, s.rng);
+    } else if (o_.direct) {
+        std::fill(perSourceSide_.begin(), perSourceSide_.end(), 0.0);
+        directAt(ts_, v, s.wavelengthNm, s.rng, perSourceSide_);
+        for (size_t k = 0; k < perSourceSide_.size(); ++k) {
+            if (perSourceSide_[k] == 0.0) continue;
+            // The light's own scatter event: from its side of the surface.
+            const bool crosses = k % 2 == 1;
+            const PathEvent scatter = pathEvent(
+                crosses ? EventType::ScatterTransmit : EventType::ScatterReflect, v.object,
+                v.primitive, crosses ? v.otherMedium : v.medium, v.medium);
+            direct += bookByCriteria(judged(static_cast<int>(k / 2), scatter.mediumBefore, &scatter),
+                                     prune_, perSourceSide_[k], po.directBy);
+        }
+    }
+    po.viewPoints.push_back(v);
+}
+
+void PixelTracer::push(const Branch& br, const SceneHit& hit, const InteractionChild& c,
+                       double weight, PixelOutput& po) {
+    Branch next;
+    next.ray = {hit.point, c.direction};
+    next.weight = weight;
+    next.startObject = hit.object;
+    next.startPrimitive = hit.primitive;
+    next.medium = c.medium;
+    next.depth = br.depth + 1;
+    if (judge_) {
+        // Forward, light comes from the child's side and leaves into ours.
+        next.node = tree_.add(
+            pathEvent(c.event, hit.object, hit.primitive, c.medium, br.medium), br.node);
+        if (prune_) {
+            suffix_.clear();
+            tree_.suffix(next.node, suffix_);
+            if (judge_->suffixMayMatch(suffix_) == 0) {
+                ++po.pruned;
+                return;
+            }
+        }
+    }
+    stack_.push_back(next);
+}
+
+void PixelTracer::pushChildren(const Branch& br, const SceneHit& hit, const Interaction& in,
+                               double specular, PixelRaySample& s, PixelOutput& po) {
+    if (o_.split) {
+        for (int c = 0; c < in.count; ++c) {
+            const InteractionChild& child = in.children[c];
+            if (child.scatter || !(child.share > 0.0)) continue;
+            const double weight = br.weight * child.share;
+            if (weight < o_.minRelativeWeight * s.start) continue;
+            push(br, hit, child, weight, po);
+        }
+        return;
+    }
+    // One specular child, chosen by weight, carries their sum.
+    const double x = s.rng.uniform() * specular;
+    double sum = 0.0;
+    int chosen = -1;
+    for (int c = 0; c < in.count; ++c) {
+        if (in.children[c].scatter) continue;
+        chosen = c;
+        sum += in.children[c].share;
+        if (x < sum) break;
+    }
+    push(br, hit, in.children[chosen], br.weight * specular, po);
+}
+
+// Blocks of 64 pixels; across ranks, block b on rank b mod K (local block j is j K + rank).
+constexpr int kPixelBlock = 64;
+
+// Every rank's pixels to every rank: the photons of each need all view points.
+void sharePixels(const Ranks& ranks, int pixels, std::vector<PixelOutput>& out) {
+    const int blocks = (pixels + kPixelBlock - 1) / kPixelBlock;
+    ByteWriter w;
+    for (int b = ranks.rank(); b < blocks; b += ranks.size())
+        for (int p = b * kPixelBlock; p < std::min(pixels, (b + 1) * kPixelBlock); ++p)
+            out[static_cast<size_t>(p)].pack(w);
+    const std::vector<Bytes> all = ranks.gatherAll(w.take());
+    for (int q = 0; q < ranks.size(); ++q) {
+        if (q == ranks.rank()) continue;
+        ByteReader in(all[static_cast<size_t>(q)]);
+        for (int b = q; b < blocks; b += ranks.size())
+            for (int p = b * kPixelBlock; p < std::min(pixels, (b + 1) * kPixelBlock); ++p)
+                out[static_cast<size_t>(p)].unpack(in);
+        if (!in.done()) throw std::runtime_error("the pixels of another rank are damaged");
+    }
+}
+
+// The view points of one pixel into the result, their identical suffixes (the same specular
+// path to the detector) stored once, so the photon pass judges each once per gathering hit
+// (tracer/render/photon_pass.cpp).
+void internViewPoints(PixelOutput& po, BackwardResult& result,
+                      std::unordered_map<uint64_t, std::vector<uint32_t>>& interned) {
+    for (ViewPoint& v : po.viewPoints) {
+        const auto first = po.events.begin() + v.firstEvent;
+        const auto last = first + v.eventCount;
+        uint64_t h = 1469598103934665603ull ^ v.eventCount;
+        for (auto e = first; e != last; ++e) {
+            const uint64_t parts[] = {uint64_t(e->type), uint64_t(uint32_t(e->object)),
+                                      uint64_t(uint32_t(e->face)),
+                                      uint64_t(uint16_t(e->mediumBefore)),
+                                      uint64_t(uint16_t(e->mediumAfter))};
+            for (uint64_t x : parts) h = (h ^ x) * 1099511628211ull;
+        }
+        std::vector<uint32_t>& same = interned[h];
+        const auto found = std::find_if(same.begin(), same.end(), [&](uint32_t o) {
+            return std::equal(first, last, result.events.begin() + o,
+                              result.events.begin() + o + v.eventCount);
+        });
+        if (found != same.end()) {
+            v.firstEvent = *found;
+        } else {
+            v.firstEvent = static_cast<uint32_t>(result.events.size());
+            same.push_back(v.firstEvent);
+            result.events.insert(result.events.end(), first, last);
+        }
+    }
+    result.viewPoints.insert(result.viewPoints.end(), po.viewPoints.begin(),
+                             po.viewPoints.end());
+}
+
+// The pixels' outputs merged in pixel order.
+BackwardResult mergePixels(const DetectorImage& detector, const BackwardOptions& options,
+                           std::vector<PixelOutput>& out) {
+    const int pixels = detector.pixelCount();
+    const uint64_t perPixel = options.raysPerPixel;
+    const size_t criteria = options.judge ? static_cast<size_t>(options.judge->count()) : 0;
     BackwardResult result;
     result.visible = DetectorImage(detector.geometry());
     result.direct = DetectorImage(detector.geometry());
@@ -521,33 +607,7 @@ BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& dete
             if (v != 0.0) result.visible.add(p, v);
         for (double v : po.direct)
             if (v != 0.0) result.direct.add(p, v);
-        // Identical suffixes (the same specular path to the detector) are stored once, so the
-        // photon pass judges each once per gathering hit (tracer/render/photon_pass.cpp).
-        for (ViewPoint& v : po.viewPoints) {
-            const auto first = po.events.begin() + v.firstEvent;
-            const auto last = first + v.eventCount;
-            uint64_t h = 1469598103934665603ull ^ v.eventCount;
-            for (auto e = first; e != last; ++e) {
-                const uint64_t parts[] = {
-                    uint64_t(e->type), uint64_t(uint32_t(e->object)), uint64_t(uint32_t(e->face)),
-                    uint64_t(uint16_t(e->mediumBefore)), uint64_t(uint16_t(e->mediumAfter))};
-                for (uint64_t x : parts) h = (h ^ x) * 1099511628211ull;
-            }
-            std::vector<uint32_t>& same = interned[h];
-            const auto found = std::find_if(same.begin(), same.end(), [&](uint32_t o) {
-                return std::equal(first, last, result.events.begin() + o,
-                                  result.events.begin() + o + v.eventCount);
-            });
-            if (found != same.end()) {
-                v.firstEvent = *found;
-            } else {
-                v.firstEvent = static_cast<uint32_t>(result.events.size());
-                same.push_back(v.firstEvent);
-                result.events.insert(result.events.end(), first, last);
-            }
-        }
-        result.viewPoints.insert(result.viewPoints.end(), po.viewPoints.begin(),
-                                 po.viewPoints.end());
+        internViewPoints(po, result, interned);
         for (size_t k = 0; k < criteria; ++k) {
             result.visibleByCriterion[k][static_cast<size_t>(p)] = po.visibleBy[k];
             result.directByCriterion[k][static_cast<size_t>(p)] = po.directBy[k];
@@ -557,6 +617,31 @@ BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& dete
     }
     result.rays = static_cast<uint64_t>(pixels) * perPixel;
     return result;
+}
+
+}  // namespace
+
+BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& detector,
+                             const ExitAperture& aperture, const BackwardOptions& options) {
+    if (options.raysPerPixel == 0)
+        throw std::invalid_argument("traceBackward: raysPerPixel must be at least 1");
+    if (!(aperture.radiusMm > 0.0))
+        throw std::invalid_argument("traceBackward: the exit aperture has no area");
+    const int pixels = detector.pixelCount();
+    std::vector<PixelOutput> out(static_cast<size_t>(pixels));
+    const Ranks& ranks = options.ranks;
+    const int blocks = (pixels + kPixelBlock - 1) / kPixelBlock;
+    const int myBlocks = static_cast<int>(ranks.ownedCount(static_cast<uint64_t>(blocks)));
+    tbb::parallel_for(tbb::blocked_range<int>(0, myBlocks, 1), [&](const tbb::blocked_range<int>& r) {
+        PixelTracer tracer(ts, detector, aperture, options);
+        for (int j = r.begin(); j != r.end(); ++j) {
+            const int b = j * ranks.size() + ranks.rank();
+            for (int p = b * kPixelBlock; p < std::min(pixels, (b + 1) * kPixelBlock); ++p)
+                tracer.tracePixel(p, out[static_cast<size_t>(p)]);
+        }
+    });
+    if (!ranks.single()) sharePixels(ranks, pixels, out);
+    return mergePixels(detector, options, out);
 }
 
 }  // namespace veil

@@ -103,457 +103,576 @@ struct PhotonBranch {
     uint64_t alive = ~uint64_t{0};  // criteria its path may still match
 };
 
+// A block's photons keep what they deposit as a log, image by image in order (image 0..2 the
+// plain visible, caustic and secondary light, 3 + 3 k + slot criterion k's), added to the
+// pass's images in block order (tracer/runtime/ordered_blocks.h): bitwise the same images for
+// every thread count, memory with the gathers of a few blocks, not images per block.
+struct Deposit {
+    uint32_t image;
+    int pixel;
+    double value;
+};
+struct PhotonBlock {
+    std::vector<Deposit> deposits;
+    std::vector<double> learned;
+    uint64_t photons = 0, segments = 0, gathers = 0, pruned = 0;
+};
+
+// One photon as emitted: its random stream (shared by all its branches) and the thresholds of
+// its branches.
+struct Photon {
+    CounterRng rng;
+    size_t source = 0;
+    bool deposits = false;  // its source's visible light is the photons' to deposit
+    int wavelength = 0;
+    double wavelengthNm = 0.0;
+    double rouletteFlux = 0.0;  // after the first scatter, rouletteRelativeFlux of the photon
+    // Until their first scatter photons split at every interface. The first ghostPhotons of a
+    // source's quasi-random photons follow every branch (below the cull, roulette at the
+    // rescue level) and deposit the visible light, for all of them; the others' branches play
+    // roulette below rouletteFlux, as after a scatter: their weak ghosts matter only where
+    // they scatter.
+    bool splitAll = false;
+    double lowFlux = 0.0, keepFlux = 0.0;
+};
+
+// What a whole pass shares, built once: the view point grid, the rim corrections, the
+// emission's Sobol scrambles, the detector's smoothing disk. Blocks of photons read it from
+// any thread (the rim corrections are filled in as view points first need them).
+class PhotonPass {
+  public:
+    PhotonPass(const TransportScene& ts, const DetectorImage& detector, const BackwardResult& back,
+               const RenderOptions& options, const PathJudge* judge, int k, double radiusMm,
+               const Ranks& ranks);
+
+    uint64_t total() const { return perSource_ * ts_.sources.size(); }
+    PhotonBlock traceBlock(uint64_t first, uint64_t last) const;
+    PhotonImages emptyImages() const;
+    static void add(const PhotonBlock& b, PhotonImages& result);
+    static Bytes pack(const PhotonBlock& b);
+    static PhotonBlock unpack(const Bytes& bytes);
+
+  private:
+    friend class BlockTracer;
+    // The rim correction, computed the first time a view point gathers light from a side:
+    // 1 / its area share, negative when the view point lies in a gap on that side. The value
+    // depends on the view point alone (the spiral turned by its index), so threads racing on
+    // it write the same bits.
+    double areaCorrection(uint32_t i, bool otherSide) const;
+    // Across ranks every rank's photons reach nearly every view point, and each rank would
+    // find the same corrections again: they are computed once, blocks of view points split
+    // over the ranks, and shared; the other side's only where light can come through (not on
+    // opaque parts, whose transmission is 0).
+    void shareCorrectionsAcrossRanks();
+    // The pixels that share a deposit landing at `point`: those whose centres lie within rho
+    // (its own pixel alone when none does); none when it misses the grid.
+    void splatCells(const Vec3& point, std::vector<int>& cells) const;
+    Photon emit(uint64_t i, EmittedRay& e) const;
+
+    const TransportScene& ts_;
+    const DetectorImage& detector_;
+    const BackwardResult& back_;
+    const RenderOptions& options_;
+    const PathJudge* judge_;
+    const int k_;
+    const double radiusMm_;
+    const Ranks& ranks_;
+    const std::vector<ViewPoint>& vps_;
+    const ViewPointGrid grid_;
+    const double r2_, kernel_, gapMm_;
+    mutable std::vector<std::atomic<float>> inverseShare_;
+    const uint64_t perSource_, ghostPhotons_;
+    const double visibleScale_;
+    const uint64_t photonSeed_;
+    std::vector<SobolOwen> emission_;  // one scramble of the Sobol points per source and pass
+    const int renderedObject_;
+    double rho_ = 0.0;  // the detector's smoothing disk this pass (mm)
+    // Criteria: photon prefixes stream through the judge; a gather or a deposit judges the
+    // joined path (the photon's events, its scatter at the view point, the view point's
+    // backward events; or the detector hit).
+    const size_t criteria_;
+    const bool prune_;
+    const size_t stateBytes_;
+};
+
+PhotonPass::PhotonPass(const TransportScene& ts, const DetectorImage& detector,
+                       const BackwardResult& back, const RenderOptions& options,
+                       const PathJudge* judge, int k, double radiusMm, const Ranks& ranks)
+    : ts_(ts),
+      detector_(detector),
+      back_(back),
+      options_(options),
+      judge_(judge),
+      k_(k),
+      radiusMm_(radiusMm),
+      ranks_(ranks),
+      vps_(back.viewPoints),
+      grid_(back.viewPoints, radiusMm),
+      r2_(radiusMm * radiusMm),
+      kernel_(1.0 / (std::numbers::pi * r2_)),
+      gapMm_(kGapFraction * radiusMm),
+      inverseShare_(2 * back.viewPoints.size()),
+      perSource_(options.photonsPerPass),
+      ghostPhotons_(options.ghostPhotons()),
+      visibleScale_(static_cast<double>(options.photonsPerPass) /
+                    static_cast<double>(options.ghostPhotons())),
+      photonSeed_(passSeed(options.seed, static_cast<uint64_t>(k), 1)),
+      renderedObject_(detector.geometry().object),
+      criteria_(judge ? static_cast<size_t>(judge->count()) : 0),
+      prune_(judge && options.prune),
+      stateBytes_(judge ? judge->stateBytes() : 0) {
+    for (auto& x : inverseShare_) x.store(0.0f, std::memory_order_relaxed);
+    if (!ranks.single()) shareCorrectionsAcrossRanks();
+    for (size_t s = 0; s < ts.sources.size(); ++s)
+        emission_.emplace_back(passSeed(options.seed, static_cast<uint64_t>(k), 3) ^
+                               (0x9E3779B97F4A7C15ull * (s + 1)));
+    // The detector's smoothing disk shrinks with the gathering radius.
+    const DetectorGeometry& dg = detector.geometry();
+    rho_ = options.detectorRadiusPixels * std::max(dg.pixelWidthMm(), dg.pixelHeightMm()) *
+           (options.initialRadiusMm > 0.0 ? radiusMm / options.initialRadiusMm : 1.0);
+}
+
+double PhotonPass::areaCorrection(uint32_t i, bool otherSide) const {
+    std::atomic<float>& slot = inverseShare_[2 * size_t{i} + (otherSide ? 1 : 0)];
+    float c = slot.load(std::memory_order_relaxed);
+    if (c == 0.0f) {
+        const double turn =
+            2.0 * std::numbers::pi * CounterRng(passSeed(options_.seed, k_, 2), i).uniform();
+        const DiskShare d = viewPointAreaShare(*ts_.scene, vps_[i], radiusMm_,
+                                               options_.areaSamples, turn, otherSide);
+        c = static_cast<float>((d.inGap ? -1.0 : 1.0) / d.share);
+        slot.store(c, std::memory_order_relaxed);
+    }
+    return static_cast<double>(c);
+}
+
+void PhotonPass::shareCorrectionsAcrossRanks() {
+    constexpr size_t kShareBlock = 1024;
+    auto transmissive = [&](size_t i) {
+        return !isOpaqueKind(ts_.scene->object(vps_[i].object).kind);
+    };
+    const size_t n = vps_.size(), blocks = (n + kShareBlock - 1) / kShareBlock;
+    tbb::parallel_for(size_t(0), blocks, [&](size_t b) {
+        if (!ranks_.owns(b)) return;
+        for (size_t i = b * kShareBlock; i < std::min(n, (b + 1) * kShareBlock); ++i) {
+            areaCorrection(static_cast<uint32_t>(i), false);
+            if (transmissive(i)) areaCorrection(static_cast<uint32_t>(i), true);
+        }
+    });
+    ByteWriter w;
+    for (size_t b = static_cast<size_t>(ranks_.rank()); b < blocks;
+         b += static_cast<size_t>(ranks_.size()))
+        for (size_t i = b * kShareBlock; i < std::min(n, (b + 1) * kShareBlock); ++i)
+            for (size_t side = 0; side < (transmissive(i) ? 2u : 1u); ++side)
+                w.put(inverseShare_[2 * i + side].load(std::memory_order_relaxed));
+    const std::vector<Bytes> all = ranks_.gatherAll(w.take());
+    for (int q = 0; q < ranks_.size(); ++q) {
+        if (q == ranks_.rank()) continue;
+        ByteReader in(all[static_cast<size_t>(q)]);
+        for (size_t b = static_cast<size_t>(q); b < blocks;
+             b += static_cast<size_t>(ranks_.size()))
+            for (size_t i = b * kShareBlock; i < std::min(n, (b + 1) * kShareBlock); ++i)
+                for (size_t side = 0; side < (transmissive(i) ? 2u : 1u); ++side)
+                    inverseShare_[2 * i + side].store(in.get<float>(), std::memory_order_relaxed);
+        if (!in.done())
+            throw std::runtime_error("the view point shares of another rank are damaged");
+    }
+}
+
+void PhotonPass::splatCells(const Vec3& point, std::vector<int>& cells) const {
+    cells.clear();
+    const DetectorImage& grid0 = detector_;
+    const DetectorGeometry& dg = grid0.geometry();
+    const auto own = grid0.pixelOf(point);
+    if (!own) return;
+    const double rho = rho_;
+    if (rho > 0.0) {
+        const Vec3 local = dg.frame.toLocalPoint(point);
+        const double pw = dg.pixelWidthMm(), ph = dg.pixelHeightMm();
+        const int c0 = std::max(0, int(std::floor((local.x - rho + 0.5 * dg.widthMm) / pw)));
+        const int c1 =
+            std::min(dg.pixelsX - 1, int(std::floor((local.x + rho + 0.5 * dg.widthMm) / pw)));
+        const int r0 = std::max(0, int(std::floor((0.5 * dg.heightMm - local.y - rho) / ph)));
+        const int r1 =
+            std::min(dg.pixelsY - 1, int(std::floor((0.5 * dg.heightMm - local.y + rho) / ph)));
+        for (int row = r0; row <= r1; ++row)
+            for (int col = c0; col <= c1; ++col) {
+                const int p = grid0.pixelIndex(col, row);
+                const Vec2 c = grid0.pixelCentreLocal(p);
+                const double dx = c.x - local.x, dy = c.y - local.y;
+                if (dx * dx + dy * dy <= rho * rho) cells.push_back(p);
+            }
+    }
+    if (cells.empty()) cells.push_back(*own);
+}
+
+Photon PhotonPass::emit(uint64_t i, EmittedRay& e) const {
+    Photon ph{CounterRng(photonSeed_, i)};
+    ph.source = i / perSource_;
+    const Source& source = ts_.sources[ph.source];
+    ph.deposits = photonsSeeSource(source);
+    if (options_.quasiRandomPhotons) {
+        // Sobol dimensions 0 and 1 (the best pair) to the origin, 2 and 3 to the direction, 4
+        // to the line.
+        const SobolOwen& q = emission_[ph.source];
+        const uint64_t j = i % perSource_;
+        e = source.emit(
+            {q.sample(j, 4), q.sample(j, 0), q.sample(j, 1), q.sample(j, 2), q.sample(j, 3)},
+            perSource_);
+    } else {
+        e = source.emit(ph.rng, perSource_);
+    }
+    ph.wavelength = e.wavelength;
+    ph.wavelengthNm = e.wavelengthNm;
+    ph.rouletteFlux = options_.rouletteRelativeFlux * e.flux;
+    const double cullFlux = options_.photonMinRelativeFlux * e.flux;
+    ph.splitAll = i % perSource_ < ghostPhotons_;
+    const bool cheap = !ph.splitAll && ph.rouletteFlux > 0.0;
+    ph.lowFlux = cheap ? ph.rouletteFlux : cullFlux;
+    ph.keepFlux = cheap ? ph.rouletteFlux : options_.photonRescueRelativeFlux * e.flux;
+    return ph;
+}
+
+PhotonImages PhotonPass::emptyImages() const {
+    PhotonImages result;
+    const size_t pixels = static_cast<size_t>(detector_.pixelCount());
+    result.visible.assign(pixels, 0.0);
+    result.caustic.assign(pixels, 0.0);
+    result.secondary.assign(pixels, 0.0);
+    result.by.assign(criteria_, {result.visible, result.caustic, result.secondary});
+    result.learned.assign(back_.learned.size(), 0.0);
+    return result;
+}
+
+void PhotonPass::add(const PhotonBlock& b, PhotonImages& result) {
+    std::vector<double>* images[3] = {&result.visible, &result.caustic, &result.secondary};
+    for (const Deposit& d : b.deposits) {
+        std::vector<double>& image =
+            d.image < 3 ? *images[d.image] : result.by[(d.image - 3) / 3][(d.image - 3) % 3];
+        image[static_cast<size_t>(d.pixel)] += d.value;
+    }
+    for (size_t p = 0; p < result.learned.size(); ++p) result.learned[p] += b.learned[p];
+    result.photons += b.photons;
+    result.segments += b.segments;
+    result.gathers += b.gathers;
+    result.pruned += b.pruned;
+}
+
+Bytes PhotonPass::pack(const PhotonBlock& b) {
+    ByteWriter w;
+    w.putVector(b.deposits);
+    w.putVector(b.learned);
+    for (uint64_t n : {b.photons, b.segments, b.gathers, b.pruned}) w.put(n);
+    return w.take();
+}
+
+PhotonBlock PhotonPass::unpack(const Bytes& bytes) {
+    ByteReader r(bytes);
+    PhotonBlock b;
+    b.deposits = r.getVector<Deposit>();
+    b.learned = r.getVector<double>();
+    for (uint64_t* n : {&b.photons, &b.segments, &b.gathers, &b.pruned}) *n = r.get<uint64_t>();
+    if (!r.done()) throw std::runtime_error("a block of photons from another rank is damaged");
+    return b;
+}
+
+// One block of photons, on one thread: each photon emitted, its branches followed through the
+// scene, its light deposited on the detector and gathered at the view points.
+class BlockTracer {
+  public:
+    explicit BlockTracer(const PhotonPass& pass)
+        : p_(pass), scratch_(pass.stateBytes_) {
+        block_.learned.assign(pass.back_.learned.size(), 0.0);
+    }
+    PhotonBlock run(uint64_t first, uint64_t last) {
+        for (uint64_t i = first; i < last; ++i) tracePhoton(i);
+        return std::move(block_);
+    }
+
+  private:
+    void tracePhoton(uint64_t i);
+    // Follows one branch until it ends, pushing the children it splits into.
+    void follow(PhotonBranch br, Photon& ph);
+    // Light that scattered nowhere lands on the rendered detector: the visible component of
+    // the sources the photons stand for.
+    void depositVisible(const PhotonBranch& br, const SceneHit& hit);
+    // The photon's scatter toward every view point within r of the hit.
+    void gather(const PhotonBranch& br, const SceneHit& hit, const Interaction& in,
+                double scatterScale, int wavelength);
+    // Continue as child c with flux `flux`; false when it has no direction or no criterion can
+    // match its path any more (prune).
+    bool become(PhotonBranch& b, const SceneHit& hit, const Interaction& in, int c, double flux,
+                Photon& ph);
+    // The children after a hit: every one before the first scatter (the ghosts live in the
+    // weak reflected branches), then one by weight. False when the branch ends.
+    bool next(PhotonBranch& br, const SceneHit& hit, const Interaction& in, double scatterScale,
+              Photon& ph);
+    // Adds `value` to image slot `slot` (0 visible, 1 caustic, 2 secondary) of the plain
+    // accumulator unless pruning drops it, and of every criterion matched; a spread value is
+    // shared evenly by its cells.
+    void book(int slot, uint64_t matched, const std::vector<int>* spread, int pixel, double value);
+    // The criteria a path of this branch's events and `suffix_` matches.
+    uint64_t judged(const PhotonBranch& br) {
+        if (br.alive == 0) return uint64_t{0};
+        return p_.judge_->matches(states_.data() + br.state, suffix_, scratch_.data());
+    }
+
+    const PhotonPass& p_;
+    PhotonBlock block_;
+    std::vector<PhotonBranch> stack_;
+    std::vector<int> cells_;
+    std::vector<std::byte> states_, scratch_;  // states: per branch
+    std::vector<PathEvent> suffix_;
+    std::vector<Verdict> verdicts_;  // this hit's judged suffixes
+};
+
+void BlockTracer::book(int slot, uint64_t matched, const std::vector<int>* spread, int pixel,
+                       double value) {
+    auto into = [&](uint32_t image) {
+        if (spread) {
+            const double share = value / static_cast<double>(spread->size());
+            for (int px : *spread) block_.deposits.push_back({image, px, share});
+        } else {
+            block_.deposits.push_back({image, pixel, value});
+        }
+    };
+    if (!p_.prune_ || matched != 0) into(static_cast<uint32_t>(slot));
+    for (uint64_t m = matched; m != 0; m &= m - 1)
+        into(static_cast<uint32_t>(3 + 3 * std::countr_zero(m) + slot));
+}
+
+void BlockTracer::tracePhoton(uint64_t i) {
+    EmittedRay e;
+    Photon ph = p_.emit(i, e);
+    ++block_.photons;
+    if (!(e.flux > 0.0)) return;
+    stack_.clear();
+    PhotonBranch first{e.ray, e.flux, 0, -1, -1, false, false, 0, ph.rouletteFlux};
+    if (p_.judge_) {
+        states_.assign(p_.stateBytes_, std::byte{0});
+        p_.judge_->reset(states_.data());
+        first.alive = p_.judge_->push(
+            states_.data(), pathEvent(EventType::Emit, static_cast<int>(ph.source), 0, 0, 0));
+        if (p_.prune_ && first.alive == 0) {
+            ++block_.pruned;
+            return;
+        }
+    }
+    stack_.push_back(first);
+    while (!stack_.empty()) {
+        PhotonBranch br = stack_.back();
+        stack_.pop_back();
+        follow(br, ph);
+    }
+}
+
+void BlockTracer::follow(PhotonBranch br, Photon& ph) {
+    const TransportScene& ts = p_.ts_;
+    const int w = ph.wavelength;
+    for (; br.segments < p_.options_.maxPhotonSegments; ++br.segments) {
+        const auto hit = ts.scene->closestHit(br.ray, kInfinity, br.startObject,
+                                              br.startPrimitive, br.medium);
+        ++block_.segments;
+        if (!hit) break;
+        const double alpha = ts.media->absorptionPerMm(br.medium, w);
+        if (alpha > 0.0) br.flux *= std::exp(-alpha * hit->t);
+        if (ts.detectorOfObject[hit->object] >= 0) {
+            if (ph.deposits && ph.splitAll && !br.scattered && hit->object == p_.renderedObject_)
+                depositVisible(br, *hit);
+            break;
+        }
+        const Interaction in =
+            interact(ts, *hit, br.ray.direction, w, ph.wavelengthNm, TransportMode::Flux);
+        bool scatters = false;
+        for (int c = 0; c < in.count; ++c) scatters |= in.children[c].scatter;
+        // Until its first scatter a branch is followed whatever its flux (its ghosts are the
+        // visible light, smooth only when every branch of every photon lands); where it first
+        // meets a scattering surface, the light it scatters plays Russian roulette: below
+        // rouletteFlux it is kept with probability flux / rouletteFlux, at rouletteFlux. The
+        // gathering, which costs as much for a weak ghost as for the photon itself, and the
+        // scattered child take that flux; its specular children keep theirs. From then on the
+        // scattered light is a photon of its own: it plays roulette below
+        // rouletteRelativeFlux of its flux just after this scatter (PhotonBranch::rouletteFlux),
+        // however dark the surface.
+        double scatterScale = 1.0;
+        if (scatters && !br.scattered) {
+            const double kept = playRoulette(br.flux, ph.rouletteFlux, ph.rouletteFlux, ph.rng);
+            scatterScale = kept > 0.0 ? kept / br.flux : 0.0;
+        }
+        if (scatters && (br.specular || br.scattered) && scatterScale > 0.0)
+            gather(br, *hit, in, scatterScale, w);
+        if (in.count == 0) break;
+        if (!next(br, *hit, in, scatterScale, ph)) break;
+    }
+}
+
+void BlockTracer::depositVisible(const PhotonBranch& br, const SceneHit& hit) {
+    p_.splatCells(hit.point, cells_);
+    if (cells_.empty()) return;
+    uint64_t matched = 0;
+    if (p_.judge_) {
+        suffix_.assign(1, pathEvent(EventType::DetectorHit, hit.object, hit.primitive, br.medium,
+                                    br.medium));
+        matched = judged(br);
+    }
+    book(0, matched, &cells_, 0, br.flux * p_.visibleScale_);
+}
+
+void BlockTracer::gather(const PhotonBranch& br, const SceneHit& hit, const Interaction& in,
+                         double scatterScale, int wavelength) {
+    const int slot = br.scattered ? 2 : 1;
+    const auto [firstVp, lastVp] = p_.grid_.candidates(hit.point);
+    verdicts_.clear();
+    // The photon's side of the face, and whether it lies in a gap there (looked at once, when
+    // a view point first needs it).
+    const double photonCos = glm::dot(br.ray.direction, hit.normal);
+    int photonInGap = -1;
+    // The float pre-test keeps every view point within r: its radius is widened by the
+    // rounding of the float coordinates.
+    const float px = static_cast<float>(hit.point.x), py = static_cast<float>(hit.point.y),
+                pz = static_cast<float>(hit.point.z);
+    const double wide =
+        p_.radiusMm_ * (1.0 + 1e-6) +
+        1e-6 * (std::abs(hit.point.x) + std::abs(hit.point.y) + std::abs(hit.point.z));
+    const float wide2 = static_cast<float>(wide * wide);
+    const std::vector<PathEvent>& vpEvents = p_.back_.events;
+    for (const GridEntry* it = firstVp; it != lastVp; ++it) {
+        if (it->object != hit.object) continue;
+        const float dx = it->x - px, dy = it->y - py, dz = it->z - pz;
+        if (dx * dx + dy * dy + dz * dz > wide2) continue;
+        const ViewPoint& v = p_.vps_[it->index];
+        if (v.wavelength != wavelength) continue;
+        if (!(glm::dot(v.normal, hit.normal) > kGatherNormalCos)) continue;
+        const Vec3 d = v.positionMm - hit.point;
+        if (glm::dot(d, d) > p_.r2_) continue;
+        const double f = in.property->bsdf(in.context, v.toDetector);
+        if (!(f > 0.0)) continue;
+        // The photon's scatter here toward the view point's pixel: a reflection when it
+        // arrives on the view point's side. It counts where both lie in a gap on its side or
+        // neither.
+        const bool back = photonCos * glm::dot(v.toDetector, hit.normal) < 0.0;
+        const double correction = p_.areaCorrection(it->index, !back);
+        if (photonInGap < 0) {
+            const Vec3 side = photonCos < 0.0 ? hit.normal : -hit.normal;
+            photonInGap =
+                inGapAt(*p_.ts_.scene, hit.point, hit.object, hit.primitive, side, p_.gapMm_) ? 1
+                                                                                                : 0;
+        }
+        if ((correction < 0.0) != (photonInGap == 1)) continue;
+        ++block_.gathers;
+        uint64_t matched = 0;
+        if (p_.judge_ && br.alive != 0) {
+            // View points with the same suffix (stored once by the backward pass) get the same
+            // verdict at this hit.
+            const auto known =
+                std::find_if(verdicts_.begin(), verdicts_.end(), [&](const Verdict& x) {
+                    return x.firstEvent == v.firstEvent && x.eventCount == v.eventCount &&
+                           x.back == back && x.medium == v.medium;
+                });
+            if (known != verdicts_.end()) {
+                matched = known->matched;
+            } else {
+                suffix_.assign(1, pathEvent(back ? EventType::ScatterReflect
+                                                 : EventType::ScatterTransmit,
+                                            hit.object, hit.primitive, br.medium, v.medium));
+                suffix_.insert(suffix_.end(), vpEvents.begin() + v.firstEvent,
+                               vpEvents.begin() + v.firstEvent + v.eventCount);
+                matched = judged(br);
+                if (verdicts_.size() < kVerdictCache)
+                    verdicts_.push_back({v.firstEvent, v.eventCount, v.medium, back, matched});
+            }
+        }
+        const double value =
+            v.weight * br.flux * scatterScale * f * p_.kernel_ * std::abs(correction);
+        book(slot, matched, nullptr, v.pixel, value);
+        if (!block_.learned.empty()) block_.learned[v.guideBin] += value;
+    }
+}
+
+bool BlockTracer::become(PhotonBranch& b, const SceneHit& hit, const Interaction& in, int c,
+                         double flux, Photon& ph) {
+    const auto dir = in.direction(c, ph.rng);
+    if (!dir) return false;
+    const InteractionChild& child = in.children[c];
+    if (p_.judge_ && b.alive != 0) {
+        b.alive = p_.judge_->push(
+            states_.data() + b.state,
+            pathEvent(child.event, hit.object, hit.primitive, b.medium, child.medium));
+    }
+    if (p_.prune_ && b.alive == 0) {
+        ++block_.pruned;
+        return false;
+    }
+    if (child.scatter && !b.scattered) b.rouletteFlux = p_.options_.rouletteRelativeFlux * flux;
+    (child.scatter ? b.scattered : b.specular) = true;
+    b.flux = flux;
+    b.ray = {hit.point, *dir};
+    b.medium = child.medium;
+    b.startObject = hit.object;
+    b.startPrimitive = hit.primitive;
+    return true;
+}
+
+bool BlockTracer::next(PhotonBranch& br, const SceneHit& hit, const Interaction& in,
+                       double scatterScale, Photon& ph) {
+    int c = 0;
+    double flux = 0.0;
+    if (!br.scattered && in.count > 1) {
+        for (int k = in.count - 1; k >= 1; --k) {
+            const double f = br.flux * in.children[k].share *
+                             (in.children[k].scatter ? scatterScale : 1.0);
+            if (!(f > 0.0)) continue;
+            // A scattered child's flux played its roulette already (the incident flux,
+            // scatterScale): it starts a photon of its own.
+            const double keep = in.children[k].scatter
+                                    ? f
+                                    : playRoulette(f, ph.lowFlux, ph.keepFlux, ph.rng);
+            if (!(keep > 0.0)) continue;
+            PhotonBranch child = br;
+            child.segments = br.segments + 1;
+            if (p_.judge_) {  // its own copy of the path state
+                child.state = states_.size();
+                states_.resize(states_.size() + p_.stateBytes_);
+                std::memcpy(states_.data() + child.state, states_.data() + br.state,
+                            p_.stateBytes_);
+            }
+            if (become(child, hit, in, k, keep, ph)) stack_.push_back(child);
+        }
+        c = 0;
+        flux = br.flux * in.children[0].share * (in.children[0].scatter ? scatterScale : 1.0);
+        if (!(flux > 0.0)) return false;
+        if (!in.children[0].scatter) flux = playRoulette(flux, ph.lowFlux, ph.keepFlux, ph.rng);
+        if (!(flux > 0.0)) return false;
+    } else {
+        c = in.count > 1 ? chooseChild(in, ph.rng.uniform()) : 0;
+        flux = br.flux * in.total * (in.children[c].scatter ? scatterScale : 1.0);
+        if (!(flux > 0.0)) return false;
+    }
+    if (!become(br, hit, in, c, flux, ph)) return false;
+    if (br.scattered) {
+        br.flux = playRoulette(br.flux, br.rouletteFlux, br.rouletteFlux, ph.rng);
+        if (!(br.flux > 0.0)) return false;
+    }
+    return true;
+}
+
+PhotonBlock PhotonPass::traceBlock(uint64_t first, uint64_t last) const {
+    return BlockTracer(*this).run(first, last);
+}
+
 }  // namespace
 
 PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detector,
                           const BackwardResult& back, const RenderOptions& options,
                           const PathJudge* judge, int k, double radiusMm, const Ranks& ranks) {
-    const int pixels = detector.pixelCount();
-    const std::vector<ViewPoint>& vps = back.viewPoints;
-    const ViewPointGrid grid(vps, radiusMm);
-    const double r2 = radiusMm * radiusMm;
-    const double kernel = 1.0 / (std::numbers::pi * r2);
-    // The rim correction, computed the first time a view point gathers light from a side:
-    // 1 / its area share, negative when the view point lies in a gap on that side. The value
-    // depends on the view point alone (the spiral turned by its index), so threads racing on
-    // it write the same bits.
-    std::vector<std::atomic<float>> inverseShare(2 * vps.size());
-    for (auto& x : inverseShare) x.store(0.0f, std::memory_order_relaxed);
-    auto areaCorrection = [&](uint32_t i, bool otherSide) {
-        std::atomic<float>& slot = inverseShare[2 * size_t{i} + (otherSide ? 1 : 0)];
-        float c = slot.load(std::memory_order_relaxed);
-        if (c == 0.0f) {
-            const double turn =
-                2.0 * std::numbers::pi * CounterRng(passSeed(options.seed, k, 2), i).uniform();
-            const DiskShare d = viewPointAreaShare(*ts.scene, vps[i], radiusMm, options.areaSamples,
-                                                   turn, otherSide);
-            c = static_cast<float>((d.inGap ? -1.0 : 1.0) / d.share);
-            slot.store(c, std::memory_order_relaxed);
-        }
-        return static_cast<double>(c);
-    };
-    if (!ranks.single()) {
-        // Across ranks every rank's photons reach nearly every view point, and each rank
-        // would find the same corrections again: they are computed once, blocks of view
-        // points split over the ranks, and shared; the other side's only where light can
-        // come through (not on opaque parts, whose transmission is 0).
-        constexpr size_t kShareBlock = 1024;
-        auto transmissive = [&](size_t i) {
-            return !isOpaqueKind(ts.scene->object(vps[i].object).kind);
-        };
-        const size_t n = vps.size(), blocks = (n + kShareBlock - 1) / kShareBlock;
-        tbb::parallel_for(size_t(0), blocks, [&](size_t b) {
-            if (!ranks.owns(b)) return;
-            for (size_t i = b * kShareBlock; i < std::min(n, (b + 1) * kShareBlock); ++i) {
-                areaCorrection(static_cast<uint32_t>(i), false);
-                if (transmissive(i)) areaCorrection(static_cast<uint32_t>(i), true);
-            }
-        });
-        ByteWriter w;
-        for (size_t b = static_cast<size_t>(ranks.rank()); b < blocks;
-             b += static_cast<size_t>(ranks.size()))
-            for (size_t i = b * kShareBlock; i < std::min(n, (b + 1) * kShareBlock); ++i)
-                for (size_t side = 0; side < (transmissive(i) ? 2u : 1u); ++side)
-                    w.put(inverseShare[2 * i + side].load(std::memory_order_relaxed));
-        const std::vector<Bytes> all = ranks.gatherAll(w.take());
-        for (int q = 0; q < ranks.size(); ++q) {
-            if (q == ranks.rank()) continue;
-            ByteReader in(all[static_cast<size_t>(q)]);
-            for (size_t b = static_cast<size_t>(q); b < blocks;
-                 b += static_cast<size_t>(ranks.size()))
-                for (size_t i = b * kShareBlock; i < std::min(n, (b + 1) * kShareBlock); ++i)
-                    for (size_t side = 0; side < (transmissive(i) ? 2u : 1u); ++side)
-                        inverseShare[2 * i + side].store(in.get<float>(),
-                                                         std::memory_order_relaxed);
-            if (!in.done())
-                throw std::runtime_error("the view point shares of another rank are damaged");
-        }
-    }
-    const double gapMm = kGapFraction * radiusMm;
-    const uint64_t perSource = options.photonsPerPass;
-    const uint64_t total = perSource * ts.sources.size();
-    const uint64_t ghostPhotons = options.ghostPhotons();
-    const double visibleScale = static_cast<double>(perSource) / static_cast<double>(ghostPhotons);
-    const uint64_t photonSeed = passSeed(options.seed, static_cast<uint64_t>(k), 1);
-    // Quasi-random emission: one scramble of the Sobol points per source and pass.
-    std::vector<SobolOwen> emission;
-    for (size_t s = 0; s < ts.sources.size(); ++s)
-        emission.emplace_back(passSeed(options.seed, static_cast<uint64_t>(k), 3) ^
-                              (0x9E3779B97F4A7C15ull * (s + 1)));
-    const Scene& scene = *ts.scene;
-    const MediaOptics& media = *ts.media;
-    const uint64_t block = 4096;
-
-    const int renderedObject = detector.geometry().object;
-    const DetectorImage& grid0 = detector;
-    // The detector's smoothing disk this pass (mm), shrinking with the gathering radius.
-    const DetectorGeometry& dg = grid0.geometry();
-    const double rho = options.detectorRadiusPixels *
-                       std::max(dg.pixelWidthMm(), dg.pixelHeightMm()) *
-                       (options.initialRadiusMm > 0.0 ? radiusMm / options.initialRadiusMm : 1.0);
-    // The pixels that share a deposit landing at `point`: those whose centres lie within rho
-    // (its own pixel alone when none does); none when it misses the grid.
-    auto splatCells = [&](const Vec3& point, std::vector<int>& cells) {
-        cells.clear();
-        const auto own = grid0.pixelOf(point);
-        if (!own) return;
-        if (rho > 0.0) {
-            const Vec3 local = dg.frame.toLocalPoint(point);
-            const double pw = dg.pixelWidthMm(), ph = dg.pixelHeightMm();
-            const int c0 = std::max(0, int(std::floor((local.x - rho + 0.5 * dg.widthMm) / pw)));
-            const int c1 =
-                std::min(dg.pixelsX - 1, int(std::floor((local.x + rho + 0.5 * dg.widthMm) / pw)));
-            const int r0 = std::max(0, int(std::floor((0.5 * dg.heightMm - local.y - rho) / ph)));
-            const int r1 =
-                std::min(dg.pixelsY - 1, int(std::floor((0.5 * dg.heightMm - local.y + rho) / ph)));
-            for (int row = r0; row <= r1; ++row)
-                for (int col = c0; col <= c1; ++col) {
-                    const int p = grid0.pixelIndex(col, row);
-                    const Vec2 c = grid0.pixelCentreLocal(p);
-                    const double dx = c.x - local.x, dy = c.y - local.y;
-                    if (dx * dx + dy * dy <= rho * rho) cells.push_back(p);
-                }
-        }
-        if (cells.empty()) cells.push_back(*own);
-    };
-    // Criteria: photon prefixes stream through the judge; a gather or a deposit judges the
-    // joined path (the photon's events, its scatter at the view point, the view point's
-    // backward events; or the detector hit).
-    const size_t criteria = judge ? static_cast<size_t>(judge->count()) : 0;
-    const bool prune = judge && options.prune;
-    const size_t stateBytes = judge ? judge->stateBytes() : 0;
-    const std::vector<PathEvent>& vpEvents = back.events;
-
-    // A block's photons keep what they deposit as a log, image by image in order (image 0..2
-    // the plain visible, caustic and secondary light, 3 + 3 k + slot criterion k's), added to
-    // the pass's images in block order (tracer/runtime/ordered_blocks.h): bitwise the same images
-    // for every thread count, memory with the gathers of a few blocks, not images per block.
-    struct Deposit {
-        uint32_t image;
-        int pixel;
-        double value;
-    };
-    struct PhotonBlock {
-        std::vector<Deposit> deposits;
-        std::vector<double> learned;
-        uint64_t photons = 0, segments = 0, gathers = 0, pruned = 0;
-    };
-    PhotonImages result;
-    result.visible.assign(static_cast<size_t>(pixels), 0.0);
-    result.caustic.assign(static_cast<size_t>(pixels), 0.0);
-    result.secondary.assign(static_cast<size_t>(pixels), 0.0);
-    result.by.assign(criteria, {result.visible, result.caustic, result.secondary});
-    result.learned.assign(back.learned.size(), 0.0);
+    const PhotonPass pass(ts, detector, back, options, judge, k, radiusMm, ranks);
+    PhotonImages result = pass.emptyImages();
+    constexpr uint64_t kBlock = 4096;
     forBlocksInOrderOnRanks(
-        ranks, total, block,
-        [&](uint64_t first, uint64_t last) {
-            PhotonBlock a;
-            a.learned.assign(back.learned.size(), 0.0);
-            std::vector<PhotonBranch> stack;
-            std::vector<int> cells;
-            std::vector<std::byte> states, scratch(stateBytes);  // states: per branch
-            std::vector<PathEvent> suffix;
-            std::vector<Verdict> verdicts;  // this hit's judged suffixes
-            // Adds `value` to image slot `slot` (0 visible, 1 caustic, 2 secondary) of the
-            // plain accumulator unless pruning drops it, and of every criterion matched; a
-            // spread value is shared evenly by its cells.
-            auto book = [&](int slot, uint64_t matched, const std::vector<int>* spread, int pixel,
-                            double value) {
-                auto into = [&](uint32_t image) {
-                    if (spread) {
-                        const double share = value / static_cast<double>(spread->size());
-                        for (int p : *spread) a.deposits.push_back({image, p, share});
-                    } else {
-                        a.deposits.push_back({image, pixel, value});
-                    }
-                };
-                if (!prune || matched != 0) into(static_cast<uint32_t>(slot));
-                for (uint64_t m = matched; m != 0; m &= m - 1)
-                    into(static_cast<uint32_t>(3 + 3 * std::countr_zero(m) + slot));
-            };
-            for (uint64_t i = first; i < last; ++i) {
-                const size_t sourceIndex = i / perSource;
-                const Source& source = ts.sources[sourceIndex];
-                const bool deposits = photonsSeeSource(source);
-                CounterRng rng(photonSeed, i);
-                EmittedRay e;
-                if (options.quasiRandomPhotons) {
-                    // Sobol dimensions 0 and 1 (the best pair) to the origin, 2 and 3 to the
-                    // direction, 4 to the line.
-                    const SobolOwen& q = emission[sourceIndex];
-                    const uint64_t j = i % perSource;
-                    e = source.emit({q.sample(j, 4), q.sample(j, 0), q.sample(j, 1), q.sample(j, 2),
-                                     q.sample(j, 3)},
-                                    perSource);
-                } else {
-                    e = source.emit(rng, perSource);
-                }
-                ++a.photons;
-                if (!(e.flux > 0.0)) continue;
-                const int w = e.wavelength;
-                const double rouletteFlux = options.rouletteRelativeFlux * e.flux;
-                const double cullFlux = options.photonMinRelativeFlux * e.flux;
-                // Until their first scatter photons split at every interface. The first
-                // ghostPhotons of a source's quasi-random photons follow every branch (below
-                // the cull, roulette at the rescue level) and deposit the visible light, for
-                // all of them; the others' branches play roulette below rouletteFlux, as after
-                // a scatter: their weak ghosts matter only where they scatter.
-                const bool splitAll = i % perSource < ghostPhotons;
-                const bool cheap = !splitAll && rouletteFlux > 0.0;
-                const double lowFlux = cheap ? rouletteFlux : cullFlux;
-                const double keepFlux =
-                    cheap ? rouletteFlux : options.photonRescueRelativeFlux * e.flux;
-                stack.clear();
-                PhotonBranch first{e.ray, e.flux, 0, -1, -1, false, false, 0, rouletteFlux};
-                if (judge) {
-                    states.assign(stateBytes, std::byte{0});
-                    judge->reset(states.data());
-                    first.alive = judge->push(
-                        states.data(),
-                        pathEvent(EventType::Emit, static_cast<int>(sourceIndex), 0, 0, 0));
-                    if (prune && first.alive == 0) {
-                        ++a.pruned;
-                        continue;
-                    }
-                }
-                stack.push_back(first);
-                while (!stack.empty()) {
-                    PhotonBranch br = stack.back();
-                    stack.pop_back();
-                    // The criteria a path of this branch's events and `suffix` matches.
-                    auto judged = [&] {
-                        if (br.alive == 0) return uint64_t{0};
-                        return judge->matches(states.data() + br.state, suffix, scratch.data());
-                    };
-                    for (; br.segments < options.maxPhotonSegments; ++br.segments) {
-                        const auto hit = scene.closestHit(br.ray, kInfinity, br.startObject,
-                                                          br.startPrimitive, br.medium);
-                        ++a.segments;
-                        if (!hit) break;
-                        const double alpha = media.absorptionPerMm(br.medium, w);
-                        if (alpha > 0.0) br.flux *= std::exp(-alpha * hit->t);
-                        if (ts.detectorOfObject[hit->object] >= 0) {
-                            // Light that scattered nowhere lands here: the visible component
-                            // of the sources the photons stand for.
-                            if (deposits && splitAll && !br.scattered &&
-                                hit->object == renderedObject) {
-                                splatCells(hit->point, cells);
-                                if (cells.empty()) break;
-                                uint64_t matched = 0;
-                                if (judge) {
-                                    suffix.assign(1,
-                                                  pathEvent(EventType::DetectorHit, hit->object,
-                                                            hit->primitive, br.medium, br.medium));
-                                    matched = judged();
-                                }
-                                book(0, matched, &cells, 0, br.flux * visibleScale);
-                            }
-                            break;
-                        }
-                        const Interaction in = interact(ts, *hit, br.ray.direction, w,
-                                                        e.wavelengthNm, TransportMode::Flux);
-                        bool scatters = false;
-                        for (int c = 0; c < in.count; ++c) scatters |= in.children[c].scatter;
-                        // Until its first scatter a branch is followed whatever its flux (its
-                        // ghosts are the visible light, smooth only when every branch of every
-                        // photon lands); where it first meets a scattering surface, the light
-                        // it scatters plays Russian roulette: below rouletteFlux it is kept with
-                        // probability flux / rouletteFlux, at rouletteFlux. The gathering, which
-                        // costs as much for a weak ghost as for the photon itself, and the
-                        // scattered child take that flux; its specular children keep theirs.
-                        // From then on the scattered light is a photon of its own: it plays
-                        // roulette below rouletteRelativeFlux of its flux just after this
-                        // scatter (PhotonBranch::rouletteFlux), however dark the surface.
-                        double scatterScale = 1.0;
-                        if (scatters && !br.scattered) {
-                            const double kept =
-                                playRoulette(br.flux, rouletteFlux, rouletteFlux, rng);
-                            scatterScale = kept > 0.0 ? kept / br.flux : 0.0;
-                        }
-                        if (scatters && (br.specular || br.scattered) && scatterScale > 0.0) {
-                            const int slot = br.scattered ? 2 : 1;
-                            const auto [firstVp, lastVp] = grid.candidates(hit->point);
-                            verdicts.clear();
-                            // The photon's side of the face, and whether it lies in a gap there
-                            // (looked at once, when a view point first needs it).
-                            const double photonCos = glm::dot(br.ray.direction, hit->normal);
-                            int photonInGap = -1;
-                            // The float pre-test keeps every view point within r: its
-                            // radius is widened by the rounding of the float coordinates.
-                            const float px = static_cast<float>(hit->point.x),
-                                        py = static_cast<float>(hit->point.y),
-                                        pz = static_cast<float>(hit->point.z);
-                            const double wide =
-                                radiusMm * (1.0 + 1e-6) +
-                                1e-6 * (std::abs(hit->point.x) + std::abs(hit->point.y) +
-                                        std::abs(hit->point.z));
-                            const float wide2 = static_cast<float>(wide * wide);
-                            for (const GridEntry* it = firstVp; it != lastVp; ++it) {
-                                if (it->object != hit->object) continue;
-                                const float dx = it->x - px, dy = it->y - py, dz = it->z - pz;
-                                if (dx * dx + dy * dy + dz * dz > wide2) continue;
-                                const ViewPoint& v = vps[it->index];
-                                if (v.wavelength != w) continue;
-                                if (!(glm::dot(v.normal, hit->normal) > kGatherNormalCos)) continue;
-                                const Vec3 d = v.positionMm - hit->point;
-                                if (glm::dot(d, d) > r2) continue;
-                                const double f = in.property->bsdf(in.context, v.toDetector);
-                                if (!(f > 0.0)) continue;
-                                // The photon's scatter here toward the view point's pixel:
-                                // a reflection when it arrives on the view point's side. It
-                                // counts where both lie in a gap on its side or neither.
-                                const bool back =
-                                    photonCos * glm::dot(v.toDetector, hit->normal) < 0.0;
-                                const double correction = areaCorrection(it->index, !back);
-                                if (photonInGap < 0) {
-                                    const Vec3 side = photonCos < 0.0 ? hit->normal : -hit->normal;
-                                    photonInGap = inGapAt(scene, hit->point, hit->object,
-                                                          hit->primitive, side, gapMm)
-                                                      ? 1
-                                                      : 0;
-                                }
-                                if ((correction < 0.0) != (photonInGap == 1)) continue;
-                                ++a.gathers;
-                                uint64_t matched = 0;
-                                if (judge && br.alive != 0) {
-                                    // View points with the same suffix (stored once by the
-                                    // backward pass) get the same verdict at this hit.
-                                    const auto known = std::find_if(
-                                        verdicts.begin(), verdicts.end(), [&](const Verdict& x) {
-                                            return x.firstEvent == v.firstEvent &&
-                                                   x.eventCount == v.eventCount && x.back == back &&
-                                                   x.medium == v.medium;
-                                        });
-                                    if (known != verdicts.end()) {
-                                        matched = known->matched;
-                                    } else {
-                                        suffix.assign(
-                                            1, pathEvent(back ? EventType::ScatterReflect
-                                                              : EventType::ScatterTransmit,
-                                                         hit->object, hit->primitive, br.medium,
-                                                         v.medium));
-                                        suffix.insert(
-                                            suffix.end(), vpEvents.begin() + v.firstEvent,
-                                            vpEvents.begin() + v.firstEvent + v.eventCount);
-                                        matched = judged();
-                                        if (verdicts.size() < kVerdictCache)
-                                            verdicts.push_back({v.firstEvent, v.eventCount,
-                                                                v.medium, back, matched});
-                                    }
-                                }
-                                const double value = v.weight * br.flux * scatterScale * f *
-                                                     kernel * std::abs(correction);
-                                book(slot, matched, nullptr, v.pixel, value);
-                                if (!a.learned.empty()) a.learned[v.guideBin] += value;
-                            }
-                        }
-                        if (in.count == 0) break;
-                        // Continue as child c with flux `flux`; false when it has no direction
-                        // or no criterion can match its path any more (prune).
-                        auto become = [&](PhotonBranch& b, int c, double flux) {
-                            const auto dir = in.direction(c, rng);
-                            if (!dir) return false;
-                            const InteractionChild& child = in.children[c];
-                            if (judge && b.alive != 0) {
-                                b.alive =
-                                    judge->push(states.data() + b.state,
-                                                pathEvent(child.event, hit->object, hit->primitive,
-                                                          b.medium, child.medium));
-                            }
-                            if (prune && b.alive == 0) {
-                                ++a.pruned;
-                                return false;
-                            }
-                            if (child.scatter && !b.scattered)
-                                b.rouletteFlux = options.rouletteRelativeFlux * flux;
-                            (child.scatter ? b.scattered : b.specular) = true;
-                            b.flux = flux;
-                            b.ray = {hit->point, *dir};
-                            b.medium = child.medium;
-                            b.startObject = hit->object;
-                            b.startPrimitive = hit->primitive;
-                            return true;
-                        };
-                        int c = 0;
-                        double flux = 0.0;
-                        if (!br.scattered && in.count > 1) {
-                            // Before the first scatter every child is followed (the ghosts live
-                            // in the weak reflected branches); then one child by weight.
-                            for (int k = in.count - 1; k >= 1; --k) {
-                                const double f = br.flux * in.children[k].share *
-                                                 (in.children[k].scatter ? scatterScale : 1.0);
-                                if (!(f > 0.0)) continue;
-                                // A scattered child's flux played its roulette above (the
-                                // incident flux, scatterScale): it starts a photon of its own.
-                                const double keep = in.children[k].scatter
-                                                        ? f
-                                                        : playRoulette(f, lowFlux, keepFlux, rng);
-                                if (!(keep > 0.0)) continue;
-                                PhotonBranch child = br;
-                                child.segments = br.segments + 1;
-                                if (judge) {  // its own copy of the path state
-                                    child.state = states.size();
-                                    states.resize(states.size() + stateBytes);
-                                    std::memcpy(states.data() + child.state,
-                                                states.data() + br.state, stateBytes);
-                                }
-                                if (become(child, k, keep)) stack.push_back(child);
-                            }
-                            c = 0;
-                            flux = br.flux * in.children[0].share *
-                                   (in.children[0].scatter ? scatterScale : 1.0);
-                            if (!(flux > 0.0)) break;
-                            if (!in.children[0].scatter)
-                                flux = playRoulette(flux, lowFlux, keepFlux, rng);
-                            if (!(flux > 0.0)) break;
-                        } else {
-                            c = in.count > 1 ? chooseChild(in, rng.uniform()) : 0;
-                            flux =
-                                br.flux * in.total * (in.children[c].scatter ? scatterScale : 1.0);
-                            if (!(flux > 0.0)) break;
-                        }
-                        if (!become(br, c, flux)) break;
-                        if (br.scattered) {
-                            br.flux = playRoulette(br.flux, br.rouletteFlux, br.rouletteFlux, rng);
-                            if (!(br.flux > 0.0)) break;
-                        }
-                    }
-                }
-            }
-            return a;
-        },
-        [&](const PhotonBlock& b) {
-            std::vector<double>* images[3] = {&result.visible, &result.caustic, &result.secondary};
-            for (const Deposit& d : b.deposits) {
-                std::vector<double>& image = d.image < 3
-                                                 ? *images[d.image]
-                                                 : result.by[(d.image - 3) / 3][(d.image - 3) % 3];
-                image[static_cast<size_t>(d.pixel)] += d.value;
-            }
-            for (size_t p = 0; p < result.learned.size(); ++p) result.learned[p] += b.learned[p];
-            result.photons += b.photons;
-            result.segments += b.segments;
-            result.gathers += b.gathers;
-            result.pruned += b.pruned;
-        },
-        [](const PhotonBlock& b) {
-            ByteWriter w;
-            w.putVector(b.deposits);
-            w.putVector(b.learned);
-            for (uint64_t n : {b.photons, b.segments, b.gathers, b.pruned}) w.put(n);
-            return w.take();
-        },
-        [](const Bytes& bytes) {
-            ByteReader r(bytes);
-            PhotonBlock b;
-            b.deposits = r.getVector<Deposit>();
-            b.learned = r.getVector<double>();
-            for (uint64_t* n : {&b.photons, &b.segments, &b.gathers, &b.pruned})
-                *n = r.get<uint64_t>();
-            if (!r.done())
-                throw std::runtime_error("a block of photons from another rank is damaged");
-            return b;
-        });
+        ranks, pass.total(), kBlock,
+        [&](uint64_t first, uint64_t last) { return pass.traceBlock(first, last); },
+        [&](const PhotonBlock& b) { PhotonPass::add(b, result); }, PhotonPass::pack,
+        PhotonPass::unpack);
     return result;
 }
 
