@@ -333,9 +333,8 @@ struct Measured {
     }
 };
 
-}  // namespace
-
-SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
+// Every option checked before anything is read or built.
+void checkSweepSpec(const SweepSpec& spec) {
     if (spec.axes.empty()) throw ModelError("sweep", "nothing to vary: give at least one --vary");
     const bool ghosts = spec.measure == SweepMeasure::Ghosts;
     if (!ghosts && spec.batches < 2)
@@ -366,237 +365,252 @@ SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
                 throw ParseError({spec.axes[a].option, 0, 0},
                                  spec.axes[a].key + " is varied twice (also by " +
                                      spec.axes[b].option + "): give its values once");
-    const std::vector<std::vector<std::string>> variants = sweepVariants(spec);
-    // Every edit checked before anything is built: a key that names nothing stops the sweep.
-    checkSceneEdits(spec.scene, spec.baseEdits);
-    for (const SweepAxis& a : spec.axes)
-        for (const std::string& v : a.values)
-            checkSceneEdits(spec.scene, {{a.key, v, "--vary " + a.key + "=" + v}});
-    bool transportOnly = true;
-    for (const SweepAxis& a : spec.axes) transportOnly = transportOnly && editsTransportOnly(a.key);
+}
 
-    SweepResult result;
-    for (const SweepAxis& a : spec.axes) result.keys.push_back(a.key);
-    result.batches = ghosts ? 1 : spec.batches;
-    result.measure = std::string(toString(spec.measure));
-    const nlohmann::json hashes = inputHashes(spec.scene);
-    const std::filesystem::path store = spec.folder / "variants";
-    const Ranks& ranks = spec.ranks;
-    if (ranks.root()) std::filesystem::create_directories(store);
-    std::unique_ptr<PreparedScene> shared;  // transport-only sweeps: the geometry, built once
+// One batch's values of a variant's quantities, as a measure hands them over.
+using Record = std::function<void(int batch, const std::vector<std::string>& names,
+                                  const std::vector<std::string>& criteria,
+                                  const std::string& unit, const std::vector<double>& values)>;
 
-    // Variant k measured (or read back from an earlier run's file), with its own quantities.
-    auto labelOf = [&](const std::vector<std::string>& values) {
-        std::string label;
-        for (size_t a = 0; a < spec.axes.size(); ++a)
-            label += (a ? ", " : "") + spec.axes[a].key + "=" + values[a];
-        return label;
-    };
-    // Progress: one task per variant, its batches counted.
-    auto progress = [&](size_t k, int batchesDone) {
-        if (!spec.progress) return;
-        spec.progress({"sweep: variant " + std::to_string(k + 1) + " of " +
-                           std::to_string(variants.size()) + " (" + labelOf(variants[k]) + ")",
-                       static_cast<uint64_t>(batchesDone), static_cast<uint64_t>(result.batches),
-                       "batches"});
-    };
-    auto measure = [&](size_t k) {
-        Measured m;
-        SweepVariant& v = m.variant;
-        v.index = static_cast<int>(k);
-        v.values = variants[k];
-        const std::string label = labelOf(v.values);
-        progress(k, 0);
-        const nlohmann::json print = fingerprint(spec, hashes, v.values);
-        const std::filesystem::path saved = store / (std::to_string(k) + ".json");
+// A sweep under way: its variants, the geometry a transport-only sweep shares, and the steps
+// that measure, save, gather and compare them.
+class Sweeper {
+  public:
+    Sweeper(const SweepSpec& spec, const GlassCatalog& catalog)
+        : spec_(spec), catalog_(catalog), variants_(sweepVariants(spec)) {}
+    SweepResult run();
 
-        // A finished variant with the same fingerprint is read back.
-        if (std::filesystem::exists(saved)) {
-            try {
-                std::ifstream in(saved);
-                const nlohmann::json j = nlohmann::json::parse(in);
-                if (j.at("fingerprint") == print) {
-                    v.resumed = true;
-                    v.error = j.value("error", "");
-                    if (v.error.empty()) {
-                        m.quantities = j.at("quantities").get<std::vector<std::string>>();
-                        m.criteria = j.at("criteria").get<std::vector<std::string>>();
-                        m.unit = j.at("unit").get<std::string>();
-                        for (const auto& q : j.at("batch_values")) {
-                            std::vector<double> b;
-                            for (const auto& x : q) b.push_back(numOf(x));
-                            v.batchValues.push_back(std::move(b));
-                        }
-                    }
-                }
-            } catch (const std::exception&) {
-                m = Measured{};  // unreadable: traced again
-                v.index = static_cast<int>(k);
-                v.values = variants[k];
-            }
-        }
-
-        if (!v.resumed) {
-            const auto started = std::chrono::steady_clock::now();
-            try {
-                SceneFile file = readSceneFile(spec.scene, catalog, editsOf(spec, v.values));
-                if (!spec.fieldsDeg.empty())
-                    setFieldSources(file, catalog, spec.fieldsDeg);
-                else if (file.sources.empty())
-                    addSystemFieldSources(file, catalog);
-                PreparedScene* prepared = nullptr;
-                std::unique_ptr<PreparedScene> own;
-                if (transportOnly && shared) {
-                    shared->replaceTransport(std::move(file), catalog);
-                    prepared = shared.get();
-                    v.geometryReused = true;
-                } else {
-                    own = PreparedScene::build(std::move(file), catalog);
-                    prepared = own.get();
-                }
-                // One batch's values: the first names the quantities.
-                auto record = [&](int b, const std::vector<std::string>& names,
-                                  const std::vector<std::string>& criteria, const std::string& unit,
-                                  const std::vector<double>& values) {
-                    if (b == 0) {
-                        m.quantities = names;
-                        m.criteria = criteria;
-                        m.unit = unit;
-                        v.batchValues.assign(values.size(), {});
-                    }
-                    for (size_t q = 0; q < values.size(); ++q)
-                        v.batchValues[q].push_back(values[q]);
-                    progress(k, b + 1);
-                };
-                const TransportScene& ts = prepared->trace().transport;
-                const std::string unit = ts.sources.front().unit() == FluxUnit::Lumen ? "lm" : "W";
-                if (spec.measure == SweepMeasure::Trace) {
-                    StrayLightSpec run;
-                    run.raysPerSource = spec.raysPerSource;
-                    run.transport = spec.transport;
-                    run.where = spec.where;
-                    run.prune = spec.prune;
-                    runStrayLightBatches(
-                        *prepared, run, spec.batches, [&](int b, const StrayLightResult& r) {
-                            const std::vector<StrayLightRow> rows = r.report();
-                            std::vector<std::string> criteria;
-                            std::vector<double> values;
-                            for (const StrayLightRow& row : rows) {
-                                criteria.push_back(row.criterion);
-                                values.push_back(row.flux);
-                            }
-                            record(b, quantityNames(rows), criteria, r.fluxUnit, values);
-                        });
-                } else if (spec.measure == SweepMeasure::Render) {
-                    RenderRunSpec run;
-                    run.options = spec.render;
-                    run.options.seed = spec.transport.seed;
-                    run.options.prune = spec.prune;
-                    run.stop.passes = spec.batches;
-                    run.detector = spec.detector;
-                    run.where = spec.where;
-                    std::vector<std::string> names, criteria;
-                    RenderRun(*prepared, run).run([&](const RenderPassEvent& e) {
-                        const int pass = e.pass;
-                        const RenderPassTotals t = passTotals(*e.rendered);
-                        if (names.empty()) {
-                            const std::string d = spec.detector.empty()
-                                                      ? prepared->trace().images[0].geometry().name
-                                                      : spec.detector;
-                            names.push_back(d + ": render");
-                            criteria.push_back("");
-                            for (int c = 0; c < kRenderComponents; ++c) {
-                                names.push_back(d + ": " +
-                                                std::string(toString(RenderComponent(c))));
-                                criteria.push_back("");
-                            }
-                            for (size_t k = 0; k < spec.where.size(); ++k) {
-                                names.push_back(d + ": where" + std::to_string(k + 1));
-                                criteria.push_back(spec.where[k]);
-                            }
-                        }
-                        std::vector<double> values{t.total()};
-                        for (double c : t.components) values.push_back(c);
-                        for (double c : t.criteria) values.push_back(c);
-                        record(pass - 1, names, criteria, unit, values);
-                    });
-                } else {
-                    GhostOptions go;
-                    go.detector = spec.detector;
-                    const GhostTracer tracer(prepared->setup(), prepared->trace(), catalog, go);
-                    const GhostAnalysis a = tracer.analyse();
-                    double all = 0.0;
-                    for (const GhostEstimate& g : a.ghosts) all += g.flux();
-                    const std::string& d = a.detector;
-                    record(
-                        0, {d + ": nominal", d + ": ghosts", d + ": brightest ghost"},
-                        // The brightest ghost may be another pair in each variant.
-                        {nominalCriterion(d), a.allGhostsCriterion, ""}, unit,
-                        {a.nominal.flux(), all, a.ghosts.empty() ? 0.0 : a.ghosts.front().flux()});
-                }
-                if (transportOnly && !shared) shared = std::move(own);
-            } catch (const std::exception& e) {
-                v.error = e.what();
-                v.batchValues.clear();
-            }
-            v.seconds =
-                std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-            nlohmann::json j;
-            j["fingerprint"] = print;
-            j["error"] = v.error;
-            j["seconds"] = v.seconds;
-            j["quantities"] = m.quantities;
-            j["criteria"] = m.criteria;
-            j["unit"] = m.unit;
-            j["batch_values"] = nlohmann::json::array();
-            for (const auto& q : v.batchValues) {
-                nlohmann::json b = nlohmann::json::array();
-                for (double x : q) b.push_back(jsonNumber(x));
-                j["batch_values"].push_back(b);
-            }
-            m.record = j.dump(1) + "\n";
-        }
-        return m;
-    };
-    // Across ranks variant k is measured on rank k mod K; rank 0 takes the variants in order
-    // (its own as it measures them, the others' as they arrive: a round of K variants at a
-    // time), saves them and compares them with the first.
-    for (size_t k = 0; k < variants.size(); ++k) {
-        Measured m;
-        if (ranks.owns(k)) {
-            m = measure(k);
-            if (!ranks.root()) {
-                ranks.send(0, m.pack());
-                continue;
-            }
-        } else if (ranks.root()) {
-            progress(k, 0);
-            m = Measured::unpack(ranks.receive(static_cast<int>(k % ranks.size())));
-            progress(k, result.batches);
-        } else {
-            continue;
-        }
-        SweepVariant& v = m.variant;
-        if (!m.record.empty()) writeTextFile(store / (std::to_string(k) + ".json"), m.record);
-        if (v.error.empty()) {
-            if (result.quantities.empty()) {
-                result.quantities = m.quantities;
-                result.criteria = m.criteria;
-                result.unit = m.unit;
-            } else if (m.quantities != result.quantities) {
-                v.error =
-                    "its detectors differ from the first variant's, so the rows cannot be "
-                    "compared";
-                v.batchValues.clear();
-            }
-        }
-        result.variants.push_back(std::move(v));
-    }
-    if (!ranks.root()) return result;  // its variants went to rank 0
-
+  private:
+    std::string label(size_t k) const;
+    void progress(size_t k, int batchesDone) const;
+    Measured measure(size_t k);
+    // A finished variant of an earlier run with the same fingerprint, read back.
+    void readBack(size_t k, const nlohmann::json& print, Measured& m) const;
+    // The variant traced, rendered or estimated anew; its record for the folder.
+    void measureAnew(size_t k, const nlohmann::json& print, Measured& m);
+    PreparedScene& prepare(SweepVariant& v, std::unique_ptr<PreparedScene>& own);
+    void measureTrace(const PreparedScene& scene, const Record& record) const;
+    void measureRender(const PreparedScene& scene, const std::string& unit,
+                       const Record& record) const;
+    void measureGhosts(const PreparedScene& scene, const std::string& unit,
+                       const Record& record) const;
+    // Variant k into the result, from this rank or another, saved and checked against the
+    // first variant's quantities.
+    void take(size_t k, Measured m);
     // Values and the changes against the first variant, batch by batch.
-    const SweepVariant& first = result.variants.front();
-    for (SweepVariant& v : result.variants) {
+    void compare();
+
+    const SweepSpec& spec_;
+    const GlassCatalog& catalog_;
+    const std::vector<std::vector<std::string>> variants_;
+    bool transportOnly_ = true;
+    nlohmann::json hashes_;
+    std::filesystem::path store_;
+    std::unique_ptr<PreparedScene> shared_;  // transport-only sweeps: the geometry, built once
+    SweepResult result_;
+};
+
+std::string Sweeper::label(size_t k) const {
+    std::string label;
+    for (size_t a = 0; a < spec_.axes.size(); ++a)
+        label += (a ? ", " : "") + spec_.axes[a].key + "=" + variants_[k][a];
+    return label;
+}
+
+void Sweeper::progress(size_t k, int batchesDone) const {
+    if (!spec_.progress) return;
+    spec_.progress({"sweep: variant " + std::to_string(k + 1) + " of " +
+                        std::to_string(variants_.size()) + " (" + label(k) + ")",
+                    static_cast<uint64_t>(batchesDone), static_cast<uint64_t>(result_.batches),
+                    "batches"});
+}
+
+Measured Sweeper::measure(size_t k) {
+    Measured m;
+    m.variant.index = static_cast<int>(k);
+    m.variant.values = variants_[k];
+    progress(k, 0);
+    const nlohmann::json print = fingerprint(spec_, hashes_, m.variant.values);
+    readBack(k, print, m);
+    if (!m.variant.resumed) measureAnew(k, print, m);
+    return m;
+}
+
+void Sweeper::readBack(size_t k, const nlohmann::json& print, Measured& m) const {
+    const std::filesystem::path saved = store_ / (std::to_string(k) + ".json");
+    if (!std::filesystem::exists(saved)) return;
+    SweepVariant& v = m.variant;
+    try {
+        std::ifstream in(saved);
+        const nlohmann::json j = nlohmann::json::parse(in);
+        if (j.at("fingerprint") != print) return;
+        v.resumed = true;
+        v.error = j.value("error", "");
+        if (!v.error.empty()) return;
+        m.quantities = j.at("quantities").get<std::vector<std::string>>();
+        m.criteria = j.at("criteria").get<std::vector<std::string>>();
+        m.unit = j.at("unit").get<std::string>();
+        for (const auto& q : j.at("batch_values")) {
+            std::vector<double> b;
+            for (const auto& x : q) b.push_back(numOf(x));
+            v.batchValues.push_back(std::move(b));
+        }
+    } catch (const std::exception&) {
+        m = Measured{};  // unreadable: traced again
+        m.variant.index = static_cast<int>(k);
+        m.variant.values = variants_[k];
+    }
+}
+
+PreparedScene& Sweeper::prepare(SweepVariant& v, std::unique_ptr<PreparedScene>& own) {
+    SceneFile file = readSceneFile(spec_.scene, catalog_, editsOf(spec_, v.values));
+    if (!spec_.fieldsDeg.empty())
+        setFieldSources(file, catalog_, spec_.fieldsDeg);
+    else if (file.sources.empty())
+        addSystemFieldSources(file, catalog_);
+    if (transportOnly_ && shared_) {
+        shared_->replaceTransport(std::move(file), catalog_);
+        v.geometryReused = true;
+        return *shared_;
+    }
+    own = PreparedScene::build(std::move(file), catalog_);
+    return *own;
+}
+
+void Sweeper::measureTrace(const PreparedScene& scene, const Record& record) const {
+    StrayLightSpec run;
+    run.raysPerSource = spec_.raysPerSource;
+    run.transport = spec_.transport;
+    run.where = spec_.where;
+    run.prune = spec_.prune;
+    runStrayLightBatches(scene, run, spec_.batches, [&](int b, const StrayLightResult& r) {
+        const std::vector<StrayLightRow> rows = r.report();
+        std::vector<std::string> criteria;
+        std::vector<double> values;
+        for (const StrayLightRow& row : rows) {
+            criteria.push_back(row.criterion);
+            values.push_back(row.flux);
+        }
+        record(b, quantityNames(rows), criteria, r.fluxUnit, values);
+    });
+}
+
+void Sweeper::measureRender(const PreparedScene& scene, const std::string& unit,
+                            const Record& record) const {
+    RenderRunSpec run;
+    run.options = spec_.render;
+    run.options.seed = spec_.transport.seed;
+    run.options.prune = spec_.prune;
+    run.stop.passes = spec_.batches;
+    run.detector = spec_.detector;
+    run.where = spec_.where;
+    RenderRun render(scene, run);  // checks the scene (a detector, a source) first
+    const std::string d =
+        spec_.detector.empty() ? scene.trace().images[0].geometry().name : spec_.detector;
+    std::vector<std::string> names{d + ": render"}, criteria{""};
+    for (int c = 0; c < kRenderComponents; ++c) {
+        names.push_back(d + ": " + std::string(toString(RenderComponent(c))));
+        criteria.push_back("");
+    }
+    for (size_t k = 0; k < spec_.where.size(); ++k) {
+        names.push_back(d + ": where" + std::to_string(k + 1));
+        criteria.push_back(spec_.where[k]);
+    }
+    render.run([&](const RenderPassEvent& e) {
+        const RenderPassTotals t = passTotals(*e.rendered);
+        std::vector<double> values{t.total()};
+        for (double c : t.components) values.push_back(c);
+        for (double c : t.criteria) values.push_back(c);
+        record(e.pass - 1, names, criteria, unit, values);
+    });
+}
+
+void Sweeper::measureGhosts(const PreparedScene& scene, const std::string& unit,
+                            const Record& record) const {
+    GhostOptions go;
+    go.detector = spec_.detector;
+    const GhostTracer tracer(scene.setup(), scene.trace(), catalog_, go);
+    const GhostAnalysis a = tracer.analyse();
+    double all = 0.0;
+    for (const GhostEstimate& g : a.ghosts) all += g.flux();
+    const std::string& d = a.detector;
+    // The brightest ghost may be another pair in each variant.
+    record(0, {d + ": nominal", d + ": ghosts", d + ": brightest ghost"},
+           {nominalCriterion(d), a.allGhostsCriterion, ""}, unit,
+           {a.nominal.flux(), all, a.ghosts.empty() ? 0.0 : a.ghosts.front().flux()});
+}
+
+void Sweeper::measureAnew(size_t k, const nlohmann::json& print, Measured& m) {
+    SweepVariant& v = m.variant;
+    const auto started = std::chrono::steady_clock::now();
+    try {
+        std::unique_ptr<PreparedScene> own;
+        const PreparedScene& prepared = prepare(v, own);
+        // One batch's values: the first names the quantities.
+        const Record record = [&](int b, const std::vector<std::string>& names,
+                                  const std::vector<std::string>& criteria,
+                                  const std::string& unit, const std::vector<double>& values) {
+            if (b == 0) {
+                m.quantities = names;
+                m.criteria = criteria;
+                m.unit = unit;
+                v.batchValues.assign(values.size(), {});
+            }
+            for (size_t q = 0; q < values.size(); ++q) v.batchValues[q].push_back(values[q]);
+            progress(k, b + 1);
+        };
+        const TransportScene& ts = prepared.trace().transport;
+        const std::string unit = ts.sources.front().unit() == FluxUnit::Lumen ? "lm" : "W";
+        if (spec_.measure == SweepMeasure::Trace)
+            measureTrace(prepared, record);
+        else if (spec_.measure == SweepMeasure::Render)
+            measureRender(prepared, unit, record);
+        else
+            measureGhosts(prepared, unit, record);
+        if (transportOnly_ && !shared_) shared_ = std::move(own);
+    } catch (const std::exception& e) {
+        v.error = e.what();
+        v.batchValues.clear();
+    }
+    v.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    nlohmann::json j;
+    j["fingerprint"] = print;
+    j["error"] = v.error;
+    j["seconds"] = v.seconds;
+    j["quantities"] = m.quantities;
+    j["criteria"] = m.criteria;
+    j["unit"] = m.unit;
+    j["batch_values"] = nlohmann::json::array();
+    for (const auto& q : v.batchValues) {
+        nlohmann::json b = nlohmann::json::array();
+        for (double x : q) b.push_back(jsonNumber(x));
+        j["batch_values"].push_back(b);
+    }
+    m.record = j.dump(1) + "\n";
+}
+
+void Sweeper::take(size_t k, Measured m) {
+    SweepVariant& v = m.variant;
+    if (!m.record.empty()) writeTextFile(store_ / (std::to_string(k) + ".json"), m.record);
+    if (v.error.empty()) {
+        if (result_.quantities.empty()) {
+            result_.quantities = m.quantities;
+            result_.criteria = m.criteria;
+            result_.unit = m.unit;
+        } else if (m.quantities != result_.quantities) {
+            v.error =
+                "its detectors differ from the first variant's, so the rows cannot be "
+                "compared";
+            v.batchValues.clear();
+        }
+    }
+    result_.variants.push_back(std::move(v));
+}
+
+void Sweeper::compare() {
+    const bool ghosts = spec_.measure == SweepMeasure::Ghosts;
+    const SweepVariant& first = result_.variants.front();
+    for (SweepVariant& v : result_.variants) {
         if (!v.error.empty()) continue;
         for (size_t q = 0; q < v.batchValues.size(); ++q) {
             SweepValue m;
@@ -617,7 +631,50 @@ SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
             v.measured.push_back(m);
         }
     }
-    return result;
+}
+
+SweepResult Sweeper::run() {
+    // Every edit checked before anything is built: a key that names nothing stops the sweep.
+    checkSceneEdits(spec_.scene, spec_.baseEdits);
+    for (const SweepAxis& a : spec_.axes)
+        for (const std::string& v : a.values)
+            checkSceneEdits(spec_.scene, {{a.key, v, "--vary " + a.key + "=" + v}});
+    for (const SweepAxis& a : spec_.axes)
+        transportOnly_ = transportOnly_ && editsTransportOnly(a.key);
+    for (const SweepAxis& a : spec_.axes) result_.keys.push_back(a.key);
+    result_.batches = spec_.measure == SweepMeasure::Ghosts ? 1 : spec_.batches;
+    result_.measure = std::string(toString(spec_.measure));
+    hashes_ = inputHashes(spec_.scene);
+    store_ = spec_.folder / "variants";
+    const Ranks& ranks = spec_.ranks;
+    if (ranks.root()) std::filesystem::create_directories(store_);
+    // Across ranks variant k is measured on rank k mod K; rank 0 takes the variants in order
+    // (its own as it measures them, the others' as they arrive: a round of K variants at a
+    // time), saves them and compares them with the first.
+    for (size_t k = 0; k < variants_.size(); ++k) {
+        if (ranks.owns(k)) {
+            Measured m = measure(k);
+            if (ranks.root())
+                take(k, std::move(m));
+            else
+                ranks.send(0, m.pack());
+        } else if (ranks.root()) {
+            progress(k, 0);
+            Measured m = Measured::unpack(ranks.receive(static_cast<int>(k % ranks.size())));
+            progress(k, result_.batches);
+            take(k, std::move(m));
+        }
+    }
+    if (!ranks.root()) return std::move(result_);  // its variants went to rank 0
+    compare();
+    return std::move(result_);
+}
+
+}  // namespace
+
+SweepResult runSweep(const SweepSpec& spec, const GlassCatalog& catalog) {
+    checkSweepSpec(spec);
+    return Sweeper(spec, catalog).run();
 }
 
 // Tables
