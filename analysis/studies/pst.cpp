@@ -27,7 +27,10 @@ const char* kStray = "fresnel or scatter";
 
 }  // namespace
 
-PstResult runPst(const PstSpec& spec, const GlassCatalog& catalog) {
+namespace {
+
+// Every option checked before anything is read or built.
+void checkPstSpec(const PstSpec& spec) {
     if (spec.anglesDeg.empty()) throw ParseError({"--angles", 0, 0}, "no angle to trace");
     for (double a : spec.anglesDeg)
         if (!(a >= 0.0 && a < 90.0))
@@ -48,155 +51,222 @@ PstResult runPst(const PstSpec& spec, const GlassCatalog& catalog) {
             throw ParseError({"--measure render", 0, 0}, e.what());
         }
     }
+}
 
-    const double phi = spec.azimuthDeg * M_PI / 180.0;
-    auto fieldOf = [&](double theta) {
-        return std::pair<double, double>{theta * std::sin(phi), theta * std::cos(phi)};
-    };
-    const SceneFile base = readSceneFile(spec.scene, catalog, spec.edits);
-    if (base.prescription.system.fieldKind != SystemData::FieldKind::AngleDeg)
+// A PST under way: the geometry built once, the beam and the pupil, and the steps that
+// measure an angle and gather the rows (across ranks).
+class PstRunner {
+  public:
+    PstRunner(const PstSpec& spec, const GlassCatalog& catalog);
+    PstResult run();
+
+  private:
+    std::pair<double, double> fieldOf(double theta) const {
+        return {theta * std::sin(phi_), theta * std::cos(phi_)};
+    }
+    void progress(size_t a, int batchesDone) const;
+    // The quantities: the total, the nominal image and the stray light (trace) or the specular
+    // and scattered light (render), the user's criteria, and the ghost estimate.
+    void nameQuantities();
+    PstRow measure(size_t a);
+    // [quantity][batch]: flux on the first detector over the flux through the pupil.
+    void renderShares(size_t a, double emitted, std::vector<std::vector<double>>& shares) const;
+    void traceShares(size_t a, std::vector<std::vector<double>>& shares) const;
+    // The sequential ghost estimate: exact for its model, no error.
+    double ghostShare(double emitted) const;
+    static void send(const Ranks& ranks, const PstRow& row);
+    static PstRow receive(const Ranks& ranks, size_t a);
+
+    const PstSpec& spec_;
+    const GlassCatalog& catalog_;
+    const double phi_;
+    SceneFile base_;
+    std::unique_ptr<PreparedScene> prepared_;
+    double throughPupil_ = 0.0;
+    std::vector<std::string> where_;
+    size_t ghostQuantity_ = 0;
+    PstResult result_;
+};
+
+PstRunner::PstRunner(const PstSpec& spec, const GlassCatalog& catalog)
+    : spec_(spec),
+      catalog_(catalog),
+      phi_(spec.azimuthDeg * M_PI / 180.0),
+      base_(readSceneFile(spec.scene, catalog, spec.edits)) {
+    if (base_.prescription.system.fieldKind != SystemData::FieldKind::AngleDeg)
         throw ModelError(spec.scene.string(),
                          "PST needs a lens with an object at infinity (fields in degrees)");
-    SceneFile first = base;
+    SceneFile first = base_;
     setFieldSources(first, catalog, {fieldOf(spec.anglesDeg.front())});
-    const std::unique_ptr<PreparedScene> prepared = PreparedScene::build(std::move(first), catalog);
-
-    PstResult result;
-    for (const Field& f : base.prescription.system.fields)
-        result.fieldDeg = std::max(result.fieldDeg, std::hypot(f.x, f.y));
+    prepared_ = PreparedScene::build(std::move(first), catalog);
+    for (const Field& f : base_.prescription.system.fields)
+        result_.fieldDeg = std::max(result_.fieldDeg, std::hypot(f.x, f.y));
     // The beam is uniform over the first surface's aperture disk (mech_sd, else sd) and
     // brings 1 W through it; the entrance pupil, a disk of the paraxial entrance pupil
     // diameter, takes (pupil / beam)^2 of that at any angle (collimated light crosses every
     // disk of the same radius alike, whatever its plane).
-    const EntranceAperture ap = entranceAperture(base.prescription, *base.model);
-    const FirstOrderData fo = computeFirstOrder(*base.model, base.model->primaryWavelength());
-    result.pupilRadiusMm = 0.5 * fo.entrancePupilDiameterMm;
-    result.beamRadiusMm = ap.radiusMm;
-    if (!(result.pupilRadiusMm > 0.0) || !(result.beamRadiusMm >= result.pupilRadiusMm))
+    const EntranceAperture ap = entranceAperture(base_.prescription, *base_.model);
+    const FirstOrderData fo = computeFirstOrder(*base_.model, base_.model->primaryWavelength());
+    result_.pupilRadiusMm = 0.5 * fo.entrancePupilDiameterMm;
+    result_.beamRadiusMm = ap.radiusMm;
+    if (!(result_.pupilRadiusMm > 0.0) || !(result_.beamRadiusMm >= result_.pupilRadiusMm))
         throw ModelError(spec.scene.string(),
                          "the beam over the first surface (radius " +
-                             std::to_string(result.beamRadiusMm) +
+                             std::to_string(result_.beamRadiusMm) +
                              " mm) does not cover the entrance pupil (radius " +
-                             std::to_string(result.pupilRadiusMm) + " mm)");
-    result.apertureAreaMm2 = M_PI * result.pupilRadiusMm * result.pupilRadiusMm;
-    const double throughPupil = std::pow(result.pupilRadiusMm / result.beamRadiusMm, 2);
-    const DetectorGeometry& det = prepared->setup().detectors.front();
-    result.detector = det.name;
-    result.detectorAreaMm2 = det.widthMm * det.heightMm;
-    std::vector<std::string> where = {kNominal, kStray};
-    where.insert(where.end(), spec.where.begin(), spec.where.end());
-    result.measure = spec.render ? "render" : "trace";
-    if (spec.render)
-        result.quantities = {{"total", ""},
-                             {"specular", "render: visible (nominal image and ghosts)"},
-                             {"scattered", "render: direct + caustic + secondary"}};
-    else
-        result.quantities = {{"total", ""}, {"nominal", kNominal}, {"stray", kStray}};
-    for (size_t k = 0; k < spec.where.size(); ++k)
-        result.quantities.push_back({"where" + std::to_string(k + 1), spec.where[k]});
-    const size_t ghostQuantity = result.quantities.size();
-    result.quantities.push_back({"ghost_estimate", "sequential, all two-reflection ghosts"});
+                             std::to_string(result_.pupilRadiusMm) + " mm)");
+    result_.apertureAreaMm2 = M_PI * result_.pupilRadiusMm * result_.pupilRadiusMm;
+    throughPupil_ = std::pow(result_.pupilRadiusMm / result_.beamRadiusMm, 2);
+    const DetectorGeometry& det = prepared_->setup().detectors.front();
+    result_.detector = det.name;
+    result_.detectorAreaMm2 = det.widthMm * det.heightMm;
+    nameQuantities();
+}
 
+void PstRunner::nameQuantities() {
+    where_ = {kNominal, kStray};
+    where_.insert(where_.end(), spec_.where.begin(), spec_.where.end());
+    result_.measure = spec_.render ? "render" : "trace";
+    if (spec_.render)
+        result_.quantities = {{"total", ""},
+                              {"specular", "render: visible (nominal image and ghosts)"},
+                              {"scattered", "render: direct + caustic + secondary"}};
+    else
+        result_.quantities = {{"total", ""}, {"nominal", kNominal}, {"stray", kStray}};
+    for (size_t k = 0; k < spec_.where.size(); ++k)
+        result_.quantities.push_back({"where" + std::to_string(k + 1), spec_.where[k]});
+    ghostQuantity_ = result_.quantities.size();
+    result_.quantities.push_back({"ghost_estimate", "sequential, all two-reflection ghosts"});
+}
+
+void PstRunner::progress(size_t a, int batchesDone) const {
+    if (!spec_.progress) return;
+    std::ostringstream task;
+    task << "pst: angle " << a + 1 << " of " << spec_.anglesDeg.size() << " ("
+         << spec_.anglesDeg[a] << " deg)";
+    spec_.progress({task.str(), static_cast<uint64_t>(batchesDone),
+                    static_cast<uint64_t>(spec_.batches), "batches"});
+}
+
+void PstRunner::renderShares(size_t a, double emitted,
+                             std::vector<std::vector<double>>& shares) const {
+    RenderRunSpec run;
+    run.options = spec_.renderOptions;
+    run.options.seed = spec_.transport.seed;
+    run.stop.passes = spec_.batches;
+    run.detector = result_.detector;
+    run.where = spec_.where;
+    RenderRun(*prepared_, run).run([&](const RenderPassEvent& e) {
+        const RenderPassTotals t = passTotals(*e.rendered);
+        progress(a, e.pass);
+        const double incident = emitted * throughPupil_;
+        const double visible = t.components[static_cast<size_t>(RenderComponent::Visible)];
+        std::vector<double> values = {t.total(), visible, t.total() - visible};
+        values.insert(values.end(), t.criteria.begin(), t.criteria.end());
+        for (size_t q = 0; q < ghostQuantity_; ++q) shares[q].push_back(values[q] / incident);
+    });
+}
+
+void PstRunner::traceShares(size_t a, std::vector<std::vector<double>>& shares) const {
+    StrayLightSpec run;
+    run.raysPerSource = spec_.raysPerAngle;
+    run.transport = spec_.transport;
+    run.where = where_;
+    runStrayLightBatches(*prepared_, run, spec_.batches, [&](int b, const StrayLightResult& r) {
+        progress(a, b + 1);
+        // The first detector's rows: its total, then the nominal image, the stray light, the
+        // user's criteria, and the rest (not kept). Each over the flux the beam brings
+        // through the entrance pupil.
+        const std::vector<StrayLightRow> rows = r.report();
+        const double incident = r.budget.emitted * throughPupil_;
+        for (size_t q = 0; q < ghostQuantity_; ++q)
+            shares[q].push_back(incident > 0.0 ? rows[q].flux / incident : 0.0);
+    });
+}
+
+double PstRunner::ghostShare(double emitted) const {
+    GhostOptions go;
+    go.detector = result_.detector;
+    const GhostAnalysis ghosts =
+        GhostTracer(prepared_->setup(), prepared_->trace(), catalog_, go).analyse();
+    double ghostFlux = 0.0;
+    for (const GhostEstimate& g : ghosts.ghosts) ghostFlux += g.flux();
+    return ghostFlux / (emitted * throughPupil_);
+}
+
+PstRow PstRunner::measure(size_t a) {
+    progress(a, 0);
+    const double theta = spec_.anglesDeg[a];
+    if (a > 0) {
+        SceneFile file = base_;
+        setFieldSources(file, catalog_, {fieldOf(theta)});
+        prepared_->replaceTransport(std::move(file), catalog_);
+    }
+    std::vector<std::vector<double>> shares(ghostQuantity_);
+    const double emitted = prepared_->trace().transport.sources.front().totalFlux();
+    if (spec_.render)
+        renderShares(a, emitted, shares);
+    else
+        traceShares(a, shares);
+    PstRow row;
+    row.angleDeg = theta;
+    row.inField = theta <= result_.fieldDeg;
+    for (const auto& s : shares) {
+        const BatchMean m = batchMean(s);
+        row.pst.push_back(m.value);
+        row.error.push_back(m.error);
+    }
+    row.pst.push_back(ghostShare(emitted));
+    row.error.push_back(0.0);
+    return row;
+}
+
+void PstRunner::send(const Ranks& ranks, const PstRow& row) {
+    ByteWriter out;
+    out.put(row.angleDeg);
+    out.put(uint8_t(row.inField));
+    out.putVector(row.pst);
+    out.putVector(row.error);
+    ranks.send(0, out.take());
+}
+
+PstRow PstRunner::receive(const Ranks& ranks, size_t a) {
+    const Bytes bytes = ranks.receive(static_cast<int>(a % ranks.size()));
+    ByteReader in(bytes);
+    PstRow row;
+    row.angleDeg = in.get<double>();
+    row.inField = in.get<uint8_t>() != 0;
+    row.pst = in.getVector<double>();
+    row.error = in.getVector<double>();
+    if (!in.done()) throw std::runtime_error("a PST row from another rank is damaged");
+    return row;
+}
+
+PstResult PstRunner::run() {
     // Across ranks angle a is measured on rank a mod K; rank 0 takes the rows in order (its
     // own as it measures them, the others' as they arrive).
-    const Ranks& ranks = spec.ranks;
-    // Progress: one task per angle, its batches counted.
-    auto progress = [&](size_t a, int batchesDone) {
-        if (!spec.progress) return;
-        std::ostringstream task;
-        task << "pst: angle " << a + 1 << " of " << spec.anglesDeg.size() << " ("
-             << spec.anglesDeg[a] << " deg)";
-        spec.progress({task.str(), static_cast<uint64_t>(batchesDone),
-                       static_cast<uint64_t>(spec.batches), "batches"});
-    };
-    for (size_t a = 0; a < spec.anglesDeg.size(); ++a) {
-        if (!ranks.owns(a)) {
-            if (!ranks.root()) continue;
+    const Ranks& ranks = spec_.ranks;
+    for (size_t a = 0; a < spec_.anglesDeg.size(); ++a) {
+        if (ranks.owns(a)) {
+            PstRow row = measure(a);
+            if (ranks.root())
+                result_.rows.push_back(std::move(row));
+            else
+                send(ranks, row);
+        } else if (ranks.root()) {
             progress(a, 0);
-            const Bytes bytes = ranks.receive(static_cast<int>(a % ranks.size()));
-            progress(a, spec.batches);
-            ByteReader in(bytes);
-            PstRow row;
-            row.angleDeg = in.get<double>();
-            row.inField = in.get<uint8_t>() != 0;
-            row.pst = in.getVector<double>();
-            row.error = in.getVector<double>();
-            if (!in.done()) throw std::runtime_error("a PST row from another rank is damaged");
-            result.rows.push_back(std::move(row));
-            continue;
+            result_.rows.push_back(receive(ranks, a));
+            progress(a, spec_.batches);
         }
-        progress(a, 0);
-        const double theta = spec.anglesDeg[a];
-        if (a > 0) {
-            SceneFile file = base;
-            setFieldSources(file, catalog, {fieldOf(theta)});
-            prepared->replaceTransport(std::move(file), catalog);
-        }
-        // [quantity][batch]: flux on the first detector over the flux emitted.
-        std::vector<std::vector<double>> shares(ghostQuantity);
-        const double emitted = prepared->trace().transport.sources.front().totalFlux();
-        if (spec.render) {
-            RenderRunSpec run;
-            run.options = spec.renderOptions;
-            run.options.seed = spec.transport.seed;
-            run.stop.passes = spec.batches;
-            run.detector = det.name;
-            run.where = spec.where;
-            RenderRun(*prepared, run).run([&](const RenderPassEvent& e) {
-                const RenderPassTotals t = passTotals(*e.rendered);
-                progress(a, e.pass);
-                const double incident = emitted * throughPupil;
-                const double visible = t.components[static_cast<size_t>(RenderComponent::Visible)];
-                std::vector<double> values = {t.total(), visible, t.total() - visible};
-                values.insert(values.end(), t.criteria.begin(), t.criteria.end());
-                for (size_t q = 0; q < ghostQuantity; ++q)
-                    shares[q].push_back(values[q] / incident);
-            });
-        } else {
-            StrayLightSpec run;
-            run.raysPerSource = spec.raysPerAngle;
-            run.transport = spec.transport;
-            run.where = where;
-            runStrayLightBatches(*prepared, run, spec.batches, [&](int b, const StrayLightResult& r) {
-                progress(a, b + 1);
-                // The first detector's rows: its total, then the nominal image, the stray
-                // light, the user's criteria, and the rest (not kept). Each over the flux the
-                // beam brings through the entrance pupil.
-                const std::vector<StrayLightRow> rows = r.report();
-                const double incident = r.budget.emitted * throughPupil;
-                for (size_t q = 0; q < ghostQuantity; ++q)
-                    shares[q].push_back(incident > 0.0 ? rows[q].flux / incident : 0.0);
-            });
-        }
-        PstRow row;
-        row.angleDeg = theta;
-        row.inField = theta <= result.fieldDeg;
-        for (const auto& s : shares) {
-            const BatchMean m = batchMean(s);
-            row.pst.push_back(m.value);
-            row.error.push_back(m.error);
-        }
-        // The sequential ghost estimate: exact for its model, no error.
-        GhostOptions go;
-        go.detector = det.name;
-        const GhostAnalysis ghosts =
-            GhostTracer(prepared->setup(), prepared->trace(), catalog, go).analyse();
-        double ghostFlux = 0.0;
-        for (const GhostEstimate& g : ghosts.ghosts) ghostFlux += g.flux();
-        row.pst.push_back(ghostFlux / (emitted * throughPupil));
-        row.error.push_back(0.0);
-        if (!ranks.root()) {
-            ByteWriter out;
-            out.put(row.angleDeg);
-            out.put(uint8_t(row.inField));
-            out.putVector(row.pst);
-            out.putVector(row.error);
-            ranks.send(0, out.take());
-            continue;
-        }
-        result.rows.push_back(std::move(row));
     }
-    return result;
+    return std::move(result_);
+}
+
+}  // namespace
+
+PstResult runPst(const PstSpec& spec, const GlassCatalog& catalog) {
+    checkPstSpec(spec);
+    return PstRunner(spec, catalog).run();
 }
 
 ReportTable PstResult::table() const {
