@@ -295,16 +295,19 @@ std::string percent(double value, double error) {
 
 }  // namespace
 
-ObjectsResult runObjects(const PreparedScene& prepared, const ObjectsSpec& spec) {
-    const auto start = std::chrono::steady_clock::now();
-    const TraceSetup& setup = prepared.trace();
-    const Scene& scene = prepared.scene();
-    if (spec.rays == 0) throw ModelError("objects", "no rays to trace");
-    ObjectsResult result;
+namespace {
 
-    // The detector and the sources, checked before any ray.
-    if (setup.images.empty()) throw ModelError(prepared.file().path.string(), "no detector");
-    const DetectorGeometry* det = &setup.images[findDetector(setup, spec.detector)].geometry();
+// (object, side) and (object, whole) keys -> flux share and its error, from arrivals().
+using ArrivalMap = std::map<uint64_t, std::pair<double, double>>;
+
+std::pair<double, double> arrivalOf(const ArrivalMap& m, uint64_t k) {
+    const auto it = m.find(k);
+    return it == m.end() ? std::pair<double, double>{0.0, 0.0} : it->second;
+}
+
+// The sources counted (all, or --source), checked: one unit for all.
+TransportScene litSources(const TraceSetup& setup, const ObjectsSpec& spec,
+                          ObjectsResult& result) {
     TransportScene lit = setup.transport;
     if (!spec.source.empty()) {
         std::string known;
@@ -325,152 +328,119 @@ ObjectsResult runObjects(const PreparedScene& prepared, const ObjectsSpec& spec)
                                  " emit in different units (W and lm): their shares cannot be "
                                  "added; choose one with --source");
     }
-    result.detector = det->name;
-    const Bounds3 bounds = scene.bounds();
-    const double size = bounds.empty() ? 1.0 : std::max(1.0, glm::length(bounds.hi - bounds.lo));
-    // The detector emits only into the cone that holds every object (through the renderer's
-    // exit aperture, when there is one): the hemisphere's other directions meet nothing. The
-    // cone carries sin^2(cone) of the hemisphere's flux, so its fractions scale by that.
+    return lit;
+}
+
+// The detector emits only into the cone that holds every object (through the renderer's exit
+// aperture, when there is one): the hemisphere's other directions meet nothing. The cone
+// carries sin^2(cone) of the hemisphere's flux, so its fractions scale by that.
+double detectorCone(const Scene& scene, const DetectorGeometry& det) {
     double cone = kHalfPi;
     try {
-        const ExitAperture a = exitApertureFor(scene, *det);
-        const double distance = std::abs(glm::dot(a.centerMm - det->frame.translation, a.normal));
-        const double reach = a.radiusMm + 0.5 * std::hypot(det->widthMm, det->heightMm);
+        const ExitAperture a = exitApertureFor(scene, det);
+        const double distance = std::abs(glm::dot(a.centerMm - det.frame.translation, a.normal));
+        const double reach = a.radiusMm + 0.5 * std::hypot(det.widthMm, det.heightMm);
         if (distance > 0.0) cone = std::min(kHalfPi, std::atan(reach / distance) * (1.0 + 1e-9));
     } catch (const ModelError&) {
         // An object beside or behind the detector's plane: the whole hemisphere.
     }
-    TransportScene seen = setup.transport;
-    seen.sources = {detectorEmitter(scene, *det, lit.sources.front().spectrum(), size, cone)};
-    // Only the grid's points where the detector object is count (a round sensor in its
-    // square grid records nothing in the corners).
-    const SceneObject& detObject = scene.object(det->object);
-    auto onDetector = [&scene, &detObject, det, size](const Vec3& p) {
-        return lineMeetsObject(scene, detObject, p, det->normal(), size);
-    };
-    const double coneShare = std::pow(std::sin(cone), 2);
+    return cone;
+}
 
-    result.sourceRays = spec.rays * lit.sources.size();
-    result.detectorRays = spec.rays;
-    TransportOptions options = spec.transport;
-    auto progressOf = [&](const std::string& pass, uint64_t total) {
-        const std::string task =
-            pass == "source" ? "objects: lit by the sources" : "objects: seen by the detector";
-        return spec.progress ? std::function<void(uint64_t)>([&spec, task, total](uint64_t d) {
-            spec.progress({task, d, total});
-        })
-                             : std::function<void(uint64_t)>();
-    };
-    const auto litBy =
-        arrivals(lit, setup.images, spec.rays, options, progressOf("source", result.sourceRays))
-            .byKey;
-    options.seed = spec.transport.seed + 1;
-    Arrivals seenPass = arrivals(seen, setup.images, spec.rays, options,
-                                 progressOf("detector", result.detectorRays), onDetector);
-    if (seenPass.countedShare == 0.0)
-        throw ModelError(det->name, "no ray from the detector's grid starts on its object");
-    auto& seenBy = seenPass.byKey;
-    for (auto& [k, v] : seenBy) {
-        v.first *= coneShare;
-        v.second *= coneShare;
+// Side areas: a mesh's triangles by their facing; an exact face's two sides are the whole
+// face (faceArea).
+std::map<uint32_t, double> sideAreas(const Scene& scene, const SceneObject& o, double& faceArea) {
+    std::map<uint32_t, double> area;
+    faceArea = 0.0;
+    if (const MeshRef* r = std::get_if<MeshRef>(&o.geometry)) {
+        const TriangleMesh& m = scene.meshes()[static_cast<size_t>(r->mesh)];
+        const size_t end = r->triangleCount == 0 ? m.triangles.size()
+                                                 : size_t(r->firstTriangle) + r->triangleCount;
+        for (size_t t = r->firstTriangle; t < end; ++t) {
+            const double a = triangleArea(m, t);
+            area[meshSide(m, static_cast<int>(t))] += a;
+            faceArea += a;
+        }
+    } else {
+        const TriangleMesh m = tessellateFace(std::get<FaceGeometry>(o.geometry), 1e-3);
+        for (size_t t = 0; t < m.triangles.size(); ++t) faceArea += triangleArea(m, t);
     }
-    // The sensitive area: the grid's, times the share of its points on the object.
-    const double detectorArea = det->widthMm * det->heightMm * seenPass.countedShare;
-    result.detectorAreaMm2 = detectorArea;
+    return area;
+}
 
-    auto get = [](const std::map<uint64_t, std::pair<double, double>>& m, uint64_t k) {
-        const auto it = m.find(k);
-        return it == m.end() ? std::pair<double, double>{0.0, 0.0} : it->second;
-    };
-    for (const SceneObject& o : scene.objects()) {
-        if (o.kind == ObjectKind::Detector || o.kind == ObjectKind::Dummy ||
-            setup.transport.detectorOfObject[static_cast<size_t>(o.id)] >= 0)
-            continue;
-        ObjectRow row;
-        row.object = o.id;
-        row.name = o.name;
-        row.part = o.part;
-        row.kind = std::string(toString(o.kind));
-        row.optical = isOptical(o.kind);
-        std::tie(row.lit, row.litError) = get(litBy, key(o.id, kWhole));
-        std::tie(row.scattered, row.scatteredError) = get(litBy, key(o.id, kWhole, true));
-        std::tie(row.seen, row.seenError) = get(seenBy, key(o.id, kWhole));
-        // The sides either pass reached (arrivals; the scattered keys lie above kWhole).
-        std::map<uint32_t, ObjectSide> sides;
-        auto collectSides = [&](const std::map<uint64_t, std::pair<double, double>>& m) {
-            for (auto it = m.lower_bound(key(o.id, 0));
-                 it != m.end() && it->first < key(o.id, kWhole); ++it) {
-                const auto side = static_cast<uint32_t>(it->first & 0xFFFF);
-                sides[side].name = sideName(scene, side);
-            }
-        };
-        collectSides(litBy);
-        collectSides(seenBy);
-        // An opaque part scatters light back to the side it came from; glass faces, edges
-        // and flats may pass it through to the other side.
-        const bool opaque = isOpaqueKind(o.kind);
-        auto productVariance = [](double l, double le, double s, double se) {
-            return s * s * le * le + l * l * se * se + le * le * se * se;
-        };
-        // Side areas: a mesh's triangles by their facing; an exact face's two sides are the
-        // whole face.
-        std::map<uint32_t, double> area;
-        double faceArea = 0.0;
-        if (const MeshRef* r = std::get_if<MeshRef>(&o.geometry)) {
-            const TriangleMesh& m = scene.meshes()[static_cast<size_t>(r->mesh)];
-            const size_t end = r->triangleCount == 0 ? m.triangles.size()
-                                                     : size_t(r->firstTriangle) + r->triangleCount;
-            for (size_t t = r->firstTriangle; t < end; ++t) {
-                const double a = triangleArea(m, t);
-                area[meshSide(m, static_cast<int>(t))] += a;
-                faceArea += a;
-            }
-        } else {
-            const TriangleMesh m = tessellateFace(std::get<FaceGeometry>(o.geometry), 1e-3);
-            for (size_t t = 0; t < m.triangles.size(); ++t) faceArea += triangleArea(m, t);
+double productVariance(double l, double le, double s, double se) {
+    return s * s * le * le + l * l * se * se + le * le * se * se;
+}
+
+// One object's row: what the sources light and the detector sees of it, per side, their
+// products and the first-order estimate on a detector of `detectorArea`.
+ObjectRow objectRow(const Scene& scene, const SceneObject& o, const ArrivalMap& litBy,
+                    const ArrivalMap& seenBy, double detectorArea) {
+    ObjectRow row;
+    row.object = o.id;
+    row.name = o.name;
+    row.part = o.part;
+    row.kind = std::string(toString(o.kind));
+    row.optical = isOptical(o.kind);
+    std::tie(row.lit, row.litError) = arrivalOf(litBy, key(o.id, kWhole));
+    std::tie(row.scattered, row.scatteredError) = arrivalOf(litBy, key(o.id, kWhole, true));
+    std::tie(row.seen, row.seenError) = arrivalOf(seenBy, key(o.id, kWhole));
+    // The sides either pass reached (arrivals; the scattered keys lie above kWhole).
+    std::map<uint32_t, ObjectSide> sides;
+    for (const ArrivalMap* m : {&litBy, &seenBy})
+        for (auto it = m->lower_bound(key(o.id, 0)); it != m->end() && it->first < key(o.id, kWhole);
+             ++it) {
+            const auto side = static_cast<uint32_t>(it->first & 0xFFFF);
+            sides[side].name = sideName(scene, side);
         }
-        double variance = 0.0, scatterVariance = 0.0, estimateVariance = 0.0;
-        for (auto& [side, s] : sides) {
-            s.areaMm2 = area.count(side) ? area[side] : faceArea;
-            std::tie(s.lit, s.litError) = get(litBy, key(o.id, side));
-            std::tie(s.scattered, s.scatteredError) = get(litBy, key(o.id, side, true));
-            std::tie(s.seen, s.seenError) = get(seenBy, key(o.id, side));
-            if (opaque) {
-                row.product += s.lit * s.seen;
-                variance += productVariance(s.lit, s.litError, s.seen, s.seenError);
-                row.scatterProduct += s.scattered * s.seen;
-                scatterVariance +=
-                    productVariance(s.scattered, s.scatteredError, s.seen, s.seenError);
-                if (s.areaMm2 > 0.0) {
-                    const double f = detectorArea / s.areaMm2;
-                    row.estimate += f * s.scattered * s.seen;
-                    estimateVariance +=
-                        f * f * productVariance(s.scattered, s.scatteredError, s.seen, s.seenError);
-                }
-            }
-            row.sides.push_back(s);
-        }
-        if (!opaque) {
-            row.product = row.lit * row.seen;
-            variance = productVariance(row.lit, row.litError, row.seen, row.seenError);
-            row.scatterProduct = row.scattered * row.seen;
-            scatterVariance =
-                productVariance(row.scattered, row.scatteredError, row.seen, row.seenError);
-            if (faceArea > 0.0) {
-                const double f = detectorArea / faceArea;
-                row.estimate = f * row.scatterProduct;
-                estimateVariance = f * f * scatterVariance;
+    // An opaque part scatters light back to the side it came from; glass faces, edges and
+    // flats may pass it through to the other side.
+    const bool opaque = isOpaqueKind(o.kind);
+    double faceArea = 0.0;
+    std::map<uint32_t, double> area = sideAreas(scene, o, faceArea);
+    double variance = 0.0, scatterVariance = 0.0, estimateVariance = 0.0;
+    for (auto& [side, s] : sides) {
+        s.areaMm2 = area.count(side) ? area[side] : faceArea;
+        std::tie(s.lit, s.litError) = arrivalOf(litBy, key(o.id, side));
+        std::tie(s.scattered, s.scatteredError) = arrivalOf(litBy, key(o.id, side, true));
+        std::tie(s.seen, s.seenError) = arrivalOf(seenBy, key(o.id, side));
+        if (opaque) {
+            row.product += s.lit * s.seen;
+            variance += productVariance(s.lit, s.litError, s.seen, s.seenError);
+            row.scatterProduct += s.scattered * s.seen;
+            scatterVariance += productVariance(s.scattered, s.scatteredError, s.seen, s.seenError);
+            if (s.areaMm2 > 0.0) {
+                const double f = detectorArea / s.areaMm2;
+                row.estimate += f * s.scattered * s.seen;
+                estimateVariance +=
+                    f * f * productVariance(s.scattered, s.scatteredError, s.seen, s.seenError);
             }
         }
-        row.estimateError = std::sqrt(estimateVariance);
-        row.productError = std::sqrt(variance);
-        row.scatterProductError = std::sqrt(scatterVariance);
-        std::stable_sort(row.sides.begin(), row.sides.end(),
-                         [](const ObjectSide& a, const ObjectSide& b) {
-                             return a.lit * a.seen > b.lit * b.seen;
-                         });
-        result.rows.push_back(std::move(row));
+        row.sides.push_back(s);
     }
+    if (!opaque) {
+        row.product = row.lit * row.seen;
+        variance = productVariance(row.lit, row.litError, row.seen, row.seenError);
+        row.scatterProduct = row.scattered * row.seen;
+        scatterVariance = productVariance(row.scattered, row.scatteredError, row.seen, row.seenError);
+        if (faceArea > 0.0) {
+            const double f = detectorArea / faceArea;
+            row.estimate = f * row.scatterProduct;
+            estimateVariance = f * f * scatterVariance;
+        }
+    }
+    row.estimateError = std::sqrt(estimateVariance);
+    row.productError = std::sqrt(variance);
+    row.scatterProductError = std::sqrt(scatterVariance);
+    std::stable_sort(row.sides.begin(), row.sides.end(), [](const ObjectSide& a, const ObjectSide& b) {
+        return a.lit * a.seen > b.lit * b.seen;
+    });
+    return row;
+}
+
+// Ranked first (by the product or the estimate; optical faces only with includeOptical),
+// then the rest by product, seen and lit.
+void rankRows(const ObjectsSpec& spec, ObjectsResult& result) {
     const bool byEstimate = spec.rank == ObjectsSpec::Rank::Estimate;
     auto score = [byEstimate](const ObjectRow& r) { return byEstimate ? r.estimate : r.product; };
     auto ranked = [&](const ObjectRow& r) {
@@ -488,6 +458,63 @@ ObjectsResult runObjects(const PreparedScene& prepared, const ObjectsSpec& spec)
     for (ObjectRow& r : result.rows)
         if (ranked(r)) r.rank = ++rank;
     result.rankedBy = byEstimate ? "estimate" : "product";
+}
+
+}  // namespace
+
+ObjectsResult runObjects(const PreparedScene& prepared, const ObjectsSpec& spec) {
+    const auto start = std::chrono::steady_clock::now();
+    const TraceSetup& setup = prepared.trace();
+    const Scene& scene = prepared.scene();
+    if (spec.rays == 0) throw ModelError("objects", "no rays to trace");
+    ObjectsResult result;
+    // The detector and the sources, checked before any ray.
+    if (setup.images.empty()) throw ModelError(prepared.file().path.string(), "no detector");
+    const DetectorGeometry* det = &setup.images[findDetector(setup, spec.detector)].geometry();
+    const TransportScene lit = litSources(setup, spec, result);
+    result.detector = det->name;
+    const Bounds3 bounds = scene.bounds();
+    const double size = bounds.empty() ? 1.0 : std::max(1.0, glm::length(bounds.hi - bounds.lo));
+    const double cone = detectorCone(scene, *det);
+    TransportScene seen = setup.transport;
+    seen.sources = {detectorEmitter(scene, *det, lit.sources.front().spectrum(), size, cone)};
+    // Only the grid's points where the detector object is count (a round sensor in its square
+    // grid records nothing in the corners).
+    const SceneObject& detObject = scene.object(det->object);
+    auto onDetector = [&scene, &detObject, det, size](const Vec3& p) {
+        return lineMeetsObject(scene, detObject, p, det->normal(), size);
+    };
+    const double coneShare = std::pow(std::sin(cone), 2);
+    result.sourceRays = spec.rays * lit.sources.size();
+    result.detectorRays = spec.rays;
+    TransportOptions options = spec.transport;
+    auto progressOf = [&](const std::string& task, uint64_t total) {
+        return spec.progress ? std::function<void(uint64_t)>([&spec, task, total](uint64_t d) {
+            spec.progress({task, d, total});
+        })
+                             : std::function<void(uint64_t)>();
+    };
+    const ArrivalMap litBy = arrivals(lit, setup.images, spec.rays, options,
+                                      progressOf("objects: lit by the sources", result.sourceRays))
+                                 .byKey;
+    options.seed = spec.transport.seed + 1;
+    Arrivals seenPass =
+        arrivals(seen, setup.images, spec.rays, options,
+                 progressOf("objects: seen by the detector", result.detectorRays), onDetector);
+    if (seenPass.countedShare == 0.0)
+        throw ModelError(det->name, "no ray from the detector's grid starts on its object");
+    ArrivalMap& seenBy = seenPass.byKey;
+    for (auto& [k, v] : seenBy) {
+        v.first *= coneShare;
+        v.second *= coneShare;
+    }
+    // The sensitive area: the grid's, times the share of its points on the object.
+    result.detectorAreaMm2 = det->widthMm * det->heightMm * seenPass.countedShare;
+    for (const SceneObject& o : scene.objects())
+        if (o.kind != ObjectKind::Detector && o.kind != ObjectKind::Dummy &&
+            setup.transport.detectorOfObject[static_cast<size_t>(o.id)] < 0)
+            result.rows.push_back(objectRow(scene, o, litBy, seenBy, result.detectorAreaMm2));
+    rankRows(spec, result);
     result.seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return result;
