@@ -446,12 +446,12 @@ PreviewLayout previewLayout(const DetectorImage& image, const PreviewOptions& op
     return l;
 }
 
-void writeDetectorPng(const std::filesystem::path& path, const DetectorImage& image,
-                      const PreviewOptions& options) {
-    const PreviewLayout l = previewLayout(image, options);
-    const int nx = image.pixelsX(), ny = image.pixelsY();
+namespace {
 
-    // The detector pixels, one image pixel each, then scaled up without smoothing.
+// The detector pixels, one image pixel each (to be scaled up without smoothing).
+cairo_surface_t* detectorPixels(const DetectorImage& image, const PreviewOptions& options,
+                                const PreviewLayout& l) {
+    const int nx = image.pixelsX(), ny = image.pixelsY();
     cairo_surface_t* pixels = cairo_image_surface_create(CAIRO_FORMAT_RGB24, nx, ny);
     cairo_surface_flush(pixels);
     unsigned char* data = cairo_image_surface_get_data(pixels);
@@ -467,13 +467,13 @@ void writeDetectorPng(const std::filesystem::path& path, const DetectorImage& im
     }
     cairo_surface_mark_dirty(pixels);
 
-    cairo_surface_t* s = cairo_image_surface_create(CAIRO_FORMAT_RGB24, l.widthPx, l.heightPx);
-    cairo_t* cr = cairo_create(s);
-    cairo_set_source_rgb(cr, 1.0, 1.0, 1.0);
-    cairo_paint(cr);
-    cairo_select_font_face(cr, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+    return pixels;
+}
 
-    // Detector area.
+// The detector area, scaled up without smoothing, and its frame.
+void drawDetectorArea(cairo_t* cr, cairo_surface_t* pixels, const DetectorImage& image,
+                      const PreviewLayout& l) {
+    const int nx = image.pixelsX(), ny = image.pixelsY();
     cairo_save(cr);
     cairo_rectangle(cr, l.imageX, l.imageY, l.imageW, l.imageH);
     cairo_clip(cr);
@@ -488,7 +488,10 @@ void writeDetectorPng(const std::filesystem::path& path, const DetectorImage& im
     cairo_rectangle(cr, l.imageX - 0.5, l.imageY - 0.5, l.imageW + 1.0, l.imageH + 1.0);
     cairo_stroke(cr);
 
-    // Axes in detector-local mm: ticks outside the image, labels, axis names.
+}
+
+// Axes in detector-local mm: ticks outside the image, labels, axis names.
+void drawAxes(cairo_t* cr, const PreviewLayout& l) {
     cairo_set_source_rgb(cr, 0.0, 0.0, 0.0);
     cairo_set_line_width(cr, 1.0);
     cairo_set_font_size(cr, kLabelSize);
@@ -510,28 +513,32 @@ void writeDetectorPng(const std::filesystem::path& path, const DetectorImage& im
     showAnchored(cr, l.imageX + 0.5 * l.imageW, bottom + kTickLength + 36.0, "x (mm)", 0.5);
     showUpward(cr, kMargin + 8.0, l.imageY + 0.5 * l.imageH, "y (mm)");
 
-    // Orientation mark: +x right, +y up, +z toward the viewer (a dot in a circle).
-    {
-        const double x0 = l.markX, y0 = l.markY, len = 34.0;
-        cairo_set_line_width(cr, 1.5);
-        arrowTo(cr, x0, y0, x0 + len, y0);
-        arrowTo(cr, x0, y0, x0, y0 - len);
-        cairo_set_line_width(cr, 1.2);
-        cairo_new_path(cr);
-        cairo_arc(cr, x0, y0, 4.5, 0.0, 2.0 * M_PI);
-        cairo_set_source_rgb(cr, 1.0, 1.0, 1.0);
-        cairo_fill_preserve(cr);
-        cairo_set_source_rgb(cr, 0.0, 0.0, 0.0);
-        cairo_stroke(cr);
-        cairo_arc(cr, x0, y0, 1.5, 0.0, 2.0 * M_PI);
-        cairo_fill(cr);
-        cairo_set_font_size(cr, kLabelSize);
-        showAnchored(cr, x0 + len + 4.0, y0 + 0.36 * kLabelSize, "+x", 0.0);
-        showAnchored(cr, x0 + 6.0, y0 - len + 6.0, "+y", 0.0);
-        showAnchored(cr, x0 - 6.0, y0 + 19.0, "+z toward you", 0.0);
-    }
+}
 
-    // Colour bar: one row of PNG pixels per step, top = maximum.
+// Orientation mark: +x right, +y up, +z toward the viewer (a dot in a circle).
+void drawOrientationMark(cairo_t* cr, const PreviewLayout& l) {
+    const double x0 = l.markX, y0 = l.markY, len = 34.0;
+    cairo_set_line_width(cr, 1.5);
+    arrowTo(cr, x0, y0, x0 + len, y0);
+    arrowTo(cr, x0, y0, x0, y0 - len);
+    cairo_set_line_width(cr, 1.2);
+    cairo_new_path(cr);
+    cairo_arc(cr, x0, y0, 4.5, 0.0, 2.0 * M_PI);
+    cairo_set_source_rgb(cr, 1.0, 1.0, 1.0);
+    cairo_fill_preserve(cr);
+    cairo_set_source_rgb(cr, 0.0, 0.0, 0.0);
+    cairo_stroke(cr);
+    cairo_arc(cr, x0, y0, 1.5, 0.0, 2.0 * M_PI);
+    cairo_fill(cr);
+    cairo_set_font_size(cr, kLabelSize);
+    showAnchored(cr, x0 + len + 4.0, y0 + 0.36 * kLabelSize, "+x", 0.0);
+    showAnchored(cr, x0 + 6.0, y0 - len + 6.0, "+y", 0.0);
+    showAnchored(cr, x0 - 6.0, y0 + 19.0, "+z toward you", 0.0);
+}
+
+// The colour bar, one row of PNG pixels per step (top = maximum), its ticks at the powers of
+// ten inside [minValue, maxValue] and the quantity with its unit, reading upward.
+void drawColourBar(cairo_t* cr, const PreviewLayout& l, const PreviewOptions& options) {
     cairo_set_line_width(cr, 1.0);
     const int barRows = static_cast<int>(l.barH);
     for (int i = 0; i < barRows; ++i) {
@@ -577,7 +584,9 @@ void writeDetectorPng(const std::filesystem::path& path, const DetectorImage& im
     showUpward(cr, l.barX + l.barW + kLabelSpace - 20.0, l.barY + 0.5 * l.barH,
                previewLabel(options.quantity, options.fluxUnit));
 
-    // Title and notes.
+}
+
+void drawTitleAndNotes(cairo_t* cr, const PreviewLayout& l) {
     cairo_set_font_size(cr, kTitleSize);
     cairo_move_to(cr, kMargin, 27.0);
     cairo_show_text(cr, l.title.c_str());
@@ -587,6 +596,24 @@ void writeDetectorPng(const std::filesystem::path& path, const DetectorImage& im
         cairo_show_text(cr, l.notes[i].c_str());
     }
 
+}
+
+}  // namespace
+
+void writeDetectorPng(const std::filesystem::path& path, const DetectorImage& image,
+                      const PreviewOptions& options) {
+    const PreviewLayout l = previewLayout(image, options);
+    cairo_surface_t* pixels = detectorPixels(image, options, l);
+    cairo_surface_t* s = cairo_image_surface_create(CAIRO_FORMAT_RGB24, l.widthPx, l.heightPx);
+    cairo_t* cr = cairo_create(s);
+    cairo_set_source_rgb(cr, 1.0, 1.0, 1.0);
+    cairo_paint(cr);
+    cairo_select_font_face(cr, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+    drawDetectorArea(cr, pixels, image, l);
+    drawAxes(cr, l);
+    drawOrientationMark(cr, l);
+    drawColourBar(cr, l, options);
+    drawTitleAndNotes(cr, l);
     cairo_destroy(cr);
     cairo_surface_destroy(pixels);
     const std::filesystem::path tmp = temporaryFor(path);
