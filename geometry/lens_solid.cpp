@@ -425,225 +425,254 @@ double LensSolid::backZAt(double xMm, double yMm) const { return sideZAt(back, x
 
 std::vector<LensSolid> lensSolids(const Prescription& p) { return solidsOfNamed(withNames(p)); }
 
-void addLensSolids(const Prescription& prescription, Scene& scene,
-                   const LensSolidOptions& options) {
-    const Prescription p = withNames(prescription);
-    const std::vector<LensSolid> solids = solidsOfNamed(p);
-    const std::vector<Frame> frames = surfaceFrames(p);
-    const int n = static_cast<int>(p.surfaces.size());
+namespace {
 
-    // One medium per distinct material; air is medium 0.
-    auto mediumOf = [&scene](const Material& m) -> int {
-        if (m.isAir()) return 0;
-        const std::vector<Medium>& media = scene.media();
-        for (size_t i = 0; i < media.size(); ++i) {
-            if (media[i].material == m) return static_cast<int>(i);
-        }
-        return scene.addMedium(Medium{m.label(), m});
-    };
+// The faces, edges, flats and mirrors of a lens, planned first (a spot mirror found later cuts
+// a face already made), each with the index of the surface that orders it, then added to the
+// scene in that order.
+class LensSolidBuilder {
+  public:
+    LensSolidBuilder(const Prescription& prescription, Scene& scene,
+                     const LensSolidOptions& options)
+        : p_(withNames(prescription)),
+          solids_(solidsOfNamed(p_)),
+          frames_(surfaceFrames(p_)),
+          scene_(scene),
+          options_(options) {}
 
-    // Objects are collected first (a spot mirror found later cuts a face already made), each
-    // with the index of the surface that orders it.
+    void build() {
+        for (size_t k = 0; k < solids_.size(); ++k) addElement(k);
+        // Surfaces outside the elements: mirrors, and repeated passes over faces already made.
+        const int n = static_cast<int>(p_.surfaces.size());
+        for (int i = 1; i < n - 1; ++i)
+            if (!built_.count(i)) addOutsideSurface(i);
+        std::stable_sort(planned_.begin(), planned_.end(),
+                         [](const Planned& a, const Planned& b) { return a.order < b.order; });
+        for (Planned& pl : planned_) scene_.addObject(std::move(pl.object));
+    }
+
+  private:
     struct Planned {
         int order;
         SceneObject object;
     };
-    std::vector<Planned> planned;
 
-    auto opticalFace = [&](const LensSolid& s, const LensSide& side) {
-        const Surface& sf = p.surfaces[side.surface];
-        SceneObject o;
-        o.name = sf.name;
-        o.aliases = aliasesFor(p, side.surface);
-        o.kind = sf.mirror ? ObjectKind::MirrorFace : ObjectKind::LensFace;
-        o.part = s.name;
-        o.property =
-            sf.mirror
-                ? mirrorPropertyOf(sf, options)
-                : (options.opticalFaceProperty.empty() ? sf.coating : options.opticalFaceProperty);
-        o.frame = alongAxisOf(s.placement, side.vertexZMm);
-        o.geometry = FaceGeometry{SurfacePatch{side.shape, CircularAperture{side.faceRadiusMm}}};
-        o.sequentialSurface = side.surface;
-        return o;
-    };
-    auto flat = [&](const LensSolid& s, const LensSide& side, const char* suffix) {
-        SceneObject o;
-        o.name = s.name + suffix;
-        o.kind = ObjectKind::LensFlat;
-        o.part = s.name;
-        o.property = options.flatProperty;
-        o.frame = alongAxisOf(s.placement, side.rimZMm);
-        o.geometry = FaceGeometry{
-            SurfacePatch{PlaneShape{}, AnnularAperture{side.faceRadiusMm, s.edgeRadiusMm}}};
-        return o;
-    };
-
-    std::set<int> built;
-    for (size_t k = 0; k < solids.size(); ++k) {
-        const LensSolid& s = solids[k];
-        const int order = s.front.surface;
-        const int glass = mediumOf(s.material);
-        // The glass lies on the side of each face toward the element's other side: at +z of
-        // the front side when the element runs toward +z.
-        const bool up = s.direction > 0.0;
-        auto frontSide = [&](SceneObject& o, int outside) {
-            o.mediumFront = up ? glass : outside;
-            o.mediumBack = up ? outside : glass;
-        };
-        auto backSide = [&](SceneObject& o, int outside) {
-            o.mediumFront = up ? outside : glass;
-            o.mediumBack = up ? glass : outside;
-        };
-        built.insert(s.front.surface);
-        built.insert(s.back.surface);
-
-        // The glass as a body (scene.h): at radius r it lies between frontZ(r) and backZ(r).
-        if (glass > 0) {
-            ExactBody body;
-            body.part = s.name;
-            body.medium = glass;
-            body.radiusMm = s.edgeRadiusMm;
-            body.frame = s.placement;
-            body.zRange = [front = s.front, back = s.back](double r0, double r1, double& lo,
-                                                           double& hi) {
-                lo = std::numeric_limits<double>::infinity();
-                hi = -lo;
-                widenBySide(front, r0, r1, lo, hi);
-                widenBySide(back, r0, r1, lo, hi);
-            };
-            scene.addExactBody(std::move(body));
-        }
-
-        // A cemented front face was made with the element in front.
-        if (!s.front.cemented) {
-            SceneObject o = opticalFace(s, s.front);
-            frontSide(o, 0);
-            planned.push_back({order, std::move(o)});
-        }
-        if (s.edgeRadiusMm > s.front.faceRadiusMm) {
-            SceneObject o = flat(s, s.front, ".flat1");
-            frontSide(o, 0);
-            planned.push_back({order, std::move(o)});
-        }
-        {
-            SceneObject o;
-            o.name = s.name + ".edge";
-            o.kind = ObjectKind::LensEdge;
-            o.part = s.name;
-            o.property = options.edgeProperty;
-            o.frame = s.placement;
-            // Between the rims: the lower one is the front's when the element runs toward +z.
-            const LensSide& lower = up ? s.front : s.back;
-            const LensSide& upper = up ? s.back : s.front;
-            CylinderPatch edge{s.edgeRadiusMm, lower.rimZLoMm, upper.rimZHiMm, true, nullptr};
-            if (anamorphic(s)) {
-                auto rims = std::make_shared<RimCurves>();
-                if (!isRotational(lower.shape))
-                    rims->lower = RimCurve{lower.shape, lower.vertexZMm};
-                if (!isRotational(upper.shape))
-                    rims->upper = RimCurve{upper.shape, upper.vertexZMm};
-                edge.rims = std::move(rims);
-            }
-            o.geometry = FaceGeometry{edge};
-            o.mediumFront = 0;  // outward normal: air outside, glass inside
-            o.mediumBack = glass;
-            planned.push_back({order, std::move(o)});
-        }
-        if (s.edgeRadiusMm > s.back.faceRadiusMm) {
-            SceneObject o = flat(s, s.back, ".flat2");
-            backSide(o, 0);
-            planned.push_back({order, std::move(o)});
-        }
-        {
-            SceneObject o = opticalFace(s, s.back);
-            const int outside = s.back.cemented ? mediumOf(solids[k + 1].material) : 0;
-            backSide(o, outside);
-            planned.push_back({order, std::move(o)});
-        }
+    // One medium per distinct material; air is medium 0.
+    int mediumOf(const Material& m) {
+        if (m.isAir()) return 0;
+        const std::vector<Medium>& media = scene_.media();
+        for (size_t i = 0; i < media.size(); ++i)
+            if (media[i].material == m) return static_cast<int>(i);
+        return scene_.addMedium(Medium{m.label(), m});
     }
-
-    // Surfaces outside the elements: mirrors, and repeated passes over faces already made.
-    auto findCoincident = [&](int i) -> Planned* {
-        for (Planned& pl : planned) {
+    SceneObject opticalFace(const LensSolid& s, const LensSide& side) const;
+    SceneObject flat(const LensSolid& s, const LensSide& side, const char* suffix) const;
+    SceneObject edge(const LensSolid& s, int glass) const;
+    // Element k: its glass as a body, its faces, flats and edge.
+    void addElement(size_t k);
+    Planned* findCoincident(int i) {
+        for (Planned& pl : planned_) {
             const int j = pl.object.sequentialSurface;
-            if (j >= 0 && coincide(p, frames, i, j)) return &pl;
+            if (j >= 0 && coincide(p_, frames_, i, j)) return &pl;
         }
         return nullptr;
-    };
-    for (int i = 1; i < n - 1; ++i) {
-        if (built.count(i)) continue;
-        const Surface& sf = p.surfaces[i];
-        if (sf.stop && !sf.mirror) continue;
-        std::vector<std::string> names = aliasesFor(p, i);
-        names.insert(names.begin(), sf.name);
-
-        if (Planned* match = findCoincident(i)) {
-            SceneObject& face = match->object;
-            if (!sf.mirror || face.kind == ObjectKind::MirrorFace) {
-                // A repeated pass: the face was built once, with the first pass's aperture.
-                if (sf.innerSemiDiameterMm > 0.0) {
-                    const auto& patch =
-                        std::get<SurfacePatch>(std::get<FaceGeometry>(face.geometry));
-                    const auto* ring = std::get_if<AnnularAperture>(&patch.aperture);
-                    if (!ring || ring->innerRadiusMm != sf.innerSemiDiameterMm) {
-                        throw ModelError(sf.name, "central hole of " + fmt(sf.innerSemiDiameterMm) +
-                                                      " mm: " + face.name +
-                                                      ", the face it coincides with, has no such "
-                                                      "hole");
-                    }
-                }
-                addAliases(face, names);
-                continue;
-            }
-            // A mirror on a lens face (a spot secondary): cut it out of the face.
-            requireClearSize(sf);
-            rejectHole(sf);
-            auto& patch = std::get<SurfacePatch>(std::get<FaceGeometry>(face.geometry));
-            const auto* disc = std::get_if<CircularAperture>(&patch.aperture);
-            if (!disc) {
-                throw ModelError(sf.name, "a second mirror on " + face.name + " is not supported");
-            }
-            if (sf.clearSemiDiameterMm >= disc->radiusMm) {
-                face.kind = ObjectKind::MirrorFace;
-                face.property = mirrorPropertyOf(sf, options);
-                addAliases(face, names);
-                continue;
-            }
-            SceneObject spot = face;
-            spot.name = sf.name;
-            spot.aliases.clear();
-            addAliases(spot, std::vector<std::string>(names.begin() + 1, names.end()));
-            spot.kind = ObjectKind::MirrorFace;
-            spot.property = mirrorPropertyOf(sf, options);
-            spot.sequentialSurface = i;
-            std::get<SurfacePatch>(std::get<FaceGeometry>(spot.geometry)).aperture =
-                CircularAperture{sf.clearSemiDiameterMm};
-            patch.aperture = AnnularAperture{sf.clearSemiDiameterMm, disc->radiusMm};
-            const int order = match->order;
-            planned.push_back({order, std::move(spot)});
-            continue;
-        }
-        if (!sf.mirror) continue;  // dummy surface
-        if (!sf.material.isAir()) {
-            throw ModelError(sf.name, "mirror inside glass that is not the back of a lens element");
-        }
-        requireClearSize(sf);
-        SceneObject o;
-        o.name = sf.name;
-        addAliases(o, std::vector<std::string>(names.begin() + 1, names.end()));
-        o.kind = ObjectKind::MirrorFace;
-        o.part = sf.name;
-        o.property = mirrorPropertyOf(sf, options);
-        o.frame = frames[i];
-        // A hole (a Cassegrain primary) leaves an annulus: light passes through the centre.
-        o.geometry = FaceGeometry{SurfacePatch{surfaceShape(sf), clearAperture(sf)}};
-        o.sequentialSurface = i;
-        planned.push_back({i, std::move(o)});
     }
+    void addOutsideSurface(int i);
+    // Surface i coincides with a face already planned: a repeated pass, or a mirror on a lens
+    // face (a spot secondary) cut out of the face.
+    void addOnFace(int i, Planned& match, const std::vector<std::string>& names);
 
-    std::stable_sort(planned.begin(), planned.end(),
-                     [](const Planned& a, const Planned& b) { return a.order < b.order; });
-    for (Planned& pl : planned) scene.addObject(std::move(pl.object));
+    const Prescription p_;
+    const std::vector<LensSolid> solids_;
+    const std::vector<Frame> frames_;
+    Scene& scene_;
+    const LensSolidOptions& options_;
+    std::vector<Planned> planned_;
+    std::set<int> built_;
+};
+
+SceneObject LensSolidBuilder::opticalFace(const LensSolid& s, const LensSide& side) const {
+    const Surface& sf = p_.surfaces[side.surface];
+    SceneObject o;
+    o.name = sf.name;
+    o.aliases = aliasesFor(p_, side.surface);
+    o.kind = sf.mirror ? ObjectKind::MirrorFace : ObjectKind::LensFace;
+    o.part = s.name;
+    o.property = sf.mirror ? mirrorPropertyOf(sf, options_)
+                           : (options_.opticalFaceProperty.empty() ? sf.coating
+                                                                   : options_.opticalFaceProperty);
+    o.frame = alongAxisOf(s.placement, side.vertexZMm);
+    o.geometry = FaceGeometry{SurfacePatch{side.shape, CircularAperture{side.faceRadiusMm}}};
+    o.sequentialSurface = side.surface;
+    return o;
+}
+
+SceneObject LensSolidBuilder::flat(const LensSolid& s, const LensSide& side,
+                                   const char* suffix) const {
+    SceneObject o;
+    o.name = s.name + suffix;
+    o.kind = ObjectKind::LensFlat;
+    o.part = s.name;
+    o.property = options_.flatProperty;
+    o.frame = alongAxisOf(s.placement, side.rimZMm);
+    o.geometry = FaceGeometry{
+        SurfacePatch{PlaneShape{}, AnnularAperture{side.faceRadiusMm, s.edgeRadiusMm}}};
+    return o;
+}
+
+SceneObject LensSolidBuilder::edge(const LensSolid& s, int glass) const {
+    SceneObject o;
+    o.name = s.name + ".edge";
+    o.kind = ObjectKind::LensEdge;
+    o.part = s.name;
+    o.property = options_.edgeProperty;
+    o.frame = s.placement;
+    // Between the rims: the lower one is the front's when the element runs toward +z.
+    const bool up = s.direction > 0.0;
+    const LensSide& lower = up ? s.front : s.back;
+    const LensSide& upper = up ? s.back : s.front;
+    CylinderPatch patch{s.edgeRadiusMm, lower.rimZLoMm, upper.rimZHiMm, true, nullptr};
+    if (anamorphic(s)) {
+        auto rims = std::make_shared<RimCurves>();
+        if (!isRotational(lower.shape)) rims->lower = RimCurve{lower.shape, lower.vertexZMm};
+        if (!isRotational(upper.shape)) rims->upper = RimCurve{upper.shape, upper.vertexZMm};
+        patch.rims = std::move(rims);
+    }
+    o.geometry = FaceGeometry{patch};
+    o.mediumFront = 0;  // outward normal: air outside, glass inside
+    o.mediumBack = glass;
+    return o;
+}
+
+void LensSolidBuilder::addElement(size_t k) {
+    const LensSolid& s = solids_[k];
+    const int order = s.front.surface;
+    const int glass = mediumOf(s.material);
+    // The glass lies on the side of each face toward the element's other side: at +z of the
+    // front side when the element runs toward +z.
+    const bool up = s.direction > 0.0;
+    auto frontSide = [&](SceneObject& o, int outside) {
+        o.mediumFront = up ? glass : outside;
+        o.mediumBack = up ? outside : glass;
+    };
+    auto backSide = [&](SceneObject& o, int outside) {
+        o.mediumFront = up ? outside : glass;
+        o.mediumBack = up ? glass : outside;
+    };
+    built_.insert(s.front.surface);
+    built_.insert(s.back.surface);
+    // The glass as a body (scene.h): at radius r it lies between frontZ(r) and backZ(r).
+    if (glass > 0) {
+        ExactBody body;
+        body.part = s.name;
+        body.medium = glass;
+        body.radiusMm = s.edgeRadiusMm;
+        body.frame = s.placement;
+        body.zRange = [front = s.front, back = s.back](double r0, double r1, double& lo,
+                                                       double& hi) {
+            lo = std::numeric_limits<double>::infinity();
+            hi = -lo;
+            widenBySide(front, r0, r1, lo, hi);
+            widenBySide(back, r0, r1, lo, hi);
+        };
+        scene_.addExactBody(std::move(body));
+    }
+    // A cemented front face was made with the element in front.
+    if (!s.front.cemented) {
+        SceneObject o = opticalFace(s, s.front);
+        frontSide(o, 0);
+        planned_.push_back({order, std::move(o)});
+    }
+    if (s.edgeRadiusMm > s.front.faceRadiusMm) {
+        SceneObject o = flat(s, s.front, ".flat1");
+        frontSide(o, 0);
+        planned_.push_back({order, std::move(o)});
+    }
+    planned_.push_back({order, edge(s, glass)});
+    if (s.edgeRadiusMm > s.back.faceRadiusMm) {
+        SceneObject o = flat(s, s.back, ".flat2");
+        backSide(o, 0);
+        planned_.push_back({order, std::move(o)});
+    }
+    SceneObject o = opticalFace(s, s.back);
+    const int outside = s.back.cemented ? mediumOf(solids_[k + 1].material) : 0;
+    backSide(o, outside);
+    planned_.push_back({order, std::move(o)});
+}
+
+void LensSolidBuilder::addOnFace(int i, Planned& match, const std::vector<std::string>& names) {
+    const Surface& sf = p_.surfaces[i];
+    SceneObject& face = match.object;
+    if (!sf.mirror || face.kind == ObjectKind::MirrorFace) {
+        // A repeated pass: the face was built once, with the first pass's aperture.
+        if (sf.innerSemiDiameterMm > 0.0) {
+            const auto& patch = std::get<SurfacePatch>(std::get<FaceGeometry>(face.geometry));
+            const auto* ring = std::get_if<AnnularAperture>(&patch.aperture);
+            if (!ring || ring->innerRadiusMm != sf.innerSemiDiameterMm)
+                throw ModelError(sf.name, "central hole of " + fmt(sf.innerSemiDiameterMm) +
+                                              " mm: " + face.name +
+                                              ", the face it coincides with, has no such hole");
+        }
+        addAliases(face, names);
+        return;
+    }
+    // A mirror on a lens face (a spot secondary): cut it out of the face.
+    requireClearSize(sf);
+    rejectHole(sf);
+    auto& patch = std::get<SurfacePatch>(std::get<FaceGeometry>(face.geometry));
+    const auto* disc = std::get_if<CircularAperture>(&patch.aperture);
+    if (!disc) throw ModelError(sf.name, "a second mirror on " + face.name + " is not supported");
+    if (sf.clearSemiDiameterMm >= disc->radiusMm) {
+        face.kind = ObjectKind::MirrorFace;
+        face.property = mirrorPropertyOf(sf, options_);
+        addAliases(face, names);
+        return;
+    }
+    SceneObject spot = face;
+    spot.name = sf.name;
+    spot.aliases.clear();
+    addAliases(spot, std::vector<std::string>(names.begin() + 1, names.end()));
+    spot.kind = ObjectKind::MirrorFace;
+    spot.property = mirrorPropertyOf(sf, options_);
+    spot.sequentialSurface = i;
+    std::get<SurfacePatch>(std::get<FaceGeometry>(spot.geometry)).aperture =
+        CircularAperture{sf.clearSemiDiameterMm};
+    patch.aperture = AnnularAperture{sf.clearSemiDiameterMm, disc->radiusMm};
+    const int order = match.order;
+    planned_.push_back({order, std::move(spot)});
+}
+
+void LensSolidBuilder::addOutsideSurface(int i) {
+    const Surface& sf = p_.surfaces[i];
+    if (sf.stop && !sf.mirror) return;
+    std::vector<std::string> names = aliasesFor(p_, i);
+    names.insert(names.begin(), sf.name);
+    if (Planned* match = findCoincident(i)) {
+        addOnFace(i, *match, names);
+        return;
+    }
+    if (!sf.mirror) return;  // dummy surface
+    if (!sf.material.isAir())
+        throw ModelError(sf.name, "mirror inside glass that is not the back of a lens element");
+    requireClearSize(sf);
+    SceneObject o;
+    o.name = sf.name;
+    addAliases(o, std::vector<std::string>(names.begin() + 1, names.end()));
+    o.kind = ObjectKind::MirrorFace;
+    o.part = sf.name;
+    o.property = mirrorPropertyOf(sf, options_);
+    o.frame = frames_[i];
+    // A hole (a Cassegrain primary) leaves an annulus: light passes through the centre.
+    o.geometry = FaceGeometry{SurfacePatch{surfaceShape(sf), clearAperture(sf)}};
+    o.sequentialSurface = i;
+    planned_.push_back({i, std::move(o)});
+}
+
+}  // namespace
+
+void addLensSolids(const Prescription& prescription, Scene& scene,
+                   const LensSolidOptions& options) {
+    LensSolidBuilder(prescription, scene, options).build();
 }
 
 }  // namespace veil
