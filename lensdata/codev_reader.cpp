@@ -358,6 +358,14 @@ class CodeVParser {
             (kLetters + "K").find(full[0]) != std::string::npos)
             return ignored(c, "a variable code for optimization (not lens data)");
         const std::string code = full.substr(0, 3);
+        if (systemCommand(c, code)) return;
+        if (surfaceCommand(c, code, full)) return;
+        otherCommand(c, code, full);
+    }
+
+    // System data: units, aperture, wavelengths' reference and weights, fields.
+    bool systemCommand(const Command& c, const std::string& code) {
+        const Token& codeToken = c.code();
         if (code == "RDM") {
             rdmSeen_ = true;
             radiusMode_ = !(c.tokens.size() > 1 && upper(c.tokens[1].text).rfind("N", 0) == 0);
@@ -401,7 +409,16 @@ class CodeVParser {
             ignored(c,
                     "vignetting factors are not imported: veil vignettes by tracing the "
                     "apertures (CIR)");
-        } else if (code == "STO") {
+        } else {
+            return false;
+        }
+        return true;
+    }
+
+    // Surface data, on the surface the command names (or the current one).
+    bool surfaceCommand(const Command& c, const std::string& code, const std::string& full) {
+        const Token& codeToken = c.code();
+        if (code == "STO") {
             auto [s, i] = target(c);
             (void)i;
             for (SurfaceInput& x : surfaces_) x.surface.stop = false;
@@ -466,7 +483,17 @@ class CodeVParser {
             (void)i;
             s->decenter.type = code == "DAR" ? Decenter::Type::DecenterAndReturn
                                              : Decenter::Type::Bend;
-        } else if (code == "REV" || code == "RET") {
+        } else {
+            return false;
+        }
+        return true;
+    }
+
+    // What veil does not import: said in the report, or an error where it would change the
+    // lens.
+    void otherCommand(const Command& c, const std::string& code, const std::string& full) {
+        const Token& codeToken = c.code();
+        if (code == "REV" || code == "RET") {
             auto [s, i] = target(c);
             (void)i;
             note(Severity::Error, codeToken.loc,
