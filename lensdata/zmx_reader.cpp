@@ -246,6 +246,11 @@ class ZmxParser {
     void dispatch(const Line& line);
     bool headerCommand(const std::string& tag, const Line& line);
     bool surfaceCommand(const std::string& tag, const Line& line);
+    void typeCommand(const Line& line);
+    void parmCommand(const Line& line);
+    void xdatCommand(const Line& line);
+    void glassCommand(const Line& line);
+    bool apertureCommand(const std::string& tag, const Line& line);
     Surface& current(const Line& line, const std::string& tag);
     void endSurface();
 
@@ -516,15 +521,7 @@ bool ZmxParser::headerCommand(const std::string& tag, const Line& line) {
 
 bool ZmxParser::surfaceCommand(const std::string& tag, const Line& line) {
     if (tag == "TYPE") {
-        Surface& s = current(line, tag);
-        const std::string type = upper(arg(line, 1, "surface type").text);
-        surfaceTypes_.back() = type;
-        if (type == "COORDBRK") s.coordinateBreak = CoordinateBreak{};
-        if (type == "TOROIDAL") s.anamorphic = Anamorphic{Anamorphic::Kind::Toroidal};
-        if (type == "BICONICX") s.anamorphic = Anamorphic{Anamorphic::Kind::Biconic};
-        if (type != "STANDARD" && type != "EVENASPH" && type != "ODDASPH" && type != "COORDBRK" &&
-            type != "TOROIDAL" && type != "BICONICX")
-            unsupported_ = UnsupportedSurface{restOfLine(line, 1), locOf(line, line.tokens[1]), {}};
+        typeCommand(line);
     } else if (tag == "CURV") {
         // CURV <curvature> <solve type> <solve parameters...> "<pickup name>"
         Surface& s = current(line, tag);
@@ -545,88 +542,11 @@ bool ZmxParser::surfaceCommand(const std::string& tag, const Line& line) {
     } else if (tag == "CONI") {
         current(line, tag).conic = number(line, 1, "conic constant");
     } else if (tag == "PARM") {
-        // PARM <n> <value>; for EVENASPH, n = 1..8 multiplies r^2, r^4, ... r^16.
-        Surface& s = current(line, tag);
-        const int n = integer(line, 1, "parameter number");
-        const double v = number(line, 2, "parameter value");
-        const std::string& type = surfaceTypes_.back();
-        if (unsupported_) {
-            if (v != 0.0)
-                unsupported_->lostParameters.push_back("PARM " + std::to_string(n) + " = " +
-                                                       std::string(line.tokens[2].text));
-        } else if (type == "EVENASPH" && n >= 1 && n <= static_cast<int>(s.asphere.size())) {
-            s.asphere[n - 1] = v;
-        } else if (type == "COORDBRK" && n >= 1 && n <= 6) {
-            // COORDBRK: decenter x, y (lens units), tilt about x, y, z (degrees), order flag.
-            CoordinateBreak& b = *s.coordinateBreak;
-            double* const slot[] = {&b.decenterXMm, &b.decenterYMm, &b.tiltXDeg, &b.tiltYDeg,
-                                    &b.tiltZDeg};
-            if (n <= 5)
-                *slot[n - 1] = v;
-            else
-                b.tiltFirst = v != 0.0;
-        } else if ((type == "TOROIDAL" || type == "BICONICX") && n == 1) {
-            // The radius of rotation (TOROIDAL) or the x radius (BICONICX), lens units; 0 is
-            // an infinite radius.
-            s.anamorphic->xCurvature = v == 0.0 ? 0.0 : 1.0 / v;
-        } else if (type == "BICONICX" && n == 2) {
-            s.anamorphic->xConic = v;
-        } else if (type == "TOROIDAL" && n >= 2 && n <= 8) {
-            // alpha 1..7 multiply y^2 .. y^14 of the y-z profile.
-            s.asphere[static_cast<size_t>(n - 2)] = v;
-        } else if (type == "TOROIDAL" && n == 13) {
-            if (v != 0.0)
-                note(Severity::Error, locOf(line, line.tokens[2]),
-                     "TOROIDAL PARM 13 = " + std::string(line.tokens[2].text) +
-                         " Zernike sag terms: veil models the toroid without them (its XDAT "
-                         "values would be lost)");
-        } else if (type == "ODDASPH" && n >= 1 && n <= 8) {
-            // ODDASPH: PARM n multiplies r^n. Even powers join the even asphere (r^2 n / 2 - 1),
-            // odd ones the odd terms; r^1 would put a cone's tip on the axis.
-            if (n == 1) {
-                if (v != 0.0)
-                    note(Severity::Error, locOf(line, line.tokens[2]),
-                         "ODDASPH PARM 1 = " + std::string(line.tokens[2].text) +
-                             ": a term in r^1 (a cone at the vertex) is not supported by veil");
-            } else if (n % 2 == 0) {
-                s.asphere[static_cast<size_t>(n / 2 - 1)] = v;
-            } else {
-                s.oddAsphere[static_cast<size_t>((n - 3) / 2)] = v;
-            }
-        } else if (v != 0.0) {
-            note(Severity::Warning, locOf(line, line.tokens[1]),
-                 "PARM " + std::to_string(n) + " = " + std::string(line.tokens[2].text) +
-                     " has no meaning for a " + type + " surface and was ignored");
-        }
+        parmCommand(line);
     } else if (tag == "XDAT") {
-        current(line, tag);
-        if (unsupported_) {
-            if (line.tokens.size() > 2 && number(line, 2, "extra data value") != 0.0)
-                unsupported_->lostParameters.push_back("XDAT " + std::string(line.tokens[1].text) +
-                                                       " = " + std::string(line.tokens[2].text));
-        } else if (surfaceTypes_.back() == "TOROIDAL") {
-            // The toroid's Zernike sag terms: PARM 13 counts them and is reported there.
-            if (line.tokens.size() > 2 && number(line, 2, "extra data value") != 0.0)
-                note(Severity::Error, locOf(line),
-                     "TOROIDAL Zernike sag term XDAT " + std::string(line.tokens[1].text) +
-                         " = " + std::string(line.tokens[2].text) + " is not modelled by veil");
-        } else {
-            note(Severity::Warning, locOf(line),
-                 "extra data (XDAT) on a " + surfaceTypes_.back() + " surface ignored");
-        }
+        xdatCommand(line);
     } else if (tag == "GLAS") {
-        // GLAS <name> <solve> <pickup surface> <nd> <vd> <dPgF> <flags...>
-        current(line, tag);
-        GlassRef g;
-        g.surface = static_cast<int>(rx_.surfaces.size()) - 1;
-        g.name = std::string(arg(line, 1, "glass name").text);
-        g.solve = line.tokens.size() > 2 ? integer(line, 2, "glass solve type") : 0;
-        g.nd = optionalNumber(line, 4);
-        g.vd = optionalNumber(line, 5);
-        g.dPgF = optionalNumber(line, 6);
-        g.loc = locOf(line, line.tokens[1]);
-        if (g.solve == 2) countSolve("GLAS", locOf(line, line.tokens[2]));
-        glasses_.push_back(std::move(g));
+        glassCommand(line);
     } else if (tag == "DIAM") {
         // DIAM <clear semi-diameter> <solve type> ...: the value is what Zemax computed (solve
         // type 0, automatic) or what the user fixed; either way it is the clear
@@ -644,8 +564,122 @@ bool ZmxParser::surfaceCommand(const std::string& tag, const Line& line) {
         if (line.tokens.size() > 1) s.coating = std::string(line.tokens[1].text);
     } else if (tag == "COMM") {
         current(line, tag).comment = restOfLine(line, 1);
-    } else if ((tag == "CLAP" || tag == "OBSC") && line.tokens.size() >= 3 && isNumber(line, 1) &&
-               isNumber(line, 2)) {
+    } else {
+        return apertureCommand(tag, line);
+    }
+    return true;
+}
+
+void ZmxParser::typeCommand(const Line& line) {
+    Surface& s = current(line, "TYPE");
+    const std::string type = upper(arg(line, 1, "surface type").text);
+    surfaceTypes_.back() = type;
+    if (type == "COORDBRK") s.coordinateBreak = CoordinateBreak{};
+    if (type == "TOROIDAL") s.anamorphic = Anamorphic{Anamorphic::Kind::Toroidal};
+    if (type == "BICONICX") s.anamorphic = Anamorphic{Anamorphic::Kind::Biconic};
+    if (type != "STANDARD" && type != "EVENASPH" && type != "ODDASPH" && type != "COORDBRK" &&
+        type != "TOROIDAL" && type != "BICONICX")
+        unsupported_ = UnsupportedSurface{restOfLine(line, 1), locOf(line, line.tokens[1]), {}};
+}
+
+// PARM <n> <value>: its meaning depends on the surface type (EVENASPH: n = 1..8 multiplies
+// r^2, r^4, ... r^16).
+void ZmxParser::parmCommand(const Line& line) {
+    const std::string tag = "PARM";
+    Surface& s = current(line, tag);
+    const int n = integer(line, 1, "parameter number");
+    const double v = number(line, 2, "parameter value");
+    const std::string& type = surfaceTypes_.back();
+    if (unsupported_) {
+        if (v != 0.0)
+            unsupported_->lostParameters.push_back("PARM " + std::to_string(n) + " = " +
+                                                   std::string(line.tokens[2].text));
+    } else if (type == "EVENASPH" && n >= 1 && n <= static_cast<int>(s.asphere.size())) {
+        s.asphere[n - 1] = v;
+    } else if (type == "COORDBRK" && n >= 1 && n <= 6) {
+        // COORDBRK: decenter x, y (lens units), tilt about x, y, z (degrees), order flag.
+        CoordinateBreak& b = *s.coordinateBreak;
+        double* const slot[] = {&b.decenterXMm, &b.decenterYMm, &b.tiltXDeg, &b.tiltYDeg,
+                                &b.tiltZDeg};
+        if (n <= 5)
+            *slot[n - 1] = v;
+        else
+            b.tiltFirst = v != 0.0;
+    } else if ((type == "TOROIDAL" || type == "BICONICX") && n == 1) {
+        // The radius of rotation (TOROIDAL) or the x radius (BICONICX), lens units; 0 is
+        // an infinite radius.
+        s.anamorphic->xCurvature = v == 0.0 ? 0.0 : 1.0 / v;
+    } else if (type == "BICONICX" && n == 2) {
+        s.anamorphic->xConic = v;
+    } else if (type == "TOROIDAL" && n >= 2 && n <= 8) {
+        // alpha 1..7 multiply y^2 .. y^14 of the y-z profile.
+        s.asphere[static_cast<size_t>(n - 2)] = v;
+    } else if (type == "TOROIDAL" && n == 13) {
+        if (v != 0.0)
+            note(Severity::Error, locOf(line, line.tokens[2]),
+                 "TOROIDAL PARM 13 = " + std::string(line.tokens[2].text) +
+                     " Zernike sag terms: veil models the toroid without them (its XDAT "
+                     "values would be lost)");
+    } else if (type == "ODDASPH" && n >= 1 && n <= 8) {
+        // ODDASPH: PARM n multiplies r^n. Even powers join the even asphere (r^2 n / 2 - 1),
+        // odd ones the odd terms; r^1 would put a cone's tip on the axis.
+        if (n == 1) {
+            if (v != 0.0)
+                note(Severity::Error, locOf(line, line.tokens[2]),
+                     "ODDASPH PARM 1 = " + std::string(line.tokens[2].text) +
+                         ": a term in r^1 (a cone at the vertex) is not supported by veil");
+        } else if (n % 2 == 0) {
+            s.asphere[static_cast<size_t>(n / 2 - 1)] = v;
+        } else {
+            s.oddAsphere[static_cast<size_t>((n - 3) / 2)] = v;
+        }
+    } else if (v != 0.0) {
+        note(Severity::Warning, locOf(line, line.tokens[1]),
+             "PARM " + std::to_string(n) + " = " + std::string(line.tokens[2].text) +
+                 " has no meaning for a " + type + " surface and was ignored");
+    }
+}
+
+void ZmxParser::xdatCommand(const Line& line) {
+    const std::string tag = "XDAT";
+    current(line, tag);
+    if (unsupported_) {
+        if (line.tokens.size() > 2 && number(line, 2, "extra data value") != 0.0)
+            unsupported_->lostParameters.push_back("XDAT " + std::string(line.tokens[1].text) +
+                                                   " = " + std::string(line.tokens[2].text));
+    } else if (surfaceTypes_.back() == "TOROIDAL") {
+        // The toroid's Zernike sag terms: PARM 13 counts them and is reported there.
+        if (line.tokens.size() > 2 && number(line, 2, "extra data value") != 0.0)
+            note(Severity::Error, locOf(line),
+                 "TOROIDAL Zernike sag term XDAT " + std::string(line.tokens[1].text) + " = " +
+                     std::string(line.tokens[2].text) + " is not modelled by veil");
+    } else {
+        note(Severity::Warning, locOf(line),
+             "extra data (XDAT) on a " + surfaceTypes_.back() + " surface ignored");
+    }
+}
+
+void ZmxParser::glassCommand(const Line& line) {
+    const std::string tag = "GLAS";
+    // GLAS <name> <solve> <pickup surface> <nd> <vd> <dPgF> <flags...>
+    current(line, tag);
+    GlassRef g;
+    g.surface = static_cast<int>(rx_.surfaces.size()) - 1;
+    g.name = std::string(arg(line, 1, "glass name").text);
+    g.solve = line.tokens.size() > 2 ? integer(line, 2, "glass solve type") : 0;
+    g.nd = optionalNumber(line, 4);
+    g.vd = optionalNumber(line, 5);
+    g.dPgF = optionalNumber(line, 6);
+    g.loc = locOf(line, line.tokens[1]);
+    if (g.solve == 2) countSolve("GLAS", locOf(line, line.tokens[2]));
+    glasses_.push_back(std::move(g));
+}
+
+// Surface apertures: CLAP and OBSC rings (decided in importHoles()), their decenter OBDC;
+// the other shapes are reported, not imported. False for a tag that is none of them.
+bool ZmxParser::apertureCommand(const std::string& tag, const Line& line) {
+    if ((tag == "CLAP" || tag == "OBSC") && line.tokens.size() >= 3 && isNumber(line, 1) &&
+        isNumber(line, 2)) {
         // CLAP <min radius> <max radius> ...: rays pass between the radii. OBSC <min radius>
         // <max radius> ...: rays between the radii are blocked. Decided in importHoles().
         current(line, tag);
