@@ -21,14 +21,14 @@
 
 #include "bench/raw_embree.h"
 #include "geometry/embree_scene.h"
-#include "tracer/scene/scene_setup.h"
+#include "tracer/scene/scene_geometry.h"
 
 namespace {
 
 using namespace veil;
 
 struct Fixture {
-    SceneSetup setup;
+    SceneGeometry setup;
     std::vector<Ray> rays;
     std::unique_ptr<EmbreeScene> raw;
 };
@@ -40,14 +40,14 @@ const Fixture& longFocus(int chordToleranceUm = 10) {
     if (slot) return *slot;
     slot = std::make_unique<Fixture>([&] {
         const GlassCatalog& catalog = GlassCatalog::builtIn();
-        SceneFile file =
+        SceneSpec file =
             readSceneFile(VEIL_SOURCE_DIR "/examples/lenses/longfocus_360mm.toml", catalog);
         MechanicsSpec spec;
         spec.chordToleranceMm = 1e-3 * chordToleranceUm;
         // The bore polygon is inscribed: the clearance must exceed the chord error.
         spec.barrel.clearanceMm = std::max(0.05, 1.5 * spec.chordToleranceMm);
         file.mechanics = spec;
-        Fixture fx{buildScene(file, catalog), {}, nullptr};
+        Fixture fx{buildSceneGeometry(file, catalog), {}, nullptr};
         const Bounds3 b = fx.setup.scene.bounds();
         std::mt19937_64 rng(7);
         std::uniform_real_distribution<double> u(0.0, 1.0);

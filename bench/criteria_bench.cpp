@@ -20,7 +20,7 @@
 
 #include "analysis/criteria/criteria.h"
 #include "analysis/criteria/criterion_names.h"
-#include "tracer/scene/trace_setup.h"
+#include "tracer/scene/scene_transport.h"
 
 namespace {
 
@@ -35,16 +35,16 @@ const Fixture& recorded() {
     static const std::unique_ptr<Fixture> f = [] {
         const GlassCatalog& catalog = GlassCatalog::builtIn();
         auto fx = std::make_unique<Fixture>();
-        const SceneFile file =
+        const SceneSpec file =
             readSceneFile(VEIL_SOURCE_DIR "/examples/scenes/longfocus_360mm_sun.toml", catalog);
-        const SceneSetup setup = buildScene(file, catalog);
-        const TraceSetup ts = prepareTrace(file, setup, catalog);
-        fx->names = criterionNames(setup.scene, ts.transport);
+        const SceneGeometry setup = buildSceneGeometry(file, catalog);
+        const SceneTransport ts = prepareTransport(file, setup, catalog);
+        fx->names = criterionNames(setup.scene, ts.view);
         TransportOptions o;
         o.recordHistories = true;
         std::mutex m;
         std::map<uint64_t, std::vector<std::vector<PathEvent>>> byRay;
-        traceNonsequential(ts.transport, ts.images, 300, o, {},
+        traceNonsequential(ts.view, ts.images, 300, o, {},
                            [&](uint64_t i, const PathHistory& h) {
                                std::vector<std::vector<PathEvent>> paths;
                                h.forEachPath([&](const PathView& v) {

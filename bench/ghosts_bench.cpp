@@ -1,8 +1,8 @@
 // Automated ghost analysis (analysis/ghosts/ghosts.h) on the seed's 6-lens 360 mm lens
 // (examples/lenses/longfocus_360mm.toml), a bare lens file set up as `veil ghosts` does:
 // readSceneFile -> addDefaultGhostScene (a collimated 1 W source per system field filling the
-// first surface, an absorbing stop plate, the detector on the image surface) -> buildScene
-// -> prepareTrace.
+// first surface, an absorbing stop plate, the detector on the image surface) -> buildSceneGeometry
+// -> prepareTransport.
 //
 //   build/bench/veil_ghosts_bench --benchmark_repetitions=3
 //
@@ -48,8 +48,8 @@
 
 #include "analysis/ghosts/ghost_monte_carlo.h"
 #include "analysis/lens/default_scene.h"
-#include "tracer/scene/scene_setup.h"
-#include "tracer/scene/trace_setup.h"
+#include "tracer/scene/scene_geometry.h"
+#include "tracer/scene/scene_transport.h"
 #include "tracer/sequential/sequential_trace.h"
 
 namespace {
@@ -64,9 +64,9 @@ double processCpuSeconds() {
 }
 
 struct Fixture {
-    SceneFile file;
-    std::unique_ptr<SceneSetup> setup;
-    TraceSetup trace;
+    SceneSpec file;
+    std::unique_ptr<SceneGeometry> setup;
+    SceneTransport trace;
     std::unique_ptr<GhostTracer> tracer;
     GhostAnalysis analysis;     // one analyse() run, for the Monte Carlo
     std::vector<Ray> gridRays;  // the nominal grid for the baseline, with its wavelengths
@@ -83,12 +83,12 @@ const Fixture& lens(int fields) {
     fx->file = readSceneFile(VEIL_SOURCE_DIR "/examples/lenses/longfocus_360mm.toml", catalog);
     addDefaultGhostScene(fx->file, catalog);
     if (fields == 1) setFieldSources(fx->file, catalog, {{0.0, 0.0}});
-    fx->setup = std::make_unique<SceneSetup>(buildScene(fx->file, catalog));
-    fx->trace = prepareTrace(fx->file, *fx->setup, catalog);
+    fx->setup = std::make_unique<SceneGeometry>(buildSceneGeometry(fx->file, catalog));
+    fx->trace = prepareTransport(fx->file, *fx->setup, catalog);
     fx->tracer = std::make_unique<GhostTracer>(*fx->setup, fx->trace, catalog, GhostOptions{});
     fx->analysis = fx->tracer->analyse();
 
-    for (size_t k = 0; k < fx->trace.transport.sources.size(); ++k)
+    for (size_t k = 0; k < fx->trace.view.sources.size(); ++k)
         for (const auto& [ray, w] : fx->tracer->gridRays(static_cast<int>(k))) {
             fx->gridRays.push_back(ray);
             fx->gridWavelength.push_back(w);
@@ -113,7 +113,7 @@ void BM_GhostsAllPairsSequential(benchmark::State& state) {
     }
     using C = benchmark::Counter;
     state.counters["ghosts"] = static_cast<double>(ghosts);
-    state.counters["sources"] = static_cast<double>(f.trace.transport.sources.size());
+    state.counters["sources"] = static_cast<double>(f.trace.view.sources.size());
     state.counters["grid_rays_per_s"] = C(rays, C::kIsRate);
     state.counters["ray_surfaces_per_s"] = C(steps, C::kIsRate);
 }

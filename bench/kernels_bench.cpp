@@ -35,7 +35,7 @@
 #include "geometry/surface_shape.h"
 #include "lensdata/glass_catalog.h"
 #include "tracer/records/path_history.h"
-#include "tracer/scene/trace_setup.h"
+#include "tracer/scene/scene_transport.h"
 
 namespace veil::detail {
 extern const char kBuiltinGlassData[];
@@ -159,10 +159,10 @@ const PathEncoding kEncoding{true, true, false};
 const Histories& sunHistories() {
     static const Histories h = [] {
         const GlassCatalog& catalog = GlassCatalog::builtIn();
-        const SceneFile file =
+        const SceneSpec file =
             readSceneFile(VEIL_SOURCE_DIR "/examples/scenes/longfocus_360mm_sun.toml", catalog);
-        const SceneSetup setup = buildScene(file, catalog);
-        const TraceSetup trace = prepareTrace(file, setup, catalog);
+        const SceneGeometry setup = buildSceneGeometry(file, catalog);
+        const SceneTransport trace = prepareTransport(file, setup, catalog);
         TransportOptions o;
         o.seed = 3;
         o.recordHistories = true;
@@ -170,7 +170,7 @@ const Histories& sunHistories() {
         Histories out;
         out.histories.resize(rays);
         // onRay runs on worker threads, each ray once: ray i writes slot i only.
-        traceNonsequential(trace.transport, trace.images, rays, o, {},
+        traceNonsequential(trace.view, trace.images, rays, o, {},
                            [&](uint64_t i, const PathHistory& ph) { out.histories[i] = ph; });
         for (const PathHistory& ph : out.histories) {
             out.events += ph.size();

@@ -20,16 +20,16 @@
 #include "analysis/criteria/criterion_names.h"
 #include "bench/raw_embree.h"
 #include "geometry/embree_scene.h"
-#include "tracer/scene/trace_setup.h"
+#include "tracer/scene/scene_transport.h"
 
 namespace {
 
 using namespace veil;
 
 struct Fixture {
-    SceneFile file;
-    std::unique_ptr<SceneSetup> setup;
-    TraceSetup trace;
+    SceneSpec file;
+    std::unique_ptr<SceneGeometry> setup;
+    SceneTransport trace;
     std::unique_ptr<EmbreeScene> raw;
     std::vector<Ray> rays;
     // The rays of the tracer's own segments (from recorded histories of 200 emitted rays),
@@ -45,8 +45,8 @@ const Fixture& sun7() {
         auto fx = std::make_unique<Fixture>();
         fx->file =
             readSceneFile(VEIL_SOURCE_DIR "/examples/scenes/longfocus_360mm_sun.toml", catalog);
-        fx->setup = std::make_unique<SceneSetup>(buildScene(fx->file, catalog));
-        fx->trace = prepareTrace(fx->file, *fx->setup, catalog);
+        fx->setup = std::make_unique<SceneGeometry>(buildSceneGeometry(fx->file, catalog));
+        fx->trace = prepareTransport(fx->file, *fx->setup, catalog);
         fx->raw = std::make_unique<EmbreeScene>(fx->setup->scene.meshes());
         const Bounds3 b = fx->setup->scene.bounds();
         std::mt19937_64 rng(7);
@@ -62,7 +62,7 @@ const Fixture& sun7() {
         o.seed = 99;
         std::mutex m;
         traceNonsequential(
-            fx->trace.transport, fx->trace.images, 200, o, {}, [&](uint64_t, const PathHistory& h) {
+            fx->trace.view, fx->trace.images, 200, o, {}, [&](uint64_t, const PathHistory& h) {
                 std::lock_guard lock(m);
                 for (const PathNode& node : h.nodes()) {
                     const EventType t = node.type;
@@ -91,8 +91,7 @@ void traceSun7(benchmark::State& state, size_t threads, uint64_t raysPerIteratio
     double rays = 0, segments = 0;
     for (auto _ : state) {
         o.seed = seed++;
-        const TraceResult r =
-            traceNonsequential(f.trace.transport, f.trace.images, raysPerIteration, o);
+        const TraceResult r = traceNonsequential(f.trace.view, f.trace.images, raysPerIteration, o);
         rays += static_cast<double>(r.budget.rays);
         segments += static_cast<double>(r.budget.segments);
     }
@@ -121,20 +120,20 @@ BENCHMARK(BM_TraceSun7Threads)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::k
 void BM_TraceSun7Ghosts(benchmark::State& state) {
     const Fixture& f = sun7();
     tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
-    const NameTable names = criterionNames(f.setup->scene, f.trace.transport);
+    const NameTable names = criterionNames(f.setup->scene, f.trace.view);
     const std::vector<std::string> texts = {"fresnel{2} and not scatter"};
     const std::vector<CompiledCriterion> compiled = {compile(parseCriterion(texts[0]), names)};
     uint64_t seed = 1;
     double rays = 0, segments = 0;
     for (auto _ : state) {
-        CriterionImages split(texts, compiled, f.trace.images, f.trace.transport.detectorOfObject);
+        CriterionImages split(texts, compiled, f.trace.images, f.trace.view.detectorOfObject);
         CriteriaFilter filter(split.criteria());
         TransportOptions o;
         o.seed = seed++;
         o.recordHistories = true;
         o.filter = state.range(0) ? &filter : nullptr;
         const TraceResult r =
-            traceNonsequential(f.trace.transport, f.trace.images, 500, o, {}, split.callback());
+            traceNonsequential(f.trace.view, f.trace.images, 500, o, {}, split.callback());
         split.finish();
         rays += static_cast<double>(r.budget.rays);
         segments += static_cast<double>(r.budget.segments);

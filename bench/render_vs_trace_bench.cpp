@@ -138,8 +138,8 @@ int main(int argc, char** argv) {
     const double target = 0.05;
 
     const auto scene = PreparedScene::read(scenePath, GlassCatalog::builtIn());
-    const TraceSetup& trace = scene->trace();
-    const TransportScene& ts = trace.transport;
+    const SceneTransport& trace = scene->transport();
+    const TransportView& ts = trace.view;
     const DetectorImage& detector = trace.images.front();
 
     // Forward Monte Carlo without bias: split mode, no minimum flux, Russian roulette below

@@ -11,7 +11,7 @@
 #include "cli/options.h"
 #include "lensdata/glass_catalog.h"
 #include "tracer/scene/prepared_scene.h"
-#include "tracer/scene/scene_setup.h"
+#include "tracer/scene/scene_geometry.h"
 
 namespace veil::cli {
 
@@ -26,7 +26,7 @@ GlassCatalog loadCatalog(const CommonOptions& common);
 // The --set edits; a value without KEY= is a ParseError naming it.
 std::vector<SceneEdit> sceneEdits(const CommonOptions& common);
 // readSceneFile() with the --set edits.
-SceneFile readScene(const CommonOptions& common, const std::string& path,
+SceneSpec readScene(const CommonOptions& common, const std::string& path,
                     const GlassCatalog& catalog);
 // Caps the worker threads while the result lives (threads <= 0: all cores, returns null).
 std::unique_ptr<tbb::global_control> limitThreads(int threads);

@@ -71,7 +71,7 @@ void addGlareCommand(CLI::App& app, GlareOptions& o) {
 int runGlareCommand(const CommonOptions& common, const GlareOptions& o) {
     const GlassCatalog catalog = loadCatalog(common);
     const std::filesystem::path dir = outputFolder(o.output, "glare", o.json);
-    const SceneFile file = readScene(common, o.file, catalog);
+    const SceneSpec file = readScene(common, o.file, catalog);
     GlareSpec spec;
     for (const auto& [x, y] : parseFields(o.fields)) spec.fieldsDeg.push_back(Vec2(x, y));
     spec.spotDiameterDeg = o.spotDeg;

@@ -39,13 +39,13 @@ int runLayout(const CommonOptions& common, const LayoutOptions& options) {
     so.mechanics = !options.noMechanics;
     const std::unique_ptr<const PreparedScene> prepared =
         PreparedScene::build(readScene(common, options.file, catalog), catalog, so);
-    const SceneSetup& setup = prepared->setup();
+    const SceneGeometry& setup = prepared->geometry();
     reportSceneNotes(*prepared);
     veil::LayoutOptions lo;
     lo.title =
         setup.prescription.system.name.empty() ? options.file : setup.prescription.system.name;
     if (prepared->hasSources())
-        lo.sources = layoutSources(prepared->trace().transport.sources, setup.scene);
+        lo.sources = layoutSources(prepared->transport().view.sources, setup.scene);
     lo.axisVerticesMm = layoutAxis(*setup.model);
     const Picture pic = drawLayout(setup.scene, lo);
     const std::filesystem::path dir = outputFolder(options.output, "layout", options.json);
@@ -95,7 +95,7 @@ int runExport(const CommonOptions& common, const ExportOptions& options) {
     so.mechanics = !options.noMechanics;
     const std::unique_ptr<const PreparedScene> prepared =
         PreparedScene::build(readScene(common, options.file, catalog), catalog, so);
-    const SceneSetup& setup = prepared->setup();
+    const SceneGeometry& setup = prepared->geometry();
     reportSceneNotes(*prepared);
     std::vector<int> objectOfTriangle;
     const TriangleMesh mesh = setup.scene.tessellate(options.chordToleranceMm, &objectOfTriangle);

@@ -44,14 +44,14 @@ void addPathDrawingOptions(CLI::App* sub, std::string& colour, std::string& mode
         ->capture_default_str();
 }
 
-PathSelectionOptions pathSelectionOptions(const TraceSetup& trace, const std::string& where,
+PathSelectionOptions pathSelectionOptions(const SceneTransport& trace, const std::string& where,
                                           int first, uint64_t raysPerSource, uint64_t batch,
                                           uint64_t seed, const std::string& mode,
                                           double minRelativeFlux) {
     PathSelectionOptions po;
     po.where = where;
     po.count = static_cast<size_t>(first);
-    po.maxRays = raysPerSource * trace.transport.sources.size();
+    po.maxRays = raysPerSource * trace.view.sources.size();
     po.batchRays = batch;
     po.transport.seed = seed;
     po.transport.mode =
@@ -88,8 +88,8 @@ int runPaths(const CommonOptions& common, const PathsOptions& o) {
     so.mechanics = !o.noMechanics;
     const std::unique_ptr<const PreparedScene> prepared =
         prepareTracedScene(common, o.file, o.fields, catalog, so);
-    const SceneSetup& setup = prepared->setup();
-    const TraceSetup& ts = prepared->trace();
+    const SceneGeometry& setup = prepared->geometry();
+    const SceneTransport& ts = prepared->transport();
     reportSceneNotes(*prepared);
 
     const auto limit = limitThreads(o.threads);
@@ -102,12 +102,12 @@ int runPaths(const CommonOptions& common, const PathsOptions& o) {
         po.progress = reporter.sink();
         po.progress({po.task, 0, po.maxRays});
     }
-    const PathSelection sel = selectPaths(ts.transport, ts.images, po);
+    const PathSelection sel = selectPaths(ts.view, ts.images, po);
     reporter.finishAt(sel.raysTraced);
 
     veil::LayoutOptions lo;
     lo.title = setup.prescription.system.name.empty() ? o.file : setup.prescription.system.name;
-    lo.sources = layoutSources(ts.transport.sources, setup.scene);
+    lo.sources = layoutSources(ts.view.sources, setup.scene);
     lo.axisVerticesMm = layoutAxis(*setup.model);
     const Picture base = drawLayout(setup.scene, lo);
     PathPictureOptions pp;

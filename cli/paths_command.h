@@ -36,7 +36,7 @@ int runPaths(const CommonOptions& common, const PathsOptions& options);
 // --min-flux, and the selection they and -n, --first, --batch and --seed ask for.
 void addPathDrawingOptions(CLI::App* sub, std::string& colour, std::string& mode,
                            double& minRelativeFlux);
-PathSelectionOptions pathSelectionOptions(const TraceSetup& trace, const std::string& where,
+PathSelectionOptions pathSelectionOptions(const SceneTransport& transport, const std::string& where,
                                           int first, uint64_t raysPerSource, uint64_t batch,
                                           uint64_t seed, const std::string& mode,
                                           double minRelativeFlux);

@@ -55,7 +55,7 @@ int runScatterCommand(const CommonOptions& common, const ScatterOptions& o) {
     const std::unique_ptr<const PreparedScene> prepared =
         PreparedScene::build(readScene(common, o.file, catalog), catalog);
     reportSceneNotes(*prepared);
-    const PropertyTable& table = prepared->file().properties;
+    const PropertyTable& table = prepared->spec().properties;
     ScatterReportSpec spec;
     spec.properties = o.properties;
     spec.wavelengthsNm = o.wavelengthsNm;

@@ -30,7 +30,7 @@ std::vector<SceneEdit> sceneEdits(const CommonOptions& common) {
     return edits;
 }
 
-SceneFile readScene(const CommonOptions& common, const std::string& path,
+SceneSpec readScene(const CommonOptions& common, const std::string& path,
                     const GlassCatalog& catalog) {
     return readSceneFile(path, catalog, sceneEdits(common));
 }
@@ -42,9 +42,9 @@ std::unique_ptr<tbb::global_control> limitThreads(int threads) {
 }
 
 void reportSceneNotes(const PreparedScene& scene) {
-    for (const ImportNote& n : scene.setup().notes)
+    for (const ImportNote& n : scene.geometry().notes)
         if (n.severity != ImportNote::Severity::Info) std::cerr << "veil: " << n << "\n";
-    for (const ImportNote& n : detectorPlacementWarnings(scene.file(), scene.setup()))
+    for (const ImportNote& n : detectorPlacementWarnings(scene.spec(), scene.geometry()))
         std::cerr << "veil: " << n << "\n";
 }
 

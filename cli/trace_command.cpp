@@ -131,7 +131,7 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
     const std::filesystem::path dir = outputFolder(o.output, "trace", o.json);
     if (!o.saveRays.empty()) {
         const RayDatabaseEstimate e =
-            estimateRayDatabase(prepared->trace(), spec.transport, o.rays, rayEncoding(o));
+            estimateRayDatabase(prepared->transport(), spec.transport, o.rays, rayEncoding(o));
         e.checkFits(o.saveRays);
         if (!o.quiet) std::cerr << "veil: --save-rays: " << e.note(o.saveRays, rayEncoding(o)) << "\n";
     }

@@ -73,7 +73,7 @@ void checkViewOptions(const ViewOptions& o) {
 
 // The first --first rays with a path matching --where, as veil paths selects them.
 PathSelection viewPaths(const PreparedScene& prepared, const ViewOptions& o) {
-    const TraceSetup& ts = prepared.trace();
+    const SceneTransport& ts = prepared.transport();
     const auto limit = limitThreads(o.threads);
     PathSelectionOptions po = pathSelectionOptions(ts, o.where, o.first, o.rays, o.batch, o.seed,
                                                    o.mode, o.minRelativeFlux);
@@ -83,7 +83,7 @@ PathSelection viewPaths(const PreparedScene& prepared, const ViewOptions& o) {
         po.progress = reporter.sink();
         po.progress({po.task, 0, po.maxRays});
     }
-    PathSelection sel = selectPaths(ts.transport, ts.images, po);
+    PathSelection sel = selectPaths(ts.view, ts.images, po);
     reporter.finishAt(sel.raysTraced);
     if (sel.rays.size() < static_cast<size_t>(o.first))
         std::cerr << "veil: only " << sel.rays.size() << " of " << sel.raysTraced
@@ -137,10 +137,10 @@ int runView(const CommonOptions& common, const ViewOptions& o) {
         traced ? prepareTracedScene(common, o.file, o.fields, catalog, so)
                : PreparedScene::build(readScene(common, o.file, catalog), catalog, so);
     reportSceneNotes(*prepared);
-    const SceneSetup& setup = prepared->setup();
+    const SceneGeometry& setup = prepared->geometry();
     const std::vector<Source> noSources;
     const std::vector<Source>& sources =
-        prepared->hasSources() ? prepared->trace().transport.sources : noSources;
+        prepared->hasSources() ? prepared->transport().view.sources : noSources;
     SceneViewOptions vo;
     vo.title = setup.prescription.system.name.empty() ? o.file : setup.prescription.system.name;
     vo.chordToleranceMm = o.chordToleranceMm;

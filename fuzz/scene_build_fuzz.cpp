@@ -18,14 +18,14 @@
 #include "fuzz/fuzz_common.h"
 #include "lensdata/glass_catalog.h"
 #include "tracer/scene/prepared_scene.h"
-#include "tracer/scene/scene_setup.h"
+#include "tracer/scene/scene_spec.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     static tbb::global_control oneThread(tbb::global_control::max_allowed_parallelism, 1);
     const std::filesystem::path path = veil::fuzz::sceneFolder() / "scene.toml";
     veil::fuzz::writeScratch("scenes/scene.toml", veil::fuzz::asText(data, size));
     veil::fuzz::expectCleanRejection([&] {
-        veil::SceneFile file = veil::readSceneFile(path, veil::GlassCatalog::builtIn());
+        veil::SceneSpec file = veil::readSceneFile(path, veil::GlassCatalog::builtIn());
         for (veil::DetectorSpec& d : file.detectors) {
             d.pixelsX = std::min(d.pixelsX, 256);
             d.pixelsY = std::min(d.pixelsY, 256);

@@ -26,7 +26,7 @@
 #include "lensdata/glass_catalog.h"
 #include "lensdata/input_file.h"
 #include "lensdata/toml_document.h"
-#include "tracer/scene/scene_setup.h"
+#include "tracer/scene/scene_spec.h"
 #include "tracer/sequential/ray_aiming.h"
 #include "tracer/sequential/ray_status.h"
 #include "tracer/sequential/sequential_model.h"
@@ -166,7 +166,7 @@ class Lens {
         veil::cli::CommonOptions common;
         common.glassCatalogs = glassCatalogs;
         const veil::GlassCatalog catalog = veil::cli::loadCatalog(common);
-        veil::SceneFile file = veil::readSceneFile(path, catalog, editsOf(sets));
+        veil::SceneSpec file = veil::readSceneFile(path, catalog, editsOf(sets));
         model_ = file.model;
     }
 

@@ -4,7 +4,7 @@
 
 namespace veil {
 
-NameTable criterionNames(const Scene& scene, const TransportScene& transport) {
+NameTable criterionNames(const Scene& scene, const TransportView& transport) {
     NameTable t;
     for (const SceneObject& o : scene.objects()) {
         NameTable::Object n;

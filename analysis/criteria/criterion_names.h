@@ -9,6 +9,6 @@
 
 namespace veil {
 
-NameTable criterionNames(const Scene& scene, const TransportScene& transport);
+NameTable criterionNames(const Scene& scene, const TransportView& transport);
 
 }  // namespace veil

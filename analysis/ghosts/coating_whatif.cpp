@@ -5,7 +5,7 @@
 
 namespace veil {
 
-std::vector<std::string> applyCoatingOverrides(TraceSetup& trace, const Scene& scene,
+std::vector<std::string> applyCoatingOverrides(SceneTransport& trace, const Scene& scene,
                                                const PropertyTable& properties,
                                                const std::vector<std::string>& overrides) {
     std::vector<std::string> changes;
@@ -20,8 +20,8 @@ std::vector<std::string> applyCoatingOverrides(TraceSetup& trace, const Scene& s
                                  o + "'");
         const std::string glob = o.substr(0, eq), name = o.substr(eq + 1);
         int index = -1;
-        for (size_t p = 0; p < trace.transport.properties.size(); ++p)
-            if (trace.transport.properties[p].name() == name) index = static_cast<int>(p);
+        for (size_t p = 0; p < trace.view.properties.size(); ++p)
+            if (trace.view.properties[p].name() == name) index = static_cast<int>(p);
         if (index < 0) {
             const int t = properties.find(name);
             if (t < 0) {
@@ -31,8 +31,8 @@ std::vector<std::string> applyCoatingOverrides(TraceSetup& trace, const Scene& s
                     {where, 1, static_cast<int>(eq + 2)},
                     "unknown optical property '" + name + "' (known: " + join(known, ", ") + ")");
             }
-            trace.transport.properties.push_back(properties.property(t));
-            index = static_cast<int>(trace.transport.properties.size()) - 1;
+            trace.view.properties.push_back(properties.property(t));
+            index = static_cast<int>(trace.view.properties.size()) - 1;
         }
         bool any = false;
         for (const SceneObject& obj : scene.objects()) {
@@ -40,10 +40,9 @@ std::vector<std::string> applyCoatingOverrides(TraceSetup& trace, const Scene& s
             for (const std::string& a : obj.aliases) match = match || globMatch(glob, a);
             if (!match) continue;
             any = true;
-            int& cur = trace.transport.propertyOfObject[obj.id];
+            int& cur = trace.view.propertyOfObject[obj.id];
             if (cur == index) continue;
-            changes.push_back(obj.name + ": " + trace.transport.properties[cur].name() + " -> " +
-                              name);
+            changes.push_back(obj.name + ": " + trace.view.properties[cur].name() + " -> " + name);
             cur = index;
         }
         if (!any)

@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "geometry/scene.h"
-#include "tracer/scene/trace_setup.h"
+#include "tracer/scene/scene_transport.h"
 #include "tracer/surfaces/property_table.h"
 
 namespace veil {
@@ -15,7 +15,7 @@ namespace veil {
 // any [[assign]] rule and any surface's own coating). Returns one line per changed object,
 // "L3.front: uncoated -> ideal_ar". Throws ParseError for a malformed override, a glob that
 // matches no object, or an unknown property.
-std::vector<std::string> applyCoatingOverrides(TraceSetup& trace, const Scene& scene,
+std::vector<std::string> applyCoatingOverrides(SceneTransport& transport, const Scene& scene,
                                                const PropertyTable& properties,
                                                const std::vector<std::string>& overrides);
 

@@ -14,10 +14,10 @@ double GhostMonteCarlo::relativeError(size_t layer, int detector) const {
     return images ? images->images()[layer][detector].totalRelativeError(emittedRays) : kInfinity;
 }
 
-GhostMonteCarlo runGhostMonteCarlo(const SceneSetup& setup, const TraceSetup& trace,
+GhostMonteCarlo runGhostMonteCarlo(const SceneGeometry& setup, const SceneTransport& trace,
                                    const GhostAnalysis& analysis, const GhostMonteCarloOptions& o) {
     const auto start = std::chrono::steady_clock::now();
-    const NameTable names = criterionNames(setup.scene, trace.transport);
+    const NameTable names = criterionNames(setup.scene, trace.view);
     std::vector<std::string> texts{analysis.nominal.path.criterion};
     for (const GhostEstimate& g : analysis.ghosts) texts.push_back(g.path.criterion);
     texts.push_back(analysis.allGhostsCriterion);
@@ -31,7 +31,7 @@ GhostMonteCarlo runGhostMonteCarlo(const SceneSetup& setup, const TraceSetup& tr
     }
     GhostMonteCarlo mc;
     mc.images = std::make_unique<CriterionImages>(texts, std::move(compiled), trace.images,
-                                                  trace.transport.detectorOfObject);
+                                                  trace.view.detectorOfObject);
     const CriteriaFilter filter(mc.images->criteria());
     TransportOptions to = o.transport;
     to.mode = TransportOptions::Mode::Split;
@@ -39,15 +39,15 @@ GhostMonteCarlo runGhostMonteCarlo(const SceneSetup& setup, const TraceSetup& tr
     to.filter = &filter;
     std::function<void(uint64_t)> progress;
     if (o.progress) {
-        const uint64_t total = o.raysPerSource * trace.transport.sources.size();
+        const uint64_t total = o.raysPerSource * trace.view.sources.size();
         progress = [&o, total](uint64_t done) { o.progress({"Monte Carlo", done, total}); };
         progress(0);
     }
-    const TraceResult r = traceNonsequential(trace.transport, trace.images, o.raysPerSource, to,
+    const TraceResult r = traceNonsequential(trace.view, trace.images, o.raysPerSource, to,
                                              progress, mc.images->callback());
     mc.images->finish();
     mc.budget = r.budget;
-    mc.emittedRays = o.raysPerSource * trace.transport.sources.size();
+    mc.emittedRays = o.raysPerSource * trace.view.sources.size();
     mc.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return mc;
 }

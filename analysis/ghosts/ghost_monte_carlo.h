@@ -35,7 +35,7 @@ struct GhostMonteCarlo {
     double relativeError(size_t layer, int detector) const;  // of flux (1 sigma)
 };
 
-GhostMonteCarlo runGhostMonteCarlo(const SceneSetup& setup, const TraceSetup& trace,
+GhostMonteCarlo runGhostMonteCarlo(const SceneGeometry& geometry, const SceneTransport& transport,
                                    const GhostAnalysis& analysis, const GhostMonteCarloOptions& o);
 
 }  // namespace veil

@@ -67,8 +67,8 @@ std::string GhostReportRow::flags() const {
     return f;
 }
 
-GhostReport makeGhostReport(const GhostReportSpec& spec, const SceneSetup& setup,
-                            const TraceSetup& trace, const GhostAnalysis& a,
+GhostReport makeGhostReport(const GhostReportSpec& spec, const SceneGeometry& setup,
+                            const SceneTransport& trace, const GhostAnalysis& a,
                             const GhostMonteCarlo* mc, int det) {
     GhostReport r;
     r.scene = spec.scene;
@@ -78,7 +78,7 @@ GhostReport makeGhostReport(const GhostReportSpec& spec, const SceneSetup& setup
     r.imageShiftMm = spec.imageShiftMm;
     r.order = spec.order;
     r.detector = a.detector;
-    r.unit = trace.transport.sources.front().unit() == FluxUnit::Lumen ? "lm" : "W";
+    r.unit = trace.view.sources.front().unit() == FluxUnit::Lumen ? "lm" : "W";
     r.ghostSurfaces = a.surfaceNames;
     r.ghostSurfaceCount = a.surfaces.size();
     r.pruned = a.pruned;
@@ -86,7 +86,7 @@ GhostReport makeGhostReport(const GhostReportSpec& spec, const SceneSetup& setup
     r.sequentialSeconds = a.seconds;
     r.coatingOverrides = spec.coatingOverrides;
     r.coatingChanges = spec.coatingChanges;
-    for (const Source& s : trace.transport.sources) r.sources.push_back(s.name());
+    for (const Source& s : trace.view.sources) r.sources.push_back(s.name());
     r.nominalFlux = a.nominal.flux();
     r.nominalPeak = a.nominal.peakIrradiance();
     r.allGhostsFlux =

@@ -104,8 +104,8 @@ struct GhostReportSpec {
 };
 
 // `mc` may be null (no Monte Carlo); `detector` is the detector index the analysis used.
-GhostReport makeGhostReport(const GhostReportSpec& spec, const SceneSetup& setup,
-                            const TraceSetup& trace, const GhostAnalysis& analysis,
+GhostReport makeGhostReport(const GhostReportSpec& spec, const SceneGeometry& geometry,
+                            const SceneTransport& transport, const GhostAnalysis& analysis,
                             const GhostMonteCarlo* mc, int detector);
 
 }  // namespace veil

@@ -22,7 +22,7 @@ namespace fs = std::filesystem;
 namespace {
 
 // Square pixels, `pixels` along the longer side of every detector.
-void setPixels(SceneFile& file, int pixels) {
+void setPixels(SceneSpec& file, int pixels) {
     if (file.detectors.empty()) file.detectors.emplace_back();
     for (DetectorSpec& d : file.detectors) {
         const double w = d.sizeMm ? d.sizeMm->x : 1.0, h = d.sizeMm ? d.sizeMm->y : 1.0;
@@ -41,7 +41,7 @@ std::string ghostStem(size_t rank) {
 void writeImages(const GhostRun& run, const fs::path& out, const GhostFilesSpec& spec,
                  std::vector<fs::path>& written) {
     const GhostAnalysis& a = run.analysis;
-    const TransportScene& view = run.scene->trace().transport;
+    const TransportView& view = run.scene->transport().view;
     fs::create_directories(out / "images");
     const auto& layers = run.monteCarlo.images->images();
     const ExrInfo info{run.report.unit, run.monteCarlo.emittedRays};
@@ -77,17 +77,17 @@ void writeImages(const GhostRun& run, const fs::path& out, const GhostFilesSpec&
 // Path pictures of the top ghosts and of all ghosts together, over the layout.
 void writePathPictures(const GhostRun& run, const fs::path& out, const GhostFilesSpec& spec,
                        std::vector<fs::path>& written) {
-    const SceneSetup& setup = run.scene->setup();
-    const TraceSetup& ts = run.scene->trace();
+    const SceneGeometry& setup = run.scene->geometry();
+    const SceneTransport& ts = run.scene->transport();
     fs::create_directories(out / "paths");
     LayoutOptions lo;
     lo.title = setup.prescription.system.name.empty() ? run.report.scene
                                                       : setup.prescription.system.name;
-    lo.sources = layoutSources(ts.transport.sources, setup.scene);
+    lo.sources = layoutSources(ts.view.sources, setup.scene);
     lo.axisVerticesMm = layoutAxis(*setup.model);
     const Picture base = drawLayout(setup.scene, lo);
     const PathPictureOptions pp;  // clipped to the layout's frame
-    const NameTable names = criterionNames(setup.scene, ts.transport);
+    const NameTable names = criterionNames(setup.scene, ts.view);
     auto draw = [&](const std::string& criterion, const fs::path& stem) {
         const std::vector<CompiledCriterion> one{compileCriterion(criterion, names)};
         const CriteriaFilter filter(one);
@@ -99,7 +99,7 @@ void writePathPictures(const GhostRun& run, const fs::path& out, const GhostFile
         so.transport.seed = spec.seed;
         so.transport.minRelativeFlux = 1e-9;
         so.transport.filter = &filter;
-        const Picture pic = drawPaths(base, selectPaths(ts.transport, ts.images, so), pp);
+        const Picture pic = drawPaths(base, selectPaths(ts.view, ts.images, so), pp);
         const fs::path svg = stem.string() + ".svg", png = stem.string() + ".png";
         pic.writeSvg(svg);
         written.push_back(svg);
@@ -114,7 +114,7 @@ void writePathPictures(const GhostRun& run, const fs::path& out, const GhostFile
 
 }  // namespace
 
-GhostRun prepareGhostRun(SceneFile file, const GlassCatalog& catalog, const GhostRunSpec& spec) {
+GhostRun prepareGhostRun(SceneSpec file, const GlassCatalog& catalog, const GhostRunSpec& spec) {
     GhostRun run;
     run.defaultScene = addDefaultGhostScene(file, catalog, &run.imageShiftMm);
     if (!spec.fieldsDeg.empty()) setFieldSources(file, catalog, spec.fieldsDeg);
@@ -124,8 +124,8 @@ GhostRun prepareGhostRun(SceneFile file, const GlassCatalog& catalog, const Ghos
 }
 
 void runGhostAnalysis(GhostRun& run, const GlassCatalog& catalog, const GhostRunSpec& spec) {
-    const SceneSetup& setup = run.scene->setup();
-    TraceSetup& ts = run.scene->trace();
+    const SceneGeometry& setup = run.scene->geometry();
+    SceneTransport& ts = run.scene->transport();
     // Coating what-if: the baseline ranking first, then the overrides.
     std::map<std::string, std::pair<int, double>> baseline;  // label -> rank, relative flux
     std::vector<std::string> changes;
@@ -134,8 +134,8 @@ void runGhostAnalysis(GhostRun& run, const GlassCatalog& catalog, const GhostRun
         for (size_t r = 0; r < before.ghosts.size(); ++r)
             baseline[before.ghosts[r].path.label] = {static_cast<int>(r) + 1,
                                                      before.ghosts[r].relativeFlux()};
-        changes = applyCoatingOverrides(ts, setup.scene, run.scene->file().properties,
-                                        spec.coatings);
+        changes =
+            applyCoatingOverrides(ts, setup.scene, run.scene->spec().properties, spec.coatings);
     }
     const GhostTracer tracer(setup, ts, catalog, spec.options);
     run.analysis = tracer.analyse();

@@ -51,9 +51,9 @@ struct GhostRun {
     GhostReport report;
 };
 
-// The scene, built once (its notes, run.scene->setup().notes, are the caller's to show before
+// The scene, built once (its notes, run.scene->geometry().notes, are the caller's to show before
 // the analysis runs).
-GhostRun prepareGhostRun(SceneFile file, const GlassCatalog& catalog, const GhostRunSpec& spec);
+GhostRun prepareGhostRun(SceneSpec scene, const GlassCatalog& catalog, const GhostRunSpec& spec);
 // The analysis and its report on the prepared run.
 void runGhostAnalysis(GhostRun& run, const GlassCatalog& catalog, const GhostRunSpec& spec);
 

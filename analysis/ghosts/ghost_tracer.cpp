@@ -72,7 +72,7 @@ std::string GhostEstimate::glassFocus() const {
 
 // GhostTracer
 
-GhostTracer::GhostTracer(const SceneSetup& setup, const TraceSetup& trace,
+GhostTracer::GhostTracer(const SceneGeometry& setup, const SceneTransport& trace,
                          const GlassCatalog& catalog, const GhostOptions& options)
     : setup_(&setup),
       trace_(&trace),
@@ -98,7 +98,7 @@ GhostTracer::GhostTracer(const SceneSetup& setup, const TraceSetup& trace,
                          "the ghost estimate follows the sequential path to the image surface; "
                          "detector '" +
                              detector_->name + "' does not lie on it");
-    for (const Source& s : trace.transport.sources)
+    for (const Source& s : trace.view.sources)
         if (std::holds_alternative<WindowSource>(s.shape()) ||
             std::holds_alternative<LambertianSource>(s.shape()))
             throw ModelError(s.name(), std::string("source '") + s.name() + "' is a " + s.kind() +
@@ -123,7 +123,7 @@ GhostTracer::GhostTracer(const SceneSetup& setup, const TraceSetup& trace,
         const SceneObject* o = sf.name.empty() ? nullptr : setup.scene.find(sf.name);
         if (o && o->kind != ObjectKind::Stop && o->kind != ObjectKind::Mechanics) {
             objectName_[s] = o->name;
-            propertyOf_[s] = trace.transport.propertyOfObject[o->id];
+            propertyOf_[s] = trace.view.propertyOfObject[o->id];
         }
         if (auto it = faceRadius.find(s); it != faceRadius.end()) {
             clipRadius_[s] = it->second;
@@ -150,11 +150,11 @@ GhostTracer::GhostTracer(const SceneSetup& setup, const TraceSetup& trace,
     // Flux of one grid cell per source and wavelength: the source's share of that line over
     // the cells of the unit disk (cell area h^2 of pi).
     const double h = 2.0 / options_.gridRays;
-    cellFlux_.assign(trace.transport.sources.size(), std::vector<double>(model_.wavelengthCount()));
+    cellFlux_.assign(trace.view.sources.size(), std::vector<double>(model_.wavelengthCount()));
     for (size_t k = 0; k < cellFlux_.size(); ++k)
         for (int w = 0; w < model_.wavelengthCount(); ++w)
-            cellFlux_[k][w] = trace.transport.sources[k].totalFlux() *
-                              lineShare(static_cast<int>(k), w) * h * h / kPi;
+            cellFlux_[k][w] =
+                trace.view.sources[k].totalFlux() * lineShare(static_cast<int>(k), w) * h * h / kPi;
     if (options_.nearFocusMm <= 0.0)
         options_.nearFocusMm =
             10.0 * std::max(detector_->pixelWidthMm(), detector_->pixelHeightMm());
@@ -190,7 +190,7 @@ std::vector<GhostPath> GhostTracer::enumerate(int* pruned) const {
             c.n1 = n1;
             c.n2 = n2;
             c.wavelengthNm = model_.wavelengthNm(w);
-            r = trace_->transport.properties[propertyOf_[s]].channels(c).specularReflect;
+            r = trace_->view.properties[propertyOf_[s]].channels(c).specularReflect;
         }
         r0[s] = r;
     }
@@ -257,7 +257,7 @@ std::vector<GhostTracer::Step> GhostTracer::steps(const GhostPath& path) const {
 }
 
 double GhostTracer::lineShare(int source, int w) const {
-    const SpectralSampler& spec = trace_->transport.sources[source].spectrum();
+    const SpectralSampler& spec = trace_->view.sources[source].spectrum();
     double share = 0.0;
     for (int i = 0; i < spec.size(); ++i)
         if (std::abs(spec.lines()[i].nm - model_.wavelengthNm(w)) < 1e-9) share += spec.share(i);
@@ -265,7 +265,7 @@ double GhostTracer::lineShare(int source, int w) const {
 }
 
 bool GhostTracer::launch(int source, int w, int ix, int iy, RayState& r) const {
-    const Source& src = trace_->transport.sources[source];
+    const Source& src = trace_->view.sources[source];
     r.flux = cellFlux_[source][w];
     if (!(r.flux > 0.0)) return false;
     const double h = 2.0 / options_.gridRays;  // grid step in the unit disk
@@ -305,7 +305,7 @@ bool GhostTracer::advance(RayState& r, const Step& step, int w) const {
     const double r2 = hit.x * hit.x + hit.y * hit.y;
     const double clip = clipRadius_[step.surface], hole = holeRadius_[step.surface];
     if (r2 > clip * clip || r2 < hole * hole) return false;
-    const double alpha = trace_->transport.media->absorptionPerMm(mediumOfGap_[step.gapBefore], w);
+    const double alpha = trace_->view.media->absorptionPerMm(mediumOfGap_[step.gapBefore], w);
     if (alpha > 0.0) r.flux *= std::exp(-alpha * std::max(0.0, *t));
     r.pos = s.toGlobalPoint(hit);
     r.at = step.surface;
@@ -326,7 +326,7 @@ bool GhostTracer::advance(RayState& r, const Step& step, int w) const {
         c.n1 = n1;
         c.n2 = s.mirror ? n1 : n2;
         c.wavelengthNm = model_.wavelengthNm(w);
-        ch = trace_->transport.properties[prop].channels(c);
+        ch = trace_->view.properties[prop].channels(c);
     } else {
         ch.specularReflect = 1.0;  // no object: nothing happens but the geometry
         ch.specularTransmit = 1.0;
@@ -370,7 +370,7 @@ bool GhostTracer::land(const RayState& r, int w, DetectorRay& out) const {
     if (!t || *t < -1e-9) return false;
     if (!mirrors_.empty() && obscured(r, *t, img)) return false;
     double flux = r.flux;
-    const double alpha = trace_->transport.media->absorptionPerMm(mediumOfGap_[img - 1], w);
+    const double alpha = trace_->view.media->absorptionPerMm(mediumOfGap_[img - 1], w);
     if (alpha > 0.0) flux *= std::exp(-alpha * *t);
     const Vec3 localHit = local.origin + *t * local.direction;
     // The sensor object is the image surface out to its clear semi-diameter.
@@ -481,7 +481,7 @@ std::vector<GhostTracer::DetectorRay> GhostTracer::traceGrid(const GhostPath& pa
 std::pair<double, std::string> GhostTracer::paraxialFocus(const GhostPath& path, int source) const {
     const std::vector<Step> st = steps(path);
     const int w = model_.primaryWavelength();
-    const Source& src = trace_->transport.sources[source];
+    const Source& src = trace_->view.sources[source];
     const Prescription& p = model_.prescription();
     double y = 1.0, u = 0.0;  // collimated: height 1 mm, slope 0
     double z = model_.surface(1).zMm;
@@ -526,7 +526,7 @@ GhostSourceResult GhostTracer::summarise(const GhostPath& path, int source,
                                          const GhostEstimate* nominal) const {
     const double pitch = std::max(detector_->pixelWidthMm(), detector_->pixelHeightMm());
     GhostSourceResult r;
-    r.source = trace_->transport.sources[source].name();
+    r.source = trace_->view.sources[source].name();
     r.raysTraced = raysTraced;
     r.raysArrived = static_cast<int>(rays.size());
     for (const DetectorRay& d : rays) {
@@ -566,7 +566,7 @@ GhostSourceResult GhostTracer::summarise(const GhostPath& path, int source,
 GhostEstimate GhostTracer::estimate(const GhostPath& path, const GhostEstimate* nominal) const {
     GhostEstimate e;
     e.path = path;
-    for (size_t s = 0; s < trace_->transport.sources.size(); ++s) {
+    for (size_t s = 0; s < trace_->view.sources.size(); ++s) {
         std::vector<DetectorRay> rays;
         int traced = 0;
         for (int w = 0; w < model_.wavelengthCount(); ++w) {
@@ -616,7 +616,7 @@ std::vector<GhostEstimate> GhostTracer::estimatePairs(const std::vector<GhostPat
         st.reflect = true;
         return st;
     };
-    const size_t nSources = trace_->transport.sources.size();
+    const size_t nSources = trace_->view.sources.size();
     std::vector<GhostEstimate> out(paths.size());
     for (GhostEstimate& e : out) e.sources.resize(nSources);
     // Sources are independent: one task each (the numbers do not depend on the threads).

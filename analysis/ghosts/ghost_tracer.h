@@ -2,7 +2,7 @@
 // The sequential ghost estimate: every ghost path of a lens traced unfolded, on a grid of
 // real rays, and ranked.
 //
-//   SceneSetup + TraceSetup ──GhostTracer──> per ghost, per source: flux, focus, footprint,
+//   SceneGeometry + SceneTransport ──GhostTracer──> per ghost, per source: flux, focus, footprint,
 //                                             peak irradiance (deterministic, fast)
 //
 // The paths and their criteria: ghost_paths.h. The Monte Carlo check of the same paths:
@@ -39,8 +39,8 @@
 #include <vector>
 
 #include "analysis/ghosts/ghost_paths.h"
-#include "tracer/scene/scene_setup.h"
-#include "tracer/scene/trace_setup.h"
+#include "tracer/scene/scene_geometry.h"
+#include "tracer/scene/scene_transport.h"
 #include "tracer/sequential/sequential_model.h"
 
 namespace veil {
@@ -102,8 +102,8 @@ class GhostTracer {
   public:
     // Throws ModelError for a source kind without a sequential model (window, lambertian) and
     // for an unknown detector name.
-    GhostTracer(const SceneSetup& setup, const TraceSetup& trace, const GlassCatalog& catalog,
-                const GhostOptions& options = {});
+    GhostTracer(const SceneGeometry& geometry, const SceneTransport& transport,
+                const GlassCatalog& catalog, const GhostOptions& options = {});
 
     const SequentialModel& model() const { return model_; }
     const DetectorGeometry& detector() const { return *detector_; }
@@ -180,8 +180,8 @@ class GhostTracer {
                                 const std::vector<DetectorRay>& rays, int raysTraced,
                                 const GhostEstimate* nominal) const;
 
-    const SceneSetup* setup_;
-    const TraceSetup* trace_;
+    const SceneGeometry* setup_;
+    const SceneTransport* trace_;
     SequentialModel model_;
     GhostOptions options_;
     const DetectorGeometry* detector_ = nullptr;

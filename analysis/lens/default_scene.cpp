@@ -13,7 +13,7 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 
-std::vector<Source> fieldSources(const SceneFile& file, const GlassCatalog& catalog,
+std::vector<Source> fieldSources(const SceneSpec& file, const GlassCatalog& catalog,
                                  const std::vector<std::pair<double, double>>& fields) {
     const std::shared_ptr<const SequentialModel> built =
         file.model ? file.model
@@ -49,12 +49,12 @@ std::vector<Source> fieldSources(const SceneFile& file, const GlassCatalog& cata
 
 }  // namespace
 
-void setFieldSources(SceneFile& file, const GlassCatalog& catalog,
+void setFieldSources(SceneSpec& file, const GlassCatalog& catalog,
                      const std::vector<std::pair<double, double>>& fieldsDeg) {
     file.sources = fieldSources(file, catalog, fieldsDeg);
 }
 
-std::vector<std::pair<double, double>> addSystemFieldSources(SceneFile& file,
+std::vector<std::pair<double, double>> addSystemFieldSources(SceneSpec& file,
                                                              const GlassCatalog& catalog) {
     if (!file.sources.empty()) return {};
     std::vector<std::pair<double, double>> fields;
@@ -64,7 +64,7 @@ std::vector<std::pair<double, double>> addSystemFieldSources(SceneFile& file,
     return fields;
 }
 
-bool addDefaultGhostScene(SceneFile& file, const GlassCatalog& catalog, double* imageShiftMm) {
+bool addDefaultGhostScene(SceneSpec& file, const GlassCatalog& catalog, double* imageShiftMm) {
     if (imageShiftMm) *imageShiftMm = 0.0;
     if (!file.sources.empty()) return false;
     // The detector at the paraxial image plane of the primary wavelength (an afocal lens
@@ -103,7 +103,7 @@ bool addDefaultGhostScene(SceneFile& file, const GlassCatalog& catalog, double* 
 }
 
 std::unique_ptr<PreparedScene> prepareTracedScene(
-    SceneFile file, const GlassCatalog& catalog,
+    SceneSpec file, const GlassCatalog& catalog,
     const std::vector<std::pair<double, double>>& fieldsDeg, const SceneOptions& options,
     std::string* note) {
     if (note) note->clear();

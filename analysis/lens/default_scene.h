@@ -10,7 +10,7 @@
 
 #include "lensdata/glass_catalog.h"
 #include "tracer/scene/prepared_scene.h"
-#include "tracer/scene/scene_setup.h"
+#include "tracer/scene/scene_geometry.h"
 
 namespace veil {
 
@@ -21,17 +21,17 @@ namespace veil {
 // wavelength (unless the lens is afocal), with the detector on it. Changes `file` in place;
 // returns false (and does nothing) when the file has sources. `imageShiftMm` (may be null):
 // how far the image surface moved along z.
-bool addDefaultGhostScene(SceneFile& file, const GlassCatalog& catalog,
+bool addDefaultGhostScene(SceneSpec& spec, const GlassCatalog& catalog,
                           double* imageShiftMm = nullptr);
 
 // A scene without [[source]] gets one collimated (or point) 1 W source per system field, as
 // setFieldSources() makes them, and nothing else changes; returns the fields used, empty
 // (and does nothing) when the file has sources.
-std::vector<std::pair<double, double>> addSystemFieldSources(SceneFile& file,
+std::vector<std::pair<double, double>> addSystemFieldSources(SceneSpec& spec,
                                                              const GlassCatalog& catalog);
 
 // Collimated sources replacing the scene's: one per field (degrees x, y), 1 W each.
-void setFieldSources(SceneFile& file, const GlassCatalog& catalog,
+void setFieldSources(SceneSpec& spec, const GlassCatalog& catalog,
                      const std::vector<std::pair<double, double>>& fieldsDeg);
 
 // The scene of a command that traces, built once: the file's sources replaced by one beam per
@@ -39,7 +39,7 @@ void setFieldSources(SceneFile& file, const GlassCatalog& catalog,
 // one per system field (addSystemFieldSources), and `note` (when not null) then says what
 // was added, for the user. `note` is cleared otherwise.
 std::unique_ptr<PreparedScene> prepareTracedScene(
-    SceneFile file, const GlassCatalog& catalog,
+    SceneSpec spec, const GlassCatalog& catalog,
     const std::vector<std::pair<double, double>>& fieldsDeg, const SceneOptions& options = {},
     std::string* note = nullptr);
 

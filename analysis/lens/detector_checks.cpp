@@ -28,7 +28,8 @@ double axisDistance(double cx, double cy, double hx, double hy) {
 
 }  // namespace
 
-std::vector<ImportNote> detectorPlacementWarnings(const SceneFile& file, const SceneSetup& setup) {
+std::vector<ImportNote> detectorPlacementWarnings(const SceneSpec& file,
+                                                  const SceneGeometry& setup) {
     std::vector<ImportNote> out;
     // The checks measure along one axis: a system a coordinate break tilts or decenters
     // is not checked.

@@ -19,10 +19,11 @@
 #include <vector>
 
 #include "lensdata/prescription.h"
-#include "tracer/scene/scene_setup.h"
+#include "tracer/scene/scene_geometry.h"
 
 namespace veil {
 
-std::vector<ImportNote> detectorPlacementWarnings(const SceneFile& file, const SceneSetup& setup);
+std::vector<ImportNote> detectorPlacementWarnings(const SceneSpec& spec,
+                                                  const SceneGeometry& geometry);
 
 }  // namespace veil

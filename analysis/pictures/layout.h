@@ -62,7 +62,7 @@ struct LayoutSourceOptions {
 //                    ends and centre, and two from the centre at +-the cone half-angle (at
 //                    most 45 deg drawn).
 // `scene` must be committed (Scene::commit(); a PreparedScene's is). The CLI passes
-// prepared->trace().transport.sources.
+// prepared->transport().view.sources.
 std::vector<LayoutSource> layoutSources(const std::vector<Source>& sources, const Scene& scene,
                                         const LayoutSourceOptions& options = {});
 

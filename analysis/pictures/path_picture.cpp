@@ -12,7 +12,7 @@
 
 #include "analysis/criteria/criterion_names.h"
 #include "analysis/reports/image_output.h"  // falseColour
-#include "tracer/scene/trace_setup.h"
+#include "tracer/scene/scene_transport.h"
 
 namespace veil {
 
@@ -99,7 +99,7 @@ class FirstRays {
 
 }  // namespace
 
-PathSelection selectPaths(const TransportScene& ts, const std::vector<DetectorImage>& detectors,
+PathSelection selectPaths(const TransportView& ts, const std::vector<DetectorImage>& detectors,
                           const PathSelectionOptions& options) {
     const CompiledCriterion compiled =
         compileCriterion(options.where, criterionNames(*ts.scene, ts), options.whereSource);

@@ -3,7 +3,7 @@
 // drawn with every one of its branches that does, over the 2D layout (the seed's figures
 // 1a/1b and 4-6: "the first 1000 rays").
 //
-//   criterion text ──selectPaths(TransportScene)──> PathSelection ──drawPaths(layout)──> Picture
+//   criterion text ──selectPaths(TransportView)──> PathSelection ──drawPaths(layout)──> Picture
 //
 // Selection traces rays in batches with path histories and evaluates the criterion on every
 // complete path (root to leaf) of every ray. It keeps the first `count` rays with a match in
@@ -90,8 +90,8 @@ std::ostream& operator<<(std::ostream& os, const PathSelection& s);
 // Parses and compiles options.where against the scene's names (ParseError with the column on
 // a bad criterion), then traces batches until `count` rays with a match are found or maxRays
 // are traced.
-// `detectors` are the empty images traceNonsequential needs (TraceSetup::images).
-PathSelection selectPaths(const TransportScene& ts, const std::vector<DetectorImage>& detectors,
+// `detectors` are the empty images traceNonsequential needs (SceneTransport::images).
+PathSelection selectPaths(const TransportView& ts, const std::vector<DetectorImage>& detectors,
                           const PathSelectionOptions& options);
 
 // Path Pictures

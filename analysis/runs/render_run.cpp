@@ -20,7 +20,7 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // FNV-1a over the text that determines a run's numbers: the scene as the renderer sees it and
 // the options that change what a pass computes.
-uint64_t fingerprintOf(const TransportScene& ts, const DetectorGeometry& g, const ExitAperture& a,
+uint64_t fingerprintOf(const TransportView& ts, const DetectorGeometry& g, const ExitAperture& a,
                        const RenderOptions& o, const std::vector<std::string>& where) {
     std::ostringstream os;
     os << std::setprecision(17);
@@ -106,7 +106,7 @@ RenderPassTotals passTotals(const RenderPass& pass) {
     return totals;
 }
 
-size_t findDetector(const TraceSetup& trace, const std::string& name) {
+size_t findDetector(const SceneTransport& trace, const std::string& name) {
     if (name.empty()) return 0;
     std::string names;
     for (size_t d = 0; d < trace.images.size(); ++d) {
@@ -121,9 +121,9 @@ size_t findDetector(const TraceSetup& trace, const std::string& name) {
 
 RenderRun::RenderRun(const PreparedScene& scene, RenderRunSpec spec)
     : scene_(scene), spec_(std::move(spec)) {
-    const TraceSetup& trace = scene_.trace();
-    const TransportScene& ts = trace.transport;
-    const std::string file = spec_.scene.empty() ? scene_.file().path.string() : spec_.scene;
+    const SceneTransport& trace = scene_.transport();
+    const TransportView& ts = trace.view;
+    const std::string file = spec_.scene.empty() ? scene_.spec().path.string() : spec_.scene;
     if (ts.sources.empty()) throw ModelError(file, "the scene has no light source to render");
     if (trace.images.empty()) throw ModelError(file, "the scene has no detector to render");
     detector_ = &trace.images[findDetector(trace, spec_.detector)];
@@ -216,9 +216,9 @@ RenderResult RenderRun::run(const std::function<void(const RenderPassEvent&)>& o
     r.state = state_;
     if (!r.root) return r;  // its share went to rank 0
     if (state_.passes() == 0)
-        throw ModelError(spec_.scene.empty() ? scene_.file().path.string() : spec_.scene,
+        throw ModelError(spec_.scene.empty() ? scene_.spec().path.string() : spec_.scene,
                          "no pass finished (the time limit ended the run first)");
-    const TransportScene& ts = scene_.trace().transport;
+    const TransportView& ts = scene_.transport().view;
     r.scene = spec_.scene;
     r.detector = detector_->geometry().name;
     r.unit = ts.sources.front().unit() == FluxUnit::Lumen ? "lm" : "W";

@@ -146,7 +146,7 @@ class RenderRun {
 
 // The index of the detector named `name` among trace.images (empty: the first, 0); ParseError
 // at --detector naming the scene's detectors when none has that name.
-size_t findDetector(const TraceSetup& trace, const std::string& name);
+size_t findDetector(const SceneTransport& transport, const std::string& name);
 
 // The files of a finished run into `folder`, which must exist: DETECTOR.exr (layers total,
 // visible, direct, caustic, secondary, and whereK with its components), DETECTOR.png and a

@@ -27,9 +27,10 @@ std::string size(double b) {
 
 }  // namespace
 
-RayDatabaseEstimate estimateRayDatabase(const TraceSetup& trace, const TransportOptions& options,
-                                        uint64_t raysPerSource, const PathEncoding& encoding) {
-    const TransportScene& ts = trace.transport;
+RayDatabaseEstimate estimateRayDatabase(const SceneTransport& trace,
+                                        const TransportOptions& options, uint64_t raysPerSource,
+                                        const PathEncoding& encoding) {
+    const TransportView& ts = trace.view;
     const uint64_t sample = std::min<uint64_t>(raysPerSource, 200);
     TransportOptions o = options;
     o.recordHistories = true;
@@ -79,8 +80,8 @@ void RayDatabaseEstimate::checkFits(const std::filesystem::path& path) const {
 
 RayDatabaseInfo rayDatabaseInfo(const PreparedScene& scene, const std::string& sceneName,
                                 const PathEncoding& encoding, uint64_t seed) {
-    const SceneSetup& setup = scene.setup();
-    const TransportScene& ts = scene.trace().transport;
+    const SceneGeometry& setup = scene.geometry();
+    const TransportView& ts = scene.transport().view;
     RayDatabaseInfo info = describeScene(setup.scene, sceneName);
     info.encoding = encoding;
     for (const DetectorGeometry& d : setup.detectors) {

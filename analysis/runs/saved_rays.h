@@ -31,8 +31,9 @@ struct RayDatabaseEstimate {
 };
 
 // Traces the run's first min(raysPerSource, 200) rays per source with their histories encoded.
-RayDatabaseEstimate estimateRayDatabase(const TraceSetup& trace, const TransportOptions& options,
-                                        uint64_t raysPerSource, const PathEncoding& encoding);
+RayDatabaseEstimate estimateRayDatabase(const SceneTransport& transport,
+                                        const TransportOptions& options, uint64_t raysPerSource,
+                                        const PathEncoding& encoding);
 
 // The database header of a run on this scene: its objects (a detector's own name as an alias
 // of its object, so criteria on the saved rays may use it), sources, seed and flux unit.

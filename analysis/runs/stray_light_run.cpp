@@ -33,24 +33,24 @@ std::vector<StrayLightRow> StrayLightResult::report() const {
 }
 
 StrayLightResult runStrayLight(const PreparedScene& scene, const StrayLightSpec& spec) {
-    const TraceSetup& ts = scene.trace();
+    const SceneTransport& ts = scene.transport();
     StrayLightResult result;
-    result.scene = spec.scene.empty() ? scene.file().path.string() : spec.scene;
+    result.scene = spec.scene.empty() ? scene.spec().path.string() : spec.scene;
     result.raysPerSource = spec.raysPerSource;
     result.seed = spec.transport.seed;
     result.prune = spec.prune;
     for (const DetectorImage& img : ts.images)
         result.detectorObjects.push_back(scene.scene().object(img.geometry().object).name);
-    result.emittedRays = spec.raysPerSource * ts.transport.sources.size();
-    result.fluxUnit = ts.transport.sources.front().unit() == FluxUnit::Lumen ? "lm" : "W";
+    result.emittedRays = spec.raysPerSource * ts.view.sources.size();
+    result.fluxUnit = ts.view.sources.front().unit() == FluxUnit::Lumen ? "lm" : "W";
     if (spec.prune && spec.where.empty())
-        throw ModelError(scene.file().path.string(), "pruning needs at least one criterion");
+        throw ModelError(scene.spec().path.string(), "pruning needs at least one criterion");
 
     TransportOptions options = spec.transport;
     if (!spec.where.empty()) {
-        const NameTable names = criterionNames(scene.scene(), ts.transport);
-        result.layers = std::make_unique<CriterionImages>(spec.where, compileWhereList(spec.where, names),
-                                                          ts.images, ts.transport.detectorOfObject);
+        const NameTable names = criterionNames(scene.scene(), ts.view);
+        result.layers = std::make_unique<CriterionImages>(
+            spec.where, compileWhereList(spec.where, names), ts.images, ts.view.detectorOfObject);
     }
     std::unique_ptr<CriteriaFilter> filter;
     if (spec.prune) {
@@ -70,12 +70,12 @@ StrayLightResult runStrayLight(const PreparedScene& scene, const StrayLightSpec&
     const auto start = std::chrono::steady_clock::now();
     std::function<void(uint64_t)> progress;
     if (spec.progress) {
-        const uint64_t total = spec.raysPerSource * ts.transport.sources.size();
+        const uint64_t total = spec.raysPerSource * ts.view.sources.size();
         progress = [&spec, total](uint64_t done) { spec.progress({"trace", done, total}); };
         progress(0);
     }
-    TraceResult traced = traceNonsequential(ts.transport, ts.images, spec.raysPerSource, options,
-                                            progress, onRay);
+    TraceResult traced =
+        traceNonsequential(ts.view, ts.images, spec.raysPerSource, options, progress, onRay);
     if (result.layers) result.layers->finish(options.ranks);
     result.seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

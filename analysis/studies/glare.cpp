@@ -65,7 +65,7 @@ std::optional<Vec2> chiefImage(const SequentialModel& model, const RayAimer& aim
 
 // The lens's wavelengths and weights as the field's spectrum: photometric when the eye sees
 // every line, else radiometric.
-SpectralSampler fieldSpectrum(const SceneFile& file, std::string& described, std::string& unit) {
+SpectralSampler fieldSpectrum(const SceneSpec& file, std::string& described, std::string& unit) {
     const SequentialModel& model = *file.model;
     const auto& waves = file.prescription.system.wavelengths;
     std::vector<Wavelength> lines;
@@ -134,7 +134,7 @@ GlareValue ratio(const GlareValue& a, const GlareValue& b) {
 
 // Glare Bench
 
-GlareBench::GlareBench(const SceneFile& file, const GlassCatalog& catalog, const GlareSpec& spec)
+GlareBench::GlareBench(const SceneSpec& file, const GlassCatalog& catalog, const GlareSpec& spec)
     : file_(file), spec_(spec), aimer_(std::make_unique<RayAimer>(*file.model)) {
     const SequentialModel& model = *file.model;
     if (file.prescription.system.fieldKind != SystemData::FieldKind::AngleDeg)
@@ -155,7 +155,7 @@ GlareBench::GlareBench(const SceneFile& file, const GlassCatalog& catalog, const
     // back, as it does in the camera. The field is a window just in front of the port, wide
     // enough that every point of the port sees the whole cone; the front plate reaches past
     // the window, so no ray of the field passes outside it.
-    SceneFile bare = file;
+    SceneSpec bare = file;
     bare.sources.clear();
     const SceneExtent extent = extentOf(*PreparedScene::build(bare, catalog));
     const EntranceAperture entrance = entranceAperture(file.prescription, model);
@@ -198,13 +198,13 @@ GlareBench::GlareBench(const SceneFile& file, const GlassCatalog& catalog, const
     file_.mechanics->parts.push_back(body);
     radiusHintMm_ = 0.01 * std::max(1.0, 2.0 * extent.radiusMm);
 
-    SceneFile lens = file_;
+    SceneSpec lens = file_;
     const Beam beam = beamFillingAperture(entrance, Vec3(0.0, 0.0, 1.0), {});
     lens.sources = {Source("axis", CollimatedSource{beam}, beam.areaMm2(), *spectrum_)};
     lens.detectors.clear();
     ghostScene_ = PreparedScene::build(std::move(lens), catalog);
     ghostTracer_ =
-        std::make_unique<GhostTracer>(ghostScene_->setup(), ghostScene_->trace(), catalog);
+        std::make_unique<GhostTracer>(ghostScene_->geometry(), ghostScene_->transport(), catalog);
 }
 
 GlareBench::~GlareBench() = default;
@@ -235,9 +235,9 @@ GlareField GlareBench::locate(Vec2 fieldDeg) const {
     return gf;
 }
 
-SceneFile GlareBench::scene(const GlareField& f, bool black, double sideMm, int pixels,
+SceneSpec GlareBench::scene(const GlareField& f, bool black, double sideMm, int pixels,
                             double fieldHalfAngleDeg) const {
-    SceneFile s = file_;
+    SceneSpec s = file_;
     AreaEmitter e;
     e.shape = AreaEmitter::Shape::Disk;
     e.radiusMm = windowRadiusMm_;
@@ -263,9 +263,9 @@ SceneFile GlareBench::scene(const GlareField& f, bool black, double sideMm, int 
     return s;
 }
 
-SceneFile GlareBench::spreadScene(const GlareField& f, double radiusMm, int pixels,
+SceneSpec GlareBench::spreadScene(const GlareField& f, double radiusMm, int pixels,
                                   double coreSideMm, int corePixels) const {
-    SceneFile s = file_;
+    SceneSpec s = file_;
     // The beam: a cylinder along the source's direction over the port (its hole through the
     // front plate, and 1 mm of the plate around it), starting in front of the plate.
     Beam b;
@@ -378,7 +378,7 @@ namespace {
 // The lens stopped down to image-space F/# n: the stop's semi-diameter scaled by the paraxial
 // F/# it has over n, the model rebuilt. ModelError for a scene without a stop plate or an
 // F/# faster than the lens's.
-SceneFile stoppedDown(const SceneFile& file, const GlassCatalog& catalog, double n, double own) {
+SceneSpec stoppedDown(const SceneSpec& file, const GlassCatalog& catalog, double n, double own) {
     const std::string name = "--f-number " + fmt(n);
     if (!(n > 0.0) || !std::isfinite(n)) throw ModelError(name, "the F-number must be > 0");
     if (!file.mechanics || !file.mechanics->stop.enabled)
@@ -386,7 +386,7 @@ SceneFile stoppedDown(const SceneFile& file, const GlassCatalog& catalog, double
     if (n < own * (1.0 - 1e-9))
         throw ModelError(name, "faster than the lens's own f/" + fmt(own) +
                                    ": glare stops a lens down, it cannot open it up");
-    SceneFile s = file;
+    SceneSpec s = file;
     Surface& stop = s.prescription.surfaces[static_cast<size_t>(s.prescription.stopIndex())];
     if (!(stop.clearSemiDiameterMm > 0.0))
         throw ModelError(name, "the stop has no semi-diameter to scale");
@@ -421,8 +421,8 @@ void measure(PreparedScene& p, const GlareBench& bench, GlareField& f, const Gla
              const std::function<void(int)>& blackProgress,
              const std::function<void(int)>& whiteProgress) {
     for (const bool black : {true, false}) {
-        SceneFile file = bench.scene(f, black, f.measuredSideMm, spec.pixels, fieldHalfAngleDeg);
-        file.detectors = p.file().detectors;  // the geometry's (with the GSF's)
+        SceneSpec file = bench.scene(f, black, f.measuredSideMm, spec.pixels, fieldHalfAngleDeg);
+        file.detectors = p.spec().detectors;  // the geometry's (with the GSF's)
         p.replaceTransport(std::move(file), catalog);
         RenderRunSpec run;
         run.detector = "glare";
@@ -527,8 +527,8 @@ GlareSpread measureSpread(PreparedScene& p, const GlareBench& bench, const Glare
     const int corePixels = kCorePixels;
     const double coreSide = coreSideMm(f);
     g.coreRadiusMm = 3.8 * rho;
-    SceneFile file = bench.spreadScene(f, g.radiusMm, spec.spreadPixels, coreSide, corePixels);
-    file.detectors = p.file().detectors;
+    SceneSpec file = bench.spreadScene(f, g.radiusMm, spec.spreadPixels, coreSide, corePixels);
+    file.detectors = p.spec().detectors;
     p.replaceTransport(std::move(file), catalog);
 
     // The annuli: a disc of the core detector's pitch, then ten per decade out to R.
@@ -616,12 +616,12 @@ GlareSpread measureSpread(PreparedScene& p, const GlareBench& bench, const Glare
 
 }  // namespace
 
-GlareResult runGlare(const SceneFile& file, const GlassCatalog& catalog, const GlareSpec& spec) {
+GlareResult runGlare(const SceneSpec& file, const GlassCatalog& catalog, const GlareSpec& spec) {
     const auto start = std::chrono::steady_clock::now();
     const double own =
         computeFirstOrder(*file.model, file.model->primaryWavelength()).imageSpaceFNumber;
     // Every aperture and position is checked before the first render.
-    std::vector<std::pair<double, SceneFile>> apertures;
+    std::vector<std::pair<double, SceneSpec>> apertures;
     if (spec.fNumbers.empty()) apertures.push_back({own, file});
     for (double n : spec.fNumbers) apertures.push_back({n, stoppedDown(file, catalog, n, own)});
     std::vector<Vec2> fields = spec.fieldsDeg;
@@ -662,10 +662,10 @@ GlareResult runGlare(const SceneFile& file, const GlassCatalog& catalog, const G
         // One geometry per position, with the measuring square and the GSF's detectors on the
         // image surface: the white field, the point source and the check's fields replace the
         // black field's transport.
-        SceneFile first = bench.scene(gf, true, gf.measuredSideMm, spec.pixels);
+        SceneSpec first = bench.scene(gf, true, gf.measuredSideMm, spec.pixels);
         if (spreadAt(spec, gf)) {
             const double radius = bench.spreadRadiusMm(gf);
-            const SceneFile s =
+            const SceneSpec s =
                 bench.spreadScene(gf, radius, spec.spreadPixels, coreSideMm(gf), kCorePixels);
             first.detectors.insert(first.detectors.end(), s.detectors.begin(), s.detectors.end());
         }

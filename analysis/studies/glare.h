@@ -63,7 +63,7 @@
 #include "lensdata/glass_catalog.h"
 #include "tracer/light/spectrum.h"
 #include "tracer/render/render.h"
-#include "tracer/scene/scene_setup.h"
+#include "tracer/scene/scene_spec.h"
 #include "tracer/sequential/ray_aiming.h"
 
 namespace veil {
@@ -175,7 +175,7 @@ struct GlareResult {
 class GlareBench {
   public:
     // ModelError for a lens that does not image from infinity or absurd spot and field sizes.
-    GlareBench(const SceneFile& file, const GlassCatalog& catalog, const GlareSpec& spec);
+    GlareBench(const SceneSpec& scene, const GlassCatalog& catalog, const GlareSpec& spec);
     ~GlareBench();
     GlareBench(const GlareBench&) = delete;
     GlareBench& operator=(const GlareBench&) = delete;
@@ -186,13 +186,13 @@ class GlareBench {
     // The scene of one measurement: the body, the field (with the black spot at f when
     // black; out to fieldHalfAngleDeg, 0: the spec's) and a square detector of side sideMm
     // centred on f's image.
-    SceneFile scene(const GlareField& f, bool black, double sideMm, int pixels,
+    SceneSpec scene(const GlareField& f, bool black, double sideMm, int pixels,
                     double fieldHalfAngleDeg = 0.0) const;
     // The glare spread function's scene: a point source at infinity in f's direction (a
     // collimated beam over the port and 1 mm of the plate around it, irradiance 1/mm^2) and
     // square detectors centred on f's image, "gsf" of side 2 radiusMm and "gsf_core" of side
     // coreSideMm.
-    SceneFile spreadScene(const GlareField& f, double radiusMm, int pixels, double coreSideMm,
+    SceneSpec spreadScene(const GlareField& f, double radiusMm, int pixels, double coreSideMm,
                           int corePixels) const;
     // The disc's radius R for f (GlareSpec::spreadRadiusMm or its default), and the angle of
     // the cone about the axis whose chief ray lands R from the axis (0: none within the
@@ -208,7 +208,7 @@ class GlareBench {
     double radiusHintMm() const { return radiusHintMm_; }  // initial photon radius
 
   private:
-    SceneFile file_;  // with the body
+    SceneSpec file_;  // with the body
     GlareSpec spec_;
     std::unique_ptr<RayAimer> aimer_;
     std::unique_ptr<SpectralSampler> spectrum_;
@@ -223,7 +223,7 @@ class GlareBench {
 
 // ModelError for a spot or field that does not fit (the spot outside the bright field, a
 // field direction the lens does not image), before the first render.
-GlareResult runGlare(const SceneFile& file, const GlassCatalog& catalog, const GlareSpec& spec);
+GlareResult runGlare(const SceneSpec& scene, const GlassCatalog& catalog, const GlareSpec& spec);
 
 // Where an annulus [lo, hi) of the GSF is plotted: its geometric mean radius (the central
 // disc, lo = 0: half its radius).

@@ -214,7 +214,7 @@ struct Arrivals {
 
 // One pass of the forward tracer from `ts`'s sources, rays per source, with histories; the
 // values are shares of the flux the counted rays emit.
-Arrivals arrivals(const TransportScene& ts, const std::vector<DetectorImage>& images, uint64_t rays,
+Arrivals arrivals(const TransportView& ts, const std::vector<DetectorImage>& images, uint64_t rays,
                   TransportOptions options, const std::function<void(uint64_t)>& progress,
                   std::function<bool(const Vec3&)> counts = {}) {
     double flux = 0.0;
@@ -306,13 +306,13 @@ std::pair<double, double> arrivalOf(const ArrivalMap& m, uint64_t k) {
 }
 
 // The sources counted (all, or --source), checked: one unit for all.
-TransportScene litSources(const TraceSetup& setup, const ObjectsSpec& spec,
-                          ObjectsResult& result) {
-    TransportScene lit = setup.transport;
+TransportView litSources(const SceneTransport& setup, const ObjectsSpec& spec,
+                         ObjectsResult& result) {
+    TransportView lit = setup.view;
     if (!spec.source.empty()) {
         std::string known;
         lit.sources.clear();
-        for (const Source& s : setup.transport.sources) {
+        for (const Source& s : setup.view.sources) {
             if (s.name() == spec.source) lit.sources.push_back(s);
             known += (known.empty() ? "" : ", ") + s.name();
         }
@@ -464,19 +464,19 @@ void rankRows(const ObjectsSpec& spec, ObjectsResult& result) {
 
 ObjectsResult runObjects(const PreparedScene& prepared, const ObjectsSpec& spec) {
     const auto start = std::chrono::steady_clock::now();
-    const TraceSetup& setup = prepared.trace();
+    const SceneTransport& setup = prepared.transport();
     const Scene& scene = prepared.scene();
     if (spec.rays == 0) throw ModelError("objects", "no rays to trace");
     ObjectsResult result;
     // The detector and the sources, checked before any ray.
-    if (setup.images.empty()) throw ModelError(prepared.file().path.string(), "no detector");
+    if (setup.images.empty()) throw ModelError(prepared.spec().path.string(), "no detector");
     const DetectorGeometry* det = &setup.images[findDetector(setup, spec.detector)].geometry();
-    const TransportScene lit = litSources(setup, spec, result);
+    const TransportView lit = litSources(setup, spec, result);
     result.detector = det->name;
     const Bounds3 bounds = scene.bounds();
     const double size = bounds.empty() ? 1.0 : std::max(1.0, glm::length(bounds.hi - bounds.lo));
     const double cone = detectorCone(scene, *det);
-    TransportScene seen = setup.transport;
+    TransportView seen = setup.view;
     seen.sources = {detectorEmitter(scene, *det, lit.sources.front().spectrum(), size, cone)};
     // Only the grid's points where the detector object is count (a round sensor in its square
     // grid records nothing in the corners).
@@ -512,7 +512,7 @@ ObjectsResult runObjects(const PreparedScene& prepared, const ObjectsSpec& spec)
     result.detectorAreaMm2 = det->widthMm * det->heightMm * seenPass.countedShare;
     for (const SceneObject& o : scene.objects())
         if (o.kind != ObjectKind::Detector && o.kind != ObjectKind::Dummy &&
-            setup.transport.detectorOfObject[static_cast<size_t>(o.id)] < 0)
+            setup.view.detectorOfObject[static_cast<size_t>(o.id)] < 0)
             result.rows.push_back(objectRow(scene, o, litBy, seenBy, result.detectorAreaMm2));
     rankRows(spec, result);
     result.seconds =
@@ -619,9 +619,9 @@ std::string ObjectsResult::json() const {
 Picture drawObjects(const PreparedScene& prepared, const ObjectsResult& result, int top) {
     const Scene& scene = prepared.scene();
     LayoutOptions lo;
-    const std::string& name = prepared.setup().prescription.system.name;
+    const std::string& name = prepared.geometry().prescription.system.name;
     lo.title = "Lit and seen objects, ranked" + (name.empty() ? "" : ": " + name);
-    TransportScene ts = prepared.trace().transport;
+    TransportView ts = prepared.transport().view;
     std::vector<Source> shown;
     for (const Source& s : ts.sources)
         if (std::find(result.sources.begin(), result.sources.end(), s.name()) !=

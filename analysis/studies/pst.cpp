@@ -80,7 +80,7 @@ class PstRunner {
     const PstSpec& spec_;
     const GlassCatalog& catalog_;
     const double phi_;
-    SceneFile base_;
+    SceneSpec base_;
     std::unique_ptr<PreparedScene> prepared_;
     double throughPupil_ = 0.0;
     std::vector<std::string> where_;
@@ -96,7 +96,7 @@ PstRunner::PstRunner(const PstSpec& spec, const GlassCatalog& catalog)
     if (base_.prescription.system.fieldKind != SystemData::FieldKind::AngleDeg)
         throw ModelError(spec.scene.string(),
                          "PST needs a lens with an object at infinity (fields in degrees)");
-    SceneFile first = base_;
+    SceneSpec first = base_;
     setFieldSources(first, catalog, {fieldOf(spec.anglesDeg.front())});
     prepared_ = PreparedScene::build(std::move(first), catalog);
     for (const Field& f : base_.prescription.system.fields)
@@ -117,7 +117,7 @@ PstRunner::PstRunner(const PstSpec& spec, const GlassCatalog& catalog)
                              std::to_string(result_.pupilRadiusMm) + " mm)");
     result_.apertureAreaMm2 = M_PI * result_.pupilRadiusMm * result_.pupilRadiusMm;
     throughPupil_ = std::pow(result_.pupilRadiusMm / result_.beamRadiusMm, 2);
-    const DetectorGeometry& det = prepared_->setup().detectors.front();
+    const DetectorGeometry& det = prepared_->geometry().detectors.front();
     result_.detector = det.name;
     result_.detectorAreaMm2 = det.widthMm * det.heightMm;
     nameQuantities();
@@ -188,7 +188,7 @@ double PstRunner::ghostShare(double emitted) const {
     GhostOptions go;
     go.detector = result_.detector;
     const GhostAnalysis ghosts =
-        GhostTracer(prepared_->setup(), prepared_->trace(), catalog_, go).analyse();
+        GhostTracer(prepared_->geometry(), prepared_->transport(), catalog_, go).analyse();
     double ghostFlux = 0.0;
     for (const GhostEstimate& g : ghosts.ghosts) ghostFlux += g.flux();
     return ghostFlux / (emitted * throughPupil_);
@@ -198,12 +198,12 @@ PstRow PstRunner::measure(size_t a) {
     progress(a, 0);
     const double theta = spec_.anglesDeg[a];
     if (a > 0) {
-        SceneFile file = base_;
+        SceneSpec file = base_;
         setFieldSources(file, catalog_, {fieldOf(theta)});
         prepared_->replaceTransport(std::move(file), catalog_);
     }
     std::vector<std::vector<double>> shares(ghostQuantity_);
-    const double emitted = prepared_->trace().transport.sources.front().totalFlux();
+    const double emitted = prepared_->transport().view.sources.front().totalFlux();
     if (spec_.render)
         renderShares(a, emitted, shares);
     else

@@ -33,7 +33,7 @@
 #include "analysis/reports/report_table.h"
 #include "lensdata/glass_catalog.h"
 #include "tracer/render/render.h"
-#include "tracer/scene/scene_setup.h"
+#include "tracer/scene/scene_spec.h"
 #include "tracer/transport/nonsequential.h"
 
 namespace veil {

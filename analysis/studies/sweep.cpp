@@ -463,7 +463,7 @@ void Sweeper::readBack(size_t k, const nlohmann::json& print, Measured& m) const
 }
 
 PreparedScene& Sweeper::prepare(SweepVariant& v, std::unique_ptr<PreparedScene>& own) {
-    SceneFile file = readSceneFile(spec_.scene, catalog_, editsOf(spec_, v.values));
+    SceneSpec file = readSceneFile(spec_.scene, catalog_, editsOf(spec_, v.values));
     if (!spec_.fieldsDeg.empty())
         setFieldSources(file, catalog_, spec_.fieldsDeg);
     else if (file.sources.empty())
@@ -506,7 +506,7 @@ void Sweeper::measureRender(const PreparedScene& scene, const std::string& unit,
     run.where = spec_.where;
     RenderRun render(scene, run);  // checks the scene (a detector, a source) first
     const std::string d =
-        spec_.detector.empty() ? scene.trace().images[0].geometry().name : spec_.detector;
+        spec_.detector.empty() ? scene.transport().images[0].geometry().name : spec_.detector;
     std::vector<std::string> names{d + ": render"}, criteria{""};
     for (int c = 0; c < kRenderComponents; ++c) {
         names.push_back(d + ": " + std::string(toString(RenderComponent(c))));
@@ -529,7 +529,7 @@ void Sweeper::measureGhosts(const PreparedScene& scene, const std::string& unit,
                             const Record& record) const {
     GhostOptions go;
     go.detector = spec_.detector;
-    const GhostTracer tracer(scene.setup(), scene.trace(), catalog_, go);
+    const GhostTracer tracer(scene.geometry(), scene.transport(), catalog_, go);
     const GhostAnalysis a = tracer.analyse();
     double all = 0.0;
     for (const GhostEstimate& g : a.ghosts) all += g.flux();
@@ -559,7 +559,7 @@ void Sweeper::measureAnew(size_t k, const nlohmann::json& print, Measured& m) {
             for (size_t q = 0; q < values.size(); ++q) v.batchValues[q].push_back(values[q]);
             progress(k, b + 1);
         };
-        const TransportScene& ts = prepared.trace().transport;
+        const TransportView& ts = prepared.transport().view;
         const std::string unit = ts.sources.front().unit() == FluxUnit::Lumen ? "lm" : "W";
         if (spec_.measure == SweepMeasure::Trace)
             measureTrace(prepared, record);

@@ -9,7 +9,7 @@
 #include <memory>
 #include <string>
 
-#include "tracer/scene/trace_setup.h"
+#include "tracer/scene/scene_transport.h"
 
 namespace veil::test {
 
@@ -21,17 +21,17 @@ inline std::filesystem::path writeScene(const std::string& name, const std::stri
 }
 
 struct Prepared {
-    SceneFile file;
-    std::unique_ptr<SceneSetup> setup;
-    TraceSetup trace;
+    SceneSpec file;
+    std::unique_ptr<SceneGeometry> setup;
+    SceneTransport trace;
 };
 
 inline Prepared prepare(const std::filesystem::path& path) {
     const GlassCatalog& catalog = GlassCatalog::builtIn();
     Prepared r;
     r.file = readSceneFile(path, catalog);
-    r.setup = std::make_unique<SceneSetup>(buildScene(r.file, catalog));
-    r.trace = prepareTrace(r.file, *r.setup, catalog);
+    r.setup = std::make_unique<SceneGeometry>(buildSceneGeometry(r.file, catalog));
+    r.trace = prepareTransport(r.file, *r.setup, catalog);
     return r;
 }
 

@@ -192,7 +192,7 @@ class DetectorImage {
   public:
     DetectorImage() = default;
     explicit DetectorImage(DetectorGeometry geometry);
-    // A template: the grid without memory for sums (TraceSetup::images, whose copies are the
+    // A template: the grid without memory for sums (SceneTransport::images, whose copies are the
     // accumulators of a run). Copying a template gives a zero image with its sums allocated;
     // the template's own sums must not be read (hasSums() is false).
     static DetectorImage grid(DetectorGeometry geometry);

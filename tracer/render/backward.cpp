@@ -36,8 +36,8 @@ double BackwardResult::directTotalVariance(uint64_t raysPerPixel) const {
     return v;
 }
 
-SurfaceContext lightContext(const TransportScene& ts, const ViewPoint& v,
-                            const Vec3& lightDirection, double wavelengthNm) {
+SurfaceContext lightContext(const TransportView& ts, const ViewPoint& v, const Vec3& lightDirection,
+                            double wavelengthNm) {
     SurfaceContext c;
     c.direction = lightDirection;
     const bool fromNormalSide = glm::dot(lightDirection, v.normal) < 0.0;
@@ -55,7 +55,7 @@ SurfaceContext lightContext(const TransportScene& ts, const ViewPoint& v,
 namespace {
 
 // The context of the backward walk arriving at the view point (from the detector's side).
-SurfaceContext walkContext(const TransportScene& ts, const ViewPoint& v, double wavelengthNm) {
+SurfaceContext walkContext(const TransportView& ts, const ViewPoint& v, double wavelengthNm) {
     SurfaceContext c;
     c.direction = -v.toDetector;
     c.normal = v.fromFront ? v.normal : -v.normal;
@@ -68,12 +68,11 @@ SurfaceContext walkContext(const TransportScene& ts, const ViewPoint& v, double 
 
 }  // namespace
 
-double directAt(const TransportScene& ts, const ViewPoint& v, double wavelengthNm,
-                CounterRng& rng) {
+double directAt(const TransportView& ts, const ViewPoint& v, double wavelengthNm, CounterRng& rng) {
     return directAt(ts, v, wavelengthNm, rng, {});
 }
 
-double directAt(const TransportScene& ts, const ViewPoint& v, double wavelengthNm, CounterRng& rng,
+double directAt(const TransportView& ts, const ViewPoint& v, double wavelengthNm, CounterRng& rng,
                 std::span<double> perSourceSide) {
     // Where a contribution from direction toLight goes when split by source and side.
     auto book = [&](size_t source, const Vec3& toLight, double value) {
@@ -247,7 +246,7 @@ struct PixelRaySample {
 // state) and the steps of a pixel ray.
 class PixelTracer {
   public:
-    PixelTracer(const TransportScene& ts, const DetectorImage& detector,
+    PixelTracer(const TransportView& ts, const DetectorImage& detector,
                 const ExitAperture& aperture, const BackwardOptions& options)
         : ts_(ts),
           detector_(detector),
@@ -297,7 +296,7 @@ class PixelTracer {
         return judge_->matches(state_.data(), suffix_, scratch_.data());
     }
 
-    const TransportScene& ts_;
+    const TransportView& ts_;
     const DetectorImage& detector_;
     const ExitAperture& aperture_;
     const BackwardOptions& o_;
@@ -621,7 +620,7 @@ BackwardResult mergePixels(const DetectorImage& detector, const BackwardOptions&
 
 }  // namespace
 
-BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& detector,
+BackwardResult traceBackward(const TransportView& ts, const DetectorImage& detector,
                              const ExitAperture& aperture, const BackwardOptions& options) {
     if (options.raysPerPixel == 0)
         throw std::invalid_argument("traceBackward: raysPerPixel must be at least 1");

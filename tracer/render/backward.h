@@ -124,24 +124,24 @@ struct BackwardResult {
 // Traces raysPerPixel backward rays from every pixel of `detector` (its geometry; the image's
 // sums are not used) through `aperture`. The detector's own object ends a ray that returns to
 // it. Throws std::invalid_argument for raysPerPixel = 0 or an aperture of no area.
-BackwardResult traceBackward(const TransportScene& ts, const DetectorImage& detector,
+BackwardResult traceBackward(const TransportView& ts, const DetectorImage& detector,
                              const ExitAperture& aperture, const BackwardOptions& options);
 
 // The context of light travelling along `lightDirection` (unit) onto the view point's
 // surface: normal toward the light's side, n1 the index there (media at wavelength index
 // v.wavelength), opaque by the object's kind. With it, bsdf(context, v.toDetector) is the
 // flux BSDF from that light toward the detector.
-SurfaceContext lightContext(const TransportScene& ts, const ViewPoint& v,
-                            const Vec3& lightDirection, double wavelengthNm);
+SurfaceContext lightContext(const TransportView& ts, const ViewPoint& v, const Vec3& lightDirection,
+                            double wavelengthNm);
 
 // The direct component at one view point: one sample per source toward it, each with its
 // shadow ray, two uniforms per source from rng (in source order, drawn whether or not the
 // sample counts). The radiance leaving toward the detector times v.weight.
-double directAt(const TransportScene& ts, const ViewPoint& v, double wavelengthNm, CounterRng& rng);
+double directAt(const TransportView& ts, const ViewPoint& v, double wavelengthNm, CounterRng& rng);
 // The same, also adding each contribution to perSourceSide[2 s + side]: source s, side 0 when
 // the light scatters back into the detector's side (ScatterReflect), 1 when it crosses the
 // surface (ScatterTransmit). perSourceSide holds 2 x sources values.
-double directAt(const TransportScene& ts, const ViewPoint& v, double wavelengthNm, CounterRng& rng,
+double directAt(const TransportView& ts, const ViewPoint& v, double wavelengthNm, CounterRng& rng,
                 std::span<double> perSourceSide);
 
 }  // namespace veil

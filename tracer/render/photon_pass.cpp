@@ -141,7 +141,7 @@ struct Photon {
 // any thread (the rim corrections are filled in as view points first need them).
 class PhotonPass {
   public:
-    PhotonPass(const TransportScene& ts, const DetectorImage& detector, const BackwardResult& back,
+    PhotonPass(const TransportView& ts, const DetectorImage& detector, const BackwardResult& back,
                const RenderOptions& options, const PathJudge* judge, int k, double radiusMm,
                const Ranks& ranks);
 
@@ -169,7 +169,7 @@ class PhotonPass {
     void splatCells(const Vec3& point, std::vector<int>& cells) const;
     Photon emit(uint64_t i, EmittedRay& e) const;
 
-    const TransportScene& ts_;
+    const TransportView& ts_;
     const DetectorImage& detector_;
     const BackwardResult& back_;
     const RenderOptions& options_;
@@ -195,7 +195,7 @@ class PhotonPass {
     const size_t stateBytes_;
 };
 
-PhotonPass::PhotonPass(const TransportScene& ts, const DetectorImage& detector,
+PhotonPass::PhotonPass(const TransportView& ts, const DetectorImage& detector,
                        const BackwardResult& back, const RenderOptions& options,
                        const PathJudge* judge, int k, double radiusMm, const Ranks& ranks)
     : ts_(ts),
@@ -467,7 +467,7 @@ void BlockTracer::tracePhoton(uint64_t i) {
 }
 
 void BlockTracer::follow(PhotonBranch br, Photon& ph) {
-    const TransportScene& ts = p_.ts_;
+    const TransportView& ts = p_.ts_;
     const int w = ph.wavelength;
     for (; br.segments < p_.options_.maxPhotonSegments; ++br.segments) {
         const auto hit = ts.scene->closestHit(br.ray, kInfinity, br.startObject,
@@ -662,7 +662,7 @@ PhotonBlock PhotonPass::traceBlock(uint64_t first, uint64_t last) const {
 
 }  // namespace
 
-PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detector,
+PhotonImages tracePhotons(const TransportView& ts, const DetectorImage& detector,
                           const BackwardResult& back, const RenderOptions& options,
                           const PathJudge* judge, int k, double radiusMm, const Ranks& ranks) {
     const PhotonPass pass(ts, detector, back, options, judge, k, radiusMm, ranks);

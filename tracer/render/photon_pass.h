@@ -47,7 +47,7 @@ struct PhotonImages {
 // Pass k's photons, gathered at `back`'s view points with radius radiusMm. Across `ranks`
 // (tracer/runtime/ranks.h) every rank holds the whole `back` and traces its blocks of photons; the
 // images are complete on rank 0, bitwise those of one process.
-PhotonImages tracePhotons(const TransportScene& ts, const DetectorImage& detector,
+PhotonImages tracePhotons(const TransportView& ts, const DetectorImage& detector,
                           const BackwardResult& back, const RenderOptions& options,
                           const PathJudge* judge, int k, double radiusMm,
                           const Ranks& ranks = Ranks::alone());

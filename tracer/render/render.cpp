@@ -99,7 +99,7 @@ ExitAperture exitApertureFor(const Scene& scene, const DetectorGeometry& detecto
     return a;
 }
 
-double defaultInitialRadius(const TransportScene& ts) {
+double defaultInitialRadius(const TransportView& ts) {
     const Scene& scene = *ts.scene;
     Bounds3 b;
     for (const SceneObject& o : scene.objects()) {
@@ -382,7 +382,7 @@ RenderState RenderState::read(const std::filesystem::path& path, uint64_t finger
 
 // Renderer
 
-Renderer::Renderer(const TransportScene& ts, const DetectorImage& detector, ExitAperture aperture,
+Renderer::Renderer(const TransportView& ts, const DetectorImage& detector, ExitAperture aperture,
                    RenderOptions options, const PathJudge* judge, Ranks ranks)
     : ts_(ts),
       detector_(detector.geometry()),

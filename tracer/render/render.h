@@ -96,7 +96,7 @@ ExitAperture exitApertureFor(const Scene& scene, const DetectorGeometry& detecto
 
 // r_1 when none is given: 1 % of the diagonal of the bounding box of the scene's objects
 // that scatter (those with a scatter model). ModelError when no object scatters.
-double defaultInitialRadius(const TransportScene& ts);
+double defaultInitialRadius(const TransportView& ts);
 
 // The progressive accumulators: per component and for the total, the sums over passes of
 // each pixel's estimate and of its square (DetectorImage sums, one pass as one sample).
@@ -168,7 +168,7 @@ class Renderer {
     // the renderer. `ranks`: every pass split over them (tracer/runtime/ranks.h; pixels and photons
     // by index), every rank calling runPass; the pass's images are complete on rank 0 only,
     // bitwise those of one process (RenderState::add(pass, ranks) then keeps the ranks in step).
-    Renderer(const TransportScene& ts, const DetectorImage& detector, ExitAperture aperture,
+    Renderer(const TransportView& ts, const DetectorImage& detector, ExitAperture aperture,
              RenderOptions options, const PathJudge* judge = nullptr, Ranks ranks = Ranks::alone());
     const ExitAperture& aperture() const { return aperture_; }
     const RenderOptions& options() const { return options_; }
@@ -179,7 +179,7 @@ class Renderer {
     BackwardOptions backwardOptions(int k) const;
 
   private:
-    const TransportScene& ts_;
+    const TransportView& ts_;
     DetectorImage detector_;
     ExitAperture aperture_;
     RenderOptions options_;

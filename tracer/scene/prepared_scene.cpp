@@ -2,13 +2,14 @@
 
 namespace veil {
 
-std::unique_ptr<PreparedScene> PreparedScene::build(SceneFile file, const GlassCatalog& catalog,
+std::unique_ptr<PreparedScene> PreparedScene::build(SceneSpec spec, const GlassCatalog& catalog,
                                                     const SceneOptions& options) {
     // The constructor is private, so no make_unique.
     std::unique_ptr<PreparedScene> s(new PreparedScene());
-    s->file_ = std::move(file);
-    s->setup_ = buildScene(s->file_, catalog, options);
-    if (!s->file_.sources.empty()) s->trace_ = prepareTrace(s->file_, s->setup_, catalog);
+    s->spec_ = std::move(spec);
+    s->geometry_ = buildSceneGeometry(s->spec_, catalog, options);
+    if (!s->spec_.sources.empty())
+        s->transport_ = prepareTransport(s->spec_, s->geometry_, catalog);
     return s;
 }
 
@@ -18,20 +19,20 @@ std::unique_ptr<PreparedScene> PreparedScene::read(const std::filesystem::path& 
     return build(readSceneFile(path, catalog), catalog, options);
 }
 
-void PreparedScene::replaceTransport(SceneFile file, const GlassCatalog& catalog) {
-    trace_.reset();
-    file_ = std::move(file);
-    if (!file_.sources.empty()) trace_ = prepareTrace(file_, setup_, catalog);
+void PreparedScene::replaceTransport(SceneSpec spec, const GlassCatalog& catalog) {
+    transport_.reset();
+    spec_ = std::move(spec);
+    if (!spec_.sources.empty()) transport_ = prepareTransport(spec_, geometry_, catalog);
 }
 
-const TraceSetup& PreparedScene::trace() const {
-    if (!trace_) throw ModelError(file_.path.string(), "the scene has no [[source]] to trace");
-    return *trace_;
+const SceneTransport& PreparedScene::transport() const {
+    if (!transport_) throw ModelError(spec_.path.string(), "the scene has no [[source]] to trace");
+    return *transport_;
 }
 
-TraceSetup& PreparedScene::trace() {
-    if (!trace_) throw ModelError(file_.path.string(), "the scene has no [[source]] to trace");
-    return *trace_;
+SceneTransport& PreparedScene::transport() {
+    if (!transport_) throw ModelError(spec_.path.string(), "the scene has no [[source]] to trace");
+    return *transport_;
 }
 
 }  // namespace veil

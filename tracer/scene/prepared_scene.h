@@ -1,12 +1,19 @@
 #pragma once
-// A scene prepared once per command and shared, read-only, by all its passes and threads.
+// The third stage of a scene: prepared once per command and shared, read-only, by all its
+// passes and threads. The stages, each with one name (docs/architecture.md):
 //
-//   scene.toml / lens.zmx --readSceneFile--> SceneFile (sized prescription and its one
-//       sequential model, mechanics and mesh specs, sources, detectors, properties)
-//     (a command may edit the SceneFile here: the default ghost scene, --field, --pixels)
-//   --PreparedScene::build--> file + setup (the committed Scene, mechanical parts, placed
-//       detectors, import notes) + trace (media at the system wavelengths, the property of
-//       every object, detector images, sources)
+//   file      scene.toml / lens.zmx / lens.seq on disk
+//     --readSceneFile--> (scene_spec.h)
+//   spec      SceneSpec: what the file says, checked and sized (the prescription with every
+//             semi-diameter and its one sequential model, mechanics and mesh specs, sources,
+//             detectors, properties); a command may edit it here (the default ghost scene,
+//             --field, --pixels)
+//     --PreparedScene::build-->
+//   prepared  PreparedScene: spec() + geometry() (SceneGeometry, scene_geometry.h: the
+//             committed Scene, mechanical parts, placed detectors, import notes) +
+//             transport() (SceneTransport, scene_transport.h: media at the system
+//             wavelengths, the property of every object, detector images, sources, and the
+//             TransportView every pass reads)
 //
 // One owner for all of it. The transport's pointers (to the scene and to the media) point
 // into this same object, which is neither copied nor moved (it lives behind a unique_ptr), so
@@ -18,15 +25,15 @@
 #include <memory>
 #include <optional>
 
-#include "tracer/scene/scene_setup.h"
-#include "tracer/scene/trace_setup.h"
+#include "tracer/scene/scene_geometry.h"
+#include "tracer/scene/scene_transport.h"
 
 namespace veil {
 
 class PreparedScene {
   public:
-    // Builds the scene of an already read (and possibly edited) scene file.
-    static std::unique_ptr<PreparedScene> build(SceneFile file, const GlassCatalog& catalog,
+    // Prepares the scene of an already read (and possibly edited) spec.
+    static std::unique_ptr<PreparedScene> build(SceneSpec spec, const GlassCatalog& catalog,
                                                 const SceneOptions& options = {});
     // readSceneFile() and build().
     static std::unique_ptr<PreparedScene> read(const std::filesystem::path& path,
@@ -38,27 +45,27 @@ class PreparedScene {
     PreparedScene(PreparedScene&&) = delete;
     PreparedScene& operator=(PreparedScene&&) = delete;
 
-    const SceneFile& file() const { return file_; }
-    const SceneSetup& setup() const { return setup_; }
-    const Scene& scene() const { return setup_.scene; }
-    const SequentialModel& model() const { return *setup_.model; }
-    bool hasSources() const { return trace_.has_value(); }
+    const SceneSpec& spec() const { return spec_; }
+    const SceneGeometry& geometry() const { return geometry_; }
+    const Scene& scene() const { return geometry_.scene; }
+    const SequentialModel& model() const { return *geometry_.model; }
+    bool hasSources() const { return transport_.has_value(); }
     // The transport's inputs; throws the ModelError above when the scene has no source.
-    const TraceSetup& trace() const;
+    const SceneTransport& transport() const;
     // For what-if edits of the transport's properties or sources before a run (the ghost
     // analysis's coatings); the scene itself stays as built.
-    TraceSetup& trace();
-    // Another reading of the same scene file whose edits change only what the transport
-    // reads (optical properties, [[assign]], sources: veil sweep's property-only variants):
-    // the file and the transport are replaced, the geometry is kept, not rebuilt. The caller
-    // vouches that `file` describes the same geometry.
-    void replaceTransport(SceneFile file, const GlassCatalog& catalog);
+    SceneTransport& transport();
+    // Another spec of the same scene whose edits change only what the transport reads
+    // (optical properties, [[assign]], sources: veil sweep's property-only variants): the spec
+    // and the transport are replaced, the geometry is kept, not rebuilt. The caller vouches
+    // that `spec` describes the same geometry.
+    void replaceTransport(SceneSpec spec, const GlassCatalog& catalog);
 
   private:
     PreparedScene() = default;
-    SceneFile file_;
-    SceneSetup setup_;
-    std::optional<TraceSetup> trace_;
+    SceneSpec spec_;
+    SceneGeometry geometry_;
+    std::optional<SceneTransport> transport_;
 };
 
 }  // namespace veil

@@ -36,7 +36,7 @@ bool isOpaqueKind(ObjectKind k) {
            k == ObjectKind::MirrorFace || k == ObjectKind::Detector;
 }
 
-Interaction interact(const TransportScene& ts, const SceneHit& hit, const Vec3& direction, int w,
+Interaction interact(const TransportView& ts, const SceneHit& hit, const Vec3& direction, int w,
                      double wavelengthNm, TransportMode mode) {
     Interaction in;
     const SceneObject& obj = ts.scene->object(hit.object);

@@ -33,8 +33,8 @@
 
 namespace veil {
 
-// What the transport needs of a scene, resolved once (tracer/scene/trace_setup.h fills it).
-struct TransportScene {
+// What the transport needs of a scene, resolved once (tracer/scene/scene_transport.h fills it).
+struct TransportView {
     const Scene* scene = nullptr;
     const MediaOptics* media = nullptr;
     std::vector<OpticalProperty> properties;  // distinct properties
@@ -93,7 +93,7 @@ bool isOpaqueKind(ObjectKind k);
 // longer add up with `absorbed` to 1; scatter children keep their flux fractions, and a
 // backward pass that continues through scatter weights each sampled direction by
 // bsdf(..., Importance) cos / pdf itself.
-Interaction interact(const TransportScene& ts, const SceneHit& hit, const Vec3& direction, int w,
+Interaction interact(const TransportView& ts, const SceneHit& hit, const Vec3& direction, int w,
                      double wavelengthNm, TransportMode mode = TransportMode::Flux);
 
 // One child chosen with probability proportional to its share, from one uniform u in [0, 1).

@@ -120,7 +120,7 @@ struct Accumulator {
 
 class RayTracer {
   public:
-    RayTracer(const TransportScene& ts, const TransportOptions& o)
+    RayTracer(const TransportView& ts, const TransportOptions& o)
         : ts_(ts), o_(o), sceneBounds_(ts.scene->bounds()) {}
 
     const PathHistory& history() const { return history_; }
@@ -349,7 +349,7 @@ class RayTracer {
         }
     }
 
-    const TransportScene& ts_;
+    const TransportView& ts_;
     const TransportOptions& o_;
     std::vector<Branch> stack_;
     PathHistory history_;
@@ -358,9 +358,8 @@ class RayTracer {
 
 }  // namespace
 
-TraceResult traceNonsequential(const TransportScene& ts,
-                               const std::vector<DetectorImage>& detectors, uint64_t raysPerSource,
-                               const TransportOptions& options,
+TraceResult traceNonsequential(const TransportView& ts, const std::vector<DetectorImage>& detectors,
+                               uint64_t raysPerSource, const TransportOptions& options,
                                const std::function<void(uint64_t)>& progress,
                                const RayCallback& onRay) {
     const uint64_t sources = ts.sources.size();

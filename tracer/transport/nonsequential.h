@@ -108,9 +108,8 @@ struct TraceResult {
 // With options.recordHistories, onRay(rayIndex, history) is called once per emitted ray,
 // from worker threads, concurrently: it must be thread-safe (RayDatabaseWriter::add is).
 using RayCallback = std::function<void(uint64_t, const PathHistory&)>;
-TraceResult traceNonsequential(const TransportScene& ts,
-                               const std::vector<DetectorImage>& detectors, uint64_t raysPerSource,
-                               const TransportOptions& options,
+TraceResult traceNonsequential(const TransportView& ts, const std::vector<DetectorImage>& detectors,
+                               uint64_t raysPerSource, const TransportOptions& options,
                                const std::function<void(uint64_t)>& progress = {},
                                const RayCallback& onRay = {});
 

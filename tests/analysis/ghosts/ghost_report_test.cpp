@@ -24,22 +24,23 @@ std::vector<std::string> lines(const std::string& text) {
 
 TEST(GhostReport, EveryFormatShowsTheSameRows) {
     const GlassCatalog& catalog = GlassCatalog::builtIn();
-    SceneFile file = readSceneFile(VEIL_SOURCE_DIR "/examples/lenses/cooke_triplet.toml", catalog);
+    SceneSpec file = readSceneFile(VEIL_SOURCE_DIR "/examples/lenses/cooke_triplet.toml", catalog);
     double shift = 0.0;
     ASSERT_TRUE(addDefaultGhostScene(file, catalog, &shift));
     const auto prepared = PreparedScene::build(std::move(file), catalog);
-    const GhostTracer tracer(prepared->setup(), prepared->trace(), catalog);
+    const GhostTracer tracer(prepared->geometry(), prepared->transport(), catalog);
     const GhostAnalysis a = tracer.analyse();
     GhostMonteCarloOptions mo;
     mo.raysPerSource = 64;
-    const GhostMonteCarlo mc = runGhostMonteCarlo(prepared->setup(), prepared->trace(), a, mo);
+    const GhostMonteCarlo mc =
+        runGhostMonteCarlo(prepared->geometry(), prepared->transport(), a, mo);
     GhostReportSpec spec;
     spec.scene = "cooke_triplet.toml";
     spec.defaultScene = true;
     spec.imageShiftMm = shift;
     spec.mcRaysPerSource = 64;
-    const GhostReport r =
-        makeGhostReport(spec, prepared->setup(), prepared->trace(), a, &mc, tracer.detectorIndex());
+    const GhostReport r = makeGhostReport(spec, prepared->geometry(), prepared->transport(), a, &mc,
+                                          tracer.detectorIndex());
     ASSERT_EQ(r.rows.size(), a.ghosts.size());
     ASSERT_EQ(r.rows.size(), 15u);  // 6 ghost surfaces: 6 * 5 / 2
 
@@ -78,7 +79,7 @@ TEST(GhostReport, EveryFormatShowsTheSameRows) {
 
     // Several sources (the triplet's three fields): a row's focus, footprint, flags and peak
     // are all of one source, the one where the ghost peaks, and every format names it.
-    ASSERT_EQ(prepared->trace().transport.sources.size(), 3u);
+    ASSERT_EQ(prepared->transport().view.sources.size(), 3u);
     bool sourcesDiffer = false;
     for (size_t k = 0; k < r.rows.size(); ++k) {
         const GhostReportRow& row = r.rows[k];

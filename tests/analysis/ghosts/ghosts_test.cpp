@@ -28,16 +28,16 @@ constexpr double kPi = std::numbers::pi;
 // A scene built the way veil ghosts builds it (default scene for a bare lens).
 struct GhostScene {
     const GlassCatalog& catalog = GlassCatalog::builtIn();
-    SceneFile file;
-    SceneSetup setup;
-    TraceSetup trace;
+    SceneSpec file;
+    SceneGeometry setup;
+    SceneTransport trace;
     GhostScene(const std::filesystem::path& lens,
                std::vector<std::pair<double, double>> fields = {}) {
         file = readSceneFile(lens, catalog);
         addDefaultGhostScene(file, catalog);
         if (!fields.empty()) setFieldSources(file, catalog, fields);
-        setup = buildScene(file, catalog);
-        trace = prepareTrace(file, setup, catalog);
+        setup = buildSceneGeometry(file, catalog);
+        trace = prepareTransport(file, setup, catalog);
     }
 };
 
@@ -216,7 +216,7 @@ TEST(Ghosts, CountIsNTimesNMinusOneOverTwoForEveryExampleLens) {
         EXPECT_EQ(n, static_cast<size_t>(faces));
         EXPECT_EQ(paths.size(), n * (n - 1) / 2);
         // Every generated criterion names objects of the scene.
-        const NameTable names = criterionNames(g.setup.scene, g.trace.transport);
+        const NameTable names = criterionNames(g.setup.scene, g.trace.view);
         for (const GhostPath& path : paths)
             EXPECT_NO_THROW(compile(parseCriterion(path.criterion), names)) << path.criterion;
     }
@@ -583,10 +583,10 @@ TEST(Ghosts, CoatingOverrideRemovesTheGhostsOfTheCoatedFacesAndSaysWhatChanged) 
 
 TEST(Ghosts, WindowSourcesAreRefusedByName) {
     const GlassCatalog& catalog = GlassCatalog::builtIn();
-    const SceneFile file =
+    const SceneSpec file =
         readSceneFile(VEIL_SOURCE_DIR "/examples/scenes/catadioptric_2000mm_window.toml", catalog);
-    const SceneSetup setup = buildScene(file, catalog);
-    const TraceSetup trace = prepareTrace(file, setup, catalog);
+    const SceneGeometry setup = buildSceneGeometry(file, catalog);
+    const SceneTransport trace = prepareTransport(file, setup, catalog);
     try {
         GhostTracer tracer(setup, trace, catalog);
         FAIL() << "expected a ModelError";

@@ -8,7 +8,7 @@
 #include "analysis/lens/first_order.h"
 #include "lensdata/codev_reader.h"
 #include "lensdata/glass_catalog.h"
-#include "tracer/scene/scene_setup.h"
+#include "tracer/scene/scene_spec.h"
 #include "tracer/sequential/ray_aiming.h"
 #include "tracer/sequential/sequential_model.h"
 #include "tracer/sequential/sequential_trace.h"
@@ -18,9 +18,9 @@ namespace {
 
 TEST(CodeVImport, DoubleGaussHasThePatentsFirstOrderData) {
     const GlassCatalog& catalog = GlassCatalog::builtIn();
-    const SceneFile seq =
+    const SceneSpec seq =
         readSceneFile(VEIL_SOURCE_DIR "/tests/data/codev/double_gauss_50mm.seq", catalog);
-    const SceneFile toml =
+    const SceneSpec toml =
         readSceneFile(VEIL_SOURCE_DIR "/examples/lenses/double_gauss_50mm.toml", catalog);
     const FirstOrderData a = computeFirstOrder(*seq.model, seq.model->primaryWavelength());
     const FirstOrderData b = computeFirstOrder(*toml.model, toml.model->primaryWavelength());

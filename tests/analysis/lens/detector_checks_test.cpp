@@ -29,8 +29,8 @@ std::vector<ImportNote> warningsFor(const std::string& detector) {
             VEIL_SOURCE_DIR, detector.c_str());
     fclose(f);
     const GlassCatalog& catalog = GlassCatalog::builtIn();
-    const SceneFile file = readSceneFile(path, catalog);
-    const SceneSetup setup = buildScene(file, catalog);
+    const SceneSpec file = readSceneFile(path, catalog);
+    const SceneGeometry setup = buildSceneGeometry(file, catalog);
     return detectorPlacementWarnings(file, setup);
 }
 
@@ -42,7 +42,7 @@ std::string text(const std::vector<ImportNote>& notes) {
 
 TEST(DetectorChecks, FreeDetectorInsideTheFirstElement) {
     const GlassCatalog& catalog = GlassCatalog::builtIn();
-    const SceneFile lens =
+    const SceneSpec lens =
         readSceneFile(VEIL_SOURCE_DIR "/examples/lenses/double_gauss_50mm.toml", catalog);
     const std::vector<LensSolid> solids = lensSolids(lens.prescription);
     ASSERT_FALSE(solids.empty());
@@ -71,7 +71,7 @@ TEST(DetectorChecks, FreeDetectorFarFromTheImagePlane) {
         << far[0].message;
     // The distance stated is the one from the paraxial focus.
     const GlassCatalog& catalog = GlassCatalog::builtIn();
-    const SceneFile lens =
+    const SceneSpec lens =
         readSceneFile(VEIL_SOURCE_DIR "/examples/lenses/double_gauss_50mm.toml", catalog);
     const SequentialModel& m = *lens.model;
     const double zImage = m.surface(m.imageIndex()).zMm +
@@ -103,8 +103,8 @@ TEST(DetectorChecks, LightArrivingOnTheBackIsSaid) {
         f);
     fclose(f);
     const GlassCatalog& catalog = GlassCatalog::builtIn();
-    const SceneFile file = readSceneFile(path, catalog);
-    const SceneSetup setup = buildScene(file, catalog);
+    const SceneSpec file = readSceneFile(path, catalog);
+    const SceneGeometry setup = buildSceneGeometry(file, catalog);
     const auto notes = detectorPlacementWarnings(file, setup);
     ASSERT_EQ(notes.size(), 1u) << text(notes);
     EXPECT_NE(notes[0].message.find("faces away from the image-space light"), std::string::npos)
@@ -115,15 +115,15 @@ TEST(DetectorChecks, ExampleScenesAreQuiet) {
     const GlassCatalog& catalog = GlassCatalog::builtIn();
     for (const auto& e : std::filesystem::directory_iterator(VEIL_SOURCE_DIR "/examples/scenes")) {
         SCOPED_TRACE(e.path().string());
-        const SceneFile file = readSceneFile(e.path(), catalog);
-        const SceneSetup setup = buildScene(file, catalog);
+        const SceneSpec file = readSceneFile(e.path(), catalog);
+        const SceneGeometry setup = buildSceneGeometry(file, catalog);
         EXPECT_TRUE(detectorPlacementWarnings(file, setup).empty())
             << text(detectorPlacementWarnings(file, setup));
     }
     // And the default detector of a bare lens, on its image surface.
-    const SceneFile lens =
+    const SceneSpec lens =
         readSceneFile(VEIL_SOURCE_DIR "/examples/lenses/double_gauss_50mm.toml", catalog);
-    EXPECT_TRUE(detectorPlacementWarnings(lens, buildScene(lens, catalog)).empty());
+    EXPECT_TRUE(detectorPlacementWarnings(lens, buildSceneGeometry(lens, catalog)).empty());
 }
 
 }  // namespace

@@ -16,7 +16,7 @@
 #include "analysis/lens/spot.h"
 #include "lensdata/errors.h"
 #include "lensdata/glass_catalog.h"
-#include "tracer/scene/scene_setup.h"
+#include "tracer/scene/scene_spec.h"
 #include "tracer/sequential/ray_aiming.h"
 #include "tracer/sequential/sequential_model.h"
 
@@ -35,7 +35,7 @@ std::filesystem::path singletWith(const std::string& name, const std::string& fi
 
 TEST(ImageFields, ParaxialHeightsBecomeTheAnglesWhoseParaxialImageIsThere) {
     const GlassCatalog& catalog = GlassCatalog::builtIn();
-    const SceneFile file = readSceneFile(
+    const SceneSpec file = readSceneFile(
         singletWith("veil_fields_paraxial", "fields_paraxial_image_mm = [0.0, [3.0, 4.0], 8.5]"),
         catalog);
     const SystemData& sys = file.prescription.system;
@@ -57,7 +57,7 @@ TEST(ImageFields, ParaxialHeightsBecomeTheAnglesWhoseParaxialImageIsThere) {
 
 TEST(ImageFields, RealHeightsAreWhereTheRealChiefRayLands) {
     const GlassCatalog& catalog = GlassCatalog::builtIn();
-    const SceneFile file = readSceneFile(
+    const SceneSpec file = readSceneFile(
         singletWith("veil_fields_real", "fields_real_image_mm = [0.0, [3.0, 4.0], 8.5]"), catalog);
     const SystemData& sys = file.prescription.system;
     EXPECT_EQ(sys.fieldKind, SystemData::FieldKind::AngleDeg);
@@ -93,7 +93,7 @@ surfaces = [
   { r = -394.56, t = 140.0, sd = 12.0 },
 ]
 )";
-    const SceneFile file = readSceneFile(p, catalog);
+    const SceneSpec file = readSceneFile(p, catalog);
     const SystemData& sys = file.prescription.system;
     EXPECT_EQ(sys.fieldKind, SystemData::FieldKind::ObjectHeightMm);
     const FirstOrderData fo = computeFirstOrder(*file.model, 0);
@@ -110,7 +110,7 @@ TEST(ImageFields, ZemaxRealImageHeightFieldsLoad) {
                         "PWAV 1\nSURF 0\n  DISZ INFINITY\nSURF 1\n  STOP\n  CURV 0.016874789\n"
                         "  DISZ 4\n  GLAS N-BK7 0 0 1.5168 64.17\n  DIAM 12\nSURF 2\n"
                         "  CURV -0.0025344687\n  DISZ 96.71\n  DIAM 12\nSURF 3\n";
-    const SceneFile file = readSceneFile(p, GlassCatalog::builtIn());
+    const SceneSpec file = readSceneFile(p, GlassCatalog::builtIn());
     for (const ImportNote& n : file.prescription.report)
         EXPECT_NE(n.severity, ImportNote::Severity::Error) << n;
     const SystemData& sys = file.prescription.system;

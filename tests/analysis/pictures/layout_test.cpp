@@ -73,13 +73,13 @@ TEST(LayoutSources, BeamArrowsAreParallelAndEndWhereTheRayFirstMeetsTheScene) {
     const Scene& scene = r.setup->scene;
     LayoutSourceOptions o;
     o.minBeamArrowMm = 30.0;
-    const std::vector<LayoutSource> s = layoutSources(r.trace.transport.sources, scene, o);
+    const std::vector<LayoutSource> s = layoutSources(r.trace.view.sources, scene, o);
     ASSERT_EQ(s.size(), 1u);
     EXPECT_EQ(s[0].name, "sun");
     EXPECT_EQ(s[0].kind, "sun");
     EXPECT_TRUE(s[0].emitterZY.empty());
     ASSERT_EQ(s[0].arrows.size(), 7u);
-    const Beam& beam = std::get<SunSource>(r.trace.transport.sources[0].shape()).beam;
+    const Beam& beam = std::get<SunSource>(r.trace.view.sources[0].shape()).beam;
     // The sun 7 deg off axis in y: the beam runs along (z, y) = (cos 7, sin 7).
     const Vec2 along(beam.direction.z, beam.direction.y);
     EXPECT_NEAR(along.y / along.x, std::tan(7.0 * M_PI / 180.0), 1e-12);
@@ -109,7 +109,7 @@ TEST(LayoutSources, BeamArrowsAreParallelAndEndWhereTheRayFirstMeetsTheScene) {
 
 TEST(LayoutSources, PointAndAreaSourcesAreDrawnWhereTheyEmit) {
     const Prepared r = prepare(threeSourceScene());
-    const std::vector<Source>& sources = r.trace.transport.sources;
+    const std::vector<Source>& sources = r.trace.view.sources;
     const std::vector<LayoutSource> s = layoutSources(sources, r.setup->scene);
     ASSERT_EQ(s.size(), 3u);
 
@@ -176,10 +176,10 @@ TEST(LayoutSources, PointAndAreaSourcesAreDrawnWhereTheyEmit) {
 
 TEST(LayoutSources, TheWindowIsADiskInFrontOfTheLens) {
     const Prepared r = prepare(kWindowScene);
-    const std::vector<LayoutSource> s = layoutSources(r.trace.transport.sources, r.setup->scene);
+    const std::vector<LayoutSource> s = layoutSources(r.trace.view.sources, r.setup->scene);
     ASSERT_EQ(s.size(), 1u);
     EXPECT_EQ(s[0].kind, "window");
-    const WindowSource& w = std::get<WindowSource>(r.trace.transport.sources[0].shape());
+    const WindowSource& w = std::get<WindowSource>(r.trace.view.sources[0].shape());
     ASSERT_EQ(s[0].emitterZY.size(), 2u);
     EXPECT_NEAR(std::abs(s[0].emitterZY[0].y - s[0].emitterZY[1].y), 2.0 * w.area.radiusMm, 1e-9);
     // 0.1 mm in front of the lens's front-most point (docs/format.md).
@@ -205,7 +205,7 @@ TEST(DrawLayout, TheLegendListsTheKindsDrawn) {
     for (const SectionPath& p : sceneSection(bare.setup->scene, 0.005)) kinds.insert(p.kind);
     EXPECT_EQ(kinds.count(ObjectKind::Mechanics), 0u);
     LayoutOptions o;
-    o.sources = layoutSources(bare.trace.transport.sources, bare.setup->scene);
+    o.sources = layoutSources(bare.trace.view.sources, bare.setup->scene);
     const std::vector<std::string> labels = legendLabels(drawLayout(bare.setup->scene, o));
     auto has = [&](const char* l) {
         return std::find(labels.begin(), labels.end(), l) != labels.end();
@@ -240,7 +240,7 @@ TEST(DrawLayout, SourcesAndTheDetectorNameAppearInTheSvg) {
     LayoutOptions o;
     o.title = "Long focus & <sun>";
     const std::string without = drawLayout(r.setup->scene, o).svg();
-    o.sources = layoutSources(r.trace.transport.sources, r.setup->scene);
+    o.sources = layoutSources(r.trace.view.sources, r.setup->scene);
     const Picture pic = drawLayout(r.setup->scene, o);
     const std::string svg = pic.svg();
     const std::regex sourceLabel("<text [^>]*>sun, 7 deg off axis</text>");
@@ -293,7 +293,7 @@ TEST(DrawLayout, WritesPicturesOfTheExampleSources) {
         const Prepared r = prepare(scene);
         LayoutOptions o;
         o.title = r.file.prescription.system.name;
-        o.sources = layoutSources(r.trace.transport.sources, r.setup->scene);
+        o.sources = layoutSources(r.trace.view.sources, r.setup->scene);
         const Picture pic = drawLayout(r.setup->scene, o);
         const std::filesystem::path stem = dir / scene.stem();
         pic.writeSvg(stem.string() + ".svg");

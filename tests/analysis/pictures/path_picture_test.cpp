@@ -42,7 +42,7 @@ PathSelectionOptions ghostOptions() {
 TEST(PathSelection, KeepsTheFirstRaysWithAMatchAndAllTheirMatchingPaths) {
     const Prepared r = prepare(kSunScene);
     const PathSelectionOptions o = ghostOptions();
-    const PathSelection sel = selectPaths(r.trace.transport, r.trace.images, o);
+    const PathSelection sel = selectPaths(r.trace.view, r.trace.images, o);
     ASSERT_EQ(sel.rays.size(), o.count) << sel;
     const std::vector<SelectedPath> paths = sel.paths();
     EXPECT_GT(paths.size(), o.count) << "split rays have several ghost branches";
@@ -51,7 +51,7 @@ TEST(PathSelection, KeepsTheFirstRaysWithAMatchAndAllTheirMatchingPaths) {
     // Oracle: trace the same batches, record every matching (ray, leaf) with the direct
     // evaluator, sort, take the first `count`.
     const CompiledCriterion c =
-        compile(parseCriterion(kGhosts), criterionNames(r.setup->scene, r.trace.transport));
+        compile(parseCriterion(kGhosts), criterionNames(r.setup->scene, r.trace.view));
     std::vector<std::pair<uint64_t, NodeIndex>> all;
     std::mutex m;
     uint64_t traced = 0;
@@ -60,7 +60,7 @@ TEST(PathSelection, KeepsTheFirstRaysWithAMatchAndAllTheirMatchingPaths) {
         to.recordHistories = true;
         to.seed = o.transport.seed + b;
         const uint64_t offset = traced;
-        traceNonsequential(r.trace.transport, r.trace.images, o.batchRays, to, {},
+        traceNonsequential(r.trace.view, r.trace.images, o.batchRays, to, {},
                            [&](uint64_t i, const PathHistory& h) {
                                h.forEachPath([&](const PathView& p) {
                                    const std::vector<PathEvent> ev(p.begin(), p.end());
@@ -69,7 +69,7 @@ TEST(PathSelection, KeepsTheFirstRaysWithAMatchAndAllTheirMatchingPaths) {
                                    all.emplace_back(offset + i, p.leaf());
                                });
                            });
-        traced += o.batchRays * r.trace.transport.sources.size();
+        traced += o.batchRays * r.trace.view.sources.size();
     }
     std::sort(all.begin(), all.end());
     // The oracle's matches of its first `count` distinct rays.
@@ -96,9 +96,9 @@ TEST(PathSelection, KeepsTheFirstRaysWithAMatchAndAllTheirMatchingPaths) {
 
 TEST(PathSelection, EveryKeptPathSatisfiesTheCriterion) {
     const Prepared r = prepare(kSunScene);
-    const PathSelection sel = selectPaths(r.trace.transport, r.trace.images, ghostOptions());
+    const PathSelection sel = selectPaths(r.trace.view, r.trace.images, ghostOptions());
     const CompiledCriterion c =
-        compile(parseCriterion(kGhosts), criterionNames(r.setup->scene, r.trace.transport));
+        compile(parseCriterion(kGhosts), criterionNames(r.setup->scene, r.trace.view));
     ASSERT_FALSE(sel.rays.empty());
     for (const SelectedPath& p : sel.paths()) {
         EXPECT_TRUE(evaluateDirect(c, p.events).value) << p;
@@ -116,7 +116,7 @@ TEST(PathSelection, OneAndTwoThreadsSelectTheSamePaths) {
     const Prepared r = prepare(kSunScene);
     auto run = [&](size_t threads) {
         tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
-        return selectPaths(r.trace.transport, r.trace.images, ghostOptions());
+        return selectPaths(r.trace.view, r.trace.images, ghostOptions());
     };
     const PathSelection one = run(1), two = run(2);
     const std::vector<SelectedPath> a = one.paths(), b = two.paths();
@@ -135,7 +135,7 @@ TEST(PathSelection, ABadCriterionNamesItsColumn) {
     PathSelectionOptions o = ghostOptions();
     o.where = "reflect and hit(nosuchpart)";
     try {
-        selectPaths(r.trace.transport, r.trace.images, o);
+        selectPaths(r.trace.view, r.trace.images, o);
         FAIL() << "no error";
     } catch (const ParseError& e) {
         EXPECT_NE(std::string(e.what()).find(":1:17"), std::string::npos) << e.what();
@@ -146,7 +146,7 @@ TEST(PathPicture, WritesSvgAndPng) {
     const Prepared r = prepare(kSunScene);
     PathSelectionOptions o = ghostOptions();
     o.count = 10;
-    const PathSelection sel = selectPaths(r.trace.transport, r.trace.images, o);
+    const PathSelection sel = selectPaths(r.trace.view, r.trace.images, o);
     const Picture base = drawLayout(r.setup->scene, {});
     const std::filesystem::path dir = ::testing::TempDir();
     for (PathColouring colouring : {PathColouring::LogFlux, PathColouring::EventType}) {
@@ -179,7 +179,7 @@ TEST(PathPicture, TheFluxKeyIsInTheSourcesUnitAndSpansTheSegmentsDrawn) {
     o.count = 5;
     o.batchRays = 50;
     o.maxRays = 50;
-    const PathSelection sel = selectPaths(r.trace.transport, r.trace.images, o);
+    const PathSelection sel = selectPaths(r.trace.view, r.trace.images, o);
     EXPECT_EQ(sel.fluxUnit, "lm");
     ASSERT_FALSE(sel.rays.empty());
     double maxFlux = 0.0;
@@ -201,7 +201,7 @@ TEST(PathPicture, SegmentsStayInsideTheLayoutFrame) {
     PathSelectionOptions o = ghostOptions();
     o.where = "exit";  // every exit segment runs past the scene's bounds
     o.count = 20;
-    const PathSelection sel = selectPaths(r.trace.transport, r.trace.images, o);
+    const PathSelection sel = selectPaths(r.trace.view, r.trace.images, o);
     ASSERT_FALSE(sel.rays.empty());
     const Picture base = drawLayout(r.setup->scene, {});
     PathPictureOptions po;

@@ -19,7 +19,7 @@
 #include "analysis/criteria/criterion_images.h"
 #include "analysis/criteria/criterion_names.h"
 #include "analysis/lens/first_order.h"
-#include "tracer/scene/trace_setup.h"
+#include "tracer/scene/scene_transport.h"
 
 namespace veil {
 namespace {
@@ -229,18 +229,18 @@ std::ostream& operator<<(std::ostream& os, const Share& s) {
 
 // One split run of n rays (seed) binned by the criteria: each criterion's share of the
 // emitted flux and its standard error, then the share no criterion matched.
-std::vector<Share> sharesByCriterion(const SceneSetup& setup, const TraceSetup& trace,
+std::vector<Share> sharesByCriterion(const SceneGeometry& setup, const SceneTransport& trace,
                                      const std::vector<std::string>& texts, uint64_t n,
                                      uint64_t seed, double expectedEmitted) {
-    const NameTable names = criterionNames(setup.scene, trace.transport);
+    const NameTable names = criterionNames(setup.scene, trace.view);
     std::vector<CompiledCriterion> compiled;
     for (const std::string& t : texts) compiled.push_back(compile(parseCriterion(t), names));
-    CriterionImages split(texts, compiled, trace.images, trace.transport.detectorOfObject);
+    CriterionImages split(texts, compiled, trace.images, trace.view.detectorOfObject);
     TransportOptions o;
     o.seed = seed;
     o.recordHistories = true;
     const TraceResult res =
-        traceNonsequential(trace.transport, trace.images, n, o, {}, split.callback());
+        traceNonsequential(trace.view, trace.images, n, o, {}, split.callback());
     split.finish();
     const FluxBudget& b = res.budget;
     EXPECT_NEAR(b.emitted, expectedEmitted, 1e-12 * expectedEmitted);
@@ -279,9 +279,9 @@ const char* const kImageCriterion =
 // N-BK7 on the axis, whose absorption (0.3 to 0.5 % at the three lines) neither estimate has.
 TEST(Catadioptric, WindowLightReachesTheDetectorThroughThePrimaryHole) {
     const GlassCatalog& catalog = GlassCatalog::builtIn();
-    const SceneFile file = readSceneFile(writeScene(), catalog);
-    const SceneSetup setup = buildScene(file, catalog);
-    const TraceSetup trace = prepareTrace(file, setup, catalog);
+    const SceneSpec file = readSceneFile(writeScene(), catalog);
+    const SceneGeometry setup = buildSceneGeometry(file, catalog);
+    const SceneTransport trace = prepareTransport(file, setup, catalog);
     const Prescription& p = setup.prescription;
     ASSERT_EQ(p.surfaces[4].name, "M1");
     ASSERT_EQ(p.surfaces[5].name, "M2");
@@ -348,10 +348,10 @@ TEST(Catadioptric, WindowLightReachesTheDetectorThroughThePrimaryHole) {
 // 0.079833 lm on the detector, and how it splits.
 TEST(Catadioptric, ExampleWindowSceneDeliversTheOraclesShares) {
     const GlassCatalog& catalog = GlassCatalog::builtIn();
-    const SceneFile file =
+    const SceneSpec file =
         readSceneFile(VEIL_SOURCE_DIR "/examples/scenes/catadioptric_2000mm_window.toml", catalog);
-    const SceneSetup setup = buildScene(file, catalog);
-    const TraceSetup trace = prepareTrace(file, setup, catalog);
+    const SceneGeometry setup = buildSceneGeometry(file, catalog);
+    const SceneTransport trace = prepareTransport(file, setup, catalog);
     const std::vector<std::string> texts = {
         kImageCriterion, "not reflect and not scatter and detector(sensor)",
         "not fresnel and not scatter and reflect{4} and detector(sensor)",

@@ -16,8 +16,8 @@
 #include "lensdata/glass_catalog.h"
 #include "lensdata/lens_file.h"
 #include "tracer/scene/prepared_scene.h"
-#include "tracer/scene/scene_setup.h"
-#include "tracer/scene/trace_setup.h"
+#include "tracer/scene/scene_geometry.h"
+#include "tracer/scene/scene_transport.h"
 
 namespace veil {
 namespace {
@@ -134,7 +134,7 @@ pixels = [41, 41]
     // (its far edge ray meets the fold 9.4 mm from the centre),
     // everything else reaches the sensor: a binomial share, checked at 4 sigma.
     const double R =
-        std::get<CollimatedSource>(scene->trace().transport.sources[0].shape()).beam.radiusMm;
+        std::get<CollimatedSource>(scene->transport().view.sources[0].shape()).beam.radiusMm;
     ASSERT_GE(R, 18.0);
     ASSERT_LT(R, 20.0);
     const double expected = 1.0 - 100.0 * std::sqrt(0.5) / (R * R);
@@ -245,12 +245,12 @@ TEST(CoordinateBreakScene, GhostsThroughAFoldAreTheUnfoldedGhosts) {
             "aperture = { epd_mm = 10.0 }\nfields_deg = [0.0]\nsurfaces = [\n" +
             rows + "  { image = true, sd = 30.0 },\n]\n";
         const GlassCatalog& catalog = GlassCatalog::builtIn();
-        SceneFile file = readSceneFile(
+        SceneSpec file = readSceneFile(
             writeText(folded ? "veil_cb_plate_folded.toml" : "veil_cb_plate.toml", text), catalog);
         // Field sources alone (no stop plate), the same for both.
         setFieldSources(file, catalog, {{0.0, fieldDeg}});
-        const SceneSetup setup = buildScene(file, catalog);
-        const TraceSetup trace = prepareTrace(file, setup, catalog);
+        const SceneGeometry setup = buildSceneGeometry(file, catalog);
+        const SceneTransport trace = prepareTransport(file, setup, catalog);
         const GhostTracer tracer(setup, trace, catalog);
         return tracer.analyse();
     };

@@ -26,15 +26,15 @@ const std::string kExamples = VEIL_SOURCE_DIR "/examples/";
 // collimated 1 W beams, after the default scene of a file without sources (veil ghosts).
 struct Prepared {
     const GlassCatalog& catalog = GlassCatalog::builtIn();
-    SceneFile file;
-    SceneSetup setup;
-    TraceSetup trace;
+    SceneSpec file;
+    SceneGeometry setup;
+    SceneTransport trace;
     explicit Prepared(const std::string& path, std::vector<std::pair<double, double>> fields = {}) {
         file = readSceneFile(kExamples + path, catalog);
         addDefaultGhostScene(file, catalog);
         if (!fields.empty()) setFieldSources(file, catalog, fields);
-        setup = buildScene(file, catalog);
-        trace = prepareTrace(file, setup, catalog);
+        setup = buildSceneGeometry(file, catalog);
+        trace = prepareTransport(file, setup, catalog);
     }
 };
 
@@ -46,17 +46,17 @@ struct Flux {
 // split run; pruned to the criteria when `prune`.
 std::vector<Flux> fluxByCriterion(const Prepared& s, const std::vector<std::string>& texts,
                                   uint64_t rays, bool prune, double* emitted = nullptr) {
-    const NameTable names = criterionNames(s.setup.scene, s.trace.transport);
+    const NameTable names = criterionNames(s.setup.scene, s.trace.view);
     std::vector<CompiledCriterion> compiled;
     for (const std::string& t : texts) compiled.push_back(compile(parseCriterion(t), names));
-    CriterionImages split(texts, compiled, s.trace.images, s.trace.transport.detectorOfObject);
+    CriterionImages split(texts, compiled, s.trace.images, s.trace.view.detectorOfObject);
     const CriteriaFilter filter(split.criteria());
     TransportOptions o;
     o.seed = 1;
     o.recordHistories = true;
     if (prune) o.filter = &filter;
     const TraceResult res =
-        traceNonsequential(s.trace.transport, s.trace.images, rays, o, {}, split.callback());
+        traceNonsequential(s.trace.view, s.trace.images, rays, o, {}, split.callback());
     split.finish();
     EXPECT_LT(std::abs(res.budget.imbalance()), 1e-12 * res.budget.emitted) << res.budget;
     if (emitted) *emitted = res.budget.emitted;

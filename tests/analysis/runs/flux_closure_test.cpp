@@ -65,7 +65,7 @@ FluxBudget traceLossless(double ndCrown, double ndFlint, TransportOptions::Mode 
     o.minRelativeFlux = 1e-9;
     o.maxSplitDepth = 200;
     o.seed = 11;
-    return traceNonsequential(r.trace.transport, r.trace.images, rays, o).budget;
+    return traceNonsequential(r.trace.view, r.trace.images, rays, o).budget;
 }
 
 TEST(FluxClosure, LosslessSceneAbsorbsNothingInSplitMode) {

@@ -11,16 +11,16 @@
 #include <random>
 #include <sstream>
 
-#include "tracer/scene/scene_setup.h"
+#include "tracer/scene/scene_geometry.h"
 
 namespace veil {
 namespace {
 
 // An example: "scenes/x" as written (with its own [mechanics]), "lenses/x" with the default
 // mechanics at a coarser tessellation (the brute-force oracle is slow on fine meshes).
-SceneSetup exampleScene(const std::string& name) {
+SceneGeometry exampleScene(const std::string& name) {
     const GlassCatalog& catalog = GlassCatalog::builtIn();
-    SceneFile f = readSceneFile(VEIL_SOURCE_DIR "/examples/" + name + ".toml", catalog);
+    SceneSpec f = readSceneFile(VEIL_SOURCE_DIR "/examples/" + name + ".toml", catalog);
     // A system a coordinate break takes off the axis, or with anamorphic surfaces, gets no
     // generated mounts (its meshes are its own [[mesh]] parts).
     if (!f.mechanics && f.model->coaxial() && f.prescription.firstAnamorphic() < 0) {
@@ -28,7 +28,7 @@ SceneSetup exampleScene(const std::string& name) {
         spec.chordToleranceMm = 0.05;
         f.mechanics = spec;
     }
-    return buildScene(f, catalog);
+    return buildSceneGeometry(f, catalog);
 }
 
 struct Mismatch {
@@ -190,7 +190,7 @@ void PrintTo(const OracleCase& c, std::ostream* os) { *os << c.name; }
 class SceneClosestHit : public ::testing::TestWithParam<OracleCase> {};
 
 TEST_P(SceneClosestHit, AgreesWithBruteForce) {
-    const SceneSetup setup = exampleScene(GetParam().example);
+    const SceneGeometry setup = exampleScene(GetParam().example);
     const Scene& scene = setup.scene;
     ASSERT_GT(scene.meshes().size(), 0u) << "no mechanics were built";
     TargetPicker aim(scene, 20261122);

@@ -15,7 +15,7 @@
 #include "analysis/criteria/criterion_names.h"
 #include "analysis/runs/ray_statistics.h"
 #include "tests/analysis/prepared_scene.h"
-#include "tracer/scene/trace_setup.h"
+#include "tracer/scene/scene_transport.h"
 #include "tracer/sequential/ray_aiming.h"
 #include "tracer/sequential/sequential_trace.h"
 
@@ -46,14 +46,14 @@ field_deg = [0.0, 3.0]
     o.minRelativeFlux = 1e-3;
     o.seed = 3;
     const uint64_t n = 2000;
-    const TraceResult res = traceNonsequential(r.trace.transport, r.trace.images, n, o);
+    const TraceResult res = traceNonsequential(r.trace.view, r.trace.images, n, o);
     const FluxBudget& b = res.budget;
     // Emission is exact: every ray of a watt source sampled radiometrically carries
     // totalFlux / n, so n rays emit the total to rounding. The default sun beam is normalised
     // to 1 W through the aperture disk (radius a, seen at 3 deg): its start disk (radius
     // rb >= a) carries 1 W * rb^2 / (a^2 cos 3 deg).
-    ASSERT_EQ(r.trace.transport.sources.size(), 1u);
-    const Source& sun = r.trace.transport.sources[0];
+    ASSERT_EQ(r.trace.view.sources.size(), 1u);
+    const Source& sun = r.trace.view.sources[0];
     const Beam& beam = std::get<SunSource>(sun.shape()).beam;
     EXPECT_EQ(b.rays, n);
     EXPECT_NEAR(b.emitted, sun.totalFlux(), 1e-12 * sun.totalFlux());
@@ -107,7 +107,7 @@ pixels = [16, 16]
 )";
     WindowRun w;
     w.scene = prepare(writeScene(name, text.str()));
-    w.result = traceNonsequential(w.scene.trace.transport, w.scene.trace.images, n, o);
+    w.result = traceNonsequential(w.scene.trace.view, w.scene.trace.images, n, o);
     w.e0 = 1.0 / (M_PI * 100.0);
     return w;
 }
@@ -221,7 +221,7 @@ field_deg = [0.0, 25.0]
     o.seed = 5;
     auto run = [&](int threads) {
         tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
-        return traceNonsequential(r.trace.transport, r.trace.images, 3000, o);
+        return traceNonsequential(r.trace.view, r.trace.images, 3000, o);
     };
     const TraceResult one = run(1), two = run(2);
     EXPECT_TRUE(one.detectors[0].sameSums(two.detectors[0]));
@@ -257,7 +257,7 @@ pixels = [300, 300]
     TransportOptions o;
     o.seed = 17;
     const uint64_t n = 300000;
-    const TraceResult res = traceNonsequential(r.trace.transport, r.trace.images, n, o);
+    const TraceResult res = traceNonsequential(r.trace.view, r.trace.images, n, o);
     const DetectorImage& img = res.detectors[0];
 
     // Moments of the image about the axis, at pixel centres (flux per ray is constant).
@@ -345,7 +345,7 @@ field_deg = [0.0, 25.0]
     TransportOptions o;
     o.seed = 9;
     const uint64_t n = 1500;
-    const TraceResult plain = traceNonsequential(r.trace.transport, r.trace.images, n, o);
+    const TraceResult plain = traceNonsequential(r.trace.view, r.trace.images, n, o);
 
     const std::filesystem::path db = std::filesystem::path(::testing::TempDir()) / "histories.vrdb";
     RayDatabaseInfo info = describeScene(r.setup->scene, "histories");
@@ -355,7 +355,7 @@ field_deg = [0.0, 25.0]
         RayDatabaseWriter writer(db, info);
         o.recordHistories = true;
         const TraceResult recorded = traceNonsequential(
-            r.trace.transport, r.trace.images, n, o, {}, [&](uint64_t i, const PathHistory& h) {
+            r.trace.view, r.trace.images, n, o, {}, [&](uint64_t i, const PathHistory& h) {
                 // Every leaf is a terminal event (detectors absorb what they record); nothing
                 // else is a leaf.
                 for (size_t k = 0; k < h.size(); ++k) {
@@ -395,16 +395,16 @@ size_mm = [36.0, 24.0]
 pixels = [72, 48]
 )");
     Prepared r = prepare(path);
-    const NameTable names = criterionNames(r.setup->scene, r.trace.transport);
+    const NameTable names = criterionNames(r.setup->scene, r.trace.view);
     const std::vector<std::string> texts = {"reflect{2}", "not reflect{2}"};
     std::vector<CompiledCriterion> compiled;
     for (const std::string& t : texts) compiled.push_back(compile(parseCriterion(t), names));
-    CriterionImages split(texts, compiled, r.trace.images, r.trace.transport.detectorOfObject);
+    CriterionImages split(texts, compiled, r.trace.images, r.trace.view.detectorOfObject);
     TransportOptions o;
     o.seed = 21;
     o.recordHistories = true;
     const TraceResult res =
-        traceNonsequential(r.trace.transport, r.trace.images, 4000, o, {}, split.callback());
+        traceNonsequential(r.trace.view, r.trace.images, 4000, o, {}, split.callback());
     split.finish();
     const DetectorImage& whole = res.detectors[0];
     const DetectorImage& ghosts = split.images()[0][0];
@@ -438,19 +438,19 @@ size_mm = [36.0, 24.0]
 pixels = [36, 24]
 )");
     Prepared r = prepare(path);
-    const NameTable names = criterionNames(r.setup->scene, r.trace.transport);
+    const NameTable names = criterionNames(r.setup->scene, r.trace.view);
     const std::vector<std::string> texts = {"fresnel{2} and not scatter"};
     const std::vector<CompiledCriterion> compiled = {compile(parseCriterion(texts[0]), names)};
     const uint64_t n = 6000;
     auto run = [&](bool prune, uint64_t& segments) {
-        CriterionImages split(texts, compiled, r.trace.images, r.trace.transport.detectorOfObject);
+        CriterionImages split(texts, compiled, r.trace.images, r.trace.view.detectorOfObject);
         CriteriaFilter filter(split.criteria());
         TransportOptions o;
         o.seed = 31;
         o.recordHistories = true;
         o.filter = prune ? &filter : nullptr;
         const TraceResult res =
-            traceNonsequential(r.trace.transport, r.trace.images, n, o, {}, split.callback());
+            traceNonsequential(r.trace.view, r.trace.images, n, o, {}, split.callback());
         split.finish();
         segments = res.budget.segments;
         EXPECT_LT(std::abs(res.budget.imbalance()), 1e-12 * res.budget.emitted);

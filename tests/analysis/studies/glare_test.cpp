@@ -24,7 +24,7 @@ namespace {
 namespace fs = std::filesystem;
 
 // A singlet scene: its faces as given, its butt end and flats absorbing.
-SceneFile singlet(const std::string& name, const std::string& faces) {
+SceneSpec singlet(const std::string& name, const std::string& faces) {
     const fs::path path = fs::path(::testing::TempDir()) / ("veil_glare_" + name + ".toml");
     FILE* f = fopen(path.c_str(), "w");
     EXPECT_TRUE(f);
@@ -140,7 +140,7 @@ TEST(Glare, SpreadOfScatterAtTheStopIsIsoplanatic) {
 
 TEST(Glare, UncoatedSingletGhostMatchesForwardMonteCarlo) {
     const GlassCatalog& catalog = GlassCatalog::builtIn();
-    const SceneFile file = singlet("uncoated", "uncoated");
+    const SceneSpec file = singlet("uncoated", "uncoated");
     const GlareSpec spec = quick();
     const GlareResult r = runGlare(file, catalog, spec);
     const GlareField& axis = r.fields.at(0);
@@ -225,7 +225,7 @@ TEST(Glare, BenchPlacesTheSpotWhereTheChiefRayLands) {
 // faster than the lens's, is refused before anything is rendered.
 TEST(Glare, StoppingDownScalesTheImageIrradiance) {
     const GlassCatalog& catalog = GlassCatalog::builtIn();
-    const SceneFile dg =
+    const SceneSpec dg =
         readSceneFile(VEIL_SOURCE_DIR "/examples/scenes/double_gauss_50mm_painted.toml", catalog);
     GlareSpec spec;
     spec.passes = 3;
@@ -258,7 +258,7 @@ TEST(Glare, StoppingDownScalesTheImageIrradiance) {
 // two-Fresnel-reflection ghosts agree with the ghost analysis.
 TEST(Glare, TotalInternalReflectionGhostsAreTheRest) {
     const GlassCatalog& catalog = GlassCatalog::builtIn();
-    const SceneFile dg =
+    const SceneSpec dg =
         readSceneFile(VEIL_SOURCE_DIR "/examples/scenes/double_gauss_50mm_painted.toml", catalog);
     GlareSpec spec;  // veil glare's defaults
     spec.render.raysPerPixel = 64;

@@ -66,7 +66,7 @@ name = "beam"
 kind = "collimated"
 field_deg = [0.0, 0.0]
 )");
-    const auto& beam = std::get<CollimatedSource>(scene->trace().transport.sources[0].shape()).beam;
+    const auto& beam = std::get<CollimatedSource>(scene->transport().view.sources[0].shape()).beam;
     ASSERT_GT(beam.radiusMm, 6.0);
     ASSERT_LT(beam.radiusMm, 30.0);
     ObjectsSpec spec;
@@ -104,7 +104,7 @@ name = "beam"
 kind = "collimated"
 field_deg = [0.0, 0.0]
 )");
-    const DetectorGeometry& det = scene->setup().detectors.front();
+    const DetectorGeometry& det = scene->geometry().detectors.front();
     const double h = det.frame.translation.z - 61.0;
     ASSERT_GT(h, 30.0);
     ASSERT_LT(std::abs(det.frame.translation.x) + std::abs(det.frame.translation.y), 1e-9);
@@ -172,7 +172,7 @@ half_angle_deg = 18.7
     traced.raysPerSource = 400000;
     traced.where = {"scatter(ring) and scatter{1}"};
     const StrayLightResult t = runStrayLight(*scene, traced);
-    const double emitted = scene->trace().transport.sources[0].totalFlux();
+    const double emitted = scene->transport().view.sources[0].totalFlux();
     const StrayLightRow row = t.report()[1];
     ASSERT_EQ(row.layer, "where1");
     const double first = row.flux / emitted;

@@ -311,11 +311,12 @@ TEST(SweepGhosts, EachVariantIsTheSequentialEstimateOfItsScene) {
     EXPECT_EQ(r.batches, 1);
     for (const SweepVariant& v : r.variants) {
         ASSERT_TRUE(v.error.empty()) << v.error;
-        SceneFile file = readSceneFile(spec.scene, GlassCatalog::builtIn(),
+        SceneSpec file = readSceneFile(spec.scene, GlassCatalog::builtIn(),
                                        {{"assign[1].property", v.values[0], "test"}});
         const auto prepared = PreparedScene::build(std::move(file), GlassCatalog::builtIn());
         const GhostAnalysis a =
-            GhostTracer(prepared->setup(), prepared->trace(), GlassCatalog::builtIn()).analyse();
+            GhostTracer(prepared->geometry(), prepared->transport(), GlassCatalog::builtIn())
+                .analyse();
         double all = 0.0;
         for (const GhostEstimate& g : a.ghosts) all += g.flux();
         EXPECT_EQ(v.measured[0].value, a.nominal.flux());

@@ -56,10 +56,10 @@ ExitAperture rimAperture(const PreparedScene& s) {
 
 double cameraEquation(const PreparedScene& s, const ExitAperture& a) {
     const double radiance =
-        s.trace().transport.sources[0].emitted(Vec3(0.0, 0.0, -200.0), Vec3(0.0, 0.0, 1.0));
-    const double zPixel = s.trace().images[0].geometry().frame.translation.z;
+        s.transport().view.sources[0].emitted(Vec3(0.0, 0.0, -200.0), Vec3(0.0, 0.0, 1.0));
+    const double zPixel = s.transport().images[0].geometry().frame.translation.z;
     const double sinTheta = a.radiusMm / std::hypot(a.radiusMm, zPixel - a.centerMm.z);
-    const double pixelArea = s.trace().images[0].geometry().pixelAreaMm2();
+    const double pixelArea = s.transport().images[0].geometry().pixelAreaMm2();
     return std::numbers::pi * radiance * sinTheta * sinTheta * pixelArea;  // flux on the pixel
 }
 
@@ -68,7 +68,7 @@ TEST(Backward, LambertianPlateThroughIdealLensObeysTheCameraEquation) {
     const ExitAperture a = rimAperture(*s);
     BackwardOptions o;
     o.raysPerPixel = 20000;
-    const BackwardResult r = traceBackward(s->trace().transport, s->trace().images[0], a, o);
+    const BackwardResult r = traceBackward(s->transport().view, s->transport().images[0], a, o);
     const double expected = cameraEquation(*s, a);
     const double got = r.visible.flux(0);
     const double sigma = std::sqrt(r.visible.pixelVariance(0, o.raysPerPixel));
@@ -86,7 +86,7 @@ TEST(Backward, UncoatedLensTransmitsTheIncoherentPlateSum) {
     BackwardOptions o;
     o.raysPerPixel = 20000;
     o.minRelativeWeight = 1e-9;
-    const BackwardResult r = traceBackward(s->trace().transport, s->trace().images[0], a, o);
+    const BackwardResult r = traceBackward(s->transport().view, s->transport().images[0], a, o);
     // Near normal incidence (the cone is 7 degrees) R = ((n - 1) / (n + 1))^2 = 0.04 at each
     // face, and the plate's transmittance summed over its internal reflections is
     // (1 - R) / (1 + R); the angles move R by less than 1e-4 here.
@@ -104,18 +104,19 @@ TEST(Backward, ThreadCountDoesNotChangeABit) {
     BackwardResult one, two;
     {
         tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
-        one = traceBackward(s->trace().transport, s->trace().images[0], a, o);
+        one = traceBackward(s->transport().view, s->transport().images[0], a, o);
     }
     {
         tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
-        two = traceBackward(s->trace().transport, s->trace().images[0], a, o);
+        two = traceBackward(s->transport().view, s->transport().images[0], a, o);
     }
     EXPECT_TRUE(one.visible.sameSums(two.visible));
     EXPECT_EQ(one.segments, two.segments);
     // Random choice is unbiased: within 4 sigma of the split estimate.
     BackwardOptions split = o;
     split.split = true;
-    const BackwardResult all = traceBackward(s->trace().transport, s->trace().images[0], a, split);
+    const BackwardResult all =
+        traceBackward(s->transport().view, s->transport().images[0], a, split);
     const double sigma = std::sqrt(one.visible.pixelVariance(0, o.raysPerPixel));
     EXPECT_LE(std::abs(one.visible.flux(0) - all.visible.flux(0)), 4.0 * sigma);
 }

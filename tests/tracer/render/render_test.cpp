@@ -88,7 +88,7 @@ double expectedDirect(const PreparedScene& s, const ExitAperture& a) {
     const double E = std::numbers::pi * emitterRadiance * kEmitterRadius * kEmitterRadius /
                      (kEmitterGap * kEmitterGap + kEmitterRadius * kEmitterRadius);
     const double plateRadiance = kReflectance * E / std::numbers::pi;
-    const DetectorGeometry& g = s.trace().images[0].geometry();
+    const DetectorGeometry& g = s.transport().images[0].geometry();
     const double sinTheta =
         a.radiusMm / std::hypot(a.radiusMm, g.frame.translation.z - a.centerMm.z);
     return std::numbers::pi * plateRadiance * sinTheta * sinTheta * g.pixelAreaMm2();
@@ -100,14 +100,14 @@ TEST(Render, DirectLightOnALambertianPlateObeysTheCameraEquation) {
     RenderOptions o;
     o.raysPerPixel = 20000;
     o.photonsPerPass = 2000;
-    const Renderer renderer(s->trace().transport, s->trace().images[0], a, o);
+    const Renderer renderer(s->transport().view, s->transport().images[0], a, o);
     const RenderPass pass = renderer.runPass(1, 5.0);
     const double expected = expectedDirect(*s, a);
     const double got = pass.pixels[int(RenderComponent::Direct)][0];
     // The emitter's irradiance varies by < 1e-4 over the patch of plate the pixel sees; the
     // estimate's own spread: one NEE sample per view point, 20000 of them.
-    const BackwardResult back =
-        traceBackward(s->trace().transport, s->trace().images[0], a, renderer.backwardOptions(1));
+    const BackwardResult back = traceBackward(s->transport().view, s->transport().images[0], a,
+                                              renderer.backwardOptions(1));
     const double sigma = std::sqrt(back.direct.pixelVariance(0, o.raysPerPixel));
     EXPECT_EQ(back.direct.flux(0), got);  // the pass's direct image is the backward pass's
     EXPECT_GT(expected, 0.0);
@@ -184,8 +184,8 @@ ExitAperture plateAperture() {
 
 RenderState render(const PreparedScene& s, const RenderOptions& o, int passes,
                    const ExitAperture& a) {
-    const Renderer renderer(s.trace().transport, s.trace().images[0], a, o);
-    RenderState state(s.trace().images[0].geometry(), o.initialRadiusMm, o.alpha);
+    const Renderer renderer(s.transport().view, s.transport().images[0], a, o);
+    RenderState state(s.transport().images[0].geometry(), o.initialRadiusMm, o.alpha);
     for (int k = 1; k <= passes; ++k)
         state.add(renderer.runPass(k, state.radiusMm(), state.learned()));
     return state;
@@ -225,13 +225,13 @@ TEST(Render, CausticLightOnAPlateObeysTheCameraEquation) {
 
 TEST(Render, AgreesWithForwardMonteCarloInTotalAndPerPixel) {
     const auto s = windowPlateScene({});
-    const TraceSetup& t = s->trace();
+    const SceneTransport& t = s->transport();
     // Forward reference.
     TransportOptions fo;
     fo.mode = TransportOptions::Mode::Random;
     fo.seed = 11;
     const uint64_t rays = 1000000;
-    const TraceResult forward = traceNonsequential(t.transport, t.images, rays, fo);
+    const TraceResult forward = traceNonsequential(t.view, t.images, rays, fo);
     const DetectorImage& ref = forward.detectors[0];
     // The renderer, 12 passes.
     RenderOptions o;
@@ -444,8 +444,8 @@ TEST(Render, ErrorFallsAtTheProgressivePhotonMappingRate) {
     for (int run = 0; run < runs; ++run) {
         RenderOptions ro = o;
         ro.seed = 1000 + run;
-        const Renderer renderer(s->trace().transport, s->trace().images[0], a, ro);
-        RenderState state(s->trace().images[0].geometry(), ro.initialRadiusMm, ro.alpha);
+        const Renderer renderer(s->transport().view, s->transport().images[0], a, ro);
+        RenderState state(s->transport().images[0].geometry(), ro.initialRadiusMm, ro.alpha);
         for (int k = 1; k <= passes; ++k) {
             state.add(renderer.runPass(k, state.radiusMm(), state.learned()));
             for (size_t j = 0; j < at.size(); ++j)
@@ -546,8 +546,8 @@ TEST(Render, ResumedAndThreadedRunsAreBitwiseTheSame) {
     o.photonsPerPass = 5000;
     o.initialRadiusMm = 2.0;
     const uint64_t print = 12345;
-    const Renderer renderer(s->trace().transport, s->trace().images[0], plateAperture(), o);
-    const DetectorGeometry& g = s->trace().images[0].geometry();
+    const Renderer renderer(s->transport().view, s->transport().images[0], plateAperture(), o);
+    const DetectorGeometry& g = s->transport().images[0].geometry();
     auto run = [&](RenderState& state, int passes) {
         while (state.passes() < passes)
             state.add(renderer.runPass(state.passes() + 1, state.radiusMm(), state.learned()));

@@ -27,7 +27,7 @@
 
 namespace veil {
 
-struct SceneFile {
+struct SceneSpec {
     std::filesystem::path path;
     // The lens with every clear semi-diameter set (automatic ones traced, see
     // tracer/sequential/auto_apertures.h): the sizes sources, solids and mechanics are built from.
@@ -55,7 +55,7 @@ struct SceneEdit {
 
 // Reads and checks every section (unknown keys are a ParseError at file:line:col), after the
 // edits. Edits need TOML files: an edit of a .zmx lens is a ParseError at the edit.
-SceneFile readSceneFile(const std::filesystem::path& path, const GlassCatalog& catalog,
+SceneSpec readSceneFile(const std::filesystem::path& path, const GlassCatalog& catalog,
                         const std::vector<SceneEdit>& edits = {});
 // Applies the edits to the scene's (and its lens file's) TOML documents and nothing more:
 // a key that names nothing or a value of the wrong type is a ParseError at the edit, found
@@ -64,23 +64,5 @@ void checkSceneEdits(const std::filesystem::path& path, const std::vector<SceneE
 // Whether an edit of this key changes only what the transport reads (optical properties,
 // [[assign]], sources), not the geometry: PreparedScene::replaceTransport() suffices.
 bool editsTransportOnly(const std::string& key);
-
-struct SceneOptions {
-    bool mechanics = true;  // build the [mechanics] section when present
-    bool meshes = true;     // import the [[mesh]] entries
-};
-
-struct SceneSetup {
-    Prescription prescription;                     // with automatic semi-diameters filled in
-    std::shared_ptr<const SequentialModel> model;  // the SceneFile's, not rebuilt
-    Scene scene;                                   // committed
-    std::vector<MechanicalPart> mechanicalParts;
-    std::vector<DetectorGeometry> detectors;  // placed; their objects are in the scene
-    std::vector<ImportNote> notes;            // import report, parts left out, mesh warnings
-};
-
-// Uses file.model (builds one when a hand-made SceneFile has none).
-SceneSetup buildScene(const SceneFile& file, const GlassCatalog& catalog,
-                      const SceneOptions& options = {});
 
 }  // namespace veil

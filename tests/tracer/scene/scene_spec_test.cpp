@@ -1,13 +1,12 @@
 // Scene assembly builds the sequential model once: the scene file's model (of the sized
 // prescription) is the one the scene, the sources and the ghost tracer use.
 
-#include "tracer/scene/scene_setup.h"
-
 #include <gtest/gtest.h>
 
 #include <filesystem>
 
 #include "tracer/scene/prepared_scene.h"
+#include "tracer/scene/scene_geometry.h"
 
 namespace veil {
 namespace {
@@ -21,25 +20,25 @@ void expectModelOf(const SequentialModel& model, const Prescription& p) {
     }
 }
 
-TEST(SceneSetup, OneSequentialModelServesTheFileAndTheScene) {
+TEST(SceneGeometry, OneSequentialModelServesTheFileAndTheScene) {
     const GlassCatalog& catalog = GlassCatalog::builtIn();
     // The 360 mm lens leaves semi-diameters to be traced: the model is of the sized lens.
-    const SceneFile file =
+    const SceneSpec file =
         readSceneFile(VEIL_SOURCE_DIR "/examples/scenes/longfocus_360mm_sun.toml", catalog);
     ASSERT_TRUE(file.model);
     bool automatic = false;
     for (const Surface& s : file.prescription.surfaces) automatic |= s.semiDiameterAutomatic;
     EXPECT_TRUE(automatic);
     expectModelOf(*file.model, file.prescription);
-    const SceneSetup setup = buildScene(file, catalog);
+    const SceneGeometry setup = buildSceneGeometry(file, catalog);
     EXPECT_EQ(setup.model.get(), file.model.get());
 }
 
-TEST(SceneSetup, HandMadeSceneFileGetsAModel) {
+TEST(SceneGeometry, HandMadeSceneFileGetsAModel) {
     const GlassCatalog& catalog = GlassCatalog::builtIn();
-    SceneFile file = readSceneFile(VEIL_SOURCE_DIR "/examples/lenses/singlet.toml", catalog);
+    SceneSpec file = readSceneFile(VEIL_SOURCE_DIR "/examples/lenses/singlet.toml", catalog);
     file.model.reset();
-    const SceneSetup setup = buildScene(file, catalog);
+    const SceneGeometry setup = buildSceneGeometry(file, catalog);
     ASSERT_TRUE(setup.model);
     expectModelOf(*setup.model, file.prescription);
 }
@@ -55,13 +54,13 @@ TEST(PreparedScene, OneOwnerForTheSceneAndTheTransport) {
     const auto prepared =
         PreparedScene::read(VEIL_SOURCE_DIR "/examples/scenes/longfocus_360mm_sun.toml", catalog);
     ASSERT_TRUE(prepared->hasSources());
-    const TraceSetup& t = prepared->trace();
+    const SceneTransport& t = prepared->transport();
     // The transport points into the same (pinned) object, and the model is the file's.
-    EXPECT_EQ(t.transport.scene, &prepared->scene());
-    EXPECT_EQ(t.transport.media, t.media.get());
-    EXPECT_EQ(&prepared->model(), prepared->file().model.get());
-    EXPECT_EQ(t.transport.propertyOfObject.size(), prepared->scene().objects().size());
-    EXPECT_EQ(t.images.size(), prepared->setup().detectors.size());
+    EXPECT_EQ(t.view.scene, &prepared->scene());
+    EXPECT_EQ(t.view.media, t.media.get());
+    EXPECT_EQ(&prepared->model(), prepared->spec().model.get());
+    EXPECT_EQ(t.view.propertyOfObject.size(), prepared->scene().objects().size());
+    EXPECT_EQ(t.images.size(), prepared->geometry().detectors.size());
 }
 
 TEST(PreparedScene, SceneWithoutSourcesHasNoTransportAndSaysWhichFile) {
@@ -71,7 +70,7 @@ TEST(PreparedScene, SceneWithoutSourcesHasNoTransportAndSaysWhichFile) {
     EXPECT_FALSE(prepared->hasSources());
     EXPECT_GT(prepared->scene().objects().size(), 10u);  // built all the same (layout, export)
     try {
-        prepared->trace();
+        prepared->transport();
         FAIL() << "expected a ModelError";
     } catch (const ModelError& e) {
         EXPECT_EQ(e.object(), path);
@@ -87,7 +86,7 @@ namespace {
 
 // A misspelt key in a section that then fails its own check is reported first: the typo is
 // the cause, the missing value its consequence. Sections not read yet are not reported.
-TEST(SceneFile, MisspeltKeyIsReportedBeforeTheErrorItCauses) {
+TEST(SceneSpec, MisspeltKeyIsReportedBeforeTheErrorItCauses) {
     const std::string path = ::testing::TempDir() + "veil_typo_scene.toml";
     FILE* f = fopen(path.c_str(), "w");
     ASSERT_TRUE(f);
@@ -110,7 +109,7 @@ TEST(SceneFile, MisspeltKeyIsReportedBeforeTheErrorItCauses) {
 
 // Roughness past the smooth-surface limit at one of the lens's wavelengths is refused when
 // the scene is read, naming the property and the wavelength; smoother roughness is read.
-TEST(SceneFile, RoughnessPastTheSmoothSurfaceLimitIsRefused) {
+TEST(SceneSpec, RoughnessPastTheSmoothSurfaceLimitIsRefused) {
     auto write = [](const std::string& path, double sigmaNm) {
         FILE* f = fopen(path.c_str(), "w");
         ASSERT_TRUE(f);
@@ -141,7 +140,7 @@ TEST(SceneFile, RoughnessPastTheSmoothSurfaceLimitIsRefused) {
 // Material libraries: their [properties] tables come before the scene's (which replace
 // them), .bsdf paths inside are relative to the library, and a bad library is an error at
 // its entry or in the library itself.
-TEST(SceneFile, MaterialLibrariesAreReadBeforeTheScenesProperties) {
+TEST(SceneSpec, MaterialLibrariesAreReadBeforeTheScenesProperties) {
     namespace fs = std::filesystem;
     const fs::path dir = fs::path(::testing::TempDir()) / "veil_materials";
     fs::remove_all(dir);
@@ -161,7 +160,7 @@ TEST(SceneFile, MaterialLibrariesAreReadBeforeTheScenesProperties) {
                                   "materials = \"lib/mats.toml\"\n"
                                   "[properties.shared]\nscatter = { model = \"lambertian\", "
                                   "reflectance = 0.1 }\n");
-    const SceneFile f = readSceneFile(dir / "scene.toml", GlassCatalog::builtIn());
+    const SceneSpec f = readSceneFile(dir / "scene.toml", GlassCatalog::builtIn());
     const PropertyTable& t = f.properties;
     ASSERT_GE(t.find("paint"), 0);
     EXPECT_EQ(std::get<LambertianScatter>(t.property(t.find("paint")).scatter()).reflectance, 0.04);

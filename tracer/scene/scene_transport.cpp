@@ -1,0 +1,30 @@
+#include "tracer/scene/scene_transport.h"
+
+namespace veil {
+
+SceneTransport prepareTransport(const SceneSpec& file, const SceneGeometry& setup,
+                                const GlassCatalog& catalog) {
+    SceneTransport t;
+    const Prescription& p = setup.prescription;
+    std::vector<double> wavelengths;
+    for (const Wavelength& w : p.system.wavelengths) wavelengths.push_back(w.nm);
+    if (wavelengths.empty()) wavelengths.push_back(kLineD);
+    t.media =
+        std::make_unique<MediaOptics>(setup.scene, catalog, p.system.glassCatalogs, wavelengths);
+    if (file.sources.empty())
+        throw ModelError(file.path.string(), "the scene has no [[source]] to trace");
+    t.view.scene = &setup.scene;
+    t.view.media = t.media.get();
+    t.view.properties = file.properties.properties();
+    t.view.propertyOfObject = file.properties.resolve(setup.scene);
+    t.view.detectorOfObject.assign(setup.scene.objects().size(), -1);
+    for (size_t d = 0; d < setup.detectors.size(); ++d) {
+        t.view.detectorOfObject[setup.detectors[d].object] = static_cast<int>(d);
+        t.images.push_back(DetectorImage::grid(setup.detectors[d]));
+        t.view.detectorNames.push_back(setup.detectors[d].name);
+    }
+    t.view.sources = file.sources;
+    return t;
+}
+
+}  // namespace veil
