@@ -21,7 +21,9 @@
 
 #include "bench/raw_embree.h"
 #include "geometry/embree_scene.h"
+#include "lensdata/glass_catalog.h"
 #include "tracer/scene/scene_geometry.h"
+#include "tracer/scene/scene_spec.h"
 
 namespace {
 

@@ -20,6 +20,9 @@
 
 #include "analysis/criteria/criteria.h"
 #include "analysis/criteria/criterion_names.h"
+#include "lensdata/glass_catalog.h"
+#include "tracer/scene/scene_geometry.h"
+#include "tracer/scene/scene_spec.h"
 #include "tracer/scene/scene_transport.h"
 
 namespace {

@@ -48,8 +48,11 @@
 
 #include "analysis/ghosts/ghost_monte_carlo.h"
 #include "analysis/lens/default_scene.h"
+#include "lensdata/glass_catalog.h"
 #include "tracer/scene/scene_geometry.h"
+#include "tracer/scene/scene_spec.h"
 #include "tracer/scene/scene_transport.h"
+#include "tracer/sequential/sequential_model.h"
 #include "tracer/sequential/sequential_trace.h"
 
 namespace {

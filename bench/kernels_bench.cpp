@@ -35,6 +35,8 @@
 #include "geometry/surface_shape.h"
 #include "lensdata/glass_catalog.h"
 #include "tracer/records/path_history.h"
+#include "tracer/scene/scene_geometry.h"
+#include "tracer/scene/scene_spec.h"
 #include "tracer/scene/scene_transport.h"
 
 namespace veil::detail {

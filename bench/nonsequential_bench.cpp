@@ -20,6 +20,9 @@
 #include "analysis/criteria/criterion_names.h"
 #include "bench/raw_embree.h"
 #include "geometry/embree_scene.h"
+#include "lensdata/glass_catalog.h"
+#include "tracer/scene/scene_geometry.h"
+#include "tracer/scene/scene_spec.h"
 #include "tracer/scene/scene_transport.h"
 
 namespace {

@@ -27,7 +27,11 @@
 #include "analysis/criteria/render_criteria.h"
 #include "analysis/reports/image_output.h"
 #include "analysis/runs/stray_light_run.h"
+#include "lensdata/glass_catalog.h"
 #include "tracer/render/render.h"
+#include "tracer/scene/prepared_scene.h"
+#include "tracer/scene/scene_transport.h"
+#include "tracer/transport/interaction.h"
 
 namespace {
 

@@ -13,8 +13,10 @@
 #include <cmath>
 
 #include "analysis/lens/spot.h"
+#include "lensdata/glass_catalog.h"
 #include "lensdata/lens_file.h"
 #include "tracer/sequential/ray_aiming.h"
+#include "tracer/sequential/sequential_model.h"
 #include "tracer/sequential/sequential_trace.h"
 
 namespace {

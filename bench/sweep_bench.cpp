@@ -19,6 +19,7 @@
 
 #include "analysis/runs/stray_light_run.h"
 #include "analysis/studies/sweep.h"
+#include "lensdata/glass_catalog.h"
 #include "tracer/scene/prepared_scene.h"
 
 namespace {

@@ -8,10 +8,10 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
-#include <functional>
-#include <memory>
 #include <cstdio>
+#include <functional>
 #include <iostream>
+#include <memory>
 #include <string>
 #include <thread>
 #include <vector>
@@ -20,6 +20,7 @@
 #include "cli/ghosts_command.h"
 #include "cli/paths_command.h"
 #include "cli/render_command.h"
+#include "cli/trace_command.h"
 #include "lensdata/errors.h"
 #include "tracer/runtime/ranks.h"
 
@@ -119,7 +120,34 @@ std::string unknownCommand(const CLI::App& app, const std::string& word) {
     return message;
 }
 
+// The options of veil itself, before the command: --glass-catalog and --set.
+void declareCommon(CLI::App& app, CommonOptions& common) {
+    app.require_subcommand(1);
+    // Options a subcommand does not know (--glass-catalog) are the main command's, wherever
+    // they stand on the line.
+    app.fallthrough();
+    app.add_option("--glass-catalog", common.glassCatalogs,
+                   "extra AGF glass catalog file (repeatable; VEIL_GLASS_PATH works too)")
+        ->check(CLI::ExistingFile);
+    app.add_option("--set", common.sets,
+                   "KEY=VALUE: edit the scene (or its lens) file as it is read, as sweep's "
+                   "--vary does (repeatable)");
+}
+
 }  // namespace
+
+void parseCommandWords(const std::vector<std::string>& words, CommonOptions& common,
+                       const std::function<void(CLI::App&)>& declare) {
+    CLI::App app{"veil"};
+    declareCommon(app, common);
+    declare(app);
+    std::vector<std::string> reversed(words.rbegin(), words.rend());  // CLI11 takes them so
+    try {
+        app.parse(reversed);
+    } catch (const CLI::ParseError& e) {
+        throw UsageError(e.what());
+    }
+}
 
 int runCommandLine(const std::vector<std::string>& args, bool rethrow) {
     std::vector<char*> argvStore;
@@ -128,18 +156,9 @@ int runCommandLine(const std::vector<std::string>& args, bool rethrow) {
     char** argv = argvStore.data();
     setCommandLine(argc, argv);
     CLI::App app{"veil: optical design kernel for stray light and ghost analysis"};
-    app.require_subcommand(1);
-    // Options a subcommand does not know (--glass-catalog) are the main command's, wherever
-    // they stand on the line.
-    app.fallthrough();
-    app.set_version_flag("--version", std::string("veil ") + kVeilVersion);
     CommonOptions common;
-    app.add_option("--glass-catalog", common.glassCatalogs,
-                   "extra AGF glass catalog file (repeatable; VEIL_GLASS_PATH works too)")
-        ->check(CLI::ExistingFile);
-    app.add_option("--set", common.sets,
-                   "KEY=VALUE: edit the scene (or its lens) file as it is read, as sweep's "
-                   "--vary does (repeatable)");
+    declareCommon(app, common);
+    app.set_version_flag("--version", std::string("veil ") + kVeilVersion);
     const auto commands = subcommands();
     for (const auto& [name, command] : commands) command.declare(app);
     if (argc > 1 && argv[1][0] != '-') {

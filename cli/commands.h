@@ -4,6 +4,7 @@
 #include <tbb/global_control.h>
 
 #include <CLI/CLI.hpp>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -21,6 +22,12 @@ struct CommonOptions {
     // reads it, as sweep's --vary applies its values (docs/cli.md).
     std::vector<std::string> sets;
 };
+// One command's words (`render SCENE --passes 2`, without the program name) parsed by the
+// command line's own definitions: `declare` adds that command (addRenderCommand and its
+// options), --set and --glass-catalog land in common. UsageError when they do not parse. For
+// callers that run a command's steps themselves (the Python module).
+void parseCommandWords(const std::vector<std::string>& words, CommonOptions& common,
+                       const std::function<void(CLI::App&)>& declare);
 // Built-in catalogs, VEIL_GLASS_PATH and every --glass-catalog file.
 GlassCatalog loadCatalog(const CommonOptions& common);
 // The --set edits; a value without KEY= is a ParseError naming it.
@@ -154,33 +161,6 @@ struct ObjectsOptions {
 };
 void addObjectsCommand(CLI::App& app, ObjectsOptions& options);
 int runObjectsCommand(const CommonOptions& common, const ObjectsOptions& options);
-
-struct TraceOptions {
-    std::string file;
-    uint64_t rays = 0;
-    std::string output;  // folder; default ./trace
-    std::vector<std::string> fields;
-    int threads = 0;
-    uint64_t seed = 1;
-    TransportFlags transport;
-    bool json = false;
-    bool quiet = false;
-    std::string saveRays;            // ray database file to write
-    bool eventsOnly = false;         // the database without positions and directions
-    std::vector<std::string> where;  // path criteria: one image per criterion plus the rest
-    bool prune = false;              // cull branches once every --where criterion is false
-};
-void addTraceCommand(CLI::App& app, TraceOptions& options);
-int runTrace(const CommonOptions& common, const TraceOptions& options);
-
-struct RaysOptions {
-    std::string file;
-    std::vector<std::string> where;  // criteria re-evaluated on the saved histories
-    bool json = false;
-    bool quiet = false;
-};
-void addRaysCommand(CLI::App& app, RaysOptions& options);
-int runRays(const CommonOptions& common, const RaysOptions& options);
 
 struct ScatterOptions {
     std::string file;

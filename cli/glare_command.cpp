@@ -21,6 +21,7 @@
 #include "cli/options.h"
 #include "cli/progress.h"
 #include "lensdata/output_file.h"
+#include "tracer/scene/scene_spec.h"
 
 namespace veil::cli {
 

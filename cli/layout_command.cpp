@@ -18,6 +18,7 @@
 #include "geometry/mesh_io.h"
 #include "lensdata/errors.h"
 #include "tracer/scene/prepared_scene.h"
+#include "tracer/scene/scene_geometry.h"
 
 namespace veil::cli {
 

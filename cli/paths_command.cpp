@@ -25,6 +25,8 @@
 #include "cli/options.h"
 #include "cli/progress.h"
 #include "tracer/scene/prepared_scene.h"
+#include "tracer/scene/scene_geometry.h"
+#include "tracer/scene/scene_transport.h"
 
 namespace veil::cli {
 

@@ -12,8 +12,6 @@
 
 #include "cli/render_command.h"
 
-#include <unistd.h>
-
 #include <cmath>
 #include <filesystem>
 #include <iostream>
@@ -149,8 +147,6 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
     addReportFlags(sub, o.json, o.quiet);
 }
 
-namespace {
-
 // The run's spec from the options, every option checked before the scene is read.
 RenderRunSpec renderSpec(const RenderCommandOptions& o) {
     RenderRunSpec spec;
@@ -191,25 +187,32 @@ RenderRunSpec renderSpec(const RenderCommandOptions& o) {
     return spec;
 }
 
-// Where the run lives: -o, else the --resume folder, else ./render; with --json and neither,
-// a temporary folder removed at the end (--json writes files only with -o).
-std::filesystem::path renderFolder(const RenderCommandOptions& o, bool scratch) {
+std::filesystem::path renderFolder(const RenderCommandOptions& o) {
     if (!o.output.empty()) return o.output;
     if (!o.resume.empty()) return o.resume;
-    if (scratch)
-        return std::filesystem::temp_directory_path() / ("veil_render_" + std::to_string(getpid()));
-    return "render";
+    return o.json ? std::filesystem::path() : std::filesystem::path("render");
 }
 
-struct RemoveAtEnd {
-    std::filesystem::path dir;
-    ~RemoveAtEnd() {
-        std::error_code ec;
-        if (!dir.empty()) std::filesystem::remove_all(dir, ec);
+RenderCommandRun renderIntoFolder(const PreparedScene& scene, RenderRunSpec spec,
+                                  const RenderCommandOptions& o, const std::filesystem::path& dir) {
+    const bool root = spec.ranks.root();
+    if (!dir.empty()) spec.checkpoint = dir / kCheckpoint;
+    RenderRun run(scene, std::move(spec));
+    // A resumed run continues the folder's files; a new one clears the older run's away.
+    WrittenFiles written;
+    if (root && !dir.empty()) {
+        written.beginRun(dir, !o.resume.empty());
+        std::filesystem::create_directories(dir);
     }
-};
-
-}  // namespace
+    const auto limit = limitThreads(o.threads);
+    RenderCommandRun out{run.run(), {}};
+    if (!root || dir.empty()) return out;  // a rank's share went to rank 0
+    for (const std::filesystem::path& f : writeRenderFiles(out.result, dir)) written.add(f);
+    written.add(dir / kCheckpoint);
+    written.finishRun();
+    out.written = std::move(written);
+    return out;
+}
 
 int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
     RenderRunSpec spec = renderSpec(o);
@@ -218,43 +221,31 @@ int runRender(const CommonOptions& common, const RenderCommandOptions& o) {
     const std::unique_ptr<const PreparedScene> prepared =
         prepareTracedScene(common, o.file, o.fields, catalog);
     reportSceneNotes(*prepared);
-    const bool scratch = o.json && o.output.empty() && o.resume.empty();
-    const std::filesystem::path dir = renderFolder(o, scratch);
-    spec.checkpoint = dir / kCheckpoint;
+    const std::filesystem::path dir = renderFolder(o);
+    if (!dir.empty()) requireWritableFolder(dir, "-o");
     ProgressReporter progress;
     if (!o.quiet) spec.progress = progress.sink();
-    RenderRun run(*prepared, spec);
-    const RemoveAtEnd removeAtEnd{scratch && root ? dir : std::filesystem::path()};
-    if (o.passes > 0 && run.passesDone() >= o.passes && !o.quiet && root)
-        std::cerr << "veil: the run already has " << run.passesDone() << " passes (--passes "
-                  << o.passes << "): writing its images\n";
-    // A resumed run continues the folder's files; a new one clears the older run's away.
-    WrittenFiles written;
-    if (root) {
-        written.beginRun(dir, !o.resume.empty());
-        std::filesystem::create_directories(dir);
-    }
-    const auto limit = limitThreads(o.threads);
-    const RenderResult result = run.run();
-    if (!root) return 0;  // its share went to rank 0
+    const RenderCommandRun run = renderIntoFolder(*prepared, std::move(spec), o, dir);
+    if (!root) return 0;
     progress.finish();
+    const RenderResult& result = run.result;
+    if (o.passes > 0 && result.passesBefore >= o.passes && !o.quiet)
+        std::cerr << "veil: the run already had " << result.passesBefore << " passes (--passes "
+                  << o.passes << "): its images written again\n";
     if (o.prune && result.prunedBranches + result.prunedPhotons == 0 &&
         result.passes() > result.passesBefore)
         std::cerr << "veil: warning: --prune stopped no branch: no --where criterion turned "
                      "false on any path, so pruning saved nothing\n";
-    for (const std::filesystem::path& f : writeRenderFiles(result, dir)) written.add(f);
-    written.add(dir / kCheckpoint);
-    written.finishRun();
     if (o.json) {
         nlohmann::json summary = result.summary();
-        summary["files"] = scratch ? nlohmann::json::array() : written.json();
+        summary["files"] = run.written.json();
         std::cout << summary.dump(2) << "\n";
         return 0;
     }
     std::cout << result.text(dir.string());
     if (!o.quiet) {
         std::cout << "\n";
-        written.print(std::cout);
+        run.written.print(std::cout);
     }
     return 0;
 }

@@ -5,10 +5,14 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdint>
+#include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "analysis/runs/render_run.h"
 #include "cli/commands.h"
+#include "cli/options.h"
 
 namespace veil::cli {
 
@@ -44,6 +48,21 @@ struct RenderCommandOptions {
 };
 void addRenderCommand(CLI::App& app, RenderCommandOptions& options);
 int runRender(const CommonOptions& common, const RenderCommandOptions& options);
+
+// veil render's steps, shared by the executable and the Python module: the options checked
+// into a spec before the scene is read; where the files go; the run on a prepared scene with
+// its files written. Nothing here prints.
+RenderRunSpec renderSpec(const RenderCommandOptions& options);
+// -o, else the --resume folder, else ./render; none (empty) for --json without either.
+std::filesystem::path renderFolder(const RenderCommandOptions& options);
+struct RenderCommandRun {
+    RenderResult result;
+    WrittenFiles written;  // rank 0's files; none without a folder
+};
+// The run, its checkpoint after every pass and its files in `folder` (none when empty).
+RenderCommandRun renderIntoFolder(const PreparedScene& scene, RenderRunSpec spec,
+                                  const RenderCommandOptions& options,
+                                  const std::filesystem::path& folder);
 
 // "90s", "10m", "1h30m", "2h", "45" (seconds) -> seconds; "0" or "none": no limit (infinity).
 // nullopt for anything else.

@@ -18,6 +18,7 @@
 #include "cli/options.h"
 #include "lensdata/output_file.h"
 #include "tracer/scene/prepared_scene.h"
+#include "tracer/surfaces/property_table.h"
 #include "tracer/surfaces/scatter_tabulation.h"
 
 namespace veil::cli {

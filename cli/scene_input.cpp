@@ -8,6 +8,9 @@
 #include "analysis/lens/detector_checks.h"
 #include "cli/commands.h"
 #include "cli/options.h"
+#include "lensdata/glass_catalog.h"
+#include "tracer/scene/scene_geometry.h"
+#include "tracer/scene/scene_spec.h"
 
 namespace veil::cli {
 

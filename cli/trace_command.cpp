@@ -11,6 +11,8 @@
 // in a log; none with --quiet); the closing summary goes to standard output. The same seed
 // gives bitwise the same images with any number of threads.
 
+#include "cli/trace_command.h"
+
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -18,9 +20,6 @@
 
 #include "analysis/runs/ray_statistics.h"
 #include "analysis/runs/saved_rays.h"
-#include "analysis/runs/stray_light_run.h"
-#include "cli/commands.h"
-#include "cli/options.h"
 #include "cli/progress.h"
 #include "tracer/scene/prepared_scene.h"
 
@@ -72,8 +71,6 @@ int runRays(const CommonOptions&, const RaysOptions& o) {
     return 0;
 }
 
-namespace {
-
 // The trace's spec from the options, checked before the scene is read.
 StrayLightSpec traceSpec(const TraceOptions& o) {
     if (o.prune && o.where.empty())
@@ -104,6 +101,8 @@ StrayLightSpec traceSpec(const TraceOptions& o) {
     return spec;
 }
 
+namespace {
+
 PathEncoding rayEncoding(const TraceOptions& o) {
     if (o.eventsOnly) return PathEncoding{};
     return PathEncoding{.positions = true, .directions = true, .doublePrecision = false};
@@ -121,20 +120,18 @@ std::unique_ptr<RayDatabaseWriter> openRayDatabase(const PreparedScene& scene,
 
 }  // namespace
 
-int runTrace(const CommonOptions& common, const TraceOptions& o) {
-    StrayLightSpec spec = traceSpec(o);
+std::string checkRayDatabase(const PreparedScene& scene, const StrayLightSpec& spec,
+                             const TraceOptions& o) {
+    if (o.saveRays.empty()) return "";
+    const RayDatabaseEstimate e =
+        estimateRayDatabase(scene.transport(), spec.transport, o.rays, rayEncoding(o));
+    e.checkFits(o.saveRays);
+    return e.note(o.saveRays, rayEncoding(o));
+}
+
+TraceCommandRun traceIntoFolder(const PreparedScene& scene, StrayLightSpec spec,
+                                const TraceOptions& o, const std::filesystem::path& dir) {
     const bool root = spec.transport.ranks.root();
-    const GlassCatalog catalog = loadCatalog(common);
-    const std::unique_ptr<const PreparedScene> prepared =
-        prepareTracedScene(common, o.file, o.fields, catalog);
-    reportSceneNotes(*prepared);
-    const std::filesystem::path dir = outputFolder(o.output, "trace", o.json);
-    if (!o.saveRays.empty()) {
-        const RayDatabaseEstimate e =
-            estimateRayDatabase(prepared->transport(), spec.transport, o.rays, rayEncoding(o));
-        e.checkFits(o.saveRays);
-        if (!o.quiet) std::cerr << "veil: --save-rays: " << e.note(o.saveRays, rayEncoding(o)) << "\n";
-    }
     // Once the spec is checked (criteria included), just before the first ray, the folder's
     // older run gives way (WrittenFiles::beginRun) and the ray database opens.
     WrittenFiles written;
@@ -143,38 +140,55 @@ int runTrace(const CommonOptions& common, const TraceOptions& o) {
         if (!root) return {};
         written.beginRun(dir);
         if (o.saveRays.empty()) return {};
-        db = openRayDatabase(*prepared, o);
+        db = openRayDatabase(scene, o);
         return [&db](uint64_t i, const PathHistory& h) { db->add(i, h); };
     };
     const auto limit = limitThreads(o.threads);
-    ProgressReporter reporter;
-    if (!o.quiet && root) spec.progress = reporter.sink();
-    const StrayLightResult result = runStrayLight(*prepared, spec);
-    if (!root) return 0;  // its share went to rank 0
+    TraceCommandRun out{runStrayLight(scene, spec), {}};
+    if (!root) return out;  // its share went to rank 0
     if (db) {
-        db->setEmittedRays(result.emittedRays);
+        db->setEmittedRays(out.result.emittedRays);
         db->close();
         written.add(o.saveRays);
     }
+    if (!dir.empty())
+        for (const std::filesystem::path& f : writeTraceFiles(out.result, dir)) written.add(f);
+    written.finishRun();
+    out.written = std::move(written);
+    return out;
+}
+
+int runTrace(const CommonOptions& common, const TraceOptions& o) {
+    StrayLightSpec spec = traceSpec(o);
+    const bool root = spec.transport.ranks.root();
+    const GlassCatalog catalog = loadCatalog(common);
+    const std::unique_ptr<const PreparedScene> prepared =
+        prepareTracedScene(common, o.file, o.fields, catalog);
+    reportSceneNotes(*prepared);
+    const std::filesystem::path dir = outputFolder(o.output, "trace", o.json);
+    const std::string note = checkRayDatabase(*prepared, spec, o);
+    if (!note.empty() && !o.quiet) std::cerr << "veil: --save-rays: " << note << "\n";
+    ProgressReporter reporter;
+    if (!o.quiet && root) spec.progress = reporter.sink();
+    const TraceCommandRun run = traceIntoFolder(*prepared, std::move(spec), o, dir);
+    if (!root) return 0;
     reporter.finish();
+    const StrayLightResult& result = run.result;
     if (o.prune && result.budget.prunedBranches == 0)
         std::cerr << "veil: warning: --prune stopped no branch: no --where criterion turned false "
                      "before its path ended (seq(...), hit(...) and counts without an upper "
                      "bound can only fail when a path ends; not, {0,1}-style counts and "
                      "detector(...) can end a branch early), so the run cost the same\n";
-    if (!dir.empty())
-        for (const std::filesystem::path& f : writeTraceFiles(result, dir)) written.add(f);
-    written.finishRun();
     if (o.json) {
         nlohmann::json summary = result.summary();
-        summary["files"] = written.json();
+        summary["files"] = run.written.json();
         std::cout << summary.dump(2) << "\n";
         return 0;
     }
     std::cout << result.text();
     if (!o.quiet) {
         std::cout << "\n";
-        written.print(std::cout);
+        run.written.print(std::cout);
     }
     return 0;
 }

@@ -27,6 +27,8 @@
 #include "cli/progress.h"
 #include "lensdata/errors.h"
 #include "tracer/scene/prepared_scene.h"
+#include "tracer/scene/scene_geometry.h"
+#include "tracer/scene/scene_transport.h"
 
 namespace veil::cli {
 

@@ -289,8 +289,8 @@ std::optional<double> sequential(const Shape& shape, const Ray& ray) {
     double sRef = d.z != 0.0 ? -p.z / d.z : -tRef;
     if (!std::isfinite(sRef)) sRef = -tRef;
     sRef = std::clamp(sRef, lo, hi);
-    const auto s = findRoot(f, lo, hi, sRef, kNaN, kInitialSegmentMm, kNaN, [&](double s) {
-        const Vec3 q = p + s * d;
+    const auto s = findRoot(f, lo, hi, sRef, kNaN, kInitialSegmentMm, kNaN, [&](double at) {
+        const Vec3 q = p + at * d;
         return inDomain(shape, q.x, q.y);
     });
     if (!s) return std::nullopt;

@@ -628,20 +628,20 @@ PreparedFace::PreparedFace(const FaceGeometry& face) {
     rMax_ = apertureBoundingRadius(patch.aperture);
     if (std::holds_alternative<PlaneShape>(patch.shape)) {
         kind_ = Kind::Plane;
-    } else if (const auto* s = std::get_if<SphereShape>(&patch.shape)) {
+    } else if (const auto* sphere = std::get_if<SphereShape>(&patch.shape)) {
         kind_ = Kind::Conic;
-        conic_ = {s->curvature, 0.0};
-    } else if (const auto* s = std::get_if<ConicShape>(&patch.shape)) {
+        conic_ = {sphere->curvature, 0.0};
+    } else if (const auto* conic = std::get_if<ConicShape>(&patch.shape)) {
         kind_ = Kind::Conic;
-        conic_ = {s->curvature, s->conic};
-    } else if (const auto* s = std::get_if<EvenAsphereShape>(&patch.shape)) {
+        conic_ = {conic->curvature, conic->conic};
+    } else if (const auto* asphere = std::get_if<EvenAsphereShape>(&patch.shape)) {
         const auto zero = [](const auto& a) {
             return std::all_of(a.begin(), a.end(), [](double v) { return v == 0.0; });
         };
         // intersectFirst() solves an asphere without terms as its conic.
-        if (zero(s->coefficients) && zero(s->odd) && zero(s->overW)) {
+        if (zero(asphere->coefficients) && zero(asphere->odd) && zero(asphere->overW)) {
             kind_ = Kind::Conic;
-            conic_ = {s->curvature, s->conic};
+            conic_ = {asphere->curvature, asphere->conic};
         }
     }
 }

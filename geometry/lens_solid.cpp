@@ -11,6 +11,7 @@
 
 #include "geometry/surface_frames.h"
 #include "geometry/surface_shape.h"
+#include "lensdata/errors.h"
 
 namespace veil {
 
@@ -29,12 +30,6 @@ constexpr double kCoincidentRel = 1e-12;
 constexpr double kSameShapeRel = 1e-9;
 // A neighbour's air gap may close to zero (touching) but not below this.
 constexpr double kOverlapToleranceMm = 1e-9;
-
-std::string fmt(double v) {
-    std::ostringstream os;
-    os << v;
-    return os.str();
-}
 
 // Global z of every vertex: surface 1 at 0, then the signed thicknesses (surface 0, the
 // object, sits one object distance in front, or at -infinity).
@@ -115,7 +110,7 @@ void requireClearSize(const Surface& s) {
 void rejectHole(const Surface& s) {
     if (s.innerSemiDiameterMm > 0.0) {
         throw ModelError(s.name,
-                         "central hole of " + fmt(s.innerSemiDiameterMm) +
+                         "central hole of " + messageNumber(s.innerSemiDiameterMm) +
                              " mm: holes in lens elements are not modelled (only mirrors in air "
                              "may have one)");
     }
@@ -139,7 +134,8 @@ LensSide makeSide(const Prescription& p, const std::vector<double>& z, int surfa
         throw ModelError(
             s.name,
             std::string(cemented ? "cemented surface must reach r = " : "clear semi-diameter ") +
-                fmt(r) + " mm, beyond the rim of the surface at r = " + fmt(rim) + " mm");
+                messageNumber(r) +
+                " mm, beyond the rim of the surface at r = " + messageNumber(rim) + " mm");
     }
     LensSide side;
     side.surface = surface;
@@ -159,7 +155,7 @@ LensSide makeSide(const Prescription& p, const std::vector<double>& z, int surfa
         side.rimZHiMm = z[surface] + hi;
     }
     if (!std::isfinite(side.rimZLoMm) || !std::isfinite(side.rimZHiMm)) {
-        throw ModelError(s.name, "sag undefined at r = " + fmt(r) + " mm");
+        throw ModelError(s.name, "sag undefined at r = " + messageNumber(r) + " mm");
     }
     return side;
 }
@@ -220,8 +216,8 @@ void checkThickness(const LensSolid& s) {
     const double edge = anamorphic(s) ? 1.0 : s.direction * (s.back.rimZMm - s.front.rimZMm);
     if (!(edge > 0.0)) {
         throw ModelError(s.name, std::string(edge < 0.0 ? "negative" : "zero") +
-                                     " edge thickness " + fmt(edge) +
-                                     " mm at r = " + fmt(s.edgeRadiusMm) + " mm");
+                                     " edge thickness " + messageNumber(edge) +
+                                     " mm at r = " + messageNumber(s.edgeRadiusMm) + " mm");
     }
     double worst = std::numeric_limits<double>::infinity(), worstR = 0.0;
     const std::vector<double> azimuths = profileAzimuths(anamorphic(s));
@@ -236,8 +232,8 @@ void checkThickness(const LensSolid& s) {
         }
     }
     if (!(worst > 0.0)) {
-        throw ModelError(s.name, "front and back faces cross: thickness " + fmt(worst) +
-                                     " mm at r = " + fmt(worstR) + " mm");
+        throw ModelError(s.name, "front and back faces cross: thickness " + messageNumber(worst) +
+                                     " mm at r = " + messageNumber(worstR) + " mm");
     }
 }
 
@@ -264,8 +260,8 @@ void checkAirGap(const Prescription& p, const LensSolid& a, const LensSolid& b) 
         }
     }
     if (worst < -kOverlapToleranceMm) {
-        throw ModelError(a.name, "overlaps " + b.name + ": air gap " + fmt(worst) +
-                                     " mm at r = " + fmt(worstR) + " mm");
+        throw ModelError(a.name, "overlaps " + b.name + ": air gap " + messageNumber(worst) +
+                                     " mm at r = " + messageNumber(worstR) + " mm");
     }
 }
 
@@ -609,9 +605,9 @@ void LensSolidBuilder::addOnFace(int i, Planned& match, const std::vector<std::s
             const auto& patch = std::get<SurfacePatch>(std::get<FaceGeometry>(face.geometry));
             const auto* ring = std::get_if<AnnularAperture>(&patch.aperture);
             if (!ring || ring->innerRadiusMm != sf.innerSemiDiameterMm)
-                throw ModelError(sf.name, "central hole of " + fmt(sf.innerSemiDiameterMm) +
-                                              " mm: " + face.name +
-                                              ", the face it coincides with, has no such hole");
+                throw ModelError(
+                    sf.name, "central hole of " + messageNumber(sf.innerSemiDiameterMm) + " mm: " +
+                                 face.name + ", the face it coincides with, has no such hole");
         }
         addAliases(face, names);
         return;

@@ -712,7 +712,7 @@ void triangulatePolygon(const std::vector<Vec3>& pos, std::vector<uint32_t> rest
             if (++misses >= m) break;  // no ear left
         }
     }
-    for (size_t k = 1; k + 1 < rest.size(); ++k) out.push_back({rest[0], rest[k], rest[k + 1]});
+    for (size_t j = 1; j + 1 < rest.size(); ++j) out.push_back({rest[0], rest[j], rest[j + 1]});
 }
 
 // From the reader's faces to a clean indexed triangle mesh plus the report (steps 1 to 5 of

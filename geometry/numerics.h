@@ -1,9 +1,12 @@
 #pragma once
-// Small floating-point helpers shared by the exact intersection code.
+// Small numeric helpers and constants every module shares (one home: no file defines its own).
 
 #include <cmath>
+#include <numbers>
 
 namespace veil {
+
+inline constexpr double kPi = std::numbers::pi;
 
 // a * b - c * d with a single rounding error (Kahan's algorithm): keeps B^2 - AC accurate for
 // grazing rays, where the two products nearly cancel.

@@ -22,4 +22,10 @@ ParseError::ParseError(FileLoc loc, const std::string& message)
 ModelError::ModelError(const std::string& object, const std::string& message)
     : std::runtime_error(object + ": " + message), object_(object) {}
 
+std::string messageNumber(double value) {
+    std::ostringstream os;
+    os << value;
+    return os.str();
+}
+
 }  // namespace veil

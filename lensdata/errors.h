@@ -21,6 +21,9 @@ struct FileLoc {
 };
 std::ostream& operator<<(std::ostream& os, const FileLoc& loc);
 
+// A number as messages write it: a stream's default, 6 significant digits ("0.25", "1e-07").
+std::string messageNumber(double value);
+
 // Input that cannot be read: malformed syntax, unknown key, value of the wrong type.
 class ParseError : public std::runtime_error {
   public:

@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <sstream>
 
+#include "lensdata/errors.h"
 #include "lensdata/input_file.h"
 
 namespace veil {
@@ -25,12 +26,6 @@ bool sameWord(const std::string& a, const char* b) {
             std::tolower(static_cast<unsigned char>(bv[i])))
             return false;
     return true;
-}
-
-std::string fmt(double v) {
-    std::ostringstream os;
-    os << v;
-    return os.str();
 }
 
 // Whitespace-separated tokens with their positions; lines whose first non-blank character is
@@ -130,11 +125,11 @@ std::vector<double> angleList(Tokens& t, const char* keyword, double lo, double 
         const double a = t.number(std::string(keyword) + " value " + std::to_string(i + 1) +
                                   " of " + std::to_string(n));
         if (a < lo || a > hi)
-            throw ParseError(at, std::string(keyword) + " " + fmt(a) + " is outside [" + fmt(lo) +
-                                     ", " + fmt(hi) + "] degrees");
+            throw ParseError(at, std::string(keyword) + " " + messageNumber(a) + " is outside [" +
+                                     messageNumber(lo) + ", " + messageNumber(hi) + "] degrees");
         if (!v.empty() && !(a > v.back()))
-            throw ParseError(at, std::string(keyword) + " values must ascend (" + fmt(a) +
-                                     " follows " + fmt(v.back()) + ")");
+            throw ParseError(at, std::string(keyword) + " values must ascend (" + messageNumber(a) +
+                                     " follows " + messageNumber(v.back()) + ")");
         v.push_back(a);
     }
     return v;
@@ -202,10 +197,11 @@ ZemaxBsdf parseZemaxBsdf(const std::string& text, const std::string& fileName) {
     d.azimuthDeg = angleList(t, "ScatterAzimuth", 0.0, 360.0);
     const double azEnd = d.planeSymmetric ? 180.0 : 360.0;
     if (d.azimuthDeg.front() != 0.0 || d.azimuthDeg.back() != azEnd || d.azimuthDeg.size() < 2)
-        throw ParseError(
-            azAt, std::string("ScatterAzimuth must run from 0 to ") + fmt(azEnd) + " degrees for " +
-                      (d.planeSymmetric ? "PlaneSymmetrical" : "Asymmetrical") + " data (got " +
-                      fmt(d.azimuthDeg.front()) + " to " + fmt(d.azimuthDeg.back()) + ")");
+        throw ParseError(azAt, std::string("ScatterAzimuth must run from 0 to ") +
+                                   messageNumber(azEnd) + " degrees for " +
+                                   (d.planeSymmetric ? "PlaneSymmetrical" : "Asymmetrical") +
+                                   " data (got " + messageNumber(d.azimuthDeg.front()) + " to " +
+                                   messageNumber(d.azimuthDeg.back()) + ")");
     const FileLoc radAt = t.here();
     d.radialDeg = angleList(t, "ScatterRadial", 0.0, 180.0);
     if (d.radialDeg.front() != 0.0 || d.radialDeg.size() < 2)
@@ -227,7 +223,8 @@ ZemaxBsdf parseZemaxBsdf(const std::string& text, const std::string& fileName) {
         const FileLoc tisAt = t.here();
         b.fileTis = t.number("the block's TIS");
         if (b.fileTis < 0.0 || b.fileTis > 1.0)
-            throw ParseError(tisAt, "TIS " + fmt(b.fileTis) + " is not a fraction in [0, 1]");
+            throw ParseError(tisAt,
+                             "TIS " + messageNumber(b.fileTis) + " is not a fraction in [0, 1]");
         b.values.reserve(nAz * nRad);
         for (size_t a = 0; a < nAz; ++a) {
             const FileLoc rowAt = t.here();
@@ -235,18 +232,19 @@ ZemaxBsdf parseZemaxBsdf(const std::string& text, const std::string& fileName) {
             for (size_t r = 0; r < nRad; ++r) {
                 const FileLoc at = t.here();
                 if (!t.done() && r > 0 && t.peek().line != rowLine)
-                    throw ParseError(rowAt,
-                                     "the row of azimuth " + fmt(d.azimuthDeg[a]) + " (incidence " +
-                                         fmt(incidence) + ") has " + std::to_string(r) +
-                                         " values; ScatterRadial lists " + std::to_string(nRad));
+                    throw ParseError(rowAt, "the row of azimuth " + messageNumber(d.azimuthDeg[a]) +
+                                                " (incidence " + messageNumber(incidence) +
+                                                ") has " + std::to_string(r) +
+                                                " values; ScatterRadial lists " +
+                                                std::to_string(nRad));
                 const double v = t.number("a BSDF value");
                 if (r == 0) rowLine = at.line;
-                if (v < 0.0) throw ParseError(at, "negative BSDF value " + fmt(v));
+                if (v < 0.0) throw ParseError(at, "negative BSDF value " + messageNumber(v));
                 b.values.push_back(v);
             }
             if (!t.done() && t.peek().line == rowLine)
-                throw ParseError(t.here(), "the row of azimuth " + fmt(d.azimuthDeg[a]) +
-                                               " (incidence " + fmt(incidence) +
+                throw ParseError(t.here(), "the row of azimuth " + messageNumber(d.azimuthDeg[a]) +
+                                               " (incidence " + messageNumber(incidence) +
                                                ") has more values than the " +
                                                std::to_string(nRad) + " ScatterRadial lists");
         }
@@ -270,7 +268,7 @@ void writeZemaxBsdf(std::ostream& os, const ZemaxBsdf& d) {
     for (const std::string& c : d.comments) os << "#" << c << "\n";
     auto list = [&](const char* keyword, const std::vector<double>& v) {
         os << keyword << "\t" << v.size() << "\n";
-        for (size_t i = 0; i < v.size(); ++i) os << (i ? "\t" : "") << fmt(v[i]);
+        for (size_t i = 0; i < v.size(); ++i) os << (i ? "\t" : "") << messageNumber(v[i]);
         os << "\n";
     };
     os << "Source\tMeasured\n";
@@ -287,7 +285,7 @@ void writeZemaxBsdf(std::ostream& os, const ZemaxBsdf& d) {
     std::ostringstream v;
     v.precision(6);
     for (const ZemaxBsdfBlock& b : d.blocks) {
-        os << "TIS\t" << fmt(b.fileTis) << "\n";
+        os << "TIS\t" << messageNumber(b.fileTis) << "\n";
         for (size_t a = 0; a < d.azimuthDeg.size(); ++a) {
             for (size_t r = 0; r < d.radialDeg.size(); ++r) {
                 v.str("");

@@ -1,6 +1,17 @@
 // veil._veil: the C++ side of the Python module (python/veil/__init__.py is the user's side).
 //
-//   run(args)          the veil command line in-process (cli/app.h), its standard output and
+//   PreparedScene      a scene (or lens) built once from the texts read when veil.Scene was
+//                      made, with its edits and --field beams: what trace and render run on
+//   render(words, scene_for, progress)
+//                      veil render's steps (cli/render_command.h) as values: the words parsed
+//                      and checked by the command line's own definitions before the scene is
+//                      built, then RenderRun (analysis/runs/render_run.h); the summary as a
+//                      dict and the images as numpy arrays, files only into an output folder
+//   trace(words, scene_for, progress)
+//                      the same for veil trace (cli/trace_command.h, runStrayLight)
+//   info(words, snapshots)
+//                      veil info's report (analysis/lens/info_report.h) as a dict
+//   run(args)          any other command in-process (cli/app.h), its standard output and
 //                      error captured: exactly what the executable does with the same words
 //   read_exr(path)     a detector EXR's layers as numpy arrays with their units
 //   Lens               a lens file read once: real-ray traces and aimed rays as numpy arrays
@@ -15,13 +26,19 @@
 
 #include <iostream>
 #include <mutex>
+#include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 #include <string>
+#include <type_traits>
 #include <vector>
 
+#include "analysis/lens/info_report.h"
 #include "analysis/reports/image_output.h"
 #include "cli/app.h"
 #include "cli/commands.h"
+#include "cli/render_command.h"
+#include "cli/trace_command.h"
 #include "lensdata/errors.h"
 #include "lensdata/glass_catalog.h"
 #include "lensdata/input_file.h"
@@ -120,8 +137,8 @@ py::array_t<double> image(const std::vector<double>& v, int width, int height) {
     return a;
 }
 
-py::dict readExr(const std::filesystem::path& path) {
-    const veil::DetectorExr e = veil::readDetectorExr(path);
+// A detector's layers (read from its EXR, or a run's images in memory) as numpy arrays.
+py::dict exrDict(const veil::DetectorExr& e) {
     py::dict layers;
     for (const veil::ExrLayer& l : e.layers) {
         py::dict layer;
@@ -148,11 +165,203 @@ py::dict readExr(const std::filesystem::path& path) {
     return d;
 }
 
+py::dict readExr(const std::filesystem::path& path) { return exrDict(veil::readDetectorExr(path)); }
+
+template <class Image>
+py::dict layersDict(const std::vector<std::pair<std::string, Image>>& named,
+                    const veil::ExrInfo& info) {
+    std::vector<veil::ImageLayer> layers;
+    for (const auto& [name, im] : named) {
+        if constexpr (std::is_pointer_v<Image>)
+            layers.push_back({name, im});
+        else
+            layers.push_back({name, &im});
+    }
+    return exrDict(veil::detectorLayers(layers, info));
+}
+
+py::object fromJson(const nlohmann::json& j) {
+    return py::module_::import("json").attr("loads")(j.dump());
+}
+
+// Warnings and notes a step wrote on standard error, passed on to sys.stderr.
+void passOn(const std::string& err) {
+    if (!err.empty())
+        py::print(err, py::arg("end") = "",
+                  py::arg("file") = py::module_::import("sys").attr("stderr"));
+}
+
+// Progress events to a Python callable (None: none). A callable that raises is reported as
+// unraisable and the run goes on.
+veil::ProgressSink progressSink(const py::object& progress) {
+    if (progress.is_none()) return {};
+    return [progress](const veil::ProgressEvent& e) {
+        py::gil_scoped_acquire gil;
+        try {
+            py::dict d;
+            d["task"] = e.task;
+            d["done"] = e.done;
+            d["total"] = e.total;
+            d["unit"] = e.unit;
+            d["state"] = e.state;
+            d["eta_seconds"] = e.etaSeconds;
+            progress(d);
+        } catch (py::error_already_set& err) {
+            err.discard_as_unraisable("veil progress callback");
+        }
+    };
+}
+
 std::vector<veil::SceneEdit> editsOf(const std::vector<std::pair<std::string, std::string>>& sets) {
     std::vector<veil::SceneEdit> edits;
     for (const auto& [key, value] : sets)
         edits.push_back({key, value, "set(" + key + ", " + value + ")"});
     return edits;
+}
+
+// A scene prepared once (veil.Scene's texts, edits and --field beams), as a command that
+// traces prepares it (cli::prepareTracedScene): the default field sources of a bare lens
+// included. Its notes and warnings go to sys.stderr.
+class PreparedSceneHandle {
+  public:
+    PreparedSceneHandle(const std::string& path, const std::vector<std::string>& glassCatalogs,
+                        const std::vector<std::string>& sets,
+                        const std::vector<std::string>& fields,
+                        const veil::FileSnapshots& snapshots) {
+        std::lock_guard lock(commandMutex());
+        const veil::FileSnapshotScope files(&snapshots);
+        veil::cli::CommonOptions common;
+        common.glassCatalogs = glassCatalogs;
+        common.sets = sets;
+        std::string err;
+        std::exception_ptr failure;
+        {
+            py::gil_scoped_release noGil;
+            CapturedStreams streams;
+            try {
+                const veil::GlassCatalog catalog = veil::cli::loadCatalog(common);
+                scene_ = veil::cli::prepareTracedScene(common, path, fields, catalog);
+                veil::cli::reportSceneNotes(*scene_);
+            } catch (...) {
+                failure = std::current_exception();
+            }
+            err = streams.err();
+        }
+        passOn(err);
+        if (failure) std::rethrow_exception(failure);
+    }
+    const veil::PreparedScene& scene() const { return *scene_; }
+    std::vector<std::string> detectors() const {
+        std::vector<std::string> names;
+        for (const veil::DetectorImage& d : scene_->transport().images)
+            names.push_back(d.geometry().name);
+        return names;
+    }
+    size_t sources() const { return scene_->transport().view.sources.size(); }
+
+  private:
+    std::unique_ptr<const veil::PreparedScene> scene_;
+};
+
+// The words of one command parsed by its own definitions (cli::parseCommandWords).
+template <class Options>
+Options parseWords(const std::vector<std::string>& words, void (*declare)(CLI::App&, Options&)) {
+    Options o;
+    veil::cli::CommonOptions common;
+    veil::cli::parseCommandWords(words, common, [&](CLI::App& app) { declare(app, o); });
+    return o;
+}
+
+// What a run as a value hands Python: its report (the command's --json, files included), its
+// text, its images, the files it wrote.
+py::dict runDict(nlohmann::json report, const veil::cli::WrittenFiles& written,
+                 const std::string& text, const py::dict& images) {
+    report["files"] = written.json();
+    py::dict out;
+    out["report"] = fromJson(report);
+    out["text"] = text;
+    out["images"] = images;
+    out["files"] = fromJson(written.json());
+    return out;
+}
+
+// veil render's steps: options checked, the scene asked for (scene_for(fields), built once
+// per edits and fields by veil.Scene), the run, files only into -o.
+py::dict renderValue(const std::vector<std::string>& words, const py::function& sceneFor,
+                     const py::object& progress) {
+    veil::cli::RenderCommandOptions o =
+        parseWords<veil::cli::RenderCommandOptions>(words, veil::cli::addRenderCommand);
+    o.json = true;  // no folder unless -o or --resume
+    veil::RenderRunSpec spec = veil::cli::renderSpec(o);
+    const std::filesystem::path dir = veil::cli::renderFolder(o);
+    if (!dir.empty()) veil::cli::requireWritableFolder(dir, "-o");
+    const py::object held = sceneFor(o.fields);  // alive while the run reads it
+    const PreparedSceneHandle& scene = held.cast<const PreparedSceneHandle&>();
+    spec.progress = progressSink(progress);
+    std::optional<veil::cli::RenderCommandRun> run;
+    {
+        py::gil_scoped_release noGil;
+        run.emplace(veil::cli::renderIntoFolder(scene.scene(), std::move(spec), o, dir));
+    }
+    const veil::RenderResult& r = run->result;
+    py::dict images;
+    images[py::str(r.detector)] =
+        layersDict(r.imageLayers(), veil::ExrInfo{r.unit, static_cast<uint64_t>(r.passes())});
+    return runDict(r.summary(), run->written, r.text(dir.string()), images);
+}
+
+// veil trace's steps, the same way.
+py::dict traceValue(const std::vector<std::string>& words, const py::function& sceneFor,
+                    const py::object& progress) {
+    veil::cli::TraceOptions o =
+        parseWords<veil::cli::TraceOptions>(words, veil::cli::addTraceCommand);
+    veil::StrayLightSpec spec = veil::cli::traceSpec(o);
+    const std::filesystem::path dir = veil::cli::outputFolder(o.output, "trace", /*json=*/true);
+    const py::object held = sceneFor(o.fields);
+    const PreparedSceneHandle& scene = held.cast<const PreparedSceneHandle&>();
+    const std::string note = veil::cli::checkRayDatabase(scene.scene(), spec, o);
+    if (!note.empty()) passOn("veil: --save-rays: " + note + "\n");
+    spec.progress = progressSink(progress);
+    std::optional<veil::cli::TraceCommandRun> run;
+    {
+        py::gil_scoped_release noGil;
+        run.emplace(veil::cli::traceIntoFolder(scene.scene(), std::move(spec), o, dir));
+    }
+    const veil::StrayLightResult& r = run->result;
+    py::dict images;
+    for (size_t d = 0; d < r.images.size(); ++d)
+        images[py::str(r.images[d].geometry().name)] =
+            layersDict(r.imageLayers(d), veil::ExrInfo{r.fluxUnit, r.emittedRays});
+    return runDict(r.summary(), run->written, r.text(), images);
+}
+
+// veil info's report (--set and --glass-catalog among the words).
+py::object infoValue(const std::vector<std::string>& words, const veil::FileSnapshots& snapshots) {
+    veil::cli::InfoOptions o;
+    veil::cli::CommonOptions common;
+    veil::cli::parseCommandWords(words, common,
+                                 [&](CLI::App& app) { veil::cli::addInfoCommand(app, o); });
+    std::lock_guard lock(commandMutex());
+    const veil::FileSnapshotScope files(&snapshots);
+    std::optional<veil::InfoReport> report;
+    std::string err;
+    std::exception_ptr failure;
+    {
+        py::gil_scoped_release noGil;
+        CapturedStreams streams;
+        try {
+            const veil::GlassCatalog catalog = veil::cli::loadCatalog(common);
+            report.emplace(veil::makeInfoReport(
+                o.file, veil::cli::readScene(common, o.file, catalog).prescription, catalog,
+                o.aim == "real" ? veil::AimMode::Real : veil::AimMode::Paraxial, o.rings));
+        } catch (...) {
+            failure = std::current_exception();
+        }
+        err = streams.err();
+    }
+    passOn(err);
+    if (failure) std::rethrow_exception(failure);
+    return fromJson(report->json());
 }
 
 // A lens read once (a lens file, or a scene file's lens), with its sequential model.
@@ -339,6 +548,22 @@ PYBIND11_MODULE(_veil, m) {
           "Runs the veil command line with these words (without the program name); returns "
           "its exit code and captured output, raising VeilError subclasses on failure. Files "
           "in snapshots are read from there, not from the disk.");
+    py::class_<PreparedSceneHandle>(m, "PreparedScene")
+        .def(py::init<const std::string&, const std::vector<std::string>&,
+                      const std::vector<std::string>&, const std::vector<std::string>&,
+                      const veil::FileSnapshots&>(),
+             py::arg("path"), py::arg("glass_catalogs"), py::arg("sets"), py::arg("fields"),
+             py::arg("snapshots"))
+        .def_property_readonly("detectors", &PreparedSceneHandle::detectors)
+        .def_property_readonly("sources", &PreparedSceneHandle::sources);
+    m.def("render", &renderValue, py::arg("words"), py::arg("scene_for"),
+          py::arg("progress") = py::none(),
+          "veil render's words run as values: {report, text, images, files}.");
+    m.def("trace", &traceValue, py::arg("words"), py::arg("scene_for"),
+          py::arg("progress") = py::none(),
+          "veil trace's words run as values: {report, text, images, files}.");
+    m.def("info", &infoValue, py::arg("words"), py::arg("snapshots"),
+          "veil info's report as a dict.");
     m.def("read_exr", &readExr, py::arg("path"),
           "A detector EXR written by veil: its layers' flux, irradiance, variance and count "
           "as (rows, columns) float64 arrays, row 0 at the top, and their units.");

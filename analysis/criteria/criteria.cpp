@@ -560,11 +560,11 @@ struct Compiler {
                 // Name what there is to choose from.
                 std::string known;
                 size_t listed = 0, total = 0;
-                for (const auto& names : candidates) {
-                    if (names.empty()) continue;
+                for (const auto& choices : candidates) {
+                    if (choices.empty()) continue;
                     ++total;
                     if (listed < 40) {
-                        known += (listed ? ", " : "") + std::string(names.front());
+                        known += (listed ? ", " : "") + std::string(choices.front());
                         ++listed;
                     }
                 }

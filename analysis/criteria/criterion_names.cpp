@@ -2,6 +2,9 @@
 
 #include <algorithm>
 
+#include "geometry/scene.h"
+#include "tracer/transport/interaction.h"
+
 namespace veil {
 
 NameTable criterionNames(const Scene& scene, const TransportView& transport) {

@@ -4,10 +4,11 @@
 // histories (analysis/criteria/criteria.h resolves names against this table).
 
 #include "analysis/criteria/criteria.h"
-#include "geometry/scene.h"
-#include "tracer/transport/interaction.h"
 
 namespace veil {
+
+class Scene;
+struct TransportView;
 
 NameTable criterionNames(const Scene& scene, const TransportView& transport);
 

@@ -1,7 +1,10 @@
 #include "analysis/ghosts/coating_whatif.h"
 
 #include "analysis/reports/format.h"
+#include "geometry/scene.h"
 #include "lensdata/errors.h"
+#include "tracer/scene/scene_transport.h"
+#include "tracer/surfaces/property_table.h"
 
 namespace veil {
 

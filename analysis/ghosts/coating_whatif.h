@@ -5,11 +5,11 @@
 #include <string>
 #include <vector>
 
-#include "geometry/scene.h"
-#include "tracer/scene/scene_transport.h"
-#include "tracer/surfaces/property_table.h"
-
 namespace veil {
+
+class PropertyTable;
+class Scene;
+struct SceneTransport;
 
 // Coating what-if: "glob=property" overrides applied to the resolved transport scene (before
 // any [[assign]] rule and any surface's own coating). Returns one line per changed object,

@@ -3,6 +3,8 @@
 #include <chrono>
 
 #include "analysis/criteria/criterion_names.h"
+#include "tracer/scene/scene_geometry.h"
+#include "tracer/scene/scene_transport.h"
 
 namespace veil {
 

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "analysis/reports/format.h"
+#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
 

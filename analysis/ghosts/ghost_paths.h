@@ -24,9 +24,9 @@
 #include <string>
 #include <vector>
 
-#include "tracer/sequential/sequential_model.h"
-
 namespace veil {
+
+class SequentialModel;
 
 // One ghost path: its reflections in time order (sequential surface indices).
 struct GhostPath {

@@ -1,10 +1,13 @@
 #include "analysis/ghosts/ghost_report.h"
-#include "analysis/reports/format.h"
 
 #include <cmath>
 #include <iomanip>
 #include <numeric>
 #include <sstream>
+
+#include "analysis/reports/format.h"
+#include "tracer/scene/scene_geometry.h"
+#include "tracer/scene/scene_transport.h"
 
 namespace veil {
 

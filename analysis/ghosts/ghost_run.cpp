@@ -13,7 +13,13 @@
 #include "analysis/pictures/layout.h"
 #include "analysis/pictures/path_picture.h"
 #include "analysis/reports/image_output.h"
+#include "lensdata/glass_catalog.h"
 #include "lensdata/output_file.h"
+#include "tracer/scene/prepared_scene.h"
+#include "tracer/scene/scene_geometry.h"
+#include "tracer/scene/scene_spec.h"
+#include "tracer/scene/scene_transport.h"
+#include "tracer/transport/interaction.h"
 
 namespace veil {
 

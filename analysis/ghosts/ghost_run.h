@@ -25,10 +25,12 @@
 #include "analysis/ghosts/ghost_report.h"
 #include "analysis/ghosts/ghost_tracer.h"
 #include "analysis/reports/progress.h"
-#include "lensdata/glass_catalog.h"
-#include "tracer/scene/prepared_scene.h"
 
 namespace veil {
+
+struct SceneSpec;
+class GlassCatalog;
+class PreparedScene;
 
 struct GhostRunSpec {
     std::string scene;  // as the user named it (the report)

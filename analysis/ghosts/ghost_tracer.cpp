@@ -13,17 +13,15 @@
 #include "analysis/reports/format.h"
 #include "geometry/lens_solid.h"
 #include "geometry/mechanics.h"
+#include "geometry/numerics.h"
+#include "tracer/scene/scene_geometry.h"
+#include "tracer/scene/scene_transport.h"
 #include "tracer/sequential/paraxial.h"
+#include "tracer/sequential/sequential_model.h"
 #include "tracer/sequential/sequential_trace.h"
 #include "tracer/surfaces/fresnel.h"
 
 namespace veil {
-
-namespace {
-
-constexpr double kPi = std::numbers::pi;
-
-}  // namespace
 
 std::ostream& operator<<(std::ostream& os, const GhostOptions& o) {
     return os << "GhostOptions{order " << o.order << ", grid " << o.gridRays << ", min R^4 "

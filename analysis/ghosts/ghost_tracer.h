@@ -33,17 +33,20 @@
 // Ranking: by the peak irradiance over all sources, brightest first.
 
 #include <atomic>
+#include <functional>
 #include <ostream>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "analysis/ghosts/ghost_paths.h"
-#include "tracer/scene/scene_geometry.h"
-#include "tracer/scene/scene_transport.h"
+#include "tracer/records/detector.h"
 #include "tracer/sequential/sequential_model.h"
 
 namespace veil {
+
+struct SceneGeometry;
+struct SceneTransport;
 
 struct GhostOptions {
     int order = 2;                            // 2, or 4 (two- and four-reflection ghosts)

@@ -6,12 +6,16 @@
 
 #include "analysis/lens/first_order.h"
 #include "geometry/mechanics.h"
+#include "geometry/numerics.h"
+#include "lensdata/glass_catalog.h"
+#include "tracer/scene/prepared_scene.h"
+#include "tracer/scene/scene_geometry.h"
+#include "tracer/scene/scene_spec.h"
+#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
 
 namespace {
-
-constexpr double kPi = std::numbers::pi;
 
 std::vector<Source> fieldSources(const SceneSpec& file, const GlassCatalog& catalog,
                                  const std::vector<std::pair<double, double>>& fields) {

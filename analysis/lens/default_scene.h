@@ -8,11 +8,12 @@
 #include <utility>
 #include <vector>
 
-#include "lensdata/glass_catalog.h"
-#include "tracer/scene/prepared_scene.h"
 #include "tracer/scene/scene_geometry.h"
 
 namespace veil {
+
+class GlassCatalog;
+class PreparedScene;
 
 // The default scene of a bare lens file (no [[source]]): one collimated 1 W source per
 // system field (object at infinity) or one point source per field point (finite object),

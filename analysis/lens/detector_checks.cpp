@@ -7,6 +7,8 @@
 
 #include "analysis/lens/first_order.h"
 #include "geometry/lens_solid.h"
+#include "tracer/scene/scene_geometry.h"
+#include "tracer/scene/scene_spec.h"
 #include "tracer/sequential/sequential_model.h"
 
 namespace veil {

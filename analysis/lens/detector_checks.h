@@ -19,9 +19,11 @@
 #include <vector>
 
 #include "lensdata/prescription.h"
-#include "tracer/scene/scene_geometry.h"
 
 namespace veil {
+
+struct SceneSpec;
+struct SceneGeometry;
 
 std::vector<ImportNote> detectorPlacementWarnings(const SceneSpec& spec,
                                                   const SceneGeometry& geometry);

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "tracer/sequential/paraxial.h"
+#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
 

@@ -16,9 +16,10 @@
 #include <vector>
 
 #include "tracer/sequential/pupil.h"
-#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
+
+class SequentialModel;
 
 struct FirstOrderData {
     double wavelengthNm = 0.0;

@@ -6,6 +6,8 @@
 #include <sstream>
 
 #include "analysis/reports/format.h"
+#include "lensdata/glass_catalog.h"
+#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
 

@@ -13,12 +13,13 @@
 
 #include "analysis/lens/first_order.h"
 #include "analysis/lens/spot.h"
-#include "lensdata/glass_catalog.h"
 #include "lensdata/prescription.h"
 #include "tracer/sequential/ray_aiming.h"
-#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
+
+class GlassCatalog;
+class SequentialModel;
 
 struct InfoReport {
     std::string file;  // as the user named it

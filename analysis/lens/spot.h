@@ -6,9 +6,10 @@
 
 #include "geometry/vec.h"
 #include "tracer/sequential/ray_aiming.h"
-#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
+
+class SequentialModel;
 
 struct SpotOptions {
     int rings = 8;  // hexapolar rings: ring k holds 6k rays, plus the centre

@@ -9,6 +9,8 @@
 #include <stdexcept>
 
 #include "analysis/pictures/scene_section.h"
+#include "geometry/scene.h"
+#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
 
@@ -361,9 +363,9 @@ std::vector<Vec3> layoutAxis(const SequentialModel& model) {
 
 Picture drawLayout(const Scene& scene, const LayoutOptions& options) {
     const std::vector<SectionPath> paths = sceneSection(scene, options.chordToleranceMm);
-    const Bounds3 b = layoutBounds(paths, options.sources);
-    const double pad = 0.04 * std::max(b.hi.z - b.lo.z, b.hi.y - b.lo.y);
-    Picture pic(b.lo.z - pad, b.hi.z + pad, b.lo.y - pad, b.hi.y + pad);
+    const Bounds3 extent = layoutBounds(paths, options.sources);
+    const double pad = 0.04 * std::max(extent.hi.z - extent.lo.z, extent.hi.y - extent.lo.y);
+    Picture pic(extent.lo.z - pad, extent.hi.z + pad, extent.lo.y - pad, extent.hi.y + pad);
     const double mmPerPt = (pic.zMax() - pic.zMin()) / (Picture::kPageWidthPt - 2.0 * pic.marginPt);
 
     // Optical axis first, under everything.

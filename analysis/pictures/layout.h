@@ -15,11 +15,12 @@
 #include <vector>
 
 #include "analysis/pictures/picture.h"
-#include "geometry/scene.h"
 #include "tracer/light/source.h"
-#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
+
+class Scene;
+class SequentialModel;
 
 // A light source as a layout draws it: a few of its rays as arrows in the y-z plane, and the
 // emitter's section. Points are (z, y) in global mm.

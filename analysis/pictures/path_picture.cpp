@@ -13,6 +13,7 @@
 #include "analysis/criteria/criterion_names.h"
 #include "analysis/reports/image_output.h"  // falseColour
 #include "tracer/scene/scene_transport.h"
+#include "tracer/transport/interaction.h"
 
 namespace veil {
 

@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include "analysis/reports/image_output.h"
+#include "geometry/scene.h"
 #include "lensdata/input_file.h"
 #include "lensdata/output_file.h"
 

@@ -18,10 +18,11 @@
 #include <vector>
 
 #include "analysis/pictures/path_picture.h"
-#include "geometry/scene.h"
 #include "tracer/light/source.h"
 
 namespace veil {
+
+class Scene;
 
 struct SceneViewOptions {
     std::string title;

@@ -19,6 +19,12 @@ std::string scientific(double value, int digits) {
     return os.str();
 }
 
+std::string significant(double value, int digits) {
+    std::ostringstream os;
+    os << std::setprecision(digits) << value;
+    return os.str();
+}
+
 nlohmann::json jsonNumber(double value) {
     return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json();
 }

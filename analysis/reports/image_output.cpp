@@ -158,6 +158,25 @@ constexpr double kTitleSize = 15.0;
 
 double textWidth(const std::string& s, double sizePx) { return Picture::textWidthPt(s, sizePx); }
 
+// Layers one file can hold: at least one, each with an image, on one pixel grid, with
+// distinct usable names (an empty name only alone).
+void checkLayers(const std::vector<ImageLayer>& layers) {
+    if (layers.empty()) throw std::invalid_argument("detector image layers: no layers");
+    std::set<std::string> names;
+    for (const ImageLayer& l : layers) {
+        if (!l.image) throw std::invalid_argument("detector image layers: layer without an image");
+        if (l.name.empty() && layers.size() > 1)
+            throw std::invalid_argument("detector image layers: several layers need names");
+        if (!l.name.empty() && (l.name.front() == '.' || l.name.back() == '.'))
+            throw std::invalid_argument("detector image layers: bad layer name '" + l.name + "'");
+        if (!names.insert(l.name).second)
+            throw std::invalid_argument("detector image layers: layer '" + l.name + "' twice");
+        if (l.image->pixelsX() != layers[0].image->pixelsX() ||
+            l.image->pixelsY() != layers[0].image->pixelsY())
+            throw std::invalid_argument("detector image layers: layers on different pixel grids");
+    }
+}
+
 }  // namespace
 
 // OpenEXR Output Definitions
@@ -169,20 +188,7 @@ void writeDetectorExr(const std::filesystem::path& path, const DetectorImage& im
 
 void writeDetectorExr(const std::filesystem::path& path, const std::vector<ImageLayer>& layers,
                       const ExrInfo& info) {
-    if (layers.empty()) throw std::invalid_argument("writeDetectorExr: no layers");
-    std::set<std::string> names;
-    for (const ImageLayer& l : layers) {
-        if (!l.image) throw std::invalid_argument("writeDetectorExr: layer without an image");
-        if (l.name.empty() && layers.size() > 1)
-            throw std::invalid_argument("writeDetectorExr: several layers need names");
-        if (!l.name.empty() && (l.name.front() == '.' || l.name.back() == '.'))
-            throw std::invalid_argument("writeDetectorExr: bad layer name '" + l.name + "'");
-        if (!names.insert(l.name).second)
-            throw std::invalid_argument("writeDetectorExr: layer '" + l.name + "' twice");
-        if (l.image->pixelsX() != layers[0].image->pixelsX() ||
-            l.image->pixelsY() != layers[0].image->pixelsY())
-            throw std::invalid_argument("writeDetectorExr: layers on different pixel grids");
-    }
+    checkLayers(layers);
     const DetectorImage& first = *layers[0].image;
     const DetectorGeometry& g = first.geometry();
     const int width = first.pixelsX(), height = first.pixelsY();
@@ -251,6 +257,37 @@ void writeDetectorExr(const std::filesystem::path& path, const std::vector<Image
         throw std::runtime_error("cannot write " + path.string() + ": " + e.what());
     }
     commitFile(tmp, path);
+}
+
+DetectorExr detectorLayers(const std::vector<ImageLayer>& layers, const ExrInfo& info) {
+    checkLayers(layers);
+    const DetectorImage& first = *layers[0].image;
+    const DetectorGeometry& g = first.geometry();
+    DetectorExr out;
+    out.width = first.pixelsX();
+    out.height = first.pixelsY();
+    out.pixelAspectRatio = static_cast<float>(g.pixelWidthMm() / g.pixelHeightMm());
+    out.detector = g.name;
+    out.fluxUnit = info.fluxUnit;
+    out.irradianceUnit = info.fluxUnit + "/mm^2";
+    out.emittedRays = static_cast<double>(info.emittedRays);
+    out.detectorSizeMm = Vec2(g.widthMm, g.heightMm);
+    out.pixelSizeMm = Vec2(g.pixelWidthMm(), g.pixelHeightMm());
+    const int n = first.pixelCount();
+    for (const ImageLayer& l : layers) {
+        const DetectorImage& im = *l.image;
+        ExrLayer& e = out.layers.emplace_back();
+        e.name = l.name;
+        e.totalFlux = im.totalFlux();
+        e.totalRelativeError = im.totalRelativeError(info.emittedRays);
+        for (int p = 0; p < n; ++p) {
+            e.value.push_back(im.flux(p));
+            e.irradiance.push_back(im.irradiance(p));
+            e.variance.push_back(im.pixelVariance(p, info.emittedRays));
+            e.count.push_back(static_cast<double>(im.count(p)));
+        }
+    }
+    return out;
 }
 
 const ExrLayer* DetectorExr::layer(const std::string& name) const {

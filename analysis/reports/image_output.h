@@ -120,6 +120,11 @@ std::ostream& operator<<(std::ostream& os, const DetectorExr& e);
 // channel of the four of one of its layers.
 DetectorExr readDetectorExr(const std::filesystem::path& path);
 
+// What writeDetectorExr() would write and readDetectorExr() read back, in memory and without
+// the float rounding of the file (scales 1): the images of a run handed to Python as values.
+// Layers in the order given. Throws std::invalid_argument as writeDetectorExr() does.
+DetectorExr detectorLayers(const std::vector<ImageLayer>& layers, const ExrInfo& info);
+
 // PNG Preview
 
 enum class PreviewQuantity {

@@ -11,6 +11,9 @@
 #include "analysis/reports/image_output.h"
 #include "lensdata/errors.h"
 #include "lensdata/output_file.h"
+#include "tracer/scene/prepared_scene.h"
+#include "tracer/scene/scene_transport.h"
+#include "tracer/transport/interaction.h"
 
 namespace veil {
 
@@ -368,34 +371,36 @@ std::string RenderResult::text(const std::string& folder) const {
 
 // Files
 
+std::vector<std::pair<std::string, DetectorImage>> RenderResult::imageLayers() const {
+    std::vector<std::pair<std::string, DetectorImage>> out;
+    out.emplace_back("total", state.total());
+    for (int c = 0; c < kRenderComponents; ++c)
+        out.emplace_back(toString(static_cast<RenderComponent>(c)),
+                         state.component(static_cast<RenderComponent>(c)));
+    for (int k = 0; k < state.criteria(); ++k) {
+        out.emplace_back(layerName(k), state.criterionTotal(k));
+        for (int c = 0; c < kRenderComponents; ++c)
+            out.emplace_back(
+                layerName(k) + "." + std::string(toString(static_cast<RenderComponent>(c))),
+                state.criterionComponent(k, static_cast<RenderComponent>(c)));
+    }
+    return out;
+}
+
 std::vector<std::filesystem::path> writeRenderFiles(const RenderResult& r,
                                                     const std::filesystem::path& dir) {
     std::vector<std::filesystem::path> written;
-    const RenderState& state = r.state;
-    const int criterionCount = state.criteria();
-    const DetectorImage total = state.total();
-    std::vector<DetectorImage> components;
-    for (int c = 0; c < kRenderComponents; ++c)
-        components.push_back(state.component(static_cast<RenderComponent>(c)));
-    const uint64_t n = static_cast<uint64_t>(state.passes());
-    // Criterion k: its total, then its components.
-    std::vector<std::vector<DetectorImage>> byCriterion(static_cast<size_t>(criterionCount));
-    for (int k = 0; k < criterionCount; ++k) {
-        byCriterion[k].push_back(state.criterionTotal(k));
-        for (int c = 0; c < kRenderComponents; ++c)
-            byCriterion[k].push_back(state.criterionComponent(k, static_cast<RenderComponent>(c)));
-    }
+    const int criterionCount = r.state.criteria();
+    const std::vector<std::pair<std::string, DetectorImage>> images = r.imageLayers();
+    std::vector<ImageLayer> layers;
+    for (const auto& [layer, image] : images) layers.push_back({layer, &image});
+    const DetectorImage& total = images[0].second;
+    auto component = [&](int c) -> const DetectorImage& { return images[1 + c].second; };
+    auto criterion = [&](int k) -> const DetectorImage& {
+        return images[1 + kRenderComponents + k * (kRenderComponents + 1)].second;
+    };
+    const uint64_t n = static_cast<uint64_t>(r.state.passes());
     const std::string& name = r.detector;
-    std::vector<ImageLayer> layers{{"total", &total}};
-    for (int c = 0; c < kRenderComponents; ++c)
-        layers.push_back({std::string(toString(static_cast<RenderComponent>(c))), &components[c]});
-    for (int k = 0; k < criterionCount; ++k) {
-        layers.push_back({layerName(k), &byCriterion[k][0]});
-        for (int c = 0; c < kRenderComponents; ++c)
-            layers.push_back(
-                {layerName(k) + "." + std::string(toString(static_cast<RenderComponent>(c))),
-                 &byCriterion[k][c + 1]});
-    }
     writeDetectorExr(dir / (name + ".exr"), layers, ExrInfo{r.unit, n});
     written.push_back(dir / (name + ".exr"));
     PreviewOptions po;
@@ -407,17 +412,17 @@ std::vector<std::filesystem::path> writeRenderFiles(const RenderResult& r,
     written.push_back(dir / (name + ".png"));
     for (int c = 0; c < kRenderComponents; ++c) {
         const std::string comp(toString(static_cast<RenderComponent>(c)));
-        if (components[c].totalFlux() == 0.0) continue;
+        if (component(c).totalFlux() == 0.0) continue;
         PreviewOptions cp = po;
         cp.title = name + ": " + comp + " component, " + passesText(n);
-        writeDetectorPng(dir / (name + "." + comp + ".png"), components[c], cp);
+        writeDetectorPng(dir / (name + "." + comp + ".png"), component(c), cp);
         written.push_back(dir / (name + "." + comp + ".png"));
     }
     for (int k = 0; k < criterionCount; ++k) {
         PreviewOptions cp = po;
         cp.title = name + ": " + r.spec.where[static_cast<size_t>(k)] + ", " + passesText(n);
         const std::filesystem::path png = dir / (name + "." + layerName(k) + ".png");
-        writeDetectorPng(png, byCriterion[k][0], cp);
+        writeDetectorPng(png, criterion(k), cp);
         written.push_back(png);
     }
     writeTextFile(dir / "summary.json", r.summary().dump(2) + "\n");

@@ -33,9 +33,11 @@
 #include "analysis/reports/progress.h"
 #include "tracer/render/render.h"
 #include "tracer/runtime/ranks.h"
-#include "tracer/scene/prepared_scene.h"
 
 namespace veil {
+
+struct SceneTransport;
+class PreparedScene;
 
 class RenderCriteria;
 
@@ -103,6 +105,10 @@ struct RenderResult {
 
     int passes() const { return state.passes(); }
     double targetError() const;  // the stop rules' target image's mean relative error now
+    // The run's images by layer name, in the order of its EXR: total, the components
+    // (visible, direct, caustic, secondary), then per criterion whereK and its components
+    // (whereK.visible, ...).
+    std::vector<std::pair<std::string, DetectorImage>> imageLayers() const;
     // The summary veil render writes as summary.json (and prints with --json).
     nlohmann::json summary() const;
     // The report veil render prints: fluxes with errors, passes and why the run stopped.

@@ -7,6 +7,10 @@
 #include <vector>
 
 #include "lensdata/errors.h"
+#include "tracer/scene/prepared_scene.h"
+#include "tracer/scene/scene_geometry.h"
+#include "tracer/scene/scene_transport.h"
+#include "tracer/transport/interaction.h"
 #include "tracer/transport/nonsequential.h"
 
 namespace veil {

@@ -14,9 +14,12 @@
 
 #include "tracer/records/path_history.h"
 #include "tracer/records/ray_database.h"
-#include "tracer/scene/prepared_scene.h"
 
 namespace veil {
+
+struct TransportOptions;
+struct SceneTransport;
+class PreparedScene;
 
 struct RayDatabaseEstimate {
     uint64_t sampleRays = 0, rays = 0;  // all sources

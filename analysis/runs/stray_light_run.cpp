@@ -11,6 +11,8 @@
 #include "analysis/reports/format.h"
 #include "analysis/reports/image_output.h"
 #include "lensdata/output_file.h"
+#include "tracer/scene/prepared_scene.h"
+#include "tracer/scene/scene_transport.h"
 
 namespace veil {
 
@@ -171,6 +173,18 @@ std::string StrayLightResult::text() const {
     return text.str();
 }
 
+std::vector<std::pair<std::string, const DetectorImage*>> StrayLightResult::imageLayers(
+    size_t d) const {
+    std::vector<std::pair<std::string, const DetectorImage*>> out{
+        {layers ? "all" : "", &images[d]}};
+    const size_t n = layers ? layers->criterionCount() : 0;
+    if (layers)
+        for (size_t c = 0; c <= n; ++c)
+            out.emplace_back(c < n ? "where" + std::to_string(c + 1) : "rest",
+                             &layers->images()[c][d]);
+    return out;
+}
+
 std::vector<std::filesystem::path> writeTraceFiles(const StrayLightResult& result,
                                                    const std::filesystem::path& dir) {
     std::vector<std::filesystem::path> written;
@@ -179,12 +193,10 @@ std::vector<std::filesystem::path> writeTraceFiles(const StrayLightResult& resul
     for (size_t d = 0; d < result.images.size(); ++d) {
         const DetectorImage& img = result.images[d];
         const std::string name = img.geometry().name;
-        std::vector<ImageLayer> layers{{result.layers ? "all" : "", &img}};
+        std::vector<ImageLayer> layers;
+        for (const auto& [layer, image] : result.imageLayers(d)) layers.push_back({layer, image});
         const size_t n = result.layers ? result.layers->criterionCount() : 0;
         auto tag = [n](size_t c) { return c < n ? "where" + std::to_string(c + 1) : "rest"; };
-        if (result.layers)
-            for (size_t c = 0; c <= n; ++c)
-                layers.push_back({tag(c), &result.layers->images()[c][d]});
         writeDetectorExr(dir / (name + ".exr"), layers, ExrInfo{result.fluxUnit, total});
         written.push_back(dir / (name + ".exr"));
         PreviewOptions po;

@@ -22,9 +22,10 @@
 
 #include "analysis/criteria/criterion_images.h"
 #include "analysis/reports/progress.h"
-#include "tracer/scene/prepared_scene.h"
 
 namespace veil {
+
+class PreparedScene;
 
 struct StrayLightSpec {
     std::string scene;  // the scene as the user named it (the summary); empty: the file's path
@@ -67,6 +68,9 @@ struct StrayLightResult {
     bool prune = false;
     std::vector<std::string> detectorObjects;  // per detector: the object it records on
 
+    // Detector d's images by layer name, in the order of its EXR: the image ("" alone, "all"
+    // beside criteria), then where1, where2, ... and rest.
+    std::vector<std::pair<std::string, const DetectorImage*>> imageLayers(size_t d) const;
     // Per detector: its total, then its criterion layers in order (when there are criteria).
     std::vector<StrayLightRow> report() const;
     // What veil trace writes as summary.json: the flux budget and every detector's flux with

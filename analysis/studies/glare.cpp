@@ -14,13 +14,17 @@
 
 #include "analysis/ghosts/ghost_tracer.h"
 #include "analysis/lens/first_order.h"
+#include "analysis/reports/format.h"
 #include "analysis/runs/render_run.h"
 #include "geometry/exact_face.h"
 #include "lensdata/errors.h"
+#include "lensdata/glass_catalog.h"
 #include "lensdata/output_file.h"
 #include "tracer/light/source.h"
 #include "tracer/scene/prepared_scene.h"
+#include "tracer/scene/scene_spec.h"
 #include "tracer/sequential/ray_aiming.h"
+#include "tracer/sequential/sequential_model.h"
 #include "tracer/sequential/sequential_trace.h"
 
 namespace veil {
@@ -28,12 +32,6 @@ namespace veil {
 namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
-
-std::string fmt(double v, int precision = 4) {
-    std::ostringstream os;
-    os << std::setprecision(precision) << v;
-    return os.str();
-}
 
 // The mean of the passes' values and its standard error.
 GlareValue meanOf(const std::vector<double>& x) {
@@ -79,8 +77,8 @@ SpectralSampler fieldSpectrum(const SceneSpec& file, std::string& described, std
     }
     std::ostringstream os;
     for (size_t i = 0; i < lines.size(); ++i)
-        os << (i ? ", " : "") << fmt(lines[i].nm, 6) << " nm (weight " << fmt(lines[i].weight)
-           << ")";
+        os << (i ? ", " : "") << significant(lines[i].nm, 6) << " nm (weight "
+           << significant(lines[i].weight, 4) << ")";
     if (visible) {
         described = "photometric: the lens's wavelengths " + os.str() + ", times V(lambda)";
         unit = "lm";
@@ -215,10 +213,11 @@ GlareField GlareBench::locate(Vec2 fieldDeg) const {
     gf.fieldDeg = fieldDeg;
     const double spotRadius = 0.5 * spec_.spotDiameterDeg;
     const Vec3 axis = fieldDirection(fieldDeg.x, fieldDeg.y);
-    const std::string name = "field " + fmt(fieldDeg.x) + "," + fmt(fieldDeg.y);
+    const std::string name =
+        "field " + significant(fieldDeg.x, 4) + "," + significant(fieldDeg.y, 4);
     if (std::acos(std::clamp(axis.z, -1.0, 1.0)) / kDeg + spotRadius > spec_.fieldHalfAngleDeg)
         throw ModelError(name, "the black spot reaches past the bright field (--field-deg " +
-                                   fmt(spec_.fieldHalfAngleDeg) + ")");
+                                   significant(spec_.fieldHalfAngleDeg, 4) + ")");
     const auto centre = chiefImage(model, *aimer_, fieldDeg);
     if (!centre) throw ModelError(name, "no real chief ray reaches the image from this direction");
     gf.imageMm = *centre;
@@ -379,12 +378,12 @@ namespace {
 // F/# it has over n, the model rebuilt. ModelError for a scene without a stop plate or an
 // F/# faster than the lens's.
 SceneSpec stoppedDown(const SceneSpec& file, const GlassCatalog& catalog, double n, double own) {
-    const std::string name = "--f-number " + fmt(n);
+    const std::string name = "--f-number " + significant(n, 4);
     if (!(n > 0.0) || !std::isfinite(n)) throw ModelError(name, "the F-number must be > 0");
     if (!file.mechanics || !file.mechanics->stop.enabled)
         throw ModelError(name, "the scene has no stop plate ([mechanics] stop) to stop down");
     if (n < own * (1.0 - 1e-9))
-        throw ModelError(name, "faster than the lens's own f/" + fmt(own) +
+        throw ModelError(name, "faster than the lens's own f/" + significant(own, 4) +
                                    ": glare stops a lens down, it cannot open it up");
     SceneSpec s = file;
     Surface& stop = s.prescription.surfaces[static_cast<size_t>(s.prescription.stopIndex())];
@@ -641,9 +640,9 @@ GlareResult runGlare(const SceneSpec& file, const GlassCatalog& catalog, const G
             const double radius = benches.back()->spreadRadiusMm(gf);
             if (spreadAt(spec, gf) && !(radius > 3.8 * gf.spotImageRadiusMm))
                 throw ModelError("--gsf-radius-mm",
-                                 "the GSF's disc (" + fmt(radius) +
+                                 "the GSF's disc (" + significant(radius, 4) +
                                      " mm) must reach past 3.8 spot image radii (" +
-                                     fmt(3.8 * gf.spotImageRadiusMm) + " mm)");
+                                     significant(3.8 * gf.spotImageRadiusMm, 4) + " mm)");
         }
     }
 
@@ -797,15 +796,16 @@ std::string GlareResult::markdown() const {
     std::ostringstream os;
     os << "Veiling glare index (ISO 9358's definition: irradiance at the centre of a black "
           "spot's image over the irradiance there without the spot), black spot "
-       << fmt(spotDiameterDeg) << " deg across in a uniform Lambertian field out to "
-       << fmt(fieldHalfAngleDeg) << " deg from the axis; " << spectrum << ". " << passes
+       << significant(spotDiameterDeg, 4) << " deg across in a uniform Lambertian field out to "
+       << significant(fieldHalfAngleDeg, 4) << " deg from the axis; " << spectrum << ". " << passes
        << " render passes of " << raysPerPixel << " rays per pixel and " << photonsPerPass
        << " photons; errors 1 sigma.\n\n";
     os << table().markdown();
     for (const GlareField& f : fields)
         if (f.blur.value > 0.05 * f.vgi.value && f.vgi.value > 0.0)
-            os << "\nAt " << fmt(f.fieldDeg.x) << ", " << fmt(f.fieldDeg.y) << " deg (f/"
-               << fmt(f.fNumber, 3) << ") the lens's own image blur brings " << percent(f.blur)
+            os << "\nAt " << significant(f.fieldDeg.x, 4) << ", " << significant(f.fieldDeg.y, 4)
+               << " deg (f/" << significant(f.fNumber, 3) << ") the lens's own image blur brings "
+               << percent(f.blur)
                << " into the spot's centre: the black spot is small for this lens's "
                   "aberrations (ISO 9358's VGI is glare, not blur); a larger --spot-deg leaves "
                   "it out.\n";
@@ -818,13 +818,13 @@ std::string GlareResult::markdown() const {
           "the render includes).";
     if (!fields.empty() && !fields.front().ghosts.empty()) {
         const GlareField& f = fields.front();
-        os << " Its brightest ghosts at " << fmt(f.fieldDeg.x) << ", " << fmt(f.fieldDeg.y)
-           << " deg:\n\n";
+        os << " Its brightest ghosts at " << significant(f.fieldDeg.x, 4) << ", "
+           << significant(f.fieldDeg.y, 4) << " deg:\n\n";
         ReportTable ghosts(std::vector<ReportColumn>{only("ghost", "ghost", false, true, false, "---"),
                                                      only("vgi", "VGI", false, true, false)});
         for (size_t i = 0; i < f.ghosts.size() && i < 5; ++i)
             ghosts.addRow({ReportCell::text(f.ghosts[i].label),
-                           ReportCell::text(fmt(100.0 * f.ghosts[i].vgi) + " %")});
+                           ReportCell::text(significant(100.0 * f.ghosts[i].vgi, 4) + " %")});
         os << ghosts.markdown();
     } else {
         os << "\n";
@@ -876,14 +876,16 @@ ReportTable GlareResult::table() const {
     ReportTable table(std::move(columns));
     for (const GlareField& f : fields) {
         ReportCell fNumber = csvNumber(f.fNumber);
-        fNumber.markdown = fmt(f.fNumber, 3);
-        ReportCell field = ReportCell::text(fmt(f.fieldDeg.x) + ", " + fmt(f.fieldDeg.y));
+        fNumber.markdown = significant(f.fNumber, 3);
+        ReportCell field =
+            ReportCell::text(significant(f.fieldDeg.x, 4) + ", " + significant(f.fieldDeg.y, 4));
         field.json = {f.fieldDeg.x, f.fieldDeg.y};
-        ReportCell image = ReportCell::text(fmt(f.imageMm.x, 5) + ", " + fmt(f.imageMm.y, 5));
+        ReportCell image =
+            ReportCell::text(significant(f.imageMm.x, 5) + ", " + significant(f.imageMm.y, 5));
         image.json = {f.imageMm.x, f.imageMm.y};
         ReportCell side = csvNumber(f.measuredSideMm);
         ReportCell ghosts = csvNumber(f.ghostPrediction);
-        ghosts.markdown = fmt(100.0 * f.ghostPrediction) + " %";
+        ghosts.markdown = significant(100.0 * f.ghostPrediction, 4) + " %";
         ReportCell gsf = ReportCell::text("");
         if (f.spread)
             gsf.json = spreadJson(*f.spread);
@@ -918,9 +920,11 @@ ReportTable GlareResult::spreadSummaryTable() const {
         const GlareSpread& g = *f.spread;
         const bool direct = g.fieldDeg > 0.0;
         auto text = [](const std::string& s) { return ReportCell::text(s); };
-        table.addRow({text(fmt(f.fNumber, 3)), text(fmt(f.fieldDeg.x) + ", " + fmt(f.fieldDeg.y)),
-                      text(fmt(g.radiusMm)), text(percent(g.vgi)), text(percent(g.vgiSpecular)),
-                      text(percent(g.vgiDiffuse)), text(direct ? fmt(g.fieldDeg) + " deg" : "-"),
+        table.addRow({text(significant(f.fNumber, 3)),
+                      text(significant(f.fieldDeg.x, 4) + ", " + significant(f.fieldDeg.y, 4)),
+                      text(significant(g.radiusMm, 4)), text(percent(g.vgi)),
+                      text(percent(g.vgiSpecular)), text(percent(g.vgiDiffuse)),
+                      text(direct ? significant(g.fieldDeg, 4) + " deg" : "-"),
                       text(direct ? percent(g.directVgi) : "-"),
                       text(direct ? percent(g.directSpecular) : "-"),
                       text(direct ? percent(g.directDiffuse) : "-")});

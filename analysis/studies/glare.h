@@ -60,13 +60,14 @@
 #include "analysis/reports/progress.h"
 #include "analysis/reports/report_table.h"
 #include "geometry/vec.h"
-#include "lensdata/glass_catalog.h"
 #include "tracer/light/spectrum.h"
 #include "tracer/render/render.h"
 #include "tracer/scene/scene_spec.h"
 #include "tracer/sequential/ray_aiming.h"
 
 namespace veil {
+
+class GlassCatalog;
 
 class GhostTracer;    // analysis/ghosts/ghosts.h
 class PreparedScene;  // tracer/scene/prepared_scene.h

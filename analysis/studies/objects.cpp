@@ -16,6 +16,9 @@
 #include "geometry/exact_face.h"
 #include "lensdata/errors.h"
 #include "tracer/render/render.h"
+#include "tracer/scene/prepared_scene.h"
+#include "tracer/scene/scene_transport.h"
+#include "tracer/transport/interaction.h"
 
 namespace veil {
 
@@ -690,9 +693,9 @@ Picture drawObjects(const PreparedScene& prepared, const ObjectsResult& result, 
         if (lowest.y < 1e300) labels.push_back({lowest, ranked[i]->rank});
     }
     if (!labels.empty()) {
-        const Bounds3 b = scene.bounds();
+        const Bounds3 bounds = scene.bounds();
         const double height = pic.yMax() - pic.yMin();
-        const double rowY = std::max(pic.yMin() + 0.03 * height, b.lo.y - 0.08 * height);
+        const double rowY = std::max(pic.yMin() + 0.03 * height, bounds.lo.y - 0.08 * height);
         // At least 16 pt apart along the row, pushed right in z order.
         const double gap = 16.0 * (pic.zMax() - pic.zMin()) / Picture::kPageWidthPt;
         std::sort(labels.begin(), labels.end(),

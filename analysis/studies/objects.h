@@ -50,10 +50,11 @@
 #include "analysis/pictures/picture.h"
 #include "analysis/reports/progress.h"
 #include "analysis/reports/report_table.h"
-#include "tracer/scene/prepared_scene.h"
 #include "tracer/transport/nonsequential.h"
 
 namespace veil {
+
+class PreparedScene;
 
 struct ObjectsSpec {
     uint64_t rays = 0;  // per source in the source pass, and from the detector

@@ -31,12 +31,13 @@
 
 #include "analysis/reports/progress.h"
 #include "analysis/reports/report_table.h"
-#include "lensdata/glass_catalog.h"
 #include "tracer/render/render.h"
 #include "tracer/scene/scene_spec.h"
 #include "tracer/transport/nonsequential.h"
 
 namespace veil {
+
+class GlassCatalog;
 
 struct PstSpec {
     std::filesystem::path scene;

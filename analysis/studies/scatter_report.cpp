@@ -8,7 +8,11 @@
 #include <sstream>
 
 #include "analysis/pictures/chart.h"
+#include "analysis/reports/format.h"
+#include "geometry/scene.h"
 #include "lensdata/errors.h"
+#include "tracer/sequential/sequential_model.h"
+#include "tracer/surfaces/property_table.h"
 #include "tracer/surfaces/scatter_tabulation.h"
 #include "tracer/transport/interaction.h"
 
@@ -18,12 +22,6 @@ namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr double kAssumedIndex = 1.5;
-
-std::string fmt(double v, int precision = 4) {
-    std::ostringstream os;
-    os << std::setprecision(precision) << v;
-    return os.str();
-}
 
 bool hasTransmission(const OpticalProperty& p) {
     // Dust scatters into a substrate that takes light in: not through a mirror or an absorber.
@@ -139,13 +137,14 @@ ScatterReport scatterReport(const PropertyTable& table, const Scene& scene,
         if (const auto* d = std::get_if<ParticulateScatter>(&prop.scatter()))
             for (const double nm : report.wavelengthsNm) {
                 const auto e = d->at(nm, 1.0);
-                r.notes.push_back("at " + fmt(nm, 6) + " nm in air: extinction " +
-                                  fmt(e->extinction()) + " and scatter " + fmt(e->scattering()) +
+                r.notes.push_back("at " + significant(nm, 6) + " nm in air: extinction " +
+                                  significant(e->extinction(), 4) + " and scatter " +
+                                  significant(e->scattering(), 4) +
                                   " of cross section per area of surface (albedo " +
-                                  fmt(e->albedo()) + "); the particles cover " +
-                                  fmt(100.0 * e->coverage()) +
+                                  significant(e->albedo(), 4) + "); the particles cover " +
+                                  significant(100.0 * e->coverage(), 4) +
                                   " % of the surface (IEST-STD-CC1246's fit: " +
-                                  fmt(cc1246Pac(d->params().level)) + " %)");
+                                  significant(cc1246Pac(d->params().level), 4) + " %)");
             }
         report.properties.push_back(std::move(r));
     }
@@ -198,7 +197,7 @@ ReportColumn right(const std::string& key, const std::string& heading) {
 ReportCell shown(double v) {
     std::ostringstream os;
     os << std::setprecision(9) << v;
-    return ReportCell::number(v, os.str(), fmt(v), fmt(v));
+    return ReportCell::number(v, os.str(), significant(v, 4), significant(v, 4));
 }
 
 }  // namespace
@@ -206,12 +205,12 @@ ReportCell shown(double v) {
 ReportTable ScatterReport::tisTable(const ScatterPropertyReport& r) const {
     ReportTable table(std::vector<ReportColumn>{right("incidence_deg", "incidence (deg)")});
     for (double nm : wavelengthsNm)
-        table.addColumn(right("reflect_" + fmt(nm, 6), "R " + fmt(nm, 6) + " nm"));
+        table.addColumn(right("reflect_" + significant(nm, 6), "R " + significant(nm, 6) + " nm"));
     if (!r.transmitTis.empty())
         for (size_t w = 0; w < wavelengthsNm.size(); ++w)
-            table.addColumn(right("transmit_" + fmt(wavelengthsNm[w], 6),
-                                  "T " + fmt(wavelengthsNm[w], 6) + " nm (n " +
-                                      fmt(r.transmitIndex[w], 5) +
+            table.addColumn(right("transmit_" + significant(wavelengthsNm[w], 6),
+                                  "T " + significant(wavelengthsNm[w], 6) + " nm (n " +
+                                      significant(r.transmitIndex[w], 5) +
                                       (r.indexAssumed ? ", assumed" : "") + ")"));
     for (size_t i = 0; i < incidencesDeg.size(); ++i) {
         std::vector<ReportCell> row{shown(incidencesDeg[i])};
@@ -230,7 +229,8 @@ ReportTable ScatterReport::fileBlockTable(const ScatterPropertyReport& r) const 
                                                 right("model_tis", "model TIS"),
                                                 right("model_over_file", "model / file")});
     for (const ScatterFileBlock& b : r.fileBlocks) {
-        ReportCell ratio = ReportCell::text(b.fileTis > 0.0 ? fmt(b.modelTis / b.fileTis) : "-");
+        ReportCell ratio =
+            ReportCell::text(b.fileTis > 0.0 ? significant(b.modelTis / b.fileTis, 4) : "-");
         ratio.withoutJson();
         table.addRow({ReportCell::text(b.transmission ? "BTDF" : "BRDF"), shown(b.angleDeg),
                       shown(b.fileTis), shown(b.modelTis), ratio});
@@ -307,8 +307,8 @@ std::vector<double> planeAngles(double specularDeg) {
 Picture drawBrdfComparison(const std::vector<const OpticalProperty*>& properties,
                            double wavelengthNm, double incidenceDeg) {
     ChartSpec spec;
-    spec.title = "BRDF in the plane of incidence at " + fmt(incidenceDeg) + " deg incidence, " +
-                 fmt(wavelengthNm, 6) + " nm";
+    spec.title = "BRDF in the plane of incidence at " + significant(incidenceDeg, 4) +
+                 " deg incidence, " + significant(wavelengthNm, 6) + " nm";
     spec.xLabel = "scatter angle from the normal (deg; positive on the specular side)";
     spec.yLabel = "BRDF (1/sr)";
     spec.logY = true;
@@ -331,8 +331,8 @@ Picture drawBsdfChart(const OpticalProperty& property, bool transmit, double wav
                       double n2, const std::vector<double>& incidencesDeg) {
     ChartSpec spec;
     spec.title = property.name() + ": " + (transmit ? "BTDF" : "BRDF") + " in the plane of " +
-                 "incidence at " + fmt(wavelengthNm, 6) + " nm" +
-                 (transmit ? " into n = " + fmt(n2, 5) : std::string());
+                 "incidence at " + significant(wavelengthNm, 6) + " nm" +
+                 (transmit ? " into n = " + significant(n2, 5) : std::string());
     spec.xLabel = std::string("scatter angle from the ") + (transmit ? "inward normal" : "normal") +
                   " (deg; positive on the specular side)";
     spec.yLabel = std::string(transmit ? "BTDF" : "BRDF") + " (1/sr)";
@@ -344,7 +344,7 @@ Picture drawBsdfChart(const OpticalProperty& property, bool transmit, double wav
         if (transmit) specularDeg = std::asin(std::sin(incidence * kDeg) / n2) / kDeg;
         const std::vector<double> angles = planeAngles(specularDeg);
         ChartSeries s;
-        s.label = fmt(incidence) + " deg incidence";
+        s.label = significant(incidence, 4) + " deg incidence";
         s.markers = false;
         for (double a : angles) {
             const double t = a * kDeg;
@@ -359,7 +359,7 @@ Picture drawBsdfChart(const OpticalProperty& property, bool transmit, double wav
 
 Picture drawTisChart(const ScatterReport& report, int w) {
     ChartSpec spec;
-    spec.title = "Total integrated scatter at " + fmt(report.wavelengthsNm[w], 6) + " nm";
+    spec.title = "Total integrated scatter at " + significant(report.wavelengthsNm[w], 6) + " nm";
     spec.xLabel = "incidence (deg)";
     spec.yLabel = "TIS";
     std::vector<double> all;

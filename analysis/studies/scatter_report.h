@@ -14,11 +14,12 @@
 
 #include "analysis/pictures/picture.h"
 #include "analysis/reports/report_table.h"
-#include "geometry/scene.h"
-#include "tracer/sequential/sequential_model.h"
 #include "tracer/surfaces/property_table.h"
 
 namespace veil {
+
+class Scene;
+class SequentialModel;
 
 struct ScatterReportSpec {
     // Properties to report; empty: every property with scatter that an object of the scene

@@ -16,10 +16,13 @@
 #include "analysis/reports/format.h"
 #include "analysis/runs/render_run.h"
 #include "analysis/runs/stray_light_run.h"
+#include "lensdata/glass_catalog.h"
 #include "lensdata/input_file.h"
 #include "lensdata/output_file.h"
 #include "lensdata/toml_document.h"
 #include "tracer/scene/prepared_scene.h"
+#include "tracer/scene/scene_spec.h"
+#include "tracer/transport/interaction.h"
 
 namespace veil {
 

@@ -32,12 +32,13 @@
 
 #include "analysis/reports/progress.h"
 #include "analysis/reports/report_table.h"
-#include "lensdata/glass_catalog.h"
 #include "tracer/render/render.h"
 #include "tracer/scene/scene_spec.h"
 #include "tracer/transport/nonsequential.h"
 
 namespace veil {
+
+class GlassCatalog;
 
 struct SweepAxis {
     std::string key;

@@ -1,8 +1,9 @@
 """The veil Python module against the veil executable and against independent numbers.
 
 Run by ctest (Python.pytest) with PYTHONPATH=build/python and VEIL_EXE=build/veil, from the
-repository root. Results must equal the executable's for the same words and seed: the
-module runs the same command line in-process.
+repository root. Results must equal the executable's for the same words and seed: trace,
+render and info run the command's own steps as values, the other commands its command line
+in-process.
 """
 
 import json
@@ -22,6 +23,7 @@ DOUBLE_GAUSS = os.path.join(ROOT, "examples", "lenses", "double_gauss_50mm.toml"
 SINGLET = os.path.join(ROOT, "examples", "lenses", "singlet.toml")
 PAINTED = os.path.join(ROOT, "examples", "scenes", "double_gauss_50mm_painted.toml")
 MOUNT_KEY = "properties.black_anodized.scatter.reflectance"
+FLOAT = 2.0 ** -23  # relative rounding of the floats an EXR stores, with a margin
 
 
 def cli(*words):
@@ -47,13 +49,19 @@ def test_trace_equals_the_executable(tmp_path):
     report = cli("trace", SUN, "-n", "3k", "--seed", "7", "--where", "scatter(L*.edge)",
                  "-o", tmp_path / "cli")
     assert without_timing(result.report) == without_timing(report)
-    # The images as numpy arrays: the same pixels as the executable's EXR, layer by layer.
+    # The images as numpy arrays from memory: the executable's EXR pixels up to the file's
+    # float rounding (2^-24 relative), layer by layer.
     mine = result.images["sensor_image"]
     theirs = veil.read_exr(tmp_path / "cli" / "sensor_image.exr")
     assert set(mine.layers) == {"all", "where1", "rest"}
+    assert result.files == []  # no output folder: nothing written
     for name, layer in mine.layers.items():
-        np.testing.assert_array_equal(layer.flux, theirs.layer(name).flux)
-        np.testing.assert_array_equal(layer.irradiance, theirs.layer(name).irradiance)
+        assert layer.flux.any()
+        np.testing.assert_allclose(layer.flux, theirs.layer(name).flux, rtol=FLOAT, atol=0)
+        np.testing.assert_allclose(layer.irradiance, theirs.layer(name).irradiance,
+                                   rtol=FLOAT, atol=0)
+        np.testing.assert_array_equal(layer.count, theirs.layer(name).count)
+        assert layer.total_flux == theirs.layer(name).total_flux
     whole = mine.layer()
     assert whole.flux.shape == (mine.height, mine.width) == (256, 256)
     assert whole.units["irradiance"] == "W/mm^2"
@@ -118,7 +126,29 @@ def test_render_components_add_up_and_equal_the_executable(tmp_path):
     lit = total > 0
     np.testing.assert_allclose(parts[lit], total[lit], rtol=1e-5)
     theirs = veil.read_exr(tmp_path / "cli" / "sensor_image.exr")
-    np.testing.assert_array_equal(total, theirs.layer("total").flux)
+    np.testing.assert_allclose(total, theirs.layer("total").flux, rtol=FLOAT, atol=0)
+
+
+def test_a_render_run_reports_its_passes_and_writes_only_into_output(tmp_path):
+    """A RenderRun's progress events, one per pass, its scene built once for two runs, and its
+    files and checkpoint in the output folder, from which a resumed run goes on."""
+    scene = veil.Scene(SUN)
+    events = []
+    options = dict(photons="2k", rays_per_pixel=1, time_limit="none", seed=4)
+    first = scene.render(passes=2, output=tmp_path / "r", progress=events.append, **options)
+    assert [e["done"] for e in events] == [1, 2]
+    assert all(e["task"] == "render" and e["unit"] == "passes" for e in events)
+    built = scene._prepared()
+    assert (tmp_path / "r" / "render.checkpoint").exists()
+    assert (tmp_path / "r" / "sensor_image.exr").exists()
+    assert first.report["passes"] == 2
+    more = scene.render(passes=3, resume=tmp_path / "r", **options)
+    assert scene._prepared() is built
+    assert more.report["passes"] == 3
+    # Resumed to 3 passes: the same images as 3 passes at once.
+    once = veil.Scene(SUN).render(passes=3, **options)
+    np.testing.assert_array_equal(more.images["sensor_image"].layer("total").flux,
+                                  once.images["sensor_image"].layer("total").flux)
 
 
 def test_sweep_equals_the_executable(tmp_path):

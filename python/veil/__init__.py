@@ -1,4 +1,4 @@
-"""veil from Python: the same commands as the ``veil`` executable, run in-process.
+"""veil from Python: the same commands as the ``veil`` executable, in-process.
 
     import veil
     scene = veil.Scene("examples/scenes/longfocus_360mm_sun.toml")
@@ -13,8 +13,13 @@ Every command method takes the command's options as keyword arguments, spelled a
 command line with ``_`` for ``-`` (``min_flux=1e-5`` is ``--min-flux 1e-5``, ``where=[...]``
 repeats ``--where``, ``True`` gives a flag): the words are parsed by the command line's own
 definitions, so the options, their defaults, their checks and the results are the
-executable's (docs/cli.md, docs/python.md). A command writes its files into ``output`` when
-given; otherwise into a temporary folder that is read (reports, EXR images) and removed.
+executable's (docs/cli.md, docs/python.md).
+
+``trace``, ``render`` and ``info`` run as values: the scene is built once per edit and
+``field`` list and kept, the run's images come back as numpy arrays from memory, and files
+are written only into ``output``; ``progress=callable`` receives each progress event as a
+dict. The other commands run the command line in-process: their files go into ``output``
+when given, otherwise into a temporary folder that is read (reports, EXR images) and removed.
 
 Errors raise :class:`VeilError`: :class:`ParseError` (the message names file:line:col),
 :class:`ModelError` (the object), :class:`UsageError` (an option veil does not take).
@@ -173,12 +178,27 @@ class Scene:
         self.path = os.fspath(path)
         self.glass_catalogs = [os.fspath(c) for c in glass_catalogs]
         self.edits = {}
+        self._built, self._built_key = None, None
         self.reload()
 
     def reload(self):
         """Reads the scene and lens files again (the edits stay). Returns the scene."""
         self._snapshots = _veil.snapshot(self.path)
+        self._built, self._built_key = None, None
         return self
+
+    def _prepared(self, fields=()):
+        """The scene built for tracing with the current edits and these --field beams; kept
+        until the edits, the fields or the files change."""
+        key = (tuple(self.edits.items()), tuple(fields))
+        if self._built_key != key:
+            self._built = None  # the old scene's memory first
+            self._built = _veil.PreparedScene(
+                self.path, self.glass_catalogs,
+                ["%s=%s" % (k, v) for k, v in self.edits.items()], list(fields),
+                self._snapshots)
+            self._built_key = key
+        return self._built
 
     # Edits
 
@@ -196,6 +216,7 @@ class Scene:
         other = Scene.__new__(Scene)
         other.path, other.glass_catalogs = self.path, list(self.glass_catalogs)
         other.edits, other._snapshots = dict(self.edits), self._snapshots
+        other._built, other._built_key = self._built, self._built_key
         return other
 
     def _common(self):
@@ -237,13 +258,24 @@ class Scene:
             if scratch and not keep:
                 shutil.rmtree(scratch, ignore_errors=True)
 
+    def _value(self, function, name, output, progress, options):
+        """A command run as values (trace, render): its report, text, images and files."""
+        words = [name, self.path] + _words(options)
+        if output is not None:
+            words += ["-o", os.fspath(output)]
+        r = function(words, self._prepared, progress)
+        return Result(report=r["report"], text=r["text"], files=list(r["files"]),
+                      images={d: Image(image) for d, image in r["images"].items()})
+
     def info(self, **options):
         """First-order data, surfaces, spots and import report (``veil info --json``)."""
-        return self.command("info", **options).report
+        words = ["info", self.path] + _words(options) + self._common()
+        return _veil.info(words, self._snapshots)
 
-    def trace(self, rays, **options):
-        """Forward Monte Carlo (``veil trace``): ``rays`` per source (20000, "20k", "2M")."""
-        return self.command("trace", rays=rays, **options)
+    def trace(self, rays, output=None, progress=None, **options):
+        """Forward Monte Carlo (``veil trace``): ``rays`` per source (20000, "20k", "2M").
+        Files only into ``output``; ``progress``: a callable given each progress event."""
+        return self._value(_veil.trace, "trace", output, progress, dict(rays=rays, **options))
 
     def paths(self, where, **options):
         """The first rays with a path matching ``where`` (``veil paths``)."""
@@ -253,9 +285,11 @@ class Scene:
         """Every two-reflection ghost ranked (``veil ghosts``): ``report["ghosts"]``."""
         return self.command("ghosts", **options)
 
-    def render(self, **options):
-        """Bidirectional photon mapping (``veil render``): images with their components."""
-        return self.command("render", **options)
+    def render(self, output=None, progress=None, **options):
+        """Bidirectional photon mapping (``veil render``): images with their components.
+        Files and the checkpoint only into ``output`` (or ``resume``); ``progress``: a
+        callable given each pass's event."""
+        return self._value(_veil.render, "render", output, progress, options)
 
     def sweep(self, vary, **options):
         """A what-if study (``veil sweep``): ``vary`` is one ``KEY=VALUES`` or a list."""

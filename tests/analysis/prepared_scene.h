@@ -9,6 +9,9 @@
 #include <memory>
 #include <string>
 
+#include "lensdata/glass_catalog.h"
+#include "tracer/scene/scene_geometry.h"
+#include "tracer/scene/scene_spec.h"
 #include "tracer/scene/scene_transport.h"
 
 namespace veil::test {

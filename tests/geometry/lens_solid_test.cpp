@@ -18,6 +18,7 @@
 #include <sstream>
 
 #include "geometry/revolve.h"
+#include "geometry/scene.h"
 #include "lensdata/glass_catalog.h"
 #include "lensdata/lens_file.h"
 #include "tests/test_lenses.h"

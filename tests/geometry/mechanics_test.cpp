@@ -20,9 +20,11 @@
 #include <sstream>
 
 #include "geometry/mesh_check.h"
+#include "geometry/numerics.h"
 #include "geometry/revolve.h"
 #include "geometry/surface_frames.h"
 #include "geometry/surface_shape.h"
+#include "lensdata/glass_catalog.h"
 #include "lensdata/lens_file.h"
 #include "lensdata/toml_document.h"
 #include "tests/test_lenses.h"
@@ -33,8 +35,6 @@ namespace {
 using ::testing::HasSubstr;
 using ::testing::Not;
 namespace fs = std::filesystem;
-
-constexpr double kPi = std::numbers::pi;
 
 fs::path lensPath(const std::string& name) {
     return fs::path(VEIL_SOURCE_DIR) / "examples" / "lenses" / name;

@@ -11,12 +11,11 @@
 #include <stdexcept>
 
 #include "geometry/cgal_mesh.h"
+#include "geometry/numerics.h"
 #include "geometry/revolve.h"
 
 namespace veil {
 namespace {
-
-constexpr double kPi = std::numbers::pi;
 
 TriangleMesh ringMesh(double a, double b, double z0, double z1, int n) {
     const std::vector<Vec2> p{{a, z0}, {b, z0}, {b, z1}, {a, z1}};

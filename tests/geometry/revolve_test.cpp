@@ -13,11 +13,10 @@
 #include <stdexcept>
 
 #include "geometry/mesh_check.h"
+#include "geometry/numerics.h"
 
 namespace veil {
 namespace {
-
-constexpr double kPi = std::numbers::pi;
 
 // Signed volume by the divergence theorem, sum of det(v0, v1, v2) / 6: an oracle that does
 // not share code with CGAL's.

@@ -48,17 +48,17 @@ struct RefShape {
 
 RefShape refShape(const SurfaceShape& shape) {
     RefShape r;
-    if (const auto* s = std::get_if<SphereShape>(&shape)) {
-        r.c = s->curvature;
-    } else if (const auto* s = std::get_if<ConicShape>(&shape)) {
-        r.c = s->curvature;
-        r.k = s->conic;
-    } else if (const auto* s = std::get_if<EvenAsphereShape>(&shape)) {
-        r.c = s->curvature;
-        r.k = s->conic;
-        for (int i = 0; i < 10; ++i) r.a[i] = s->coefficients[i];
-        for (int j = 0; j < 9; ++j) r.b[j] = s->odd[j];
-        for (int i = 0; i < 10; ++i) r.e[i] = s->overW[i];
+    if (const auto* sphere = std::get_if<SphereShape>(&shape)) {
+        r.c = sphere->curvature;
+    } else if (const auto* conic = std::get_if<ConicShape>(&shape)) {
+        r.c = conic->curvature;
+        r.k = conic->conic;
+    } else if (const auto* asphere = std::get_if<EvenAsphereShape>(&shape)) {
+        r.c = asphere->curvature;
+        r.k = asphere->conic;
+        for (int i = 0; i < 10; ++i) r.a[i] = asphere->coefficients[i];
+        for (int j = 0; j < 9; ++j) r.b[j] = asphere->odd[j];
+        for (int i = 0; i < 10; ++i) r.e[i] = asphere->overW[i];
         r.quadric = false;
     }
     return r;

@@ -8,6 +8,8 @@
 #include <sstream>
 #include <string>
 
+#include "lensdata/glass_catalog.h"
+
 namespace veil {
 namespace {
 

@@ -599,9 +599,9 @@ TEST(ZmxReader, CentredCircularHolesAreImported) {
     EXPECT_DOUBLE_EQ(rx.surfaces[2].innerSemiDiameterMm, 3.0);
     for (int i : {3, 4, 5, 6, 7}) EXPECT_EQ(rx.surfaces[i].innerSemiDiameterMm, 0.0) << i;
 
-    auto expectNote = [&](const std::string& text, ImportNote::Severity severity, int line) {
-        const ImportNote* n = findNote(rx, text);
-        ASSERT_NE(n, nullptr) << text << "\n" << reportText(rx);
+    auto expectNote = [&](const std::string& noteText, ImportNote::Severity severity, int line) {
+        const ImportNote* n = findNote(rx, noteText);
+        ASSERT_NE(n, nullptr) << noteText << "\n" << reportText(rx);
         EXPECT_EQ(n->severity, severity) << n->message;
         EXPECT_EQ(n->loc.line, line) << n->message;
     };

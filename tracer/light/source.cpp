@@ -9,13 +9,13 @@
 #include <sstream>
 
 #include "geometry/exact_face.h"
+#include "geometry/numerics.h"
 #include "geometry/surface_frames.h"
 
 namespace veil {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kDegree = kPi / 180.0;
 
 // Samples of a surface profile for z ranges: enough that the sag of any practical even

@@ -529,14 +529,14 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
     out.pixels[static_cast<int>(RenderComponent::Caustic)] = std::move(acc.caustic);
     out.pixels[static_cast<int>(RenderComponent::Secondary)] = std::move(acc.secondary);
     out.criteria.resize(criteria);
-    for (size_t k = 0; k < criteria; ++k) {
-        auto& x = out.criteria[k];
-        x[static_cast<int>(RenderComponent::Visible)] = std::move(back.visibleByCriterion[k]);
-        x[static_cast<int>(RenderComponent::Direct)] = std::move(back.directByCriterion[k]);
+    for (size_t c = 0; c < criteria; ++c) {
+        auto& x = out.criteria[c];
+        x[static_cast<int>(RenderComponent::Visible)] = std::move(back.visibleByCriterion[c]);
+        x[static_cast<int>(RenderComponent::Direct)] = std::move(back.directByCriterion[c]);
         std::vector<double>& v = x[static_cast<int>(RenderComponent::Visible)];
-        for (int p = 0; p < pixels; ++p) v[static_cast<size_t>(p)] += acc.by[k][0][p];
-        x[static_cast<int>(RenderComponent::Caustic)] = std::move(acc.by[k][1]);
-        x[static_cast<int>(RenderComponent::Secondary)] = std::move(acc.by[k][2]);
+        for (int p = 0; p < pixels; ++p) v[static_cast<size_t>(p)] += acc.by[c][0][p];
+        x[static_cast<int>(RenderComponent::Caustic)] = std::move(acc.by[c][1]);
+        x[static_cast<int>(RenderComponent::Secondary)] = std::move(acc.by[c][2]);
     }
     if (bo.guide) {
         out.learned = std::move(back.learned);

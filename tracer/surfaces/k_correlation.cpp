@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "geometry/numerics.h"
 #include "tracer/runtime/rng.h"
 #include "tracer/surfaces/lobe_math.h"
 
@@ -17,7 +18,6 @@ namespace veil {
 
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 constexpr int kMaxTries = 1024;
 
 // The table's grid. Incidence: theta = (pi / 2)(1 - (1 - t)^2), t uniform, so the knots

@@ -12,6 +12,8 @@
 #include <cmath>
 #include <numbers>
 
+#include "geometry/numerics.h"
+
 namespace veil::lobe {
 
 // Gauss-Legendre nodes and weights on [-1, 1] (Newton on the Legendre polynomial).
@@ -53,7 +55,6 @@ template <int N = 64, class F>
 double integrateEndpointSqrt(double a, double b, F&& f) {
     if (!(b > a)) return 0.0;
     const auto& g = gauss<N>();
-    constexpr double kPi = std::numbers::pi;
     double sum = 0.0;
     for (int i = 0; i < N; ++i) {
         const double t = 0.5 * kPi * (g.x[i] + 1.0);

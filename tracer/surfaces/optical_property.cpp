@@ -7,6 +7,7 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "geometry/numerics.h"
 #include "lensdata/errors.h"
 #include "tracer/runtime/rng.h"
 #include "tracer/sequential/sequential_trace.h"
@@ -17,7 +18,6 @@ namespace veil {
 
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 constexpr double kDeg = kPi / 180.0;
 constexpr int kMaxTries = 256;
 

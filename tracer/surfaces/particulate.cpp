@@ -6,13 +6,13 @@
 #include <stdexcept>
 #include <string>
 
+#include "geometry/numerics.h"
 #include "tracer/surfaces/mie.h"
 
 namespace veil {
 
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 constexpr int kAngleSteps = 1500;      // theta_k = pi (k / kAngleSteps)^2
 constexpr int kBinsPerOctave = 12;     // of particle diameter
 constexpr int kBackSteps = 1200;       // the backShare table: uniform in cos(incidence)

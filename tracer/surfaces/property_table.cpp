@@ -253,18 +253,18 @@ ScatterModel readScatter(const TomlValue& v) {
             t.fail(t.path() + ": " + (hs ? "Harvey-Shack" : "ABg") +
                    " scatter needs `brdf` or `btdf` (or both)");
         // A lobe's table, or an array of them (a fit of several terms: their sum).
-        auto lobes = [&](const std::optional<TomlValue>& v) {
+        auto lobes = [&](const std::optional<TomlValue>& table) {
             std::vector<AbgParams> out;
-            if (!v) return out;
+            if (!table) return out;
             auto one = [&](const TomlValue& x) {
                 return hs ? readHarveyShackParams(x) : readAbgParams(x);
             };
-            if (v->isArray()) {
-                const std::vector<TomlValue> list = v->asArray();
-                if (list.empty()) v->fail(v->path() + " must list at least one lobe");
+            if (table->isArray()) {
+                const std::vector<TomlValue> list = table->asArray();
+                if (list.empty()) table->fail(table->path() + " must list at least one lobe");
                 for (const TomlValue& x : list) out.push_back(one(x));
             } else {
-                out.push_back(one(*v));
+                out.push_back(one(*table));
             }
             return out;
         };

@@ -8,6 +8,7 @@
 #include <numbers>
 #include <sstream>
 
+#include "geometry/numerics.h"
 #include "tracer/runtime/rng.h"
 #include "tracer/surfaces/lobe_math.h"
 
@@ -15,7 +16,6 @@ namespace veil {
 
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 constexpr double kDeg = kPi / 180.0;
 constexpr double kTisStepDeg = 0.25;
 constexpr int kTisSteps = 360;  // 0 to 90 degrees

@@ -2,7 +2,6 @@
 // numbers for the same ghosts, in rank order.
 
 #include "analysis/ghosts/ghost_report.h"
-#include "analysis/lens/default_scene.h"
 
 #include <gtest/gtest.h>
 
@@ -10,7 +9,10 @@
 #include <limits>
 #include <sstream>
 
+#include "analysis/lens/default_scene.h"
+#include "lensdata/glass_catalog.h"
 #include "tracer/scene/prepared_scene.h"
+#include "tracer/scene/scene_spec.h"
 
 namespace veil {
 namespace {

@@ -12,6 +12,9 @@
 
 #include "analysis/lens/first_order.h"
 #include "geometry/lens_solid.h"
+#include "lensdata/glass_catalog.h"
+#include "tracer/scene/scene_geometry.h"
+#include "tracer/scene/scene_spec.h"
 #include "tracer/sequential/sequential_model.h"
 
 namespace veil {

@@ -10,7 +10,9 @@
 
 #include "analysis/lens/first_order.h"
 #include "analysis/lens/spot.h"
+#include "lensdata/glass_catalog.h"
 #include "lensdata/lens_file.h"
+#include "tracer/sequential/sequential_model.h"
 #include "tracer/sequential/sequential_trace.h"
 
 namespace veil {

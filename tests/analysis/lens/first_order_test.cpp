@@ -6,10 +6,12 @@
 
 #include <cmath>
 
+#include "lensdata/glass_catalog.h"
 #include "lensdata/zmx_reader.h"
 #include "tests/test_lenses.h"
 #include "tracer/sequential/paraxial.h"
 #include "tracer/sequential/pupil.h"
+#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
 namespace {

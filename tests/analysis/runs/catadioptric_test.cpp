@@ -19,7 +19,11 @@
 #include "analysis/criteria/criterion_images.h"
 #include "analysis/criteria/criterion_names.h"
 #include "analysis/lens/first_order.h"
+#include "lensdata/glass_catalog.h"
+#include "tracer/scene/scene_geometry.h"
+#include "tracer/scene/scene_spec.h"
 #include "tracer/scene/scene_transport.h"
+#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
 namespace {

@@ -17,6 +17,7 @@
 #include "lensdata/lens_file.h"
 #include "tracer/scene/prepared_scene.h"
 #include "tracer/scene/scene_geometry.h"
+#include "tracer/scene/scene_spec.h"
 #include "tracer/scene/scene_transport.h"
 
 namespace veil {

@@ -16,6 +16,11 @@
 #include "analysis/ghosts/ghost_tracer.h"
 #include "analysis/lens/default_scene.h"
 #include "analysis/lens/first_order.h"
+#include "lensdata/glass_catalog.h"
+#include "tracer/scene/scene_geometry.h"
+#include "tracer/scene/scene_spec.h"
+#include "tracer/scene/scene_transport.h"
+#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
 namespace {

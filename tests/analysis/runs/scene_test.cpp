@@ -11,7 +11,9 @@
 #include <random>
 #include <sstream>
 
+#include "lensdata/glass_catalog.h"
 #include "tracer/scene/scene_geometry.h"
+#include "tracer/scene/scene_spec.h"
 
 namespace veil {
 namespace {
@@ -253,7 +255,7 @@ INSTANTIATE_TEST_SUITE_P(
         OracleCase{"double_gauss_scene", "scenes/double_gauss_50mm", 20000},
         OracleCase{"longfocus_scene", "scenes/longfocus_360mm", 10000},
         OracleCase{"catadioptric_scene", "scenes/catadioptric_2000mm", 10000}),
-    [](const ::testing::TestParamInfo<OracleCase>& info) { return info.param.name; });
+    [](const ::testing::TestParamInfo<OracleCase>& param) { return param.param.name; });
 
 }  // namespace
 }  // namespace veil

@@ -14,6 +14,7 @@
 #include <numbers>
 
 #include "tests/analysis/prepared_scene.h"
+#include "tracer/sequential/sequential_model.h"
 #include "tracer/sequential/sequential_trace.h"
 
 namespace veil {

@@ -9,6 +9,9 @@
 #include <atomic>
 #include <cmath>
 
+#include "lensdata/glass_catalog.h"
+#include "tracer/scene/prepared_scene.h"
+
 namespace veil {
 namespace {
 

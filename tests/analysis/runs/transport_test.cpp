@@ -14,9 +14,11 @@
 #include "analysis/criteria/criterion_images.h"
 #include "analysis/criteria/criterion_names.h"
 #include "analysis/runs/ray_statistics.h"
+#include "lensdata/glass_catalog.h"
 #include "tests/analysis/prepared_scene.h"
 #include "tracer/scene/scene_transport.h"
 #include "tracer/sequential/ray_aiming.h"
+#include "tracer/sequential/sequential_model.h"
 #include "tracer/sequential/sequential_trace.h"
 
 namespace veil {

@@ -16,7 +16,9 @@
 
 #include "analysis/runs/stray_light_run.h"
 #include "lensdata/errors.h"
+#include "lensdata/glass_catalog.h"
 #include "tracer/scene/prepared_scene.h"
+#include "tracer/scene/scene_spec.h"
 
 namespace veil {
 namespace {

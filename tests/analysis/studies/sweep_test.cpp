@@ -15,8 +15,10 @@
 #include "analysis/ghosts/ghost_tracer.h"
 #include "analysis/runs/stray_light_run.h"
 #include "lensdata/errors.h"
+#include "lensdata/glass_catalog.h"
 #include "tests/text_checks.h"
 #include "tracer/scene/prepared_scene.h"
+#include "tracer/scene/scene_spec.h"
 
 namespace veil {
 namespace {

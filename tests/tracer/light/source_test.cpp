@@ -16,14 +16,16 @@
 #include <string>
 #include <vector>
 
+#include "geometry/numerics.h"
+#include "geometry/scene.h"
 #include "lensdata/toml_reader.h"
+#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
 namespace {
 
 namespace fs = std::filesystem;
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 const GlassCatalog kNoCatalog;
 
@@ -118,8 +120,8 @@ double sphereSag(double radius, double r) {
 const double kSag13 = sphereSag(50.0, 13.0);  // of the first surface at its mech_sd
 
 struct Scene {
-    explicit Scene(const std::string& sources, const std::string& lens = kLens)
-        : doc(TomlDocument::fromString(lens + sources, "scene.toml")),
+    explicit Scene(const std::string& sourceText, const std::string& lens = kLens)
+        : doc(TomlDocument::fromString(lens + sourceText, "scene.toml")),
           p(readTomlPrescription(doc, kNoCatalog)),
           model(SequentialModel::build(p, kNoCatalog)),
           sources(readSources(doc, p, model)) {

@@ -13,6 +13,7 @@
 #include <sstream>
 #include <vector>
 
+#include "geometry/scene.h"
 #include "lensdata/toml_document.h"
 #include "tracer/runtime/rng.h"
 

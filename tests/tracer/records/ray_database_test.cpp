@@ -14,6 +14,7 @@
 #include <random>
 #include <thread>
 
+#include "geometry/scene.h"
 #include "tracer/runtime/rng.h"
 
 namespace veil {

@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <numbers>
 
+#include "lensdata/glass_catalog.h"
 #include "tracer/scene/prepared_scene.h"
 #include "tracer/sequential/sequential_model.h"
 

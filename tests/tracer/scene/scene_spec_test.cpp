@@ -1,12 +1,18 @@
 // Scene assembly builds the sequential model once: the scene file's model (of the sized
 // prescription) is the one the scene, the sources and the ghost tracer use.
 
+#include "tracer/scene/scene_spec.h"
+
 #include <gtest/gtest.h>
 
 #include <filesystem>
 
+#include "lensdata/glass_catalog.h"
 #include "tracer/scene/prepared_scene.h"
 #include "tracer/scene/scene_geometry.h"
+#include "tracer/scene/scene_transport.h"
+#include "tracer/sequential/sequential_model.h"
+#include "tracer/surfaces/property_table.h"
 
 namespace veil {
 namespace {

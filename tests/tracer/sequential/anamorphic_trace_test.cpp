@@ -11,6 +11,7 @@
 
 #include "tests/test_lenses.h"
 #include "tracer/sequential/paraxial.h"
+#include "tracer/sequential/sequential_model.h"
 #include "tracer/sequential/sequential_trace.h"
 
 namespace veil {

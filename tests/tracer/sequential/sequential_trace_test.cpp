@@ -10,6 +10,7 @@
 #include "tracer/sequential/paraxial.h"
 #include "tracer/sequential/pupil.h"
 #include "tracer/sequential/ray_aiming.h"
+#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
 namespace {

@@ -12,10 +12,11 @@
 #include <sstream>
 #include <tuple>
 
+#include "geometry/numerics.h"
+
 namespace veil {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 double deg(double d) { return d * kPi / 180.0; }
 
 // The angle forms: Rs = sin^2(i - t) / sin^2(i + t), Rp = tan^2(i - t) / tan^2(i + t),

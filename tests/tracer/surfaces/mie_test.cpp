@@ -10,10 +10,10 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "geometry/numerics.h"
+
 namespace veil {
 namespace {
-
-constexpr double kPi = std::numbers::pi;
 
 // Integral over the sphere of (|S1|^2 + |S2|^2) / 2 (times mu^power) by Gauss-Legendre
 // panels in theta (fine where large spheres diffract).

@@ -10,6 +10,8 @@
 #include <numbers>
 #include <string>
 
+#include "geometry/scene.h"
+
 namespace veil {
 namespace {
 

@@ -15,12 +15,12 @@
 #include <numbers>
 #include <vector>
 
+#include "geometry/numerics.h"
 #include "tracer/runtime/rng.h"
 #include "tracer/surfaces/optical_property.h"
 
 namespace veil::scatter_test {
 
-constexpr double kPi = std::numbers::pi;
 inline double deg(double d) { return d * kPi / 180.0; }
 
 // A tilted normal so that no test leans on z being special.

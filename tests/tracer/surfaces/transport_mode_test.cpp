@@ -13,6 +13,7 @@
 #include <numbers>
 #include <sstream>
 
+#include "geometry/numerics.h"
 #include "tracer/runtime/rng.h"
 #include "tracer/sequential/sequential_trace.h"
 #include "tracer/surfaces/optical_property.h"
@@ -20,7 +21,6 @@
 namespace veil {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 double deg(double d) { return d * kPi / 180.0; }
 
 // A tilted normal so that no test leans on z being special.
