@@ -21,6 +21,7 @@
 #include "analysis/criteria/criteria.h"
 #include "analysis/criteria/criterion_names.h"
 #include "lensdata/glass_catalog.h"
+#include "tracer/records/path_history.h"
 #include "tracer/scene/scene_geometry.h"
 #include "tracer/scene/scene_spec.h"
 #include "tracer/scene/scene_transport.h"

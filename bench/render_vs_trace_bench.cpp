@@ -28,6 +28,7 @@
 #include "analysis/reports/image_output.h"
 #include "analysis/runs/stray_light_run.h"
 #include "lensdata/glass_catalog.h"
+#include "tracer/records/detector.h"
 #include "tracer/render/render.h"
 #include "tracer/scene/prepared_scene.h"
 #include "tracer/scene/scene_transport.h"

@@ -15,6 +15,7 @@
 #include "analysis/lens/spot.h"
 #include "lensdata/glass_catalog.h"
 #include "lensdata/lens_file.h"
+#include "lensdata/prescription.h"
 #include "tracer/sequential/ray_aiming.h"
 #include "tracer/sequential/sequential_model.h"
 #include "tracer/sequential/sequential_trace.h"

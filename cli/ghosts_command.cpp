@@ -24,6 +24,7 @@
 #include "analysis/ghosts/ghost_run.h"
 #include "cli/options.h"
 #include "cli/progress.h"
+#include "lensdata/glass_catalog.h"
 
 namespace veil::cli {
 

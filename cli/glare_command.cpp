@@ -20,6 +20,7 @@
 #include "cli/commands.h"
 #include "cli/options.h"
 #include "cli/progress.h"
+#include "lensdata/glass_catalog.h"
 #include "lensdata/output_file.h"
 #include "tracer/scene/scene_spec.h"
 

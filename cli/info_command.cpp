@@ -12,6 +12,7 @@
 #include "analysis/lens/info_report.h"
 #include "cli/commands.h"
 #include "cli/options.h"
+#include "lensdata/glass_catalog.h"
 
 namespace veil::cli {
 

@@ -17,6 +17,7 @@
 #include "cli/options.h"
 #include "geometry/mesh_io.h"
 #include "lensdata/errors.h"
+#include "lensdata/glass_catalog.h"
 #include "tracer/scene/prepared_scene.h"
 #include "tracer/scene/scene_geometry.h"
 

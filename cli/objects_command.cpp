@@ -14,7 +14,9 @@
 #include "cli/commands.h"
 #include "cli/options.h"
 #include "cli/progress.h"
+#include "lensdata/glass_catalog.h"
 #include "lensdata/output_file.h"
+#include "tracer/scene/prepared_scene.h"
 
 namespace veil::cli {
 

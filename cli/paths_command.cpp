@@ -24,6 +24,7 @@
 #include "analysis/pictures/path_picture.h"
 #include "cli/options.h"
 #include "cli/progress.h"
+#include "lensdata/glass_catalog.h"
 #include "tracer/scene/prepared_scene.h"
 #include "tracer/scene/scene_geometry.h"
 #include "tracer/scene/scene_transport.h"

@@ -15,6 +15,7 @@
 #include "cli/commands.h"
 #include "cli/options.h"
 #include "cli/progress.h"
+#include "lensdata/glass_catalog.h"
 
 namespace veil::cli {
 

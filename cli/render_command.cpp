@@ -22,6 +22,8 @@
 #include "cli/options.h"
 #include "cli/progress.h"
 #include "lensdata/errors.h"
+#include "lensdata/glass_catalog.h"
+#include "tracer/scene/prepared_scene.h"
 
 namespace veil::cli {
 

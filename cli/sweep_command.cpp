@@ -22,6 +22,7 @@
 #include "cli/commands.h"
 #include "cli/options.h"
 #include "cli/progress.h"
+#include "lensdata/glass_catalog.h"
 
 namespace veil::cli {
 

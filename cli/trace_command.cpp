@@ -21,6 +21,8 @@
 #include "analysis/runs/ray_statistics.h"
 #include "analysis/runs/saved_rays.h"
 #include "cli/progress.h"
+#include "lensdata/glass_catalog.h"
+#include "tracer/records/path_history.h"
 #include "tracer/scene/prepared_scene.h"
 
 namespace veil::cli {

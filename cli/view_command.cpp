@@ -26,6 +26,7 @@
 #include "cli/paths_command.h"
 #include "cli/progress.h"
 #include "lensdata/errors.h"
+#include "lensdata/glass_catalog.h"
 #include "tracer/scene/prepared_scene.h"
 #include "tracer/scene/scene_geometry.h"
 #include "tracer/scene/scene_transport.h"

@@ -9,9 +9,11 @@
 #include <set>
 #include <sstream>
 
+#include "geometry/scene.h"
 #include "geometry/surface_frames.h"
 #include "geometry/surface_shape.h"
 #include "lensdata/errors.h"
+#include "lensdata/prescription.h"
 
 namespace veil {
 

@@ -28,6 +28,7 @@
 
 #include "geometry/mechanics_builder.h"
 #include "geometry/surface_frames.h"
+#include "lensdata/prescription.h"
 
 namespace veil {
 

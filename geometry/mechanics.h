@@ -74,9 +74,10 @@
 
 #include "geometry/triangle_mesh.h"
 #include "geometry/vec.h"
-#include "lensdata/prescription.h"
 
 namespace veil {
+
+struct Prescription;
 
 class TomlDocument;  // lensdata/toml_document.h
 class TomlTable;

@@ -13,6 +13,8 @@
 #include "geometry/mechanics_builder.h"
 #include "geometry/revolve.h"
 #include "geometry/surface_shape.h"
+#include "lensdata/errors.h"
+#include "lensdata/prescription.h"
 
 namespace veil::mechanics_detail {
 

@@ -10,16 +10,17 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <iostream>
 #include <limits>
 #include <map>
 #include <mutex>
 #include <numbers>
-#include <iostream>
 #include <sstream>
 #include <stdexcept>
 #include <unordered_map>
 
 #include "lensdata/output_file.h"
+#include "lensdata/toml_document.h"
 
 namespace veil {
 

@@ -53,9 +53,10 @@
 #include "geometry/triangle_mesh.h"
 #include "lensdata/errors.h"
 #include "lensdata/prescription.h"
-#include "lensdata/toml_document.h"
 
 namespace veil {
+
+class TomlDocument;
 
 // What reading a mesh file found. Counts refer to the returned mesh unless stated.
 struct MeshReadReport {

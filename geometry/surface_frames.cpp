@@ -5,6 +5,7 @@
 #include <string>
 
 #include "geometry/qtype.h"
+#include "lensdata/prescription.h"
 
 namespace veil {
 

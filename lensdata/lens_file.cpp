@@ -4,7 +4,9 @@
 #include <cctype>
 
 #include "lensdata/codev_reader.h"
+#include "lensdata/glass_catalog.h"
 #include "lensdata/input_file.h"
+#include "lensdata/prescription.h"
 #include "lensdata/toml_reader.h"
 #include "lensdata/zmx_reader.h"
 

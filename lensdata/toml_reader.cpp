@@ -37,6 +37,10 @@
 #include <cmath>
 #include <sstream>
 
+#include "lensdata/glass_catalog.h"
+#include "lensdata/prescription.h"
+#include "lensdata/toml_document.h"
+
 namespace veil {
 
 namespace {

@@ -10,7 +10,6 @@
 //      assemble fields and wavelengths, and add the summary notes. Then
 //      Prescription::assignNames() and validate().
 
-#include "lensdata/input_file.h"
 #include "lensdata/zmx_reader.h"
 
 #include <algorithm>
@@ -24,6 +23,9 @@
 #include <sstream>
 #include <vector>
 
+#include "lensdata/glass_catalog.h"
+#include "lensdata/input_file.h"
+#include "lensdata/prescription.h"
 #include "lensdata/text_decoding.h"
 
 namespace veil {

@@ -43,6 +43,8 @@
 #include "lensdata/glass_catalog.h"
 #include "lensdata/input_file.h"
 #include "lensdata/toml_document.h"
+#include "tracer/records/detector.h"
+#include "tracer/scene/prepared_scene.h"
 #include "tracer/scene/scene_spec.h"
 #include "tracer/sequential/ray_aiming.h"
 #include "tracer/sequential/ray_status.h"

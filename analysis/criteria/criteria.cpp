@@ -11,6 +11,8 @@
 #include <limits>
 #include <sstream>
 
+#include "tracer/records/path_history.h"
+
 namespace veil {
 
 // Leaf Keywords

@@ -1,5 +1,8 @@
 #include "analysis/criteria/criterion_images.h"
 
+#include "tracer/records/detector.h"
+#include "tracer/records/path_history.h"
+
 namespace veil {
 
 CriterionImages::CriterionImages(std::vector<std::string> criterionTexts,

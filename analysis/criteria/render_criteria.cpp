@@ -6,6 +6,8 @@
 #include <set>
 #include <stdexcept>
 
+#include "tracer/records/path_history.h"
+
 namespace veil {
 
 namespace {

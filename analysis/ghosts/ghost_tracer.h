@@ -40,11 +40,11 @@
 #include <vector>
 
 #include "analysis/ghosts/ghost_paths.h"
-#include "tracer/records/detector.h"
 #include "tracer/sequential/sequential_model.h"
 
 namespace veil {
 
+struct DetectorGeometry;
 struct SceneGeometry;
 struct SceneTransport;
 

@@ -8,6 +8,7 @@
 #include "geometry/mechanics.h"
 #include "geometry/numerics.h"
 #include "lensdata/glass_catalog.h"
+#include "tracer/light/spectrum.h"
 #include "tracer/scene/prepared_scene.h"
 #include "tracer/scene/scene_geometry.h"
 #include "tracer/scene/scene_spec.h"

@@ -7,6 +7,7 @@
 
 #include "analysis/lens/first_order.h"
 #include "geometry/lens_solid.h"
+#include "tracer/records/detector.h"
 #include "tracer/scene/scene_geometry.h"
 #include "tracer/scene/scene_spec.h"
 #include "tracer/sequential/sequential_model.h"

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "lensdata/glass_catalog.h"
+#include "lensdata/prescription.h"
 #include "tracer/sequential/paraxial.h"
 #include "tracer/sequential/sequential_model.h"
 

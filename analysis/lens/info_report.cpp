@@ -7,6 +7,8 @@
 
 #include "analysis/reports/format.h"
 #include "lensdata/glass_catalog.h"
+#include "lensdata/prescription.h"
+#include "tracer/sequential/ray_aiming.h"
 #include "tracer/sequential/sequential_model.h"
 
 namespace veil {

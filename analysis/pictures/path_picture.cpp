@@ -12,6 +12,8 @@
 
 #include "analysis/criteria/criterion_names.h"
 #include "analysis/reports/image_output.h"  // falseColour
+#include "tracer/records/detector.h"
+#include "tracer/records/path_history.h"
 #include "tracer/scene/scene_transport.h"
 #include "tracer/transport/interaction.h"
 

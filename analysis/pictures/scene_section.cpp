@@ -4,6 +4,8 @@
 #include <map>
 #include <set>
 
+#include "geometry/scene.h"
+
 namespace veil {
 
 namespace {

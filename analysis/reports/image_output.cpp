@@ -22,6 +22,7 @@
 #include <stdexcept>
 
 #include "lensdata/output_file.h"
+#include "tracer/records/detector.h"
 
 namespace veil {
 

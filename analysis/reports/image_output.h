@@ -69,9 +69,10 @@
 #include <vector>
 
 #include "analysis/pictures/picture.h"
-#include "tracer/records/detector.h"
 
 namespace veil {
+
+class DetectorImage;
 
 // OpenEXR Output
 

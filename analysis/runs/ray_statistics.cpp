@@ -1,12 +1,12 @@
-#include "analysis/reports/format.h"
 #include "analysis/runs/ray_statistics.h"
-
-#include <sstream>
-
-#include <iomanip>
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
+#include <sstream>
+
+#include "analysis/reports/format.h"
+#include "tracer/records/path_history.h"
 
 namespace veil {
 

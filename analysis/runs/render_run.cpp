@@ -11,6 +11,7 @@
 #include "analysis/reports/image_output.h"
 #include "lensdata/errors.h"
 #include "lensdata/output_file.h"
+#include "tracer/records/detector.h"
 #include "tracer/scene/prepared_scene.h"
 #include "tracer/scene/scene_transport.h"
 #include "tracer/transport/interaction.h"

@@ -7,6 +7,8 @@
 #include <vector>
 
 #include "lensdata/errors.h"
+#include "tracer/records/detector.h"
+#include "tracer/records/path_history.h"
 #include "tracer/scene/prepared_scene.h"
 #include "tracer/scene/scene_geometry.h"
 #include "tracer/scene/scene_transport.h"

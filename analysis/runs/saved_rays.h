@@ -12,11 +12,11 @@
 #include <filesystem>
 #include <string>
 
-#include "tracer/records/path_history.h"
 #include "tracer/records/ray_database.h"
 
 namespace veil {
 
+struct PathEncoding;
 struct TransportOptions;
 struct SceneTransport;
 class PreparedScene;

@@ -11,6 +11,8 @@
 #include "analysis/reports/format.h"
 #include "analysis/reports/image_output.h"
 #include "lensdata/output_file.h"
+#include "tracer/records/detector.h"
+#include "tracer/records/path_history.h"
 #include "tracer/scene/prepared_scene.h"
 #include "tracer/scene/scene_transport.h"
 

@@ -60,13 +60,13 @@
 #include "analysis/reports/progress.h"
 #include "analysis/reports/report_table.h"
 #include "geometry/vec.h"
-#include "tracer/light/spectrum.h"
 #include "tracer/render/render.h"
 #include "tracer/scene/scene_spec.h"
-#include "tracer/sequential/ray_aiming.h"
 
 namespace veil {
 
+class SpectralSampler;
+class RayAimer;
 class GlassCatalog;
 
 class GhostTracer;    // analysis/ghosts/ghosts.h

@@ -15,6 +15,7 @@
 #include "analysis/runs/stray_light_run.h"
 #include "lensdata/glass_catalog.h"
 #include "lensdata/output_file.h"
+#include "tracer/records/detector.h"
 #include "tracer/scene/prepared_scene.h"
 #include "tracer/scene/scene_spec.h"
 

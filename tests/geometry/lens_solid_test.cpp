@@ -21,6 +21,7 @@
 #include "geometry/scene.h"
 #include "lensdata/glass_catalog.h"
 #include "lensdata/lens_file.h"
+#include "lensdata/prescription.h"
 #include "tests/test_lenses.h"
 
 namespace veil {

@@ -26,6 +26,7 @@
 #include "geometry/surface_shape.h"
 #include "lensdata/glass_catalog.h"
 #include "lensdata/lens_file.h"
+#include "lensdata/prescription.h"
 #include "lensdata/toml_document.h"
 #include "tests/test_lenses.h"
 

@@ -18,6 +18,8 @@
 #include <sstream>
 #include <tuple>
 
+#include "lensdata/toml_document.h"
+
 namespace veil {
 namespace {
 

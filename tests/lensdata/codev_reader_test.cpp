@@ -12,6 +12,7 @@
 
 #include "lensdata/glass_catalog.h"
 #include "lensdata/lens_file.h"
+#include "lensdata/prescription.h"
 
 namespace veil {
 namespace {

@@ -9,6 +9,8 @@
 #include <string>
 
 #include "lensdata/glass_catalog.h"
+#include "lensdata/prescription.h"
+#include "lensdata/toml_document.h"
 
 namespace veil {
 namespace {

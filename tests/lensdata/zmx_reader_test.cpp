@@ -16,6 +16,7 @@
 #include <string>
 
 #include "lensdata/glass_catalog.h"
+#include "lensdata/prescription.h"
 #include "lensdata/text_decoding.h"
 
 namespace veil {

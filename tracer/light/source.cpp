@@ -11,6 +11,11 @@
 #include "geometry/exact_face.h"
 #include "geometry/numerics.h"
 #include "geometry/surface_frames.h"
+#include "lensdata/prescription.h"
+#include "lensdata/toml_document.h"
+#include "tracer/light/spectrum.h"
+#include "tracer/runtime/rng.h"
+#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
 

@@ -69,12 +69,13 @@
 #include "geometry/frame.h"
 #include "geometry/surface_shape.h"
 #include "geometry/vec.h"
-#include "lensdata/toml_document.h"
 #include "tracer/light/spectrum.h"
-#include "tracer/runtime/rng.h"
-#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
+
+class TomlDocument;
+class CounterRng;
+class SequentialModel;
 
 // Every length a [[source]] gives (positions, radii, sizes, margins, gaps, z) lies within
 // +-kMaxSourceLengthMm (1000 km): anything farther is at infinity for a lens (a collimated or

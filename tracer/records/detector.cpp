@@ -8,7 +8,9 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "geometry/scene.h"
 #include "lensdata/toml_document.h"
+#include "tracer/runtime/rng.h"
 
 namespace veil {
 

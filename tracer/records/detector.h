@@ -57,10 +57,10 @@
 #include "geometry/scene.h"
 #include "lensdata/errors.h"
 #include "tracer/runtime/ranks.h"
-#include "tracer/runtime/rng.h"
 
 namespace veil {
 
+class CounterRng;
 class TomlDocument;
 
 // One [detector] (or [[detector]] entry) as read, before it is placed in a scene. See

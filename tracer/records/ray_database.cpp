@@ -12,6 +12,9 @@
 #include <sstream>
 #include <system_error>
 
+#include "geometry/scene.h"
+#include "tracer/records/path_history.h"
+
 namespace veil {
 
 // Ray Database Layout Constants (docs/ray-database.md)

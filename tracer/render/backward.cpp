@@ -10,6 +10,13 @@
 #include <stdexcept>
 #include <unordered_map>
 
+#include "geometry/scene.h"
+#include "tracer/records/detector.h"
+#include "tracer/records/path_history.h"
+#include "tracer/runtime/rng.h"
+#include "tracer/surfaces/media.h"
+#include "tracer/transport/interaction.h"
+
 namespace veil {
 
 std::ostream& operator<<(std::ostream& os, const BackwardOptions& o) {

@@ -9,9 +9,14 @@
 #include <cstring>
 #include <numbers>
 
+#include "tracer/records/detector.h"
+#include "tracer/records/path_history.h"
 #include "tracer/render/render.h"
 #include "tracer/runtime/ordered_blocks.h"
 #include "tracer/runtime/qmc.h"
+#include "tracer/runtime/rng.h"
+#include "tracer/surfaces/media.h"
+#include "tracer/transport/interaction.h"
 
 namespace veil {
 

@@ -15,8 +15,12 @@
 #include <string>
 
 #include "geometry/exact_face.h"
+#include "geometry/scene.h"
 #include "lensdata/errors.h"
+#include "tracer/records/detector.h"
 #include "tracer/render/photon_pass.h"
+#include "tracer/runtime/rng.h"
+#include "tracer/transport/interaction.h"
 
 namespace veil {
 

@@ -1,5 +1,7 @@
 #include "tracer/scene/prepared_scene.h"
 
+#include "lensdata/glass_catalog.h"
+
 namespace veil {
 
 std::unique_ptr<PreparedScene> PreparedScene::build(SceneSpec spec, const GlassCatalog& catalog,

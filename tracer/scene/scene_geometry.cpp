@@ -6,7 +6,11 @@
 
 #include "geometry/lens_solid.h"
 #include "geometry/surface_frames.h"
+#include "lensdata/glass_catalog.h"
 #include "lensdata/input_file.h"
+#include "lensdata/prescription.h"
+#include "tracer/records/detector.h"
+#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
 

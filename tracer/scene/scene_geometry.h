@@ -10,12 +10,13 @@
 
 #include "geometry/mechanics.h"
 #include "geometry/scene.h"
-#include "lensdata/glass_catalog.h"
 #include "tracer/records/detector.h"
 #include "tracer/scene/scene_spec.h"
-#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
+
+class GlassCatalog;
+class SequentialModel;
 
 struct SceneOptions {
     bool mechanics = true;  // build the [mechanics] section when present

@@ -7,8 +7,11 @@
 
 #include "geometry/lens_solid.h"
 #include "geometry/surface_frames.h"
+#include "lensdata/glass_catalog.h"
 #include "lensdata/input_file.h"
 #include "lensdata/lens_file.h"
+#include "lensdata/prescription.h"
+#include "lensdata/toml_document.h"
 #include "lensdata/toml_reader.h"
 #include "tracer/sequential/auto_apertures.h"
 #include "tracer/sequential/image_fields.h"

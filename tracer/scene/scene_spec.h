@@ -19,13 +19,14 @@
 #include "geometry/mechanics.h"
 #include "geometry/mesh_io.h"
 #include "geometry/scene.h"
-#include "lensdata/glass_catalog.h"
 #include "tracer/light/source.h"
 #include "tracer/records/detector.h"
-#include "tracer/sequential/sequential_model.h"
 #include "tracer/surfaces/property_table.h"
 
 namespace veil {
+
+class GlassCatalog;
+class SequentialModel;
 
 struct SceneSpec {
     std::filesystem::path path;

@@ -1,5 +1,10 @@
 #include "tracer/scene/scene_transport.h"
 
+#include "lensdata/glass_catalog.h"
+#include "lensdata/prescription.h"
+#include "tracer/records/detector.h"
+#include "tracer/surfaces/media.h"
+
 namespace veil {
 
 SceneTransport prepareTransport(const SceneSpec& file, const SceneGeometry& setup,

@@ -2,7 +2,9 @@
 
 #include <cmath>
 
+#include "lensdata/prescription.h"
 #include "tracer/sequential/ray_aiming.h"
+#include "tracer/sequential/sequential_model.h"
 #include "tracer/sequential/sequential_trace.h"
 
 namespace veil {

@@ -5,6 +5,8 @@
 #include <string>
 
 #include "lensdata/errors.h"
+#include "lensdata/glass_catalog.h"
+#include "lensdata/prescription.h"
 #include "tracer/sequential/paraxial.h"
 #include "tracer/sequential/pupil.h"
 #include "tracer/sequential/ray_aiming.h"

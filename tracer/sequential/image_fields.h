@@ -20,10 +20,11 @@
 // chief ray lands at (x, y) in a rotationally symmetric lens. The given heights stay in
 // SystemData::imageHeights and givenFieldKind, for the reports.
 
-#include "lensdata/glass_catalog.h"
 #include "lensdata/prescription.h"
 
 namespace veil {
+
+class GlassCatalog;
 
 // The prescription with its image-height fields resolved (unchanged for angle and object
 // height fields). Throws ModelError naming the field when no field reaches a height (an

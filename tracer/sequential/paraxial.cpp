@@ -1,6 +1,7 @@
 #include "tracer/sequential/paraxial.h"
 
 #include "geometry/qtype.h"
+#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
 

@@ -2,7 +2,9 @@
 
 #include <cmath>
 
+#include "lensdata/prescription.h"
 #include "tracer/sequential/paraxial.h"
+#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
 

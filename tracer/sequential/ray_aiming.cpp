@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "tracer/sequential/sequential_model.h"
 #include "tracer/sequential/sequential_trace.h"
 
 namespace veil {

@@ -4,6 +4,8 @@
 #include <optional>
 
 #include "geometry/surface_frames.h"
+#include "lensdata/glass_catalog.h"
+#include "lensdata/prescription.h"
 
 namespace veil {
 

@@ -22,10 +22,11 @@
 
 #include "geometry/frame.h"
 #include "geometry/surface_shape.h"
-#include "lensdata/glass_catalog.h"
 #include "lensdata/prescription.h"
 
 namespace veil {
+
+class GlassCatalog;
 
 struct SequentialSurface {
     std::string name;

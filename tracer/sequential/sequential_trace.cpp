@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "tracer/sequential/sequential_model.h"
+
 namespace veil {
 
 std::ostream& operator<<(std::ostream& os, const SequentialRayResult& r) {

@@ -3,6 +3,9 @@
 #include <cmath>
 #include <optional>
 
+#include "geometry/scene.h"
+#include "lensdata/glass_catalog.h"
+
 namespace veil {
 
 MediaOptics::MediaOptics(const Scene& scene, const GlassCatalog& catalog,

@@ -3,12 +3,13 @@
 // air, as the catalogs give it) and the absorption coefficient from the catalog's internal
 // transmittance data (0 when the catalog has none, and for air).
 
+#include <string>
 #include <vector>
 
-#include "geometry/scene.h"
-#include "lensdata/glass_catalog.h"
-
 namespace veil {
+
+class Scene;
+class GlassCatalog;
 
 class MediaOptics {
   public:

@@ -9,8 +9,11 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "geometry/scene.h"
 #include "lensdata/input_file.h"
+#include "lensdata/toml_document.h"
 #include "lensdata/zemax_bsdf.h"
+#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
 

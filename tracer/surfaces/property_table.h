@@ -41,11 +41,12 @@
 
 #include "geometry/scene.h"
 #include "lensdata/errors.h"
-#include "lensdata/toml_document.h"
-#include "tracer/sequential/sequential_model.h"
 #include "tracer/surfaces/optical_property.h"
 
 namespace veil {
+
+class TomlDocument;
+class SequentialModel;
 
 // One [[assign]] entry: objects whose name (or an alias) matches one of the globs get the
 // property.

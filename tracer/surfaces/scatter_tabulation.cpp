@@ -5,6 +5,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "lensdata/zemax_bsdf.h"
+
 namespace veil {
 
 namespace {

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "geometry/numerics.h"
+#include "lensdata/zemax_bsdf.h"
 #include "tracer/runtime/rng.h"
 #include "tracer/surfaces/lobe_math.h"
 

@@ -27,9 +27,9 @@
 #include <string>
 #include <vector>
 
-#include "lensdata/zemax_bsdf.h"
-
 namespace veil {
+
+struct ZemaxBsdf;
 
 class TabulatedLobe {
   public:

@@ -7,9 +7,9 @@
 
 #include <memory>
 
-#include "tracer/records/path_history.h"
-
 namespace veil {
+
+struct PathEvent;
 
 class BranchState {
   public:

@@ -2,7 +2,10 @@
 
 #include <algorithm>
 
+#include "tracer/records/path_history.h"
+#include "tracer/runtime/rng.h"
 #include "tracer/sequential/sequential_trace.h"
+#include "tracer/surfaces/media.h"
 
 namespace veil {
 

@@ -28,10 +28,11 @@
 #include "tracer/light/source.h"
 #include "tracer/records/path_history.h"
 #include "tracer/runtime/rng.h"
-#include "tracer/surfaces/media.h"
 #include "tracer/surfaces/optical_property.h"
 
 namespace veil {
+
+class MediaOptics;
 
 // What the transport needs of a scene, resolved once (tracer/scene/scene_transport.h fills it).
 struct TransportView {

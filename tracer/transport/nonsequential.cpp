@@ -7,10 +7,14 @@
 #include <exception>
 #include <thread>
 
+#include "geometry/scene.h"
+#include "tracer/records/detector.h"
+#include "tracer/records/path_history.h"
 #include "tracer/render/path_judge.h"
 #include "tracer/runtime/ordered_blocks.h"
 #include "tracer/runtime/rng.h"
 #include "tracer/sequential/sequential_trace.h"
+#include "tracer/transport/interaction.h"
 
 namespace veil {
 

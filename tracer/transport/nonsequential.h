@@ -40,7 +40,6 @@
 #include "geometry/scene.h"
 #include "tracer/light/source.h"
 #include "tracer/records/detector.h"
-#include "tracer/records/path_history.h"
 #include "tracer/runtime/ranks.h"
 #include "tracer/surfaces/media.h"
 #include "tracer/surfaces/optical_property.h"
@@ -48,6 +47,8 @@
 #include "tracer/transport/interaction.h"
 
 namespace veil {
+
+class PathHistory;
 
 struct TransportOptions {
     enum class Mode { Split, Random };

@@ -11,6 +11,7 @@
 #include <random>
 
 #include "tests/analysis/criteria/random_criteria.h"
+#include "tracer/records/path_history.h"
 
 namespace veil {
 namespace {

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "analysis/criteria/criteria.h"
+#include "tracer/records/path_history.h"
 
 namespace veil::test {
 

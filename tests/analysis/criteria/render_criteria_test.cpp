@@ -10,6 +10,7 @@
 #include <iostream>
 
 #include "tests/analysis/criteria/random_criteria.h"
+#include "tracer/records/path_history.h"
 
 namespace veil {
 namespace {

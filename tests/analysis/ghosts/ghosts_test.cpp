@@ -20,6 +20,7 @@
 #include "geometry/numerics.h"
 #include "lensdata/errors.h"
 #include "lensdata/glass_catalog.h"
+#include "lensdata/prescription.h"
 #include "tracer/scene/scene_geometry.h"
 #include "tracer/scene/scene_spec.h"
 #include "tracer/scene/scene_transport.h"

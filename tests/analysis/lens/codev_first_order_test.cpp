@@ -8,6 +8,7 @@
 #include "analysis/lens/first_order.h"
 #include "lensdata/codev_reader.h"
 #include "lensdata/glass_catalog.h"
+#include "lensdata/prescription.h"
 #include "tracer/scene/scene_spec.h"
 #include "tracer/sequential/ray_aiming.h"
 #include "tracer/sequential/sequential_model.h"

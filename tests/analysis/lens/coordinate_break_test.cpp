@@ -8,6 +8,8 @@
 
 #include "analysis/lens/first_order.h"
 #include "geometry/surface_frames.h"
+#include "lensdata/glass_catalog.h"
+#include "lensdata/prescription.h"
 #include "tests/test_lenses.h"
 #include "tracer/sequential/ray_aiming.h"
 #include "tracer/sequential/sequential_model.h"

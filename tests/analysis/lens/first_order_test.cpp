@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "lensdata/glass_catalog.h"
+#include "lensdata/prescription.h"
 #include "lensdata/zmx_reader.h"
 #include "tests/test_lenses.h"
 #include "tracer/sequential/paraxial.h"

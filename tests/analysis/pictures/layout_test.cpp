@@ -14,6 +14,7 @@
 #include <set>
 
 #include "analysis/pictures/scene_section.h"
+#include "geometry/scene.h"
 #include "tests/analysis/prepared_scene.h"
 
 namespace veil {

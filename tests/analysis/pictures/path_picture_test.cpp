@@ -19,6 +19,7 @@
 #include "analysis/criteria/criterion_names.h"
 #include "analysis/pictures/layout.h"
 #include "tests/analysis/prepared_scene.h"
+#include "tracer/records/path_history.h"
 
 namespace veil {
 namespace {

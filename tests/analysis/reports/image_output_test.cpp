@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "tracer/records/detector.h"
 #include "tracer/runtime/rng.h"
 
 namespace veil {

@@ -15,6 +15,8 @@
 #include "lensdata/errors.h"
 #include "lensdata/glass_catalog.h"
 #include "lensdata/lens_file.h"
+#include "lensdata/prescription.h"
+#include "tracer/records/detector.h"
 #include "tracer/scene/prepared_scene.h"
 #include "tracer/scene/scene_geometry.h"
 #include "tracer/scene/scene_spec.h"

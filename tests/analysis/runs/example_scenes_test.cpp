@@ -17,6 +17,8 @@
 #include "analysis/lens/default_scene.h"
 #include "analysis/lens/first_order.h"
 #include "lensdata/glass_catalog.h"
+#include "lensdata/prescription.h"
+#include "tracer/records/detector.h"
 #include "tracer/scene/scene_geometry.h"
 #include "tracer/scene/scene_spec.h"
 #include "tracer/scene/scene_transport.h"

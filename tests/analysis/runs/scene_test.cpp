@@ -3,6 +3,8 @@
 // random rays, and rays that start on the surface they just hit (the nonsequential tracer's
 // case).
 
+#include "geometry/scene.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -14,6 +16,7 @@
 #include "lensdata/glass_catalog.h"
 #include "tracer/scene/scene_geometry.h"
 #include "tracer/scene/scene_spec.h"
+#include "tracer/sequential/sequential_model.h"
 
 namespace veil {
 namespace {

@@ -10,6 +10,7 @@
 #include <cmath>
 
 #include "lensdata/glass_catalog.h"
+#include "tracer/records/path_history.h"
 #include "tracer/scene/prepared_scene.h"
 
 namespace veil {

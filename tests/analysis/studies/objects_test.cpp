@@ -17,6 +17,7 @@
 #include "analysis/runs/stray_light_run.h"
 #include "lensdata/errors.h"
 #include "lensdata/glass_catalog.h"
+#include "tracer/records/detector.h"
 #include "tracer/scene/prepared_scene.h"
 
 namespace veil {

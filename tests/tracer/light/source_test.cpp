@@ -18,7 +18,12 @@
 
 #include "geometry/numerics.h"
 #include "geometry/scene.h"
+#include "lensdata/glass_catalog.h"
+#include "lensdata/prescription.h"
+#include "lensdata/toml_document.h"
 #include "lensdata/toml_reader.h"
+#include "tracer/light/spectrum.h"
+#include "tracer/runtime/rng.h"
 #include "tracer/sequential/sequential_model.h"
 
 namespace veil {

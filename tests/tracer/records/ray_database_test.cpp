@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "geometry/scene.h"
+#include "tracer/records/path_history.h"
 #include "tracer/runtime/rng.h"
 
 namespace veil {

@@ -17,7 +17,9 @@
 #include <filesystem>
 #include <numbers>
 
+#include "geometry/scene.h"
 #include "lensdata/glass_catalog.h"
+#include "tracer/records/detector.h"
 #include "tracer/scene/prepared_scene.h"
 #include "tracer/scene/scene_transport.h"
 #include "tracer/sequential/sequential_model.h"

@@ -8,6 +8,7 @@
 #include <filesystem>
 
 #include "lensdata/glass_catalog.h"
+#include "lensdata/prescription.h"
 #include "tracer/scene/prepared_scene.h"
 #include "tracer/scene/scene_geometry.h"
 #include "tracer/scene/scene_transport.h"

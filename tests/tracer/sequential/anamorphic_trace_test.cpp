@@ -9,6 +9,8 @@
 #include <cmath>
 #include <random>
 
+#include "lensdata/glass_catalog.h"
+#include "lensdata/prescription.h"
 #include "tests/test_lenses.h"
 #include "tracer/sequential/paraxial.h"
 #include "tracer/sequential/sequential_model.h"

@@ -6,6 +6,8 @@
 
 #include <cmath>
 
+#include "lensdata/glass_catalog.h"
+#include "lensdata/prescription.h"
 #include "tests/test_lenses.h"
 #include "tracer/sequential/paraxial.h"
 #include "tracer/sequential/pupil.h"

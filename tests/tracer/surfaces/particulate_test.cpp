@@ -14,6 +14,7 @@
 #include <random>
 
 #include "tests/tracer/surfaces/scatter_test_support.h"
+#include "tracer/runtime/rng.h"
 #include "tracer/sequential/sequential_trace.h"
 #include "tracer/surfaces/fresnel.h"
 #include "tracer/surfaces/optical_property.h"

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "geometry/scene.h"
+#include "lensdata/toml_document.h"
 
 namespace veil {
 namespace {

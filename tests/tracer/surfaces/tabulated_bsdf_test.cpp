@@ -13,6 +13,7 @@
 #include <numbers>
 #include <sstream>
 
+#include "lensdata/zemax_bsdf.h"
 #include "tests/tracer/surfaces/scatter_test_support.h"
 #include "tracer/runtime/rng.h"
 #include "tracer/surfaces/optical_property.h"
