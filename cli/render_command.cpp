@@ -85,7 +85,8 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
         ->check(CLI::Range(1e-6, 1.0))
         ->capture_default_str();
     sub->add_option("--target-on", o.targetOn,
-                    "the image --target-error applies to: total, visible, direct, caustic, "
+                    "the image --target-error applies to: stray (the total without the "
+                    "sources' image-forming light), total, visible, direct, caustic, "
                     "secondary, or where<k> (the k-th --where criterion's image)")
         ->capture_default_str();
     sub->add_option("--time-limit", o.timeLimit,
@@ -119,6 +120,11 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
                     "share of each pass's pixel rays drawn where the passes before it found "
                     "light, in [0, 1) (0: uniform over the exit aperture)")
         ->check(CLI::Range(0.0, 0.99))
+        ->capture_default_str();
+    sub->add_option("--follow-lobes-below", o.followLobesBelow,
+                    "scatter lobes narrower than this half width (degrees) are followed by the "
+                    "pixel rays instead of gathering photons (0: every surface gathers)")
+        ->check(CLI::Range(0.0, 90.0))
         ->capture_default_str();
     sub->add_option("--roulette", o.roulette,
                     "photons below this share of their emitted flux (once scattered: of their flux "
@@ -179,6 +185,7 @@ RenderRunSpec renderSpec(const RenderCommandOptions& o) {
     ro.prune = o.prune;
     ro.areaSamples = o.areaSamples;
     ro.guideFraction = o.guide;
+    ro.followLobesBelowDeg = o.followLobesBelow;
     spec.detector = o.detector;
     spec.where = o.where;
     spec.scene = o.file;

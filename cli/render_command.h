@@ -23,7 +23,7 @@ struct RenderCommandOptions {
     double targetError = 0.05;
     // The image the target error applies to: total, visible, direct, caustic, secondary or
     // where<k> (the k-th --where criterion's image).
-    std::string targetOn = "total";
+    std::string targetOn = "stray";
     std::string timeLimit = "10m";
     int passes = 0;  // 0: no pass limit
     std::string detector;
@@ -35,6 +35,7 @@ struct RenderCommandOptions {
     double roulette = 0.1;
     int areaSamples = 16;  // rim correction probes per view point
     double guide = 0.5;    // guided share of the pixel rays (RenderOptions::guideFraction)
+    double followLobesBelow = 0.0;  // degrees (RenderOptions::followLobesBelowDeg)
     std::string backward = "random";
     std::string photonPoints = "sobol";
     double minWeight = 1e-4;

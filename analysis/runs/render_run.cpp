@@ -39,7 +39,7 @@ uint64_t fingerprintOf(const TransportView& ts, const DetectorGeometry& g, const
        << o.maxSpecularDepth << " " << o.detectorRadiusPixels << " " << o.viewPointRelativeWeight
        << " " << o.rouletteRelativeFlux << " " << o.maxPhotonSegments << " " << o.prune << " "
        << o.areaSamples << " " << o.quasiRandomPhotons << " " << o.ghostPhotons() << " "
-       << o.photonRescueRelativeFlux << " " << o.guideFraction;
+       << o.photonRescueRelativeFlux << " " << o.guideFraction << " " << o.followLobesBelowDeg;
     for (const std::string& w : where) os << "\nwhere " << w;
     const std::string text = os.str();
     uint64_t h = 1469598103934665603ull;
@@ -53,6 +53,7 @@ uint64_t fingerprintOf(const TransportView& ts, const DetectorGeometry& g, const
 double targetErrorOf(const RenderState& state, const RenderTarget& target) {
     if (target.component) return state.meanRelativeError(*target.component);
     if (target.criterion >= 0) return state.criterionMeanRelativeError(target.criterion);
+    if (target.stray) return state.strayMeanRelativeError();
     return state.meanRelativeError();
 }
 
@@ -70,6 +71,8 @@ std::string layerName(int k) { return "where" + std::to_string(k + 1); }
 RenderTarget RenderTarget::parse(const std::string& text, size_t criteria) {
     RenderTarget t;
     t.text = text;
+    if (text == "stray") return t;
+    t.stray = false;
     if (text == "total") return t;
     for (int c = 0; c < kRenderComponents; ++c)
         if (text == toString(static_cast<RenderComponent>(c)))
@@ -82,7 +85,7 @@ RenderTarget RenderTarget::parse(const std::string& text, size_t criteria) {
     if (k < 1 || k > static_cast<int>(criteria))
         throw ParseError({"--target-on", 1, 1},
                          "'" + text +
-                             "' is no image of this run: total, visible, direct, "
+                             "' is no image of this run: stray, total, visible, direct, "
                              "caustic, secondary" +
                              (criteria == 0 ? std::string(", or where<k> with --where")
                                             : ", where1 to where" + std::to_string(criteria)));
@@ -235,6 +238,28 @@ RenderResult RenderRun::run(const std::function<void(const RenderPassEvent&)>& o
 
 double RenderResult::targetError() const { return targetErrorOf(state, spec.stop.target); }
 
+namespace {
+
+// One line on the gathered light's radius bias (RadiusBias).
+std::string radiusBiasText(const RadiusBias& b, double gathered) {
+    std::ostringstream os;
+    os << std::defaultfloat << std::setprecision(2);
+    if (!(gathered != 0.0)) return "radius bias: no gathered light";
+    const double relEstimate = 100.0 * b.estimate() / gathered;
+    const double relBound = 100.0 * b.bound() / gathered;
+    if (b.detected())
+        os << "radius bias DETECTED: the gathered light changes by " << relEstimate
+           << " % between r and r/2 (x2); the errors with it include it. Lower --radius, or "
+              "run more passes";
+    else if (!std::isfinite(relBound) || relBound > 100.0)
+        os << "radius bias not bounded (the half-radius estimate is too noisy yet)";
+    else
+        os << "radius bias not detected: at most " << relBound << " % of the gathered light";
+    return os.str();
+}
+
+}  // namespace
+
 nlohmann::json RenderResult::summary() const {
     const RenderOptions& ro = spec.options;
     const uint64_t n = static_cast<uint64_t>(state.passes());
@@ -261,25 +286,51 @@ nlohmann::json RenderResult::summary() const {
                           {"roulette", ro.rouletteRelativeFlux},
                           {"area_samples", ro.areaSamples},
                           {"guide", ro.guideFraction},
+                          {"follow_lobes_below_deg", ro.followLobesBelowDeg},
                           {"photon_points", ro.quasiRandomPhotons ? "sobol" : "random"}};
     summary["final_radius_mm"] = state.radiusMm();
     summary["exit_aperture"] = {
         {"center_mm", {aperture.centerMm.x, aperture.centerMm.y, aperture.centerMm.z}},
         {"radius_mm", aperture.radiusMm}};
     summary["mean_relative_error"] = jsonNumber(state.meanRelativeError());
+    summary["stray_mean_relative_error"] = jsonNumber(state.strayMeanRelativeError());
     summary["target_error"] = spec.stop.targetError;
     summary["target_on"] = spec.stop.target.text;
     summary["target_mean_relative_error"] = jsonNumber(targetError());
     summary["lit_pixels"] = state.litPixels();
     summary["emitted_flux"] = emittedFlux;
-    auto fluxJson = [&](const DetectorImage& img) {
+    auto fluxJson = [&](const DetectorImage& img, const RadiusBias* bias = nullptr) {
         const double f = img.totalFlux();
-        const double rel = f != 0.0 ? std::sqrt(img.totalVariance(n)) / std::abs(f) : kInf;
-        return nlohmann::json{{"flux", f},
-                              {"relative_error", jsonNumber(rel)},
-                              {"transmittance", emittedFlux > 0.0 ? f / emittedFlux : 0.0}};
+        const double sigma = std::sqrt(img.totalVariance(n));
+        const double error = bias ? bias->errorWith(sigma) : sigma;
+        nlohmann::json j{{"flux", f},
+                         {"relative_error", jsonNumber(f != 0.0 ? error / std::abs(f) : kInf)},
+                         {"transmittance", emittedFlux > 0.0 ? f / emittedFlux : 0.0}};
+        if (bias)
+            j["statistical_relative_error"] = jsonNumber(f != 0.0 ? sigma / std::abs(f) : kInf);
+        return j;
     };
-    summary["total"] = fluxJson(state.total());
+    auto biasJson = [&](const RadiusBias& b, double gathered) {
+        auto share = [&](double x) { return jsonNumber(gathered != 0.0 ? x / gathered : kInf); };
+        return nlohmann::json{{"half_radius_difference", b.difference},
+                              {"half_radius_difference_sigma", b.sigma},
+                              {"estimate", b.estimate()},
+                              {"bound", b.bound()},
+                              {"relative_estimate", share(b.estimate())},
+                              {"relative_bound", share(b.bound())},
+                              {"detected", b.detected()}};
+    };
+    auto gatheredOf = [&](const DetectorImage& caustic, const DetectorImage& secondary) {
+        return caustic.totalFlux() + secondary.totalFlux();
+    };
+    const RadiusBias bias = state.radiusBias();
+    summary["total"] = fluxJson(state.total(), &bias);
+    summary["image_forming"] = fluxJson(state.imageForming());
+    summary["stray"] = fluxJson(state.strayLight(), &bias);
+    summary["stray"]["mean_relative_error"] = jsonNumber(state.strayMeanRelativeError());
+    summary["radius_bias"] =
+        biasJson(bias, gatheredOf(state.component(RenderComponent::Caustic),
+                                  state.component(RenderComponent::Secondary)));
     for (int c = 0; c < kRenderComponents; ++c) {
         const auto rc = static_cast<RenderComponent>(c);
         nlohmann::json j = fluxJson(state.component(rc));
@@ -288,7 +339,11 @@ nlohmann::json RenderResult::summary() const {
     }
     summary["criteria"] = nlohmann::json::array();
     for (int k = 0; k < criterionCount; ++k) {
-        nlohmann::json j = fluxJson(state.criterionTotal(k));
+        const RadiusBias kb = state.criterionRadiusBias(k);
+        nlohmann::json j = fluxJson(state.criterionTotal(k), &kb);
+        j["radius_bias"] =
+            biasJson(kb, gatheredOf(state.criterionComponent(k, RenderComponent::Caustic),
+                                    state.criterionComponent(k, RenderComponent::Secondary)));
         j["layer"] = layerName(k);
         j["where"] = spec.where[static_cast<size_t>(k)];
         j["mean_relative_error"] = jsonNumber(state.criterionMeanRelativeError(k));
@@ -316,14 +371,24 @@ std::string RenderResult::text(const std::string& folder) const {
     const uint64_t n = static_cast<uint64_t>(state.passes());
     const double error = state.meanRelativeError();
     std::ostringstream text;
-    auto rel = [&](const DetectorImage& img) {
-        return img.totalFlux() != 0.0 ? std::sqrt(img.totalVariance(n)) / std::abs(img.totalFlux())
-                                      : kInf;
+    auto rel = [&](const DetectorImage& img, const RadiusBias* bias = nullptr) {
+        const double sigma = std::sqrt(img.totalVariance(n));
+        return img.totalFlux() != 0.0
+                   ? (bias ? bias->errorWith(sigma) : sigma) / std::abs(img.totalFlux())
+                   : kInf;
     };
     const DetectorImage total = state.total();
-    text << "Stray light on " << detector << " (" << unit << ", mean of " << passesText(n) << ")"
+    const RadiusBias bias = state.radiusBias();
+    const DetectorImage formed = state.imageForming(), stray = state.strayLight();
+    text << "Light on " << detector << " (" << unit << ", mean of " << passesText(n) << ")"
          << (ro.prune ? ": only light whose path matches a --where (--prune)" : "") << "\n";
-    text << "  total       " << formatFlux(total.totalFlux(), rel(total), unit)
+    text << "  stray light " << formatFlux(stray.totalFlux(), rel(stray, &bias), unit)
+         << "   transmittance " << std::scientific << std::setprecision(3)
+         << (emittedFlux > 0 ? stray.totalFlux() / emittedFlux : 0.0) << std::defaultfloat
+         << ", mean pixel error " << percent(state.strayMeanRelativeError()) << "\n";
+    text << "  image       " << formatFlux(formed.totalFlux(), rel(formed), unit)
+         << "   the sources' image-forming light (through the lens as designed)\n";
+    text << "  total       " << formatFlux(total.totalFlux(), rel(total, &bias), unit)
          << "   transmittance " << std::scientific << std::setprecision(3)
          << (emittedFlux > 0 ? total.totalFlux() / emittedFlux : 0.0) << "\n";
     for (int c = 0; c < kRenderComponents; ++c) {
@@ -332,23 +397,28 @@ std::string RenderResult::text(const std::string& folder) const {
         text << "  " << std::left << std::setw(11) << std::string(toString(rc)) << " "
              << std::right << formatFlux(img.totalFlux(), rel(img), unit) << "\n";
     }
+    const double gathered = state.component(RenderComponent::Caustic).totalFlux() +
+                            state.component(RenderComponent::Secondary).totalFlux();
+    text << "  " << radiusBiasText(bias, gathered) << "\n";
     for (int k = 0; k < state.criteria(); ++k) {
         const DetectorImage img = state.criterionTotal(k);
+        const RadiusBias kb = state.criterionRadiusBias(k);
         text << "  " << std::left << std::setw(11) << layerName(k) << " " << std::right
-             << formatFlux(img.totalFlux(), rel(img), unit) << "   "
-             << spec.where[static_cast<size_t>(k)] << "\n";
+             << formatFlux(img.totalFlux(), rel(img, &kb), unit) << "   "
+             << spec.where[static_cast<size_t>(k)]
+             << (kb.detected() ? " (radius bias included)" : "") << "\n";
     }
     if (ro.prune)
         text << "  pruned " << prunedBranches << " backward and " << prunedPhotons
              << " photon branches (--prune)\n";
     text << std::defaultfloat << std::setprecision(4) << "  " << passesText(state.passes()) << " ("
          << state.passes() - passesBefore << " this run, " << elapsed(seconds) << "), "
-         << stopReason << "; mean pixel error "
+         << stopReason << "; mean pixel error of the total "
          << (std::isfinite(error)
                  ? std::to_string(100.0 * error).substr(0, 5) + " %"
                  : std::string(state.passes() < 2 ? "unknown (it takes two passes)" : "unknown"))
-         << " over " << state.litPixels() << " lit pixels (target "
-         << 100.0 * spec.stop.targetError << " %";
+         << " over " << state.litPixels() << " lit pixels (target " << 100.0 * spec.stop.targetError
+         << " %";
     const double finalTargetError = targetError();
     if (spec.stop.target.text != "total")
         text << " on " << spec.stop.target.text << ": "
@@ -385,6 +455,8 @@ std::vector<std::pair<std::string, DetectorImage>> RenderResult::imageLayers() c
                 layerName(k) + "." + std::string(toString(static_cast<RenderComponent>(c))),
                 state.criterionComponent(k, static_cast<RenderComponent>(c)));
     }
+    out.emplace_back("stray", state.strayLight());
+    out.emplace_back("image", state.imageForming());
     return out;
 }
 
@@ -408,9 +480,18 @@ std::vector<std::filesystem::path> writeRenderFiles(const RenderResult& r,
     po.fluxUnit = r.unit;
     po.emittedRays = n;
     po.decades = 3.0;  // stray light spans a few decades; 6 would flatten it
-    po.title = name + ": stray light, " + passesText(n);
+    const DetectorImage& stray = images[images.size() - 2].second;
+    const DetectorImage& formed = images[images.size() - 1].second;
+    po.title =
+        name + (formed.totalFlux() != 0.0 ? ": all light, " : ": stray light, ") + passesText(n);
     writeDetectorPng(dir / (name + ".png"), total, po);
     written.push_back(dir / (name + ".png"));
+    if (formed.totalFlux() != 0.0 && stray.totalFlux() != 0.0) {
+        PreviewOptions sp = po;
+        sp.title = name + ": stray light (without the image-forming light), " + passesText(n);
+        writeDetectorPng(dir / (name + ".stray.png"), stray, sp);
+        written.push_back(dir / (name + ".stray.png"));
+    }
     for (int c = 0; c < kRenderComponents; ++c) {
         const std::string comp(toString(static_cast<RenderComponent>(c)));
         if (component(c).totalFlux() == 0.0) continue;

@@ -45,9 +45,10 @@ class RenderCriteria;
 struct RenderTarget {
     std::optional<RenderComponent> component;
     int criterion = -1;          // 0-based; -1 = none
-    std::string text = "total";  // as written: total, visible, ..., where<k>
-    // "total", a component's name, or where<k> (1-based, k <= criteria); ParseError at
-    // --target-on otherwise.
+    bool stray = true;           // the stray light (RenderState::strayLight)
+    std::string text = "stray";  // as written: stray, total, visible, ..., where<k>
+    // "stray", "total", a component's name, or where<k> (1-based, k <= criteria); ParseError
+    // at --target-on otherwise.
     static RenderTarget parse(const std::string& text, size_t criteria);
 };
 
@@ -107,7 +108,8 @@ struct RenderResult {
     double targetError() const;  // the stop rules' target image's mean relative error now
     // The run's images by layer name, in the order of its EXR: total, the components
     // (visible, direct, caustic, secondary), then per criterion whereK and its components
-    // (whereK.visible, ...).
+    // (whereK.visible, ...), then stray (the total without the image-forming light) and
+    // image (the image-forming light).
     std::vector<std::pair<std::string, DetectorImage>> imageLayers() const;
     // The summary veil render writes as summary.json (and prints with --json).
     nlohmann::json summary() const;

@@ -47,9 +47,15 @@ TEST(RenderCommand, WritesTheComponentsAndTheyAddUp) {
     EXPECT_NEAR(sum, total, 1e-12 * total);
     EXPECT_NEAR(s["total"]["transmittance"].get<double>(), total / s["emitted_flux"].get<double>(),
                 1e-12);
-    // The EXR: five layers, the total's pixels the sum of the components'.
+    // The Sun 7 degrees off axis forms no image on the sensor: all its light is stray.
+    EXPECT_EQ(s["image_forming"]["flux"].get<double>(), 0.0);
+    EXPECT_NEAR(s["stray"]["flux"].get<double>(), total, 1e-12 * total);
+    // The EXR: five layers and the stray and image-forming light, the total's pixels the sum
+    // of the components'.
     const veil::DetectorExr exr = veil::readDetectorExr(dir + "/sensor_image.exr");
-    ASSERT_EQ(exr.layers.size(), 5u);
+    ASSERT_EQ(exr.layers.size(), 7u);
+    ASSERT_TRUE(exr.layer("stray"));
+    ASSERT_TRUE(exr.layer("image"));
     const veil::ExrLayer* t = exr.layer("total");
     ASSERT_TRUE(t);
     EXPECT_NEAR(t->totalFlux, total, 1e-9 * total);
@@ -90,7 +96,7 @@ TEST(RenderCommand, SplitsTheImageByCriteria) {
     EXPECT_GT(edge, 0.0);
     EXPECT_LT(edge, 0.5 * scattered);
     const veil::DetectorExr exr = veil::readDetectorExr(dir + "/sensor_image.exr");
-    EXPECT_EQ(exr.layers.size(), 20u);  // 5 plain, 5 per criterion
+    EXPECT_EQ(exr.layers.size(), 22u);  // 5 plain, 5 per criterion, stray and image
     ASSERT_TRUE(exr.layer("where3.caustic"));
     EXPECT_TRUE(std::filesystem::exists(dir + "/sensor_image.where3.png"));
 
@@ -188,7 +194,7 @@ TEST(RenderCommand, BadInputStopsBeforeAnyPass) {
     EXPECT_NE(r.err.find("'where2' is no image of this run"), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("where1 to where1"), std::string::npos) << r.err;
     EXPECT_FALSE(std::filesystem::exists(dir));
-    r = runVeil("render " + kSun + " --target-on stray -o " + dir);
+    r = runVeil("render " + kSun + " --target-on glare -o " + dir);
     EXPECT_EQ(r.exitCode, 1);
     EXPECT_NE(r.err.find("or where<k> with --where"), std::string::npos) << r.err;
     EXPECT_FALSE(std::filesystem::exists(dir));

@@ -7,12 +7,14 @@
 #include <array>
 #include <bit>
 #include <cmath>
+#include <numbers>
 #include <stdexcept>
 #include <unordered_map>
 
 #include "geometry/scene.h"
 #include "tracer/records/detector.h"
 #include "tracer/records/path_history.h"
+#include "tracer/render/designed_path.h"
 #include "tracer/runtime/rng.h"
 #include "tracer/surfaces/media.h"
 #include "tracer/transport/interaction.h"
@@ -161,7 +163,36 @@ double directAt(const TransportView& ts, const ViewPoint& v, double wavelengthNm
     return sum * v.weight;
 }
 
+double lobeHalfWidthRad(const OpticalProperty& p) {
+    return std::visit(
+        [](const auto& m) -> double {
+            using T = std::decay_t<decltype(m)>;
+            if constexpr (std::is_same_v<T, GaussianScatter>) {
+                return m.halfWidthDeg() * std::numbers::pi / 180.0;
+            } else if constexpr (std::is_same_v<T, AbgScatter>) {
+                // A / (B + r^g)^p halves at r = (2^(1/p) - 1)^(1/g) B^(1/g) (direction
+                // cosines), the widest lobe of the two sides.
+                double widest = 0.0;
+                for (const bool transmit : {false, true})
+                    for (const auto& lobe : m.lobes(transmit)) {
+                        const AbgParams& q = lobe->params();
+                        if (!(q.g > 0.0) || !(q.p > 0.0)) return std::numbers::pi / 2.0;
+                        const double r = std::pow(std::pow(2.0, 1.0 / q.p) - 1.0, 1.0 / q.g) *
+                                         std::pow(q.b, 1.0 / q.g);
+                        widest = std::max(widest, std::asin(std::min(1.0, r)));
+                    }
+                return widest;
+            } else {
+                return std::numbers::pi / 2.0;
+            }
+        },
+        p.scatter());
+}
+
 namespace {
+
+// Narrow lobes followed along one backward path, at most (then the next one gathers).
+constexpr int kMaxFollowedLobes = 4;
 
 struct Branch {
     Ray ray;
@@ -171,17 +202,29 @@ struct Branch {
     int medium = 0;
     int depth = 0;
     int node = 0;  // with criteria: its last event in the ray's EventTree
+    int designed = DesignedPath::kOff;  // its step on the lens's designed path, from the detector
+    int lobes = 0;          // narrow lobes followed between it and the detector (followLobe)
+    bool leftLobe = false;  // its segment starts at a followed lobe: directAt counted its sources
+};
+
+// What one pixel ray brings back, by component.
+struct RayLight {
+    double visible = 0.0, direct = 0.0, caustic = 0.0, secondary = 0.0, image = 0.0;
+    double sum() const { return visible + direct + caustic + secondary; }
 };
 
 // What the rays of one pixel produced, merged in pixel order afterwards.
 struct PixelOutput {
     std::vector<double> visible;  // per ray, its visible-source flux
     std::vector<double> direct;   // per ray, its direct flux
+    std::vector<double> imageForming;        // per ray, the part of `visible` on the designed path
+    std::vector<double> caustic, secondary;  // per ray, through followed lobes
     std::vector<uint8_t> cell;    // per ray, its aperture cell (with a guide)
     static_assert(ApertureGuide::kCellCount <= 256, "a cell index must fit in uint8_t");
     std::vector<ViewPoint> viewPoints;
     std::vector<PathEvent> events;  // the view points' suffixes (firstEvent local to here)
     std::vector<double> visibleBy, directBy;  // [criterion]: the pixel's sums
+    std::vector<double> causticBy, secondaryBy;
     uint64_t segments = 0;
     uint64_t pruned = 0;
 
@@ -189,22 +232,32 @@ struct PixelOutput {
     void pack(ByteWriter& w) const {
         w.putVector(visible);
         w.putVector(direct);
+        w.putVector(imageForming);
+        w.putVector(caustic);
+        w.putVector(secondary);
         w.putVector(cell);
         w.putVector(viewPoints);
         w.putVector(events);
         w.putVector(visibleBy);
         w.putVector(directBy);
+        w.putVector(causticBy);
+        w.putVector(secondaryBy);
         w.put(segments);
         w.put(pruned);
     }
     void unpack(ByteReader& r) {
         visible = r.getVector<double>();
         direct = r.getVector<double>();
+        imageForming = r.getVector<double>();
+        caustic = r.getVector<double>();
+        secondary = r.getVector<double>();
         cell = r.getVector<uint8_t>();
         viewPoints = r.getVector<ViewPoint>();
         events = r.getVector<PathEvent>();
         visibleBy = r.getVector<double>();
         directBy = r.getVector<double>();
+        causticBy = r.getVector<double>();
+        secondaryBy = r.getVector<double>();
         segments = r.get<uint64_t>();
         pruned = r.get<uint64_t>();
     }
@@ -264,7 +317,12 @@ class PixelTracer {
           detectorObject_(detector.geometry().object),
           state_(judge_ ? judge_->stateBytes() : 0),
           scratch_(judge_ ? judge_->stateBytes() : 0),
-          perSourceSide_(2 * ts.sources.size()) {}
+          perSourceSide_(2 * ts.sources.size()),
+          designed_(*ts.scene) {
+        for (const OpticalProperty& prop : ts.properties)
+            followLobe_.push_back(prop.hasScatter() &&
+                                  lobeHalfWidthRad(prop) < options.followLobesBelowRad);
+    }
 
     // Every ray of pixel p.
     void tracePixel(int p, PixelOutput& po);
@@ -281,20 +339,34 @@ class PixelTracer {
                 PixelRay& pr);
     // The ray's branches through the specular chain: the sources it sees and, at scattering
     // surfaces, view points with their direct light.
-    void walk(int p, const PixelRay& pr, PixelRaySample& s, PixelOutput& po, double& seen,
-              double& direct);
+    void walk(int p, const PixelRay& pr, PixelRaySample& s, PixelOutput& po, RayLight& light);
     // Sources seen along a branch's segment (they block nothing), up to tHit, added to `seen`.
     void sourcesSeen(const Branch& br, double tHit, double alpha, int w, PixelOutput& po,
-                     double& seen);
+                     RayLight& light);
     // A view point where the branch meets a scattering surface (view point roulette first),
     // and its direct light.
     void storeViewPoint(int p, const Branch& br, const SceneHit& hit, PixelRaySample& s,
-                        PixelOutput& po, double& direct);
+                        PixelOutput& po, RayLight& light);
+    // The view point a branch meets at hit, with weight `weight` (not stored).
+    ViewPoint viewPointAt(int p, const Branch& br, const SceneHit& hit, const PixelRaySample& s,
+                          double weight) const;
+    // Next-event estimation at v, added to the direct light (or to the secondary light
+    // behind a followed lobe: it has scattered twice).
+    void directLight(const ViewPoint& v, const Branch& br, PixelRaySample& s, PixelOutput& po,
+                     RayLight& light);
+    // A narrow lobe (BackwardOptions::followLobesBelowRad): no view point; the direct light
+    // there, then one direction drawn from the lobe, the branch going on along it.
+    void followLobe(int p, const Branch& br, const SceneHit& hit, PixelRaySample& s,
+                    PixelOutput& po, RayLight& light);
     // The specular children the walk continues with: every one (split) or one by weight.
     void pushChildren(const Branch& br, const SceneHit& hit, const Interaction& in,
                       double specular, PixelRaySample& s, PixelOutput& po);
     void push(const Branch& br, const SceneHit& hit, const InteractionChild& c, double weight,
               PixelOutput& po);
+    // `next`, which leaves hit where `br` arrived, onto the stack, its event (of type e, in
+    // light's order) in the event tree; unless no criterion can match it any more (prune).
+    void pushWithEvent(Branch& next, const Branch& br, const SceneHit& hit, EventType e,
+                       PixelOutput& po);
     // The criteria the path [Emit(source) head] + suffix matches.
     uint64_t judged(int source, int medium, const PathEvent* head) {
         judge_->reset(state_.data());
@@ -316,6 +388,8 @@ class PixelTracer {
     std::vector<std::byte> state_, scratch_;
     std::vector<double> perSourceSide_;
     std::vector<uint64_t> strata_;
+    const DesignedPath designed_;
+    std::vector<bool> followLobe_;  // [property]: its lobe is followed, not gathered
 };
 
 void PixelTracer::tracePixel(int p, PixelOutput& po) {
@@ -323,19 +397,27 @@ void PixelTracer::tracePixel(int p, PixelOutput& po) {
     const size_t criteria = judge_ ? static_cast<size_t>(judge_->count()) : 0;
     po.visible.assign(perPixel, 0.0);
     po.direct.assign(perPixel, 0.0);
+    po.imageForming.assign(perPixel, 0.0);
+    po.caustic.assign(perPixel, 0.0);
+    po.secondary.assign(perPixel, 0.0);
     if (o_.guide) po.cell.assign(perPixel, 0);
     po.visibleBy.assign(criteria, 0.0);
     po.directBy.assign(criteria, 0.0);
+    po.causticBy.assign(criteria, 0.0);
+    po.secondaryBy.assign(criteria, 0.0);
     const uint64_t m = static_cast<uint64_t>(std::sqrt(static_cast<double>(perPixel)));
     shuffleStrata(p, m);
     for (uint64_t k = 0; k < perPixel; ++k) {
         PixelRaySample s{CounterRng(o_.seed, static_cast<uint64_t>(p) * perPixel + k)};
         PixelRay pr;
         if (!sample(p, k, m, po, s, pr)) continue;
-        double seen = 0.0, direct = 0.0;
-        walk(p, pr, s, po, seen, direct);
-        po.visible[k] = seen;
-        po.direct[k] = direct;
+        RayLight light;
+        walk(p, pr, s, po, light);
+        po.visible[k] = light.visible;
+        po.direct[k] = light.direct;
+        po.imageForming[k] = light.image;
+        po.caustic[k] = light.caustic;
+        po.secondary[k] = light.secondary;
     }
 }
 
@@ -382,10 +464,10 @@ bool PixelTracer::sample(int p, uint64_t k, uint64_t m, PixelOutput& po, PixelRa
 }
 
 void PixelTracer::walk(int p, const PixelRay& pr, PixelRaySample& s, PixelOutput& po,
-                       double& seen, double& direct) {
+                       RayLight& light) {
     const int w = s.wavelength;
     stack_.clear();
-    stack_.push_back({pr.ray, s.start, detectorObject_, -1, 0, 0, 0});
+    stack_.push_back({pr.ray, s.start, detectorObject_, -1, 0, 0, 0, designed_.steps()});
     if (judge_) tree_.start(pathEvent(EventType::DetectorHit, detectorObject_, 0, 0, 0));
     while (!stack_.empty()) {
         Branch br = stack_.back();
@@ -394,7 +476,7 @@ void PixelTracer::walk(int p, const PixelRay& pr, PixelRaySample& s, PixelOutput
                                                br.startPrimitive, br.medium);
         const double tHit = hit ? hit->t : kInfinity;
         const double alpha = ts_.media->absorptionPerMm(br.medium, w);
-        sourcesSeen(br, tHit, alpha, w, po, seen);
+        sourcesSeen(br, tHit, alpha, w, po, light);
         if (!hit) continue;
         ++po.segments;
         if (alpha > 0.0) br.weight *= std::exp(-alpha * hit->t);
@@ -408,16 +490,31 @@ void PixelTracer::walk(int p, const PixelRay& pr, PixelRaySample& s, PixelOutput
             scatters |= in.children[c].scatter;
             if (!in.children[c].scatter) specular += in.children[c].share;
         }
-        if (scatters) storeViewPoint(p, br, *hit, s, po, direct);
+        if (scatters) {
+            if (br.lobes < kMaxFollowedLobes &&
+                followLobe_[static_cast<size_t>(ts_.propertyOfObject[hit->object])])
+                followLobe(p, br, *hit, s, po, light);
+            else
+                storeViewPoint(p, br, *hit, s, po, light);
+        }
         if (!(specular > 0.0) || br.depth >= o_.maxSpecularDepth) continue;
         pushChildren(br, *hit, in, specular, s, po);
     }
 }
 
-void PixelTracer::sourcesSeen(const Branch& br, double tHit, double alpha, int w,
-                              PixelOutput& po, double& seen) {
+void PixelTracer::sourcesSeen(const Branch& br, double tHit, double alpha, int w, PixelOutput& po,
+                              RayLight& light) {
+    // Behind a followed lobe every source counts (the photons count only the light of the sun
+    // and the delta kinds that never scattered), except on the lobe's own segment, whose
+    // sources the lobe's next-event estimation counted (by MIS with this very direction).
+    if (br.leftLobe) return;
+    const bool designed = designed_.completeBackward(br.designed);
+    double& seen = br.lobes == 0 ? light.visible : br.lobes == 1 ? light.caustic : light.secondary;
+    std::vector<double>& seenBy = br.lobes == 0   ? po.visibleBy
+                                  : br.lobes == 1 ? po.causticBy
+                                                  : po.secondaryBy;
     for (size_t si = 0; si < ts_.sources.size(); ++si) {
-        if (!o_.visibleSources.empty() && !o_.visibleSources[si]) continue;
+        if (br.lobes == 0 && !o_.visibleSources.empty() && !o_.visibleSources[si]) continue;
         const Source& src = ts_.sources[si];
         const auto t = src.crossing(br.ray, tHit);
         if (!t) continue;
@@ -426,28 +523,20 @@ void PixelTracer::sourcesSeen(const Branch& br, double tHit, double alpha, int w
         const double value = br.weight * (alpha > 0.0 ? std::exp(-alpha * *t) : 1.0) * radiance;
         if (!judge_) {
             seen += value;
+            if (designed) light.image += value;
             continue;
         }
         suffix_.clear();
         tree_.suffix(br.node, suffix_);
-        seen += bookByCriteria(judged(static_cast<int>(si), br.medium, nullptr), prune_, value,
-                               po.visibleBy);
+        const double kept =
+            bookByCriteria(judged(static_cast<int>(si), br.medium, nullptr), prune_, value, seenBy);
+        seen += kept;
+        if (designed) light.image += kept;
     }
 }
 
-void PixelTracer::storeViewPoint(int p, const Branch& br, const SceneHit& hit,
-                                 PixelRaySample& s, PixelOutput& po, double& direct) {
-    bool store = true;
-    double vpWeight = br.weight;
-    if (o_.viewPointRelativeWeight > 0.0) {
-        const double floor = o_.viewPointRelativeWeight * s.start;
-        const double u = s.rng.uniform();  // drawn at every scattering hit
-        if (vpWeight < floor) {
-            store = u * floor < vpWeight;
-            vpWeight = floor;
-        }
-    }
-    if (!store) return;
+ViewPoint PixelTracer::viewPointAt(int p, const Branch& br, const SceneHit& hit,
+                                   const PixelRaySample& s, double weight) const {
     ViewPoint v;
     v.positionMm = hit.point;
     v.normal = hit.normal;
@@ -459,8 +548,51 @@ void PixelTracer::storeViewPoint(int p, const Branch& br, const SceneHit& hit,
     v.medium = hit.mediumFrom;
     v.otherMedium = hit.mediumTo;
     v.fromFront = hit.fromFront;
-    v.weight = vpWeight;
+    v.weight = weight;
     v.guideBin = s.guideBin;
+    v.behindScatter = br.lobes > 0;
+    return v;
+}
+
+void PixelTracer::directLight(const ViewPoint& v, const Branch& br, PixelRaySample& s,
+                              PixelOutput& po, RayLight& light) {
+    if (!o_.direct) return;
+    double& into = br.lobes == 0 ? light.direct : light.secondary;
+    if (!judge_) {
+        into += directAt(ts_, v, s.wavelengthNm, s.rng);
+        return;
+    }
+    std::vector<double>& by = br.lobes == 0 ? po.directBy : po.secondaryBy;
+    std::fill(perSourceSide_.begin(), perSourceSide_.end(), 0.0);
+    directAt(ts_, v, s.wavelengthNm, s.rng, perSourceSide_);
+    for (size_t k = 0; k < perSourceSide_.size(); ++k) {
+        if (perSourceSide_[k] == 0.0) continue;
+        // The light's own scatter event: from its side of the surface.
+        const bool crosses = k % 2 == 1;
+        const PathEvent scatter =
+            pathEvent(crosses ? EventType::ScatterTransmit : EventType::ScatterReflect, v.object,
+                      v.primitive, crosses ? v.otherMedium : v.medium, v.medium);
+        suffix_.clear();
+        tree_.suffix(br.node, suffix_);
+        into += bookByCriteria(judged(static_cast<int>(k / 2), scatter.mediumBefore, &scatter),
+                               prune_, perSourceSide_[k], by);
+    }
+}
+
+void PixelTracer::storeViewPoint(int p, const Branch& br, const SceneHit& hit, PixelRaySample& s,
+                                 PixelOutput& po, RayLight& light) {
+    bool store = true;
+    double vpWeight = br.weight;
+    if (o_.viewPointRelativeWeight > 0.0) {
+        const double floor = o_.viewPointRelativeWeight * s.start;
+        const double u = s.rng.uniform();  // drawn at every scattering hit
+        if (vpWeight < floor) {
+            store = u * floor < vpWeight;
+            vpWeight = floor;
+        }
+    }
+    if (!store) return;
+    ViewPoint v = viewPointAt(p, br, hit, s, vpWeight);
     if (judge_) {
         v.firstEvent = static_cast<uint32_t>(po.events.size());
         suffix_.clear();
@@ -468,23 +600,53 @@ void PixelTracer::storeViewPoint(int p, const Branch& br, const SceneHit& hit,
         v.eventCount = static_cast<uint32_t>(suffix_.size());
         po.events.insert(po.events.end(), suffix_.begin(), suffix_.end());
     }
-    if (o_.direct && !judge_) {
-        direct += directAt(ts_, v, s.wavelengthNm, s.rng);
-    } else if (o_.direct) {
-        std::fill(perSourceSide_.begin(), perSourceSide_.end(), 0.0);
-        directAt(ts_, v, s.wavelengthNm, s.rng, perSourceSide_);
-        for (size_t k = 0; k < perSourceSide_.size(); ++k) {
-            if (perSourceSide_[k] == 0.0) continue;
-            // The light's own scatter event: from its side of the surface.
-            const bool crosses = k % 2 == 1;
-            const PathEvent scatter = pathEvent(
-                crosses ? EventType::ScatterTransmit : EventType::ScatterReflect, v.object,
-                v.primitive, crosses ? v.otherMedium : v.medium, v.medium);
-            direct += bookByCriteria(judged(static_cast<int>(k / 2), scatter.mediumBefore, &scatter),
-                                     prune_, perSourceSide_[k], po.directBy);
-        }
-    }
+    directLight(v, br, s, po, light);
     po.viewPoints.push_back(v);
+}
+
+void PixelTracer::followLobe(int p, const Branch& br, const SceneHit& hit, PixelRaySample& s,
+                             PixelOutput& po, RayLight& light) {
+    const ViewPoint v = viewPointAt(p, br, hit, s, br.weight);
+    directLight(v, br, s, po, light);
+    // One direction from the scatter lobes as seen from the detector's side (the channel by
+    // its fraction, then the lobe), weighted by f cos / pdf of the light that arrives along
+    // it and leaves toward the detector (the adjoint, as directAt evaluates it).
+    const OpticalProperty& prop = ts_.properties[ts_.propertyOfObject[hit.object]];
+    SurfaceContext walk;
+    walk.direction = br.ray.direction;
+    walk.normal = hit.fromFront ? hit.normal : -hit.normal;
+    walk.n1 = ts_.media->index(hit.mediumFrom, s.wavelength);
+    walk.n2 = ts_.media->index(hit.mediumTo, s.wavelength);
+    walk.wavelengthNm = s.wavelengthNm;
+    walk.opaque = isOpaqueKind(ts_.scene->object(hit.object).kind);
+    const Channels ch = prop.channels(walk);
+    const double sum = ch.scatterReflect + ch.scatterTransmit;
+    const double u0 = s.rng.uniform(), u1 = s.rng.uniform(), u2 = s.rng.uniform();
+    if (!(sum > 0.0)) return;
+    const bool transmit = u0 * sum < ch.scatterTransmit;
+    const ScatterSample ss = prop.sampleScatter(walk, transmit, u1, u2);
+    if (!(ss.pdf > 0.0)) return;
+    const Vec3 w = ss.direction;
+    const bool wTransmits = glm::dot(w, walk.normal) < 0.0;
+    const double pdf =
+        (wTransmits ? ch.scatterTransmit : ch.scatterReflect) / sum * prop.scatterPdf(walk, w);
+    if (!(pdf > 0.0)) return;
+    const double f = prop.bsdf(lightContext(ts_, v, -w, s.wavelengthNm), v.toDetector) *
+                     std::abs(glm::dot(w, hit.normal));
+    if (!(f > 0.0)) return;
+    Branch next;
+    next.ray = {hit.point, w};
+    next.weight = br.weight * f / pdf;
+    next.startObject = hit.object;
+    next.startPrimitive = hit.primitive;
+    next.medium = wTransmits ? hit.mediumTo : hit.mediumFrom;
+    next.depth = br.depth + 1;
+    next.designed = DesignedPath::kOff;
+    next.lobes = br.lobes + 1;
+    next.leftLobe = true;
+    // Forward, the light arrives from w's side and leaves toward the detector.
+    pushWithEvent(next, br, hit,
+                  wTransmits ? EventType::ScatterTransmit : EventType::ScatterReflect, po);
 }
 
 void PixelTracer::push(const Branch& br, const SceneHit& hit, const InteractionChild& c,
@@ -496,10 +658,17 @@ void PixelTracer::push(const Branch& br, const SceneHit& hit, const InteractionC
     next.startPrimitive = hit.primitive;
     next.medium = c.medium;
     next.depth = br.depth + 1;
+    next.designed = designed_.backward(br.designed, hit.object, c.event);
+    next.lobes = br.lobes;
+    pushWithEvent(next, br, hit, c.event, po);
+}
+
+void PixelTracer::pushWithEvent(Branch& next, const Branch& br, const SceneHit& hit, EventType e,
+                                PixelOutput& po) {
     if (judge_) {
-        // Forward, light comes from the child's side and leaves into ours.
-        next.node = tree_.add(
-            pathEvent(c.event, hit.object, hit.primitive, c.medium, br.medium), br.node);
+        // Forward, light comes from the new branch's side and leaves into ours.
+        next.node =
+            tree_.add(pathEvent(e, hit.object, hit.primitive, next.medium, br.medium), br.node);
         if (prune_) {
             suffix_.clear();
             tree_.suffix(next.node, suffix_);
@@ -600,23 +769,37 @@ BackwardResult mergePixels(const DetectorImage& detector, const BackwardOptions&
     BackwardResult result;
     result.visible = DetectorImage(detector.geometry());
     result.direct = DetectorImage(detector.geometry());
+    result.imageForming = DetectorImage(detector.geometry());
+    result.caustic = DetectorImage(detector.geometry());
+    result.secondary = DetectorImage(detector.geometry());
     result.visibleByCriterion.assign(criteria, std::vector<double>(static_cast<size_t>(pixels)));
     result.directByCriterion.assign(criteria, std::vector<double>(static_cast<size_t>(pixels)));
+    result.causticByCriterion.assign(criteria, std::vector<double>(static_cast<size_t>(pixels)));
+    result.secondaryByCriterion.assign(criteria, std::vector<double>(static_cast<size_t>(pixels)));
     if (options.guide) result.learned.assign(options.guide->bins(), 0.0);
     std::unordered_map<uint64_t, std::vector<uint32_t>> interned;  // suffix hash -> offsets
     for (int p = 0; p < pixels; ++p) {
         PixelOutput& po = out[static_cast<size_t>(p)];
         if (options.guide)
             for (uint64_t k = 0; k < perPixel; ++k)
-                result.learned[options.guide->bin(p, po.cell[k])] += po.visible[k] + po.direct[k];
+                result.learned[options.guide->bin(p, po.cell[k])] +=
+                    po.visible[k] + po.direct[k] + po.caustic[k] + po.secondary[k];
         for (double v : po.visible)
             if (v != 0.0) result.visible.add(p, v);
         for (double v : po.direct)
             if (v != 0.0) result.direct.add(p, v);
+        for (double v : po.imageForming)
+            if (v != 0.0) result.imageForming.add(p, v);
+        for (double v : po.caustic)
+            if (v != 0.0) result.caustic.add(p, v);
+        for (double v : po.secondary)
+            if (v != 0.0) result.secondary.add(p, v);
         internViewPoints(po, result, interned);
         for (size_t k = 0; k < criteria; ++k) {
             result.visibleByCriterion[k][static_cast<size_t>(p)] = po.visibleBy[k];
             result.directByCriterion[k][static_cast<size_t>(p)] = po.directBy[k];
+            result.causticByCriterion[k][static_cast<size_t>(p)] = po.causticBy[k];
+            result.secondaryByCriterion[k][static_cast<size_t>(p)] = po.secondaryBy[k];
         }
         result.segments += po.segments;
         result.prunedBranches += po.pruned;

@@ -58,6 +58,14 @@ struct BackwardOptions {
     // share * start (unbiased). Keeps the weak split branches (ghost reflections) from
     // flooding the photon gathering with view points that carry little. 0 = store all.
     double viewPointRelativeWeight = 0.0;
+    // Narrow lobes: at a surface whose scatter lobe is narrower than this (its half width at
+    // half maximum, lobeHalfWidthRad), no view point is stored. Its direct light is estimated
+    // there and the branch goes on along one direction drawn from the lobe, up to 4 such
+    // surfaces, to the next surface that gathers or to a source it sees: a photon would have
+    // to arrive within the lobe's width of the one direction that reaches the pixel. Light
+    // found that way is caustic (one followed lobe) or secondary (more, or a view point behind
+    // one). 0: every scattering surface stores view points.
+    double followLobesBelowRad = 0.0;
     // Which sources the visible image counts (by index in the scene's sources; empty: all).
     // The renderer counts the sun and the delta kinds with its photons instead (light tracing
     // finds a 0.5 degree sun far better than rays searching for it from the pixels).
@@ -100,17 +108,26 @@ struct ViewPoint {
     uint32_t eventCount = 0;
     // With a guide: the (pixel block, aperture cell) bin of the ray that stored this point.
     uint32_t guideBin = 0;
+    // Its ray followed a narrow lobe between it and the detector: its light has scattered
+    // once more (direct light is secondary, gathered light secondary).
+    bool behindScatter = false;
 };
 std::ostream& operator<<(std::ostream& os, const ViewPoint& v);
 
 struct BackwardResult {
     DetectorImage visible;
     DetectorImage direct;               // empty sums when options.direct is false
+    // The part of `visible` that crossed the lens as designed (tracer/render/designed_path.h).
+    DetectorImage imageForming;
+    // Sources the rays saw behind followed narrow lobes (followLobesBelowRad): one lobe,
+    // caustic; more, secondary.
+    DetectorImage caustic, secondary;
     std::vector<ViewPoint> viewPoints;  // in pixel order, then ray order
     std::vector<PathEvent> events;      // the view points' backward events (with criteria)
     // With criteria: [criterion][pixel], the flux of the visible and direct light whose
     // joined path matches the criterion (sums over the pixel's rays).
     std::vector<std::vector<double>> visibleByCriterion, directByCriterion;
+    std::vector<std::vector<double>> causticByCriterion, secondaryByCriterion;
     // With a guide: the visible and direct light the rays brought back, per guide bin.
     std::vector<double> learned;
     uint64_t rays = 0;
@@ -126,6 +143,11 @@ struct BackwardResult {
 // it. Throws std::invalid_argument for raysPerPixel = 0 or an aperture of no area.
 BackwardResult traceBackward(const TransportView& ts, const DetectorImage& detector,
                              const ExitAperture& aperture, const BackwardOptions& options);
+
+// The half width at half maximum of a property's scatter lobe about its specular direction
+// (radians): a Gaussian's half width, the widest ABg lobe's (in direction cosines, at normal
+// incidence); pi / 2 for Lambertian, tabulated, K-correlation and particulate models.
+double lobeHalfWidthRad(const OpticalProperty& p);
 
 // The context of light travelling along `lightDirection` (unit) onto the view point's
 // surface: normal toward the light's side, n1 the index there (media at wavelength index

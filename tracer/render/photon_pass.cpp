@@ -11,6 +11,7 @@
 
 #include "tracer/records/detector.h"
 #include "tracer/records/path_history.h"
+#include "tracer/render/designed_path.h"
 #include "tracer/render/render.h"
 #include "tracer/runtime/ordered_blocks.h"
 #include "tracer/runtime/qmc.h"
@@ -104,12 +105,14 @@ struct PhotonBranch {
     // of its flux just after that scatter (scale-free: a photon that scattered off a 0.1 %
     // mount is followed as far as one that scattered off a 30 % one).
     double rouletteFlux = 0.0;
+    int designed = 0;               // its step on the lens's designed path (DesignedPath)
     size_t state = 0;               // with criteria: its path state's offset in the photon's arena
     uint64_t alive = ~uint64_t{0};  // criteria its path may still match
 };
 
-// A block's photons keep what they deposit as a log, image by image in order (image 0..2 the
-// plain visible, caustic and secondary light, 3 + 3 k + slot criterion k's), added to the
+// A block's photons keep what they deposit as a log, image by image in order (image 0..4 the
+// plain visible, caustic and secondary light, the gathered light within half the radius and
+// the image-forming light, 5 + 4 k + slot criterion k's), added to the
 // pass's images in block order (tracer/runtime/ordered_blocks.h): bitwise the same images for
 // every thread count, memory with the gathers of a few blocks, not images per block.
 struct Deposit {
@@ -159,11 +162,15 @@ class PhotonPass {
 
   private:
     friend class BlockTracer;
-    // The rim correction, computed the first time a view point gathers light from a side:
-    // 1 / its area share, negative when the view point lies in a gap on that side. The value
-    // depends on the view point alone (the spiral turned by its index), so threads racing on
-    // it write the same bits.
-    double areaCorrection(uint32_t i, bool otherSide) const;
+    // A view point's gathering disk for the light from one side (viewPointDisk), computed the
+    // first time it gathers light from that side: its radius as a fraction of the pass's, and
+    // 1 / its area share at that radius and at half of it, negative when the view point lies
+    // in a gap on that side. The values depend on the view point alone (the spiral turned by
+    // its index), so threads racing on them write the same bits.
+    struct Disk {
+        double radiusFactor = 1.0, inverseShare = 1.0, inverseHalfShare = 1.0;
+    };
+    Disk disk(uint32_t i, bool otherSide) const;
     // Across ranks every rank's photons reach nearly every view point, and each rank would
     // find the same corrections again: they are computed once, blocks of view points split
     // over the ranks, and shared; the other side's only where light can come through (not on
@@ -179,13 +186,16 @@ class PhotonPass {
     const BackwardResult& back_;
     const RenderOptions& options_;
     const PathJudge* judge_;
+    const DesignedPath designed_;
     const int k_;
     const double radiusMm_;
     const Ranks& ranks_;
     const std::vector<ViewPoint>& vps_;
     const ViewPointGrid grid_;
-    const double r2_, kernel_, gapMm_;
-    mutable std::vector<std::atomic<float>> inverseShare_;
+    const double r2_, gapMm_;
+    // Per view point and side: radius factor, 1 / half share, then 1 / share (0: not yet
+    // computed; written last with release, so a reader that sees it sees the other two).
+    mutable std::vector<std::atomic<float>> disks_;
     const uint64_t perSource_, ghostPhotons_;
     const double visibleScale_;
     const uint64_t photonSeed_;
@@ -208,15 +218,15 @@ PhotonPass::PhotonPass(const TransportView& ts, const DetectorImage& detector,
       back_(back),
       options_(options),
       judge_(judge),
+      designed_(*ts.scene),
       k_(k),
       radiusMm_(radiusMm),
       ranks_(ranks),
       vps_(back.viewPoints),
       grid_(back.viewPoints, radiusMm),
       r2_(radiusMm * radiusMm),
-      kernel_(1.0 / (std::numbers::pi * r2_)),
       gapMm_(kGapFraction * radiusMm),
-      inverseShare_(2 * back.viewPoints.size()),
+      disks_(6 * back.viewPoints.size()),
       perSource_(options.photonsPerPass),
       ghostPhotons_(options.ghostPhotons()),
       visibleScale_(static_cast<double>(options.photonsPerPass) /
@@ -226,7 +236,7 @@ PhotonPass::PhotonPass(const TransportView& ts, const DetectorImage& detector,
       criteria_(judge ? static_cast<size_t>(judge->count()) : 0),
       prune_(judge && options.prune),
       stateBytes_(judge ? judge->stateBytes() : 0) {
-    for (auto& x : inverseShare_) x.store(0.0f, std::memory_order_relaxed);
+    for (auto& x : disks_) x.store(0.0f, std::memory_order_relaxed);
     if (!ranks.single()) shareCorrectionsAcrossRanks();
     for (size_t s = 0; s < ts.sources.size(); ++s)
         emission_.emplace_back(passSeed(options.seed, static_cast<uint64_t>(k), 3) ^
@@ -237,18 +247,23 @@ PhotonPass::PhotonPass(const TransportView& ts, const DetectorImage& detector,
            (options.initialRadiusMm > 0.0 ? radiusMm / options.initialRadiusMm : 1.0);
 }
 
-double PhotonPass::areaCorrection(uint32_t i, bool otherSide) const {
-    std::atomic<float>& slot = inverseShare_[2 * size_t{i} + (otherSide ? 1 : 0)];
-    float c = slot.load(std::memory_order_relaxed);
+PhotonPass::Disk PhotonPass::disk(uint32_t i, bool otherSide) const {
+    std::atomic<float>* slot = &disks_[3 * (2 * size_t{i} + (otherSide ? 1 : 0))];
+    float c = slot[2].load(std::memory_order_acquire);
     if (c == 0.0f) {
         const double turn =
             2.0 * std::numbers::pi * CounterRng(passSeed(options_.seed, k_, 2), i).uniform();
-        const DiskShare d = viewPointAreaShare(*ts_.scene, vps_[i], radiusMm_,
-                                               options_.areaSamples, turn, otherSide);
-        c = static_cast<float>((d.inGap ? -1.0 : 1.0) / d.share);
-        slot.store(c, std::memory_order_relaxed);
+        const GatherDisk d = viewPointDisk(*ts_.scene, vps_[i], radiusMm_,
+                                           std::max(options_.initialRadiusMm, radiusMm_),
+                                           options_.areaSamples, turn, otherSide);
+        const double sign = d.inGap ? -1.0 : 1.0;
+        slot[0].store(static_cast<float>(d.radiusMm / radiusMm_), std::memory_order_relaxed);
+        slot[1].store(static_cast<float>(sign / d.halfShare), std::memory_order_relaxed);
+        c = static_cast<float>(sign / d.share);
+        slot[2].store(c, std::memory_order_release);
     }
-    return static_cast<double>(c);
+    return {static_cast<double>(slot[0].load(std::memory_order_relaxed)), static_cast<double>(c),
+            static_cast<double>(slot[1].load(std::memory_order_relaxed))};
 }
 
 void PhotonPass::shareCorrectionsAcrossRanks() {
@@ -260,8 +275,8 @@ void PhotonPass::shareCorrectionsAcrossRanks() {
     tbb::parallel_for(size_t(0), blocks, [&](size_t b) {
         if (!ranks_.owns(b)) return;
         for (size_t i = b * kShareBlock; i < std::min(n, (b + 1) * kShareBlock); ++i) {
-            areaCorrection(static_cast<uint32_t>(i), false);
-            if (transmissive(i)) areaCorrection(static_cast<uint32_t>(i), true);
+            disk(static_cast<uint32_t>(i), false);
+            if (transmissive(i)) disk(static_cast<uint32_t>(i), true);
         }
     });
     ByteWriter w;
@@ -269,7 +284,8 @@ void PhotonPass::shareCorrectionsAcrossRanks() {
          b += static_cast<size_t>(ranks_.size()))
         for (size_t i = b * kShareBlock; i < std::min(n, (b + 1) * kShareBlock); ++i)
             for (size_t side = 0; side < (transmissive(i) ? 2u : 1u); ++side)
-                w.put(inverseShare_[2 * i + side].load(std::memory_order_relaxed));
+                for (size_t x = 0; x < 3; ++x)
+                    w.put(disks_[3 * (2 * i + side) + x].load(std::memory_order_relaxed));
     const std::vector<Bytes> all = ranks_.gatherAll(w.take());
     for (int q = 0; q < ranks_.size(); ++q) {
         if (q == ranks_.rank()) continue;
@@ -278,7 +294,9 @@ void PhotonPass::shareCorrectionsAcrossRanks() {
              b += static_cast<size_t>(ranks_.size()))
             for (size_t i = b * kShareBlock; i < std::min(n, (b + 1) * kShareBlock); ++i)
                 for (size_t side = 0; side < (transmissive(i) ? 2u : 1u); ++side)
-                    inverseShare_[2 * i + side].store(in.get<float>(), std::memory_order_relaxed);
+                    for (size_t x = 0; x < 3; ++x)
+                        disks_[3 * (2 * i + side) + x].store(in.get<float>(),
+                                                             std::memory_order_relaxed);
         if (!in.done())
             throw std::runtime_error("the view point shares of another rank are damaged");
     }
@@ -344,16 +362,20 @@ PhotonImages PhotonPass::emptyImages() const {
     result.visible.assign(pixels, 0.0);
     result.caustic.assign(pixels, 0.0);
     result.secondary.assign(pixels, 0.0);
-    result.by.assign(criteria_, {result.visible, result.caustic, result.secondary});
+    result.gatheredHalf.assign(pixels, 0.0);
+    result.imageForming.assign(pixels, 0.0);
+    result.by.assign(criteria_,
+                     {result.visible, result.caustic, result.secondary, result.gatheredHalf});
     result.learned.assign(back_.learned.size(), 0.0);
     return result;
 }
 
 void PhotonPass::add(const PhotonBlock& b, PhotonImages& result) {
-    std::vector<double>* images[3] = {&result.visible, &result.caustic, &result.secondary};
+    std::vector<double>* images[5] = {&result.visible, &result.caustic, &result.secondary,
+                                      &result.gatheredHalf, &result.imageForming};
     for (const Deposit& d : b.deposits) {
         std::vector<double>& image =
-            d.image < 3 ? *images[d.image] : result.by[(d.image - 3) / 3][(d.image - 3) % 3];
+            d.image < 5 ? *images[d.image] : result.by[(d.image - 5) / 4][(d.image - 5) % 4];
         image[static_cast<size_t>(d.pixel)] += d.value;
     }
     for (size_t p = 0; p < result.learned.size(); ++p) result.learned[p] += b.learned[p];
@@ -412,7 +434,8 @@ class BlockTracer {
     // weak reflected branches), then one by weight. False when the branch ends.
     bool next(PhotonBranch& br, const SceneHit& hit, const Interaction& in, double scatterScale,
               Photon& ph);
-    // Adds `value` to image slot `slot` (0 visible, 1 caustic, 2 secondary) of the plain
+    // Adds `value` to image slot `slot` (0 visible, 1 caustic, 2 secondary, 3 gathered within
+    // half the radius, 4 image-forming: plain only) of the plain
     // accumulator unless pruning drops it, and of every criterion matched; a spread value is
     // shared evenly by its cells.
     void book(int slot, uint64_t matched, const std::vector<int>* spread, int pixel, double value);
@@ -443,7 +466,7 @@ void BlockTracer::book(int slot, uint64_t matched, const std::vector<int>* sprea
     };
     if (!p_.prune_ || matched != 0) into(static_cast<uint32_t>(slot));
     for (uint64_t m = matched; m != 0; m &= m - 1)
-        into(static_cast<uint32_t>(3 + 3 * std::countr_zero(m) + slot));
+        if (slot < 4) into(static_cast<uint32_t>(5 + 4 * std::countr_zero(m) + slot));
 }
 
 void BlockTracer::tracePhoton(uint64_t i) {
@@ -521,11 +544,12 @@ void BlockTracer::depositVisible(const PhotonBranch& br, const SceneHit& hit) {
         matched = judged(br);
     }
     book(0, matched, &cells_, 0, br.flux * p_.visibleScale_);
+    if (p_.designed_.completeForward(br.designed))
+        book(4, matched, &cells_, 0, br.flux * p_.visibleScale_);
 }
 
 void BlockTracer::gather(const PhotonBranch& br, const SceneHit& hit, const Interaction& in,
                          double scatterScale, int wavelength) {
-    const int slot = br.scattered ? 2 : 1;
     const auto [firstVp, lastVp] = p_.grid_.candidates(hit.point);
     verdicts_.clear();
     // The photon's side of the face, and whether it lies in a gap there (looked at once, when
@@ -549,14 +573,18 @@ void BlockTracer::gather(const PhotonBranch& br, const SceneHit& hit, const Inte
         if (v.wavelength != wavelength) continue;
         if (!(glm::dot(v.normal, hit.normal) > kGatherNormalCos)) continue;
         const Vec3 d = v.positionMm - hit.point;
-        if (glm::dot(d, d) > p_.r2_) continue;
+        const double d2 = glm::dot(d, d);
+        if (d2 > p_.r2_) continue;
         const double f = in.property->bsdf(in.context, v.toDetector);
         if (!(f > 0.0)) continue;
         // The photon's scatter here toward the view point's pixel: a reflection when it
         // arrives on the view point's side. It counts where both lie in a gap on its side or
-        // neither.
+        // neither, within the view point's own radius.
         const bool back = photonCos * glm::dot(v.toDetector, hit.normal) < 0.0;
-        const double correction = p_.areaCorrection(it->index, !back);
+        const PhotonPass::Disk disk = p_.disk(it->index, !back);
+        const double correction = disk.inverseShare;
+        const double rv2 = p_.r2_ * disk.radiusFactor * disk.radiusFactor;
+        if (d2 > rv2) continue;
         if (photonInGap < 0) {
             const Vec3 side = photonCos < 0.0 ? hit.normal : -hit.normal;
             photonInGap =
@@ -587,9 +615,18 @@ void BlockTracer::gather(const PhotonBranch& br, const SceneHit& hit, const Inte
                     verdicts_.push_back({v.firstEvent, v.eventCount, v.medium, back, matched});
             }
         }
-        const double value =
-            v.weight * br.flux * scatterScale * f * p_.kernel_ * std::abs(correction);
+        const double kernel = 1.0 / (std::numbers::pi * rv2);
+        // Caustic light has scattered once, here; a photon that scattered before, or a view
+        // point behind a followed lobe, makes it secondary.
+        const int slot = br.scattered || v.behindScatter ? 2 : 1;
+        const double value = v.weight * br.flux * scatterScale * f * kernel * std::abs(correction);
         book(slot, matched, nullptr, v.pixel, value);
+        // The same light gathered within half the radius: the estimate that bounds the
+        // radius bias (RenderState::radiusBias).
+        if (4.0 * d2 <= rv2)
+            book(3, matched, nullptr, v.pixel,
+                 v.weight * br.flux * scatterScale * f * 4.0 * kernel *
+                     std::abs(disk.inverseHalfShare));
         if (!block_.learned.empty()) block_.learned[v.guideBin] += value;
     }
 }
@@ -609,6 +646,7 @@ bool BlockTracer::become(PhotonBranch& b, const SceneHit& hit, const Interaction
         return false;
     }
     if (child.scatter && !b.scattered) b.rouletteFlux = p_.options_.rouletteRelativeFlux * flux;
+    b.designed = p_.designed_.forward(b.designed, hit.object, child.event);
     (child.scatter ? b.scattered : b.specular) = true;
     b.flux = flux;
     b.ray = {hit.point, *dir};

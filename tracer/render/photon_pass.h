@@ -14,8 +14,9 @@
 //              over the pixels within the detector smoothing disk
 //              (RenderOptions::detectorRadiusPixels, shrinking with the radius)
 //   caustic    gathered at the pass's view points (a spatial hash of cells 2r wide) when the
-//              photon has seen specular events only: weight x flux x bsdf / (share pi r^2),
-//              share the view point's own part of its disk (viewPointAreaShare)
+//              photon has seen specular events only: weight x flux x bsdf / (share pi r_v^2),
+//              r_v the view point's radius fitted to the piece of surface it lies on and
+//              share its own part of its disk (viewPointDisk)
 //   secondary  the same once the photon has scattered before
 // and, with path criteria, the same three per criterion on the joined paths.
 // Emission: photon j of a source takes point j of an Owen-scrambled Sobol sequence
@@ -36,8 +37,15 @@ namespace veil {
 
 struct PhotonImages {
     std::vector<double> visible, caustic, secondary;  // flux per pixel
-    // With criteria: [criterion] {visible, caustic, secondary}.
-    std::vector<std::array<std::vector<double>, 3>> by;
+    // The caustic and secondary light gathered within half of each view point's radius, with
+    // the half disk's own kernel and share: a second estimate of the same light whose
+    // difference from the first bounds the radius bias (RenderState::radiusBias).
+    std::vector<double> gatheredHalf;
+    // The part of `visible` that crossed the lens as designed (DesignedPath): the sources'
+    // image-forming light.
+    std::vector<double> imageForming;
+    // With criteria: [criterion] {visible, caustic, secondary, gatheredHalf}.
+    std::vector<std::array<std::vector<double>, 4>> by;
     // With a guide (back.learned not empty): the gathered light per guide bin of its view
     // points (tracer/render/aperture_guide.h).
     std::vector<double> learned;

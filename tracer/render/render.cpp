@@ -125,6 +125,10 @@ RenderState::RenderState(const DetectorGeometry& geometry, double initialRadiusM
     : radiusMm_(initialRadiusMm), initialRadiusMm_(initialRadiusMm), alpha_(alpha) {
     for (DetectorImage& s : sums_) s = DetectorImage(geometry);
     criterionSums_.assign(static_cast<size_t>(std::max(criteria, 0)), sums_);
+    radiusDifference_ = DetectorImage(geometry);
+    criterionRadiusDifference_.assign(criterionSums_.size(), radiusDifference_);
+    imageForming_ = DetectorImage(geometry);
+    stray_ = DetectorImage(geometry);
 }
 
 void RenderState::addTo(Sums& sums, const std::array<std::vector<double>, kRenderComponents>& x) {
@@ -144,13 +148,79 @@ void RenderState::addTo(Sums& sums, const std::array<std::vector<double>, kRende
     sums[kRenderComponents].add(rc);
 }
 
+void RenderState::addDifference(DetectorImage& sums,
+                                const std::array<std::vector<double>, kRenderComponents>& x,
+                                const std::vector<double>& half) {
+    const int pixels = sums.pixelCount();
+    const auto& caustic = x[static_cast<int>(RenderComponent::Caustic)];
+    const auto& secondary = x[static_cast<int>(RenderComponent::Secondary)];
+    RayContribution rc;
+    for (int p = 0; p < pixels; ++p) {
+        const size_t i = static_cast<size_t>(p);
+        const double d = caustic[i] + secondary[i] - (half.empty() ? 0.0 : half[i]);
+        if (d != 0.0) rc.add(p, d);
+    }
+    sums.add(rc);
+}
+
+RadiusBias RenderState::biasOf(const DetectorImage& sums, int passes) {
+    RadiusBias b;
+    if (passes < 2) return b;
+    b.difference = sums.totalFlux() / passes;
+    b.sigma = std::sqrt(std::max(0.0, sums.totalVariance(static_cast<uint64_t>(passes)))) / passes;
+    return b;
+}
+
+RadiusBias RenderState::radiusBias() const { return biasOf(radiusDifference_, passes_); }
+
+RadiusBias RenderState::criterionRadiusBias(int k) const {
+    return biasOf(criterionRadiusDifference_.at(static_cast<size_t>(k)), passes_);
+}
+
+DetectorImage RenderState::imageForming() const {
+    return imageForming_.scaled(passes_ > 0 ? 1.0 / passes_ : 0.0);
+}
+
+DetectorImage RenderState::strayLight() const {
+    return stray_.scaled(passes_ > 0 ? 1.0 / passes_ : 0.0);
+}
+
+DetectorImage RenderState::radiusDifference() const {
+    return radiusDifference_.scaled(passes_ > 0 ? 1.0 / passes_ : 0.0);
+}
+
 void RenderState::add(const RenderPass& pass) {
     if (pass.criteria.size() != criterionSums_.size())
         throw std::invalid_argument("RenderState::add: the pass has " +
                                     std::to_string(pass.criteria.size()) + " criteria, the state " +
                                     std::to_string(criterionSums_.size()));
     addTo(sums_, pass.pixels);
-    for (size_t k = 0; k < criterionSums_.size(); ++k) addTo(criterionSums_[k], pass.criteria[k]);
+    addDifference(radiusDifference_, pass.pixels, pass.gatheredHalf);
+    {
+        const int pixels = imageForming_.pixelCount();
+        RayContribution image, stray;
+        for (int p = 0; p < pixels; ++p) {
+            const size_t i = static_cast<size_t>(p);
+            const double formed = pass.imageForming.empty() ? 0.0 : pass.imageForming[i];
+            // The visible light off the designed path: the image-forming light is a part of
+            // the visible light summed in another order, so what rounding leaves is dropped.
+            const double visible = pass.pixels[static_cast<int>(RenderComponent::Visible)][i];
+            double straySum = visible - formed;
+            if (std::abs(straySum) <= 1e-12 * std::abs(visible)) straySum = 0.0;
+            for (int c = 0; c < kRenderComponents; ++c)
+                if (c != static_cast<int>(RenderComponent::Visible)) straySum += pass.pixels[c][i];
+            if (formed != 0.0) image.add(p, formed);
+            if (straySum != 0.0) stray.add(p, straySum);
+        }
+        imageForming_.add(image);
+        stray_.add(stray);
+    }
+    for (size_t k = 0; k < criterionSums_.size(); ++k) {
+        addTo(criterionSums_[k], pass.criteria[k]);
+        addDifference(criterionRadiusDifference_[k], pass.criteria[k],
+                      k < pass.criteriaGatheredHalf.size() ? pass.criteriaGatheredHalf[k]
+                                                           : std::vector<double>{});
+    }
     if (!pass.learned.empty()) {
         if (learned_.empty()) learned_.assign(pass.learned.size(), 0.0);
         if (learned_.size() != pass.learned.size())
@@ -227,6 +297,11 @@ double RenderState::meanRelativeError() const {
     return litError(total(), static_cast<uint64_t>(passes_)).second;
 }
 
+double RenderState::strayMeanRelativeError() const {
+    if (passes_ < 2) return kInfinity;
+    return litError(strayLight(), static_cast<uint64_t>(passes_)).second;
+}
+
 double RenderState::meanRelativeError(RenderComponent c) const {
     if (passes_ < 2) return kInfinity;
     return litError(component(c), static_cast<uint64_t>(passes_)).second;
@@ -256,6 +331,10 @@ bool RenderState::sameSums(const RenderState& o) const {
     for (size_t i = 0; i < sums_.size(); ++i)
         if (!sums_[i].sameSums(o.sums_[i])) return false;
     if (criterionSums_.size() != o.criterionSums_.size()) return false;
+    if (!radiusDifference_.sameSums(o.radiusDifference_)) return false;
+    if (!imageForming_.sameSums(o.imageForming_) || !stray_.sameSums(o.stray_)) return false;
+    for (size_t k = 0; k < criterionRadiusDifference_.size(); ++k)
+        if (!criterionRadiusDifference_[k].sameSums(o.criterionRadiusDifference_[k])) return false;
     for (size_t k = 0; k < criterionSums_.size(); ++k)
         for (size_t i = 0; i < sums_.size(); ++i)
             if (!criterionSums_[k][i].sameSums(o.criterionSums_[k][i])) return false;
@@ -266,7 +345,8 @@ bool RenderState::sameSums(const RenderState& o) const {
 namespace {
 
 constexpr char kMagic[8] = {'V', 'E', 'I', 'L', 'R', 'N', 'D', 'R'};
-constexpr uint32_t kVersion = 3;  // 2: the criteria's sums follow the plain ones; 3: the guide
+// 2: the criteria's sums follow the plain ones; 3: the guide; 4: the radius differences
+constexpr uint32_t kVersion = 4;
 
 template <class T>
 void put(std::ostream& os, const T& v) {
@@ -306,18 +386,23 @@ void RenderState::write(const std::filesystem::path& path, uint64_t fingerprint)
         put(os, initialRadiusMm_);
         put(os, alpha_);
         put(os, int32_t(criterionSums_.size()));
+        auto putImage = [&](const DetectorImage& s) {
+            putVector(os, s.fluxes());
+            putVector(os, s.fluxesSquared());
+            putVector(os, s.counts());
+            put(os, s.totalFlux());
+            put(os, s.totalFluxSquared());
+            put(os, s.totalCount());
+        };
         auto putSums = [&](const Sums& sums) {
-            for (const DetectorImage& s : sums) {
-                putVector(os, s.fluxes());
-                putVector(os, s.fluxesSquared());
-                putVector(os, s.counts());
-                put(os, s.totalFlux());
-                put(os, s.totalFluxSquared());
-                put(os, s.totalCount());
-            }
+            for (const DetectorImage& s : sums) putImage(s);
         };
         putSums(sums_);
         for (const Sums& sums : criterionSums_) putSums(sums);
+        putImage(radiusDifference_);
+        for (const DetectorImage& d : criterionRadiusDifference_) putImage(d);
+        putImage(imageForming_);
+        putImage(stray_);
         put(os, uint64_t(learned_.size()));
         putVector(os, learned_);
         os.flush();
@@ -361,21 +446,27 @@ RenderState RenderState::read(const std::filesystem::path& path, uint64_t finger
     const int32_t criteria = get<int32_t>(is);
     if (!is || criteria < 0 || criteria > 64) fail("the checkpoint is damaged");
     const size_t n = static_cast<size_t>(geometry.pixelCount());
+    auto getImage = [&](DetectorImage& img) {
+        auto flux = getVector<double>(is, n);
+        auto flux2 = getVector<double>(is, n);
+        auto counts = getVector<uint64_t>(is, n);
+        const double t = get<double>(is), t2 = get<double>(is);
+        const uint64_t tc = get<uint64_t>(is);
+        if (!is) fail("the checkpoint is truncated");
+        img = DetectorImage::fromSums(geometry, std::move(flux), std::move(flux2),
+                                      std::move(counts), t, t2, tc);
+    };
     auto getSums = [&](Sums& sums) {
-        for (DetectorImage& img : sums) {
-            auto flux = getVector<double>(is, n);
-            auto flux2 = getVector<double>(is, n);
-            auto counts = getVector<uint64_t>(is, n);
-            const double t = get<double>(is), t2 = get<double>(is);
-            const uint64_t tc = get<uint64_t>(is);
-            if (!is) fail("the checkpoint is truncated");
-            img = DetectorImage::fromSums(geometry, std::move(flux), std::move(flux2),
-                                          std::move(counts), t, t2, tc);
-        }
+        for (DetectorImage& img : sums) getImage(img);
     };
     getSums(s.sums_);
     s.criterionSums_.resize(static_cast<size_t>(criteria));
     for (Sums& sums : s.criterionSums_) getSums(sums);
+    getImage(s.radiusDifference_);
+    s.criterionRadiusDifference_.resize(static_cast<size_t>(criteria));
+    for (DetectorImage& d : s.criterionRadiusDifference_) getImage(d);
+    getImage(s.imageForming_);
+    getImage(s.stray_);
     const uint64_t bins = get<uint64_t>(is);
     if (!is || bins > (uint64_t{1} << 28)) fail("the checkpoint is damaged");
     s.learned_ = getVector<double>(is, static_cast<size_t>(bins));
@@ -404,75 +495,156 @@ bool inGapAt(const Scene& scene, const Vec3& point, int object, int primitive, c
     return scene.closestHit({point, side}, gapMm, object, primitive).has_value();
 }
 
-DiskShare viewPointAreaShare(const Scene& scene, const ViewPoint& v, double radiusMm, int samples,
-                             double turn, bool otherSide) {
-    // The side the photons come from (the view point's own, or the other for the light the
-    // face transmits to it), and a tangent basis (Duff et al. 2017).
-    const Vec3 side = v.fromFront != otherSide ? v.normal : -v.normal;
-    const double gap = kGapFraction * radiusMm;
-    DiskShare out;
-    out.inGap = inGapAt(scene, v.positionMm, v.object, v.primitive, side, gap);
-    if (samples <= 0) return out;
-    const double sign = std::copysign(1.0, side.z);
-    const double a = -1.0 / (sign + side.z), b = side.x * side.y * a;
-    const Vec3 t1(1.0 + sign * side.x * side.x * a, sign * b, -sign * side.x);
-    const Vec3 t2(b, sign + side.y * side.y * a, -side.y);
-    // Each probe starts a gap's height off the tangent plane on the photons' side and looks
-    // along the normal toward the face, then, if it missed, the other way, up to r: a face
-    // that curves away from the plane (a sag of rho^2 / 2R) is found below it, one that
-    // curves toward it (a bore seen from inside) above. Only the view point's object, with its
-    // normal (kGatherNormalCos), within r of it and in the view point's kind of place (in a
-    // gap on the photons' side or not) counts. Other objects do not block a probe: it passes
+namespace {
+
+// The places around a view point v where photons of one side of its face land: on v's
+// object, with its orientation (kGatherNormalCos), within `reach` of v, in v's kind of place
+// (in a gap on the photons' side or not). A point of v's tangent plane is projected along the
+// normal onto the face (viewPointAreaShare).
+class FaceProbe {
+  public:
+    FaceProbe(const Scene& scene, const ViewPoint& v, bool otherSide, double gapMm)
+        : scene_(scene), v_(v), gap_(gapMm) {
+        // The side the photons come from (the view point's own, or the other for the light
+        // the face transmits to it), and a tangent basis (Duff et al. 2017).
+        side_ = v.fromFront != otherSide ? v.normal : -v.normal;
+        inGap_ = inGapAt(scene, v.positionMm, v.object, v.primitive, side_, gapMm);
+        const double sign = std::copysign(1.0, side_.z);
+        const double a = -1.0 / (sign + side_.z), b = side_.x * side_.y * a;
+        t1_ = Vec3(1.0 + sign * side_.x * side_.x * a, sign * b, -sign * side_.x);
+        t2_ = Vec3(b, sign + side_.y * side_.y * a, -side_.y);
+    }
+    bool inGap() const { return inGap_; }
+
+    // Whether the point at polar coordinates (rho, phi) of the tangent plane lands. Each probe
+    // starts a gap's height off the tangent plane on the photons' side and looks along the
+    // normal toward the face, then, if it missed, the other way, up to `reach`: a face that
+    // curves away from the plane (a sag of rho^2 / 2R) is found below it, one that curves
+    // toward it (a bore seen from inside) above. Other objects do not block a probe: it passes
     // through them, since a face is reached through a gap however thin (a lens flat under a
     // spacer 1 um away), and the last one it crossed within the gap's height of the face puts
     // the probe's point in a gap, which costs no ray of its own.
-    const double lift = std::max(gap, std::max(1e-3 * radiusMm, 1e-4));
-    constexpr double kGolden = 2.39996322972865332;  // pi (3 - sqrt 5)
-    constexpr int kMaxCrossings = 8;
-    auto lands = [&](Vec3 origin, const Vec3& direction, double reach, bool towardFace) {
+    bool lands(double rho, double phi, double reach) const {
+        const double lift = std::max(gap_, std::max(1e-3 * reach, 1e-4));
+        const Vec3 q =
+            v_.positionMm + rho * (std::cos(phi) * t1_ + std::sin(phi) * t2_) + lift * side_;
+        return along(q, -side_, lift + reach, reach, true) || along(q, side_, reach, reach, false);
+    }
+
+  private:
+    bool along(Vec3 origin, const Vec3& direction, double length, double reach,
+               bool towardFace) const {
+        constexpr int kMaxCrossings = 8;
         int skipObject = -1, skipPrimitive = -1;
         double travelled = 0.0, crossedAt = -kInfinity;
         for (int crossing = 0; crossing <= kMaxCrossings; ++crossing) {
             const auto hit =
-                scene.closestHit({origin, direction}, reach, skipObject, skipPrimitive);
+                scene_.closestHit({origin, direction}, length, skipObject, skipPrimitive);
             if (!hit) return false;
-            if (hit->object == v.object) {
-                if (!(glm::dot(hit->normal, v.normal) > kGatherNormalCos)) return false;
-                const Vec3 d = hit->point - v.positionMm;
-                if (glm::dot(d, d) > radiusMm * radiusMm) return false;
-                if (towardFace) return (travelled + hit->t - crossedAt <= gap) == out.inGap;
-                const Vec3 facing = glm::dot(hit->normal, side) > 0.0 ? hit->normal : -hit->normal;
-                return inGapAt(scene, hit->point, hit->object, hit->primitive, facing, gap) ==
-                       out.inGap;
+            if (hit->object == v_.object) {
+                if (!(glm::dot(hit->normal, v_.normal) > kGatherNormalCos)) return false;
+                const Vec3 d = hit->point - v_.positionMm;
+                if (glm::dot(d, d) > reach * reach) return false;
+                if (towardFace) return (travelled + hit->t - crossedAt <= gap_) == inGap_;
+                const Vec3 facing = glm::dot(hit->normal, side_) > 0.0 ? hit->normal : -hit->normal;
+                return inGapAt(scene_, hit->point, hit->object, hit->primitive, facing, gap_) ==
+                       inGap_;
             }
             origin = hit->point;
-            reach -= hit->t;
+            length -= hit->t;
             travelled += hit->t;
             crossedAt = travelled;
             skipObject = hit->object;
             skipPrimitive = hit->primitive;
         }
         return false;
-    };
-    // The outer half of the spiral first (radii above r / sqrt 2, spread around the circle by
-    // the golden angle): when all of it lands, the disk is taken as whole. A straight rim
-    // that leaves every outer probe on the face leaves the inner ones there too (with 16
-    // probes, averaged over the turns, the shortcut's 1 / share equals the full count's to
-    // 1e-4 at every distance from the rim); what it would miss is a hole or a patch of
-    // another kind of place inside r / sqrt 2 that reaches no outer probe.
+    }
+
+    const Scene& scene_;
+    const ViewPoint& v_;
+    double gap_;
+    Vec3 side_, t1_, t2_;
+    bool inGap_ = false;
+};
+
+constexpr double kGolden = 2.39996322972865332;  // pi (3 - sqrt 5)
+
+// The share of the disk of radius r that lands: `samples` points on a Fibonacci spiral turned
+// by `turn`. The outer half of the spiral first (radii above r / sqrt 2, spread around the
+// circle by the golden angle): when all of it lands, the disk is taken as whole. A straight
+// rim that leaves every outer probe on the face leaves the inner ones there too (with 16
+// probes, averaged over the turns, the shortcut's 1 / share equals the full count's to 1e-4
+// at every distance from the rim); what it would miss is a hole or a patch of another kind of
+// place inside r / sqrt 2 that reaches no outer probe.
+double diskShare(const FaceProbe& probe, double radiusMm, int samples, double turn) {
     int on = 0;
     const int outer = samples - samples / 2;
     for (int i = samples - 1; i >= 0; --i) {
-        if (i == samples / 2 - 1 && on == outer) {
-            out.share = 1.0;
-            return out;
-        }
+        if (i == samples / 2 - 1 && on == outer) return 1.0;
         const double rho = radiusMm * std::sqrt((i + 0.5) / samples);
-        const double phi = turn + kGolden * i;
-        const Vec3 q = v.positionMm + rho * (std::cos(phi) * t1 + std::sin(phi) * t2) + lift * side;
-        if (lands(q, -side, lift + radiusMm, true) || lands(q, side, radiusMm, false)) ++on;
+        if (probe.lands(rho, turn + kGolden * i, radiusMm)) ++on;
     }
-    out.share = static_cast<double>(std::max(on, 1)) / samples;
+    return static_cast<double>(std::max(on, 1)) / samples;
+}
+
+}  // namespace
+
+DiskShare viewPointAreaShare(const Scene& scene, const ViewPoint& v, double radiusMm, int samples,
+                             double turn, bool otherSide) {
+    const FaceProbe probe(scene, v, otherSide, kGapFraction * radiusMm);
+    DiskShare out;
+    out.inGap = probe.inGap();
+    if (samples > 0) out.share = diskShare(probe, radiusMm, samples, turn);
+    return out;
+}
+
+double pieceWidth(const Scene& scene, const ViewPoint& v, double reachMm, double gapMm, double turn,
+                  bool otherSide) {
+    const FaceProbe probe(scene, v, otherSide, gapMm);
+    // How far the piece reaches from v along the half line at angle phi, to 1/64 of reach.
+    auto extent = [&](double phi) {
+        if (probe.lands(reachMm, phi, reachMm)) return reachMm;
+        double lo = 0.0, hi = reachMm;
+        for (int step = 0; step < 8; ++step) {
+            const double mid = 0.5 * (lo + hi);
+            (probe.lands(mid, phi, reachMm) ? lo : hi) = mid;
+        }
+        return std::max(lo, reachMm / 512.0);
+    };
+    // The second narrowest chord: a view point on a face's very rim finds no extent along the
+    // line that follows the rim (its probes fall off the face on either side), and a strip's
+    // second narrowest chord is at most sqrt 2 times its width.
+    std::array<double, kPieceWidthLines> chords{};
+    for (int j = 0; j < kPieceWidthLines; ++j) {
+        const double phi = turn + std::numbers::pi * j / kPieceWidthLines;
+        chords[static_cast<size_t>(j)] = extent(phi) + extent(phi + std::numbers::pi);
+    }
+    std::sort(chords.begin(), chords.end());
+    return chords[1];
+}
+
+GatherDisk viewPointDisk(const Scene& scene, const ViewPoint& v, double radiusMm,
+                         double initialRadiusMm, int samples, double turn, bool otherSide) {
+    const double gap = kGapFraction * radiusMm;
+    const FaceProbe probe(scene, v, otherSide, gap);
+    GatherDisk out;
+    out.inGap = probe.inGap();
+    out.radiusMm = radiusMm;
+    if (samples <= 0) return out;
+    // The piece's width, looked for only where a disk of the initial radius does not lie
+    // whole on it (its outer probes, as diskShare's shortcut).
+    const double reach = std::max(initialRadiusMm, radiusMm);
+    bool whole = true;
+    for (int j = 0; j < 2 * kPieceWidthLines && whole; ++j)
+        whole = probe.lands(reach, turn + std::numbers::pi * j / kPieceWidthLines, reach);
+    if (!whole) {
+        // Extents up to 2.5 times the reach, so that a view point on the rim of a wide face
+        // finds a chord well over 2 r_1 across it.
+        const double width = pieceWidth(scene, v, 2.5 * reach, gap, turn, otherSide);
+        out.radiusMm = radiusMm * std::min(1.0, kPieceRadiusFraction * width / reach);
+    }
+    out.share = diskShare(probe, out.radiusMm, samples, turn);
+    out.halfShare = diskShare(probe, 0.5 * out.radiusMm, samples, turn + 0.5 * kGolden);
     return out;
 }
 
@@ -489,6 +661,7 @@ BackwardOptions Renderer::backwardOptions(int k) const {
     bo.minRelativeWeight = options_.minRelativeWeight;
     bo.direct = true;
     bo.viewPointRelativeWeight = options_.viewPointRelativeWeight;
+    bo.followLobesBelowRad = options_.followLobesBelowDeg * std::numbers::pi / 180.0;
     bo.judge = judge_;
     bo.prune = options_.prune;
     bo.ranks = ranks_;
@@ -532,7 +705,21 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
     for (int p = 0; p < pixels; ++p) visible[static_cast<size_t>(p)] += acc.visible[p];
     out.pixels[static_cast<int>(RenderComponent::Caustic)] = std::move(acc.caustic);
     out.pixels[static_cast<int>(RenderComponent::Secondary)] = std::move(acc.secondary);
+    for (int p = 0; p < pixels; ++p) {
+        const size_t i = static_cast<size_t>(p);
+        out.pixels[static_cast<int>(RenderComponent::Caustic)][i] += back.caustic.flux(p);
+        out.pixels[static_cast<int>(RenderComponent::Secondary)][i] += back.secondary.flux(p);
+    }
+    out.gatheredHalf = std::move(acc.gatheredHalf);
+    // The light the pixel rays found behind followed lobes is not gathered: the same in both
+    // estimates of the radius bias.
+    for (int p = 0; p < pixels; ++p)
+        out.gatheredHalf[static_cast<size_t>(p)] += back.caustic.flux(p) + back.secondary.flux(p);
+    out.imageForming = back.imageForming.fluxes();
+    for (int p = 0; p < pixels; ++p)
+        out.imageForming[static_cast<size_t>(p)] += acc.imageForming[static_cast<size_t>(p)];
     out.criteria.resize(criteria);
+    out.criteriaGatheredHalf.resize(criteria);
     for (size_t c = 0; c < criteria; ++c) {
         auto& x = out.criteria[c];
         x[static_cast<int>(RenderComponent::Visible)] = std::move(back.visibleByCriterion[c]);
@@ -541,6 +728,17 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
         for (int p = 0; p < pixels; ++p) v[static_cast<size_t>(p)] += acc.by[c][0][p];
         x[static_cast<int>(RenderComponent::Caustic)] = std::move(acc.by[c][1]);
         x[static_cast<int>(RenderComponent::Secondary)] = std::move(acc.by[c][2]);
+        for (int p = 0; p < pixels; ++p) {
+            const size_t i = static_cast<size_t>(p);
+            x[static_cast<int>(RenderComponent::Caustic)][i] += back.causticByCriterion[c][i];
+            x[static_cast<int>(RenderComponent::Secondary)][i] += back.secondaryByCriterion[c][i];
+        }
+        out.criteriaGatheredHalf[c] = std::move(acc.by[c][3]);
+        for (int p = 0; p < pixels; ++p) {
+            const size_t i = static_cast<size_t>(p);
+            out.criteriaGatheredHalf[c][i] +=
+                back.causticByCriterion[c][i] + back.secondaryByCriterion[c][i];
+        }
     }
     if (bo.guide) {
         out.learned = std::move(back.learned);

@@ -75,6 +75,14 @@ struct RenderPass {
     // With criteria: [criterion][component], the flux per pixel of the light whose joined
     // path matches the criterion.
     std::vector<std::array<std::vector<double>, kRenderComponents>> criteria;
+    // The gathered light (caustic and secondary) within half of each view point's radius:
+    // plain, and per criterion.
+    std::vector<double> gatheredHalf;
+    std::vector<std::vector<double>> criteriaGatheredHalf;
+    // The part of the visible light that crossed the lens as designed
+    // (tracer/render/designed_path.h): the sources' image-forming light. The rest of the total
+    // is stray light.
+    std::vector<double> imageForming;
     uint64_t prunedBranches = 0, prunedPhotons = 0;  // stopped by the criteria (prune)
     double radiusMm = 0.0;
     uint64_t backwardRays = 0, backwardSegments = 0, viewPoints = 0;
@@ -97,6 +105,27 @@ ExitAperture exitApertureFor(const Scene& scene, const DetectorGeometry& detecto
 // r_1 when none is given: 1 % of the diagonal of the bounding box of the scene's objects
 // that scatter (those with a scatter model). ModelError when no object scatters.
 double defaultInitialRadius(const TransportView& ts);
+
+// The radius bias of the gathered light, from the passes' two estimates of it: within each view
+// point's radius r and within r / 2. Their difference d = E(r) - E(r/2) is itself an estimate
+// with an error (its spread over the passes: the two share photons and view points, so the
+// spread of the difference, not the two spreads, is what counts). A bias that grows as r^a
+// (a = 2 inside a face where the radiance is smooth, a = 1 across a rim or a narrow piece)
+// is d / (1 - 2^-a) of E(r): between 4/3 d and 2 d; `estimate` takes 2 d, the larger.
+//   detected  |d| > 3 sigma(d): the radius changes the answer beyond its noise; the flux's
+//             error then includes the bias (errorWith)
+//   bound     2 (|d| + 2 sigma(d)): what the bias may be, detected or not (about 2 sigma of
+//             the half-radius estimate's noise when there is none)
+struct RadiusBias {
+    double difference = 0.0, sigma = 0.0;
+    double estimate() const { return 2.0 * difference; }
+    double bound() const { return 2.0 * (std::abs(difference) + 2.0 * sigma); }
+    bool detected() const { return std::abs(difference) > 3.0 * sigma && difference != 0.0; }
+    // The error of a flux whose statistical error is `sigma`: with the bias added when detected.
+    double errorWith(double statistical) const {
+        return detected() ? std::hypot(statistical, estimate()) : statistical;
+    }
+};
 
 // The progressive accumulators: per component and for the total, the sums over passes of
 // each pixel's estimate and of its square (DetectorImage sums, one pass as one sample).
@@ -139,6 +168,19 @@ class RenderState {
     DetectorImage criterionTotal(int k) const;
     double criterionMeanRelativeError(int k) const;
 
+    // The radius bias of the gathered light in all (RadiusBias), and of criterion k's; the
+    // mean per pixel of E(r) - E(r/2) with its variance.
+    RadiusBias radiusBias() const;
+    RadiusBias criterionRadiusBias(int k) const;
+    DetectorImage radiusDifference() const;
+
+    // The image-forming light (the sources' image through the lens's designed path) and the
+    // stray light (the total without it), as component(); the stray light's mean relative
+    // pixel error over its own lit pixels.
+    DetectorImage imageForming() const;
+    DetectorImage strayLight() const;
+    double strayMeanRelativeError() const;
+
     // Atomic write (a temporary renamed), with a fingerprint of the scene and options that
     // read() checks. std::runtime_error naming the path on failure, or when the file is not a
     // checkpoint of this fingerprint and grid.
@@ -154,8 +196,16 @@ class RenderState {
   private:
     using Sums = std::array<DetectorImage, kRenderComponents + 1>;  // components, then total
     static void addTo(Sums& sums, const std::array<std::vector<double>, kRenderComponents>& x);
+    // Adds a pass's E(r) - E(r/2) per pixel.
+    static void addDifference(DetectorImage& sums,
+                              const std::array<std::vector<double>, kRenderComponents>& x,
+                              const std::vector<double>& half);
+    static RadiusBias biasOf(const DetectorImage& sums, int passes);
     Sums sums_;
     std::vector<Sums> criterionSums_;
+    DetectorImage radiusDifference_;
+    std::vector<DetectorImage> criterionRadiusDifference_;
+    DetectorImage imageForming_, stray_;
     std::vector<double> learned_;
     int passes_ = 0;
     double radiusMm_ = 0.0, initialRadiusMm_ = 0.0, alpha_ = 2.0 / 3.0;
@@ -208,6 +258,32 @@ struct DiskShare {
 inline constexpr double kGapFraction = 0.1;
 DiskShare viewPointAreaShare(const Scene& scene, const ViewPoint& v, double radiusMm, int samples,
                              double turn, bool otherSide = false);
+// A view point's gathering disk, fitted to the piece of surface it lies on (a lens's 2 mm
+// flat, a spacer's end, a stop's 50 um edge band): where the disk of the initial radius r_1
+// does not lie whole on its piece (its probes at r_1 along kPieceWidthLines lines), the
+// piece's width w through the view point is measured (pieceWidth) and the disk's radius is
+//     r_v = r_k min(1, kPieceRadiusFraction w / r_1),
+// a fixed fraction of the pass radius r_k for each view point, so that it shrinks at the
+// progressive rate like every other (a disk narrower than its piece: the photons averaged
+// come from the piece, not from its surroundings, and the radiance across a narrow piece,
+// which varies on the piece's scale, is not smeared over a disk many times wider). share and
+// halfShare: the parts of the disks of radius r_v and r_v / 2 where the photons land
+// (viewPointAreaShare); the second serves the half-radius estimate that bounds the radius
+// bias (RenderState::radiusBias). The gap rule's height stays kGapFraction r_k.
+struct GatherDisk {
+    double radiusMm = 0.0;
+    double share = 1.0, halfShare = 1.0;
+    bool inGap = false;
+};
+inline constexpr int kPieceWidthLines = 4;
+inline constexpr double kPieceRadiusFraction = 0.5;
+GatherDisk viewPointDisk(const Scene& scene, const ViewPoint& v, double radiusMm,
+                         double initialRadiusMm, int samples, double turn, bool otherSide = false);
+// The width of the piece v's photons land on (FaceProbe in render.cpp): the second narrowest
+// of its chords through v along kPieceWidthLines lines turned by `turn`, each half measured
+// to reachMm / 256 and at most reachMm (for a strip of width w between w and sqrt 2 w).
+double pieceWidth(const Scene& scene, const ViewPoint& v, double reachMm, double gapMm, double turn,
+                  bool otherSide = false);
 // Whether the surface point (on object, primitive) has another surface within gapMm in
 // direction side.
 bool inGapAt(const Scene& scene, const Vec3& point, int object, int primitive, const Vec3& side,

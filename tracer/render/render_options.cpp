@@ -33,6 +33,8 @@ void RenderOptions::check() const {
         fail("the detector smoothing radius must lie in [0, 1000] pixels");
     if (!(guideFraction >= 0.0 && guideFraction < 1.0))
         fail("the guided fraction of the pixel rays must lie in [0, 1)");
+    if (!(followLobesBelowDeg >= 0.0 && followLobesBelowDeg <= 90.0))
+        fail("the half width below which lobes are followed must lie in [0, 90] degrees");
 }
 
 std::ostream& operator<<(std::ostream& os, const RenderOptions& o) {
@@ -41,7 +43,7 @@ std::ostream& operator<<(std::ostream& os, const RenderOptions& o) {
               << o.alpha << ", seed " << o.seed << (o.splitBackward ? ", split" : ", random")
               << ", roulette " << o.rouletteRelativeFlux
               << (o.quasiRandomPhotons ? ", sobol photons" : ", random photons") << ", guide "
-              << o.guideFraction << "}";
+              << o.guideFraction << ", follow lobes below " << o.followLobesBelowDeg << " deg}";
 }
 
 }  // namespace veil

@@ -54,6 +54,10 @@ struct RenderOptions {
     // rays drawn where the passes before it found light, in [0, 1); 0 = uniform over the
     // aperture (every pass the same distribution).
     double guideFraction = 0.5;
+    // Narrow lobes (BackwardOptions::followLobesBelowRad): scatter lobes with a half width at
+    // half maximum below this many degrees are followed by the backward rays instead of
+    // gathering photons; 0: every scattering surface gathers.
+    double followLobesBelowDeg = 0.0;
     // Throws std::invalid_argument naming the option when a value is out of range.
     void check() const;
 };

@@ -15,6 +15,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <iostream>
 #include <numbers>
 
 #include "geometry/scene.h"
@@ -306,22 +307,41 @@ std::unique_ptr<PreparedScene> platesScene() {
     return plateAndBoxScene("strip", Vec3(200.0, -50.0, -1.0), Vec3(200.2, 50.0, 0.0));
 }
 
+// Forward Monte Carlo's flux on the scene's first detector and its standard error.
+std::pair<double, double> forwardTotal(const PreparedScene& s, uint64_t rays, uint64_t seed) {
+    const SceneTransport& t = s.transport();
+    TransportOptions fo;
+    fo.mode = TransportOptions::Mode::Random;
+    fo.seed = seed;
+    const TraceResult forward = traceNonsequential(t.view, t.images, rays, fo);
+    return {forward.detectors[0].totalFlux(), std::sqrt(forward.detectors[0].totalVariance(rays))};
+}
+
+// The id of the scene's object `name` (a test failure and -1 when there is none).
+int objectId(const Scene& scene, const std::string& name) {
+    for (const SceneObject& o : scene.objects())
+        if (o.name == name) return o.id;
+    ADD_FAILURE() << "no object " << name;
+    return -1;
+}
+
+// A view point on `object` looking up along +z (a face at z = 0 seen from above).
+ViewPoint upViewPoint(int object) {
+    ViewPoint v;
+    v.normal = Vec3(0.0, 0.0, 1.0);
+    v.toDetector = v.normal;
+    v.fromFront = true;
+    v.object = object;
+    return v;
+}
+
 // The rim correction: the share of a gathering disk on its own object, against the areas of
 // a disk cut by a straight rim (the circular segment) and by a narrow strip.
 TEST(Render, ViewPointAreaShareMatchesTheDiskGeometry) {
     const auto s = platesScene();
     const Scene& scene = s->scene();
-    auto objectNamed = [&](const std::string& name) {
-        for (const SceneObject& o : scene.objects())
-            if (o.name == name) return o.id;
-        ADD_FAILURE() << "no object " << name;
-        return -1;
-    };
-    ViewPoint v;
-    v.normal = Vec3(0.0, 0.0, 1.0);
-    v.toDetector = v.normal;
-    v.fromFront = true;
-    v.object = objectNamed("plate");
+    auto objectNamed = [&](const std::string& name) { return objectId(scene, name); };
+    ViewPoint v = upViewPoint(objectNamed("plate"));
     const double r = 2.0;
     // Inside the face: every probe lands on it.
     v.positionMm = Vec3(10.0, -20.0, 0.0);
@@ -401,6 +421,275 @@ TEST(Render, ViewPointAreaShareKeepsGapsApart) {
     // A gap wider than kGapFraction r is open space: at r = 0.005 mm the 1 um gap is 0.2 r.
     v.positionMm = Vec3(-20.0, 0.0, 0.0);
     EXPECT_FALSE(viewPointAreaShare(scene, v, 0.005, 16, 0.3).inGap);
+}
+
+// The gathering disk fits the piece it lies on: inside the 100 mm plate and near its rim the
+// pass radius; on the 0.2 mm strip r_v = r_k kPieceRadiusFraction w / r_1 (a disk as wide as
+// the strip), with w the strip's measured width, within the bisection's resolution.
+TEST(Render, GatheringDiskFitsThePieceItLiesOn) {
+    const auto s = platesScene();
+    const Scene& scene = s->scene();
+    auto objectNamed = [&](const std::string& name) { return objectId(scene, name); };
+    ViewPoint v = upViewPoint(objectNamed("plate"));
+    const double r1 = 2.0;
+    for (const double turn : {0.0, 0.4, 1.3}) {
+        for (const double x : {10.0, 49.5, 50.0 - 1e-9}) {  // inside, 0.5 mm and 0 from the rim
+            v.positionMm = Vec3(x, -20.0, 0.0);
+            EXPECT_EQ(viewPointDisk(scene, v, r1, r1, 16, turn).radiusMm, r1) << x;
+            EXPECT_EQ(viewPointDisk(scene, v, 0.5 * r1, r1, 16, turn).radiusMm, 0.5 * r1) << x;
+        }
+        v.object = objectNamed("strip");
+        v.positionMm = Vec3(200.1, 0.0, 0.0);
+        const double width = pieceWidth(scene, v, 2.5 * r1, kGapFraction * r1, turn);
+        EXPECT_LE(width, 0.2 * std::sqrt(2.0) + 1e-9) << turn;
+        EXPECT_GE(width, 0.2 - 2.0 * 2.5 * r1 / 256.0) << turn;
+        const GatherDisk d = viewPointDisk(scene, v, r1, r1, 16, turn);
+        EXPECT_NEAR(d.radiusMm, r1 * kPieceRadiusFraction * width / r1, 1e-12);
+        // The disk (radius about 0.1 mm) lies almost whole on the strip; its half too.
+        EXPECT_GT(d.share, 0.6);
+        EXPECT_GT(d.halfShare, 0.9);
+        // A later pass: the same fraction of its radius.
+        EXPECT_NEAR(viewPointDisk(scene, v, 0.5 * r1, r1, 16, turn).radiusMm, 0.5 * d.radiusMm,
+                    1e-12);
+        v.object = objectNamed("plate");
+    }
+    // Without the rim correction (--area-samples 0) every disk is the pass's.
+    v.object = objectNamed("strip");
+    EXPECT_EQ(viewPointDisk(scene, v, r1, r1, 0, 0.0).radiusMm, r1);
+}
+
+// A 10 mm square plate lit by a point source 3 mm above it through a window: the irradiance
+// falls tenfold from its centre to its rim, and a 4 mm gathering disk averages it over
+// whatever of the disk lies on the plate. The flux comes out biased by several sigma; the
+// half-radius estimate detects it, and the error with the bias covers the difference from
+// forward Monte Carlo.
+std::unique_ptr<PreparedScene> smallLitPlateScene() {
+    const std::string stem = ::testing::TempDir() + "veil_render_" + testName();
+    writeBox(stem + ".off", Vec3(-5.0, -5.0, -1.5), Vec3(5.0, 5.0, -0.5));
+    const std::string path = stem + ".toml";
+    FILE* f = fopen(path.c_str(), "w");
+    EXPECT_TRUE(f);
+    fprintf(f,
+            "[system]\nwavelengths_nm = [550.0]\naperture = { epd_mm = 20.0 }\n"
+            "fields_deg = [0.0]\nsurfaces = [\n"
+            "  { r = 0.0, t = 2.0, glass = { nd = 1.5, vd = 0.0 }, sd = 30.0, stop = true },\n"
+            "  { r = 0.0, t = 100.0, sd = 30.0 },\n]\n"
+            "[[mesh]]\nname = \"plate\"\nfile = \"%s\"\nproperty = \"white\"\n"
+            "[properties.white]\nscatter = { model = \"lambertian\", reflectance = 0.5 }\n"
+            "[[source]]\nname = \"lamp\"\nkind = \"point\"\nposition_mm = [0.0, 0.0, 2.5]\n"
+            "half_angle_deg = 80\naxis = [0, 0, -1]\nflux = 1.0\n"
+            "[detector]\nname = \"det\"\nz_mm = 30.0\nsize_mm = [20.0, 20.0]\npixels = [4, 4]\n"
+            "[[assign]]\nobjects = \"L1.*\"\nproperty = \"ideal_ar\"\n",
+            std::filesystem::path(stem + ".off").filename().c_str());
+    fclose(f);
+    return PreparedScene::read(path, GlassCatalog::builtIn());
+}
+
+TEST(Render, RadiusBiasOnASmallLitPartIsDetectedAndBounded) {
+    const auto s = smallLitPlateScene();
+    const SceneTransport& t = s->transport();
+    const auto [ref, refSigma] = forwardTotal(*s, 2000000, 5);
+    const ExitAperture a = exitApertureFor(s->scene(), t.images[0].geometry());
+    auto run = [&](double radius) {
+        RenderOptions o;
+        o.raysPerPixel = 512;
+        o.initialRadiusMm = radius;
+        return render(*s, o, 10, a);
+    };
+    // A 4 mm disk on a 10 mm plate: biased beyond its noise, detected.
+    const RenderState wide = run(4.0);
+    const DetectorImage total = wide.total();
+    const double sigma = std::sqrt(total.totalVariance(wide.passes()));
+    const RadiusBias bias = wide.radiusBias();
+    EXPECT_TRUE(bias.detected()) << bias.difference << " +- " << bias.sigma;
+    EXPECT_GT(std::abs(total.totalFlux() - ref), 3.0 * std::hypot(sigma, refSigma))
+        << "the scene no longer shows a radius bias: " << total.totalFlux() << " vs " << ref;
+    EXPECT_LE(std::abs(total.totalFlux() - ref), 3.0 * std::hypot(bias.errorWith(sigma), refSigma))
+        << total.totalFlux() << " vs " << ref << ", bias " << bias.estimate();
+    EXPECT_LE(std::abs(total.totalFlux() - ref), bias.bound() + 3.0 * std::hypot(sigma, refSigma));
+    // A 0.5 mm disk: within its errors, and what bias is left is bounded by a small figure.
+    const RenderState narrow = run(0.5);
+    const DetectorImage n = narrow.total();
+    const RadiusBias nb = narrow.radiusBias();
+    const double ns = nb.errorWith(std::sqrt(n.totalVariance(narrow.passes())));
+    EXPECT_LE(std::abs(n.totalFlux() - ref), 3.0 * std::hypot(ns, refSigma))
+        << n.totalFlux() << " vs " << ref;
+    EXPECT_LT(nb.bound(), 0.02 * ref);
+}
+
+// The radius bias's arithmetic.
+TEST(Render, RadiusBiasDetectsOnlyADifferenceBeyondItsNoise) {
+    RadiusBias b{0.3, 0.1};
+    EXPECT_FALSE(b.detected());
+    EXPECT_EQ(b.errorWith(0.5), 0.5);
+    EXPECT_DOUBLE_EQ(b.bound(), 2.0 * (0.3 + 0.2));
+    b.difference = -0.31;
+    EXPECT_TRUE(b.detected());
+    EXPECT_DOUBLE_EQ(b.estimate(), -0.62);
+    EXPECT_DOUBLE_EQ(b.errorWith(0.5), std::hypot(0.5, 0.62));
+    EXPECT_FALSE((RadiusBias{0.0, 0.0}).detected());
+}
+
+// An isotropic point source 30 mm above a large Lambertian plate lights it directly; a free
+// detector looks at the plate through a plane window (ideal antireflection) from the far side.
+// The closed form: the plate's radiance R I h / (pi |p - s|^3) seen from each detector point
+// through the slab (a ray at angle theta in air crosses the glass at theta_g, sin theta =
+// n sin theta_g, and lands tan theta (air height) + tan theta_g (glass height) away),
+// integrated over the detector and the hemisphere by quadrature.
+TEST(Render, PointSourceLightingAPlateThroughAWindowObeysTheClosedForm) {
+    const std::string stem = ::testing::TempDir() + "veil_render_" + testName();
+    writeBox(stem + ".off", Vec3(-400.0, -400.0, -51.0), Vec3(400.0, 400.0, -50.0));
+    const std::string path = stem + ".toml";
+    FILE* f = fopen(path.c_str(), "w");
+    ASSERT_TRUE(f);
+    const double R = 0.3, flux = 1.0, n = 1.5, glass = 5.0, detZ = 60.0, side = 20.0;
+    const Vec3 lamp(0.0, 0.0, -20.0);
+    fprintf(f,
+            "[system]\nwavelengths_nm = [550.0]\naperture = { epd_mm = 20.0 }\n"
+            "fields_deg = [0.0]\nsurfaces = [\n"
+            "  { r = 0.0, t = %g, glass = { nd = %g, vd = 0.0 }, sd = 600.0, stop = true },\n"
+            "  { r = 0.0, t = 100.0, sd = 600.0 },\n]\n"
+            "[[mesh]]\nname = \"plate\"\nfile = \"%s\"\nproperty = \"white\"\n"
+            "[properties.white]\nscatter = { model = \"lambertian\", reflectance = %g }\n"
+            "[[source]]\nname = \"lamp\"\nkind = \"point\"\nposition_mm = [%g, %g, %g]\n"
+            "half_angle_deg = 180\nflux = %g\n"
+            "[detector]\nname = \"det\"\nz_mm = %g\nsize_mm = [%g, %g]\npixels = [2, 2]\n"
+            "[[assign]]\nobjects = \"L1.*\"\nproperty = \"ideal_ar\"\n",
+            glass, n, std::filesystem::path(stem + ".off").filename().c_str(), R, lamp.x, lamp.y,
+            lamp.z, flux, detZ, side, side);
+    fclose(f);
+    const auto s = PreparedScene::read(path, GlassCatalog::builtIn());
+    // Quadrature: detector points on a 16 x 16 midpoint grid (the radiance varies slowly
+    // over it), directions by theta (Gauss-Legendre-like midpoints in cos) and phi.
+    const double I = flux / (4.0 * std::numbers::pi);
+    const double h = lamp.z - (-50.0);
+    const double air = detZ - (-50.0) - glass;
+    double expected = 0.0;
+    const int nx = 16, nt = 2000, np = 64;
+    for (int ix = 0; ix < nx; ++ix)
+        for (int iy = 0; iy < nx; ++iy) {
+            const double x = side * ((ix + 0.5) / nx - 0.5), y = side * ((iy + 0.5) / nx - 0.5);
+            double radiance = 0.0;  // integral of L cos over the hemisphere
+            for (int it = 0; it < nt; ++it) {
+                // mu = cos theta, uniform midpoints: d omega cos = mu d mu d phi.
+                const double mu = (it + 0.5) / nt;
+                const double st = std::sqrt(1.0 - mu * mu), sg = st / n;
+                const double reach = air * st / mu + glass * sg / std::sqrt(1.0 - sg * sg);
+                if (reach > 350.0) continue;  // off the plate (400 mm half side)
+                for (int ip = 0; ip < np; ++ip) {
+                    const double phi = 2.0 * std::numbers::pi * (ip + 0.5) / np;
+                    const Vec3 p(x + reach * std::cos(phi), y + reach * std::sin(phi), -50.0);
+                    const Vec3 d = p - lamp;
+                    const double r = glm::length(d);
+                    radiance += R * I * h / (std::numbers::pi * r * r * r) * mu * (1.0 / nt) *
+                                (2.0 * std::numbers::pi / np);
+                }
+            }
+            expected += radiance * (side / nx) * (side / nx);
+        }
+    const SceneTransport& t = s->transport();
+    const ExitAperture a = exitApertureFor(s->scene(), t.images[0].geometry());
+    RenderOptions o;
+    o.raysPerPixel = 4096;
+    o.photonsPerPass = 20000;
+    o.initialRadiusMm = 5.0;
+    const RenderState state = render(*s, o, 8, a);
+    const DetectorImage direct = state.component(RenderComponent::Direct);
+    const double sigma = std::sqrt(direct.totalVariance(state.passes()));
+    EXPECT_GT(expected, 0.0);
+    EXPECT_LE(std::abs(direct.totalFlux() - expected), 3.0 * sigma + 2e-3 * expected)
+        << direct.totalFlux() << " vs " << expected << " sigma " << sigma;
+    std::cout << "direct " << direct.totalFlux() << " +- " << sigma << ", closed form " << expected
+              << "\n";
+    EXPECT_LT(sigma, 0.05 * expected);
+    // Light the plate scatters meets nothing else: no gathered light.
+    EXPECT_EQ(state.component(RenderComponent::Caustic).totalFlux(), 0.0);
+    EXPECT_EQ(state.component(RenderComponent::Secondary).totalFlux(), 0.0);
+}
+
+// The sun on the axis of an uncoated plane window (n = 1.5, R = 0.04 at normal incidence), a
+// 10 mm detector behind it inside the beam: the light through the window as designed is
+// (1 - R)^2 of what enters, the ghosts' (1 - R)^2 (R^2 + R^4 + ...), so of the light on the
+// detector (1 - R) / (1 + R) the image-forming share is (1 - R)^2 / ((1 - R) / (1 + R)) and
+// the stray share the rest, R^2 (1 + ...) = 1 - (1 - R)(1 + R).
+TEST(Render, ImageFormingLightIsTheDesignedPathAndTheGhostsAreStray) {
+    const std::string stem = ::testing::TempDir() + "veil_render_" + testName();
+    writeBox(stem + ".off", Vec3(100.0, 100.0, -20.0), Vec3(110.0, 110.0, -19.0));
+    const std::string path = stem + ".toml";
+    FILE* f = fopen(path.c_str(), "w");
+    ASSERT_TRUE(f);
+    fprintf(f,
+            "[system]\nwavelengths_nm = [550.0]\naperture = { epd_mm = 20.0 }\n"
+            "fields_deg = [0.0]\nsurfaces = [\n"
+            "  { r = 0.0, t = 5.0, glass = { nd = 1.5, vd = 0.0 }, sd = 10.0, stop = true },\n"
+            "  { r = 0.0, t = 100.0, sd = 10.0 },\n]\n"
+            "[[mesh]]\nname = \"block\"\nfile = \"%s\"\nproperty = \"white\"\n"
+            "[properties.white]\nscatter = { model = \"lambertian\", reflectance = 0.5 }\n"
+            "[[source]]\nname = \"sun\"\nkind = \"sun\"\nfield_deg = [0.0, 0.0]\n"
+            "[detector]\nname = \"det\"\nz_mm = 50.0\nsize_mm = [10.0, 10.0]\npixels = [1, 1]\n",
+            std::filesystem::path(stem + ".off").filename().c_str());
+    fclose(f);
+    const auto s = PreparedScene::read(path, GlassCatalog::builtIn());
+    const ExitAperture a = exitApertureFor(s->scene(), s->transport().images[0].geometry());
+    RenderOptions o;
+    o.raysPerPixel = 16;
+    o.photonsPerPass = 100000;
+    o.initialRadiusMm = 1.0;
+    const RenderState state = render(*s, o, 4, a);
+    const double total = state.total().totalFlux();
+    const double image = state.imageForming().totalFlux();
+    const double stray = state.strayLight().totalFlux();
+    const double R = 0.04;
+    ASSERT_GT(total, 0.0);
+    EXPECT_NEAR(image / total, (1.0 - R) * (1.0 + R), 1e-5) << image << " of " << total;
+    EXPECT_NEAR(stray / total, 1.0 - (1.0 - R) * (1.0 + R), 1e-5) << stray << " of " << total;
+    EXPECT_NEAR(image + stray, total, 1e-12 * total);
+}
+
+// A Gaussian 5 degree plate lit through a window by a large Lambertian emitter and seen
+// through it: the pixel rays follow its lobe (followLobesBelowDeg) to the emitter, and the
+// light they find agrees with forward Monte Carlo, as the gathered light does.
+TEST(Render, FollowedNarrowLobesAgreeWithForwardMonteCarlo) {
+    const std::string stem = ::testing::TempDir() + "veil_render_" + testName();
+    writeBox(stem + ".off", Vec3(-300.0, -300.0, -51.0), Vec3(300.0, 300.0, -50.0));
+    const std::string path = stem + ".toml";
+    FILE* f = fopen(path.c_str(), "w");
+    ASSERT_TRUE(f);
+    fprintf(f,
+            "[system]\nwavelengths_nm = [550.0]\naperture = { epd_mm = 20.0 }\n"
+            "fields_deg = [0.0]\nsurfaces = [\n"
+            "  { r = 0.0, t = 5.0, glass = { nd = 1.5, vd = 0.0 }, sd = 400.0, stop = true },\n"
+            "  { r = 0.0, t = 100.0, sd = 400.0 },\n]\n"
+            "[[mesh]]\nname = \"plate\"\nfile = \"%s\"\nproperty = \"gloss\"\n"
+            "[properties.gloss]\n"
+            "scatter = { model = \"gaussian\", reflectance = 0.3, half_width_deg = 5.0 }\n"
+            "[[source]]\nname = \"lamp\"\nkind = \"lambertian\"\nposition_mm = [0.0, 0.0, 20.0]\n"
+            "normal = [0.0, 0.0, -1.0]\nradius_mm = 100.0\nflux = 1.0\n"
+            "[detector]\nname = \"det\"\nz_mm = 40.0\nsize_mm = [40.0, 40.0]\npixels = [2, 2]\n"
+            "[[assign]]\nobjects = \"L1.*\"\nproperty = \"ideal_ar\"\n",
+            std::filesystem::path(stem + ".off").filename().c_str());
+    fclose(f);
+    const auto s = PreparedScene::read(path, GlassCatalog::builtIn());
+    const SceneTransport& t = s->transport();
+    const auto [ref, refSigma] = forwardTotal(*s, 2000000, 3);
+    const ExitAperture a = exitApertureFor(s->scene(), t.images[0].geometry());
+    for (const double follow : {15.0, 0.0}) {
+        RenderOptions o;
+        o.raysPerPixel = 2048;  // the aperture spans most of the hemisphere
+        o.photonsPerPass = 50000;
+        o.initialRadiusMm = 6.0;
+        o.followLobesBelowDeg = follow;
+        const RenderState state = render(*s, o, 8, a);
+        const DetectorImage caustic = state.component(RenderComponent::Caustic);
+        const double sigma =
+            state.radiusBias().errorWith(std::sqrt(caustic.totalVariance(state.passes())));
+        EXPECT_LE(std::abs(caustic.totalFlux() - ref), 3.0 * std::hypot(sigma, refSigma))
+            << "follow " << follow << ": " << caustic.totalFlux() << " +- " << sigma << " vs "
+            << ref << " +- " << refSigma;
+        EXPECT_LT(sigma, 0.12 * ref) << "follow " << follow;
+        // Followed, no photon is gathered: no radius bias to find.
+        if (follow > 0.0) EXPECT_EQ(state.radiusBias().difference, 0.0);
+    }
 }
 
 TEST(Render, RadiusShrinksByTheProgressiveRule) {
