@@ -247,7 +247,11 @@ std::string radiusBiasText(const RadiusBias& b, double gathered) {
     if (!(gathered != 0.0)) return "radius bias: no gathered light";
     const double relEstimate = 100.0 * b.estimate() / gathered;
     const double relBound = 100.0 * b.bound() / gathered;
-    if (b.detected())
+    if (b.detected() && !b.bounded(gathered))
+        os << "radius bias DETECTED and NOT BOUNDED: the gathered light changes by " << relEstimate
+           << " % between r and r/2 (x2), the light varies on a scale below the radius; the "
+              "errors include the change, but the bias may be larger. Lower --radius";
+    else if (b.detected())
         os << "radius bias DETECTED: the gathered light changes by " << relEstimate
            << " % between r and r/2 (x2); the errors with it include it. Lower --radius, or "
               "run more passes";
@@ -318,7 +322,8 @@ nlohmann::json RenderResult::summary() const {
                               {"bound", b.bound()},
                               {"relative_estimate", share(b.estimate())},
                               {"relative_bound", share(b.bound())},
-                              {"detected", b.detected()}};
+                              {"detected", b.detected()},
+                              {"bounded", b.bounded(gathered)}};
     };
     auto gatheredOf = [&](const DetectorImage& caustic, const DetectorImage& secondary) {
         return caustic.totalFlux() + secondary.totalFlux();

@@ -253,9 +253,8 @@ PhotonPass::Disk PhotonPass::disk(uint32_t i, bool otherSide) const {
     if (c == 0.0f) {
         const double turn =
             2.0 * std::numbers::pi * CounterRng(passSeed(options_.seed, k_, 2), i).uniform();
-        const GatherDisk d = viewPointDisk(*ts_.scene, vps_[i], radiusMm_,
-                                           std::max(options_.initialRadiusMm, radiusMm_),
-                                           options_.areaSamples, turn, otherSide);
+        const GatherDisk d =
+            viewPointDisk(*ts_.scene, vps_[i], radiusMm_, options_.areaSamples, turn, otherSide);
         const double sign = d.inGap ? -1.0 : 1.0;
         slot[0].store(static_cast<float>(d.radiusMm / radiusMm_), std::memory_order_relaxed);
         slot[1].store(static_cast<float>(sign / d.halfShare), std::memory_order_relaxed);

@@ -623,27 +623,26 @@ double pieceWidth(const Scene& scene, const ViewPoint& v, double reachMm, double
     return chords[1];
 }
 
-GatherDisk viewPointDisk(const Scene& scene, const ViewPoint& v, double radiusMm,
-                         double initialRadiusMm, int samples, double turn, bool otherSide) {
+GatherDisk viewPointDisk(const Scene& scene, const ViewPoint& v, double radiusMm, int samples,
+                         double turn, bool otherSide) {
     const double gap = kGapFraction * radiusMm;
     const FaceProbe probe(scene, v, otherSide, gap);
     GatherDisk out;
     out.inGap = probe.inGap();
     out.radiusMm = radiusMm;
     if (samples <= 0) return out;
-    // The piece's width, looked for only where a disk of the initial radius does not lie
-    // whole on it (its outer probes, as diskShare's shortcut).
-    const double reach = std::max(initialRadiusMm, radiusMm);
-    bool whole = true;
-    for (int j = 0; j < 2 * kPieceWidthLines && whole; ++j)
-        whole = probe.lands(reach, turn + std::numbers::pi * j / kPieceWidthLines, reach);
-    if (!whole) {
-        // Extents up to 2.5 times the reach, so that a view point on the rim of a wide face
-        // finds a chord well over 2 r_1 across it.
-        const double width = pieceWidth(scene, v, 2.5 * reach, gap, turn, otherSide);
-        out.radiusMm = radiusMm * std::min(1.0, kPieceRadiusFraction * width / reach);
+    out.share = diskShare(probe, radiusMm, samples, turn);
+    if (out.share == 1.0) return out;  // a whole disk: its half is whole too
+    if (out.share < kFitShare) {
+        // Extents up to 2.5 r, so that a view point on the rim of a wide face finds a chord
+        // well over 2 r across it.
+        const double width = pieceWidth(scene, v, 2.5 * radiusMm, gap, turn, otherSide);
+        const double fitted = std::min(radiusMm, kPieceRadiusFraction * width);
+        if (fitted < radiusMm) {
+            out.radiusMm = fitted;
+            out.share = diskShare(probe, fitted, samples, turn);
+        }
     }
-    out.share = diskShare(probe, out.radiusMm, samples, turn);
     out.halfShare = diskShare(probe, 0.5 * out.radiusMm, samples, turn + 0.5 * kGolden);
     return out;
 }

@@ -116,11 +116,20 @@ double defaultInitialRadius(const TransportView& ts);
 //             error then includes the bias (errorWith)
 //   bound     2 (|d| + 2 sigma(d)): what the bias may be, detected or not (about 2 sigma of
 //             the half-radius estimate's noise when there is none)
+//   bounded   the estimate holds only while r is small against the scale on which the light
+//             varies; a detected bias above kBoundedShare of the light means it is not (light
+//             leaving a lens flat through a 20 um band under a 3 mm disk changed by 76 %
+//             between r and r/2 and was 4 times low): the result then says its bias is not
+//             bounded
 struct RadiusBias {
     double difference = 0.0, sigma = 0.0;
     double estimate() const { return 2.0 * difference; }
     double bound() const { return 2.0 * (std::abs(difference) + 2.0 * sigma); }
     bool detected() const { return std::abs(difference) > 3.0 * sigma && difference != 0.0; }
+    static constexpr double kBoundedShare = 0.5;
+    bool bounded(double light) const {
+        return !detected() || std::abs(estimate()) <= kBoundedShare * std::abs(light);
+    }
     // The error of a flux whose statistical error is `sigma`: with the bias added when detected.
     double errorWith(double statistical) const {
         return detected() ? std::hypot(statistical, estimate()) : statistical;
@@ -259,17 +268,17 @@ inline constexpr double kGapFraction = 0.1;
 DiskShare viewPointAreaShare(const Scene& scene, const ViewPoint& v, double radiusMm, int samples,
                              double turn, bool otherSide = false);
 // A view point's gathering disk, fitted to the piece of surface it lies on (a lens's 2 mm
-// flat, a spacer's end, a stop's 50 um edge band): where the disk of the initial radius r_1
-// does not lie whole on its piece (its probes at r_1 along kPieceWidthLines lines), the
-// piece's width w through the view point is measured (pieceWidth) and the disk's radius is
-//     r_v = r_k min(1, kPieceRadiusFraction w / r_1),
-// a fixed fraction of the pass radius r_k for each view point, so that it shrinks at the
-// progressive rate like every other (a disk narrower than its piece: the photons averaged
-// come from the piece, not from its surroundings, and the radiance across a narrow piece,
-// which varies on the piece's scale, is not smeared over a disk many times wider). share and
-// halfShare: the parts of the disks of radius r_v and r_v / 2 where the photons land
+// flat, a spacer's end, a stop's 50 um edge band): where less than kFitShare of the pass's
+// disk (radius r_k) lies on its piece, the piece's width w through the view point is
+// measured (pieceWidth) and the disk's radius is
+//     r_v = min(r_k, kPieceRadiusFraction w),
+// a disk no wider than its piece: the photons averaged come from the piece, not from its
+// surroundings, and the radiance across a narrow piece, which varies on the piece's scale, is
+// not smeared over a disk many times wider. It shrinks with the passes once r_k does. share
+// and halfShare: the parts of the disks of radius r_v and r_v / 2 where the photons land
 // (viewPointAreaShare); the second serves the half-radius estimate that bounds the radius
-// bias (RenderState::radiusBias). The gap rule's height stays kGapFraction r_k.
+// bias (RenderState::radiusBias). A disk whole on its face costs what it did before (its
+// outer probes only); the gap rule's height stays kGapFraction r_k.
 struct GatherDisk {
     double radiusMm = 0.0;
     double share = 1.0, halfShare = 1.0;
@@ -277,8 +286,9 @@ struct GatherDisk {
 };
 inline constexpr int kPieceWidthLines = 4;
 inline constexpr double kPieceRadiusFraction = 0.5;
-GatherDisk viewPointDisk(const Scene& scene, const ViewPoint& v, double radiusMm,
-                         double initialRadiusMm, int samples, double turn, bool otherSide = false);
+inline constexpr double kFitShare = 0.5;
+GatherDisk viewPointDisk(const Scene& scene, const ViewPoint& v, double radiusMm, int samples,
+                         double turn, bool otherSide = false);
 // The width of the piece v's photons land on (FaceProbe in render.cpp): the second narrowest
 // of its chords through v along kPieceWidthLines lines turned by `turn`, each half measured
 // to reachMm / 256 and at most reachMm (for a strip of width w between w and sqrt 2 w).

@@ -423,39 +423,41 @@ TEST(Render, ViewPointAreaShareKeepsGapsApart) {
     EXPECT_FALSE(viewPointAreaShare(scene, v, 0.005, 16, 0.3).inGap);
 }
 
-// The gathering disk fits the piece it lies on: inside the 100 mm plate and near its rim the
-// pass radius; on the 0.2 mm strip r_v = r_k kPieceRadiusFraction w / r_1 (a disk as wide as
-// the strip), with w the strip's measured width, within the bisection's resolution.
+// The gathering disk fits the piece it lies on: inside the 100 mm plate, near its rim and on
+// it the pass radius (half or more of the disk on the plate); on the 0.2 mm strip
+// r_v = kPieceRadiusFraction w (a disk as wide as the strip), w the strip's measured width
+// within the bisection's resolution, and a later pass's smaller radius leaves it as it is.
 TEST(Render, GatheringDiskFitsThePieceItLiesOn) {
     const auto s = platesScene();
     const Scene& scene = s->scene();
     auto objectNamed = [&](const std::string& name) { return objectId(scene, name); };
     ViewPoint v = upViewPoint(objectNamed("plate"));
-    const double r1 = 2.0;
+    const double r = 2.0;
     for (const double turn : {0.0, 0.4, 1.3}) {
         for (const double x : {10.0, 49.5, 50.0 - 1e-9}) {  // inside, 0.5 mm and 0 from the rim
             v.positionMm = Vec3(x, -20.0, 0.0);
-            EXPECT_EQ(viewPointDisk(scene, v, r1, r1, 16, turn).radiusMm, r1) << x;
-            EXPECT_EQ(viewPointDisk(scene, v, 0.5 * r1, r1, 16, turn).radiusMm, 0.5 * r1) << x;
+            EXPECT_EQ(viewPointDisk(scene, v, r, 16, turn).radiusMm, r) << x;
+            EXPECT_EQ(viewPointDisk(scene, v, 0.5 * r, 16, turn).radiusMm, 0.5 * r) << x;
         }
         v.object = objectNamed("strip");
         v.positionMm = Vec3(200.1, 0.0, 0.0);
-        const double width = pieceWidth(scene, v, 2.5 * r1, kGapFraction * r1, turn);
+        const double width = pieceWidth(scene, v, 2.5 * r, kGapFraction * r, turn);
         EXPECT_LE(width, 0.2 * std::sqrt(2.0) + 1e-9) << turn;
-        EXPECT_GE(width, 0.2 - 2.0 * 2.5 * r1 / 256.0) << turn;
-        const GatherDisk d = viewPointDisk(scene, v, r1, r1, 16, turn);
-        EXPECT_NEAR(d.radiusMm, r1 * kPieceRadiusFraction * width / r1, 1e-12);
+        EXPECT_GE(width, 0.2 - 2.0 * 2.5 * r / 256.0) << turn;
+        const GatherDisk d = viewPointDisk(scene, v, r, 16, turn);
+        EXPECT_NEAR(d.radiusMm, kPieceRadiusFraction * width, 1e-12);
         // The disk (radius about 0.1 mm) lies almost whole on the strip; its half too.
         EXPECT_GT(d.share, 0.6);
         EXPECT_GT(d.halfShare, 0.9);
-        // A later pass: the same fraction of its radius.
-        EXPECT_NEAR(viewPointDisk(scene, v, 0.5 * r1, r1, 16, turn).radiusMm, 0.5 * d.radiusMm,
+        EXPECT_NEAR(viewPointDisk(scene, v, 0.5 * r, 16, turn).radiusMm,
+                    std::min(0.5 * r,
+                             kPieceRadiusFraction * pieceWidth(scene, v, 1.25 * r, 0.05 * r, turn)),
                     1e-12);
         v.object = objectNamed("plate");
     }
     // Without the rim correction (--area-samples 0) every disk is the pass's.
     v.object = objectNamed("strip");
-    EXPECT_EQ(viewPointDisk(scene, v, r1, r1, 0, 0.0).radiusMm, r1);
+    EXPECT_EQ(viewPointDisk(scene, v, r, 0, 0.0).radiusMm, r);
 }
 
 // A 10 mm square plate lit by a point source 3 mm above it through a window: the irradiance
@@ -528,6 +530,10 @@ TEST(Render, RadiusBiasDetectsOnlyADifferenceBeyondItsNoise) {
     EXPECT_DOUBLE_EQ(b.estimate(), -0.62);
     EXPECT_DOUBLE_EQ(b.errorWith(0.5), std::hypot(0.5, 0.62));
     EXPECT_FALSE((RadiusBias{0.0, 0.0}).detected());
+    // A change of more than half the light: the estimate is no bound any more.
+    EXPECT_TRUE(b.bounded(1.3));
+    EXPECT_FALSE(b.bounded(1.1));
+    EXPECT_TRUE((RadiusBias{0.3, 0.1}).bounded(0.01));  // not detected: bounded by its noise
 }
 
 // An isotropic point source 30 mm above a large Lambertian plate lights it directly; a free
