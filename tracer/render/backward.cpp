@@ -8,6 +8,7 @@
 #include <bit>
 #include <cmath>
 #include <numbers>
+#include <optional>
 #include <stdexcept>
 #include <unordered_map>
 
@@ -75,6 +76,51 @@ SurfaceContext walkContext(const TransportView& ts, const ViewPoint& v, double w
     return c;
 }
 
+// The scatter lobes at a view point as the backward walk meets them: which channel (by its
+// fraction), then the direction, drawn from the detector's side; the density per sr of a
+// direction w is P(w's side) * scatterPdf. fluxCos(w): f cos of the light that arrives from w
+// and leaves toward the pixel (the adjoint, by reversal: lightContext).
+class ViewPointLobes {
+  public:
+    ViewPointLobes(const TransportView& ts, const ViewPoint& v, double wavelengthNm)
+        : ts_(ts),
+          v_(v),
+          wavelengthNm_(wavelengthNm),
+          prop_(ts.properties[ts.propertyOfObject[v.object]]),
+          walk_(walkContext(ts, v, wavelengthNm)),
+          ch_(prop_.channels(walk_)),
+          sum_(ch_.scatterReflect + ch_.scatterTransmit) {}
+
+    const SurfaceContext& walk() const { return walk_; }
+    double pdf(const Vec3& w) const {
+        if (!(sum_ > 0.0)) return 0.0;
+        const bool transmit = glm::dot(w, walk_.normal) < 0.0;
+        const double p = (transmit ? ch_.scatterTransmit : ch_.scatterReflect) / sum_;
+        return p > 0.0 ? p * prop_.scatterPdf(walk_, w) : 0.0;
+    }
+    double fluxCos(const Vec3& toLight) const {
+        const double f = prop_.bsdf(lightContext(ts_, v_, -toLight, wavelengthNm_), v_.toDetector);
+        return f * std::abs(glm::dot(toLight, v_.normal));
+    }
+    // A direction from three uniforms, or none (no scatter, or the lobe gave none).
+    std::optional<Vec3> sample(double u0, double u1, double u2) const {
+        if (!(sum_ > 0.0)) return std::nullopt;
+        const bool transmit = u0 * sum_ < ch_.scatterTransmit;
+        const ScatterSample ss = prop_.sampleScatter(walk_, transmit, u1, u2);
+        if (!(ss.pdf > 0.0)) return std::nullopt;
+        return ss.direction;
+    }
+
+  private:
+    const TransportView& ts_;
+    const ViewPoint& v_;
+    double wavelengthNm_;
+    const OpticalProperty& prop_;
+    SurfaceContext walk_;
+    Channels ch_;
+    double sum_;
+};
+
 }  // namespace
 
 double directAt(const TransportView& ts, const ViewPoint& v, double wavelengthNm, CounterRng& rng) {
@@ -89,29 +135,14 @@ double directAt(const TransportView& ts, const ViewPoint& v, double wavelengthNm
         const bool sameSide = glm::dot(toLight, v.normal) * glm::dot(v.toDetector, v.normal) > 0.0;
         perSourceSide[2 * source + (sameSide ? 0 : 1)] += value * v.weight;
     };
-    const OpticalProperty& prop = ts.properties[ts.propertyOfObject[v.object]];
     const Scene& scene = *ts.scene;
-    // Scatter sampling from the detector's side: which channel (by its fraction), then the
-    // direction; its density per sr of a direction w is P(w's side) * scatterPdf.
-    const SurfaceContext walk = walkContext(ts, v, wavelengthNm);
-    const Channels ch = prop.channels(walk);
-    const double scatterSum = ch.scatterReflect + ch.scatterTransmit;
-    auto scatterPdf = [&](const Vec3& w) {
-        if (!(scatterSum > 0.0)) return 0.0;
-        const bool transmit = glm::dot(w, walk.normal) < 0.0;
-        const double p = (transmit ? ch.scatterTransmit : ch.scatterReflect) / scatterSum;
-        return p > 0.0 ? p * prop.scatterPdf(walk, w) : 0.0;
-    };
+    const ViewPointLobes lobes(ts, v, wavelengthNm);
     // The medium light crosses to reach the point from direction toLight, and what it keeps.
     auto kept = [&](const Vec3& toLight, double distanceMm) {
         const bool normalSide = glm::dot(toLight, v.normal) > 0.0;
         const int medium = normalSide == v.fromFront ? v.medium : v.otherMedium;
         const double alpha = ts.media->absorptionPerMm(medium, v.wavelength);
         return alpha > 0.0 ? std::exp(-alpha * distanceMm) : 1.0;
-    };
-    auto flux = [&](const Vec3& toLight) {  // f cos: light from toLight scattered to the pixel
-        const double f = prop.bsdf(lightContext(ts, v, -toLight, wavelengthNm), v.toDetector);
-        return f * std::abs(glm::dot(toLight, v.normal));
     };
     double sum = 0.0;
     // Light sampling: one direction per source, weighed by the balance heuristic against the
@@ -121,44 +152,38 @@ double directAt(const TransportView& ts, const ViewPoint& v, double wavelengthNm
         const double u1 = rng.uniform(), u2 = rng.uniform();
         const auto in = s.sampleIncident(v.positionMm, v.wavelength, u1, u2);
         if (!in) continue;
-        const double fc = flux(in->toSource);
+        const double fc = lobes.fluxCos(in->toSource);
         if (!(fc > 0.0)) continue;
         if (scene.closestHit({v.positionMm, in->toSource}, in->distanceMm, v.object, v.primitive))
             continue;  // blocked
         const double mis =
-            in->pdfSr > 0.0 ? in->pdfSr / (in->pdfSr + scatterPdf(in->toSource)) : 1.0;
+            in->pdfSr > 0.0 ? in->pdfSr / (in->pdfSr + lobes.pdf(in->toSource)) : 1.0;
         const double value = fc * in->value * kept(in->toSource, in->distanceMm) * mis;
         sum += value;
         book(si, in->toSource, value);
     }
     // Scatter sampling: one direction, checked against every source it reaches unblocked.
     const double u0 = rng.uniform(), u1 = rng.uniform(), u2 = rng.uniform();
-    if (scatterSum > 0.0) {
-        const bool transmit = u0 * scatterSum < ch.scatterTransmit;
-        const ScatterSample ss = prop.sampleScatter(walk, transmit, u1, u2);
-        if (ss.pdf > 0.0) {
-            const Vec3 w = ss.direction;
-            const double pdf = scatterPdf(w);
-            const double fc = flux(w);
-            if (pdf > 0.0 && fc > 0.0) {
-                const Ray ray{v.positionMm, w};
-                const auto hit = scene.closestHit(ray, kInfinity, v.object, v.primitive);
-                const double tHit = hit ? hit->t : kInfinity;
-                for (size_t si = 0; si < ts.sources.size(); ++si) {
-                    const Source& s = ts.sources[si];
-                    if (s.delta() != Source::Delta::None) continue;
-                    const auto t = s.crossing(ray, tHit);
-                    if (!t) continue;
-                    const Vec3 q = v.positionMm + *t * w;
-                    const double radiance = s.emitted(q, -w, v.wavelength);
-                    if (!(radiance > 0.0)) continue;
-                    const double lightPdf = s.incidentPdf(v.positionMm, q, w);
-                    const double value = fc * radiance * kept(w, *t) / (pdf + lightPdf);
-                    sum += value;
-                    book(si, w, value);
-                }
-            }
-        }
+    const auto sampled = lobes.sample(u0, u1, u2);
+    const double pdf = sampled ? lobes.pdf(*sampled) : 0.0;
+    const double fc = sampled ? lobes.fluxCos(*sampled) : 0.0;
+    if (!(pdf > 0.0 && fc > 0.0)) return sum * v.weight;
+    const Vec3 w = *sampled;
+    const Ray ray{v.positionMm, w};
+    const auto hit = scene.closestHit(ray, kInfinity, v.object, v.primitive);
+    const double tHit = hit ? hit->t : kInfinity;
+    for (size_t si = 0; si < ts.sources.size(); ++si) {
+        const Source& s = ts.sources[si];
+        if (s.delta() != Source::Delta::None) continue;
+        const auto t = s.crossing(ray, tHit);
+        if (!t) continue;
+        const Vec3 q = v.positionMm + *t * w;
+        const double radiance = s.emitted(q, -w, v.wavelength);
+        if (!(radiance > 0.0)) continue;
+        const double lightPdf = s.incidentPdf(v.positionMm, q, w);
+        const double value = fc * radiance * kept(w, *t) / (pdf + lightPdf);
+        sum += value;
+        book(si, w, value);
     }
     return sum * v.weight;
 }
@@ -210,7 +235,6 @@ struct Branch {
 // What one pixel ray brings back, by component.
 struct RayLight {
     double visible = 0.0, direct = 0.0, caustic = 0.0, secondary = 0.0, image = 0.0;
-    double sum() const { return visible + direct + caustic + secondary; }
 };
 
 // What the rays of one pixel produced, merged in pixel order afterwards.
@@ -608,31 +632,17 @@ void PixelTracer::followLobe(int p, const Branch& br, const SceneHit& hit, Pixel
                              PixelOutput& po, RayLight& light) {
     const ViewPoint v = viewPointAt(p, br, hit, s, br.weight);
     directLight(v, br, s, po, light);
-    // One direction from the scatter lobes as seen from the detector's side (the channel by
-    // its fraction, then the lobe), weighted by f cos / pdf of the light that arrives along
-    // it and leaves toward the detector (the adjoint, as directAt evaluates it).
-    const OpticalProperty& prop = ts_.properties[ts_.propertyOfObject[hit.object]];
-    SurfaceContext walk;
-    walk.direction = br.ray.direction;
-    walk.normal = hit.fromFront ? hit.normal : -hit.normal;
-    walk.n1 = ts_.media->index(hit.mediumFrom, s.wavelength);
-    walk.n2 = ts_.media->index(hit.mediumTo, s.wavelength);
-    walk.wavelengthNm = s.wavelengthNm;
-    walk.opaque = isOpaqueKind(ts_.scene->object(hit.object).kind);
-    const Channels ch = prop.channels(walk);
-    const double sum = ch.scatterReflect + ch.scatterTransmit;
+    // One direction from the scatter lobes as seen from the detector's side, weighted by
+    // f cos / pdf of the light that arrives along it and leaves toward the detector.
+    const ViewPointLobes lobes(ts_, v, s.wavelengthNm);
     const double u0 = s.rng.uniform(), u1 = s.rng.uniform(), u2 = s.rng.uniform();
-    if (!(sum > 0.0)) return;
-    const bool transmit = u0 * sum < ch.scatterTransmit;
-    const ScatterSample ss = prop.sampleScatter(walk, transmit, u1, u2);
-    if (!(ss.pdf > 0.0)) return;
-    const Vec3 w = ss.direction;
-    const bool wTransmits = glm::dot(w, walk.normal) < 0.0;
-    const double pdf =
-        (wTransmits ? ch.scatterTransmit : ch.scatterReflect) / sum * prop.scatterPdf(walk, w);
+    const auto sampled = lobes.sample(u0, u1, u2);
+    if (!sampled) return;
+    const Vec3 w = *sampled;
+    const bool wTransmits = glm::dot(w, lobes.walk().normal) < 0.0;
+    const double pdf = lobes.pdf(w);
     if (!(pdf > 0.0)) return;
-    const double f = prop.bsdf(lightContext(ts_, v, -w, s.wavelengthNm), v.toDetector) *
-                     std::abs(glm::dot(w, hit.normal));
+    const double f = lobes.fluxCos(w);
     if (!(f > 0.0)) return;
     Branch next;
     next.ray = {hit.point, w};

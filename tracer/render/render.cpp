@@ -4,6 +4,7 @@
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <bit>
 #include <chrono>
@@ -185,8 +186,24 @@ DetectorImage RenderState::strayLight() const {
     return stray_.scaled(passes_ > 0 ? 1.0 / passes_ : 0.0);
 }
 
-DetectorImage RenderState::radiusDifference() const {
-    return radiusDifference_.scaled(passes_ > 0 ? 1.0 / passes_ : 0.0);
+void RenderState::addImageAndStray(const RenderPass& pass) {
+    const int pixels = imageForming_.pixelCount();
+    RayContribution image, stray;
+    for (int p = 0; p < pixels; ++p) {
+        const size_t i = static_cast<size_t>(p);
+        const double formed = pass.imageForming.empty() ? 0.0 : pass.imageForming[i];
+        // The visible light off the designed path: the image-forming light is a part of the
+        // visible light summed in another order, so what rounding leaves is dropped.
+        const double visible = pass.pixels[static_cast<int>(RenderComponent::Visible)][i];
+        double straySum = visible - formed;
+        if (std::abs(straySum) <= 1e-12 * std::abs(visible)) straySum = 0.0;
+        for (int c = 0; c < kRenderComponents; ++c)
+            if (c != static_cast<int>(RenderComponent::Visible)) straySum += pass.pixels[c][i];
+        if (formed != 0.0) image.add(p, formed);
+        if (straySum != 0.0) stray.add(p, straySum);
+    }
+    imageForming_.add(image);
+    stray_.add(stray);
 }
 
 void RenderState::add(const RenderPass& pass) {
@@ -196,25 +213,7 @@ void RenderState::add(const RenderPass& pass) {
                                     std::to_string(criterionSums_.size()));
     addTo(sums_, pass.pixels);
     addDifference(radiusDifference_, pass.pixels, pass.gatheredHalf);
-    {
-        const int pixels = imageForming_.pixelCount();
-        RayContribution image, stray;
-        for (int p = 0; p < pixels; ++p) {
-            const size_t i = static_cast<size_t>(p);
-            const double formed = pass.imageForming.empty() ? 0.0 : pass.imageForming[i];
-            // The visible light off the designed path: the image-forming light is a part of
-            // the visible light summed in another order, so what rounding leaves is dropped.
-            const double visible = pass.pixels[static_cast<int>(RenderComponent::Visible)][i];
-            double straySum = visible - formed;
-            if (std::abs(straySum) <= 1e-12 * std::abs(visible)) straySum = 0.0;
-            for (int c = 0; c < kRenderComponents; ++c)
-                if (c != static_cast<int>(RenderComponent::Visible)) straySum += pass.pixels[c][i];
-            if (formed != 0.0) image.add(p, formed);
-            if (straySum != 0.0) stray.add(p, straySum);
-        }
-        imageForming_.add(image);
-        stray_.add(stray);
-    }
+    addImageAndStray(pass);
     for (size_t k = 0; k < criterionSums_.size(); ++k) {
         addTo(criterionSums_[k], pass.criteria[k]);
         addDifference(criterionRadiusDifference_[k], pass.criteria[k],
@@ -598,10 +597,11 @@ DiskShare viewPointAreaShare(const Scene& scene, const ViewPoint& v, double radi
     return out;
 }
 
-double pieceWidth(const Scene& scene, const ViewPoint& v, double reachMm, double gapMm, double turn,
-                  bool otherSide) {
-    const FaceProbe probe(scene, v, otherSide, gapMm);
-    // How far the piece reaches from v along the half line at angle phi, to 1/64 of reach.
+namespace {
+
+// pieceWidth with the view point's probe.
+double chordWidth(const FaceProbe& probe, double reachMm, double turn) {
+    // How far the piece reaches from v along the half line at angle phi, to 1/256 of reach.
     auto extent = [&](double phi) {
         if (probe.lands(reachMm, phi, reachMm)) return reachMm;
         double lo = 0.0, hi = reachMm;
@@ -623,6 +623,13 @@ double pieceWidth(const Scene& scene, const ViewPoint& v, double reachMm, double
     return chords[1];
 }
 
+}  // namespace
+
+double pieceWidth(const Scene& scene, const ViewPoint& v, double reachMm, double gapMm, double turn,
+                  bool otherSide) {
+    return chordWidth(FaceProbe(scene, v, otherSide, gapMm), reachMm, turn);
+}
+
 GatherDisk viewPointDisk(const Scene& scene, const ViewPoint& v, double radiusMm, int samples,
                          double turn, bool otherSide) {
     const double gap = kGapFraction * radiusMm;
@@ -636,7 +643,7 @@ GatherDisk viewPointDisk(const Scene& scene, const ViewPoint& v, double radiusMm
     if (out.share < kFitShare) {
         // Extents up to 2.5 r, so that a view point on the rim of a wide face finds a chord
         // well over 2 r across it.
-        const double width = pieceWidth(scene, v, 2.5 * radiusMm, gap, turn, otherSide);
+        const double width = chordWidth(probe, 2.5 * radiusMm, turn);
         const double fitted = std::min(radiusMm, kPieceRadiusFraction * width);
         if (fitted < radiusMm) {
             out.radiusMm = fitted;

@@ -181,7 +181,6 @@ class RenderState {
     // mean per pixel of E(r) - E(r/2) with its variance.
     RadiusBias radiusBias() const;
     RadiusBias criterionRadiusBias(int k) const;
-    DetectorImage radiusDifference() const;
 
     // The image-forming light (the sources' image through the lens's designed path) and the
     // stray light (the total without it), as component(); the stray light's mean relative
@@ -210,6 +209,8 @@ class RenderState {
                               const std::array<std::vector<double>, kRenderComponents>& x,
                               const std::vector<double>& half);
     static RadiusBias biasOf(const DetectorImage& sums, int passes);
+    // Adds a pass's image-forming light and its stray light (the rest of its total).
+    void addImageAndStray(const RenderPass& pass);
     Sums sums_;
     std::vector<Sums> criterionSums_;
     DetectorImage radiusDifference_;

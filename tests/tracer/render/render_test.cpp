@@ -317,6 +317,37 @@ std::pair<double, double> forwardTotal(const PreparedScene& s, uint64_t rays, ui
     return {forward.detectors[0].totalFlux(), std::sqrt(forward.detectors[0].totalVariance(rays))};
 }
 
+// The [system] of a plane window as the lens: glass of index n (no dispersion), thicknessMm
+// thick, clear radius sdMm, its back face 100 mm before the image surface.
+std::string planeWindowSystem(double thicknessMm, double sdMm, double n = 1.5) {
+    char text[512];
+    snprintf(text, sizeof text,
+             "[system]\nwavelengths_nm = [550.0]\naperture = { epd_mm = 20.0 }\n"
+             "fields_deg = [0.0]\nsurfaces = [\n"
+             "  { r = 0.0, t = %g, glass = { nd = %g, vd = 0.0 }, sd = %g, stop = true },\n"
+             "  { r = 0.0, t = 100.0, sd = %g },\n]\n",
+             thicknessMm, n, sdMm, sdMm);
+    return text;
+}
+
+// A scene of the test's own: a plane window (planeWindowSystem) and one box mesh from lo to
+// hi, then `rest` (meshes, properties, sources, detector), in which "{box}" stands for the
+// box's file name.
+std::unique_ptr<PreparedScene> windowBoxScene(double thicknessMm, double sdMm, Vec3 lo, Vec3 hi,
+                                              std::string rest) {
+    const std::string stem = ::testing::TempDir() + "veil_render_" + testName();
+    writeBox(stem + ".off", lo, hi);
+    const std::string box = std::filesystem::path(stem + ".off").filename().string();
+    for (size_t at = rest.find("{box}"); at != std::string::npos; at = rest.find("{box}"))
+        rest.replace(at, 5, box);
+    const std::string path = stem + ".toml";
+    FILE* f = fopen(path.c_str(), "w");
+    EXPECT_TRUE(f);
+    fprintf(f, "%s%s", planeWindowSystem(thicknessMm, sdMm).c_str(), rest.c_str());
+    fclose(f);
+    return PreparedScene::read(path, GlassCatalog::builtIn());
+}
+
 // The id of the scene's object `name` (a test failure and -1 when there is none).
 int objectId(const Scene& scene, const std::string& name) {
     for (const SceneObject& o : scene.objects())
@@ -466,25 +497,14 @@ TEST(Render, GatheringDiskFitsThePieceItLiesOn) {
 // half-radius estimate detects it, and the error with the bias covers the difference from
 // forward Monte Carlo.
 std::unique_ptr<PreparedScene> smallLitPlateScene() {
-    const std::string stem = ::testing::TempDir() + "veil_render_" + testName();
-    writeBox(stem + ".off", Vec3(-5.0, -5.0, -1.5), Vec3(5.0, 5.0, -0.5));
-    const std::string path = stem + ".toml";
-    FILE* f = fopen(path.c_str(), "w");
-    EXPECT_TRUE(f);
-    fprintf(f,
-            "[system]\nwavelengths_nm = [550.0]\naperture = { epd_mm = 20.0 }\n"
-            "fields_deg = [0.0]\nsurfaces = [\n"
-            "  { r = 0.0, t = 2.0, glass = { nd = 1.5, vd = 0.0 }, sd = 30.0, stop = true },\n"
-            "  { r = 0.0, t = 100.0, sd = 30.0 },\n]\n"
-            "[[mesh]]\nname = \"plate\"\nfile = \"%s\"\nproperty = \"white\"\n"
-            "[properties.white]\nscatter = { model = \"lambertian\", reflectance = 0.5 }\n"
-            "[[source]]\nname = \"lamp\"\nkind = \"point\"\nposition_mm = [0.0, 0.0, 2.5]\n"
-            "half_angle_deg = 80\naxis = [0, 0, -1]\nflux = 1.0\n"
-            "[detector]\nname = \"det\"\nz_mm = 30.0\nsize_mm = [20.0, 20.0]\npixels = [4, 4]\n"
-            "[[assign]]\nobjects = \"L1.*\"\nproperty = \"ideal_ar\"\n",
-            std::filesystem::path(stem + ".off").filename().c_str());
-    fclose(f);
-    return PreparedScene::read(path, GlassCatalog::builtIn());
+    return windowBoxScene(
+        2.0, 30.0, Vec3(-5.0, -5.0, -1.5), Vec3(5.0, 5.0, -0.5),
+        "[[mesh]]\nname = \"plate\"\nfile = \"{box}\"\nproperty = \"white\"\n"
+        "[properties.white]\nscatter = { model = \"lambertian\", reflectance = 0.5 }\n"
+        "[[source]]\nname = \"lamp\"\nkind = \"point\"\nposition_mm = [0.0, 0.0, 2.5]\n"
+        "half_angle_deg = 80\naxis = [0, 0, -1]\nflux = 1.0\n"
+        "[detector]\nname = \"det\"\nz_mm = 30.0\nsize_mm = [20.0, 20.0]\npixels = [4, 4]\n"
+        "[[assign]]\nobjects = \"L1.*\"\nproperty = \"ideal_ar\"\n");
 }
 
 TEST(Render, RadiusBiasOnASmallLitPartIsDetectedAndBounded) {
@@ -551,18 +571,16 @@ TEST(Render, PointSourceLightingAPlateThroughAWindowObeysTheClosedForm) {
     const double R = 0.3, flux = 1.0, n = 1.5, glass = 5.0, detZ = 60.0, side = 20.0;
     const Vec3 lamp(0.0, 0.0, -20.0);
     fprintf(f,
-            "[system]\nwavelengths_nm = [550.0]\naperture = { epd_mm = 20.0 }\n"
-            "fields_deg = [0.0]\nsurfaces = [\n"
-            "  { r = 0.0, t = %g, glass = { nd = %g, vd = 0.0 }, sd = 600.0, stop = true },\n"
-            "  { r = 0.0, t = 100.0, sd = 600.0 },\n]\n"
+            "%s"
             "[[mesh]]\nname = \"plate\"\nfile = \"%s\"\nproperty = \"white\"\n"
             "[properties.white]\nscatter = { model = \"lambertian\", reflectance = %g }\n"
             "[[source]]\nname = \"lamp\"\nkind = \"point\"\nposition_mm = [%g, %g, %g]\n"
             "half_angle_deg = 180\nflux = %g\n"
             "[detector]\nname = \"det\"\nz_mm = %g\nsize_mm = [%g, %g]\npixels = [2, 2]\n"
             "[[assign]]\nobjects = \"L1.*\"\nproperty = \"ideal_ar\"\n",
-            glass, n, std::filesystem::path(stem + ".off").filename().c_str(), R, lamp.x, lamp.y,
-            lamp.z, flux, detZ, side, side);
+            planeWindowSystem(glass, 600.0, n).c_str(),
+            std::filesystem::path(stem + ".off").filename().c_str(), R, lamp.x, lamp.y, lamp.z,
+            flux, detZ, side, side);
     fclose(f);
     const auto s = PreparedScene::read(path, GlassCatalog::builtIn());
     // Quadrature: detector points on a 16 x 16 midpoint grid (the radiance varies slowly
@@ -619,23 +637,12 @@ TEST(Render, PointSourceLightingAPlateThroughAWindowObeysTheClosedForm) {
 // detector (1 - R) / (1 + R) the image-forming share is (1 - R)^2 / ((1 - R) / (1 + R)) and
 // the stray share the rest, R^2 (1 + ...) = 1 - (1 - R)(1 + R).
 TEST(Render, ImageFormingLightIsTheDesignedPathAndTheGhostsAreStray) {
-    const std::string stem = ::testing::TempDir() + "veil_render_" + testName();
-    writeBox(stem + ".off", Vec3(100.0, 100.0, -20.0), Vec3(110.0, 110.0, -19.0));
-    const std::string path = stem + ".toml";
-    FILE* f = fopen(path.c_str(), "w");
-    ASSERT_TRUE(f);
-    fprintf(f,
-            "[system]\nwavelengths_nm = [550.0]\naperture = { epd_mm = 20.0 }\n"
-            "fields_deg = [0.0]\nsurfaces = [\n"
-            "  { r = 0.0, t = 5.0, glass = { nd = 1.5, vd = 0.0 }, sd = 10.0, stop = true },\n"
-            "  { r = 0.0, t = 100.0, sd = 10.0 },\n]\n"
-            "[[mesh]]\nname = \"block\"\nfile = \"%s\"\nproperty = \"white\"\n"
-            "[properties.white]\nscatter = { model = \"lambertian\", reflectance = 0.5 }\n"
-            "[[source]]\nname = \"sun\"\nkind = \"sun\"\nfield_deg = [0.0, 0.0]\n"
-            "[detector]\nname = \"det\"\nz_mm = 50.0\nsize_mm = [10.0, 10.0]\npixels = [1, 1]\n",
-            std::filesystem::path(stem + ".off").filename().c_str());
-    fclose(f);
-    const auto s = PreparedScene::read(path, GlassCatalog::builtIn());
+    const auto s = windowBoxScene(
+        5.0, 10.0, Vec3(100.0, 100.0, -20.0), Vec3(110.0, 110.0, -19.0),
+        "[[mesh]]\nname = \"block\"\nfile = \"{box}\"\nproperty = \"white\"\n"
+        "[properties.white]\nscatter = { model = \"lambertian\", reflectance = 0.5 }\n"
+        "[[source]]\nname = \"sun\"\nkind = \"sun\"\nfield_deg = [0.0, 0.0]\n"
+        "[detector]\nname = \"det\"\nz_mm = 50.0\nsize_mm = [10.0, 10.0]\npixels = [1, 1]\n");
     const ExitAperture a = exitApertureFor(s->scene(), s->transport().images[0].geometry());
     RenderOptions o;
     o.raysPerPixel = 16;
@@ -656,26 +663,15 @@ TEST(Render, ImageFormingLightIsTheDesignedPathAndTheGhostsAreStray) {
 // through it: the pixel rays follow its lobe (followLobesBelowDeg) to the emitter, and the
 // light they find agrees with forward Monte Carlo, as the gathered light does.
 TEST(Render, FollowedNarrowLobesAgreeWithForwardMonteCarlo) {
-    const std::string stem = ::testing::TempDir() + "veil_render_" + testName();
-    writeBox(stem + ".off", Vec3(-300.0, -300.0, -51.0), Vec3(300.0, 300.0, -50.0));
-    const std::string path = stem + ".toml";
-    FILE* f = fopen(path.c_str(), "w");
-    ASSERT_TRUE(f);
-    fprintf(f,
-            "[system]\nwavelengths_nm = [550.0]\naperture = { epd_mm = 20.0 }\n"
-            "fields_deg = [0.0]\nsurfaces = [\n"
-            "  { r = 0.0, t = 5.0, glass = { nd = 1.5, vd = 0.0 }, sd = 400.0, stop = true },\n"
-            "  { r = 0.0, t = 100.0, sd = 400.0 },\n]\n"
-            "[[mesh]]\nname = \"plate\"\nfile = \"%s\"\nproperty = \"gloss\"\n"
-            "[properties.gloss]\n"
-            "scatter = { model = \"gaussian\", reflectance = 0.3, half_width_deg = 5.0 }\n"
-            "[[source]]\nname = \"lamp\"\nkind = \"lambertian\"\nposition_mm = [0.0, 0.0, 20.0]\n"
-            "normal = [0.0, 0.0, -1.0]\nradius_mm = 100.0\nflux = 1.0\n"
-            "[detector]\nname = \"det\"\nz_mm = 40.0\nsize_mm = [40.0, 40.0]\npixels = [2, 2]\n"
-            "[[assign]]\nobjects = \"L1.*\"\nproperty = \"ideal_ar\"\n",
-            std::filesystem::path(stem + ".off").filename().c_str());
-    fclose(f);
-    const auto s = PreparedScene::read(path, GlassCatalog::builtIn());
+    const auto s = windowBoxScene(
+        5.0, 400.0, Vec3(-300.0, -300.0, -51.0), Vec3(300.0, 300.0, -50.0),
+        "[[mesh]]\nname = \"plate\"\nfile = \"{box}\"\nproperty = \"gloss\"\n"
+        "[properties.gloss]\n"
+        "scatter = { model = \"gaussian\", reflectance = 0.3, half_width_deg = 5.0 }\n"
+        "[[source]]\nname = \"lamp\"\nkind = \"lambertian\"\nposition_mm = [0.0, 0.0, 20.0]\n"
+        "normal = [0.0, 0.0, -1.0]\nradius_mm = 100.0\nflux = 1.0\n"
+        "[detector]\nname = \"det\"\nz_mm = 40.0\nsize_mm = [40.0, 40.0]\npixels = [2, 2]\n"
+        "[[assign]]\nobjects = \"L1.*\"\nproperty = \"ideal_ar\"\n");
     const SceneTransport& t = s->transport();
     const auto [ref, refSigma] = forwardTotal(*s, 2000000, 3);
     const ExitAperture a = exitApertureFor(s->scene(), t.images[0].geometry());
@@ -694,7 +690,9 @@ TEST(Render, FollowedNarrowLobesAgreeWithForwardMonteCarlo) {
             << ref << " +- " << refSigma;
         EXPECT_LT(sigma, 0.12 * ref) << "follow " << follow;
         // Followed, no photon is gathered: no radius bias to find.
-        if (follow > 0.0) EXPECT_EQ(state.radiusBias().difference, 0.0);
+        if (follow > 0.0) {
+            EXPECT_EQ(state.radiusBias().difference, 0.0);
+        }
     }
 }
 
