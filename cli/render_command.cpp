@@ -99,7 +99,21 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
                     "continue the run in this folder (its render.checkpoint); same scene and "
                     "options");
     sub->add_option("--detector", o.detector, "the detector to render (default: the first)");
-    addCount(sub, "--photons", o.photons, "photons per source per pass");
+    sub->add_option("--photons", o.photons,
+                    "photons per source per pass: auto (100000 in the first pass, then as many "
+                    "as make their work that of the view points, at most 4M) or a count for "
+                    "every pass (20000, 2e4, 20k, 2M)")
+        ->check(CLI::Validator(
+            [](std::string& s) -> std::string {
+                if (s == "auto") return {};
+                std::string error;
+                const auto n = parseCount(s, &error);
+                if (!n) return "--photons " + error + " (or auto)";
+                if (*n < 1) return "--photons must be at least 1";
+                return {};
+            },
+            "auto|N"))
+        ->capture_default_str();
     addCount(sub, "--ghost-photons", o.ghostPhotons,
              "of those, how many follow every specular branch and deposit the sources' visible "
              "light and ghosts (at most --photons)");
@@ -173,7 +187,12 @@ RenderRunSpec renderSpec(const RenderCommandOptions& o) {
         throw ParseError({"--resume", 1, 1}, o.resume + " holds no " + kCheckpoint + " to continue");
     RenderOptions& ro = spec.options;
     ro.raysPerPixel = o.raysPerPixel;
-    ro.photonsPerPass = o.photons;
+    if (o.photons == "auto") {
+        ro.balancePhotons = true;
+    } else {
+        ro.photonsPerPass = *parseCount(o.photons, nullptr);
+        if (ro.photonsPerPass > ro.maxPhotonsPerPass) ro.maxPhotonsPerPass = ro.photonsPerPass;
+    }
     ro.ghostPhotonsPerPass = o.ghostPhotons;
     ro.alpha = o.alpha;
     ro.seed = o.seed;

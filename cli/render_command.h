@@ -27,7 +27,9 @@ struct RenderCommandOptions {
     std::string timeLimit = "10m";
     int passes = 0;  // 0: no pass limit
     std::string detector;
-    uint64_t photons = 100000;      // per source per pass
+    // Per source per pass: "auto" (100000 in the first pass, then balanced against the view
+    // points: RenderOptions::balancePhotons) or a count for every pass.
+    std::string photons = "auto";
     uint64_t ghostPhotons = 16384;  // of those, following every specular branch
     uint64_t raysPerPixel = 16;
     double radiusMm = 0.0;  // 0: automatic

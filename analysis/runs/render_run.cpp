@@ -39,7 +39,8 @@ uint64_t fingerprintOf(const TransportView& ts, const DetectorGeometry& g, const
        << o.maxSpecularDepth << " " << o.detectorRadiusPixels << " " << o.viewPointRelativeWeight
        << " " << o.rouletteRelativeFlux << " " << o.maxPhotonSegments << " " << o.prune << " "
        << o.areaSamples << " " << o.quasiRandomPhotons << " " << o.ghostPhotons() << " "
-       << o.photonRescueRelativeFlux << " " << o.guideFraction << " " << o.followLobesBelowDeg;
+       << o.photonRescueRelativeFlux << " " << o.guideFraction << " " << o.followLobesBelowDeg
+       << " " << o.balancePhotons << " " << o.maxPhotonsPerPass;
     for (const std::string& w : where) os << "\nwhere " << w;
     const std::string text = os.str();
     uint64_t h = 1469598103934665603ull;
@@ -181,14 +182,19 @@ RenderResult RenderRun::run(const std::function<void(const RenderPassEvent&)>& o
     while (true) {
         if (ranks.root()) r.stopReason = stopReason(seconds());
         if (!ranks.broadcastFlag(r.stopReason.empty())) break;
-        const RenderPass pass =
-            renderer_->runPass(state_.passes() + 1, state_.radiusMm(), state_.learned());
+        const RenderPass pass = renderer_->runPass(state_.passes() + 1, state_.radiusMm(),
+                                                   state_.learned(), state_.photonsPerPass());
         state_.add(pass, ranks);
         if (!ranks.root()) continue;
         if (!spec_.checkpoint.empty()) state_.write(spec_.checkpoint, fingerprint_);
         r.photons += pass.photons;
         r.gathers += pass.gathers;
         r.viewPoints += pass.viewPoints;
+        r.backwardSegments += pass.backwardSegments;
+        r.lastPhotonsPerSource = pass.photonsPerSource;
+        r.viewPointWork += pass.viewPointWork;
+        r.photonWork += pass.photonWork;
+        r.photonSegments += pass.photonSegments;
         r.prunedBranches += pass.prunedBranches;
         r.prunedPhotons += pass.prunedPhotons;
         r.backwardSeconds += pass.backwardSeconds;
@@ -284,6 +290,8 @@ nlohmann::json RenderResult::summary() const {
                             {"rank0_seconds_in_mpi", traffic.seconds}};
     summary["options"] = {{"rays_per_pixel", ro.raysPerPixel},
                           {"photons_per_source_per_pass", ro.photonsPerPass},
+                          {"balanced_photons", ro.balancePhotons},
+                          {"max_photons_per_source_per_pass", ro.maxPhotonsPerPass},
                           {"ghost_photons_per_source_per_pass", ro.ghostPhotons()},
                           {"initial_radius_mm", ro.initialRadiusMm},
                           {"alpha", ro.alpha},
@@ -293,6 +301,7 @@ nlohmann::json RenderResult::summary() const {
                           {"follow_lobes_below_deg", ro.followLobesBelowDeg},
                           {"photon_points", ro.quasiRandomPhotons ? "sobol" : "random"}};
     summary["final_radius_mm"] = state.radiusMm();
+    summary["photons_per_source_last_pass"] = lastPhotonsPerSource;
     summary["exit_aperture"] = {
         {"center_mm", {aperture.centerMm.x, aperture.centerMm.y, aperture.centerMm.z}},
         {"radius_mm", aperture.radiusMm}};
@@ -366,6 +375,10 @@ nlohmann::json RenderResult::summary() const {
     summary["photons_this_run"] = photons;
     summary["view_points_this_run"] = viewPoints;
     summary["gathers_this_run"] = gathers;
+    summary["backward_segments_this_run"] = backwardSegments;
+    summary["photon_segments_this_run"] = photonSegments;
+    summary["view_point_work_this_run"] = viewPointWork;
+    summary["photon_work_this_run"] = photonWork;
     summary["backward_seconds_this_run"] = backwardSeconds;
     summary["photon_seconds_this_run"] = photonSeconds;
     return summary;
@@ -431,9 +444,13 @@ std::string RenderResult::text(const std::string& folder) const {
                      ? std::to_string(100.0 * finalTargetError).substr(0, 5) + " %"
                      : "unknown");
     text << ")\n";
-    text << "  radius " << ro.initialRadiusMm << " mm -> " << state.radiusMm() << " mm, "
-         << ro.photonsPerPass << " photons per source and " << ro.raysPerPixel
-         << " rays per pixel per pass\n";
+    text << "  radius " << ro.initialRadiusMm << " mm -> " << state.radiusMm() << " mm, ";
+    if (ro.balancePhotons && lastPhotonsPerSource != ro.photonsPerPass)
+        text << "photons per source balanced against the view points (" << ro.photonsPerPass
+             << " in the first pass, " << lastPhotonsPerSource << " in the last)";
+    else
+        text << ro.photonsPerPass << " photons per source";
+    text << " and " << ro.raysPerPixel << " rays per pixel per pass\n";
     if (!spec.ranks.single())
         text << "  across " << spec.ranks.size() << " ranks: rank 0 received "
              << static_cast<double>(traffic.received) / 1e6 << " MB and sent "

@@ -107,26 +107,47 @@ TEST(Mpi, TraceOnRanksIsBitwiseOneProcess) {
     EXPECT_EQ(b.out.find("Flux budget"), b.out.rfind("Flux budget")) << b.out;
 }
 
-TEST(Mpi, RenderOnRanksIsBitwiseAndResumesOnAnotherRankCount) {
-    SKIP_WITHOUT_MPI();
-    const std::string args = "render " + kSun +
-                             " --photons 4k --rays-per-pixel 2 --time-limit none --threads 1 "
-                             "--quiet --seed 3 ";
+// Renders `args` for 2 passes on one rank and on two, expecting the same `files`, then resumes each
+// to 3 passes on the other's rank count: still one run. The summary of the first, after checking
+// that the second's is the same.
+nlohmann::json renderOnRanksAndResume(const std::string& args,
+                                      const std::vector<std::string>& files) {
     const std::string one = dirFor("one"), two = dirFor("two");
     const VeilRun a = runVeil(args + "--passes 2 -o " + one);
-    ASSERT_EQ(a.exitCode, 0) << a.err;
+    EXPECT_EQ(a.exitCode, 0) << a.err;
     const VeilRun b = runVeil(args + "--passes 2 -o " + two, mpirun(2));
-    ASSERT_EQ(b.exitCode, 0) << b.err;
-    expectSameFiles(one, two, {"render.checkpoint", "sensor_image.exr", "sensor_image.png"});
-    // Each resumed on the other's rank count: still one run.
+    EXPECT_EQ(b.exitCode, 0) << b.err;
+    expectSameFiles(one, two, files);
     const VeilRun c = runVeil(args + "--passes 3 --resume " + one, mpirun(2));
-    ASSERT_EQ(c.exitCode, 0) << c.err;
+    EXPECT_EQ(c.exitCode, 0) << c.err;
     const VeilRun d = runVeil(args + "--passes 3 --resume " + two);
-    ASSERT_EQ(d.exitCode, 0) << d.err;
-    expectSameFiles(one, two, {"render.checkpoint", "sensor_image.exr"});
+    EXPECT_EQ(d.exitCode, 0) << d.err;
+    expectSameFiles(one, two, files);
     const nlohmann::json s = nlohmann::json::parse(bytes(one + "/summary.json"));
     EXPECT_EQ(s["passes"].get<int>(), 3);
     EXPECT_EQ(withoutClock(s), withoutClock(nlohmann::json::parse(bytes(two + "/summary.json"))));
+    return s;
+}
+
+TEST(Mpi, RenderOnRanksIsBitwiseAndResumesOnAnotherRankCount) {
+    SKIP_WITHOUT_MPI();
+    renderOnRanksAndResume("render " + kSun +
+                               " --photons 4k --rays-per-pixel 2 --time-limit none --threads 1 "
+                               "--quiet --seed 3 ",
+                           {"render.checkpoint", "sensor_image.exr", "sensor_image.png"});
+}
+
+TEST(Mpi, BalancedPhotonsOnRanksAreBitwiseOneProcess) {
+    // The default photons (auto): each pass's count from the work counts of the pass before,
+    // the same on every rank count, through a resume on another rank count.
+    SKIP_WITHOUT_MPI();
+    const nlohmann::json s = renderOnRanksAndResume(
+        "render examples/scenes/seed_fig13_butt_ends.toml --rays-per-pixel 2 --time-limit none "
+        "--threads 1 --quiet --seed 5 ",
+        {"render.checkpoint", "sensor.exr"});
+    EXPECT_TRUE(s["options"]["balanced_photons"].get<bool>());
+    EXPECT_NE(s["photons_per_source_last_pass"].get<uint64_t>(),
+              s["options"]["photons_per_source_per_pass"].get<uint64_t>());
 }
 
 TEST(Mpi, SweepAndPstOnRanksAreBitwiseOneProcess) {

@@ -124,6 +124,7 @@ struct PhotonBlock {
     std::vector<Deposit> deposits;
     std::vector<double> learned;
     uint64_t photons = 0, segments = 0, gathers = 0, pruned = 0;
+    uint64_t ghostWork = 0;  // the segments and gathers of the ghost photons (splitAll)
 };
 
 // One photon as emitted: its random stream (shared by all its branches) and the thresholds of
@@ -154,6 +155,13 @@ class PhotonPass {
                const Ranks& ranks);
 
     uint64_t total() const { return perSource_ * ts_.sources.size(); }
+    // The probe rays of the disks the pass's photons gathered into (each counted once, however
+    // many threads raced to fit it): once the photons are traced, the same for every thread
+    // and rank count. Across ranks, a collective call.
+    uint64_t diskRays() const;
+    void markReached(uint32_t i, bool otherSide) const {
+        reached_[2 * size_t{i} + (otherSide ? 1 : 0)].store(1, std::memory_order_relaxed);
+    }
     PhotonBlock traceBlock(uint64_t first, uint64_t last) const;
     PhotonImages emptyImages() const;
     static void add(const PhotonBlock& b, PhotonImages& result);
@@ -193,9 +201,14 @@ class PhotonPass {
     const std::vector<ViewPoint>& vps_;
     const ViewPointGrid grid_;
     const double r2_, gapMm_;
-    // Per view point and side: radius factor, 1 / half share, then 1 / share (0: not yet
-    // computed; written last with release, so a reader that sees it sees the other two).
+    // Per view point and side (kDiskSlots floats): radius factor, 1 / half share, the probe
+    // rays the disk cost, then 1 / share (0: not yet computed; written last with release, so
+    // a reader that sees it sees the others).
+    static constexpr size_t kDiskSlots = 4;
     mutable std::vector<std::atomic<float>> disks_;
+    // Per view point and side: whether a photon of this rank gathered there (its disk's probe
+    // rays count as the pass's work whichever rank fitted it).
+    mutable std::vector<std::atomic<uint8_t>> reached_;
     const uint64_t perSource_, ghostPhotons_;
     const double visibleScale_;
     const uint64_t photonSeed_;
@@ -226,7 +239,8 @@ PhotonPass::PhotonPass(const TransportView& ts, const DetectorImage& detector,
       grid_(back.viewPoints, radiusMm),
       r2_(radiusMm * radiusMm),
       gapMm_(kGapFraction * radiusMm),
-      disks_(6 * back.viewPoints.size()),
+      disks_(2 * kDiskSlots * back.viewPoints.size()),
+      reached_(2 * back.viewPoints.size()),
       perSource_(options.photonsPerPass),
       ghostPhotons_(options.ghostPhotons()),
       visibleScale_(static_cast<double>(options.photonsPerPass) /
@@ -237,6 +251,7 @@ PhotonPass::PhotonPass(const TransportView& ts, const DetectorImage& detector,
       prune_(judge && options.prune),
       stateBytes_(judge ? judge->stateBytes() : 0) {
     for (auto& x : disks_) x.store(0.0f, std::memory_order_relaxed);
+    for (auto& x : reached_) x.store(0, std::memory_order_relaxed);
     if (!ranks.single()) shareCorrectionsAcrossRanks();
     for (size_t s = 0; s < ts.sources.size(); ++s)
         emission_.emplace_back(passSeed(options.seed, static_cast<uint64_t>(k), 3) ^
@@ -248,8 +263,8 @@ PhotonPass::PhotonPass(const TransportView& ts, const DetectorImage& detector,
 }
 
 PhotonPass::Disk PhotonPass::disk(uint32_t i, bool otherSide) const {
-    std::atomic<float>* slot = &disks_[3 * (2 * size_t{i} + (otherSide ? 1 : 0))];
-    float c = slot[2].load(std::memory_order_acquire);
+    std::atomic<float>* slot = &disks_[kDiskSlots * (2 * size_t{i} + (otherSide ? 1 : 0))];
+    float c = slot[3].load(std::memory_order_acquire);
     if (c == 0.0f) {
         const double turn =
             2.0 * std::numbers::pi * CounterRng(passSeed(options_.seed, k_, 2), i).uniform();
@@ -258,11 +273,35 @@ PhotonPass::Disk PhotonPass::disk(uint32_t i, bool otherSide) const {
         const double sign = d.inGap ? -1.0 : 1.0;
         slot[0].store(static_cast<float>(d.radiusMm / radiusMm_), std::memory_order_relaxed);
         slot[1].store(static_cast<float>(sign / d.halfShare), std::memory_order_relaxed);
+        slot[2].store(static_cast<float>(d.rays), std::memory_order_relaxed);
         c = static_cast<float>(sign / d.share);
-        slot[2].store(c, std::memory_order_release);
+        slot[3].store(c, std::memory_order_release);
     }
     return {static_cast<double>(slot[0].load(std::memory_order_relaxed)), static_cast<double>(c),
             static_cast<double>(slot[1].load(std::memory_order_relaxed))};
+}
+
+uint64_t PhotonPass::diskRays() const {
+    std::vector<uint8_t> reached(reached_.size());
+    for (size_t d = 0; d < reached.size(); ++d)
+        reached[d] = reached_[d].load(std::memory_order_relaxed);
+    if (!ranks_.single()) {
+        ByteWriter w;
+        w.putVector(reached);
+        for (const Bytes& b : ranks_.gatherAll(w.take())) {
+            ByteReader in(b);
+            const std::vector<uint8_t> theirs = in.getVector<uint8_t>();
+            if (theirs.size() != reached.size())
+                throw std::runtime_error("the reached view points of another rank are damaged");
+            for (size_t d = 0; d < reached.size(); ++d) reached[d] |= theirs[d];
+        }
+    }
+    uint64_t rays = 0;
+    for (size_t d = 0; d < reached.size(); ++d)
+        if (reached[d] != 0)
+            rays +=
+                static_cast<uint64_t>(disks_[kDiskSlots * d + 2].load(std::memory_order_relaxed));
+    return rays;
 }
 
 void PhotonPass::shareCorrectionsAcrossRanks() {
@@ -283,8 +322,8 @@ void PhotonPass::shareCorrectionsAcrossRanks() {
          b += static_cast<size_t>(ranks_.size()))
         for (size_t i = b * kShareBlock; i < std::min(n, (b + 1) * kShareBlock); ++i)
             for (size_t side = 0; side < (transmissive(i) ? 2u : 1u); ++side)
-                for (size_t x = 0; x < 3; ++x)
-                    w.put(disks_[3 * (2 * i + side) + x].load(std::memory_order_relaxed));
+                for (size_t x = 0; x < kDiskSlots; ++x)
+                    w.put(disks_[kDiskSlots * (2 * i + side) + x].load(std::memory_order_relaxed));
     const std::vector<Bytes> all = ranks_.gatherAll(w.take());
     for (int q = 0; q < ranks_.size(); ++q) {
         if (q == ranks_.rank()) continue;
@@ -293,9 +332,9 @@ void PhotonPass::shareCorrectionsAcrossRanks() {
              b += static_cast<size_t>(ranks_.size()))
             for (size_t i = b * kShareBlock; i < std::min(n, (b + 1) * kShareBlock); ++i)
                 for (size_t side = 0; side < (transmissive(i) ? 2u : 1u); ++side)
-                    for (size_t x = 0; x < 3; ++x)
-                        disks_[3 * (2 * i + side) + x].store(in.get<float>(),
-                                                             std::memory_order_relaxed);
+                    for (size_t x = 0; x < kDiskSlots; ++x)
+                        disks_[kDiskSlots * (2 * i + side) + x].store(in.get<float>(),
+                                                                      std::memory_order_relaxed);
         if (!in.done())
             throw std::runtime_error("the view point shares of another rank are damaged");
     }
@@ -382,13 +421,14 @@ void PhotonPass::add(const PhotonBlock& b, PhotonImages& result) {
     result.segments += b.segments;
     result.gathers += b.gathers;
     result.pruned += b.pruned;
+    result.ghostWork += b.ghostWork;
 }
 
 Bytes PhotonPass::pack(const PhotonBlock& b) {
     ByteWriter w;
     w.putVector(b.deposits);
     w.putVector(b.learned);
-    for (uint64_t n : {b.photons, b.segments, b.gathers, b.pruned}) w.put(n);
+    for (uint64_t n : {b.photons, b.segments, b.gathers, b.pruned, b.ghostWork}) w.put(n);
     return w.take();
 }
 
@@ -397,7 +437,8 @@ PhotonBlock PhotonPass::unpack(const Bytes& bytes) {
     PhotonBlock b;
     b.deposits = r.getVector<Deposit>();
     b.learned = r.getVector<double>();
-    for (uint64_t* n : {&b.photons, &b.segments, &b.gathers, &b.pruned}) *n = r.get<uint64_t>();
+    for (uint64_t* n : {&b.photons, &b.segments, &b.gathers, &b.pruned, &b.ghostWork})
+        *n = r.get<uint64_t>();
     if (!r.done()) throw std::runtime_error("a block of photons from another rank is damaged");
     return b;
 }
@@ -500,6 +541,7 @@ void BlockTracer::follow(PhotonBranch br, Photon& ph) {
         const auto hit = ts.scene->closestHit(br.ray, kInfinity, br.startObject,
                                               br.startPrimitive, br.medium);
         ++block_.segments;
+        if (ph.splitAll) ++block_.ghostWork;
         if (!hit) break;
         const double alpha = ts.media->absorptionPerMm(br.medium, w);
         if (alpha > 0.0) br.flux *= std::exp(-alpha * hit->t);
@@ -526,8 +568,11 @@ void BlockTracer::follow(PhotonBranch br, Photon& ph) {
             const double kept = playRoulette(br.flux, ph.rouletteFlux, ph.rouletteFlux, ph.rng);
             scatterScale = kept > 0.0 ? kept / br.flux : 0.0;
         }
-        if (scatters && (br.specular || br.scattered) && scatterScale > 0.0)
+        if (scatters && (br.specular || br.scattered) && scatterScale > 0.0) {
+            const uint64_t before = block_.gathers;
             gather(br, *hit, in, scatterScale, w);
+            if (ph.splitAll) block_.ghostWork += block_.gathers - before;
+        }
         if (in.count == 0) break;
         if (!next(br, *hit, in, scatterScale, ph)) break;
     }
@@ -581,6 +626,7 @@ void BlockTracer::gather(const PhotonBranch& br, const SceneHit& hit, const Inte
         // neither, within the view point's own radius.
         const bool back = photonCos * glm::dot(v.toDetector, hit.normal) < 0.0;
         const PhotonPass::Disk disk = p_.disk(it->index, !back);
+        p_.markReached(it->index, !back);
         const double correction = disk.inverseShare;
         const double rv2 = p_.r2_ * disk.radiusFactor * disk.radiusFactor;
         if (d2 > rv2) continue;
@@ -715,6 +761,7 @@ PhotonImages tracePhotons(const TransportView& ts, const DetectorImage& detector
         [&](uint64_t first, uint64_t last) { return pass.traceBlock(first, last); },
         [&](const PhotonBlock& b) { PhotonPass::add(b, result); }, PhotonPass::pack,
         PhotonPass::unpack);
+    result.diskRays = pass.diskRays();
     return result;
 }
 

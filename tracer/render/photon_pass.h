@@ -50,6 +50,9 @@ struct PhotonImages {
     // points (tracer/render/aperture_guide.h).
     std::vector<double> learned;
     uint64_t photons = 0, segments = 0, gathers = 0, pruned = 0;
+    // The segments and gathers of the ghost photons, and the probe rays that fitted the
+    // gathering disks the photons reached (RenderPass::photonWork).
+    uint64_t ghostWork = 0, diskRays = 0;
 };
 
 // Pass k's photons, gathered at `back`'s view points with radius radiusMm. Across `ranks`

@@ -228,6 +228,7 @@ void RenderState::add(const RenderPass& pass) {
                                         std::to_string(learned_.size()));
         for (size_t b = 0; b < learned_.size(); ++b) learned_[b] += pass.learned[b];
     }
+    photonsPerPass_ = pass.nextPhotonsPerSource;
     ++passes_;
     // Knaus and Zwicker: r_{k+1}^2 = r_k^2 (k + alpha) / (k + 1), k the pass just added.
     const double k = passes_;
@@ -252,6 +253,7 @@ void RenderState::shareFromRoot(const Ranks& ranks) {
         w.put(initialRadiusMm_);
         w.put(alpha_);
         w.putVector(learned_);
+        w.put(photonsPerPass_);
     }
     Bytes bytes = w.take();
     ranks.broadcast(bytes);
@@ -262,6 +264,7 @@ void RenderState::shareFromRoot(const Ranks& ranks) {
     initialRadiusMm_ = r.get<double>();
     alpha_ = r.get<double>();
     learned_ = r.getVector<double>();
+    photonsPerPass_ = r.get<uint64_t>();
 }
 
 DetectorImage RenderState::component(RenderComponent c) const {
@@ -338,14 +341,16 @@ bool RenderState::sameSums(const RenderState& o) const {
         for (size_t i = 0; i < sums_.size(); ++i)
             if (!criterionSums_[k][i].sameSums(o.criterionSums_[k][i])) return false;
     return passes_ == o.passes_ && learned_ == o.learned_ && radiusMm_ == o.radiusMm_ &&
-           initialRadiusMm_ == o.initialRadiusMm_ && alpha_ == o.alpha_;
+           photonsPerPass_ == o.photonsPerPass_ && initialRadiusMm_ == o.initialRadiusMm_ &&
+           alpha_ == o.alpha_;
 }
 
 namespace {
 
 constexpr char kMagic[8] = {'V', 'E', 'I', 'L', 'R', 'N', 'D', 'R'};
-// 2: the criteria's sums follow the plain ones; 3: the guide; 4: the radius differences
-constexpr uint32_t kVersion = 4;
+// 2: the criteria's sums follow the plain ones; 3: the guide; 4: the radius differences;
+// 5: the next pass's photons
+constexpr uint32_t kVersion = 5;
 
 template <class T>
 void put(std::ostream& os, const T& v) {
@@ -404,6 +409,7 @@ void RenderState::write(const std::filesystem::path& path, uint64_t fingerprint)
         putImage(stray_);
         put(os, uint64_t(learned_.size()));
         putVector(os, learned_);
+        put(os, photonsPerPass_);
         os.flush();
         if (!os) {
             std::error_code ec;
@@ -469,6 +475,7 @@ RenderState RenderState::read(const std::filesystem::path& path, uint64_t finger
     const uint64_t bins = get<uint64_t>(is);
     if (!is || bins > (uint64_t{1} << 28)) fail("the checkpoint is damaged");
     s.learned_ = getVector<double>(is, static_cast<size_t>(bins));
+    s.photonsPerPass_ = get<uint64_t>(is);
     if (!is) fail("the checkpoint is truncated");
     if (s.passes_ < 0 || !(s.radiusMm_ > 0.0)) fail("the checkpoint is damaged");
     return s;
@@ -508,12 +515,15 @@ class FaceProbe {
         // the face transmits to it), and a tangent basis (Duff et al. 2017).
         side_ = v.fromFront != otherSide ? v.normal : -v.normal;
         inGap_ = inGapAt(scene, v.positionMm, v.object, v.primitive, side_, gapMm);
+        rays_ = 1;
         const double sign = std::copysign(1.0, side_.z);
         const double a = -1.0 / (sign + side_.z), b = side_.x * side_.y * a;
         t1_ = Vec3(1.0 + sign * side_.x * side_.x * a, sign * b, -sign * side_.x);
         t2_ = Vec3(b, sign + side_.y * side_.y * a, -side_.y);
     }
     bool inGap() const { return inGap_; }
+    // The rays it has cast so far (its cost, RenderPass::viewPointWork).
+    uint64_t rays() const { return rays_; }
 
     // Whether the point at polar coordinates (rho, phi) of the tangent plane lands. Each probe
     // starts a gap's height off the tangent plane on the photons' side and looks along the
@@ -537,6 +547,7 @@ class FaceProbe {
         int skipObject = -1, skipPrimitive = -1;
         double travelled = 0.0, crossedAt = -kInfinity;
         for (int crossing = 0; crossing <= kMaxCrossings; ++crossing) {
+            ++rays_;
             const auto hit =
                 scene_.closestHit({origin, direction}, length, skipObject, skipPrimitive);
             if (!hit) return false;
@@ -546,6 +557,7 @@ class FaceProbe {
                 if (glm::dot(d, d) > reach * reach) return false;
                 if (towardFace) return (travelled + hit->t - crossedAt <= gap_) == inGap_;
                 const Vec3 facing = glm::dot(hit->normal, side_) > 0.0 ? hit->normal : -hit->normal;
+                ++rays_;
                 return inGapAt(scene_, hit->point, hit->object, hit->primitive, facing, gap_) ==
                        inGap_;
             }
@@ -564,6 +576,7 @@ class FaceProbe {
     double gap_;
     Vec3 side_, t1_, t2_;
     bool inGap_ = false;
+    mutable uint64_t rays_ = 0;
 };
 
 constexpr double kGolden = 2.39996322972865332;  // pi (3 - sqrt 5)
@@ -637,9 +650,13 @@ GatherDisk viewPointDisk(const Scene& scene, const ViewPoint& v, double radiusMm
     GatherDisk out;
     out.inGap = probe.inGap();
     out.radiusMm = radiusMm;
-    if (samples <= 0) return out;
+    auto done = [&] {
+        out.rays = probe.rays();
+        return out;
+    };
+    if (samples <= 0) return done();
     out.share = diskShare(probe, radiusMm, samples, turn);
-    if (out.share == 1.0) return out;  // a whole disk: its half is whole too
+    if (out.share == 1.0) return done();  // a whole disk: its half is whole too
     if (out.share < kFitShare) {
         // Extents up to 2.5 r, so that a view point on the rim of a wide face finds a chord
         // well over 2 r across it.
@@ -651,7 +668,7 @@ GatherDisk viewPointDisk(const Scene& scene, const ViewPoint& v, double radiusMm
         }
     }
     out.halfShare = diskShare(probe, 0.5 * out.radiusMm, samples, turn + 0.5 * kGolden);
-    return out;
+    return done();
 }
 
 bool photonsSeeSource(const Source& s) {
@@ -675,7 +692,29 @@ BackwardOptions Renderer::backwardOptions(int k) const {
     return bo;
 }
 
-RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& learned) const {
+uint64_t balancedPhotons(const RenderOptions& o, const RenderPass& pass) {
+    const uint64_t n = pass.photonsPerSource;
+    const uint64_t ghost = std::min(o.ghostPhotonsPerPass, n);
+    const uint64_t most = std::max(o.maxPhotonsPerPass, ghost + kMinBalancedPhotons) - ghost;
+    const uint64_t others = n - ghost;
+    const uint64_t otherWork = pass.photonWork - std::min(pass.ghostWork, pass.photonWork);
+    double next = static_cast<double>(kMinBalancedPhotons);
+    if (others > 0 && otherWork > 0) {
+        // The other photons' share of the view points' work: what the ghost photons leave.
+        const double room = static_cast<double>(pass.viewPointWork) -
+                            static_cast<double>(pass.photonWork - otherWork);
+        const double ratio = std::max(room, 0.0) / static_cast<double>(otherWork);
+        next = static_cast<double>(others) * std::clamp(ratio, 0.25, 4.0);
+    } else if (others > 0) {
+        next = static_cast<double>(others);  // no work to weigh: as it was
+    }
+    next = std::clamp(std::round(next), static_cast<double>(kMinBalancedPhotons),
+                      static_cast<double>(most));
+    return ghost + static_cast<uint64_t>(next);
+}
+
+RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& learned,
+                             uint64_t photonsPerSource) const {
     if (k < 1) throw std::invalid_argument("Renderer::runPass: passes count from 1");
     if (!(radiusMm > 0.0)) throw std::invalid_argument("Renderer::runPass: radius must be > 0");
     RenderPass out;
@@ -705,7 +744,9 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
     out.backwardSeconds = since(t0);
     const auto t1 = std::chrono::steady_clock::now();
     // 2. Forward photons gathered at the view points.
-    PhotonImages acc = tracePhotons(ts_, detector_, back, options_, judge_, k, radiusMm, ranks_);
+    RenderOptions po = options_;
+    if (photonsPerSource > 0) po.photonsPerPass = photonsPerSource;
+    PhotonImages acc = tracePhotons(ts_, detector_, back, po, judge_, k, radiusMm, ranks_);
     const size_t criteria = judge_ ? static_cast<size_t>(judge_->count()) : 0;
     std::vector<double>& visible = out.pixels[static_cast<int>(RenderComponent::Visible)];
     for (int p = 0; p < pixels; ++p) visible[static_cast<size_t>(p)] += acc.visible[p];
@@ -753,6 +794,15 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
     out.photons = acc.photons;
     out.photonSegments = acc.segments;
     out.gathers = acc.gathers;
+    // The work of the two sides: the view points' (their backward segments, and one ray per
+    // source and one along the sampled lobe that light them directly) and the photons'
+    // (segments, gathers, the ghost photons' among them, and the probe rays that fitted the
+    // gathering disks they reached: a disk is fitted when a photon first lands within it).
+    out.photonsPerSource = po.photonsPerPass;
+    out.viewPointWork = back.segments + back.viewPoints.size() * (1 + ts_.sources.size());
+    out.photonWork = acc.segments + acc.gathers + acc.diskRays;
+    out.ghostWork = acc.ghostWork;
+    out.nextPhotonsPerSource = options_.balancePhotons ? balancedPhotons(options_, out) : 0;
     out.prunedPhotons = acc.pruned;
     out.prunedBranches = back.prunedBranches;
     out.photonSeconds = since(t1);

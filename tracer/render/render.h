@@ -87,6 +87,15 @@ struct RenderPass {
     double radiusMm = 0.0;
     uint64_t backwardRays = 0, backwardSegments = 0, viewPoints = 0;
     uint64_t photons = 0, photonSegments = 0, gathers = 0;
+    // The photons per source it traced, and its work in rays cast and gathers (counts, the
+    // same for every thread and rank count): the view points' side (backward segments, the
+    // rays that lit them directly) against the photons' (their segments and gathers, and the
+    // probe rays of the gathering disks they reached; ghostWork the ghost photons' segments
+    // and gathers, whose number is fixed). With RenderOptions::balancePhotons, the photons per
+    // source of the next pass that even the two out (balancedPhotons).
+    uint64_t photonsPerSource = 0;
+    uint64_t viewPointWork = 0, photonWork = 0, ghostWork = 0;
+    uint64_t nextPhotonsPerSource = 0;
     double backwardSeconds = 0.0, photonSeconds = 0.0;  // wall clock of the two stages
     // With a guide: the light the pass's pixel rays brought back per guide bin (visible,
     // direct and gathered), which the passes after it learn from.
@@ -101,6 +110,15 @@ struct RenderPass {
 // through it. Throws ModelError naming an object that lies beside or behind the detector
 // (then no such disk exists).
 ExitAperture exitApertureFor(const Scene& scene, const DetectorGeometry& detector);
+
+// The photons per source for the pass after `pass` that make the work of its photons about
+// that of its view points: the photons beyond the ghost photons (whose number is fixed) scaled
+// by (viewPointWork - ghostWork) / (their work), by at most 4x either way per pass, kept within
+// [kMinBalancedPhotons, maxPhotonsPerPass - ghost photons] beyond the ghost photons. Each
+// pass's estimate stays unbiased whatever its photon count; the count changes only the noise
+// per unit of time (docs/render.md, "Photons balanced against view points").
+inline constexpr uint64_t kMinBalancedPhotons = 4096;
+uint64_t balancedPhotons(const RenderOptions& options, const RenderPass& pass);
 
 // r_1 when none is given: 1 % of the diagonal of the bounding box of the scene's objects
 // that scatter (those with a scatter model). ModelError when no object scatters.
@@ -200,6 +218,9 @@ class RenderState {
     // The light learned per aperture guide bin over the passes (empty before the first pass
     // and without a guide): what the next pass's guide is prepared from.
     const std::vector<double>& learned() const { return learned_; }
+    // The photons per source of the next pass when they are balanced
+    // (RenderPass::nextPhotonsPerSource of the last pass added; 0 before the first).
+    uint64_t photonsPerPass() const { return photonsPerPass_; }
 
   private:
     using Sums = std::array<DetectorImage, kRenderComponents + 1>;  // components, then total
@@ -217,6 +238,7 @@ class RenderState {
     std::vector<DetectorImage> criterionRadiusDifference_;
     DetectorImage imageForming_, stray_;
     std::vector<double> learned_;
+    uint64_t photonsPerPass_ = 0;
     int passes_ = 0;
     double radiusMm_ = 0.0, initialRadiusMm_ = 0.0, alpha_ = 2.0 / 3.0;
 };
@@ -234,7 +256,10 @@ class Renderer {
     const RenderOptions& options() const { return options_; }
     // Pass k (1, 2, ...) at radius radiusMm, its pixel rays guided by the light learned in the
     // passes before it (RenderState::learned(); empty: nothing learned yet).
-    RenderPass runPass(int k, double radiusMm, const std::vector<double>& learned = {}) const;
+    // photonsPerSource: the pass's photons per source (0: RenderOptions::photonsPerPass;
+    // RenderState::photonsPerPass() when they are balanced).
+    RenderPass runPass(int k, double radiusMm, const std::vector<double>& learned = {},
+                       uint64_t photonsPerSource = 0) const;
     // The backward stage of pass k.
     BackwardOptions backwardOptions(int k) const;
 
@@ -284,6 +309,7 @@ struct GatherDisk {
     double radiusMm = 0.0;
     double share = 1.0, halfShare = 1.0;
     bool inGap = false;
+    uint64_t rays = 0;  // the probe rays it cost
 };
 inline constexpr int kPieceWidthLines = 4;
 inline constexpr double kPieceRadiusFraction = 0.5;

@@ -10,6 +10,8 @@ void RenderOptions::check() const {
     auto fail = [](const std::string& what) { throw std::invalid_argument(what); };
     if (raysPerPixel == 0) fail("rays per pixel must be at least 1");
     if (photonsPerPass == 0) fail("photons per pass must be at least 1");
+    if (balancePhotons && maxPhotonsPerPass < photonsPerPass)
+        fail("the most photons per pass must be at least the first pass's");
     if (!(initialRadiusMm >= 0.0) || !std::isfinite(initialRadiusMm))
         fail("the initial radius must be a finite length >= 0 (0: automatic)");
     if (!(alpha > 0.0 && alpha < 1.0)) fail("alpha must lie in (0, 1)");
@@ -39,9 +41,10 @@ void RenderOptions::check() const {
 
 std::ostream& operator<<(std::ostream& os, const RenderOptions& o) {
     return os << "RenderOptions{" << o.raysPerPixel << " rays per pixel, " << o.photonsPerPass
-              << " photons per source per pass, r1 " << o.initialRadiusMm << " mm, alpha "
-              << o.alpha << ", seed " << o.seed << (o.splitBackward ? ", split" : ", random")
-              << ", roulette " << o.rouletteRelativeFlux
+              << " photons per source per pass" << (o.balancePhotons ? " (first, balanced)" : "")
+              << ", r1 " << o.initialRadiusMm << " mm, alpha " << o.alpha << ", seed " << o.seed
+              << (o.splitBackward ? ", split" : ", random") << ", roulette "
+              << o.rouletteRelativeFlux
               << (o.quasiRandomPhotons ? ", sobol photons" : ", random photons") << ", guide "
               << o.guideFraction << ", follow lobes below " << o.followLobesBelowDeg << " deg}";
 }

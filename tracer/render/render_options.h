@@ -10,7 +10,12 @@ namespace veil {
 
 struct RenderOptions {
     uint64_t raysPerPixel = 16;        // backward rays per pixel per pass
-    uint64_t photonsPerPass = 100000;  // per source
+    uint64_t photonsPerPass = 100000;  // per source (balanced: the first pass's)
+    // Balanced photons (balancedPhotons in render.h): each pass after the first traces as
+    // many photons per source as make their work about that of the view points' side, up to
+    // maxPhotonsPerPass; off: photonsPerPass in every pass.
+    bool balancePhotons = false;
+    uint64_t maxPhotonsPerPass = 4000000;
     double initialRadiusMm = 0.0;      // r_1; 0: defaultInitialRadius()
     double alpha = 2.0 / 3.0;          // radius reduction, in (0, 1)
     uint64_t seed = 1;

@@ -192,7 +192,7 @@ RenderState render(const PreparedScene& s, const RenderOptions& o, int passes,
     const Renderer renderer(s.transport().view, s.transport().images[0], a, o);
     RenderState state(s.transport().images[0].geometry(), o.initialRadiusMm, o.alpha);
     for (int k = 1; k <= passes; ++k)
-        state.add(renderer.runPass(k, state.radiusMm(), state.learned()));
+        state.add(renderer.runPass(k, state.radiusMm(), state.learned(), state.photonsPerPass()));
     return state;
 }
 
@@ -836,24 +836,105 @@ TEST(Render, TwiceScatteredErrorDoesNotDependOnTheReflectance) {
         << "errors " << error[0] << ", " << error[1];
 }
 
+TEST(Render, BalancedPhotonsEvenOutTheWorkOfTheTwoSides) {
+    RenderOptions o;
+    o.ghostPhotonsPerPass = 16384;
+    o.maxPhotonsPerPass = 4000000;
+    RenderPass pass;
+    pass.photonsPerSource = 116384;  // 100000 beyond the ghost photons
+    // The other photons did 1e6 units, the ghost photons 5e5, the view points 3e6: the others
+    // grow to fill what the ghost photons leave, 2.5e6, at the same cost per photon.
+    pass.photonWork = 1500000;
+    pass.ghostWork = 500000;
+    pass.viewPointWork = 3000000;
+    EXPECT_EQ(balancedPhotons(o, pass), 16384u + 250000u);
+    // At most 4x either way per pass.
+    pass.viewPointWork = 100000000;
+    EXPECT_EQ(balancedPhotons(o, pass), 16384u + 400000u);
+    pass.viewPointWork = 600000;  // the ghost photons alone take most of it
+    EXPECT_EQ(balancedPhotons(o, pass), 16384u + 25000u);
+    // Ghost photons beyond the view points' work: the others at their fewest.
+    pass.photonsPerSource = 16384 + 8192;
+    pass.viewPointWork = 400000;
+    EXPECT_EQ(balancedPhotons(o, pass), 16384u + kMinBalancedPhotons);
+    // Never beyond the most photons per pass.
+    o.maxPhotonsPerPass = 200000;
+    pass.photonsPerSource = 116384;
+    pass.viewPointWork = 100000000;
+    EXPECT_EQ(balancedPhotons(o, pass), 200000u);
+    // A first pass with no photons beyond the ghost photons starts the others at the fewest.
+    pass.photonsPerSource = 5000;
+    pass.ghostWork = pass.photonWork;
+    EXPECT_EQ(balancedPhotons(o, pass), 5000u + kMinBalancedPhotons);
+}
+
+TEST(Render, BalancedPhotonsKeepTheEstimateUnbiased) {
+    // Every pass's estimate is unbiased whatever its photon count, so the mean over passes of
+    // different counts is too: the balanced render against forward Monte Carlo, as
+    // AgreesWithForwardMonteCarloInTotalAndPerPixel does for a fixed count.
+    const auto s = windowPlateScene({});
+    const auto [reference, referenceSigma] = forwardTotal(*s, 1000000, 17);
+    RenderOptions o;
+    o.raysPerPixel = 1024;
+    o.photonsPerPass = 100000;
+    o.ghostPhotonsPerPass = 1000;
+    o.balancePhotons = true;
+    o.initialRadiusMm = 10.0;
+    const Renderer renderer(s->transport().view, s->transport().images[0], plateAperture(), o);
+    RenderState state(s->transport().images[0].geometry(), o.initialRadiusMm, o.alpha);
+    std::vector<uint64_t> photons;
+    for (int k = 1; k <= 10; ++k) {
+        const RenderPass pass =
+            renderer.runPass(k, state.radiusMm(), state.learned(), state.photonsPerPass());
+        photons.push_back(pass.photonsPerSource);
+        // The next count follows this pass's work.
+        EXPECT_EQ(pass.nextPhotonsPerSource, balancedPhotons(o, pass));
+        state.add(pass);
+    }
+    // 100000 photons outweigh the view points of 1024 rays per pixel many times here: the
+    // count falls, by at most 4x a pass, to where the two sides' work meet or to the fewest.
+    EXPECT_LT(photons.back(), photons.front() / 16);
+    for (size_t k = 1; k < photons.size(); ++k) EXPECT_GE(4 * photons[k], photons[k - 1]);
+    const DetectorImage total = state.total();
+    const double sigma = std::sqrt(total.totalVariance(state.passes()));
+    // The radius bias bound of the fixed-count test (1e-3 of the flux) added.
+    EXPECT_LE(std::abs(total.totalFlux() - reference),
+              4.0 * std::hypot(sigma, referenceSigma) + 1e-3 * reference)
+        << total.totalFlux() << " +- " << sigma << " vs " << reference << " +- " << referenceSigma;
+    EXPECT_LT(sigma, 0.03 * reference);
+}
+
 TEST(Render, ResumedAndThreadedRunsAreBitwiseTheSame) {
     const auto s = windowPlateScene({});
     RenderOptions o;
     o.raysPerPixel = 16;
     o.photonsPerPass = 5000;
+    o.ghostPhotonsPerPass = 1000;
+    o.balancePhotons = true;  // each pass's photons from the work counts of the one before
     o.initialRadiusMm = 2.0;
     const uint64_t print = 12345;
     const Renderer renderer(s->transport().view, s->transport().images[0], plateAperture(), o);
     const DetectorGeometry& g = s->transport().images[0].geometry();
+    std::vector<uint64_t> photons;
     auto run = [&](RenderState& state, int passes) {
-        while (state.passes() < passes)
-            state.add(renderer.runPass(state.passes() + 1, state.radiusMm(), state.learned()));
+        while (state.passes() < passes) {
+            const RenderPass pass = renderer.runPass(state.passes() + 1, state.radiusMm(),
+                                                     state.learned(), state.photonsPerPass());
+            photons.push_back(pass.photonsPerSource);
+            state.add(pass);
+        }
     };
     RenderState straight(g, o.initialRadiusMm, o.alpha);
     {
         tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
         run(straight, 5);
     }
+    // The balance moved the photon count away from the first pass's.
+    ASSERT_EQ(photons.size(), 5u);
+    EXPECT_EQ(photons[0], 5000u);
+    EXPECT_NE(photons[4], photons[0]);
+    const std::vector<uint64_t> straightPhotons = photons;
+    photons.clear();
     // Three passes, a checkpoint, read back, two more, on two threads.
     const std::filesystem::path cp = ::testing::TempDir() + "veil_render_" + testName() + ".cp";
     {
@@ -869,6 +950,7 @@ TEST(Render, ResumedAndThreadedRunsAreBitwiseTheSame) {
         run(resumed, 5);
     }
     EXPECT_TRUE(resumed.sameSums(straight));
+    EXPECT_EQ(photons, straightPhotons);  // on two threads, across the checkpoint
     EXPECT_GT(straight.total().totalFlux(), 0.0);
     // The passes after the first were guided by what the ones before them learned, and the
     // checkpoint carried it.
