@@ -9,6 +9,8 @@
 #
 #   bench/seed_figures.sh [build/veil] [seconds per row] [rows...]
 #
+# SEED_FIGURES_ARGS: more options for every row's render (a knob against the defaults, such as
+# "--photons 100k").
 # Rows: sun fig09_15deg fig10a fig10b fig12 fig13 catadioptric_butt_ends mounts_0.1 mounts_5
 # mounts_30 (all by default). Prints a markdown table for docs/performance.md.
 set -euo pipefail
@@ -51,7 +53,8 @@ for row in "${rows[@]}"; do
     mounts_30) scene=$(mounts 0.30) ;;
     *) echo "seed_figures.sh: unknown row '$row'" >&2; exit 2 ;;
   esac
-  "$veil" render "$scene" "${extra[@]}" --where "$where" --target-on where1 \
+  # shellcheck disable=SC2086  # the knobs split into words
+  "$veil" render "$scene" "${extra[@]}" ${SEED_FIGURES_ARGS:-} --where "$where" --target-on where1 \
       --time-limit "${seconds}s" --quiet --json -o "$out/$row" > "$out/$row.json"
   python3 - "$out/$row.json" "$row" bench/seed_figures_reference.tsv <<'PY'
 import json, math, sys
