@@ -70,7 +70,7 @@ std::optional<uint64_t> parseCount(const std::string& text, std::string* error) 
     }
     if (scale != 1.0) digits.pop_back();
     if (digits.empty() || digits.find_first_not_of("0123456789.eE+") != std::string::npos)
-        return fail("is not a whole number of rays (write 20000, 2e4, 20k or 2M)");
+        return fail("is not a whole number (write 20000, 2e4, 20k or 2M)");
     char* end = nullptr;
     const double mantissa = std::strtod(digits.c_str(), &end);
     if (end != digits.c_str() + digits.size() || !std::isfinite(mantissa))

@@ -108,7 +108,7 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
                 if (s == "auto") return {};
                 std::string error;
                 const auto n = parseCount(s, &error);
-                if (!n) return "--photons " + error + " (or auto)";
+                if (!n) return "--photons takes auto or a count: " + error;
                 if (*n < 1) return "--photons must be at least 1";
                 return {};
             },

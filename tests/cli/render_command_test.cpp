@@ -201,6 +201,16 @@ TEST(RenderCommand, BadInputStopsBeforeAnyPass) {
     r = runVeil("render " + kSun + " --alpha 1.5 -o " + dir);
     EXPECT_EQ(r.exitCode, 2);
     EXPECT_FALSE(std::filesystem::exists(dir));
+    // --photons takes auto or a count, nothing else.
+    r = runVeil("render " + kSun + " --photons lots -o " + dir);
+    EXPECT_EQ(r.exitCode, 2);
+    EXPECT_NE(r.err.find("--photons takes auto or a count: 'lots' is not a whole number"),
+              std::string::npos)
+        << r.err;
+    r = runVeil("render " + kSun + " --photons 0 -o " + dir);
+    EXPECT_EQ(r.exitCode, 2);
+    EXPECT_NE(r.err.find("--photons must be at least 1"), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir));
 }
 
 }  // namespace
