@@ -191,7 +191,6 @@ RenderRunSpec renderSpec(const RenderCommandOptions& o) {
         ro.balancePhotons = true;
     } else {
         ro.photonsPerPass = *parseCount(o.photons, nullptr);
-        if (ro.photonsPerPass > ro.maxPhotonsPerPass) ro.maxPhotonsPerPass = ro.photonsPerPass;
     }
     ro.ghostPhotonsPerPass = o.ghostPhotons;
     ro.alpha = o.alpha;

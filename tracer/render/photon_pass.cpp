@@ -160,7 +160,9 @@ class PhotonPass {
     // and rank count. Across ranks, a collective call.
     uint64_t diskRays() const;
     void markReached(uint32_t i, bool otherSide) const {
-        reached_[2 * size_t{i} + (otherSide ? 1 : 0)].store(1, std::memory_order_relaxed);
+        // Written once: a store at every gather would bounce the line between the threads.
+        std::atomic<uint8_t>& r = reached_[2 * size_t{i} + (otherSide ? 1 : 0)];
+        if (r.load(std::memory_order_relaxed) == 0) r.store(1, std::memory_order_relaxed);
     }
     PhotonBlock traceBlock(uint64_t first, uint64_t last) const;
     PhotonImages emptyImages() const;

@@ -371,8 +371,7 @@ ViewPoint upViewPoint(int object) {
 TEST(Render, ViewPointAreaShareMatchesTheDiskGeometry) {
     const auto s = platesScene();
     const Scene& scene = s->scene();
-    auto objectNamed = [&](const std::string& name) { return objectId(scene, name); };
-    ViewPoint v = upViewPoint(objectNamed("plate"));
+    ViewPoint v = upViewPoint(objectId(scene, "plate"));
     const double r = 2.0;
     // Inside the face: every probe lands on it.
     v.positionMm = Vec3(10.0, -20.0, 0.0);
@@ -397,13 +396,13 @@ TEST(Render, ViewPointAreaShareMatchesTheDiskGeometry) {
     v.positionMm = Vec3(50.0 - 1e-9, 50.0 - 1e-9, 0.0);
     EXPECT_NEAR(viewPointAreaShare(scene, v, r, 4096, 0.3).share, 0.25, 0.005);
     // The 0.2 mm strip: 2 w sqrt(r^2 - (w/2)^2) / (pi r^2) to first order, 0.0636.
-    v.object = objectNamed("strip");
+    v.object = objectId(scene, "strip");
     v.positionMm = Vec3(200.1, 0.0, 0.0);
     EXPECT_NEAR(viewPointAreaShare(scene, v, r, 4096, 0.3).share,
                 0.2 * 2.0 * r / (std::numbers::pi * r * r), 0.003);
     // Probes that find only another object (a plate view point placed over the strip) do not
     // count, and the view point's own point keeps the share above zero.
-    v.object = objectNamed("plate");
+    v.object = objectId(scene, "plate");
     EXPECT_EQ(viewPointAreaShare(scene, v, r, 16, 0.3).share, 1.0 / 16.0);
     EXPECT_EQ(viewPointAreaShare(scene, v, r, 0, 0.3).share, 1.0);  // off
 }
@@ -461,8 +460,7 @@ TEST(Render, ViewPointAreaShareKeepsGapsApart) {
 TEST(Render, GatheringDiskFitsThePieceItLiesOn) {
     const auto s = platesScene();
     const Scene& scene = s->scene();
-    auto objectNamed = [&](const std::string& name) { return objectId(scene, name); };
-    ViewPoint v = upViewPoint(objectNamed("plate"));
+    ViewPoint v = upViewPoint(objectId(scene, "plate"));
     const double r = 2.0;
     for (const double turn : {0.0, 0.4, 1.3}) {
         for (const double x : {10.0, 49.5, 50.0 - 1e-9}) {  // inside, 0.5 mm and 0 from the rim
@@ -470,7 +468,7 @@ TEST(Render, GatheringDiskFitsThePieceItLiesOn) {
             EXPECT_EQ(viewPointDisk(scene, v, r, 16, turn).radiusMm, r) << x;
             EXPECT_EQ(viewPointDisk(scene, v, 0.5 * r, 16, turn).radiusMm, 0.5 * r) << x;
         }
-        v.object = objectNamed("strip");
+        v.object = objectId(scene, "strip");
         v.positionMm = Vec3(200.1, 0.0, 0.0);
         const double width = pieceWidth(scene, v, 2.5 * r, kGapFraction * r, turn);
         EXPECT_LE(width, 0.2 * std::sqrt(2.0) + 1e-9) << turn;
@@ -484,10 +482,10 @@ TEST(Render, GatheringDiskFitsThePieceItLiesOn) {
                     std::min(0.5 * r,
                              kPieceRadiusFraction * pieceWidth(scene, v, 1.25 * r, 0.05 * r, turn)),
                     1e-12);
-        v.object = objectNamed("plate");
+        v.object = objectId(scene, "plate");
     }
     // Without the rim correction (--area-samples 0) every disk is the pass's.
-    v.object = objectNamed("strip");
+    v.object = objectId(scene, "strip");
     EXPECT_EQ(viewPointDisk(scene, v, r, 0, 0.0).radiusMm, r);
 }
 
