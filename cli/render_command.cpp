@@ -140,6 +140,12 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
                     "pixel rays instead of gathering photons (0: every surface gathers)")
         ->check(CLI::Range(0.0, 90.0))
         ->capture_default_str();
+    sub->add_option("--connect", o.connect,
+                    "light of collimated, sun and point sources that reaches a scattering "
+                    "surface through the lens as designed: solved through the lens at every "
+                    "view point (on), or gathered from photons (off)")
+        ->check(CLI::IsMember({"on", "off"}))
+        ->capture_default_str();
     sub->add_option("--roulette", o.roulette,
                     "photons below this share of their emitted flux (once scattered: of their flux "
                     "just after their first scatter) play Russian roulette (0: off)")
@@ -204,6 +210,7 @@ RenderRunSpec renderSpec(const RenderCommandOptions& o) {
     ro.areaSamples = o.areaSamples;
     ro.guideFraction = o.guide;
     ro.followLobesBelowDeg = o.followLobesBelow;
+    ro.connectThroughLens = o.connect == "on";
     spec.detector = o.detector;
     spec.where = o.where;
     spec.scene = o.file;

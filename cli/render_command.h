@@ -38,6 +38,7 @@ struct RenderCommandOptions {
     int areaSamples = 16;  // rim correction probes per view point
     double guide = 0.5;    // guided share of the pixel rays (RenderOptions::guideFraction)
     double followLobesBelow = 0.0;  // degrees (RenderOptions::followLobesBelowDeg)
+    std::string connect = "on";     // RenderOptions::connectThroughLens
     std::string backward = "random";
     std::string photonPoints = "sobol";
     double minWeight = 1e-4;

@@ -40,7 +40,7 @@ uint64_t fingerprintOf(const TransportView& ts, const DetectorGeometry& g, const
        << " " << o.rouletteRelativeFlux << " " << o.maxPhotonSegments << " " << o.prune << " "
        << o.areaSamples << " " << o.quasiRandomPhotons << " " << o.ghostPhotons() << " "
        << o.photonRescueRelativeFlux << " " << o.guideFraction << " " << o.followLobesBelowDeg
-       << " " << o.balancePhotons << " " << o.maxPhotonsPerPass;
+       << " " << o.balancePhotons << " " << o.maxPhotonsPerPass << " " << o.connectThroughLens;
     for (const std::string& w : where) os << "\nwhere " << w;
     const std::string text = os.str();
     uint64_t h = 1469598103934665603ull;
@@ -191,6 +191,7 @@ RenderResult RenderRun::run(const std::function<void(const RenderPassEvent&)>& o
         r.gathers += pass.gathers;
         r.viewPoints += pass.viewPoints;
         r.backwardSegments += pass.backwardSegments;
+        r.connectionRays += pass.connectionRays;
         r.lastPhotonsPerSource = pass.photonsPerSource;
         r.viewPointWork += pass.viewPointWork;
         r.photonWork += pass.photonWork;
@@ -299,6 +300,7 @@ nlohmann::json RenderResult::summary() const {
                           {"area_samples", ro.areaSamples},
                           {"guide", ro.guideFraction},
                           {"follow_lobes_below_deg", ro.followLobesBelowDeg},
+                          {"connect_through_lens", ro.connectThroughLens},
                           {"photon_points", ro.quasiRandomPhotons ? "sobol" : "random"}};
     summary["final_radius_mm"] = state.radiusMm();
     summary["photons_per_source_last_pass"] = lastPhotonsPerSource;
@@ -376,6 +378,7 @@ nlohmann::json RenderResult::summary() const {
     summary["view_points_this_run"] = viewPoints;
     summary["gathers_this_run"] = gathers;
     summary["backward_segments_this_run"] = backwardSegments;
+    summary["connection_rays_this_run"] = connectionRays;
     summary["photon_segments_this_run"] = photonSegments;
     summary["view_point_work_this_run"] = viewPointWork;
     summary["photon_work_this_run"] = photonWork;

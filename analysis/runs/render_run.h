@@ -100,7 +100,7 @@ struct RenderResult {
     double emittedFlux = 0.0;
     // This run's totals over its passes.
     uint64_t photons = 0, gathers = 0, viewPoints = 0, prunedBranches = 0, prunedPhotons = 0;
-    uint64_t backwardSegments = 0, photonSegments = 0;
+    uint64_t backwardSegments = 0, photonSegments = 0, connectionRays = 0;
     uint64_t lastPhotonsPerSource = 0;           // the photons per source of this run's last pass
     uint64_t viewPointWork = 0, photonWork = 0;  // RenderPass's, summed
     double backwardSeconds = 0.0, photonSeconds = 0.0;

@@ -211,6 +211,11 @@ TEST(RenderCommand, BadInputStopsBeforeAnyPass) {
     EXPECT_EQ(r.exitCode, 2);
     EXPECT_NE(r.err.find("--photons must be at least 1"), std::string::npos) << r.err;
     EXPECT_FALSE(std::filesystem::exists(dir));
+    // --connect is on or off.
+    r = runVeil("render " + kSun + " --connect maybe -o " + dir);
+    EXPECT_EQ(r.exitCode, 2);
+    EXPECT_NE(r.err.find("--connect"), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir));
 }
 
 }  // namespace

@@ -250,6 +250,7 @@ struct PixelOutput {
     std::vector<double> visibleBy, directBy;  // [criterion]: the pixel's sums
     std::vector<double> causticBy, secondaryBy;
     uint64_t segments = 0;
+    uint64_t connectionRays = 0;
     uint64_t pruned = 0;
 
     // As bytes, between ranks (tracer/runtime/ranks.h).
@@ -267,6 +268,7 @@ struct PixelOutput {
         w.putVector(causticBy);
         w.putVector(secondaryBy);
         w.put(segments);
+        w.put(connectionRays);
         w.put(pruned);
     }
     void unpack(ByteReader& r) {
@@ -283,6 +285,7 @@ struct PixelOutput {
         causticBy = r.getVector<double>();
         secondaryBy = r.getVector<double>();
         segments = r.get<uint64_t>();
+        connectionRays = r.get<uint64_t>();
         pruned = r.get<uint64_t>();
     }
 };
@@ -378,6 +381,10 @@ class PixelTracer {
     // behind a followed lobe: it has scattered twice).
     void directLight(const ViewPoint& v, const Branch& br, PixelRaySample& s, PixelOutput& po,
                      RayLight& light);
+    // The light connected through the lens at v (BackwardOptions::connector), added to the
+    // caustic light (secondary behind a followed lobe).
+    void connectedLight(const ViewPoint& v, const Branch& br, PixelRaySample& s, PixelOutput& po,
+                        RayLight& light);
     // A narrow lobe (BackwardOptions::followLobesBelowRad): no view point; the direct light
     // there, then one direction drawn from the lobe, the branch going on along it.
     void followLobe(int p, const Branch& br, const SceneHit& hit, PixelRaySample& s,
@@ -391,10 +398,12 @@ class PixelTracer {
     // light's order) in the event tree; unless no criterion can match it any more (prune).
     void pushWithEvent(Branch& next, const Branch& br, const SceneHit& hit, EventType e,
                        PixelOutput& po);
-    // The criteria the path [Emit(source) head] + suffix matches.
-    uint64_t judged(int source, int medium, const PathEvent* head) {
+    // The criteria the path [Emit(source) chain head] + suffix matches.
+    uint64_t judged(int source, int medium, const PathEvent* head,
+                    std::span<const PathEvent> chain = {}) {
         judge_->reset(state_.data());
         judge_->push(state_.data(), pathEvent(EventType::Emit, source, 0, medium, medium));
+        for (const PathEvent& e : chain) judge_->push(state_.data(), e);
         if (head) judge_->push(state_.data(), *head);
         return judge_->matches(state_.data(), suffix_, scratch_.data());
     }
@@ -411,6 +420,7 @@ class PixelTracer {
     std::vector<PathEvent> suffix_;
     std::vector<std::byte> state_, scratch_;
     std::vector<double> perSourceSide_;
+    std::vector<PathEvent> chain_;  // a lens connection's events (with criteria)
     std::vector<uint64_t> strata_;
     const DesignedPath designed_;
     std::vector<bool> followLobe_;  // [property]: its lobe is followed, not gathered
@@ -625,7 +635,48 @@ void PixelTracer::storeViewPoint(int p, const Branch& br, const SceneHit& hit, P
         po.events.insert(po.events.end(), suffix_.begin(), suffix_.end());
     }
     directLight(v, br, s, po, light);
+    connectedLight(v, br, s, po, light);
     po.viewPoints.push_back(v);
+}
+
+void PixelTracer::connectedLight(const ViewPoint& v, const Branch& br, PixelRaySample& s,
+                                 PixelOutput& po, RayLight& light) {
+    const LensConnector* lc = o_.connector;
+    if (!lc || !lc->any()) return;
+    double& into = br.lobes == 0 ? light.caustic : light.secondary;
+    std::vector<double>& by = br.lobes == 0 ? po.causticBy : po.secondaryBy;
+    std::optional<ViewPointLobes> lobes;
+    for (size_t si = 0; si < ts_.sources.size(); ++si) {
+        for (uint64_t chains = lc->chains(si, v.object); chains != 0; chains &= chains - 1) {
+            const int steps = std::countr_zero(chains) + 1;
+            // Two uniforms per chain, drawn whether or not it reaches the point.
+            const double u1 = s.rng.uniform(), u2 = s.rng.uniform();
+            LensConnector::Work work;
+            const auto c = lc->connect(si, v.wavelength, s.wavelengthNm, steps, v.positionMm,
+                                       v.object, u1, u2, work, judge_ ? &chain_ : nullptr);
+            po.segments += work.rays;
+            po.connectionRays += work.rays;
+            if (!c) continue;
+            if (!lobes) lobes.emplace(ts_, v, s.wavelengthNm);
+            const double fc = lobes->fluxCos(c->toLight);
+            if (!(fc > 0.0)) continue;
+            const double value = fc * c->value * v.weight;
+            if (!judge_) {
+                into += value;
+                continue;
+            }
+            // The light's own scatter event, from its side of the surface.
+            const bool crosses =
+                glm::dot(c->toLight, v.normal) * glm::dot(v.toDetector, v.normal) < 0.0;
+            const PathEvent scatter =
+                pathEvent(crosses ? EventType::ScatterTransmit : EventType::ScatterReflect,
+                          v.object, v.primitive, crosses ? v.otherMedium : v.medium, v.medium);
+            suffix_.clear();
+            tree_.suffix(br.node, suffix_);
+            into += bookByCriteria(judged(static_cast<int>(si), 0, &scatter, chain_), prune_, value,
+                                   by);
+        }
+    }
 }
 
 void PixelTracer::followLobe(int p, const Branch& br, const SceneHit& hit, PixelRaySample& s,
@@ -812,6 +863,7 @@ BackwardResult mergePixels(const DetectorImage& detector, const BackwardOptions&
             result.secondaryByCriterion[k][static_cast<size_t>(p)] = po.secondaryBy[k];
         }
         result.segments += po.segments;
+        result.connectionRays += po.connectionRays;
         result.prunedBranches += po.pruned;
     }
     result.rays = static_cast<uint64_t>(pixels) * perPixel;

@@ -41,6 +41,7 @@
 
 #include "tracer/records/detector.h"
 #include "tracer/render/aperture_guide.h"
+#include "tracer/render/lens_connection.h"
 #include "tracer/render/path_judge.h"
 #include "tracer/transport/interaction.h"
 
@@ -82,6 +83,11 @@ struct BackwardOptions {
     // weight is divided by the warp's density; view points keep their ray's guide bin and
     // BackwardResult::learned holds the visible and direct light per bin.
     const ApertureGuide* guide = nullptr;
+    // Light connected through the lens (tracer/render/lens_connection.h), or none: at every
+    // view point, the light of each of its chains, solved and added to the caustic image
+    // (secondary behind a followed lobe), its path judged as the photons' would be. The photon
+    // pass then leaves that light to it.
+    const LensConnector* connector = nullptr;
     // The ranks the pixels are split over (tracer/runtime/ranks.h), in blocks of 64 by index: every
     // rank traces its blocks, all ranks' pixels are shared, and every rank returns the whole
     // result, bitwise that of one process.
@@ -132,6 +138,7 @@ struct BackwardResult {
     std::vector<double> learned;
     uint64_t rays = 0;
     uint64_t segments = 0;
+    uint64_t connectionRays = 0;  // traced by the lens connections (in `segments` too)
     uint64_t prunedBranches = 0;  // backward branches stopped by the criteria (prune)
     // The visible image's total flux variance: the sum of its pixels' (independent) ones.
     double visibleTotalVariance(uint64_t raysPerPixel) const;

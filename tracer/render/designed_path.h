@@ -42,9 +42,17 @@ class DesignedPath {
             mirror_[static_cast<size_t>(id)] = scene.object(id).kind == ObjectKind::MirrorFace;
         }
         steps_ = static_cast<int>(faces.size());
+        objectOfStep_.reserve(faces.size());
+        for (const auto& [surface, id] : faces) objectOfStep_.push_back(id);
     }
 
     int steps() const { return steps_; }
+    // The face of step `step` (0 <= step < steps()), and the event that crosses it as designed.
+    int objectOfStep(int step) const { return objectOfStep_[static_cast<size_t>(step)]; }
+    EventType eventOfStep(int step) const {
+        return mirror_[static_cast<size_t>(objectOfStep(step))] ? EventType::SpecularReflect
+                                                                : EventType::Refract;
+    }
 
     // Forward: the step after an event of type `e` at `object` by a branch at step `at`.
     int forward(int at, int object, EventType e) const {
@@ -71,6 +79,7 @@ class DesignedPath {
     }
 
     std::vector<int> stepOfObject_;
+    std::vector<int> objectOfStep_;
     std::vector<bool> mirror_;
     int steps_ = 0;
 };

@@ -143,6 +143,7 @@ struct Photon {
     // they scatter.
     bool splitAll = false;
     double lowFlux = 0.0, keepFlux = 0.0;
+    Ray emitted{};  // as the source emitted it (the lens connection's audit)
 };
 
 // What a whole pass shares, built once: the view point grid, the rim corrections, the
@@ -152,7 +153,7 @@ class PhotonPass {
   public:
     PhotonPass(const TransportView& ts, const DetectorImage& detector, const BackwardResult& back,
                const RenderOptions& options, const PathJudge* judge, int k, double radiusMm,
-               const Ranks& ranks);
+               const Ranks& ranks, const LensConnector* connector);
 
     uint64_t total() const { return perSource_ * ts_.sources.size(); }
     // The probe rays of the disks the pass's photons gathered into (each counted once, however
@@ -196,6 +197,7 @@ class PhotonPass {
     const BackwardResult& back_;
     const RenderOptions& options_;
     const PathJudge* judge_;
+    const LensConnector* connector_;
     const DesignedPath designed_;
     const int k_;
     const double radiusMm_;
@@ -227,12 +229,14 @@ class PhotonPass {
 
 PhotonPass::PhotonPass(const TransportView& ts, const DetectorImage& detector,
                        const BackwardResult& back, const RenderOptions& options,
-                       const PathJudge* judge, int k, double radiusMm, const Ranks& ranks)
+                       const PathJudge* judge, int k, double radiusMm, const Ranks& ranks,
+                       const LensConnector* connector)
     : ts_(ts),
       detector_(detector),
       back_(back),
       options_(options),
       judge_(judge),
+      connector_(connector && connector->any() ? connector : nullptr),
       designed_(*ts.scene),
       k_(k),
       radiusMm_(radiusMm),
@@ -387,6 +391,7 @@ Photon PhotonPass::emit(uint64_t i, EmittedRay& e) const {
     }
     ph.wavelength = e.wavelength;
     ph.wavelengthNm = e.wavelengthNm;
+    ph.emitted = e.ray;
     ph.rouletteFlux = options_.rouletteRelativeFlux * e.flux;
     const double cullFlux = options_.photonMinRelativeFlux * e.flux;
     ph.splitAll = i % perSource_ < ghostPhotons_;
@@ -465,6 +470,10 @@ class BlockTracer {
     // Light that scattered nowhere lands on the rendered detector: the visible component of
     // the sources the photons stand for.
     void depositVisible(const PhotonBranch& br, const SceneHit& hit);
+    // The share of the light scattered at `hit` the photon gathers: 1, or 0 where the lens
+    // connection counts it (tracer/render/lens_connection.h), or kAuditRate where its audit
+    // finds a path the connection misses.
+    double gatherShare(const PhotonBranch& br, const SceneHit& hit, Photon& ph);
     // The photon's scatter toward every view point within r of the hit.
     void gather(const PhotonBranch& br, const SceneHit& hit, const Interaction& in,
                 double scatterScale, int wavelength);
@@ -571,13 +580,33 @@ void BlockTracer::follow(PhotonBranch br, Photon& ph) {
             scatterScale = kept > 0.0 ? kept / br.flux : 0.0;
         }
         if (scatters && (br.specular || br.scattered) && scatterScale > 0.0) {
+            const double share = gatherShare(br, *hit, ph);
             const uint64_t before = block_.gathers;
-            gather(br, *hit, in, scatterScale, w);
+            if (share > 0.0) gather(br, *hit, in, scatterScale * share, w);
             if (ph.splitAll) block_.ghostWork += block_.gathers - before;
         }
         if (in.count == 0) break;
         if (!next(br, *hit, in, scatterScale, ph)) break;
     }
+}
+
+double BlockTracer::gatherShare(const PhotonBranch& br, const SceneHit& hit, Photon& ph) {
+    const LensConnector* lc = p_.connector_;
+    if (!lc || br.scattered || br.designed < 1 || br.designed > 64) return 1.0;
+    if (((lc->chains(ph.source, hit.object) >> (br.designed - 1)) & 1) == 0) return 1.0;
+    // The connection tries this point for this photon's fixed half: its light is the
+    // connection's, but for the audit.
+    LensConnector::Work work;
+    const bool tried = lc->inView(ph.source, br.designed, lc->fixedOf(ph.source, ph.emitted),
+                                  hit.point, hit.object, work);
+    block_.segments += work.rays;
+    if (!tried) return 1.0;
+    if (!(ph.rng.uniform() * LensConnector::kAuditRate < 1.0)) return 0.0;
+    work = {};
+    const bool found = lc->finds(ph.source, ph.wavelength, ph.wavelengthNm, br.designed, hit.point,
+                                 hit.object, ph.emitted, work);
+    block_.segments += work.rays;
+    return found ? 0.0 : static_cast<double>(LensConnector::kAuditRate);
 }
 
 void BlockTracer::depositVisible(const PhotonBranch& br, const SceneHit& hit) {
@@ -754,8 +783,9 @@ PhotonBlock PhotonPass::traceBlock(uint64_t first, uint64_t last) const {
 
 PhotonImages tracePhotons(const TransportView& ts, const DetectorImage& detector,
                           const BackwardResult& back, const RenderOptions& options,
-                          const PathJudge* judge, int k, double radiusMm, const Ranks& ranks) {
-    const PhotonPass pass(ts, detector, back, options, judge, k, radiusMm, ranks);
+                          const PathJudge* judge, int k, double radiusMm, const Ranks& ranks,
+                          const LensConnector* connector) {
+    const PhotonPass pass(ts, detector, back, options, judge, k, radiusMm, ranks, connector);
     PhotonImages result = pass.emptyImages();
     constexpr uint64_t kBlock = 4096;
     forBlocksInOrderOnRanks(

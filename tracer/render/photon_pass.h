@@ -30,6 +30,7 @@
 #include <vector>
 
 #include "tracer/render/backward.h"
+#include "tracer/render/lens_connection.h"
 #include "tracer/render/path_judge.h"
 #include "tracer/render/render_options.h"
 
@@ -58,9 +59,12 @@ struct PhotonImages {
 // Pass k's photons, gathered at `back`'s view points with radius radiusMm. Across `ranks`
 // (tracer/runtime/ranks.h) every rank holds the whole `back` and traces its blocks of photons; the
 // images are complete on rank 0, bitwise those of one process.
+// With a connector (tracer/render/lens_connection.h), the light it connects is not gathered (but
+// for its audit).
 PhotonImages tracePhotons(const TransportView& ts, const DetectorImage& detector,
                           const BackwardResult& back, const RenderOptions& options,
                           const PathJudge* judge, int k, double radiusMm,
-                          const Ranks& ranks = Ranks::alone());
+                          const Ranks& ranks = Ranks::alone(),
+                          const LensConnector* connector = nullptr);
 
 }  // namespace veil

@@ -494,6 +494,7 @@ Renderer::Renderer(const TransportView& ts, const DetectorImage& detector, ExitA
     options_.check();
     if (options_.prune && !judge_)
         throw std::invalid_argument("pruning needs at least one path criterion");
+    if (options_.connectThroughLens) connector_ = LensConnector(ts_);
 }
 
 bool inGapAt(const Scene& scene, const Vec3& point, int object, int primitive, const Vec3& side,
@@ -688,6 +689,7 @@ BackwardOptions Renderer::backwardOptions(int k) const {
     bo.judge = judge_;
     bo.prune = options_.prune;
     bo.ranks = ranks_;
+    if (connector_.any()) bo.connector = &connector_;
     for (const Source& s : ts_.sources) bo.visibleSources.push_back(!photonsSeeSource(s));
     return bo;
 }
@@ -739,6 +741,7 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
     out.pixels[static_cast<int>(RenderComponent::Direct)] = back.direct.fluxes();
     out.backwardRays = back.rays;
     out.backwardSegments = back.segments;
+    out.connectionRays = back.connectionRays;
     out.viewPoints = back.viewPoints.size();
 
     out.backwardSeconds = since(t0);
@@ -746,7 +749,8 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
     // 2. Forward photons gathered at the view points.
     RenderOptions po = options_;
     if (photonsPerSource > 0) po.photonsPerPass = photonsPerSource;
-    PhotonImages acc = tracePhotons(ts_, detector_, back, po, judge_, k, radiusMm, ranks_);
+    PhotonImages acc = tracePhotons(ts_, detector_, back, po, judge_, k, radiusMm, ranks_,
+                                    connector_.any() ? &connector_ : nullptr);
     const size_t criteria = judge_ ? static_cast<size_t>(judge_->count()) : 0;
     std::vector<double>& visible = out.pixels[static_cast<int>(RenderComponent::Visible)];
     for (int p = 0; p < pixels; ++p) visible[static_cast<size_t>(p)] += acc.visible[p];

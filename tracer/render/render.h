@@ -86,6 +86,8 @@ struct RenderPass {
     uint64_t prunedBranches = 0, prunedPhotons = 0;  // stopped by the criteria (prune)
     double radiusMm = 0.0;
     uint64_t backwardRays = 0, backwardSegments = 0, viewPoints = 0;
+    // Of backwardSegments, the rays the lens connections traced (tracer/render/lens_connection.h).
+    uint64_t connectionRays = 0;
     uint64_t photons = 0, photonSegments = 0, gathers = 0;
     // The photons per source it traced, and its work in rays cast and gathers (counts, the
     // same for every thread and rank count): the view points' side (backward segments, the
@@ -270,6 +272,7 @@ class Renderer {
     RenderOptions options_;
     const PathJudge* judge_ = nullptr;
     Ranks ranks_;
+    LensConnector connector_;  // RenderOptions::connectThroughLens (its pilot, once)
 };
 
 // Where photons land around a view point v, for the light that reaches it from one side of

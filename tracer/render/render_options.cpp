@@ -46,7 +46,8 @@ std::ostream& operator<<(std::ostream& os, const RenderOptions& o) {
               << (o.splitBackward ? ", split" : ", random") << ", roulette "
               << o.rouletteRelativeFlux
               << (o.quasiRandomPhotons ? ", sobol photons" : ", random photons") << ", guide "
-              << o.guideFraction << ", follow lobes below " << o.followLobesBelowDeg << " deg}";
+              << o.guideFraction << ", follow lobes below " << o.followLobesBelowDeg << " deg"
+              << (o.connectThroughLens ? ", connected through the lens" : "") << "}";
 }
 
 }  // namespace veil

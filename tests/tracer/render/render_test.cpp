@@ -20,6 +20,7 @@
 
 #include "geometry/scene.h"
 #include "lensdata/glass_catalog.h"
+#include "tests/tracer/render/box_mesh.h"
 #include "tracer/records/detector.h"
 #include "tracer/scene/prepared_scene.h"
 #include "tracer/scene/scene_transport.h"
@@ -30,22 +31,6 @@ namespace veil {
 namespace {
 
 std::string testName() { return ::testing::UnitTest::GetInstance()->current_test_info()->name(); }
-
-// A closed box mesh (OFF), outward faces.
-void writeBox(const std::string& path, Vec3 lo, Vec3 hi) {
-    FILE* f = fopen(path.c_str(), "w");
-    ASSERT_TRUE(f);
-    fprintf(f, "OFF\n8 12 0\n");
-    for (int c = 0; c < 8; ++c)
-        fprintf(f, "%.17g %.17g %.17g\n", c & 1 ? hi.x : lo.x, c & 2 ? hi.y : lo.y,
-                c & 4 ? hi.z : lo.z);
-    // Corner c: bit 0 x, bit 1 y, bit 2 z. Two triangles per face, counter-clockwise seen
-    // from outside.
-    const int tris[12][3] = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
-                             {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
-    for (const auto& t : tris) fprintf(f, "3 %d %d %d\n", t[0], t[1], t[2]);
-    fclose(f);
-}
 
 // A biconvex singlet with ideal antireflection (clear radius 12.5 mm), a 1-pixel 0.2 mm
 // detector on its image surface, a 1200 mm square plate (Lambertian reflectance R) whose

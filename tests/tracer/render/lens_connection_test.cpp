@@ -1,0 +1,226 @@
+// Light connected through the lens (tracer/render/lens_connection.h) against independent
+// truth: forward Monte Carlo through the sequential model (traceSequential, its own
+// intersections and Snell's law), counting the flux of the source's own rays that land
+// within a small disk around the point, for a Sun beam off axis, a point source and an
+// emitting window; the paraxial closed form on the axis; and the audit's test finds() on a
+// photon's own path and on a neighbour's.
+
+#include "tracer/render/lens_connection.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <numbers>
+#include <string>
+
+#include "lensdata/glass_catalog.h"
+#include "tests/tracer/render/box_mesh.h"
+#include "tracer/runtime/rng.h"
+#include "tracer/scene/prepared_scene.h"
+#include "tracer/scene/scene_transport.h"
+#include "tracer/sequential/paraxial.h"
+#include "tracer/sequential/sequential_model.h"
+#include "tracer/sequential/sequential_trace.h"
+
+namespace veil {
+namespace {
+
+// A biconvex singlet (n 1.5, ideal antireflection, clear radius 12.5 mm), a white plate 61 mm
+// behind its front vertex (the chain the pilot finds: both faces, then the plate), and
+// `sources`.
+std::unique_ptr<PreparedScene> singletScene(const std::string& name, const std::string& sources) {
+    const std::string stem = ::testing::TempDir() + "veil_lens_connection_" + name;
+    writeBox(stem + ".off", Vec3(-60.0, -60.0, 61.0), Vec3(60.0, 60.0, 62.0));
+    const std::string path = stem + ".toml";
+    FILE* f = fopen(path.c_str(), "w");
+    EXPECT_TRUE(f);
+    fprintf(f,
+            "[system]\nwavelengths_nm = [550.0]\naperture = { epd_mm = 20.0 }\n"
+            "fields_deg = [0.0]\nsurfaces = [\n"
+            "  { r = 100.0, t = 5.0, glass = { nd = 1.5, vd = 0.0 }, sd = 12.5, stop = true },\n"
+            "  { r = -100.0, t = 99.0, sd = 12.5 },\n]\n"
+            "[[mesh]]\nname = \"plate\"\nfile = \"%s\"\nproperty = \"white\"\n"
+            "[properties.white]\nscatter = { model = \"lambertian\", reflectance = 0.5 }\n"
+            "%s"
+            "[detector]\nsize_mm = [4.0, 4.0]\npixels = [1, 1]\n"
+            "[[assign]]\nobjects = \"L1.*\"\nproperty = \"ideal_ar\"\n",
+            std::filesystem::path(stem + ".off").filename().c_str(), sources.c_str());
+    fclose(f);
+    return PreparedScene::read(path, GlassCatalog::builtIn());
+}
+
+// Three sources: the Sun 3 degrees off axis, a point 150 mm in front of the lens and 3 mm off
+// axis, and a window emitting inside a 10 degree cone.
+std::unique_ptr<PreparedScene> singletScene() {
+    return singletScene("three",
+                        "[[source]]\nname = \"sun\"\nkind = \"sun\"\nfield_deg = [0.0, 3.0]\n"
+                        "[[source]]\nname = \"lamp\"\nkind = \"point\"\n"
+                        "position_mm = [3.0, 0.0, -150.0]\n"
+                        "[[source]]\nname = \"window\"\nkind = \"window\"\ncone_deg = 10.0\n");
+}
+
+// Where `ray` (leaving the source) crosses the plane z = zMm after the lens, by the sequential
+// trace; false when it does not get through.
+bool throughLens(const SequentialModel& m, const Ray& ray, double zMm, Vec3& at,
+                 Vec3* dir = nullptr) {
+    SequentialTraceOptions o;
+    o.lastSurface = 2;
+    const SequentialRayResult r = traceSequential(m, 0, ray, o);
+    if (!r.ok()) return false;
+    const double t = (zMm - r.ray.origin.z) / r.ray.direction.z;
+    if (!(t > 0.0)) return false;
+    at = r.ray.origin + t * r.ray.direction;
+    if (dir) *dir = r.ray.direction;
+    return true;
+}
+
+int objectId(const TransportView& ts, const std::string& name) {
+    const SceneObject* o = ts.scene->find(name);
+    EXPECT_TRUE(o) << name;
+    return o ? o->id : -1;
+}
+
+struct Estimate {
+    double mean = 0.0, sigma = 0.0;
+};
+
+// Forward Monte Carlo: the irradiance on the plane z = p.z within rho of p, from `rays` rays
+// of source s.
+Estimate forwardIrradiance(const PreparedScene& scene, size_t s, const Vec3& p, double rho,
+                           uint64_t rays) {
+    const Source& src = scene.transport().view.sources[s];
+    double sum = 0.0, sum2 = 0.0;
+    for (uint64_t i = 0; i < rays; ++i) {
+        CounterRng rng(77, i);
+        const EmittedRay e = src.emit(rng, rays);
+        Vec3 at;
+        if (!throughLens(scene.model(), e.ray, p.z, at)) continue;
+        if (glm::length(at - p) > rho) continue;
+        sum += e.flux;
+        sum2 += e.flux * e.flux;
+    }
+    const double area = std::numbers::pi * rho * rho;
+    const double n = static_cast<double>(rays);
+    // The flux per ray is total / rays: the sum's variance is n var(x) for x = rays * flux.
+    const double var = sum2 - sum * sum / n;
+    return {sum / area, std::sqrt(std::max(var, 0.0)) / area};
+}
+
+// The connection: the mean over `samples` draws of its irradiance on the plane z = p.z.
+Estimate connectedIrradiance(const LensConnector& lc, const PreparedScene& scene, size_t s,
+                             const Vec3& p, int samples) {
+    double sum = 0.0, sum2 = 0.0;
+    int found = 0;
+    for (int i = 0; i < samples; ++i) {
+        CounterRng rng(5, static_cast<uint64_t>(i));
+        const double u1 = rng.uniform(), u2 = rng.uniform();
+        LensConnector::Work work;
+        const auto light = lc.connect(s, 0, scene.model().wavelengthNm(0), 2, p, -1, u1, u2, work);
+        if (!light) continue;
+        ++found;
+        const double e = light->value * std::abs(light->toLight.z);
+        sum += e;
+        sum2 += e * e;
+    }
+    const double n = static_cast<double>(samples);
+    const double mean = sum / n;
+    EXPECT_GT(found, 0);
+    return {mean, std::sqrt(std::max(sum2 / n - mean * mean, 0.0) / n)};
+}
+
+// A point in the light of source s behind the lens: where the ray through entrance point
+// (x, y) of the lens' front vertex plane crosses z = 60.
+Vec3 litPoint(const PreparedScene& scene, size_t s, double x, double y) {
+    const Source& src = scene.transport().view.sources[s];
+    Ray ray;
+    if (const auto* sun = std::get_if<SunSource>(&src.shape())) {
+        const Vec3 d = sun->beam.direction;
+        ray = {Vec3(x, y, 0.0) - 50.0 * d, d};
+    } else if (const auto* pt = std::get_if<PointSource>(&src.shape())) {
+        ray = {pt->positionMm, glm::normalize(Vec3(x, y, 0.0) - pt->positionMm)};
+    } else {
+        ray = {Vec3(x, y, -1.0), Vec3(0.0, 0.0, 1.0)};
+    }
+    Vec3 at;
+    EXPECT_TRUE(throughLens(scene.model(), ray, 60.0, at));
+    return at;
+}
+
+TEST(LensConnection, IrradianceAgreesWithForwardMonteCarloForEachSourceKind) {
+    const auto scene = singletScene();
+    const LensConnector lc(scene->transport().view);
+    for (size_t s = 0; s < 3; ++s)
+        EXPECT_EQ(lc.chains(s, objectId(scene->transport().view, "plate")), uint64_t{1} << 1);
+    const double rho = 0.25;
+    const struct {
+        size_t source;
+        int samples;
+        double x, y;
+    } cases[] = {{0, 400, 2.0, 3.0}, {1, 1, -4.0, 1.0}, {2, 40000, 1.0, -2.0}};
+    for (const auto& c : cases) {
+        const Vec3 p = litPoint(*scene, c.source, c.x, c.y);
+        const Estimate fwd =
+            forwardIrradiance(*scene, c.source, p, rho, c.source == 0 ? 8000000 : 4000000);
+        const Estimate con = connectedIrradiance(lc, *scene, c.source, p, c.samples);
+        // The disk's own bias: the irradiance's curvature over rho, (rho / 10 mm)^2 of it.
+        const double bias = 1e-3 * fwd.mean;
+        EXPECT_LE(std::abs(con.mean - fwd.mean), 4.0 * std::hypot(con.sigma, fwd.sigma) + bias)
+            << "source " << c.source << ": connected " << con.mean << " +- " << con.sigma
+            << ", forward " << fwd.mean << " +- " << fwd.sigma;
+        EXPECT_LT(fwd.sigma, 0.03 * fwd.mean) << "source " << c.source;
+    }
+}
+
+TEST(LensConnection, OnTheAxisTheIrradianceIsTheParaxialOne) {
+    // A collimated beam along the axis converges toward the rear focus: a paraxial ray at
+    // height h leaves the lens (at its back vertex, z = 5) at height a h with slope c h (the
+    // paraxial matrix, from before the front face to after the back face), so at z the beam's
+    // cross-section is scaled by m = a + c (z - 5) and the irradiance on the axis is E / m^2:
+    // exact on the axis, where the real rays' Jacobian is the paraxial one.
+    const auto scene = singletScene(
+        "axis", "[[source]]\nname = \"beam\"\nkind = \"collimated\"\nirradiance_w_mm2 = 2.0\n");
+    const LensConnector lc(scene->transport().view);
+    const ParaxialMatrix pm = paraxialMatrix(scene->model(), 0, 1, 2);
+    for (const double z : {20.0, 40.0, 58.0}) {  // before the plate
+        const double m = pm.a + pm.c * (z - 5.0);
+        const double expected = 2.0 / (m * m);
+        LensConnector::Work work;
+        const auto light = lc.connect(0, 0, 550.0, 2, Vec3(0.0, 0.0, z), -1, 0.5, 0.5, work);
+        ASSERT_TRUE(light) << z;
+        EXPECT_NEAR(light->value, expected, 1e-6 * expected) << "z " << z;
+        EXPECT_NEAR(light->toLight.z, -1.0, 1e-12);
+        EXPECT_LT(work.rays, 200u);
+    }
+    // Beyond the lens' reach (outside the cone of light behind it) there is nothing to find.
+    LensConnector::Work work;
+    EXPECT_FALSE(lc.connect(0, 0, 550.0, 2, Vec3(40.0, 0.0, 60.0), -1, 0.5, 0.5, work));
+}
+
+TEST(LensConnection, FindsThePhotonsOwnPathAndNotItsNeighbours) {
+    const auto scene = singletScene();
+    const LensConnector lc(scene->transport().view);
+    const Source& sun = scene->transport().view.sources[0];
+    int checked = 0;
+    for (uint64_t i = 0; i < 200; ++i) {
+        CounterRng rng(3, i);
+        const EmittedRay e = sun.emit(rng, 200);
+        Vec3 at;
+        if (!throughLens(scene->model(), e.ray, 60.0, at)) continue;
+        LensConnector::Work work;
+        // A ray within the finite differences' step of the rim has no Jacobian: connect()
+        // misses it as finds() does, and the audit keeps it with the photons.
+        const Vec3 front = e.ray.origin - e.ray.direction * (e.ray.origin.z / e.ray.direction.z);
+        if (std::hypot(front.x, front.y) > 12.4) continue;
+        ++checked;
+        EXPECT_TRUE(lc.finds(0, 0, 550.0, 2, at, -1, e.ray, work)) << i;
+        // A ray 0.05 mm beside it reaches another point: not the connection's path to `at`.
+        const Ray beside{e.ray.origin + Vec3(0.05, 0.0, 0.0), e.ray.direction};
+        EXPECT_FALSE(lc.finds(0, 0, 550.0, 2, at, -1, beside, work)) << i;
+    }
+    EXPECT_GT(checked, 150);
+}
+
+}  // namespace
+}  // namespace veil

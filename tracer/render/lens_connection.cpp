@@ -1,0 +1,562 @@
+#include "tracer/render/lens_connection.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <variant>
+
+#include "tracer/runtime/rng.h"
+#include "tracer/surfaces/media.h"
+
+namespace veil {
+
+namespace {
+
+constexpr uint64_t kPilotSeed = 0x6c656e73636f6e6eULL;  // the pilot's own stream key
+constexpr int kMaxChain = 64;                           // bits of a chains() mask
+constexpr int kNewtonIterations = 8;
+constexpr int kLineSearchHalvings = 4;
+constexpr double kWidestDeg = 80.0;      // a cone's parameter scale: tan of at most this
+constexpr double kNarrowConeDeg = 20.0;  // an emitting area's cone that counts as a beam's
+
+const Beam* beamOf(const Source& s) {
+    if (const auto* c = std::get_if<CollimatedSource>(&s.shape())) return &c->beam;
+    if (const auto* c = std::get_if<SunSource>(&s.shape())) return &c->beam;
+    return nullptr;
+}
+const PointSource* pointOf(const Source& s) { return std::get_if<PointSource>(&s.shape()); }
+const AreaEmitter* areaOf(const Source& s) {
+    if (const auto* w = std::get_if<WindowSource>(&s.shape())) return &w->area;
+    if (const auto* l = std::get_if<LambertianSource>(&s.shape())) return &l->area;
+    return nullptr;
+}
+
+// Two unit vectors that make (b1, b2, e) orthonormal.
+void basisAround(const Vec3& e, Vec3& b1, Vec3& b2) {
+    const Vec3 a = std::abs(e.x) < 0.9 ? Vec3(1.0, 0.0, 0.0) : Vec3(0.0, 1.0, 0.0);
+    b1 = glm::normalize(glm::cross(e, a));
+    b2 = glm::cross(e, b1);
+}
+
+double largest(const Vec3& p) {
+    return std::max({1.0, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+}
+
+}  // namespace
+
+// The chain as one evaluation leaves it: the ray after its last crossing, the medium it
+// travels in, the transmittance of the crossings and the media between them.
+struct LensConnector::Chain {
+    Ray end;
+    int medium = 0;
+    int lastObject = -1, lastPrimitive = -1;
+    double transmit = 1.0;
+};
+
+LensConnector::LensConnector(const TransportView& ts)
+    : ts_(&ts), designed_(*ts.scene), objects_(ts.scene->objects().size()) {
+    chains_.assign(ts.sources.size() * objects_, 0);
+    for (const Source& src : ts.sources) params_.push_back(parametrize(src));
+    if (designed_.steps() == 0) return;
+    const Scene& scene = *ts.scene;
+
+    for (size_t s = 0; s < ts.sources.size(); ++s) {
+        const Source& src = ts.sources[s];
+        for (uint64_t i = 0; i < kPilotPhotons; ++i) {
+            CounterRng rng(kPilotSeed, s * kPilotPhotons + i);
+            const EmittedRay e = src.emit(rng, kPilotPhotons);
+            if (!(e.flux > 0.0)) continue;
+            Ray ray = e.ray;
+            int medium = 0, startObject = -1, startPrimitive = -1;
+            for (int step = 0;; ++step) {
+                const auto hit =
+                    scene.closestHit(ray, kInfinity, startObject, startPrimitive, medium);
+                if (!hit || ts.detectorOfObject[hit->object] >= 0) break;
+                const OpticalProperty& prop = ts.properties[ts.propertyOfObject[hit->object]];
+                if (step >= 1 && step <= kMaxChain && prop.hasScatter()) {
+                    chains_[s * objects_ + static_cast<size_t>(hit->object)] |= uint64_t{1}
+                                                                                << (step - 1);
+                    any_ = true;
+                }
+                if (step >= designed_.steps() || hit->object != designed_.objectOfStep(step)) break;
+                const Interaction in =
+                    interact(ts, *hit, ray.direction, e.wavelength, e.wavelengthNm);
+                const EventType want = designed_.eventOfStep(step);
+                int c = 0;
+                while (c < in.count && (in.children[c].scatter || in.children[c].event != want))
+                    ++c;
+                if (c == in.count) break;
+                ray = {hit->point, in.children[c].direction};
+                medium = in.children[c].medium;
+                startObject = hit->object;
+                startPrimitive = hit->primitive;
+            }
+        }
+    }
+    seeds_.assign(ts.sources.size(), {});
+    for (size_t s = 0; s < ts.sources.size(); ++s) {
+        uint64_t all = 0;
+        for (size_t o = 0; o < objects_; ++o) all |= chains_[s * objects_ + o];
+        if (all == 0) continue;
+        seeds_[s].resize(static_cast<size_t>(64 - std::countl_zero(all)));
+        const std::vector<Vec3> fixes = seedFixes(s);
+        for (uint64_t m = all; m != 0; m &= m - 1) {
+            const int steps = std::countr_zero(m) + 1;
+            for (const Vec3& f : fixes)
+                seeds_[s][static_cast<size_t>(steps - 1)].push_back(buildSeeds(s, steps, f));
+        }
+    }
+}
+
+LensConnector::Parameters LensConnector::parametrize(const Source& src) {
+    Parameters p;
+    if (const Beam* beam = beamOf(src)) {
+        p.movesOrigin = true;
+        p.center = beam->startCenterMm;
+        p.axis = beam->direction;
+        p.u = beam->axisU;
+        p.v = beam->axisV;
+        p.scale = std::max(beam->radiusMm, 1e-6);
+        return p;
+    }
+    if (const PointSource* pt = pointOf(src)) {
+        p.center = pt->positionMm;
+        p.axis = pt->axis;
+        p.u = pt->axisU;
+        p.v = pt->axisV;
+        p.scale = std::tan(std::min(pt->halfAngleRad, kWidestDeg * std::numbers::pi / 180.0));
+        return p;
+    }
+    const AreaEmitter& area = *areaOf(src);
+    p.center = area.frame.translation;
+    p.axis = area.frame.toGlobalDirection(Vec3(0.0, 0.0, 1.0));
+    p.u = area.frame.toGlobalDirection(Vec3(1.0, 0.0, 0.0));
+    p.v = area.frame.toGlobalDirection(Vec3(0.0, 1.0, 0.0));
+    // A narrow cone (a window's few degrees) is a beam with a spread: its direction is drawn
+    // and the point on the area solved for, so that every solution lies in the cone. A wide
+    // one draws the point and solves for the direction, which a small emitter needs.
+    p.movesOrigin = area.coneHalfAngleRad < kNarrowConeDeg * std::numbers::pi / 180.0;
+    p.scale =
+        p.movesOrigin
+            ? std::max(area.shape == AreaEmitter::Shape::Disk
+                           ? area.radiusMm
+                           : 0.5 * std::hypot(area.sizeMm.x, area.sizeMm.y),
+                       1e-6)
+            : std::tan(std::min(area.coneHalfAngleRad, kWidestDeg * std::numbers::pi / 180.0));
+    return p;
+}
+
+bool LensConnector::reaches(const Ray& from, int fromObject, int fromPrimitive, int medium,
+                            const Vec3& point, int object) const {
+    const double toPoint = glm::dot(point - from.origin, from.direction);
+    if (!(toPoint > 0.0)) return false;
+    const double tol = 1e-5 * largest(point) + 1e-6 * toPoint;
+    if (object < 0)  // a point in the open: nothing before it
+        return !ts_->scene->closestHit(from, toPoint - tol, fromObject, fromPrimitive, medium);
+    const auto hit = ts_->scene->closestHit(from, kInfinity, fromObject, fromPrimitive, medium);
+    return hit && hit->object == object && std::abs(hit->t - toPoint) <= tol;
+}
+
+bool LensConnector::inView(size_t s, int steps, const Vec3& fixed, const Vec3& point, int object,
+                           Work& work) const {
+    double a = 0.0, b = 0.0;
+    size_t node = 0;
+    const SeedGrid* g = seed(s, steps, fixed, point, a, b, &node);
+    if (!g) return false;
+    // The node's last segment turned toward the point, from where it left the last face.
+    const Ray& end = g->ends[node];
+    const Vec3 to = point - end.origin;
+    const double distance = glm::length(to);
+    if (!(distance > 0.0)) return false;
+    ++work.rays;
+    return reaches({end.origin, to / distance}, g->lastObjects[node], g->lastPrimitives[node],
+                   g->media[node], point, object);
+}
+
+std::vector<Vec3> LensConnector::seedFixes(size_t s) const {
+    const Parameters& pm = params_[s];
+    const Source& src = ts_->sources[s];
+    const AreaEmitter* area = areaOf(src);
+    if (!area) return {pm.movesOrigin ? pm.axis : pm.center};
+    std::vector<Vec3> out;
+    for (int i = 0; i < kSeedFixes; ++i)
+        for (int j = 0; j < kSeedFixes; ++j) {
+            const double x = 2.0 * (i + 0.5) / kSeedFixes - 1.0,
+                         y = 2.0 * (j + 0.5) / kSeedFixes - 1.0;
+            if (pm.movesOrigin) {
+                // Directions over the cone.
+                const double t = std::tan(area->coneHalfAngleRad);
+                if (x * x + y * y > 1.0) continue;
+                out.push_back(glm::normalize(pm.axis + t * (x * pm.u + y * pm.v)));
+            } else if (area->shape == AreaEmitter::Shape::Disk) {
+                if (x * x + y * y > 1.0) continue;
+                out.push_back(pm.center + area->radiusMm * (x * pm.u + y * pm.v));
+            } else {
+                out.push_back(pm.center +
+                              0.5 * (x * area->sizeMm.x * pm.u + y * area->sizeMm.y * pm.v));
+            }
+        }
+    return out;
+}
+
+LensConnector::SeedGrid LensConnector::buildSeeds(size_t s, int steps, const Vec3& fixed) const {
+    const Parameters& pm = params_[s];
+    SeedGrid g;
+    g.fixed = fixed;
+    // At the first line (model wavelength 0): a seed needs no more.
+    const double firstNm = ts_->sources[s].spectrum().lines().front().nm;
+    Work work;
+    for (int i = 0; i < kSeedGrid; ++i)
+        for (int j = 0; j < kSeedGrid; ++j) {
+            const double a = pm.scale * (2.0 * (i + 0.5) / kSeedGrid - 1.0);
+            const double b = pm.scale * (2.0 * (j + 0.5) / kSeedGrid - 1.0);
+            Chain c;
+            if (!trace(entryRay(s, fixed, a, b), steps, 0, firstNm, c, work, nullptr)) continue;
+            g.ends.push_back(c.end);
+            g.params.emplace_back(a, b);
+            g.lastObjects.push_back(c.lastObject);
+            g.lastPrimitives.push_back(c.lastPrimitive);
+            g.media.push_back(c.medium);
+        }
+    return g;
+}
+
+const LensConnector::SeedGrid* LensConnector::seed(size_t s, int steps, const Vec3& fixed,
+                                                   const Vec3& point, double& a, double& b,
+                                                   size_t* node) const {
+    if (seeds_[s].size() < static_cast<size_t>(steps)) return nullptr;
+    const std::vector<SeedGrid>& grids = seeds_[s][static_cast<size_t>(steps - 1)];
+    if (grids.empty()) return nullptr;
+    const SeedGrid* g = &grids.front();
+    for (const SeedGrid& x : grids)
+        if (glm::length(x.fixed - fixed) < glm::length(g->fixed - fixed)) g = &x;
+    double best = kInfinity;
+    for (size_t n = 0; n < g->ends.size(); ++n) {
+        const Vec3 d = point - g->ends[n].origin;
+        const double along = glm::dot(d, g->ends[n].direction);
+        if (!(along > 0.0)) continue;
+        const double miss = glm::length(d - g->ends[n].direction * along);
+        if (miss < best) {
+            best = miss;
+            a = g->params[n].x;
+            b = g->params[n].y;
+            if (node) *node = n;
+        }
+    }
+    return best < kInfinity ? g : nullptr;
+}
+
+Ray LensConnector::entryRay(size_t s, const Vec3& fixed, double a, double b) const {
+    const Parameters& p = params_[s];
+    if (p.movesOrigin) return {p.center + a * p.u + b * p.v, fixed};
+    return {fixed, glm::normalize(p.axis + a * p.u + b * p.v)};
+}
+
+void LensConnector::parametersOf(size_t s, const Ray& entry, double& a, double& b) const {
+    const Parameters& p = params_[s];
+    if (p.movesOrigin) {
+        const Vec3 d = entry.origin - p.center;
+        a = glm::dot(d, p.u);
+        b = glm::dot(d, p.v);
+        return;
+    }
+    const double along = glm::dot(entry.direction, p.axis);
+    const Vec3 t = along > 0.0 ? entry.direction / along - p.axis : Vec3(0.0);
+    a = glm::dot(t, p.u);
+    b = glm::dot(t, p.v);
+}
+
+Vec3 LensConnector::fixedOf(size_t s, const Ray& entry) const {
+    return params_[s].movesOrigin ? entry.direction : entry.origin;
+}
+
+double LensConnector::fluxPerParameter(size_t s, int line, const Ray& entry) const {
+    const Source& src = ts_->sources[s];
+    const double emitted = src.emitted(entry.origin, entry.direction, line);
+    if (!(emitted > 0.0)) return 0.0;
+    const double c = glm::dot(entry.direction, params_[s].axis);
+    if (!(c > 0.0)) return 0.0;
+    if (std::holds_alternative<SunSource>(src.shape()))
+        // Radiance L = Phi / (A Omega cos): per unit of the start plane and per direction
+        // drawn uniformly over the disk (pdf 1 / Omega), L cos Omega.
+        return emitted * c * src.emittingSolidAngleSr();
+    if (std::holds_alternative<CollimatedSource>(src.shape()))
+        return emitted;  // E per unit of the start plane
+    if (pointOf(src))
+        // Directions per unit of the tangent plane: dOmega = da db / (1 + a^2 + b^2)^(3/2) =
+        // cos^3 da db; intensity I gives I cos^3.
+        return emitted * c * c * c;
+    if (params_[s].movesOrigin) {
+        // Per unit of the area, the direction drawn by the cosine law within the cone (pdf
+        // cos / (pi sin^2 cone)): L cos / pdf = L pi sin^2 cone.
+        const double sinCone = std::sin(areaOf(src)->coneHalfAngleRad);
+        return emitted * std::numbers::pi * sinCone * sinCone;
+    }
+    // The point drawn uniformly on the area (pdf 1 / A), the direction per unit of the
+    // tangent plane: L cos A cos^3.
+    return emitted * src.emittingAreaMm2() * c * c * c * c;
+}
+
+bool LensConnector::trace(const Ray& entry, int steps, int line, double wavelengthNm, Chain& out,
+                          Work& work, std::vector<PathEvent>* events) const {
+    const TransportView& ts = *ts_;
+    Ray ray = entry;
+    int medium = 0, startObject = -1, startPrimitive = -1;
+    double transmit = 1.0;
+    if (events) events->clear();
+    for (int i = 0; i < steps; ++i) {
+        const auto hit = ts.scene->closestHit(ray, kInfinity, startObject, startPrimitive, medium);
+        ++work.rays;
+        if (!hit || hit->object != designed_.objectOfStep(i)) return false;
+        const double alpha = ts.media->absorptionPerMm(medium, line);
+        if (alpha > 0.0) transmit *= std::exp(-alpha * hit->t);
+        const Interaction in = interact(ts, *hit, ray.direction, line, wavelengthNm);
+        const EventType want = designed_.eventOfStep(i);
+        int c = 0;
+        while (c < in.count && (in.children[c].scatter || in.children[c].event != want)) ++c;
+        if (c == in.count) return false;
+        const InteractionChild& child = in.children[c];
+        transmit *= child.share;
+        if (events)
+            events->push_back(pathEvent(want, hit->object, hit->primitive, medium, child.medium));
+        ray = {hit->point, child.direction};
+        medium = child.medium;
+        startObject = hit->object;
+        startPrimitive = hit->primitive;
+    }
+    out.end = ray;
+    out.medium = medium;
+    out.lastObject = startObject;
+    out.lastPrimitive = startPrimitive;
+    out.transmit = transmit;
+    return true;
+}
+
+namespace {
+
+// Where a chain's last segment (o, e) crosses the plane through p perpendicular to n, as
+// coordinates along (b1, b2) relative to p; false when it runs parallel to the plane.
+bool crossingAt(const Ray& end, const Vec3& p, const Vec3& n, const Vec3& b1, const Vec3& b2,
+                Vec2& x) {
+    const double along = glm::dot(end.direction, n);
+    if (!(along > 1e-9)) return false;
+    const Vec3 q = end.origin + end.direction * (glm::dot(p - end.origin, n) / along) - p;
+    x = Vec2(glm::dot(q, b1), glm::dot(q, b2));
+    return true;
+}
+
+// The distance from p to the line of a chain's last segment.
+double missOf(const Ray& end, const Vec3& p) {
+    const Vec3 d = p - end.origin;
+    return glm::length(d - end.direction * glm::dot(d, end.direction));
+}
+
+}  // namespace
+
+bool LensConnector::solve(size_t s, int line, double wavelengthNm, int steps, const Vec3& point,
+                          const Vec3& fixed, double& a, double& b, Work& work) const {
+    const double scale = params_[s].scale;
+    const double tol = 1e-9 * largest(point);
+    // The start: the seed grid's node whose last segment passes nearest the point; without
+    // one (no node of the grid follows the chain), the straight line from the source to the
+    // point, drawn toward the axis until its chain traces.
+    Chain c;
+    bool started = seed(s, steps, fixed, point, a, b) != nullptr &&
+                   trace(entryRay(s, fixed, a, b), steps, line, wavelengthNm, c, work, nullptr);
+    if (!started) {
+        const Parameters& pm = params_[s];
+        const Ray straight = pm.movesOrigin
+                                 ? Ray{point - fixed * (glm::dot(point - pm.center, pm.axis) /
+                                                        glm::dot(fixed, pm.axis)),
+                                       fixed}
+                                 : Ray{fixed, glm::normalize(point - fixed)};
+        double a0 = 0.0, b0 = 0.0;
+        parametersOf(s, straight, a0, b0);
+        for (const double f : {1.0, 0.75, 0.5, 0.25, 0.0}) {
+            a = a0 * f;
+            b = b0 * f;
+            if (trace(entryRay(s, fixed, a, b), steps, line, wavelengthNm, c, work, nullptr)) {
+                started = true;
+                break;
+            }
+        }
+    }
+    if (!started) return false;
+    double miss = missOf(c.end, point);
+    const double h = 1e-7 * scale;
+    for (int it = 0; it < kNewtonIterations; ++it) {
+        if (miss <= tol) return true;
+        // The residual and its Jacobian on the plane through the point perpendicular to the
+        // current last segment.
+        const Vec3 n = c.end.direction;
+        Vec3 b1, b2;
+        basisAround(n, b1, b2);
+        Vec2 r;
+        if (!crossingAt(c.end, point, n, b1, b2, r)) return false;
+        Vec2 col[2];
+        for (int k = 0; k < 2; ++k) {
+            Chain ck;
+            double step = h;
+            bool ok = false;
+            for (const double sign : {1.0, -1.0}) {
+                step = sign * h;
+                const double ak = a + (k == 0 ? step : 0.0), bk = b + (k == 1 ? step : 0.0);
+                if (trace(entryRay(s, fixed, ak, bk), steps, line, wavelengthNm, ck, work,
+                          nullptr) &&
+                    crossingAt(ck.end, point, n, b1, b2, col[k])) {
+                    ok = true;
+                    break;
+                }
+            }
+            if (!ok) return false;
+            col[k] = (col[k] - r) / step;
+        }
+        const double det = col[0].x * col[1].y - col[1].x * col[0].y;
+        if (!(std::abs(det) > 0.0) || !std::isfinite(det)) return false;
+        const double da = -(col[1].y * r.x - col[1].x * r.y) / det;
+        const double db = -(-col[0].y * r.x + col[0].x * r.y) / det;
+        // Backtracking: the full step, or the largest half of it that gets closer.
+        bool moved = false;
+        double lambda = 1.0;
+        for (int k = 0; k < kLineSearchHalvings; ++k, lambda *= 0.5) {
+            Chain trial;
+            const double at = a + lambda * da, bt = b + lambda * db;
+            if (!trace(entryRay(s, fixed, at, bt), steps, line, wavelengthNm, trial, work, nullptr))
+                continue;
+            const double m = missOf(trial.end, point);
+            if (m < miss) {
+                a = at;
+                b = bt;
+                c = trial;
+                miss = m;
+                moved = true;
+                break;
+            }
+        }
+        if (!moved) return false;
+    }
+    return miss <= tol;
+}
+
+std::optional<LensConnector::Light> LensConnector::connect(size_t s, int line, double wavelengthNm,
+                                                           int steps, const Vec3& point, int object,
+                                                           double u1, double u2, Work& work,
+                                                           std::vector<PathEvent>* events) const {
+    const Source& src = ts_->sources[s];
+    if (steps < 1 || steps > designed_.steps()) return std::nullopt;
+    const Parameters& pm = params_[s];
+    // What the solver keeps (fluxPerParameter has the pdfs): a beam's direction, drawn
+    // uniformly over the Sun's disk; a narrow cone's direction, drawn by the cosine law; a
+    // point's position; a point drawn uniformly on a wide-coned area.
+    Vec3 fixed = pm.movesOrigin ? pm.axis : pm.center;
+    const AreaEmitter* area = areaOf(src);
+    const Beam* beam = beamOf(src);
+    if (area && !pm.movesOrigin) {
+        Vec3 local(0.0);
+        if (area->shape == AreaEmitter::Shape::Disk) {
+            const double rho = area->radiusMm * std::sqrt(u1), phi = 2.0 * std::numbers::pi * u2;
+            local = Vec3(rho * std::cos(phi), rho * std::sin(phi), 0.0);
+        } else {
+            local = Vec3((u1 - 0.5) * area->sizeMm.x, (u2 - 0.5) * area->sizeMm.y, 0.0);
+        }
+        fixed = area->frame.toGlobalPoint(local);
+    } else if ((beam && beam->halfAngleRad > 0.0) || area) {
+        double cosTheta = 1.0, sinTheta = 0.0;
+        if (beam) {
+            // Uniform over the solid angle of the disk.
+            cosTheta = 1.0 - u1 * (1.0 - std::cos(beam->halfAngleRad));
+            sinTheta = std::sqrt(std::max(0.0, 1.0 - cosTheta * cosTheta));
+        } else {
+            // The cosine law within the cone: sin^2 uniform up to sin^2 cone.
+            sinTheta = std::sin(area->coneHalfAngleRad) * std::sqrt(u1);
+            cosTheta = std::sqrt(std::max(0.0, 1.0 - sinTheta * sinTheta));
+        }
+        const double phi = 2.0 * std::numbers::pi * u2;
+        fixed = glm::normalize(cosTheta * pm.axis +
+                               sinTheta * (std::cos(phi) * pm.u + std::sin(phi) * pm.v));
+    }
+    return connectWith(s, line, wavelengthNm, steps, point, object, fixed, work, events);
+}
+
+std::optional<LensConnector::Light> LensConnector::connectWith(
+    size_t s, int line, double wavelengthNm, int steps, const Vec3& point, int object,
+    const Vec3& fixed, Work& work, std::vector<PathEvent>* events) const {
+    if (!inView(s, steps, fixed, point, object, work)) return std::nullopt;
+    double a = 0.0, b = 0.0;
+    if (!solve(s, line, wavelengthNm, steps, point, fixed, a, b, work)) return std::nullopt;
+    const Ray entry = entryRay(s, fixed, a, b);
+    Chain c;
+    if (!trace(entry, steps, line, wavelengthNm, c, work, events)) return std::nullopt;
+    const double toPoint = glm::dot(point - c.end.origin, c.end.direction);
+    if (!(toPoint > 0.0)) return std::nullopt;
+    const double det = jacobian(s, line, wavelengthNm, steps, point, fixed, a, b, c, work);
+    if (!(det > 0.0)) return std::nullopt;
+    const double fu = fluxPerParameter(s, line, entry);
+    if (!(fu > 0.0)) return std::nullopt;
+    // Nothing between the last crossing and the point: the last segment, traced as the light
+    // travels it, first meets the point's object at the point (within the rounding of a mesh's
+    // single-precision hits; a ray traced back from the point can meet a neighbouring triangle
+    // of its own mesh at once).
+    ++work.rays;
+    if (!reaches(c.end, c.lastObject, c.lastPrimitive, c.medium, point, object))
+        return std::nullopt;
+    const Vec3 back = -c.end.direction;
+    const double alpha = ts_->media->absorptionPerMm(c.medium, line);
+    Light out;
+    out.toLight = back;
+    out.distanceMm = toPoint;
+    out.entry = entry;
+    out.value = fu * c.transmit * (alpha > 0.0 ? std::exp(-alpha * toPoint) : 1.0) / det;
+    if (!(out.value > 0.0) || !std::isfinite(out.value)) return std::nullopt;
+    return out;
+}
+
+double LensConnector::jacobian(size_t s, int line, double wavelengthNm, int steps,
+                               const Vec3& point, const Vec3& fixed, double a, double b,
+                               const Chain& at, Work& work) const {
+    // Central differences on the plane through the point perpendicular to the ray; one-sided
+    // where a neighbour leaves the chain (the rim of an aperture).
+    const Vec3 n = at.end.direction;
+    Vec3 b1, b2;
+    basisAround(n, b1, b2);
+    Vec2 r;
+    if (!crossingAt(at.end, point, n, b1, b2, r)) return 0.0;
+    const double h = 1e-5 * params_[s].scale;
+    Vec2 col[2];
+    for (int k = 0; k < 2; ++k) {
+        Vec2 side[2];
+        bool ok[2] = {false, false};
+        for (int j = 0; j < 2; ++j) {
+            const double step = j == 0 ? h : -h;
+            Chain cj;
+            const double aj = a + (k == 0 ? step : 0.0), bj = b + (k == 1 ? step : 0.0);
+            ok[j] =
+                trace(entryRay(s, fixed, aj, bj), steps, line, wavelengthNm, cj, work, nullptr) &&
+                crossingAt(cj.end, point, n, b1, b2, side[j]);
+        }
+        if (ok[0] && ok[1])
+            col[k] = (side[0] - side[1]) / (2.0 * h);
+        else if (ok[0])
+            col[k] = (side[0] - r) / h;
+        else if (ok[1])
+            col[k] = (r - side[1]) / h;
+        else
+            return 0.0;
+    }
+    return std::abs(col[0].x * col[1].y - col[1].x * col[0].y);
+}
+
+bool LensConnector::finds(size_t s, int line, double wavelengthNm, int steps, const Vec3& point,
+                          int object, const Ray& emitted, Work& work) const {
+    if (steps < 1 || steps > designed_.steps()) return false;
+    // Everything connect() does with this fixed half, then the same ray.
+    const auto light = connectWith(s, line, wavelengthNm, steps, point, object, fixedOf(s, emitted),
+                                   work, nullptr);
+    if (!light) return false;
+    double a = 0.0, b = 0.0, pa = 0.0, pb = 0.0;
+    parametersOf(s, light->entry, a, b);
+    parametersOf(s, emitted, pa, pb);
+    return std::hypot(a - pa, b - pb) <= 1e-6 * params_[s].scale;
+}
+
+}  // namespace veil

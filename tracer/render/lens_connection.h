@@ -1,0 +1,179 @@
+#pragma once
+// Light connected through the lens (docs/render.md, "Light connected through the lens"): the
+// light of a source that reaches a view point through the lens as designed, found exactly
+// instead of gathered.
+//
+// A mount inside the barrel sees the Sun only through the elements in front of it. Photons
+// find that light where they happen to land within a view point's gathering disk; a narrow
+// lobe (a 5 degree Gaussian) then keeps only the few that also arrive along the one direction
+// it sends toward the pixel. Here the path is solved instead. For a view point at p and a
+// chain of the first k faces of the lens's designed path (tracer/render/designed_path.h):
+//
+//   1. the source's direction is drawn (over the solar disk; a collimated beam has one), and
+//      Newton's method on the two free coordinates of its entry ray (the point on the beam's
+//      start plane, or for a point source the direction) finds the ray that crosses those k
+//      faces as designed (refracting at lens faces, reflecting at mirrors, in the scene itself:
+//      its coatings, apertures and shapes) and then passes through p. The residual is where
+//      the last segment crosses the plane through p perpendicular to it; the Jacobian comes
+//      from finite differences (forward while iterating, central for the result);
+//   2. the beam's density there follows from the Jacobian: the flux the source sends through
+//      a parameter cell du arrives spread over |det J| du of that plane, so the irradiance at
+//      p perpendicular to the ray is F_u T / |det J| (F_u the source's flux per unit of its
+//      parameters: E = Phi / A for a beam, L cos(theta) Omega for the Sun's drawn direction,
+//      I / (1 + a^2 + b^2)^(3/2) for a point source's direction (a, b) on its axis' tangent
+//      plane; T the transmittance of the k crossings and of the media between them);
+//   3. a shadow ray from the k-th face to p checks that nothing blocks the last segment.
+//
+// Which light it owns. The chains come from a pilot: photons of each source drawn once
+// (fixed seed) and followed along the designed path only; where one first meets a scattering
+// object after k >= 1 designed crossings, (source, object, k) is a chain (chains()). The
+// photon pass then does not gather the light of that source that crossed exactly those k
+// faces as designed before scattering at that object, when the connection finds the same path
+// (finds(): the solver, from its own start, reaches the photon's entry ray); the connection
+// counts it at every view point instead. Paths the solver misses (several rays of the chain
+// through one point, near a caustic) stay the photons': finds() is checked for a random
+// 1 / kAuditRate of them, which are gathered kAuditRate times over when it fails (unbiased:
+// the audit's expectation is exactly the light the solver misses). Everything else (ghosts,
+// light that scattered before, sources of other kinds: window, Lambertian) stays gathered.
+//
+// Deterministic: no state changes after construction; thread-safe.
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "tracer/records/path_history.h"
+#include "tracer/render/designed_path.h"
+#include "tracer/render/path_judge.h"
+#include "tracer/transport/interaction.h"
+
+namespace veil {
+
+class LensConnector {
+  public:
+    // Photons checked against finds() where the connection owns their light: 1 in this many.
+    static constexpr int kAuditRate = 32;
+    // Pilot photons per source (LensConnector's constructor).
+    static constexpr uint64_t kPilotPhotons = 65536;
+
+    LensConnector() = default;
+    // The pilot (see the header comment), for every source.
+    explicit LensConnector(const TransportView& ts);
+
+    // The chains by which source s lights object `object` through the lens as designed: bit
+    // k - 1 set for k designed crossings (k up to 64). 0 for no chain.
+    uint64_t chains(size_t source, int object) const {
+        if (chains_.empty()) return 0;
+        return chains_[source * objects_ + static_cast<size_t>(object)];
+    }
+    bool any() const { return any_; }
+
+    struct Light {
+        Vec3 toLight{0.0};  // unit, from the point back along the arriving ray
+        // The irradiance at the point perpendicular to the ray (unit/mm^2), over the pdf of
+        // the drawn direction: f |cos| value estimates the light scattered there, as
+        // Source::IncidentSample::value.
+        double value = 0.0;
+        double distanceMm = 0.0;  // of the last segment, from the k-th face
+        Ray entry;                // the source's ray that reaches the point
+    };
+    struct Work {
+        uint64_t rays = 0;  // segments traced (each crossing of the chain, shadow rays)
+    };
+
+    // Whether the connection tries `point` (on `object`; -1: a point in the open) for the
+    // chain of `steps` crossings of source s with the fixed half `fixed` (fixedOf): the last
+    // segment of the seed grid's node nearest the point (seed()) reaches it unblocked. A point
+    // in a shadow is not solved for; its light, if any, stays the photons'. The same test on a
+    // photon's own hit point and fixed half decides whether its light is the connection's.
+    bool inView(size_t s, int steps, const Vec3& fixed, const Vec3& point, int object,
+                Work& work) const;
+    Vec3 fixedOf(size_t s, const Ray& entry) const;
+
+    // Light of source s, line `line` (model wavelength index), arriving at `point` on `object`
+    // (-1: a point in the open) through the chain of `steps` designed crossings, its
+    // direction drawn from u1, u2 (the Sun's; ignored by collimated and point sources). None
+    // when no ray of the chain reaches the point: outside the beam, blocked, past the critical
+    // angle, or the solver did not converge. With `events`, the chain's events as light
+    // travels them (after Emit, before the scatter at the point) replace its contents.
+    std::optional<Light> connect(size_t s, int line, double wavelengthNm, int steps,
+                                 const Vec3& point, int object, double u1, double u2, Work& work,
+                                 std::vector<PathEvent>* events = nullptr) const;
+
+    // Whether connect() finds the path of the emitted ray `emitted` (of source s) that crossed
+    // the chain of `steps` designed crossings and arrived at `point` (on `object`; -1: in the
+    // open): with the ray's own fixed half (fixedOf), everything connect() does succeeds (the
+    // point in view, the solve, the Jacobian, the flux, the last segment unblocked) and reaches
+    // the ray's own entry.
+    bool finds(size_t s, int line, double wavelengthNm, int steps, const Vec3& point, int object,
+               const Ray& emitted, Work& work) const;
+
+  private:
+    struct Chain;  // one evaluation of the chain (lens_connection.cpp)
+    // How a source's entry rays are parametrized: the solver moves the origin on a plane
+    // (center, u, v; the direction fixed: beams, narrow-coned areas) or the direction on the
+    // plane tangent to the unit sphere at `axis` (the origin fixed: points, wide-coned areas).
+    struct Parameters {
+        bool movesOrigin = false;
+        Vec3 center{0.0}, axis{0.0, 0.0, 1.0}, u{1.0, 0.0, 0.0}, v{0.0, 1.0, 0.0};
+        double scale = 1.0;  // of the parameters: mm on a plane, or a tangent
+    };
+    static Parameters parametrize(const Source& src);
+    // Where the solver starts: the chain traced once from a grid of kSeedGrid^2 parameters
+    // over [-scale, scale]^2, per source, chain and fixed half (one for a beam or a point;
+    // kSeedFixes^2 directions over a narrow cone, or points over a wide-coned area); the grid
+    // of the fixed half nearest the drawn one, and its node whose last segment passes nearest
+    // the point, start Newton's method.
+    struct SeedGrid {
+        Vec3 fixed{0.0};
+        std::vector<Ray> ends;                                // [node]: the last segment
+        std::vector<Vec2> params;                             // [node]
+        std::vector<int> lastObjects, lastPrimitives, media;  // [node]: where it left, in what
+    };
+    static constexpr int kSeedGrid = 12;
+    static constexpr int kSeedFixes = 5;
+    std::vector<Vec3> seedFixes(size_t s) const;
+    SeedGrid buildSeeds(size_t s, int steps, const Vec3& fixed) const;
+    const SeedGrid* seed(size_t s, int steps, const Vec3& fixed, const Vec3& point, double& a,
+                         double& b, size_t* node = nullptr) const;
+    // Whether `from` (leaving object fromObject, triangle fromPrimitive, in `medium`) first
+    // meets `object` at `point` (within the rounding of a mesh's hits), or for object < 0
+    // meets nothing before it.
+    bool reaches(const Ray& from, int fromObject, int fromPrimitive, int medium, const Vec3& point,
+                 int object) const;
+    // The entry ray of source s for parameters (a, b) and what the solver keeps fixed: a
+    // beam's direction (a, b on its start plane), or the origin of a point or of a point drawn
+    // on an emitting area (a, b the direction on the plane tangent to its axis).
+    Ray entryRay(size_t s, const Vec3& fixed, double a, double b) const;
+    // The source's flux per unit of its parameters at (a, b) (the header comment, step 2).
+    double fluxPerParameter(size_t s, int line, const Ray& entry) const;
+    // The parameters of an entry ray (the inverse of entryRay).
+    void parametersOf(size_t s, const Ray& entry, double& a, double& b) const;
+    bool trace(const Ray& entry, int steps, int line, double wavelengthNm, Chain& out, Work& work,
+               std::vector<PathEvent>* events) const;
+    // connect() with its fixed half given.
+    std::optional<Light> connectWith(size_t s, int line, double wavelengthNm, int steps,
+                                     const Vec3& point, int object, const Vec3& fixed, Work& work,
+                                     std::vector<PathEvent>* events) const;
+    // Newton's method for the entry parameters whose chain passes through `point`, from the
+    // straight line to it (the same start for every caller: finds() must see what connect()
+    // sees).
+    bool solve(size_t s, int line, double wavelengthNm, int steps, const Vec3& point,
+               const Vec3& fixed, double& a, double& b, Work& work) const;
+    // |det| of the Jacobian of the point where the chain crosses the plane through `point`
+    // perpendicular to `at`'s last segment, by the entry parameters (central differences);
+    // 0 where it cannot be formed.
+    double jacobian(size_t s, int line, double wavelengthNm, int steps, const Vec3& point,
+                    const Vec3& fixed, double a, double b, const Chain& at, Work& work) const;
+
+    const TransportView* ts_ = nullptr;
+    DesignedPath designed_;
+    size_t objects_ = 0;
+    std::vector<uint64_t> chains_;  // [source * objects + object]
+
+    std::vector<Parameters> params_;                         // [source]
+    std::vector<std::vector<std::vector<SeedGrid>>> seeds_;  // [source][steps - 1][fixed half]
+    bool any_ = false;
+};
+
+}  // namespace veil
