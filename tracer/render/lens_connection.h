@@ -9,32 +9,37 @@
 // it sends toward the pixel. Here the path is solved instead. For a view point at p and a
 // chain of the first k faces of the lens's designed path (tracer/render/designed_path.h):
 //
-//   1. the source's direction is drawn (over the solar disk; a collimated beam has one), and
-//      Newton's method on the two free coordinates of its entry ray (the point on the beam's
-//      start plane, or for a point source the direction) finds the ray that crosses those k
-//      faces as designed (refracting at lens faces, reflecting at mirrors, in the scene itself:
-//      its coatings, apertures and shapes) and then passes through p. The residual is where
-//      the last segment crosses the plane through p perpendicular to it; the Jacobian comes
-//      from finite differences (forward while iterating, central for the result);
+//   1. the source's free half is drawn (a direction over the solar disk or, by the cosine
+//      law, inside a window's narrow cone; a point on a wide-coned emitting area; a collimated
+//      beam and a point source have none), and Newton's method on the other half (the point
+//      on the beam's start plane or on the window, or the direction from a point) finds the
+//      ray that crosses those k faces as designed (refracting at lens faces, reflecting at
+//      mirrors, in the scene itself: its coatings, apertures and shapes) and then passes
+//      through p. It starts from the nearest node of a seed grid of the chain traced once.
+//      The residual is where the last segment crosses the plane through p perpendicular to
+//      it; the Jacobian comes from finite differences (forward while iterating, central for
+//      the result);
 //   2. the beam's density there follows from the Jacobian: the flux the source sends through
 //      a parameter cell du arrives spread over |det J| du of that plane, so the irradiance at
 //      p perpendicular to the ray is F_u T / |det J| (F_u the source's flux per unit of its
-//      parameters: E = Phi / A for a beam, L cos(theta) Omega for the Sun's drawn direction,
-//      I / (1 + a^2 + b^2)^(3/2) for a point source's direction (a, b) on its axis' tangent
-//      plane; T the transmittance of the k crossings and of the media between them);
-//   3. a shadow ray from the k-th face to p checks that nothing blocks the last segment.
+//      parameters: fluxPerParameter; T the transmittance of the k crossings and of the media
+//      between them);
+//   3. the last segment, traced forward from the k-th face, must first meet p's object at p
+//      (reaches()).
 //
 // Which light it owns. The chains come from a pilot: photons of each source drawn once
 // (fixed seed) and followed along the designed path only; where one first meets a scattering
 // object after k >= 1 designed crossings, (source, object, k) is a chain (chains()). The
-// photon pass then does not gather the light of that source that crossed exactly those k
-// faces as designed before scattering at that object, when the connection finds the same path
-// (finds(): the solver, from its own start, reaches the photon's entry ray); the connection
-// counts it at every view point instead. Paths the solver misses (several rays of the chain
-// through one point, near a caustic) stay the photons': finds() is checked for a random
-// 1 / kAuditRate of them, which are gathered kAuditRate times over when it fails (unbiased:
-// the audit's expectation is exactly the light the solver misses). Everything else (ghosts,
-// light that scattered before, sources of other kinds: window, Lambertian) stays gathered.
+// connection tries a point where its seed node's last segment, turned toward the point,
+// reaches it (inView()); the photon pass does not gather the light of that source that
+// crossed exactly those k faces as designed before scattering at that object where the same
+// test passes for the photon's own hit point and fixed half. Paths the connection misses
+// there (several rays of the chain through one point, near a caustic; an aperture's rim)
+// stay the photons': a random 1 / kAuditRate of those photons runs the whole connection for
+// its own path (finds()) and is gathered kAuditRate times over when it does not end on the
+// photon's own ray (unbiased: the audit's expectation is exactly the light the connection
+// misses). Everything else (ghosts, light that scattered before, points in a chain's shadow)
+// stays gathered.
 //
 // Deterministic: no state changes after construction; thread-safe.
 
