@@ -143,7 +143,7 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
     sub->add_option("--connect", o.connect,
                     "light of collimated, sun and point sources that reaches a scattering "
                     "surface through the lens as designed: solved through the lens at every "
-                    "view point (on), or gathered from photons (off)")
+                    "view point and followed lobe (on), or left to the photons (off)")
         ->check(CLI::IsMember({"on", "off"}))
         ->capture_default_str();
     sub->add_option("--roulette", o.roulette,

@@ -230,6 +230,13 @@ struct Branch {
     int designed = DesignedPath::kOff;  // its step on the lens's designed path, from the detector
     int lobes = 0;          // narrow lobes followed between it and the detector (followLobe)
     bool leftLobe = false;  // its segment starts at a followed lobe: directAt counted its sources
+    // Behind a followed lobe: the last lobe's point, object, the branch depth it left at and
+    // the density per steradian of the direction drawn there (for the weight against the light
+    // connected through the lens at that point: sourcesSeen).
+    Vec3 lobePoint{0.0};
+    int lobeObject = -1;
+    int lobeDepth = 0;
+    double lobePdf = 0.0;
 };
 
 // What one pixel ray brings back, by component.
@@ -368,8 +375,14 @@ class PixelTracer {
     // surfaces, view points with their direct light.
     void walk(int p, const PixelRay& pr, PixelRaySample& s, PixelOutput& po, RayLight& light);
     // Sources seen along a branch's segment (they block nothing), up to tHit, added to `seen`.
-    void sourcesSeen(const Branch& br, double tHit, double alpha, int w, PixelOutput& po,
-                     RayLight& light);
+    void sourcesSeen(const Branch& br, double tHit, double alpha, const PixelRaySample& s,
+                     PixelOutput& po, RayLight& light);
+    // The weight of a source seen behind a followed lobe along `br` (its segment ending in the
+    // source at x) against the light connected through the lens at the lobe's point: 1 unless
+    // the connection there would have drawn the same path (multiple importance sampling, the
+    // balance heuristic over the two densities of the direction at the lobe).
+    double lobeWeight(const Branch& br, size_t source, const Vec3& x, const PixelRaySample& s,
+                      PixelOutput& po) const;
     // A view point where the branch meets a scattering surface (view point roulette first),
     // and its direct light.
     void storeViewPoint(int p, const Branch& br, const SceneHit& hit, PixelRaySample& s,
@@ -382,9 +395,11 @@ class PixelTracer {
     void directLight(const ViewPoint& v, const Branch& br, PixelRaySample& s, PixelOutput& po,
                      RayLight& light);
     // The light connected through the lens at v (BackwardOptions::connector), added to the
-    // caustic light (secondary behind a followed lobe).
+    // caustic light (secondary behind a followed lobe). At a followed lobe (`lobe` given) it
+    // is weighed against the lobe's own sampled direction by multiple importance sampling;
+    // at a view point it owns its chains' light outright (the photons leave it).
     void connectedLight(const ViewPoint& v, const Branch& br, PixelRaySample& s, PixelOutput& po,
-                        RayLight& light);
+                        RayLight& light, const ViewPointLobes* lobe = nullptr);
     // A narrow lobe (BackwardOptions::followLobesBelowRad): no view point; the direct light
     // there, then one direction drawn from the lobe, the branch going on along it.
     void followLobe(int p, const Branch& br, const SceneHit& hit, PixelRaySample& s,
@@ -510,7 +525,7 @@ void PixelTracer::walk(int p, const PixelRay& pr, PixelRaySample& s, PixelOutput
                                                br.startPrimitive, br.medium);
         const double tHit = hit ? hit->t : kInfinity;
         const double alpha = ts_.media->absorptionPerMm(br.medium, w);
-        sourcesSeen(br, tHit, alpha, w, po, light);
+        sourcesSeen(br, tHit, alpha, s, po, light);
         if (!hit) continue;
         ++po.segments;
         if (alpha > 0.0) br.weight *= std::exp(-alpha * hit->t);
@@ -536,8 +551,9 @@ void PixelTracer::walk(int p, const PixelRay& pr, PixelRaySample& s, PixelOutput
     }
 }
 
-void PixelTracer::sourcesSeen(const Branch& br, double tHit, double alpha, int w, PixelOutput& po,
-                              RayLight& light) {
+void PixelTracer::sourcesSeen(const Branch& br, double tHit, double alpha, const PixelRaySample& s,
+                              PixelOutput& po, RayLight& light) {
+    const int w = s.wavelength;
     // Behind a followed lobe every source counts (the photons count only the light of the sun
     // and the delta kinds that never scattered), except on the lobe's own segment, whose
     // sources the lobe's next-event estimation counted (by MIS with this very direction).
@@ -554,7 +570,9 @@ void PixelTracer::sourcesSeen(const Branch& br, double tHit, double alpha, int w
         if (!t) continue;
         const Vec3 x = br.ray.origin + *t * br.ray.direction;
         const double radiance = src.emitted(x, -br.ray.direction, w);
-        const double value = br.weight * (alpha > 0.0 ? std::exp(-alpha * *t) : 1.0) * radiance;
+        if (!(radiance > 0.0)) continue;
+        const double value = br.weight * (alpha > 0.0 ? std::exp(-alpha * *t) : 1.0) * radiance *
+                             lobeWeight(br, si, x, s, po);
         if (!judge_) {
             seen += value;
             if (designed) light.image += value;
@@ -567,6 +585,23 @@ void PixelTracer::sourcesSeen(const Branch& br, double tHit, double alpha, int w
         seen += kept;
         if (designed) light.image += kept;
     }
+}
+
+double PixelTracer::lobeWeight(const Branch& br, size_t source, const Vec3& x,
+                               const PixelRaySample& s, PixelOutput& po) const {
+    const LensConnector* lc = o_.connector;
+    if (!lc || br.lobeObject < 0 || !(br.lobePdf > 0.0)) return 1.0;
+    // The designed crossings since the lobe: one per specular event after its segment.
+    const int steps = br.depth - br.lobeDepth;
+    if (steps < 1 || steps > 64 || !(lc->chains(source, br.lobeObject) >> (steps - 1) & 1u))
+        return 1.0;
+    LensConnector::Work work;
+    const auto c = lc->found(source, s.wavelength, s.wavelengthNm, steps, br.lobePoint,
+                             br.lobeObject, Ray{x, -br.ray.direction}, work);
+    po.segments += work.rays;
+    po.connectionRays += work.rays;
+    if (!c) return 1.0;
+    return br.lobePdf / (br.lobePdf + c->pdfSr);
 }
 
 ViewPoint PixelTracer::viewPointAt(int p, const Branch& br, const SceneHit& hit,
@@ -640,7 +675,7 @@ void PixelTracer::storeViewPoint(int p, const Branch& br, const SceneHit& hit, P
 }
 
 void PixelTracer::connectedLight(const ViewPoint& v, const Branch& br, PixelRaySample& s,
-                                 PixelOutput& po, RayLight& light) {
+                                 PixelOutput& po, RayLight& light, const ViewPointLobes* lobe) {
     const LensConnector* lc = o_.connector;
     if (!lc || !lc->any()) return;
     double& into = br.lobes == 0 ? light.caustic : light.secondary;
@@ -657,10 +692,14 @@ void PixelTracer::connectedLight(const ViewPoint& v, const Branch& br, PixelRayS
             po.segments += work.rays;
             po.connectionRays += work.rays;
             if (!c) continue;
-            if (!lobes) lobes.emplace(ts_, v, s.wavelengthNm);
-            const double fc = lobes->fluxCos(c->toLight);
+            if (!lobe && !lobes) lobes.emplace(ts_, v, s.wavelengthNm);
+            const ViewPointLobes& at = lobe ? *lobe : *lobes;
+            const double fc = at.fluxCos(c->toLight);
             if (!(fc > 0.0)) continue;
-            const double value = fc * c->value * v.weight;
+            double value = fc * c->value * v.weight;
+            // At a followed lobe the lobe's sampled direction can reach the source through the
+            // same chain (sourcesSeen, lobeWeight): the balance heuristic.
+            if (lobe && c->pdfSr > 0.0) value *= c->pdfSr / (c->pdfSr + lobe->pdf(c->toLight));
             if (!judge_) {
                 into += value;
                 continue;
@@ -683,9 +722,10 @@ void PixelTracer::followLobe(int p, const Branch& br, const SceneHit& hit, Pixel
                              PixelOutput& po, RayLight& light) {
     const ViewPoint v = viewPointAt(p, br, hit, s, br.weight);
     directLight(v, br, s, po, light);
+    const ViewPointLobes lobes(ts_, v, s.wavelengthNm);
+    connectedLight(v, br, s, po, light, &lobes);
     // One direction from the scatter lobes as seen from the detector's side, weighted by
     // f cos / pdf of the light that arrives along it and leaves toward the detector.
-    const ViewPointLobes lobes(ts_, v, s.wavelengthNm);
     const double u0 = s.rng.uniform(), u1 = s.rng.uniform(), u2 = s.rng.uniform();
     const auto sampled = lobes.sample(u0, u1, u2);
     if (!sampled) return;
@@ -705,6 +745,10 @@ void PixelTracer::followLobe(int p, const Branch& br, const SceneHit& hit, Pixel
     next.designed = DesignedPath::kOff;
     next.lobes = br.lobes + 1;
     next.leftLobe = true;
+    next.lobePoint = hit.point;
+    next.lobeObject = hit.object;
+    next.lobeDepth = next.depth;
+    next.lobePdf = pdf;
     // Forward, the light arrives from w's side and leaves toward the detector.
     pushWithEvent(next, br, hit,
                   wTransmits ? EventType::ScatterTransmit : EventType::ScatterReflect, po);
@@ -721,6 +765,10 @@ void PixelTracer::push(const Branch& br, const SceneHit& hit, const InteractionC
     next.depth = br.depth + 1;
     next.designed = designed_.backward(br.designed, hit.object, c.event);
     next.lobes = br.lobes;
+    next.lobePoint = br.lobePoint;
+    next.lobeObject = br.lobeObject;
+    next.lobeDepth = br.lobeDepth;
+    next.lobePdf = br.lobePdf;
     pushWithEvent(next, br, hit, c.event, po);
 }
 

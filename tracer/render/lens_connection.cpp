@@ -508,6 +508,14 @@ std::optional<LensConnector::Light> LensConnector::connectWith(
     out.entry = entry;
     out.value = fu * c.transmit * (alpha > 0.0 ? std::exp(-alpha * toPoint) : 1.0) / det;
     if (!(out.value > 0.0) || !std::isfinite(out.value)) return std::nullopt;
+    // The density of toLight: n^2 L is conserved along the chain, so the radiance arriving is
+    // T L (n_point / n_source)^2 and value = that radiance over the density per steradian.
+    const Source& src = ts_->sources[s];
+    if (!pointOf(src) && !std::holds_alternative<CollimatedSource>(src.shape())) {
+        const double n0 = ts_->media->index(0, line), n = ts_->media->index(c.medium, line);
+        out.pdfSr =
+            src.emitted(entry.origin, entry.direction, line) * (n * n) / (n0 * n0) * det / fu;
+    }
     return out;
 }
 
@@ -548,15 +556,22 @@ double LensConnector::jacobian(size_t s, int line, double wavelengthNm, int step
 
 bool LensConnector::finds(size_t s, int line, double wavelengthNm, int steps, const Vec3& point,
                           int object, const Ray& emitted, Work& work) const {
-    if (steps < 1 || steps > designed_.steps()) return false;
+    return found(s, line, wavelengthNm, steps, point, object, emitted, work).has_value();
+}
+
+std::optional<LensConnector::Light> LensConnector::found(size_t s, int line, double wavelengthNm,
+                                                         int steps, const Vec3& point, int object,
+                                                         const Ray& emitted, Work& work) const {
+    if (steps < 1 || steps > designed_.steps()) return std::nullopt;
     // Everything connect() does with this fixed half, then the same ray.
-    const auto light = connectWith(s, line, wavelengthNm, steps, point, object, fixedOf(s, emitted),
-                                   work, nullptr);
-    if (!light) return false;
+    auto light = connectWith(s, line, wavelengthNm, steps, point, object, fixedOf(s, emitted), work,
+                             nullptr);
+    if (!light) return std::nullopt;
     double a = 0.0, b = 0.0, pa = 0.0, pb = 0.0;
     parametersOf(s, light->entry, a, b);
     parametersOf(s, emitted, pa, pb);
-    return std::hypot(a - pa, b - pb) <= 1e-6 * params_[s].scale;
+    if (!(std::hypot(a - pa, b - pb) <= 1e-6 * params_[s].scale)) return std::nullopt;
+    return light;
 }
 
 }  // namespace veil

@@ -39,7 +39,10 @@
 // its own path (finds()) and is gathered kAuditRate times over when it does not end on the
 // photon's own ray (unbiased: the audit's expectation is exactly the light the connection
 // misses). Everything else (ghosts, light that scattered before, points in a chain's shadow)
-// stays gathered.
+// stays gathered. At a followed narrow lobe (tracer/render/backward.h), where nothing is
+// gathered, the connection shares the light with the lobe's own sampled direction by
+// multiple importance sampling: Light::pdfSr is the connection's density of the direction,
+// and found() gives it for a path the lobe found.
 //
 // Deterministic: no state changes after construction; thread-safe.
 
@@ -79,6 +82,11 @@ class LensConnector {
         // the drawn direction: f |cos| value estimates the light scattered there, as
         // Source::IncidentSample::value.
         double value = 0.0;
+        // The density per steradian with which connect() draws toLight at the point, for
+        // weighing the connection against a direction sampled from a lobe there (multiple
+        // importance sampling): the source's radiance over `value`, by etendue. 0 for the
+        // delta kinds (a collimated beam, a point), which no sampled direction meets.
+        double pdfSr = 0.0;
         double distanceMm = 0.0;  // of the last segment, from the k-th face
         Ray entry;                // the source's ray that reaches the point
     };
@@ -112,6 +120,10 @@ class LensConnector {
     // the ray's own entry.
     bool finds(size_t s, int line, double wavelengthNm, int steps, const Vec3& point, int object,
                const Ray& emitted, Work& work) const;
+    // The same, with what connect() gives for that path (its pdfSr weighs a path a lobe's
+    // sampled direction found against the connection); none where finds() is false.
+    std::optional<Light> found(size_t s, int line, double wavelengthNm, int steps,
+                               const Vec3& point, int object, const Ray& emitted, Work& work) const;
 
   private:
     struct Chain;  // one evaluation of the chain (lens_connection.cpp)

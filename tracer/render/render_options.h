@@ -63,9 +63,10 @@ struct RenderOptions {
     // half maximum below this many degrees are followed by the backward rays instead of
     // gathering photons; 0: every scattering surface gathers.
     double followLobesBelowDeg = 0.0;
-    // Light connected through the lens (tracer/render/lens_connection.h): at every view point,
-    // the light of collimated, sun and point sources that reaches it through the lens as
-    // designed is solved for (Newton on the source's ray) instead of gathered from photons.
+    // Light connected through the lens (tracer/render/lens_connection.h): at every view point
+    // and followed lobe, the light of the sources that reaches it through the lens as designed
+    // is solved for (Newton on the source's ray) instead of gathered from photons (at a followed
+    // lobe, weighed against the lobe's own direction by multiple importance sampling).
     bool connectThroughLens = true;
     // Throws std::invalid_argument naming the option when a value is out of range.
     void check() const;

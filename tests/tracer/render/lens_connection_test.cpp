@@ -222,5 +222,67 @@ TEST(LensConnection, FindsThePhotonsOwnPathAndNotItsNeighbours) {
     EXPECT_GT(checked, 150);
 }
 
+// The density of the connection's direction at the point (Light::pdfSr, from etendue) against
+// finite differences of the map from the two uniforms to that direction: the uniforms have
+// density 1 on the unit square, so the direction's density per steradian is 1 / |det| of
+// d(direction) / d(u1, u2), the direction measured on the plane tangent to the unit sphere.
+// For the Sun (uniform over its disk) and the window (the cosine law in its cone); a point
+// source's single direction has no density (0).
+TEST(LensConnection, DensityOfTheDirectionIsTheInverseJacobianOfTheUniforms) {
+    const auto scene =
+        singletScene("density",
+                     "[[source]]\nname = \"sun\"\nkind = \"sun\"\nfield_deg = [0.0, 3.0]\n"
+                     "[[source]]\nname = \"lamp\"\nkind = \"point\"\n"
+                     "position_mm = [3.0, 0.0, -150.0]\n"
+                     "[[source]]\nname = \"window\"\nkind = \"window\"\ncone_deg = 10.0\n"
+                     "[[source]]\nname = \"disk\"\nkind = \"lambertian\"\n"
+                     "position_mm = [0.0, 0.0, -30.0]\nnormal = [0.0, 0.0, 1.0]\n"
+                     "radius_mm = 20.0\nflux = 1.0\n");
+    const LensConnector lc(scene->transport().view);
+    int total = 0;
+    for (const size_t s : {size_t{0}, size_t{2}, size_t{3}}) {
+        const Vec3 p = s == 3 ? Vec3(0.5, -0.3, 60.0) : litPoint(*scene, s, 1.5, -1.0);
+        int checked = 0;
+        for (const double u1 : {0.2, 0.5, 0.8})
+            for (const double u2 : {0.1, 0.45, 0.7}) {
+                LensConnector::Work work;
+                const auto at = lc.connect(s, 0, 550.0, 2, p, -1, u1, u2, work);
+                if (!at) continue;  // no ray of the chain from that half reaches p
+                const Vec3 w = at->toLight;
+                const Vec3 e1 = glm::normalize(glm::cross(w, Vec3(1.0, 0.0, 0.0)));
+                const Vec3 e2 = glm::cross(w, e1);
+                const double h = 1e-4;
+                Vec2 col[2];
+                for (int k = 0; k < 2; ++k) {
+                    Vec2 side[2];
+                    for (int j = 0; j < 2; ++j) {
+                        const double step = j == 0 ? h : -h;
+                        const auto q = lc.connect(s, 0, 550.0, 2, p, -1, u1 + (k == 0 ? step : 0.0),
+                                                  u2 + (k == 1 ? step : 0.0), work);
+                        ASSERT_TRUE(q);
+                        // On the tangent plane at w (central projection).
+                        const Vec3 t = q->toLight / glm::dot(q->toLight, w);
+                        side[j] = Vec2(glm::dot(t, e1), glm::dot(t, e2));
+                    }
+                    col[k] = (side[0] - side[1]) / (2.0 * h);
+                }
+                const double det = std::abs(col[0].x * col[1].y - col[1].x * col[0].y);
+                ASSERT_GT(det, 0.0);
+                EXPECT_NEAR(at->pdfSr * det, 1.0, 2e-3)
+                    << "source " << s << " u " << u1 << ", " << u2 << ": pdf " << at->pdfSr
+                    << ", finite differences " << 1.0 / det;
+                ++checked;
+            }
+        EXPECT_GE(checked, 2) << "source " << s;
+        total += checked;
+    }
+    EXPECT_GE(total, 15);
+    LensConnector::Work work;
+    const auto point =
+        lc.connect(1, 0, 550.0, 2, litPoint(*scene, 1, 1.0, 1.0), -1, 0.5, 0.5, work);
+    ASSERT_TRUE(point);
+    EXPECT_EQ(point->pdfSr, 0.0);
+}
+
 }  // namespace
 }  // namespace veil

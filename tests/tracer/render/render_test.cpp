@@ -679,6 +679,62 @@ TEST(Render, FollowedNarrowLobesAgreeWithForwardMonteCarlo) {
     }
 }
 
+// A 5 degree Gaussian diffuser (the front face of a 1 mm glass plate passes 30 % in a lobe
+// about the refracted direction) behind a plane window, lit through the window by a large
+// Lambertian emitter, seen by a detector behind it. The pixel rays follow the lobe; at the
+// diffuser the emitter's light is connected through the window (the pilot's chain of its two
+// faces) and weighed by multiple importance sampling against the lobe's own direction, which
+// meets the emitter through the window too. With and without the connection, against forward
+// Monte Carlo: the two strategies' weights must sum to one for the total to hold.
+TEST(Render, FollowedLobeConnectedThroughTheLensAgreesWithForwardMonteCarlo) {
+    const std::string path = ::testing::TempDir() + "veil_render_" + testName() + ".toml";
+    FILE* f = fopen(path.c_str(), "w");
+    ASSERT_TRUE(f);
+    fprintf(f,
+            "[system]\nwavelengths_nm = [550.0]\naperture = { epd_mm = 20.0 }\n"
+            "fields_deg = [0.0]\nsurfaces = [\n"
+            "  { r = 0.0, t = 5.0, glass = { nd = 1.5, vd = 0.0 }, sd = 60.0, stop = true },\n"
+            "  { r = 0.0, t = 45.0, sd = 60.0 },\n"
+            "  { r = 0.0, t = 1.0, glass = { nd = 1.5, vd = 0.0 }, sd = 60.0 },\n"
+            "  { r = 0.0, t = 250.0, sd = 60.0 },\n]\n"
+            "[properties.diffuser]\n"
+            "scatter = { model = \"gaussian\", transmittance = 0.3, half_width_deg = 5.0 }\n"
+            "[[source]]\nname = \"lamp\"\nkind = \"lambertian\"\nposition_mm = [0.0, 0.0, -20.0]\n"
+            "normal = [0.0, 0.0, 1.0]\nradius_mm = 10.0\nflux = 1.0\n"
+            "[detector]\nname = \"det\"\nz_mm = 290.0\nsize_mm = [40.0, 40.0]\npixels = [2, 2]\n"
+            "[[assign]]\nobjects = [\"L1.*\", \"L2.back\"]\nproperty = \"ideal_ar\"\n"
+            "[[assign]]\nobjects = \"L2.front\"\nproperty = \"diffuser\"\n");
+    fclose(f);
+    const auto s = PreparedScene::read(path, GlassCatalog::builtIn());
+    const SceneTransport& t = s->transport();
+    const auto [ref, refSigma] = forwardTotal(*s, 2000000, 7);
+    ASSERT_GT(ref, 0.0);
+    const ExitAperture a = exitApertureFor(s->scene(), t.images[0].geometry());
+    double sigmaOn = 0.0, sigmaOff = 0.0;
+    for (const bool connect : {true, false}) {
+        RenderOptions o;
+        o.raysPerPixel = 1024;
+        o.photonsPerPass = 20000;
+        o.initialRadiusMm = 6.0;
+        o.followLobesBelowDeg = 15.0;
+        o.connectThroughLens = connect;
+        const RenderState state = render(*s, o, 6, a);
+        const DetectorImage all = state.total();
+        const double sigma = std::sqrt(all.totalVariance(state.passes()));
+        std::cout << "connect " << connect << ": " << all.totalFlux() << " +- " << sigma
+                  << ", forward " << ref << " +- " << refSigma << "\n";
+        EXPECT_LE(std::abs(all.totalFlux() - ref), 3.0 * std::hypot(sigma, refSigma))
+            << "connect " << connect << ": " << all.totalFlux() << " +- " << sigma << " vs " << ref
+            << " +- " << refSigma;
+        EXPECT_LT(sigma, 0.05 * ref) << "connect " << connect;
+        (connect ? sigmaOn : sigmaOff) = sigma;
+    }
+    // The emitter's image through the window is about as wide as the lobe: each strategy is
+    // the better one over part of the directions, and together they beat the lobe alone
+    // (measured: 0.5 % against 3.2 %).
+    EXPECT_LT(3.0 * sigmaOn, sigmaOff);
+}
+
 TEST(Render, RadiusShrinksByTheProgressiveRule) {
     const DetectorGeometry g{"d", Frame{}, 1.0, 1.0, 1, 1, -1};
     RenderState state(g, 3.0, 2.0 / 3.0);
