@@ -264,8 +264,12 @@ std::string radiusBiasText(const RadiusBias& b, double gathered) {
               "run more passes";
     else if (!std::isfinite(relBound) || relBound > 100.0)
         os << "radius bias not bounded (the half-radius estimate is too noisy yet)";
-    else
+    else {
         os << "radius bias not detected: at most " << relBound << " % of the gathered light";
+        if (b.included() > 0.0)
+            os << "; the errors include " << 100.0 * b.included() / std::abs(gathered)
+               << " % (its estimate beyond one sigma of its noise)";
+    }
     return os.str();
 }
 
@@ -333,6 +337,7 @@ nlohmann::json RenderResult::summary() const {
                               {"bound", b.bound()},
                               {"relative_estimate", share(b.estimate())},
                               {"relative_bound", share(b.bound())},
+                              {"included", b.included()},
                               {"detected", b.detected()},
                               {"bounded", b.bounded(gathered)}};
     };
@@ -427,7 +432,7 @@ std::string RenderResult::text(const std::string& folder) const {
         text << "  " << std::left << std::setw(11) << layerName(k) << " " << std::right
              << formatFlux(img.totalFlux(), rel(img, &kb), unit) << "   "
              << spec.where[static_cast<size_t>(k)]
-             << (kb.detected() ? " (radius bias included)" : "") << "\n";
+             << (kb.detected() ? " (radius bias detected, included)" : "") << "\n";
     }
     if (ro.prune)
         text << "  pruned " << prunedBranches << " backward and " << prunedPhotons

@@ -526,7 +526,10 @@ TEST(Render, RadiusBiasOnASmallLitPartIsDetectedAndBounded) {
 TEST(Render, RadiusBiasDetectsOnlyADifferenceBeyondItsNoise) {
     RadiusBias b{0.3, 0.1};
     EXPECT_FALSE(b.detected());
-    EXPECT_EQ(b.errorWith(0.5), 0.5);
+    // Not detected: the error holds the estimate beyond one sigma of its noise.
+    EXPECT_DOUBLE_EQ(b.errorWith(0.5), std::hypot(0.5, 2.0 * (0.3 - 0.1)));
+    EXPECT_EQ((RadiusBias{0.05, 0.1}).errorWith(0.5), 0.5);
+    EXPECT_EQ((RadiusBias{0.0, 0.0}).errorWith(0.5), 0.5);
     EXPECT_DOUBLE_EQ(b.bound(), 2.0 * (0.3 + 0.2));
     b.difference = -0.31;
     EXPECT_TRUE(b.detected());
