@@ -38,6 +38,14 @@ void basisAround(const Vec3& e, Vec3& b1, Vec3& b2) {
     b2 = glm::cross(e, b1);
 }
 
+// The child of an interaction that continues the designed path (its event, not a scatter), or
+// -1 when there is none (past the critical angle, an absorber).
+int designedChild(const Interaction& in, EventType want) {
+    for (int c = 0; c < in.count; ++c)
+        if (!in.children[c].scatter && in.children[c].event == want) return c;
+    return -1;
+}
+
 double largest(const Vec3& p) {
     return std::max({1.0, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
 }
@@ -81,11 +89,8 @@ LensConnector::LensConnector(const TransportView& ts)
                 if (step >= designed_.steps() || hit->object != designed_.objectOfStep(step)) break;
                 const Interaction in =
                     interact(ts, *hit, ray.direction, e.wavelength, e.wavelengthNm);
-                const EventType want = designed_.eventOfStep(step);
-                int c = 0;
-                while (c < in.count && (in.children[c].scatter || in.children[c].event != want))
-                    ++c;
-                if (c == in.count) break;
+                const int c = designedChild(in, designed_.eventOfStep(step));
+                if (c < 0) break;
                 ray = {hit->point, in.children[c].direction};
                 medium = in.children[c].medium;
                 startObject = hit->object;
@@ -312,9 +317,8 @@ bool LensConnector::trace(const Ray& entry, int steps, int line, double waveleng
         if (alpha > 0.0) transmit *= std::exp(-alpha * hit->t);
         const Interaction in = interact(ts, *hit, ray.direction, line, wavelengthNm);
         const EventType want = designed_.eventOfStep(i);
-        int c = 0;
-        while (c < in.count && (in.children[c].scatter || in.children[c].event != want)) ++c;
-        if (c == in.count) return false;
+        const int c = designedChild(in, want);
+        if (c < 0) return false;
         const InteractionChild& child = in.children[c];
         transmit *= child.share;
         if (events)
