@@ -146,6 +146,11 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
                     "view point and followed lobe (on), or left to the photons (off)")
         ->check(CLI::IsMember({"on", "off"}))
         ->capture_default_str();
+    addCount(sub, "--part-samples", o.partSamples,
+             "points drawn per pass on the small parts the lens lights and the pixels see "
+             "through it (a stop's edge, butt ends, flats), their light traced to the pixels "
+             "(0: off; needs --connect on)",
+             0);
     sub->add_option("--roulette", o.roulette,
                     "photons below this share of their emitted flux (once scattered: of their flux "
                     "just after their first scatter) play Russian roulette (0: off)")
@@ -211,6 +216,7 @@ RenderRunSpec renderSpec(const RenderCommandOptions& o) {
     ro.guideFraction = o.guide;
     ro.followLobesBelowDeg = o.followLobesBelow;
     ro.connectThroughLens = o.connect == "on";
+    ro.partSamples = o.partSamples;
     spec.detector = o.detector;
     spec.where = o.where;
     spec.scene = o.file;

@@ -39,6 +39,7 @@ struct RenderCommandOptions {
     double guide = 0.5;    // guided share of the pixel rays (RenderOptions::guideFraction)
     double followLobesBelow = 0.0;  // degrees (RenderOptions::followLobesBelowDeg)
     std::string connect = "on";     // RenderOptions::connectThroughLens
+    uint64_t partSamples = 65536;   // RenderOptions::partSamples
     std::string backward = "random";
     std::string photonPoints = "sobol";
     double minWeight = 1e-4;

@@ -40,7 +40,8 @@ uint64_t fingerprintOf(const TransportView& ts, const DetectorGeometry& g, const
        << " " << o.rouletteRelativeFlux << " " << o.maxPhotonSegments << " " << o.prune << " "
        << o.areaSamples << " " << o.quasiRandomPhotons << " " << o.ghostPhotons() << " "
        << o.photonRescueRelativeFlux << " " << o.guideFraction << " " << o.followLobesBelowDeg
-       << " " << o.balancePhotons << " " << o.maxPhotonsPerPass << " " << o.connectThroughLens;
+       << " " << o.balancePhotons << " " << o.maxPhotonsPerPass << " " << o.connectThroughLens
+       << " " << o.partSamples;
     for (const std::string& w : where) os << "\nwhere " << w;
     const std::string text = os.str();
     uint64_t h = 1469598103934665603ull;
@@ -200,6 +201,10 @@ RenderResult RenderRun::run(const std::function<void(const RenderPassEvent&)>& o
         r.prunedPhotons += pass.prunedPhotons;
         r.backwardSeconds += pass.backwardSeconds;
         r.photonSeconds += pass.photonSeconds;
+        r.partSamples += pass.partSamples;
+        r.partFound += pass.partFound;
+        r.partRays += pass.partRays;
+        r.partSeconds += pass.partSeconds;
         const double t = seconds();
         if (onPass) onPass({state_.passes(), &pass, &state_, t});
         if (spec_.progress) {
@@ -305,6 +310,7 @@ nlohmann::json RenderResult::summary() const {
                           {"guide", ro.guideFraction},
                           {"follow_lobes_below_deg", ro.followLobesBelowDeg},
                           {"connect_through_lens", ro.connectThroughLens},
+                          {"part_samples_per_pass", ro.partSamples},
                           {"photon_points", ro.quasiRandomPhotons ? "sobol" : "random"}};
     summary["final_radius_mm"] = state.radiusMm();
     summary["photons_per_source_last_pass"] = lastPhotonsPerSource;
@@ -389,6 +395,10 @@ nlohmann::json RenderResult::summary() const {
     summary["photon_work_this_run"] = photonWork;
     summary["backward_seconds_this_run"] = backwardSeconds;
     summary["photon_seconds_this_run"] = photonSeconds;
+    summary["part_samples_this_run"] = partSamples;
+    summary["part_samples_found_this_run"] = partFound;
+    summary["part_rays_this_run"] = partRays;
+    summary["part_seconds_this_run"] = partSeconds;
     return summary;
 }
 

@@ -104,6 +104,10 @@ struct RenderResult {
     uint64_t lastPhotonsPerSource = 0;           // the photons per source of this run's last pass
     uint64_t viewPointWork = 0, photonWork = 0;  // RenderPass's, summed
     double backwardSeconds = 0.0, photonSeconds = 0.0;
+    // The points drawn on small lit parts (tracer/render/part_light.h), those that reached a
+    // pixel, the rays they traced and their wall clock.
+    uint64_t partSamples = 0, partFound = 0, partRays = 0;
+    double partSeconds = 0.0;
     RankTraffic traffic;
     bool root = true;  // false on ranks other than 0 (no images)
 

@@ -16,6 +16,7 @@
 #include "tracer/records/detector.h"
 #include "tracer/records/path_history.h"
 #include "tracer/render/designed_path.h"
+#include "tracer/render/part_light.h"
 #include "tracer/runtime/rng.h"
 #include "tracer/surfaces/media.h"
 #include "tracer/transport/interaction.h"
@@ -686,6 +687,10 @@ void PixelTracer::connectedLight(const ViewPoint& v, const Branch& br, PixelRayS
             const int steps = std::countr_zero(chains) + 1;
             // Two uniforms per chain, drawn whether or not it reaches the point.
             const double u1 = s.rng.uniform(), u2 = s.rng.uniform();
+            // Light the parts traced to the sensor own (not behind or at a followed lobe).
+            if (o_.parts && !lobe && br.lobes == 0 &&
+                o_.parts->owns(si, v.object, steps, br.designed))
+                continue;
             LensConnector::Work work;
             const auto c = lc->connect(si, v.wavelength, s.wavelengthNm, steps, v.positionMm,
                                        v.object, u1, u2, work, judge_ ? &chain_ : nullptr);

@@ -47,6 +47,8 @@
 
 namespace veil {
 
+class PartLight;  // tracer/render/part_light.h
+
 struct BackwardOptions {
     uint64_t raysPerPixel = 16;
     uint64_t seed = 1;
@@ -88,6 +90,10 @@ struct BackwardOptions {
     // (secondary behind a followed lobe), its path judged as the photons' would be. The photon
     // pass then leaves that light to it.
     const LensConnector* connector = nullptr;
+    // Small lit parts traced to the sensor (tracer/render/part_light.h), or none: a view point
+    // on a part, reached along the designed path down to a chain's step, leaves that chain's
+    // connection to them (PartLight::owns).
+    const PartLight* parts = nullptr;
     // The ranks the pixels are split over (tracer/runtime/ranks.h), in blocks of 64 by index: every
     // rank traces its blocks, all ranks' pixels are shared, and every rank returns the whole
     // result, bitwise that of one process.

@@ -302,6 +302,21 @@ double LensConnector::fluxPerParameter(size_t s, int line, const Ray& entry) con
     return emitted * src.emittingAreaMm2() * c * c * c * c;
 }
 
+bool LensConnector::crossAsDesigned(const SceneHit& hit, int step, int line, double wavelengthNm,
+                                    Ray& ray, int& medium, double& transmit,
+                                    std::vector<PathEvent>* events) const {
+    const Interaction in = interact(*ts_, hit, ray.direction, line, wavelengthNm);
+    const EventType want = designed_.eventOfStep(step);
+    const int c = designedChild(in, want);
+    if (c < 0) return false;
+    const InteractionChild& child = in.children[c];
+    transmit *= child.share;
+    if (events) events->push_back(pathEvent(want, hit.object, hit.primitive, medium, child.medium));
+    ray = {hit.point, child.direction};
+    medium = child.medium;
+    return true;
+}
+
 bool LensConnector::trace(const Ray& entry, int steps, int line, double wavelengthNm, Chain& out,
                           Work& work, std::vector<PathEvent>* events) const {
     const TransportView& ts = *ts_;
@@ -315,16 +330,8 @@ bool LensConnector::trace(const Ray& entry, int steps, int line, double waveleng
         if (!hit || hit->object != designed_.objectOfStep(i)) return false;
         const double alpha = ts.media->absorptionPerMm(medium, line);
         if (alpha > 0.0) transmit *= std::exp(-alpha * hit->t);
-        const Interaction in = interact(ts, *hit, ray.direction, line, wavelengthNm);
-        const EventType want = designed_.eventOfStep(i);
-        const int c = designedChild(in, want);
-        if (c < 0) return false;
-        const InteractionChild& child = in.children[c];
-        transmit *= child.share;
-        if (events)
-            events->push_back(pathEvent(want, hit->object, hit->primitive, medium, child.medium));
-        ray = {hit->point, child.direction};
-        medium = child.medium;
+        if (!crossAsDesigned(*hit, i, line, wavelengthNm, ray, medium, transmit, events))
+            return false;
         startObject = hit->object;
         startPrimitive = hit->primitive;
     }
@@ -334,6 +341,37 @@ bool LensConnector::trace(const Ray& entry, int steps, int line, double waveleng
     out.lastPrimitive = startPrimitive;
     out.transmit = transmit;
     return true;
+}
+
+std::optional<LensConnector::Onward> LensConnector::onward(
+    const Ray& start, int startObject, int startPrimitive, int medium, int fromStep, int line,
+    double wavelengthNm, int detectorObject, Work& work, std::vector<PathEvent>* events) const {
+    const TransportView& ts = *ts_;
+    Onward out;
+    Ray ray = start;
+    if (events) events->clear();
+    for (int i = fromStep;; ++i) {
+        const auto hit = ts.scene->closestHit(ray, kInfinity, startObject, startPrimitive, medium);
+        ++work.rays;
+        const bool last = i >= designed_.steps();
+        if (!hit || hit->object != (last ? detectorObject : designed_.objectOfStep(i)))
+            return std::nullopt;
+        if (i == fromStep) out.firstPoint = hit->point;
+        const double alpha = ts.media->absorptionPerMm(medium, line);
+        if (alpha > 0.0) out.transmit *= std::exp(-alpha * hit->t);
+        if (last) {
+            if (events)
+                events->push_back(
+                    pathEvent(EventType::DetectorHit, hit->object, hit->primitive, medium, medium));
+            out.detectorHit = *hit;
+            out.medium = medium;
+            return out;
+        }
+        if (!crossAsDesigned(*hit, i, line, wavelengthNm, ray, medium, out.transmit, events))
+            return std::nullopt;
+        startObject = hit->object;
+        startPrimitive = hit->primitive;
+    }
 }
 
 namespace {

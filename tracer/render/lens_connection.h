@@ -125,6 +125,25 @@ class LensConnector {
     std::optional<Light> found(size_t s, int line, double wavelengthNm, int steps,
                                const Vec3& point, int object, const Ray& emitted, Work& work) const;
 
+    // The designed path onward from a point (light traced toward the detector): `start`
+    // (leaving object startObject, triangle startPrimitive, in `medium`) meets the faces of
+    // steps fromStep, fromStep + 1, ... steps() - 1 in turn, each crossed as designed (the
+    // scene's own coatings, apertures and media), and then the detector object
+    // `detectorObject` first. None when anything else comes first or a crossing has no
+    // designed child (past the critical angle). With `events`, the crossings and the detector
+    // hit as light travels them replace its contents.
+    struct Onward {
+        Vec3 firstPoint{0.0};  // where it met the face of step fromStep (the detector's hit
+                               // when fromStep == steps())
+        SceneHit detectorHit;
+        double transmit = 1.0;  // the crossings' shares and the media's absorption
+        int medium = 0;         // in which it reached the detector
+    };
+    std::optional<Onward> onward(const Ray& start, int startObject, int startPrimitive, int medium,
+                                 int fromStep, int line, double wavelengthNm, int detectorObject,
+                                 Work& work, std::vector<PathEvent>* events = nullptr) const;
+    const DesignedPath& designed() const { return designed_; }
+
   private:
     struct Chain;  // one evaluation of the chain (lens_connection.cpp)
     // How a source's entry rays are parametrized: the solver moves the origin on a plane
@@ -168,6 +187,11 @@ class LensConnector {
     void parametersOf(size_t s, const Ray& entry, double& a, double& b) const;
     bool trace(const Ray& entry, int steps, int line, double wavelengthNm, Chain& out, Work& work,
                std::vector<PathEvent>* events) const;
+    // Crosses the face of designed step `step`, met at `hit` by `ray` travelling in `medium`,
+    // as designed: the designed child's share into `transmit`, its event into `events`, and
+    // ray and medium become the child's. False where there is none (past the critical angle).
+    bool crossAsDesigned(const SceneHit& hit, int step, int line, double wavelengthNm, Ray& ray,
+                         int& medium, double& transmit, std::vector<PathEvent>* events) const;
     // connect() with its fixed half given.
     std::optional<Light> connectWith(size_t s, int line, double wavelengthNm, int steps,
                                      const Vec3& point, int object, const Vec3& fixed, Work& work,

@@ -495,6 +495,15 @@ Renderer::Renderer(const TransportView& ts, const DetectorImage& detector, ExitA
     if (options_.prune && !judge_)
         throw std::invalid_argument("pruning needs at least one path criterion");
     if (options_.connectThroughLens) connector_ = LensConnector(ts_);
+    if (connector_.any() && options_.partSamples > 0) {
+        std::vector<bool> followed;
+        const double below = options_.followLobesBelowDeg * std::numbers::pi / 180.0;
+        for (const OpticalProperty& p : ts_.properties)
+            followed.push_back(p.hasScatter() && lobeHalfWidthRad(p) < below);
+        const double r1 =
+            options_.initialRadiusMm > 0.0 ? options_.initialRadiusMm : defaultInitialRadius(ts_);
+        parts_ = PartLight(ts_, connector_, detector_.geometry().object, followed, r1);
+    }
 }
 
 bool inGapAt(const Scene& scene, const Vec3& point, int object, int primitive, const Vec3& side,
@@ -690,6 +699,7 @@ BackwardOptions Renderer::backwardOptions(int k) const {
     bo.prune = options_.prune;
     bo.ranks = ranks_;
     if (connector_.any()) bo.connector = &connector_;
+    if (parts_.any()) bo.parts = &parts_;
     for (const Source& s : ts_.sources) bo.visibleSources.push_back(!photonsSeeSource(s));
     return bo;
 }
@@ -810,6 +820,29 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
     out.prunedPhotons = acc.pruned;
     out.prunedBranches = back.prunedBranches;
     out.photonSeconds = since(t1);
+    // 3. Points on the small lit parts, traced to the pixels: caustic light, not gathered (the
+    // same in both estimates of the radius bias).
+    if (parts_.any()) {
+        const auto t2 = std::chrono::steady_clock::now();
+        const PartLight::Result lt =
+            parts_.trace(detector_, options_.partSamples, passSeed(options_.seed, k, 4), judge_,
+                         options_.prune, ranks_);
+        std::vector<double>& caustic = out.pixels[static_cast<int>(RenderComponent::Caustic)];
+        for (size_t i = 0; i < lt.pixels.size(); ++i) {
+            caustic[i] += lt.pixels[i];
+            out.gatheredHalf[i] += lt.pixels[i];
+        }
+        for (size_t c = 0; c < criteria; ++c)
+            for (size_t i = 0; i < lt.pixels.size(); ++i) {
+                out.criteria[c][static_cast<int>(RenderComponent::Caustic)][i] +=
+                    lt.byCriterion[c][i];
+                out.criteriaGatheredHalf[c][i] += lt.byCriterion[c][i];
+            }
+        out.partSamples = lt.samples;
+        out.partFound = lt.found;
+        out.partRays = lt.rays;
+        out.partSeconds = since(t2);
+    }
     return out;
 }
 

@@ -58,6 +58,7 @@
 
 #include "tracer/records/detector.h"
 #include "tracer/render/backward.h"
+#include "tracer/render/part_light.h"
 #include "tracer/render/render_options.h"
 #include "tracer/transport/interaction.h"
 
@@ -89,6 +90,9 @@ struct RenderPass {
     // Of backwardSegments, the rays the lens connections traced (tracer/render/lens_connection.h).
     uint64_t connectionRays = 0;
     uint64_t photons = 0, photonSegments = 0, gathers = 0;
+    // The points drawn on small lit parts (tracer/render/part_light.h), those whose light
+    // reached a pixel, and the rays they traced.
+    uint64_t partSamples = 0, partFound = 0, partRays = 0;
     // The photons per source it traced, and its work in rays cast and gathers (counts, the
     // same for every thread and rank count): the view points' side (backward segments, the
     // rays that lit them directly) against the photons' (their segments and gathers, and the
@@ -99,6 +103,7 @@ struct RenderPass {
     uint64_t viewPointWork = 0, photonWork = 0, ghostWork = 0;
     uint64_t nextPhotonsPerSource = 0;
     double backwardSeconds = 0.0, photonSeconds = 0.0;  // wall clock of the two stages
+    double partSeconds = 0.0;                           // and of the parts' points
     // With a guide: the light the pass's pixel rays brought back per guide bin (visible,
     // direct and gathered), which the passes after it learn from.
     std::vector<double> learned;
@@ -281,6 +286,7 @@ class Renderer {
     const PathJudge* judge_ = nullptr;
     Ranks ranks_;
     LensConnector connector_;  // RenderOptions::connectThroughLens (its pilot, once)
+    PartLight parts_;          // RenderOptions::partSamples (its pilot, once)
 };
 
 // Where photons land around a view point v, for the light that reaches it from one side of

@@ -37,6 +37,8 @@ void RenderOptions::check() const {
         fail("the guided fraction of the pixel rays must lie in [0, 1)");
     if (!(followLobesBelowDeg >= 0.0 && followLobesBelowDeg <= 90.0))
         fail("the half width below which lobes are followed must lie in [0, 90] degrees");
+    if (partSamples > kMaxPartSamples)
+        fail("the part samples per pass must lie in [0, " + std::to_string(kMaxPartSamples) + "]");
 }
 
 std::ostream& operator<<(std::ostream& os, const RenderOptions& o) {
@@ -47,7 +49,8 @@ std::ostream& operator<<(std::ostream& os, const RenderOptions& o) {
               << o.rouletteRelativeFlux
               << (o.quasiRandomPhotons ? ", sobol photons" : ", random photons") << ", guide "
               << o.guideFraction << ", follow lobes below " << o.followLobesBelowDeg << " deg"
-              << (o.connectThroughLens ? ", connected through the lens" : "") << "}";
+              << (o.connectThroughLens ? ", connected through the lens" : "") << ", "
+              << o.partSamples << " part samples}";
 }
 
 }  // namespace veil

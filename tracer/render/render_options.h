@@ -68,6 +68,13 @@ struct RenderOptions {
     // is solved for (Newton on the source's ray) instead of gathered from photons (at a followed
     // lobe, weighed against the lobe's own direction by multiple importance sampling).
     bool connectThroughLens = true;
+    // Small lit parts traced to the sensor (tracer/render/part_light.h): points drawn per pass
+    // on the parts the lens lights as designed and the pixels see through the lens behind
+    // them (a stop's edge band, butt ends, flats), their light traced forward to the pixels;
+    // the view points that reach those parts along the designed path leave that light to
+    // them. 0: off. Needs connectThroughLens.
+    uint64_t partSamples = 65536;
+    static constexpr uint64_t kMaxPartSamples = uint64_t{1} << 32;
     // Throws std::invalid_argument naming the option when a value is out of range.
     void check() const;
 };

@@ -1,5 +1,6 @@
 #pragma once
-// A closed box mesh written as an OFF file, for the renderer's test scenes.
+// Pieces of the renderer's test scenes: a closed box mesh written as an OFF file, and the
+// system of a biconvex singlet.
 
 #include <gtest/gtest.h>
 
@@ -24,6 +25,17 @@ inline void writeBox(const std::string& path, Vec3 lo, Vec3 hi) {
                              {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
     for (const auto& t : tris) fprintf(f, "3 %d %d %d\n", t[0], t[1], t[2]);
     fclose(f);
+}
+
+// The head of a scene's [system] table: one wavelength (550 nm), a biconvex singlet (n 1.5,
+// radii 100 mm, 5 mm thick, clear radius 12.5 mm, the stop at its front face) and the gap
+// `gapMm` behind it. The surfaces array is left open for more rows and its closing "]".
+inline std::string singletSystem(double gapMm) {
+    return "[system]\nwavelengths_nm = [550.0]\naperture = { epd_mm = 20.0 }\n"
+           "fields_deg = [0.0]\nsurfaces = [\n"
+           "  { r = 100.0, t = 5.0, glass = { nd = 1.5, vd = 0.0 }, sd = 12.5, stop = true },\n"
+           "  { r = -100.0, t = " +
+           std::to_string(gapMm) + ", sd = 12.5 },\n";
 }
 
 }  // namespace veil

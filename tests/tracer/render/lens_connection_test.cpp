@@ -37,16 +37,14 @@ std::unique_ptr<PreparedScene> singletScene(const std::string& name, const std::
     FILE* f = fopen(path.c_str(), "w");
     EXPECT_TRUE(f);
     fprintf(f,
-            "[system]\nwavelengths_nm = [550.0]\naperture = { epd_mm = 20.0 }\n"
-            "fields_deg = [0.0]\nsurfaces = [\n"
-            "  { r = 100.0, t = 5.0, glass = { nd = 1.5, vd = 0.0 }, sd = 12.5, stop = true },\n"
-            "  { r = -100.0, t = 99.0, sd = 12.5 },\n]\n"
+            "%s]\n"
             "[[mesh]]\nname = \"plate\"\nfile = \"%s\"\nproperty = \"white\"\n"
             "[properties.white]\nscatter = { model = \"lambertian\", reflectance = 0.5 }\n"
             "%s"
             "[detector]\nsize_mm = [4.0, 4.0]\npixels = [1, 1]\n"
             "[[assign]]\nobjects = \"L1.*\"\nproperty = \"ideal_ar\"\n",
-            std::filesystem::path(stem + ".off").filename().c_str(), sources.c_str());
+            singletSystem(99.0).c_str(), std::filesystem::path(stem + ".off").filename().c_str(),
+            sources.c_str());
     fclose(f);
     return PreparedScene::read(path, GlassCatalog::builtIn());
 }

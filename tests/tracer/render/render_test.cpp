@@ -46,19 +46,16 @@ std::unique_ptr<PreparedScene> litPlateScene(int pixels = 1, double detectorMm =
     FILE* f = fopen(path.c_str(), "w");
     EXPECT_TRUE(f);
     fprintf(f,
-            "[system]\nwavelengths_nm = [550.0]\naperture = { epd_mm = 20.0 }\n"
-            "fields_deg = [0.0]\nsurfaces = [\n"
-            "  { r = 100.0, t = 5.0, glass = { nd = 1.5, vd = 0.0 }, sd = 12.5, stop = true },\n"
-            "  { r = -100.0, t = 99.0, sd = 12.5 },\n]\n"
+            "%s]\n"
             "[[mesh]]\nname = \"plate\"\nfile = \"%s\"\nproperty = \"white\"\n"
             "[properties.white]\nscatter = { model = \"lambertian\", reflectance = %g }\n"
             "[[source]]\nname = \"lamp\"\nkind = \"lambertian\"\nposition_mm = [0.0, 0.0, %g]\n"
             "normal = [0.0, 0.0, -1.0]\nradius_mm = %g\nflux = %g\n"
             "[detector]\nsize_mm = [%g, %g]\npixels = [%d, %d]\n"
             "[[assign]]\nobjects = \"L1.*\"\nproperty = \"ideal_ar\"\n",
-            std::filesystem::path(stem + ".off").filename().c_str(), kReflectance,
-            -200.0 + kEmitterGap, kEmitterRadius, kSourceFlux, detectorMm, detectorMm, pixels,
-            pixels);
+            singletSystem(99.0).c_str(), std::filesystem::path(stem + ".off").filename().c_str(),
+            kReflectance, -200.0 + kEmitterGap, kEmitterRadius, kSourceFlux, detectorMm, detectorMm,
+            pixels, pixels);
     fclose(f);
     return PreparedScene::read(path, GlassCatalog::builtIn());
 }

@@ -1,0 +1,157 @@
+#pragma once
+// Light traced from the lens's small lit parts to the sensor (docs/render.md, "Small parts
+// traced to the sensor").
+//
+// A stop's 50 um edge band, a lens's butt end or its 2 mm flat is lit through the elements in
+// front of it and seen through the elements behind it. The light connected through the lens
+// (tracer/render/lens_connection.h) finds the light arriving at a point exactly, but a point
+// counts only where a pixel ray lands on the part, which on a narrow part happens a few times
+// a pass. Here points are drawn on the parts themselves, by area, and their light is traced
+// forward to the sensor (light tracing, the t = 1 strategy of bidirectional path tracing):
+//
+//   1. Parts. A candidate is a chain (source s, object, k) of the connector on an object that
+//      scatters, whose lobe the backward rays do not follow, whose area is below kDisks
+//      gathering disks of the first pass (pi r1^2 each: parts that few pixel rays find, and
+//      that a disk would smear), and whose shape can be drawn by area (PartShape: an exact
+//      face with a circular, annular or rectangular aperture, a butt end, the triangles of a
+//      mesh), with a step j >= k where its light goes on toward the detector as designed (the
+//      faces of steps j..N-1, then the detector; j = N straight to it, as light a lens's back
+//      flat scatters out of the glass). A target is a candidate in which the pilot below
+//      finds light.
+//   2. Points. Each pass draws `samples` points. A sample picks a target and a cell of the
+//      part's kCells x kCells grid over its map (u, v) (PartShape) with probability q, then a
+//      point uniform in the cell: the point's density per mm^2 is q kCells^2 d(x), d the map's
+//      density. q comes from a pilot (fixed seed, kPilotPerCell points per cell): in
+//      proportion to the root mean square of each cell's estimate (the allocation that
+//      minimizes the variance of a sum over strata), mixed with kDefensive of a uniform share
+//      over every cell of every target, so that every cell keeps a chance wherever the pilot
+//      saw nothing.
+//   3. Each point's light: the connection (connect(), the same solve as at a view point) gives
+//      the radiance leaving toward a direction w, drawn toward a point uniform (by the map) on
+//      the face of step j, or the detector (density d_y |y - x|^2 / |cos_y| per sr); the light
+//      crosses steps j..N-1 as designed (LensConnector::onward) and reaches the pixel it meets
+//      with flux L |cos_x| T / (p_w p_x), times the number of model wavelengths (one drawn per
+//      point), over the samples. Where w meets that face first elsewhere than at the drawn
+//      point (a curved face crossed twice), the sample counts nothing: each direction is
+//      counted by its first crossing alone.
+//   4. Ownership. A view point on a target's object, reached from the detector along the
+//      designed path down to step j (BackwardOptions::parts, owns()), leaves the connection of
+//      the target's chain to this; the rest of its light (gathered, direct, other chains,
+//      other paths to the detector: ghosts, total internal reflection at a butt end) stays the
+//      view points'. Both estimate the same light, so moving it changes the noise, not the
+//      expectation.
+//
+// Deterministic: sample i of a pass draws from CounterRng(seed, i), blocks of samples are
+// reduced in a fixed order on rank 0 (tracer/runtime/ordered_blocks.h); thread-safe.
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "tracer/records/detector.h"
+#include "tracer/render/lens_connection.h"
+#include "tracer/render/path_judge.h"
+#include "tracer/runtime/ranks.h"
+#include "tracer/transport/interaction.h"
+
+namespace veil {
+
+// A point drawn on an object's surface from two uniforms (u, v): by an equal-area map on exact
+// faces (equal projected area on a curved face, whose density then carries its slope), and on
+// a mesh by triangle count (u picks the triangle, each as likely as any other, and with v a
+// point uniform on it).
+struct PartPoint {
+    Vec3 point{0.0};
+    Vec3 normal{0.0};  // the object's orientation there (SceneHit::normal)
+    int primitive = 0;
+    double density = 0.0;  // of the point per mm^2, for (u, v) uniform on [0, 1)^2
+};
+class PartShape {
+  public:
+    PartShape() = default;
+    // Supported: an exact face with a circular, annular or rectangular aperture, a butt end
+    // (its rims too: a point beyond a rim curve is none), the triangles of a mesh object.
+    explicit PartShape(const Scene& scene, int object);
+    bool valid() const { return kind_ != Kind::None; }
+    double areaMm2() const { return area_; }
+    std::optional<PartPoint> at(double u, double v) const;
+
+  private:
+    enum class Kind { None, Disc, Annulus, Rectangle, Cylinder, Mesh };
+    Kind kind_ = Kind::None;
+    const SceneObject* object_ = nullptr;
+    const TriangleMesh* mesh_ = nullptr;
+    double a_ = 0.0, b_ = 0.0;  // radii (r, or r0 and r1), half sizes, or z limits
+    double radius_ = 0.0;       // a butt end's
+    double area_ = 0.0;
+    double mapArea_ = 0.0;             // of the map's range (projected area for faces)
+    std::vector<uint32_t> triangles_;  // a mesh's (ascending)
+    std::vector<double> areas_;        // theirs
+};
+
+class PartLight {
+  public:
+    static constexpr int kCells = 16;
+    static constexpr int kCellCount = kCells * kCells;
+    static constexpr int kPilotPerCell = 8;
+    static constexpr double kDefensive = 0.25;
+    static constexpr double kDisks = 16.0;
+    // The point on the next face each direction aims at: a cell of a kAim x kAim grid over the
+    // face's map, drawn in proportion to the light the pilot found through it (mixed with
+    // kDefensive of a uniform share), then a point uniform in the cell.
+    static constexpr int kAim = 8;
+    static constexpr int kAimCount = kAim * kAim;
+
+    PartLight() = default;
+    // The targets (see the header comment) of the connector's chains, and their pilot.
+    // followed[property]: the backward rays follow that property's lobe (no view point, no
+    // part). radiusMm: the first pass's gathering radius.
+    PartLight(const TransportView& ts, const LensConnector& connector, int detectorObject,
+              const std::vector<bool>& followed, double radiusMm);
+    bool any() const { return !targets_.empty(); }
+    size_t targets() const { return targets_.size(); }
+
+    // Whether a view point on `object`, reached from the detector down to designed step
+    // `designed`, leaves the connection of source s's chain of `steps` crossings to this.
+    bool owns(size_t s, int object, int steps, int designed) const;
+
+    struct Result {
+        std::vector<double> pixels;                    // flux per pixel
+        std::vector<std::vector<double>> byCriterion;  // [criterion][pixel]
+        uint64_t samples = 0, rays = 0, found = 0;     // found: samples that reached a pixel
+    };
+    // One pass's estimate from `samples` points drawn from the streams of `seed`.
+    Result trace(const DetectorImage& detector, uint64_t samples, uint64_t seed,
+                 const PathJudge* judge, bool prune, const Ranks& ranks) const;
+
+  private:
+    struct Target {
+        size_t source = 0;
+        int object = -1, steps = 0, onward = 0;  // the chain, and the step j light goes on at
+        std::vector<double> aim;                 // [aim cell]: probability (empty: uniform)
+        std::vector<double> aimCumulative;       // its running sums
+    };
+    struct Splat {
+        int pixel = -1;
+        double flux = 0.0;
+        int aim = 0;  // the aim cell
+    };
+    struct Scratch;
+    // One point of target t in cell `cell` drawn with the cell's probability q: its flux at a
+    // pixel (at none without a detector: the pilot), false when it reaches none.
+    bool sample(const Target& t, int cell, double q, CounterRng& rng, const DetectorImage* detector,
+                Scratch& scratch, LensConnector::Work& work, Splat& out) const;
+
+    const TransportView* ts_ = nullptr;
+    const LensConnector* lc_ = nullptr;
+    int detectorObject_ = -1;
+    size_t objects_ = 0;
+    std::vector<PartShape> shapes_;  // [object]: the candidates' (others invalid)
+    std::vector<PartShape> faces_;   // [step]: the designed faces', then the detector's
+    std::vector<Target> targets_;
+    std::vector<std::vector<int>> targetsOf_;  // [source * objects + object]
+    std::vector<std::pair<int, int>> strata_;  // (target, cell), drawn with q_
+    std::vector<double> q_, cumulative_;       // [stratum]: probability, running sums
+};
+
+}  // namespace veil
