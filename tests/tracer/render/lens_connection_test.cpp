@@ -9,11 +9,15 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <iostream>
 #include <numbers>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "lensdata/glass_catalog.h"
 #include "tests/tracer/render/box_mesh.h"
@@ -23,6 +27,7 @@
 #include "tracer/sequential/paraxial.h"
 #include "tracer/sequential/sequential_model.h"
 #include "tracer/sequential/sequential_trace.h"
+#include "tracer/transport/interaction.h"
 
 namespace veil {
 namespace {
@@ -280,6 +285,154 @@ TEST(LensConnection, DensityOfTheDirectionIsTheInverseJacobianOfTheUniforms) {
         lc.connect(1, 0, 550.0, 2, litPoint(*scene, 1, 1.0, 1.0), -1, 0.5, 0.5, work);
     ASSERT_TRUE(point);
     EXPECT_EQ(point->pdfSr, 0.0);
+}
+
+// The source's ray that reaches p along -w (w: from p toward the light) through the singlet,
+// traced back from p (Snell's law is the same both ways), its origin on the plane the
+// connection moves it on (a beam's start plane, a window's area) or on the emitting disk; none
+// when the ray does not cross both faces.
+std::optional<Ray> emittedThrough(const TransportView& ts, const Vec3& p, const Vec3& w,
+                                  const Source& src) {
+    Ray ray{p, w};
+    int medium = 0, start = -1;
+    for (const char* face : {"L1.back", "L1.front"}) {
+        const auto hit = ts.scene->closestHit(ray, kInfinity, start, -1, medium);
+        if (!hit || hit->object != ts.scene->find(face)->id) return std::nullopt;
+        const Interaction in = interact(ts, *hit, ray.direction, 0, 550.0);
+        int c = 0;
+        while (c < in.count &&
+               (in.children[c].scatter || in.children[c].event != EventType::Refract))
+            ++c;
+        if (c == in.count) return std::nullopt;
+        ray = {hit->point, in.children[c].direction};
+        medium = in.children[c].medium;
+        start = hit->object;
+    }
+    Vec3 center, normal;
+    if (const auto* sun = std::get_if<SunSource>(&src.shape())) {
+        center = sun->beam.startCenterMm;
+        normal = sun->beam.direction;
+    } else {
+        const AreaEmitter& a = std::holds_alternative<WindowSource>(src.shape())
+                                   ? std::get<WindowSource>(src.shape()).area
+                                   : std::get<LambertianSource>(src.shape()).area;
+        center = a.frame.translation;
+        normal = a.frame.toGlobalDirection(Vec3(0.0, 0.0, 1.0));
+    }
+    const Vec3 e = -ray.direction;  // as emitted
+    const double along = glm::dot(e, normal);
+    if (!(std::abs(along) > 0.0)) return std::nullopt;
+    const double back = glm::dot(ray.origin - center, normal) / along;
+    return Ray{ray.origin - back * e, e};
+}
+
+// The directions connect() draws at a point follow its density: a chi-square test of their
+// histogram against the density integrated over each cell, the density at any direction
+// coming from found() for the source's own ray along it (emittedThrough), so that the two
+// sides share nothing but the solve. For the Sun (the direction over its disk drawn, the point
+// solved), a narrow-coned window (the same) and a wide Lambertian disk (the point drawn, the
+// direction solved).
+TEST(LensConnection, DirectionsFollowTheirDensityByChiSquare) {
+    const auto scene =
+        singletScene("chi2",
+                     "[[source]]\nname = \"sun\"\nkind = \"sun\"\nfield_deg = [0.0, 3.0]\n"
+                     "[[source]]\nname = \"window\"\nkind = \"window\"\ncone_deg = 10.0\n"
+                     "[[source]]\nname = \"disk\"\nkind = \"lambertian\"\n"
+                     "position_mm = [0.0, 0.0, -30.0]\nnormal = [0.0, 0.0, 1.0]\n"
+                     "radius_mm = 20.0\nflux = 1.0\n");
+    const TransportView& ts = scene->transport().view;
+    const LensConnector lc(ts);
+    constexpr int kSamples = 20000, kCells = 8, kSub = 16;
+    for (const size_t s : {size_t{0}, size_t{1}, size_t{2}}) {
+        const Vec3 p = s == 2 ? Vec3(0.5, -0.3, 60.0) : litPoint(*scene, s, 1.5, -1.0);
+        std::vector<Vec3> drawn;
+        Vec3 mean(0.0);
+        for (int i = 0; i < kSamples; ++i) {
+            CounterRng rng(31 + s, static_cast<uint64_t>(i));
+            const double u1 = rng.uniform(), u2 = rng.uniform();
+            LensConnector::Work work;
+            const auto c = lc.connect(s, 0, 550.0, 2, p, -1, u1, u2, work);
+            if (!c) continue;
+            drawn.push_back(c->toLight);
+            mean += c->toLight;
+        }
+        ASSERT_GT(drawn.size(), kSamples / 10) << "source " << s;
+        // A tangent plane at the mean direction, and the box of the drawn directions on it.
+        const Vec3 w0 = glm::normalize(mean);
+        const Vec3 e1 = glm::normalize(glm::cross(w0, Vec3(1.0, 0.0, 0.0)));
+        const Vec3 e2 = glm::cross(w0, e1);
+        auto onPlane = [&](const Vec3& w) {
+            const Vec3 t = w / glm::dot(w, w0);
+            return Vec2(glm::dot(t, e1), glm::dot(t, e2));
+        };
+        Vec2 lo(1e300), hi(-1e300);
+        for (const Vec3& w : drawn) {
+            const Vec2 x = onPlane(w);
+            lo = glm::min(lo, x);
+            hi = glm::max(hi, x);
+        }
+        const Vec2 pad = 0.02 * (hi - lo);
+        lo -= pad;
+        hi += pad;
+        const Vec2 cell = (hi - lo) / static_cast<double>(kCells);
+        std::vector<double> observed(kCells * kCells, 0.0), expected(kCells * kCells, 0.0);
+        for (const Vec3& w : drawn) {
+            const Vec2 x = (onPlane(w) - lo) / cell;
+            const int i = std::clamp(static_cast<int>(x.x), 0, kCells - 1);
+            const int j = std::clamp(static_cast<int>(x.y), 0, kCells - 1);
+            observed[static_cast<size_t>(j * kCells + i)] += 1.0;
+        }
+        // The density times the draws over each cell, by the midpoint rule on a kSub x kSub
+        // grid: dOmega = da db / (1 + a^2 + b^2)^(3/2) on the tangent plane. (The density is
+        // per draw: a draw whose ray misses the point is a direction of none.)
+        const double n = kSamples;
+        double integral = 0.0;
+        for (int j = 0; j < kCells * kSub; ++j)
+            for (int i = 0; i < kCells * kSub; ++i) {
+                const double a = lo.x + (i + 0.5) * cell.x / kSub;
+                const double b = lo.y + (j + 0.5) * cell.y / kSub;
+                const Vec3 w = glm::normalize(w0 + a * e1 + b * e2);
+                const auto emitted = emittedThrough(ts, p, w, ts.sources[s]);
+                if (!emitted) continue;
+                LensConnector::Work work;
+                const auto f = lc.found(s, 0, 550.0, 2, p, -1, *emitted, work);
+                if (!f) continue;
+                const double dOmega =
+                    cell.x * cell.y / (kSub * kSub) / std::pow(1.0 + a * a + b * b, 1.5);
+                const double mass = f->pdfSr * dOmega;
+                integral += mass;
+                expected[static_cast<size_t>((j / kSub) * kCells + i / kSub)] += n * mass;
+            }
+        // The density integrates to the share of the draws that reach the point.
+        const double reached = static_cast<double>(drawn.size()) / kSamples;
+        EXPECT_NEAR(integral, reached, 0.01 * reached + 3.0 * std::sqrt(reached / kSamples))
+            << "source " << s;
+        // Cells expecting fewer than 20 are pooled.
+        double chi2 = 0.0, poolO = 0.0, poolE = 0.0;
+        int bins = 0;
+        for (size_t c = 0; c < expected.size(); ++c) {
+            if (expected[c] < 20.0) {
+                poolO += observed[c];
+                poolE += expected[c];
+                continue;
+            }
+            chi2 += (observed[c] - expected[c]) * (observed[c] - expected[c]) / expected[c];
+            ++bins;
+        }
+        if (poolE > 0.0) {
+            chi2 += (poolO - poolE) * (poolO - poolE) / std::max(poolE, 1.0);
+            ++bins;
+        }
+        // Wilson and Hilferty: chi2 / k with k = bins - 1 degrees of freedom is about normal
+        // after a cube root; 4 sigma is a p-value of 3e-5.
+        const double k = bins - 1.0;
+        const double z =
+            (std::cbrt(chi2 / k) - (1.0 - 2.0 / (9.0 * k))) / std::sqrt(2.0 / (9.0 * k));
+        std::cout << "source " << s << ": chi2 " << chi2 << " over " << k
+                  << " degrees of freedom (z " << z << "), density integral " << integral << "\n";
+        EXPECT_GE(bins, 20) << "source " << s;
+        EXPECT_LT(z, 4.0) << "source " << s << ": chi2 " << chi2 << " with " << k << " dof";
+    }
 }
 
 }  // namespace
