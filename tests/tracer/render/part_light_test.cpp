@@ -10,9 +10,11 @@
 #include "tracer/render/part_light.h"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <iostream>
 #include <numbers>
@@ -293,6 +295,28 @@ TEST(PartLight, RingBehindASingletAgreesWithQuadrature) {
               << " points reached a pixel), quadrature " << truth << "\n";
     EXPECT_LE(std::abs(mean - truth), 3.0 * sigma + 1e-3 * truth);
     EXPECT_LT(sigma, 0.02 * truth);
+}
+
+// The same pass from one thread and from two: bitwise the same images (sample i draws from its
+// own stream, blocks are added in order; the pilot's cells are independent).
+TEST(PartLight, OneAndTwoThreadsAreBitwiseTheSame) {
+    const auto s = ringScene();
+    const TransportView& ts = s->transport().view;
+    const DetectorImage& det = s->transport().images[0];
+    std::vector<double> images[2];
+    for (const int threads : {1, 2}) {
+        const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+        const LensConnector lc(ts);
+        const PartLight parts(ts, lc, det.geometry().object,
+                              std::vector<bool>(ts.properties.size()), 5.0);
+        images[threads - 1] = parts.trace(det, 8192, 7, nullptr, false, Ranks::alone()).pixels;
+    }
+    ASSERT_EQ(images[0].size(), images[1].size());
+    EXPECT_EQ(0,
+              std::memcmp(images[0].data(), images[1].data(), images[0].size() * sizeof(double)));
+    double total = 0.0;
+    for (double p : images[0]) total += p;
+    EXPECT_GT(total, 0.0);
 }
 
 // Where pixel rays find the ring (a 1 mm bore), the view points and the parts estimate the same
