@@ -189,6 +189,13 @@ double directAt(const TransportView& ts, const ViewPoint& v, double wavelengthNm
     return sum * v.weight;
 }
 
+std::vector<bool> followedLobes(const TransportView& ts, double belowRad) {
+    std::vector<bool> out;
+    for (const OpticalProperty& p : ts.properties)
+        out.push_back(p.hasScatter() && lobeHalfWidthRad(p) < belowRad);
+    return out;
+}
+
 double lobeHalfWidthRad(const OpticalProperty& p) {
     return std::visit(
         [](const auto& m) -> double {
@@ -354,9 +361,7 @@ class PixelTracer {
           scratch_(judge_ ? judge_->stateBytes() : 0),
           perSourceSide_(2 * ts.sources.size()),
           designed_(*ts.scene) {
-        for (const OpticalProperty& prop : ts.properties)
-            followLobe_.push_back(prop.hasScatter() &&
-                                  lobeHalfWidthRad(prop) < options.followLobesBelowRad);
+        followLobe_ = followedLobes(ts, options.followLobesBelowRad);
     }
 
     // Every ray of pixel p.

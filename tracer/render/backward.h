@@ -161,6 +161,9 @@ BackwardResult traceBackward(const TransportView& ts, const DetectorImage& detec
 // (radians): a Gaussian's half width, the widest ABg lobe's (in direction cosines, at normal
 // incidence); pi / 2 for Lambertian, tabulated, K-correlation and particulate models.
 double lobeHalfWidthRad(const OpticalProperty& p);
+// [property]: whether the backward rays follow its lobe (it scatters, with a half width below
+// belowRad; BackwardOptions::followLobesBelowRad).
+std::vector<bool> followedLobes(const TransportView& ts, double belowRad);
 
 // The context of light travelling along `lightDirection` (unit) onto the view point's
 // surface: normal toward the light's side, n1 the index there (media at wavelength index

@@ -496,10 +496,8 @@ Renderer::Renderer(const TransportView& ts, const DetectorImage& detector, ExitA
         throw std::invalid_argument("pruning needs at least one path criterion");
     if (options_.connectThroughLens) connector_ = LensConnector(ts_);
     if (connector_.any() && options_.partSamples > 0) {
-        std::vector<bool> followed;
-        const double below = options_.followLobesBelowDeg * std::numbers::pi / 180.0;
-        for (const OpticalProperty& p : ts_.properties)
-            followed.push_back(p.hasScatter() && lobeHalfWidthRad(p) < below);
+        const std::vector<bool> followed =
+            followedLobes(ts_, options_.followLobesBelowDeg * std::numbers::pi / 180.0);
         const double r1 =
             options_.initialRadiusMm > 0.0 ? options_.initialRadiusMm : defaultInitialRadius(ts_);
         parts_ = PartLight(ts_, connector_, detector_.geometry().object, followed, r1);
