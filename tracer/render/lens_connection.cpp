@@ -18,6 +18,10 @@ constexpr int kNewtonIterations = 8;
 constexpr int kLineSearchHalvings = 4;
 constexpr double kWidestDeg = 80.0;      // a cone's parameter scale: tan of at most this
 constexpr double kNarrowConeDeg = 20.0;  // an emitting area's cone that counts as a beam's
+// The pilot's choice between a narrow-coned area's two parametrizations, per chain and object:
+// at up to kChoicePoints of its photons' hits there, kChoiceDraws draws each.
+constexpr size_t kChoicePoints = 16;
+constexpr int kChoiceDraws = 4;
 
 const Beam* beamOf(const Source& s) {
     if (const auto* c = std::get_if<CollimatedSource>(&s.shape())) return &c->beam;
@@ -64,9 +68,13 @@ struct LensConnector::Chain {
 LensConnector::LensConnector(const TransportView& ts)
     : ts_(&ts), designed_(*ts.scene), objects_(ts.scene->objects().size()) {
     chains_.assign(ts.sources.size() * objects_, 0);
+    other_.assign(ts.sources.size() * objects_, 0);
     for (const Source& src : ts.sources) params_.push_back(parametrize(src));
     if (designed_.steps() == 0) return;
     const Scene& scene = *ts.scene;
+    // The pilot's first hits per chain, where the parametrizations are compared:
+    // [source * objects + object] -> (steps, point).
+    std::vector<std::vector<std::pair<int, Vec3>>> hits(ts.sources.size() * objects_);
 
     for (size_t s = 0; s < ts.sources.size(); ++s) {
         const Source& src = ts.sources[s];
@@ -82,9 +90,14 @@ LensConnector::LensConnector(const TransportView& ts)
                 if (!hit || ts.detectorOfObject[hit->object] >= 0) break;
                 const OpticalProperty& prop = ts.properties[ts.propertyOfObject[hit->object]];
                 if (step >= 1 && step <= kMaxChain && prop.hasScatter()) {
-                    chains_[s * objects_ + static_cast<size_t>(hit->object)] |= uint64_t{1}
-                                                                                << (step - 1);
+                    const size_t at = s * objects_ + static_cast<size_t>(hit->object);
+                    chains_[at] |= uint64_t{1} << (step - 1);
                     any_ = true;
+                    if (params_[s].count > 1 &&
+                        std::count_if(hits[at].begin(), hits[at].end(), [&](const auto& h) {
+                            return h.first == step;
+                        }) < static_cast<std::ptrdiff_t>(kChoicePoints))
+                        hits[at].emplace_back(step, hit->point);
                 }
                 if (step >= designed_.steps() || hit->object != designed_.objectOfStep(step)) break;
                 const Interaction in =
@@ -103,18 +116,57 @@ LensConnector::LensConnector(const TransportView& ts)
         uint64_t all = 0;
         for (size_t o = 0; o < objects_; ++o) all |= chains_[s * objects_ + o];
         if (all == 0) continue;
-        seeds_[s].resize(static_cast<size_t>(64 - std::countl_zero(all)));
-        const std::vector<Vec3> fixes = seedFixes(s);
-        for (uint64_t m = all; m != 0; m &= m - 1) {
-            const int steps = std::countr_zero(m) + 1;
-            for (const Vec3& f : fixes)
-                seeds_[s][static_cast<size_t>(steps - 1)].push_back(buildSeeds(s, steps, f));
+        seeds_[s].resize(static_cast<size_t>(params_[s].count));
+        for (int m = 0; m < params_[s].count; ++m) {
+            std::vector<std::vector<SeedGrid>>& grids = seeds_[s][static_cast<size_t>(m)];
+            grids.resize(static_cast<size_t>(64 - std::countl_zero(all)));
+            const std::vector<Vec3> fixes = seedFixes(s, m);
+            for (uint64_t bits = all; bits != 0; bits &= bits - 1) {
+                const int steps = std::countr_zero(bits) + 1;
+                for (const Vec3& f : fixes)
+                    grids[static_cast<size_t>(steps - 1)].push_back(buildSeeds(s, m, steps, f));
+            }
+        }
+    }
+    // Each chain's parametrization: the one whose light at the pilot's points has the smaller
+    // second moment (both estimate the same light; the other one's draws mostly miss there),
+    // from the same draws of the two uniforms. Kept the source's own where neither finds any.
+    for (size_t s = 0; s < ts.sources.size(); ++s) {
+        if (params_[s].count < 2) continue;
+        const double firstNm = ts.sources[s].spectrum().lines().front().nm;
+        for (size_t o = 0; o < objects_; ++o) {
+            const size_t at = s * objects_ + o;
+            for (uint64_t bits = chains_[at]; bits != 0; bits &= bits - 1) {
+                const int steps = std::countr_zero(bits) + 1;
+                double moment[2] = {0.0, 0.0};
+                int found[2] = {0, 0};
+                uint64_t draw = 0;
+                for (const auto& [k, point] : hits[at]) {
+                    if (k != steps) continue;
+                    for (int d = 0; d < kChoiceDraws; ++d, ++draw) {
+                        CounterRng rng(kPilotSeed ^ 0x63686f6963650000ULL,
+                                       (at * 64 + static_cast<uint64_t>(steps - 1)) * 4096 + draw);
+                        const double u1 = rng.uniform(), u2 = rng.uniform();
+                        for (int m = 0; m < 2; ++m) {
+                            Work work;
+                            const auto light = connectAs(m, s, 0, firstNm, steps, point,
+                                                         static_cast<int>(o), u1, u2, work);
+                            if (!light) continue;
+                            ++found[m];
+                            moment[m] += light->value * light->value;
+                        }
+                    }
+                }
+                if (found[1] > 0 && (found[0] == 0 || moment[1] < moment[0]))
+                    other_[at] |= uint64_t{1} << (steps - 1);
+            }
         }
     }
 }
 
-LensConnector::Parameters LensConnector::parametrize(const Source& src) {
-    Parameters p;
+LensConnector::ParameterSets LensConnector::parametrize(const Source& src) {
+    ParameterSets sets;
+    Parameters& p = sets.set[0];
     if (const Beam* beam = beamOf(src)) {
         p.movesOrigin = true;
         p.center = beam->startCenterMm;
@@ -122,7 +174,7 @@ LensConnector::Parameters LensConnector::parametrize(const Source& src) {
         p.u = beam->axisU;
         p.v = beam->axisV;
         p.scale = std::max(beam->radiusMm, 1e-6);
-        return p;
+        return sets;
     }
     if (const PointSource* pt = pointOf(src)) {
         p.center = pt->positionMm;
@@ -130,7 +182,7 @@ LensConnector::Parameters LensConnector::parametrize(const Source& src) {
         p.u = pt->axisU;
         p.v = pt->axisV;
         p.scale = std::tan(std::min(pt->halfAngleRad, kWidestDeg * std::numbers::pi / 180.0));
-        return p;
+        return sets;
     }
     const AreaEmitter& area = *areaOf(src);
     p.center = area.frame.translation;
@@ -140,15 +192,22 @@ LensConnector::Parameters LensConnector::parametrize(const Source& src) {
     // A narrow cone (a window's few degrees) is a beam with a spread: its direction is drawn
     // and the point on the area solved for, so that every solution lies in the cone. A wide
     // one draws the point and solves for the direction, which a small emitter needs.
+    // A narrow cone also has the wide one's way (the header comment, step 1).
+    const double onArea = std::max(area.shape == AreaEmitter::Shape::Disk
+                                       ? area.radiusMm
+                                       : 0.5 * std::hypot(area.sizeMm.x, area.sizeMm.y),
+                                   1e-6);
+    const double ofCone =
+        std::tan(std::min(area.coneHalfAngleRad, kWidestDeg * std::numbers::pi / 180.0));
     p.movesOrigin = area.coneHalfAngleRad < kNarrowConeDeg * std::numbers::pi / 180.0;
-    p.scale =
-        p.movesOrigin
-            ? std::max(area.shape == AreaEmitter::Shape::Disk
-                           ? area.radiusMm
-                           : 0.5 * std::hypot(area.sizeMm.x, area.sizeMm.y),
-                       1e-6)
-            : std::tan(std::min(area.coneHalfAngleRad, kWidestDeg * std::numbers::pi / 180.0));
-    return p;
+    p.scale = p.movesOrigin ? onArea : ofCone;
+    if (p.movesOrigin) {
+        sets.set[1] = p;
+        sets.set[1].movesOrigin = false;
+        sets.set[1].scale = ofCone;
+        sets.count = 2;
+    }
+    return sets;
 }
 
 bool LensConnector::reaches(const Ray& from, int fromObject, int fromPrimitive, int medium,
@@ -164,9 +223,14 @@ bool LensConnector::reaches(const Ray& from, int fromObject, int fromPrimitive, 
 
 bool LensConnector::inView(size_t s, int steps, const Vec3& fixed, const Vec3& point, int object,
                            Work& work) const {
+    return inViewAs(parametrization(s, object, steps), s, steps, fixed, point, object, work);
+}
+
+bool LensConnector::inViewAs(int m, size_t s, int steps, const Vec3& fixed, const Vec3& point,
+                             int object, Work& work) const {
     double a = 0.0, b = 0.0;
     size_t node = 0;
-    const SeedGrid* g = seed(s, steps, fixed, point, a, b, &node);
+    const SeedGrid* g = seed(s, m, steps, fixed, point, a, b, &node);
     if (!g) return false;
     // The node's last segment turned toward the point, from where it left the last face.
     const Ray& end = g->ends[node];
@@ -178,8 +242,8 @@ bool LensConnector::inView(size_t s, int steps, const Vec3& fixed, const Vec3& p
                    g->media[node], point, object);
 }
 
-std::vector<Vec3> LensConnector::seedFixes(size_t s) const {
-    const Parameters& pm = params_[s];
+std::vector<Vec3> LensConnector::seedFixes(size_t s, int m) const {
+    const Parameters& pm = params_[s].set[m];
     const Source& src = ts_->sources[s];
     const AreaEmitter* area = areaOf(src);
     if (!area) return {pm.movesOrigin ? pm.axis : pm.center};
@@ -204,8 +268,9 @@ std::vector<Vec3> LensConnector::seedFixes(size_t s) const {
     return out;
 }
 
-LensConnector::SeedGrid LensConnector::buildSeeds(size_t s, int steps, const Vec3& fixed) const {
-    const Parameters& pm = params_[s];
+LensConnector::SeedGrid LensConnector::buildSeeds(size_t s, int m, int steps,
+                                                  const Vec3& fixed) const {
+    const Parameters& pm = params_[s].set[m];
     SeedGrid g;
     g.fixed = fixed;
     // At the first line (model wavelength 0): a seed needs no more.
@@ -216,7 +281,7 @@ LensConnector::SeedGrid LensConnector::buildSeeds(size_t s, int steps, const Vec
             const double a = pm.scale * (2.0 * (i + 0.5) / kSeedGrid - 1.0);
             const double b = pm.scale * (2.0 * (j + 0.5) / kSeedGrid - 1.0);
             Chain c;
-            if (!trace(entryRay(s, fixed, a, b), steps, 0, firstNm, c, work, nullptr)) continue;
+            if (!trace(entryRay(s, m, fixed, a, b), steps, 0, firstNm, c, work, nullptr)) continue;
             g.ends.push_back(c.end);
             g.params.emplace_back(a, b);
             g.lastObjects.push_back(c.lastObject);
@@ -226,11 +291,13 @@ LensConnector::SeedGrid LensConnector::buildSeeds(size_t s, int steps, const Vec
     return g;
 }
 
-const LensConnector::SeedGrid* LensConnector::seed(size_t s, int steps, const Vec3& fixed,
+const LensConnector::SeedGrid* LensConnector::seed(size_t s, int m, int steps, const Vec3& fixed,
                                                    const Vec3& point, double& a, double& b,
                                                    size_t* node) const {
-    if (seeds_[s].size() < static_cast<size_t>(steps)) return nullptr;
-    const std::vector<SeedGrid>& grids = seeds_[s][static_cast<size_t>(steps - 1)];
+    if (seeds_[s].size() <= static_cast<size_t>(m)) return nullptr;
+    const std::vector<std::vector<SeedGrid>>& bySteps = seeds_[s][static_cast<size_t>(m)];
+    if (bySteps.size() < static_cast<size_t>(steps)) return nullptr;
+    const std::vector<SeedGrid>& grids = bySteps[static_cast<size_t>(steps - 1)];
     if (grids.empty()) return nullptr;
     const SeedGrid* g = &grids.front();
     for (const SeedGrid& x : grids)
@@ -251,14 +318,14 @@ const LensConnector::SeedGrid* LensConnector::seed(size_t s, int steps, const Ve
     return best < kInfinity ? g : nullptr;
 }
 
-Ray LensConnector::entryRay(size_t s, const Vec3& fixed, double a, double b) const {
-    const Parameters& p = params_[s];
+Ray LensConnector::entryRay(size_t s, int m, const Vec3& fixed, double a, double b) const {
+    const Parameters& p = params_[s].set[m];
     if (p.movesOrigin) return {p.center + a * p.u + b * p.v, fixed};
     return {fixed, glm::normalize(p.axis + a * p.u + b * p.v)};
 }
 
-void LensConnector::parametersOf(size_t s, const Ray& entry, double& a, double& b) const {
-    const Parameters& p = params_[s];
+void LensConnector::parametersOf(size_t s, int m, const Ray& entry, double& a, double& b) const {
+    const Parameters& p = params_[s].set[m];
     if (p.movesOrigin) {
         const Vec3 d = entry.origin - p.center;
         a = glm::dot(d, p.u);
@@ -271,15 +338,17 @@ void LensConnector::parametersOf(size_t s, const Ray& entry, double& a, double& 
     b = glm::dot(t, p.v);
 }
 
-Vec3 LensConnector::fixedOf(size_t s, const Ray& entry) const {
-    return params_[s].movesOrigin ? entry.direction : entry.origin;
+Vec3 LensConnector::fixedOf(size_t s, int object, int steps, const Ray& entry) const {
+    return params_[s].set[parametrization(s, object, steps)].movesOrigin ? entry.direction
+                                                                         : entry.origin;
 }
 
-double LensConnector::fluxPerParameter(size_t s, int line, const Ray& entry) const {
+double LensConnector::fluxPerParameter(size_t s, int m, int line, const Ray& entry) const {
+    const Parameters& pm = params_[s].set[m];
     const Source& src = ts_->sources[s];
     const double emitted = src.emitted(entry.origin, entry.direction, line);
     if (!(emitted > 0.0)) return 0.0;
-    const double c = glm::dot(entry.direction, params_[s].axis);
+    const double c = glm::dot(entry.direction, pm.axis);
     if (!(c > 0.0)) return 0.0;
     if (std::holds_alternative<SunSource>(src.shape()))
         // Radiance L = Phi / (A Omega cos): per unit of the start plane and per direction
@@ -291,7 +360,7 @@ double LensConnector::fluxPerParameter(size_t s, int line, const Ray& entry) con
         // Directions per unit of the tangent plane: dOmega = da db / (1 + a^2 + b^2)^(3/2) =
         // cos^3 da db; intensity I gives I cos^3.
         return emitted * c * c * c;
-    if (params_[s].movesOrigin) {
+    if (pm.movesOrigin) {
         // Per unit of the area, the direction drawn by the cosine law within the cone (pdf
         // cos / (pi sin^2 cone)): L cos / pdf = L pi sin^2 cone.
         const double sinCone = std::sin(areaOf(src)->coneHalfAngleRad);
@@ -395,29 +464,30 @@ double missOf(const Ray& end, const Vec3& p) {
 
 }  // namespace
 
-bool LensConnector::solve(size_t s, int line, double wavelengthNm, int steps, const Vec3& point,
-                          const Vec3& fixed, double& a, double& b, Work& work) const {
-    const double scale = params_[s].scale;
+bool LensConnector::solve(size_t s, int m, int line, double wavelengthNm, int steps,
+                          const Vec3& point, const Vec3& fixed, double& a, double& b,
+                          Work& work) const {
+    const Parameters& pm = params_[s].set[m];
+    const double scale = pm.scale;
     const double tol = 1e-9 * largest(point);
     // The start: the seed grid's node whose last segment passes nearest the point; without
     // one (no node of the grid follows the chain), the straight line from the source to the
     // point, drawn toward the axis until its chain traces.
     Chain c;
-    bool started = seed(s, steps, fixed, point, a, b) != nullptr &&
-                   trace(entryRay(s, fixed, a, b), steps, line, wavelengthNm, c, work, nullptr);
+    bool started = seed(s, m, steps, fixed, point, a, b) != nullptr &&
+                   trace(entryRay(s, m, fixed, a, b), steps, line, wavelengthNm, c, work, nullptr);
     if (!started) {
-        const Parameters& pm = params_[s];
         const Ray straight = pm.movesOrigin
                                  ? Ray{point - fixed * (glm::dot(point - pm.center, pm.axis) /
                                                         glm::dot(fixed, pm.axis)),
                                        fixed}
                                  : Ray{fixed, glm::normalize(point - fixed)};
         double a0 = 0.0, b0 = 0.0;
-        parametersOf(s, straight, a0, b0);
+        parametersOf(s, m, straight, a0, b0);
         for (const double f : {1.0, 0.75, 0.5, 0.25, 0.0}) {
             a = a0 * f;
             b = b0 * f;
-            if (trace(entryRay(s, fixed, a, b), steps, line, wavelengthNm, c, work, nullptr)) {
+            if (trace(entryRay(s, m, fixed, a, b), steps, line, wavelengthNm, c, work, nullptr)) {
                 started = true;
                 break;
             }
@@ -443,7 +513,7 @@ bool LensConnector::solve(size_t s, int line, double wavelengthNm, int steps, co
             for (const double sign : {1.0, -1.0}) {
                 step = sign * h;
                 const double ak = a + (k == 0 ? step : 0.0), bk = b + (k == 1 ? step : 0.0);
-                if (trace(entryRay(s, fixed, ak, bk), steps, line, wavelengthNm, ck, work,
+                if (trace(entryRay(s, m, fixed, ak, bk), steps, line, wavelengthNm, ck, work,
                           nullptr) &&
                     crossingAt(ck.end, point, n, b1, b2, col[k])) {
                     ok = true;
@@ -463,14 +533,15 @@ bool LensConnector::solve(size_t s, int line, double wavelengthNm, int steps, co
         for (int k = 0; k < kLineSearchHalvings; ++k, lambda *= 0.5) {
             Chain trial;
             const double at = a + lambda * da, bt = b + lambda * db;
-            if (!trace(entryRay(s, fixed, at, bt), steps, line, wavelengthNm, trial, work, nullptr))
+            if (!trace(entryRay(s, m, fixed, at, bt), steps, line, wavelengthNm, trial, work,
+                       nullptr))
                 continue;
-            const double m = missOf(trial.end, point);
-            if (m < miss) {
+            const double trialMiss = missOf(trial.end, point);
+            if (trialMiss < miss) {
                 a = at;
                 b = bt;
                 c = trial;
-                miss = m;
+                miss = trialMiss;
                 moved = true;
                 break;
             }
@@ -480,13 +551,15 @@ bool LensConnector::solve(size_t s, int line, double wavelengthNm, int steps, co
     return miss <= tol;
 }
 
-std::optional<LensConnector::Light> LensConnector::connect(size_t s, int line, double wavelengthNm,
-                                                           int steps, const Vec3& point, int object,
-                                                           double u1, double u2, Work& work,
-                                                           std::vector<PathEvent>* events) const {
+std::optional<LensConnector::Light> LensConnector::connectAs(int m, size_t s, int line,
+                                                             double wavelengthNm, int steps,
+                                                             const Vec3& point, int object,
+                                                             double u1, double u2, Work& work,
+                                                             std::vector<PathEvent>* events) const {
     const Source& src = ts_->sources[s];
-    if (steps < 1 || steps > designed_.steps()) return std::nullopt;
-    const Parameters& pm = params_[s];
+    if (steps < 1 || steps > designed_.steps() || m < 0 || m >= params_[s].count)
+        return std::nullopt;
+    const Parameters& pm = params_[s].set[m];
     // What the solver keeps (fluxPerParameter has the pdfs): a beam's direction, drawn
     // uniformly over the Sun's disk; a narrow cone's direction, drawn by the cosine law; a
     // point's position; a point drawn uniformly on a wide-coned area.
@@ -517,23 +590,23 @@ std::optional<LensConnector::Light> LensConnector::connect(size_t s, int line, d
         fixed = glm::normalize(cosTheta * pm.axis +
                                sinTheta * (std::cos(phi) * pm.u + std::sin(phi) * pm.v));
     }
-    return connectWith(s, line, wavelengthNm, steps, point, object, fixed, work, events);
+    return connectWith(s, m, line, wavelengthNm, steps, point, object, fixed, work, events);
 }
 
 std::optional<LensConnector::Light> LensConnector::connectWith(
-    size_t s, int line, double wavelengthNm, int steps, const Vec3& point, int object,
+    size_t s, int m, int line, double wavelengthNm, int steps, const Vec3& point, int object,
     const Vec3& fixed, Work& work, std::vector<PathEvent>* events) const {
-    if (!inView(s, steps, fixed, point, object, work)) return std::nullopt;
+    if (!inViewAs(m, s, steps, fixed, point, object, work)) return std::nullopt;
     double a = 0.0, b = 0.0;
-    if (!solve(s, line, wavelengthNm, steps, point, fixed, a, b, work)) return std::nullopt;
-    const Ray entry = entryRay(s, fixed, a, b);
+    if (!solve(s, m, line, wavelengthNm, steps, point, fixed, a, b, work)) return std::nullopt;
+    const Ray entry = entryRay(s, m, fixed, a, b);
     Chain c;
     if (!trace(entry, steps, line, wavelengthNm, c, work, events)) return std::nullopt;
     const double toPoint = glm::dot(point - c.end.origin, c.end.direction);
     if (!(toPoint > 0.0)) return std::nullopt;
-    const double det = jacobian(s, line, wavelengthNm, steps, point, fixed, a, b, c, work);
+    const double det = jacobian(s, m, line, wavelengthNm, steps, point, fixed, a, b, c, work);
     if (!(det > 0.0)) return std::nullopt;
-    const double fu = fluxPerParameter(s, line, entry);
+    const double fu = fluxPerParameter(s, m, line, entry);
     if (!(fu > 0.0)) return std::nullopt;
     // Nothing between the last crossing and the point: the last segment, traced as the light
     // travels it, first meets the point's object at the point (within the rounding of a mesh's
@@ -561,7 +634,7 @@ std::optional<LensConnector::Light> LensConnector::connectWith(
     return out;
 }
 
-double LensConnector::jacobian(size_t s, int line, double wavelengthNm, int steps,
+double LensConnector::jacobian(size_t s, int m, int line, double wavelengthNm, int steps,
                                const Vec3& point, const Vec3& fixed, double a, double b,
                                const Chain& at, Work& work) const {
     // Central differences on the plane through the point perpendicular to the ray; one-sided
@@ -571,7 +644,7 @@ double LensConnector::jacobian(size_t s, int line, double wavelengthNm, int step
     basisAround(n, b1, b2);
     Vec2 r;
     if (!crossingAt(at.end, point, n, b1, b2, r)) return 0.0;
-    const double h = 1e-5 * params_[s].scale;
+    const double h = 1e-5 * params_[s].set[m].scale;
     Vec2 col[2];
     for (int k = 0; k < 2; ++k) {
         Vec2 side[2];
@@ -580,9 +653,9 @@ double LensConnector::jacobian(size_t s, int line, double wavelengthNm, int step
             const double step = j == 0 ? h : -h;
             Chain cj;
             const double aj = a + (k == 0 ? step : 0.0), bj = b + (k == 1 ? step : 0.0);
-            ok[j] =
-                trace(entryRay(s, fixed, aj, bj), steps, line, wavelengthNm, cj, work, nullptr) &&
-                crossingAt(cj.end, point, n, b1, b2, side[j]);
+            ok[j] = trace(entryRay(s, m, fixed, aj, bj), steps, line, wavelengthNm, cj, work,
+                          nullptr) &&
+                    crossingAt(cj.end, point, n, b1, b2, side[j]);
         }
         if (ok[0] && ok[1])
             col[k] = (side[0] - side[1]) / (2.0 * h);
@@ -601,18 +674,21 @@ bool LensConnector::finds(size_t s, int line, double wavelengthNm, int steps, co
     return found(s, line, wavelengthNm, steps, point, object, emitted, work).has_value();
 }
 
-std::optional<LensConnector::Light> LensConnector::found(size_t s, int line, double wavelengthNm,
-                                                         int steps, const Vec3& point, int object,
-                                                         const Ray& emitted, Work& work) const {
-    if (steps < 1 || steps > designed_.steps()) return std::nullopt;
+std::optional<LensConnector::Light> LensConnector::foundAs(int m, size_t s, int line,
+                                                           double wavelengthNm, int steps,
+                                                           const Vec3& point, int object,
+                                                           const Ray& emitted, Work& work) const {
+    if (steps < 1 || steps > designed_.steps() || m < 0 || m >= params_[s].count)
+        return std::nullopt;
+    const Parameters& pm = params_[s].set[m];
     // Everything connect() does with this fixed half, then the same ray.
-    auto light = connectWith(s, line, wavelengthNm, steps, point, object, fixedOf(s, emitted), work,
-                             nullptr);
+    auto light = connectWith(s, m, line, wavelengthNm, steps, point, object,
+                             pm.movesOrigin ? emitted.direction : emitted.origin, work, nullptr);
     if (!light) return std::nullopt;
     double a = 0.0, b = 0.0, pa = 0.0, pb = 0.0;
-    parametersOf(s, light->entry, a, b);
-    parametersOf(s, emitted, pa, pb);
-    if (!(std::hypot(a - pa, b - pb) <= 1e-6 * params_[s].scale)) return std::nullopt;
+    parametersOf(s, m, light->entry, a, b);
+    parametersOf(s, m, emitted, pa, pb);
+    if (!(std::hypot(a - pa, b - pb) <= 1e-6 * pm.scale)) return std::nullopt;
     return light;
 }
 

@@ -16,6 +16,13 @@
 //      ray that crosses those k faces as designed (refracting at lens faces, reflecting at
 //      mirrors, in the scene itself: its coatings, apertures and shapes) and then passes
 //      through p. It starts from the nearest node of a seed grid of the chain traced once.
+//      A narrow-coned area has both ways (parametrizations()): its direction drawn and its
+//      point solved, which suits points near a pupil (few points of the window reach them,
+//      from many directions), or its point drawn and its direction solved, which suits points
+//      near an image of the window's far field (a flat beside the field lens: every point of
+//      the window reaches it, from a few directions). The pilot picks one per chain and
+//      object: the one whose light at the pilot's own points has the smaller second moment
+//      (parametrization()).
 //      The residual is where the last segment crosses the plane through p perpendicular to
 //      it; the Jacobian comes from finite differences (forward while iterating, central for
 //      the result);
@@ -75,6 +82,16 @@ class LensConnector {
         return chains_[source * objects_ + static_cast<size_t>(object)];
     }
     bool any() const { return any_; }
+    // The ways the solve parametrizes source s's rays: 1, or 2 for a narrow-coned area (the
+    // header comment, step 1).
+    int parametrizations(size_t s) const { return params_.empty() ? 1 : params_[s].count; }
+    // The one connect() uses for the chain of `steps` crossings to `object` (0 for a point in
+    // the open, or a source with one): 0 the source's own, 1 its other.
+    int parametrization(size_t s, int object, int steps) const {
+        if (object < 0 || steps < 1 || steps > 64 || other_.empty()) return 0;
+        return static_cast<int>(
+            (other_[s * objects_ + static_cast<size_t>(object)] >> (steps - 1)) & 1);
+    }
 
     struct Light {
         Vec3 toLight{0.0};  // unit, from the point back along the arriving ray
@@ -101,7 +118,8 @@ class LensConnector {
     // photon's own hit point and fixed half decides whether its light is the connection's.
     bool inView(size_t s, int steps, const Vec3& fixed, const Vec3& point, int object,
                 Work& work) const;
-    Vec3 fixedOf(size_t s, const Ray& entry) const;
+    // The fixed half of the emitted ray `entry` in the parametrization of that chain.
+    Vec3 fixedOf(size_t s, int object, int steps, const Ray& entry) const;
 
     // Light of source s, line `line` (model wavelength index), arriving at `point` on `object`
     // (-1: a point in the open) through the chain of `steps` designed crossings, its
@@ -111,7 +129,14 @@ class LensConnector {
     // travels them (after Emit, before the scatter at the point) replace its contents.
     std::optional<Light> connect(size_t s, int line, double wavelengthNm, int steps,
                                  const Vec3& point, int object, double u1, double u2, Work& work,
-                                 std::vector<PathEvent>* events = nullptr) const;
+                                 std::vector<PathEvent>* events = nullptr) const {
+        return connectAs(parametrization(s, object, steps), s, line, wavelengthNm, steps, point,
+                         object, u1, u2, work, events);
+    }
+    // The same in parametrization `mode` (< parametrizations(s)).
+    std::optional<Light> connectAs(int mode, size_t s, int line, double wavelengthNm, int steps,
+                                   const Vec3& point, int object, double u1, double u2, Work& work,
+                                   std::vector<PathEvent>* events = nullptr) const;
 
     // Whether connect() finds the path of the emitted ray `emitted` (of source s) that crossed
     // the chain of `steps` designed crossings and arrived at `point` (on `object`; -1: in the
@@ -123,7 +148,14 @@ class LensConnector {
     // The same, with what connect() gives for that path (its pdfSr weighs a path a lobe's
     // sampled direction found against the connection); none where finds() is false.
     std::optional<Light> found(size_t s, int line, double wavelengthNm, int steps,
-                               const Vec3& point, int object, const Ray& emitted, Work& work) const;
+                               const Vec3& point, int object, const Ray& emitted,
+                               Work& work) const {
+        return foundAs(parametrization(s, object, steps), s, line, wavelengthNm, steps, point,
+                       object, emitted, work);
+    }
+    std::optional<Light> foundAs(int mode, size_t s, int line, double wavelengthNm, int steps,
+                                 const Vec3& point, int object, const Ray& emitted,
+                                 Work& work) const;
 
     // The designed path onward from a point (light traced toward the detector): `start`
     // (leaving object startObject, triangle startPrimitive, in `medium`) meets the faces of
@@ -154,7 +186,13 @@ class LensConnector {
         Vec3 center{0.0}, axis{0.0, 0.0, 1.0}, u{1.0, 0.0, 0.0}, v{0.0, 1.0, 0.0};
         double scale = 1.0;  // of the parameters: mm on a plane, or a tangent
     };
-    static Parameters parametrize(const Source& src);
+    // A source's parametrizations: [0] its own, [1] (count 2, a narrow-coned area only) the
+    // point drawn on the area and the direction solved for.
+    struct ParameterSets {
+        Parameters set[2];
+        int count = 1;
+    };
+    static ParameterSets parametrize(const Source& src);
     // Where the solver starts: the chain traced once from a grid of kSeedGrid^2 parameters
     // over [-scale, scale]^2, per source, chain and fixed half (one for a beam or a point;
     // kSeedFixes^2 directions over a narrow cone, or points over a wide-coned area); the grid
@@ -168,10 +206,12 @@ class LensConnector {
     };
     static constexpr int kSeedGrid = 12;
     static constexpr int kSeedFixes = 5;
-    std::vector<Vec3> seedFixes(size_t s) const;
-    SeedGrid buildSeeds(size_t s, int steps, const Vec3& fixed) const;
-    const SeedGrid* seed(size_t s, int steps, const Vec3& fixed, const Vec3& point, double& a,
-                         double& b, size_t* node = nullptr) const;
+    std::vector<Vec3> seedFixes(size_t s, int m) const;
+    SeedGrid buildSeeds(size_t s, int m, int steps, const Vec3& fixed) const;
+    const SeedGrid* seed(size_t s, int m, int steps, const Vec3& fixed, const Vec3& point,
+                         double& a, double& b, size_t* node = nullptr) const;
+    bool inViewAs(int m, size_t s, int steps, const Vec3& fixed, const Vec3& point, int object,
+                  Work& work) const;
     // Whether `from` (leaving object fromObject, triangle fromPrimitive, in `medium`) first
     // meets `object` at `point` (within the rounding of a mesh's hits), or for object < 0
     // meets nothing before it.
@@ -180,11 +220,11 @@ class LensConnector {
     // The entry ray of source s for parameters (a, b) and what the solver keeps fixed: a
     // beam's direction (a, b on its start plane), or the origin of a point or of a point drawn
     // on an emitting area (a, b the direction on the plane tangent to its axis).
-    Ray entryRay(size_t s, const Vec3& fixed, double a, double b) const;
+    Ray entryRay(size_t s, int m, const Vec3& fixed, double a, double b) const;
     // The source's flux per unit of its parameters at (a, b) (the header comment, step 2).
-    double fluxPerParameter(size_t s, int line, const Ray& entry) const;
+    double fluxPerParameter(size_t s, int m, int line, const Ray& entry) const;
     // The parameters of an entry ray (the inverse of entryRay).
-    void parametersOf(size_t s, const Ray& entry, double& a, double& b) const;
+    void parametersOf(size_t s, int m, const Ray& entry, double& a, double& b) const;
     bool trace(const Ray& entry, int steps, int line, double wavelengthNm, Chain& out, Work& work,
                std::vector<PathEvent>* events) const;
     // Crosses the face of designed step `step`, met at `hit` by `ray` travelling in `medium`,
@@ -193,18 +233,18 @@ class LensConnector {
     bool crossAsDesigned(const SceneHit& hit, int step, int line, double wavelengthNm, Ray& ray,
                          int& medium, double& transmit, std::vector<PathEvent>* events) const;
     // connect() with its fixed half given.
-    std::optional<Light> connectWith(size_t s, int line, double wavelengthNm, int steps,
+    std::optional<Light> connectWith(size_t s, int m, int line, double wavelengthNm, int steps,
                                      const Vec3& point, int object, const Vec3& fixed, Work& work,
                                      std::vector<PathEvent>* events) const;
     // Newton's method for the entry parameters whose chain passes through `point`, from the
     // straight line to it (the same start for every caller: finds() must see what connect()
     // sees).
-    bool solve(size_t s, int line, double wavelengthNm, int steps, const Vec3& point,
+    bool solve(size_t s, int m, int line, double wavelengthNm, int steps, const Vec3& point,
                const Vec3& fixed, double& a, double& b, Work& work) const;
     // |det| of the Jacobian of the point where the chain crosses the plane through `point`
     // perpendicular to `at`'s last segment, by the entry parameters (central differences);
     // 0 where it cannot be formed.
-    double jacobian(size_t s, int line, double wavelengthNm, int steps, const Vec3& point,
+    double jacobian(size_t s, int m, int line, double wavelengthNm, int steps, const Vec3& point,
                     const Vec3& fixed, double a, double b, const Chain& at, Work& work) const;
 
     const TransportView* ts_ = nullptr;
@@ -212,8 +252,12 @@ class LensConnector {
     size_t objects_ = 0;
     std::vector<uint64_t> chains_;  // [source * objects + object]
 
-    std::vector<Parameters> params_;                         // [source]
-    std::vector<std::vector<std::vector<SeedGrid>>> seeds_;  // [source][steps - 1][fixed half]
+    std::vector<ParameterSets> params_;  // [source]
+    // [source * objects + object]: bit k - 1 set where the chain of k crossings uses the
+    // source's other parametrization (parametrization()).
+    std::vector<uint64_t> other_;
+    // [source][parametrization][steps - 1][fixed half]
+    std::vector<std::vector<std::vector<std::vector<SeedGrid>>>> seeds_;
     bool any_ = false;
 };
 

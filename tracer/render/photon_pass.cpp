@@ -597,7 +597,8 @@ double BlockTracer::gatherShare(const PhotonBranch& br, const SceneHit& hit, Pho
     // The connection tries this point for this photon's fixed half: its light is the
     // connection's, but for the audit.
     LensConnector::Work work;
-    const bool tried = lc->inView(ph.source, br.designed, lc->fixedOf(ph.source, ph.emitted),
+    const bool tried = lc->inView(ph.source, br.designed,
+                                  lc->fixedOf(ph.source, hit.object, br.designed, ph.emitted),
                                   hit.point, hit.object, work);
     block_.segments += work.rays;
     if (!tried) return 1.0;

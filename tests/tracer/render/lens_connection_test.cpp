@@ -32,12 +32,13 @@
 namespace veil {
 namespace {
 
-// A biconvex singlet (n 1.5, ideal antireflection, clear radius 12.5 mm), a white plate 61 mm
-// behind its front vertex (the chain the pilot finds: both faces, then the plate), and
-// `sources`.
-std::unique_ptr<PreparedScene> singletScene(const std::string& name, const std::string& sources) {
+// A biconvex singlet (n 1.5, ideal antireflection, clear radius 12.5 mm, focal length about
+// 100 mm), a white plate `plateMm` behind its front vertex (the chain the pilot finds: both
+// faces, then the plate), and `sources`.
+std::unique_ptr<PreparedScene> singletScene(const std::string& name, const std::string& sources,
+                                            double plateMm = 61.0) {
     const std::string stem = ::testing::TempDir() + "veil_lens_connection_" + name;
-    writeBox(stem + ".off", Vec3(-60.0, -60.0, 61.0), Vec3(60.0, 60.0, 62.0));
+    writeBox(stem + ".off", Vec3(-60.0, -60.0, plateMm), Vec3(60.0, 60.0, plateMm + 1.0));
     const std::string path = stem + ".toml";
     FILE* f = fopen(path.c_str(), "w");
     EXPECT_TRUE(f);
@@ -111,16 +112,18 @@ Estimate forwardIrradiance(const PreparedScene& scene, size_t s, const Vec3& p, 
     return {sum / area, std::sqrt(std::max(var, 0.0)) / area};
 }
 
-// The connection: the mean over `samples` draws of its irradiance on the plane z = p.z.
+// The connection: the mean over `samples` draws of its irradiance on the plane z = p.z, in
+// parametrization `mode`.
 Estimate connectedIrradiance(const LensConnector& lc, const PreparedScene& scene, size_t s,
-                             const Vec3& p, int samples) {
+                             const Vec3& p, int samples, int mode = 0) {
     double sum = 0.0, sum2 = 0.0;
     int found = 0;
     for (int i = 0; i < samples; ++i) {
         CounterRng rng(5, static_cast<uint64_t>(i));
         const double u1 = rng.uniform(), u2 = rng.uniform();
         LensConnector::Work work;
-        const auto light = lc.connect(s, 0, scene.model().wavelengthNm(0), 2, p, -1, u1, u2, work);
+        const auto light =
+            lc.connectAs(mode, s, 0, scene.model().wavelengthNm(0), 2, p, -1, u1, u2, work);
         if (!light) continue;
         ++found;
         const double e = light->value * std::abs(light->toLight.z);
@@ -156,23 +159,63 @@ TEST(LensConnection, IrradianceAgreesWithForwardMonteCarloForEachSourceKind) {
     const LensConnector lc(scene->transport().view);
     for (size_t s = 0; s < 3; ++s)
         EXPECT_EQ(lc.chains(s, objectId(scene->transport().view, "plate")), uint64_t{1} << 1);
+    EXPECT_EQ(lc.parametrizations(0), 1);
+    EXPECT_EQ(lc.parametrizations(1), 1);
+    EXPECT_EQ(lc.parametrizations(2), 2);
     const double rho = 0.25;
+    // The window in both ways: its direction drawn (mode 0) and its point drawn (mode 1).
     const struct {
         size_t source;
         int samples;
         double x, y;
-    } cases[] = {{0, 400, 2.0, 3.0}, {1, 1, -4.0, 1.0}, {2, 40000, 1.0, -2.0}};
+        int mode;
+    } cases[] = {{0, 400, 2.0, 3.0, 0},
+                 {1, 1, -4.0, 1.0, 0},
+                 {2, 40000, 1.0, -2.0, 0},
+                 {2, 40000, 1.0, -2.0, 1}};
     for (const auto& c : cases) {
         const Vec3 p = litPoint(*scene, c.source, c.x, c.y);
         const Estimate fwd =
             forwardIrradiance(*scene, c.source, p, rho, c.source == 0 ? 8000000 : 4000000);
-        const Estimate con = connectedIrradiance(lc, *scene, c.source, p, c.samples);
+        const Estimate con = connectedIrradiance(lc, *scene, c.source, p, c.samples, c.mode);
         // The disk's own bias: the irradiance's curvature over rho, (rho / 10 mm)^2 of it.
         const double bias = 1e-3 * fwd.mean;
         EXPECT_LE(std::abs(con.mean - fwd.mean), 4.0 * std::hypot(con.sigma, fwd.sigma) + bias)
-            << "source " << c.source << ": connected " << con.mean << " +- " << con.sigma
-            << ", forward " << fwd.mean << " +- " << fwd.sigma;
+            << "source " << c.source << " mode " << c.mode << ": connected " << con.mean << " +- "
+            << con.sigma << ", forward " << fwd.mean << " +- " << fwd.sigma;
         EXPECT_LT(fwd.sigma, 0.03 * fwd.mean) << "source " << c.source;
+    }
+}
+
+// The pilot's choice between a window's two ways, where one clearly wins: on a plate just
+// behind the lens (near its pupil) every direction of the cone reaches a point but only the
+// window's points within a millimetre or so do, so the direction is drawn (0); on a plate
+// near the focus, every point of the window reaches a point but only from directions within
+// a fraction of a degree, so the point is drawn (1). A source with one way keeps it.
+TEST(LensConnection, EachChainTakesTheWayThatFindsItsLight) {
+    const std::string sources =
+        "[[source]]\nname = \"window\"\nkind = \"window\"\ncone_deg = 10.0\n"
+        "[[source]]\nname = \"sun\"\nkind = \"sun\"\nfield_deg = [0.0, 3.0]\n";
+    for (const auto& [plateMm, expected] : {std::pair{8.0, 0}, std::pair{96.0, 1}}) {
+        const auto scene = singletScene("choice" + std::to_string(expected), sources, plateMm);
+        const LensConnector lc(scene->transport().view);
+        const int plate = objectId(scene->transport().view, "plate");
+        ASSERT_EQ(lc.chains(0, plate), uint64_t{1} << 1) << plateMm;
+        EXPECT_EQ(lc.parametrization(0, plate, 2), expected) << "plate at " << plateMm << " mm";
+        EXPECT_EQ(lc.parametrization(1, plate, 2), 0);
+        // The way chosen finds the light at a point on the plate more often than the other.
+        const Vec3 p(1.0, -2.0, plateMm);  // on the plate's face toward the lens
+        int found[2] = {0, 0};
+        for (int i = 0; i < 400; ++i) {
+            CounterRng rng(9, static_cast<uint64_t>(i));
+            const double u1 = rng.uniform(), u2 = rng.uniform();
+            for (int m = 0; m < 2; ++m) {
+                LensConnector::Work work;
+                if (lc.connectAs(m, 0, 0, 550.0, 2, p, plate, u1, u2, work)) ++found[m];
+            }
+        }
+        EXPECT_GT(found[expected], 2 * found[1 - expected])
+            << "plate at " << plateMm << " mm: " << found[0] << " and " << found[1] << " found";
     }
 }
 
@@ -243,13 +286,15 @@ TEST(LensConnection, DensityOfTheDirectionIsTheInverseJacobianOfTheUniforms) {
                      "radius_mm = 20.0\nflux = 1.0\n");
     const LensConnector lc(scene->transport().view);
     int total = 0;
-    for (const size_t s : {size_t{0}, size_t{2}, size_t{3}}) {
+    // (source, way): the window in both.
+    for (const auto& [s, mode] : {std::pair{size_t{0}, 0}, std::pair{size_t{2}, 0},
+                                  std::pair{size_t{2}, 1}, std::pair{size_t{3}, 0}}) {
         const Vec3 p = s == 3 ? Vec3(0.5, -0.3, 60.0) : litPoint(*scene, s, 1.5, -1.0);
         int checked = 0;
         for (const double u1 : {0.2, 0.5, 0.8})
             for (const double u2 : {0.1, 0.45, 0.7}) {
                 LensConnector::Work work;
-                const auto at = lc.connect(s, 0, 550.0, 2, p, -1, u1, u2, work);
+                const auto at = lc.connectAs(mode, s, 0, 550.0, 2, p, -1, u1, u2, work);
                 if (!at) continue;  // no ray of the chain from that half reaches p
                 const Vec3 w = at->toLight;
                 const Vec3 e1 = glm::normalize(glm::cross(w, Vec3(1.0, 0.0, 0.0)));
@@ -260,8 +305,9 @@ TEST(LensConnection, DensityOfTheDirectionIsTheInverseJacobianOfTheUniforms) {
                     Vec2 side[2];
                     for (int j = 0; j < 2; ++j) {
                         const double step = j == 0 ? h : -h;
-                        const auto q = lc.connect(s, 0, 550.0, 2, p, -1, u1 + (k == 0 ? step : 0.0),
-                                                  u2 + (k == 1 ? step : 0.0), work);
+                        const auto q =
+                            lc.connectAs(mode, s, 0, 550.0, 2, p, -1, u1 + (k == 0 ? step : 0.0),
+                                         u2 + (k == 1 ? step : 0.0), work);
                         ASSERT_TRUE(q);
                         // On the tangent plane at w (central projection).
                         const Vec3 t = q->toLight / glm::dot(q->toLight, w);
@@ -272,14 +318,14 @@ TEST(LensConnection, DensityOfTheDirectionIsTheInverseJacobianOfTheUniforms) {
                 const double det = std::abs(col[0].x * col[1].y - col[1].x * col[0].y);
                 ASSERT_GT(det, 0.0);
                 EXPECT_NEAR(at->pdfSr * det, 1.0, 2e-3)
-                    << "source " << s << " u " << u1 << ", " << u2 << ": pdf " << at->pdfSr
-                    << ", finite differences " << 1.0 / det;
+                    << "source " << s << " mode " << mode << " u " << u1 << ", " << u2 << ": pdf "
+                    << at->pdfSr << ", finite differences " << 1.0 / det;
                 ++checked;
             }
-        EXPECT_GE(checked, 2) << "source " << s;
+        EXPECT_GE(checked, 2) << "source " << s << " mode " << mode;
         total += checked;
     }
-    EXPECT_GE(total, 15);
+    EXPECT_GE(total, 20);
     LensConnector::Work work;
     const auto point =
         lc.connect(1, 0, 550.0, 2, litPoint(*scene, 1, 1.0, 1.0), -1, 0.5, 0.5, work);
@@ -330,8 +376,8 @@ std::optional<Ray> emittedThrough(const TransportView& ts, const Vec3& p, const 
 // histogram against the density integrated over each cell, the density at any direction
 // coming from found() for the source's own ray along it (emittedThrough), so that the two
 // sides share nothing but the solve. For the Sun (the direction over its disk drawn, the point
-// solved), a narrow-coned window (the same) and a wide Lambertian disk (the point drawn, the
-// direction solved).
+// solved), a narrow-coned window (the same, and its other way: the point drawn, the direction
+// solved) and a wide Lambertian disk (the point drawn, the direction solved).
 TEST(LensConnection, DirectionsFollowTheirDensityByChiSquare) {
     const auto scene =
         singletScene("chi2",
@@ -343,7 +389,8 @@ TEST(LensConnection, DirectionsFollowTheirDensityByChiSquare) {
     const TransportView& ts = scene->transport().view;
     const LensConnector lc(ts);
     constexpr int kSamples = 20000, kCells = 8, kSub = 16;
-    for (const size_t s : {size_t{0}, size_t{1}, size_t{2}}) {
+    for (const auto& [s, mode] : {std::pair{size_t{0}, 0}, std::pair{size_t{1}, 0},
+                                  std::pair{size_t{1}, 1}, std::pair{size_t{2}, 0}}) {
         const Vec3 p = s == 2 ? Vec3(0.5, -0.3, 60.0) : litPoint(*scene, s, 1.5, -1.0);
         std::vector<Vec3> drawn;
         Vec3 mean(0.0);
@@ -351,12 +398,12 @@ TEST(LensConnection, DirectionsFollowTheirDensityByChiSquare) {
             CounterRng rng(31 + s, static_cast<uint64_t>(i));
             const double u1 = rng.uniform(), u2 = rng.uniform();
             LensConnector::Work work;
-            const auto c = lc.connect(s, 0, 550.0, 2, p, -1, u1, u2, work);
+            const auto c = lc.connectAs(mode, s, 0, 550.0, 2, p, -1, u1, u2, work);
             if (!c) continue;
             drawn.push_back(c->toLight);
             mean += c->toLight;
         }
-        ASSERT_GT(drawn.size(), kSamples / 10) << "source " << s;
+        ASSERT_GT(drawn.size(), kSamples / 10) << "source " << s << " mode " << mode;
         // A tangent plane at the mean direction, and the box of the drawn directions on it.
         const Vec3 w0 = glm::normalize(mean);
         const Vec3 e1 = glm::normalize(glm::cross(w0, Vec3(1.0, 0.0, 0.0)));
@@ -395,7 +442,7 @@ TEST(LensConnection, DirectionsFollowTheirDensityByChiSquare) {
                 const auto emitted = emittedThrough(ts, p, w, ts.sources[s]);
                 if (!emitted) continue;
                 LensConnector::Work work;
-                const auto f = lc.found(s, 0, 550.0, 2, p, -1, *emitted, work);
+                const auto f = lc.foundAs(mode, s, 0, 550.0, 2, p, -1, *emitted, work);
                 if (!f) continue;
                 const double dOmega =
                     cell.x * cell.y / (kSub * kSub) / std::pow(1.0 + a * a + b * b, 1.5);
@@ -406,7 +453,7 @@ TEST(LensConnection, DirectionsFollowTheirDensityByChiSquare) {
         // The density integrates to the share of the draws that reach the point.
         const double reached = static_cast<double>(drawn.size()) / kSamples;
         EXPECT_NEAR(integral, reached, 0.01 * reached + 3.0 * std::sqrt(reached / kSamples))
-            << "source " << s;
+            << "source " << s << " mode " << mode;
         // Cells expecting fewer than 20 are pooled.
         double chi2 = 0.0, poolO = 0.0, poolE = 0.0;
         int bins = 0;
@@ -428,10 +475,11 @@ TEST(LensConnection, DirectionsFollowTheirDensityByChiSquare) {
         const double k = bins - 1.0;
         const double z =
             (std::cbrt(chi2 / k) - (1.0 - 2.0 / (9.0 * k))) / std::sqrt(2.0 / (9.0 * k));
-        std::cout << "source " << s << ": chi2 " << chi2 << " over " << k
+        std::cout << "source " << s << " mode " << mode << ": chi2 " << chi2 << " over " << k
                   << " degrees of freedom (z " << z << "), density integral " << integral << "\n";
-        EXPECT_GE(bins, 20) << "source " << s;
-        EXPECT_LT(z, 4.0) << "source " << s << ": chi2 " << chi2 << " with " << k << " dof";
+        EXPECT_GE(bins, 20) << "source " << s << " mode " << mode;
+        EXPECT_LT(z, 4.0) << "source " << s << " mode " << mode << ": chi2 " << chi2 << " with "
+                          << k << " dof";
     }
 }
 
