@@ -184,78 +184,203 @@ PartLight::PartLight(const TransportView& ts, const LensConnector& connector, in
             for (uint64_t m = chains; m != 0; m &= m - 1) {
                 const int steps = std::countr_zero(m) + 1;
                 for (int j = steps; j <= dp.steps(); ++j)
-                    if (faces_[static_cast<size_t>(j)].valid())
-                        candidates.push_back({s, static_cast<int>(o), steps, j});
+                    if (faces_[static_cast<size_t>(j)].valid()) {
+                        Target t;
+                        t.source = s;
+                        t.object = static_cast<int>(o);
+                        t.steps = steps;
+                        t.onward = j;
+                        candidates.push_back(std::move(t));
+                    }
             }
         }
     if (candidates.empty()) return;
 
-    // The pilot: the root mean square of each cell's estimate of its own light.
-    std::vector<std::pair<size_t, int>> cells;  // (candidate, cell)
-    for (size_t t = 0; t < candidates.size(); ++t)
-        for (int cell = 0; cell < kCellCount; ++cell) cells.emplace_back(t, cell);
-    std::vector<double> rms(cells.size(), 0.0);
-    std::vector<double> aimed(cells.size() * kAimCount, 0.0);  // the light per aim cell
-    tbb::parallel_for(size_t{0}, cells.size(), [&](size_t i) {
-        Scratch scratch;
-        double sum2 = 0.0;
-        for (int j = 0; j < kPilotPerCell; ++j) {
-            CounterRng rng(kPartPilotSeed, i * kPilotPerCell + static_cast<uint64_t>(j));
-            LensConnector::Work work;
-            Splat sp;
-            if (!sample(candidates[cells[i].first], cells[i].second, 1.0, rng, nullptr, scratch,
-                        work, sp))
-                continue;
-            sum2 += sp.flux * sp.flux;
-            aimed[i * kAimCount + static_cast<size_t>(sp.aim)] += 1.0;
+    // The pilot: the root mean square of each cell's estimate of its own light, on the part's
+    // whole map (level 0), then on the box of the cells where it found light, while that box
+    // is at most kZoom of the one before (up to kLevels): a flat's lit ring 1/100 of its width
+    // wide (the rest under its retainer) gets cells of its own.
+    struct Pilot {
+        std::vector<double> rms;    // [cell]
+        std::vector<double> aimed;  // [cell * kAimCount + aim cell]: points found
+        int found = 0;
+    };
+    std::vector<std::vector<Pilot>> pilots(candidates.size());  // [candidate][level]
+    std::vector<size_t> alive(candidates.size());
+    for (size_t t = 0; t < candidates.size(); ++t) alive[t] = t;
+    for (int level = 0; level < kLevels && !alive.empty(); ++level) {
+        // This level's box per candidate still zooming.
+        if (level > 0) {
+            std::vector<size_t> zooming;
+            for (const size_t t : alive) {
+                const Pilot& before = pilots[t].back();
+                const Level& box = candidates[t].levels.back();
+                int lo[2] = {kCells, kCells}, hi[2] = {-1, -1};
+                for (int c = 0; c < kCellCount; ++c) {
+                    if (!(before.rms[static_cast<size_t>(c)] > 0.0)) continue;
+                    const int i = c % kCells, j = c / kCells;
+                    lo[0] = std::min(lo[0], i);
+                    lo[1] = std::min(lo[1], j);
+                    hi[0] = std::max(hi[0], i);
+                    hi[1] = std::max(hi[1], j);
+                }
+                if (hi[0] < 0) continue;
+                const int cells = (hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1);
+                if (cells > kZoom * kCellCount) continue;
+                const Vec2 size = (box.hi - box.lo) / static_cast<double>(kCells);
+                candidates[t].levels.push_back({box.lo + size * Vec2(lo[0], lo[1]),
+                                                box.lo + size * Vec2(hi[0] + 1, hi[1] + 1)});
+                zooming.push_back(t);
+            }
+            alive = std::move(zooming);
+            if (alive.empty()) break;
         }
-        rms[i] = std::sqrt(sum2 / kPilotPerCell);
-    });
-    // Candidates whose pilot found no light at all are left to the view points.
+        for (const size_t t : alive) {
+            pilots[t].emplace_back();
+            pilots[t].back().rms.assign(kCellCount, 0.0);
+            pilots[t].back().aimed.assign(static_cast<size_t>(kCellCount) * kAimCount, 0.0);
+        }
+        // Rounds of kPilotPerCell points per cell, while a candidate found light in some round
+        // but in fewer than kPilotFound points in all.
+        std::vector<double> sum2(alive.size() * kCellCount, 0.0);
+        std::vector<int> tries(alive.size() * kCellCount, 0), hits(alive.size() * kCellCount, 0);
+        for (int round = 0; round < kPilotRounds; ++round) {
+            std::vector<size_t> active;  // [index into alive * kCellCount + cell]
+            for (size_t a = 0; a < alive.size(); ++a) {
+                const int f = pilots[alive[a]].back().found;
+                if (round == 0 || (f > 0 && f < kPilotFound))
+                    for (size_t c = 0; c < kCellCount; ++c) active.push_back(a * kCellCount + c);
+            }
+            if (active.empty()) break;
+            tbb::parallel_for(size_t{0}, active.size(), [&](size_t k) {
+                const size_t i = active[k];
+                const size_t t = alive[i / kCellCount];
+                const int cell = static_cast<int>(i % kCellCount);
+                const Level& box = candidates[t].levels.back();
+                Pilot& pilot = pilots[t].back();
+                Scratch scratch;
+                for (int j = 0; j < kPilotPerCell; ++j) {
+                    const uint64_t key = ((static_cast<uint64_t>(level) * kPilotRounds +
+                                           static_cast<uint64_t>(round)) *
+                                              candidates.size() +
+                                          t) *
+                                             kCellCount +
+                                         static_cast<uint64_t>(cell);
+                    CounterRng rng(kPartPilotSeed, key * kPilotPerCell + static_cast<uint64_t>(j));
+                    const Vec2 uv = box.at(cell, rng.uniform(), rng.uniform());
+                    LensConnector::Work work;
+                    Splat sp;
+                    ++tries[i];
+                    if (!sample(candidates[t], uv, kCellCount / box.area(), rng, nullptr, scratch,
+                                work, sp))
+                        continue;
+                    sum2[i] += sp.flux * sp.flux;
+                    ++hits[i];
+                    pilot.aimed[static_cast<size_t>(cell) * kAimCount +
+                                static_cast<size_t>(sp.aim)] += 1.0;
+                }
+            });
+            for (size_t i = 0; i < hits.size(); ++i) {
+                pilots[alive[i / kCellCount]].back().found += hits[i];
+                hits[i] = 0;
+            }
+        }
+        std::vector<size_t> lit;
+        for (size_t a = 0; a < alive.size(); ++a) {
+            Pilot& pilot = pilots[alive[a]].back();
+            for (size_t c = 0; c < kCellCount; ++c) {
+                const size_t i = a * kCellCount + c;
+                pilot.rms[c] = tries[i] > 0 ? std::sqrt(sum2[i] / tries[i]) : 0.0;
+            }
+            if (pilot.found > 0) lit.push_back(alive[a]);
+        }
+        alive = std::move(lit);
+    }
+
+    // Targets: the candidates whose pilot found light on level 0; the rest are left to the view
+    // points. A target's strata: its level 0 cells (the defensive share, and in proportion to
+    // their light when it has no deeper level) and its deepest level's cells (in proportion to
+    // their light).
     std::vector<double> light(candidates.size(), 0.0);
-    for (size_t i = 0; i < cells.size(); ++i) light[cells[i].first] += rms[i];
-    std::vector<int> index(candidates.size(), -1);
+    size_t cells = 0;
+    for (size_t t = 0; t < candidates.size(); ++t) {
+        if (pilots[t].empty() || pilots[t].front().found == 0) continue;
+        cells += kCellCount;
+        for (const double r : pilots[t].back().rms) light[t] += r;
+        // A deeper level found no light where level 0 did: it is not kept.
+        if (!(light[t] > 0.0)) {
+            while (pilots[t].size() > 1 && pilots[t].back().found == 0) {
+                pilots[t].pop_back();
+                candidates[t].levels.pop_back();
+            }
+            light[t] = 0.0;
+            for (const double r : pilots[t].back().rms) light[t] += r;
+        }
+    }
+    double total = 0.0;
+    for (const double l : light) total += l;
     targetsOf_.assign(ts.sources.size() * objects_, {});
-    std::vector<double> aimLight(candidates.size() * kAimCount, 0.0);
-    for (size_t i = 0; i < cells.size(); ++i)
-        for (size_t a = 0; a < kAimCount; ++a)
-            aimLight[cells[i].first * kAimCount + a] += aimed[i * kAimCount + a];
+    double sum = 0.0;
     for (size_t t = 0; t < candidates.size(); ++t) {
         if (!(light[t] > 0.0)) continue;
-        // Where its light went on: the aim cells in proportion to it.
+        Target target = std::move(candidates[t]);
+        // Only level 0 and the deepest level keep strata.
+        if (target.levels.size() > 2)
+            target.levels.erase(target.levels.begin() + 1, target.levels.end() - 1);
+        const Pilot& deepest = pilots[t].back();
+        // Where its light went on: the aim cells in proportion to the points that found light
+        // through them, on every level.
+        std::vector<double> aimLight(kAimCount, 0.0);
+        for (const Pilot& pilot : pilots[t])
+            for (size_t c = 0; c < kCellCount; ++c)
+                for (size_t a = 0; a < kAimCount; ++a)
+                    aimLight[a] += pilot.aimed[c * kAimCount + a];
         double aimTotal = 0.0;
-        for (size_t a = 0; a < kAimCount; ++a) aimTotal += aimLight[t * kAimCount + a];
+        for (const double a : aimLight) aimTotal += a;
         double running = 0.0;
         for (size_t a = 0; a < kAimCount; ++a) {
-            const double p = (1.0 - kDefensive) * aimLight[t * kAimCount + a] / aimTotal +
-                             kDefensive / kAimCount;
-            candidates[t].aim.push_back(p);
+            const double p = (1.0 - kDefensive) * aimLight[a] / aimTotal + kDefensive / kAimCount;
+            target.aim.push_back(p);
             running += p;
-            candidates[t].aimCumulative.push_back(running);
+            target.aimCumulative.push_back(running);
         }
-        index[t] = static_cast<int>(targets_.size());
-        targetsOf_[candidates[t].source * objects_ + static_cast<size_t>(candidates[t].object)]
-            .push_back(index[t]);
-        targets_.push_back(std::move(candidates[t]));
-    }
-    if (targets_.empty()) return;
-    double total = 0.0;
-    size_t kept = 0;
-    for (size_t i = 0; i < cells.size(); ++i)
-        if (index[cells[i].first] >= 0) {
-            total += rms[i];
-            ++kept;
+        const int index = static_cast<int>(targets_.size());
+        const int deep = static_cast<int>(target.levels.size()) - 1;
+        for (int level = 0; level <= deep; ++level) {
+            target.first.push_back(static_cast<int>(q_.size()));
+            for (int c = 0; c < kCellCount; ++c) {
+                double q = 0.0;
+                if (level == 0) q += kDefensive / static_cast<double>(cells);
+                if (level == deep)
+                    q += (1.0 - kDefensive) * deepest.rms[static_cast<size_t>(c)] / total;
+                strata_.push_back({index, level, c});
+                q_.push_back(q);
+                sum += q;
+                cumulative_.push_back(sum);
+            }
         }
-    double sum = 0.0;
-    for (size_t i = 0; i < cells.size(); ++i) {
-        if (index[cells[i].first] < 0) continue;
-        const double q =
-            (1.0 - kDefensive) * rms[i] / total + kDefensive / static_cast<double>(kept);
-        strata_.emplace_back(index[cells[i].first], cells[i].second);
-        q_.push_back(q);
-        sum += q;
-        cumulative_.push_back(sum);
+        targetsOf_[target.source * objects_ + static_cast<size_t>(target.object)].push_back(index);
+        targets_.push_back(std::move(target));
     }
+}
+
+Vec2 PartLight::Level::at(int cell, double du, double dv) const {
+    const Vec2 size = (hi - lo) / static_cast<double>(kCells);
+    return lo + size * Vec2(cell % kCells + du, cell / kCells + dv);
+}
+
+double PartLight::density(const Target& target, const Vec2& uv) const {
+    // The mixture of the target's levels: each level's cell holding uv, its q spread over the
+    // cell (per unit of the map), over the sum of all q.
+    double d = 0.0;
+    for (size_t level = 0; level < target.levels.size(); ++level) {
+        const Level& box = target.levels[level];
+        const Vec2 x = (uv - box.lo) / (box.hi - box.lo) * static_cast<double>(kCells);
+        if (!(x.x >= 0.0 && x.y >= 0.0 && x.x < kCells && x.y < kCells)) continue;
+        const int cell = static_cast<int>(x.y) * kCells + static_cast<int>(x.x);
+        d += q_[static_cast<size_t>(target.first[level] + cell)] * kCellCount / box.area();
+    }
+    return d / cumulative_.back();
 }
 
 bool PartLight::owns(size_t s, int object, int steps, int designed) const {
@@ -267,13 +392,12 @@ bool PartLight::owns(size_t s, int object, int steps, int designed) const {
     return false;
 }
 
-bool PartLight::sample(const Target& target, int cell, double q, CounterRng& rng,
+bool PartLight::sample(const Target& target, const Vec2& uv, double uvDensity, CounterRng& rng,
                        const DetectorImage* detector, Scratch& sc, LensConnector::Work& work,
                        Splat& out) const {
     const TransportView& ts = *ts_;
     // Every uniform is drawn whether or not the sample counts.
-    const double u = (cell % kCells + rng.uniform()) / kCells;
-    const double v = (cell / kCells + rng.uniform()) / kCells;
+    const double u = std::clamp(uv.x, 0.0, 1.0), v = std::clamp(uv.y, 0.0, 1.0);
     const double u1 = rng.uniform(), u2 = rng.uniform();
     const double uw = rng.uniform();
     const double ua = rng.uniform(), uy1 = rng.uniform(), uy2 = rng.uniform();
@@ -336,7 +460,7 @@ bool PartLight::sample(const Target& target, int cell, double q, CounterRng& rng
         1e-6 * std::max({1.0, std::abs(y->point.x), std::abs(y->point.y), std::abs(y->point.z)}) +
         1e-7 * d;
     if (glm::length(on->firstPoint - y->point) > tol) return false;
-    const double pointDensity = q * kCellCount * x->density;
+    const double pointDensity = uvDensity * x->density;
     out.flux = radiance * cosX / (pdfDirection * pointDensity) * on->transmit * wavelengths;
     if (!(out.flux > 0.0) || !std::isfinite(out.flux)) return false;
     if (detector) {
@@ -387,11 +511,14 @@ PartLight::Result PartLight::trace(const DetectorImage& detector, uint64_t sampl
                 static_cast<size_t>(std::upper_bound(cumulative_.begin(), cumulative_.end(), pick) -
                                     cumulative_.begin()),
                 cumulative_.size() - 1);
-            const Target& target = targets_[static_cast<size_t>(strata_[k].first)];
+            const Stratum& st = strata_[k];
+            const Target& target = targets_[static_cast<size_t>(st.target)];
+            const Vec2 uv = target.levels[static_cast<size_t>(st.level)].at(st.cell, rng.uniform(),
+                                                                            rng.uniform());
             LensConnector::Work work;
             Splat sp;
             const bool found =
-                sample(target, strata_[k].second, q_[k] / all, rng, &detector, sc, work, sp);
+                sample(target, uv, density(target, uv), rng, &detector, sc, work, sp);
             b.rays += work.rays;
             if (!found) continue;
             uint64_t matched = 0;

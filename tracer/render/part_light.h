@@ -18,14 +18,19 @@
 //      faces of steps j..N-1, then the detector; j = N straight to it, as light a lens's back
 //      flat scatters out of the glass). A target is a candidate in which the pilot below
 //      finds light.
-//   2. Points. Each pass draws `samples` points. A sample picks a target and a cell of the
-//      part's kCells x kCells grid over its map (u, v) (PartShape) with probability q, then a
-//      point uniform in the cell: the point's density per mm^2 is q kCells^2 d(x), d the map's
-//      density. q comes from a pilot (fixed seed, kPilotPerCell points per cell): in
-//      proportion to the root mean square of each cell's estimate (the allocation that
-//      minimizes the variance of a sum over strata), mixed with kDefensive of a uniform share
-//      over every cell of every target, so that every cell keeps a chance wherever the pilot
-//      saw nothing.
+//   2. Points. Each pass draws `samples` points. A sample picks a target and a cell of one of
+//      its grids (Level: a box of the part's map (u, v), PartShape, with kCells x kCells
+//      cells) with probability q, then a point uniform in the cell. q comes from a pilot
+//      (fixed seed): rounds of kPilotPerCell points per cell of the whole map, up to
+//      kPilotRounds while the part found light in fewer than kPilotFound points; then, where
+//      the lit cells fit in a box of at most kZoom of the grid, the same on that box's own
+//      grid (up to kLevels grids). The deepest grid's cells get q in proportion to the root
+//      mean square of each cell's estimate (the allocation that minimizes the variance of a
+//      sum over strata); the whole map's cells also get kDefensive spread evenly over every
+//      cell of every target, so that every point keeps a chance wherever the pilot saw
+//      nothing. A point's density per mm^2 is the mixture's, d(x) times the sum over the
+//      target's grids of the q of the cell holding it over that cell's share of the map
+//      (density()), d the map's density.
 //   3. Each point's light: the connection (connect(), the same solve as at a view point) gives
 //      the radiance leaving toward a direction w, drawn toward a point uniform (by the map) on
 //      the face of step j, or the detector (density d_y |y - x|^2 / |cos_y| per sr); the light
@@ -94,6 +99,14 @@ class PartLight {
     static constexpr int kCells = 16;
     static constexpr int kCellCount = kCells * kCells;
     static constexpr int kPilotPerCell = 8;
+    // The pilot's rounds (kPilotPerCell points per cell each): up to kPilotRounds, while a
+    // candidate has found light in fewer than kPilotFound of its points.
+    static constexpr int kPilotRounds = 16;
+    static constexpr int kPilotFound = 512;
+    // The pilot's zoom: a level's box of lit cells gets a grid of its own when it holds at
+    // most kZoom of the cells, up to kLevels levels.
+    static constexpr double kZoom = 0.25;
+    static constexpr int kLevels = 3;
     static constexpr double kDefensive = 0.25;
     static constexpr double kDisks = 16.0;
     // The point on the next face each direction aims at: a cell of a kAim x kAim grid over the
@@ -125,11 +138,23 @@ class PartLight {
                  const PathJudge* judge, bool prune, const Ranks& ranks) const;
 
   private:
+    // A box [lo, hi] of a part's map (u, v) with a kCells x kCells grid.
+    struct Level {
+        Vec2 lo{0.0}, hi{1.0};
+        double area() const { return (hi.x - lo.x) * (hi.y - lo.y); }
+        // The point at (du, dv) within cell `cell`.
+        Vec2 at(int cell, double du, double dv) const;
+    };
     struct Target {
         size_t source = 0;
         int object = -1, steps = 0, onward = 0;  // the chain, and the step j light goes on at
         std::vector<double> aim;                 // [aim cell]: probability (empty: uniform)
         std::vector<double> aimCumulative;       // its running sums
+        std::vector<Level> levels{Level{}};      // the whole map, then the pilot's zoom
+        std::vector<int> first;                  // [level]: its cell 0's stratum
+    };
+    struct Stratum {
+        int target = 0, level = 0, cell = 0;
     };
     struct Splat {
         int pixel = -1;
@@ -137,10 +162,15 @@ class PartLight {
         int aim = 0;  // the aim cell
     };
     struct Scratch;
-    // One point of target t in cell `cell` drawn with the cell's probability q: its flux at a
-    // pixel (at none without a detector: the pilot), false when it reaches none.
-    bool sample(const Target& t, int cell, double q, CounterRng& rng, const DetectorImage* detector,
-                Scratch& scratch, LensConnector::Work& work, Splat& out) const;
+    // The point of target t at uv of its map, drawn with density uvDensity per unit of the
+    // map: its flux at a pixel (at none without a detector: the pilot), false when it reaches
+    // none.
+    bool sample(const Target& t, const Vec2& uv, double uvDensity, CounterRng& rng,
+                const DetectorImage* detector, Scratch& scratch, LensConnector::Work& work,
+                Splat& out) const;
+    // The density per unit of the map with which a pass draws uv on target t (its levels'
+    // mixture).
+    double density(const Target& t, const Vec2& uv) const;
 
     const TransportView* ts_ = nullptr;
     const LensConnector* lc_ = nullptr;
@@ -150,7 +180,7 @@ class PartLight {
     std::vector<PartShape> faces_;   // [step]: the designed faces', then the detector's
     std::vector<Target> targets_;
     std::vector<std::vector<int>> targetsOf_;  // [source * objects + object]
-    std::vector<std::pair<int, int>> strata_;  // (target, cell), drawn with q_
+    std::vector<Stratum> strata_;              // drawn with q_
     std::vector<double> q_, cumulative_;       // [stratum]: probability, running sums
 };
 
