@@ -180,6 +180,7 @@ class PhotonPass {
     // its index), so threads racing on them write the same bits.
     struct Disk {
         double radiusFactor = 1.0, inverseShare = 1.0, inverseHalfShare = 1.0;
+        bool viewInGap = false;  // GatherDisk's
     };
     Disk disk(uint32_t i, bool otherSide) const;
     // Across ranks every rank's photons reach nearly every view point, and each rank would
@@ -208,7 +209,7 @@ class PhotonPass {
     // Per view point and side (kDiskSlots floats): radius factor, 1 / half share, the probe
     // rays the disk cost, then 1 / share (0: not yet computed; written last with release, so
     // a reader that sees it sees the others).
-    static constexpr size_t kDiskSlots = 4;
+    static constexpr size_t kDiskSlots = 5;
     mutable std::vector<std::atomic<float>> disks_;
     // Per view point and side: whether a photon of this rank gathered there (its disk's probe
     // rays count as the pass's work whichever rank fitted it).
@@ -280,11 +281,13 @@ PhotonPass::Disk PhotonPass::disk(uint32_t i, bool otherSide) const {
         slot[0].store(static_cast<float>(d.radiusMm / radiusMm_), std::memory_order_relaxed);
         slot[1].store(static_cast<float>(sign / d.halfShare), std::memory_order_relaxed);
         slot[2].store(static_cast<float>(d.rays), std::memory_order_relaxed);
+        slot[4].store(d.viewInGap ? 1.0f : 0.0f, std::memory_order_relaxed);
         c = static_cast<float>(sign / d.share);
         slot[3].store(c, std::memory_order_release);
     }
     return {static_cast<double>(slot[0].load(std::memory_order_relaxed)), static_cast<double>(c),
-            static_cast<double>(slot[1].load(std::memory_order_relaxed))};
+            static_cast<double>(slot[1].load(std::memory_order_relaxed)),
+            slot[4].load(std::memory_order_relaxed) != 0.0f};
 }
 
 uint64_t PhotonPass::diskRays() const {
@@ -631,7 +634,7 @@ void BlockTracer::gather(const PhotonBranch& br, const SceneHit& hit, const Inte
     // The photon's side of the face, and whether it lies in a gap there (looked at once, when
     // a view point first needs it).
     const double photonCos = glm::dot(br.ray.direction, hit.normal);
-    int photonInGap = -1;
+    int photonInGap = -1, photonViewInGap = -1;
     // The float pre-test keeps every view point within r: its radius is widened by the
     // rounding of the float coordinates.
     const float px = static_cast<float>(hit.point.x), py = static_cast<float>(hit.point.y),
@@ -669,6 +672,18 @@ void BlockTracer::gather(const PhotonBranch& br, const SceneHit& hit, const Inte
                                                                                                 : 0;
         }
         if ((correction < 0.0) != (photonInGap == 1)) continue;
+        // Transmitted light leaves on the view point's side: the photon's point there in the
+        // view point's kind of place too.
+        if (!back) {
+            if (photonViewInGap < 0) {
+                const Vec3 side = photonCos < 0.0 ? -hit.normal : hit.normal;
+                photonViewInGap =
+                    inGapAt(*p_.ts_.scene, hit.point, hit.object, hit.primitive, side, p_.gapMm_)
+                        ? 1
+                        : 0;
+            }
+            if (disk.viewInGap != (photonViewInGap == 1)) continue;
+        }
         ++block_.gathers;
         uint64_t matched = 0;
         if (p_.judge_ && br.alive != 0) {

@@ -518,18 +518,26 @@ namespace {
 class FaceProbe {
   public:
     FaceProbe(const Scene& scene, const ViewPoint& v, bool otherSide, double gapMm)
-        : scene_(scene), v_(v), gap_(gapMm) {
+        : scene_(scene), v_(v), gap_(gapMm), otherSide_(otherSide) {
         // The side the photons come from (the view point's own, or the other for the light
         // the face transmits to it), and a tangent basis (Duff et al. 2017).
         side_ = v.fromFront != otherSide ? v.normal : -v.normal;
         inGap_ = inGapAt(scene, v.positionMm, v.object, v.primitive, side_, gapMm);
         rays_ = 1;
+        // Transmitted light leaves on the view point's side: there too a photon counts only in
+        // v's kind of place (a lens's back flat half under its retainer sends its light into
+        // the retainer, the open half toward the sensor).
+        if (otherSide) {
+            viewInGap_ = inGapAt(scene, v.positionMm, v.object, v.primitive, -side_, gapMm);
+            ++rays_;
+        }
         const double sign = std::copysign(1.0, side_.z);
         const double a = -1.0 / (sign + side_.z), b = side_.x * side_.y * a;
         t1_ = Vec3(1.0 + sign * side_.x * side_.x * a, sign * b, -sign * side_.x);
         t2_ = Vec3(b, sign + side_.y * side_.y * a, -side_.y);
     }
     bool inGap() const { return inGap_; }
+    bool viewInGap() const { return viewInGap_; }
     // The rays it has cast so far (its cost, RenderPass::viewPointWork).
     uint64_t rays() const { return rays_; }
 
@@ -563,8 +571,14 @@ class FaceProbe {
                 if (!(glm::dot(hit->normal, v_.normal) > kGatherNormalCos)) return false;
                 const Vec3 d = hit->point - v_.positionMm;
                 if (glm::dot(d, d) > reach * reach) return false;
-                if (towardFace) return (travelled + hit->t - crossedAt <= gap_) == inGap_;
                 const Vec3 facing = glm::dot(hit->normal, side_) > 0.0 ? hit->normal : -hit->normal;
+                if (otherSide_) {
+                    ++rays_;
+                    if (inGapAt(scene_, hit->point, hit->object, hit->primitive, -facing, gap_) !=
+                        viewInGap_)
+                        return false;
+                }
+                if (towardFace) return (travelled + hit->t - crossedAt <= gap_) == inGap_;
                 ++rays_;
                 return inGapAt(scene_, hit->point, hit->object, hit->primitive, facing, gap_) ==
                        inGap_;
@@ -582,8 +596,9 @@ class FaceProbe {
     const Scene& scene_;
     const ViewPoint& v_;
     double gap_;
+    bool otherSide_ = false;
     Vec3 side_, t1_, t2_;
-    bool inGap_ = false;
+    bool inGap_ = false, viewInGap_ = false;
     mutable uint64_t rays_ = 0;
 };
 
@@ -614,6 +629,7 @@ DiskShare viewPointAreaShare(const Scene& scene, const ViewPoint& v, double radi
     const FaceProbe probe(scene, v, otherSide, kGapFraction * radiusMm);
     DiskShare out;
     out.inGap = probe.inGap();
+    out.viewInGap = probe.viewInGap();
     if (samples > 0) out.share = diskShare(probe, radiusMm, samples, turn);
     return out;
 }
@@ -657,6 +673,7 @@ GatherDisk viewPointDisk(const Scene& scene, const ViewPoint& v, double radiusMm
     const FaceProbe probe(scene, v, otherSide, gap);
     GatherDisk out;
     out.inGap = probe.inGap();
+    out.viewInGap = probe.viewInGap();
     out.radiusMm = radiusMm;
     auto done = [&] {
         out.rays = probe.rays();

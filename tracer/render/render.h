@@ -296,6 +296,10 @@ class Renderer {
 //          barrel's bore). A photon is gathered only by view points in the same kind of place
 //          as itself: the light in a gap differs by orders of magnitude from the light beside
 //          it, and a disk reaching across the gap's border would carry one into the other.
+//   viewInGap  for transmitted light (the other side), the same on the view point's own side,
+//          where that light leaves: a photon counts only where both places match (a lens's
+//          back flat under its retainer sends its light into the retainer, the open part of
+//          the flat beside it toward the sensor).
 //   share  the part of v's gathering disk (radius r, in its tangent plane) where such photons
 //          land: on v's object, with its orientation, in v's kind of place. `samples` points
 //          of the disk (a Fibonacci spiral turned by `turn` radians, equal areas) are projected
@@ -305,7 +309,7 @@ class Renderer {
 //          pi r^2; at least 1/samples (the view point's own point counts); 1 with samples 0.
 struct DiskShare {
     double share = 1.0;
-    bool inGap = false;
+    bool inGap = false, viewInGap = false;
 };
 inline constexpr double kGapFraction = 0.1;
 DiskShare viewPointAreaShare(const Scene& scene, const ViewPoint& v, double radiusMm, int samples,
@@ -325,8 +329,8 @@ DiskShare viewPointAreaShare(const Scene& scene, const ViewPoint& v, double radi
 struct GatherDisk {
     double radiusMm = 0.0;
     double share = 1.0, halfShare = 1.0;
-    bool inGap = false;
-    uint64_t rays = 0;  // the probe rays it cost
+    bool inGap = false, viewInGap = false;  // as DiskShare's
+    uint64_t rays = 0;                      // the probe rays it cost
 };
 inline constexpr int kPieceWidthLines = 4;
 inline constexpr double kPieceRadiusFraction = 0.5;

@@ -422,6 +422,13 @@ TEST(Render, ViewPointAreaShareKeepsGapsApart) {
         const DiskShare d = viewPointAreaShare(scene, v, r, 4096, 0.3);
         EXPECT_EQ(d.inGap, x < 0.0) << "x " << x;
         EXPECT_NEAR(d.share, beside, 0.005) << "x " << x;
+        // The light the plate transmits to the view point comes from below, where nothing
+        // lies, and leaves on the cover's side: the same part of the disk counts, the open
+        // part for a view point beside the cover and the covered part for one under it.
+        const DiskShare t = viewPointAreaShare(scene, v, r, 4096, 0.3, true);
+        EXPECT_FALSE(t.inGap) << "x " << x;
+        EXPECT_EQ(t.viewInGap, x < 0.0) << "x " << x;
+        EXPECT_NEAR(t.share, beside, 0.005) << "x " << x;
     }
     // Far inside either part, the whole disk; far from the plate, nothing in front of it.
     v.positionMm = Vec3(-20.0, 0.0, 0.0);
