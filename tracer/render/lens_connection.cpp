@@ -338,9 +338,12 @@ void LensConnector::parametersOf(size_t s, int m, const Ray& entry, double& a, d
     b = glm::dot(t, p.v);
 }
 
+Vec3 LensConnector::fixedIn(const Parameters& p, const Ray& entry) {
+    return p.movesOrigin ? entry.direction : entry.origin;
+}
+
 Vec3 LensConnector::fixedOf(size_t s, int object, int steps, const Ray& entry) const {
-    return params_[s].set[parametrization(s, object, steps)].movesOrigin ? entry.direction
-                                                                         : entry.origin;
+    return fixedIn(params_[s].set[parametrization(s, object, steps)], entry);
 }
 
 double LensConnector::fluxPerParameter(size_t s, int m, int line, const Ray& entry) const {
@@ -682,8 +685,8 @@ std::optional<LensConnector::Light> LensConnector::foundAs(int m, size_t s, int 
         return std::nullopt;
     const Parameters& pm = params_[s].set[m];
     // Everything connect() does with this fixed half, then the same ray.
-    auto light = connectWith(s, m, line, wavelengthNm, steps, point, object,
-                             pm.movesOrigin ? emitted.direction : emitted.origin, work, nullptr);
+    auto light = connectWith(s, m, line, wavelengthNm, steps, point, object, fixedIn(pm, emitted),
+                             work, nullptr);
     if (!light) return std::nullopt;
     double a = 0.0, b = 0.0, pa = 0.0, pb = 0.0;
     parametersOf(s, m, light->entry, a, b);

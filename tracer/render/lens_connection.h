@@ -193,6 +193,8 @@ class LensConnector {
         int count = 1;
     };
     static ParameterSets parametrize(const Source& src);
+    // The half of an entry ray that parametrization p keeps fixed.
+    static Vec3 fixedIn(const Parameters& p, const Ray& entry);
     // Where the solver starts: the chain traced once from a grid of kSeedGrid^2 parameters
     // over [-scale, scale]^2, per source, chain and fixed half (one for a beam or a point;
     // kSeedFixes^2 directions over a narrow cone, or points over a wide-coned area); the grid

@@ -292,7 +292,12 @@ PartLight::PartLight(const TransportView& ts, const LensConnector& connector, in
                 const size_t i = a * kCellCount + c;
                 pilot.rms[c] = tries[i] > 0 ? std::sqrt(sum2[i] / tries[i]) : 0.0;
             }
-            if (pilot.found > 0) lit.push_back(alive[a]);
+            if (pilot.found > 0) {
+                lit.push_back(alive[a]);
+            } else if (level > 0) {  // a zoom that found no light is not kept
+                pilots[alive[a]].pop_back();
+                candidates[alive[a]].levels.pop_back();
+            }
         }
         alive = std::move(lit);
     }
@@ -307,15 +312,6 @@ PartLight::PartLight(const TransportView& ts, const LensConnector& connector, in
         if (pilots[t].empty() || pilots[t].front().found == 0) continue;
         cells += kCellCount;
         for (const double r : pilots[t].back().rms) light[t] += r;
-        // A deeper level found no light where level 0 did: it is not kept.
-        if (!(light[t] > 0.0)) {
-            while (pilots[t].size() > 1 && pilots[t].back().found == 0) {
-                pilots[t].pop_back();
-                candidates[t].levels.pop_back();
-            }
-            light[t] = 0.0;
-            for (const double r : pilots[t].back().rms) light[t] += r;
-        }
     }
     double total = 0.0;
     for (const double l : light) total += l;
