@@ -135,6 +135,11 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
                     "light, in [0, 1) (0: uniform over the exit aperture)")
         ->check(CLI::Range(0.0, 0.99))
         ->capture_default_str();
+    sub->add_option("--photon-guide", o.photonGuide,
+                    "share of each pass's photons emitted where the photons of the passes before "
+                    "it gathered light, in [0, 1) (0: as the sources emit)")
+        ->check(CLI::Range(0.0, 0.99))
+        ->capture_default_str();
     sub->add_option("--follow-lobes-below", o.followLobesBelow,
                     "scatter lobes narrower than this half width (degrees) are followed by the "
                     "pixel rays instead of gathering photons (0: every surface gathers)")
@@ -214,6 +219,7 @@ RenderRunSpec renderSpec(const RenderCommandOptions& o) {
     ro.prune = o.prune;
     ro.areaSamples = o.areaSamples;
     ro.guideFraction = o.guide;
+    ro.photonGuideFraction = o.photonGuide;
     ro.followLobesBelowDeg = o.followLobesBelow;
     ro.connectThroughLens = o.connect == "on";
     ro.partSamples = o.partSamples;

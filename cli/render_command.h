@@ -37,6 +37,7 @@ struct RenderCommandOptions {
     double roulette = 0.1;
     int areaSamples = 16;  // rim correction probes per view point
     double guide = 0.5;    // guided share of the pixel rays (RenderOptions::guideFraction)
+    double photonGuide = 0.5;  // guided share of the photons (RenderOptions::photonGuideFraction)
     double followLobesBelow = 0.0;  // degrees (RenderOptions::followLobesBelowDeg)
     std::string connect = "on";     // RenderOptions::connectThroughLens
     uint64_t partSamples = 65536;   // RenderOptions::partSamples

@@ -41,7 +41,7 @@ uint64_t fingerprintOf(const TransportView& ts, const DetectorGeometry& g, const
        << o.areaSamples << " " << o.quasiRandomPhotons << " " << o.ghostPhotons() << " "
        << o.photonRescueRelativeFlux << " " << o.guideFraction << " " << o.followLobesBelowDeg
        << " " << o.balancePhotons << " " << o.maxPhotonsPerPass << " " << o.connectThroughLens
-       << " " << o.partSamples;
+       << " " << o.partSamples << " " << o.photonGuideFraction;
     for (const std::string& w : where) os << "\nwhere " << w;
     const std::string text = os.str();
     uint64_t h = 1469598103934665603ull;
@@ -308,6 +308,7 @@ nlohmann::json RenderResult::summary() const {
                           {"roulette", ro.rouletteRelativeFlux},
                           {"area_samples", ro.areaSamples},
                           {"guide", ro.guideFraction},
+                          {"photon_guide", ro.photonGuideFraction},
                           {"follow_lobes_below_deg", ro.followLobesBelowDeg},
                           {"connect_through_lens", ro.connectThroughLens},
                           {"part_samples_per_pass", ro.partSamples},

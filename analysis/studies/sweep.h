@@ -78,6 +78,7 @@ struct SweepSpec {
     static RenderOptions unguided() {
         RenderOptions o;
         o.guideFraction = 0.0;
+        o.photonGuideFraction = 0.0;
         return o;
     }
     std::string detector;

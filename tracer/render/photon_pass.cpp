@@ -123,6 +123,7 @@ struct Deposit {
 struct PhotonBlock {
     std::vector<Deposit> deposits;
     std::vector<double> learned;
+    std::vector<double> emissionLearned;  // with an emission guide: [its bin]
     uint64_t photons = 0, segments = 0, gathers = 0, pruned = 0;
     uint64_t ghostWork = 0;  // the segments and gathers of the ghost photons (splitAll)
 };
@@ -144,6 +145,7 @@ struct Photon {
     bool splitAll = false;
     double lowFlux = 0.0, keepFlux = 0.0;
     Ray emitted{};  // as the source emitted it (the lens connection's audit)
+    int emissionCell = -1;  // with an emission guide: its cell there
 };
 
 // What a whole pass shares, built once: the view point grid, the rim corrections, the
@@ -153,7 +155,8 @@ class PhotonPass {
   public:
     PhotonPass(const TransportView& ts, const DetectorImage& detector, const BackwardResult& back,
                const RenderOptions& options, const PathJudge* judge, int k, double radiusMm,
-               const Ranks& ranks, const LensConnector* connector);
+               const Ranks& ranks, const LensConnector* connector,
+               const EmissionGuide* emissionGuide);
 
     uint64_t total() const { return perSource_ * ts_.sources.size(); }
     // The probe rays of the disks the pass's photons gathered into (each counted once, however
@@ -199,6 +202,7 @@ class PhotonPass {
     const RenderOptions& options_;
     const PathJudge* judge_;
     const LensConnector* connector_;
+    const EmissionGuide* emissionGuide_;
     const DesignedPath designed_;
     const int k_;
     const double radiusMm_;
@@ -231,13 +235,14 @@ class PhotonPass {
 PhotonPass::PhotonPass(const TransportView& ts, const DetectorImage& detector,
                        const BackwardResult& back, const RenderOptions& options,
                        const PathJudge* judge, int k, double radiusMm, const Ranks& ranks,
-                       const LensConnector* connector)
+                       const LensConnector* connector, const EmissionGuide* emissionGuide)
     : ts_(ts),
       detector_(detector),
       back_(back),
       options_(options),
       judge_(judge),
       connector_(connector && connector->any() ? connector : nullptr),
+      emissionGuide_(emissionGuide),
       designed_(*ts.scene),
       k_(k),
       radiusMm_(radiusMm),
@@ -381,7 +386,28 @@ Photon PhotonPass::emit(uint64_t i, EmittedRay& e) const {
     ph.source = i / perSource_;
     const Source& source = ts_.sources[ph.source];
     ph.deposits = photonsSeeSource(source);
-    if (options_.quasiRandomPhotons) {
+    ph.splitAll = i % perSource_ < ghostPhotons_;
+    if (emissionGuide_) {
+        // The same uniforms as below; the pair that places the photon (a point's direction,
+        // any other kind's origin) warped by the guide, but for the ghost photons, which carry
+        // the visible light for all photons.
+        std::array<double, Source::kEmitUniforms> u;
+        if (options_.quasiRandomPhotons) {
+            const SobolOwen& q = emission_[ph.source];
+            const uint64_t j = i % perSource_;
+            u = {q.sample(j, 4), q.sample(j, 0), q.sample(j, 1), q.sample(j, 2), q.sample(j, 3)};
+        } else {
+            for (double& x : u) x = ph.rng.uniform();
+        }
+        const size_t a = source.delta() == Source::Delta::Position ? 3 : 1;
+        ApertureGuide::Warped w{u[a], u[a + 1], 1.0, ApertureGuide::cellOf(u[a], u[a + 1])};
+        if (!ph.splitAll) w = emissionGuide_->warp(ph.source, u[a], u[a + 1]);
+        u[a] = w.u;
+        u[a + 1] = w.v;
+        e = source.emit(u, perSource_);
+        e.flux /= w.density;
+        ph.emissionCell = w.cell;
+    } else if (options_.quasiRandomPhotons) {
         // Sobol dimensions 0 and 1 (the best pair) to the origin, 2 and 3 to the direction, 4
         // to the line.
         const SobolOwen& q = emission_[ph.source];
@@ -397,7 +423,6 @@ Photon PhotonPass::emit(uint64_t i, EmittedRay& e) const {
     ph.emitted = e.ray;
     ph.rouletteFlux = options_.rouletteRelativeFlux * e.flux;
     const double cullFlux = options_.photonMinRelativeFlux * e.flux;
-    ph.splitAll = i % perSource_ < ghostPhotons_;
     const bool cheap = !ph.splitAll && ph.rouletteFlux > 0.0;
     ph.lowFlux = cheap ? ph.rouletteFlux : cullFlux;
     ph.keepFlux = cheap ? ph.rouletteFlux : options_.photonRescueRelativeFlux * e.flux;
@@ -415,6 +440,7 @@ PhotonImages PhotonPass::emptyImages() const {
     result.by.assign(criteria_,
                      {result.visible, result.caustic, result.secondary, result.gatheredHalf});
     result.learned.assign(back_.learned.size(), 0.0);
+    if (emissionGuide_) result.emissionLearned.assign(emissionGuide_->bins(), 0.0);
     return result;
 }
 
@@ -427,6 +453,8 @@ void PhotonPass::add(const PhotonBlock& b, PhotonImages& result) {
         image[static_cast<size_t>(d.pixel)] += d.value;
     }
     for (size_t p = 0; p < result.learned.size(); ++p) result.learned[p] += b.learned[p];
+    for (size_t p = 0; p < result.emissionLearned.size(); ++p)
+        result.emissionLearned[p] += b.emissionLearned[p];
     result.photons += b.photons;
     result.segments += b.segments;
     result.gathers += b.gathers;
@@ -438,6 +466,7 @@ Bytes PhotonPass::pack(const PhotonBlock& b) {
     ByteWriter w;
     w.putVector(b.deposits);
     w.putVector(b.learned);
+    w.putVector(b.emissionLearned);
     for (uint64_t n : {b.photons, b.segments, b.gathers, b.pruned, b.ghostWork}) w.put(n);
     return w.take();
 }
@@ -447,6 +476,7 @@ PhotonBlock PhotonPass::unpack(const Bytes& bytes) {
     PhotonBlock b;
     b.deposits = r.getVector<Deposit>();
     b.learned = r.getVector<double>();
+    b.emissionLearned = r.getVector<double>();
     for (uint64_t* n : {&b.photons, &b.segments, &b.gathers, &b.pruned, &b.ghostWork})
         *n = r.get<uint64_t>();
     if (!r.done()) throw std::runtime_error("a block of photons from another rank is damaged");
@@ -460,6 +490,7 @@ class BlockTracer {
     explicit BlockTracer(const PhotonPass& pass)
         : p_(pass), scratch_(pass.stateBytes_) {
         block_.learned.assign(pass.back_.learned.size(), 0.0);
+        if (pass.emissionGuide_) block_.emissionLearned.assign(pass.emissionGuide_->bins(), 0.0);
     }
     PhotonBlock run(uint64_t first, uint64_t last) {
         for (uint64_t i = first; i < last; ++i) tracePhoton(i);
@@ -506,6 +537,9 @@ class BlockTracer {
     std::vector<std::byte> states_, scratch_;  // states: per branch
     std::vector<PathEvent> suffix_;
     std::vector<Verdict> verdicts_;  // this hit's judged suffixes
+    // With an emission guide: the photon's gathered light (plain caustic and secondary) by
+    // pixel, summed into its bins when it ends.
+    std::vector<std::pair<int, double>> gathered_;
 };
 
 void BlockTracer::book(int slot, uint64_t matched, const std::vector<int>* spread, int pixel,
@@ -518,6 +552,8 @@ void BlockTracer::book(int slot, uint64_t matched, const std::vector<int>* sprea
             block_.deposits.push_back({image, pixel, value});
         }
     };
+    if (p_.emissionGuide_ && !spread && (slot == 1 || slot == 2))
+        gathered_.emplace_back(pixel, value);
     if (!p_.prune_ || matched != 0) into(static_cast<uint32_t>(slot));
     for (uint64_t m = matched; m != 0; m &= m - 1)
         if (slot < 4) into(static_cast<uint32_t>(5 + 4 * std::countr_zero(m) + slot));
@@ -541,11 +577,16 @@ void BlockTracer::tracePhoton(uint64_t i) {
         }
     }
     stack_.push_back(first);
+    gathered_.clear();
     while (!stack_.empty()) {
         PhotonBranch br = stack_.back();
         stack_.pop_back();
         follow(br, ph);
     }
+    if (ph.emissionCell >= 0)
+        for (const auto& [pixel, value] : gathered_)
+            block_.emissionLearned[p_.emissionGuide_->bin(ph.source, pixel, ph.emissionCell)] +=
+                value;
 }
 
 void BlockTracer::follow(PhotonBranch br, Photon& ph) {
@@ -797,11 +838,54 @@ PhotonBlock PhotonPass::traceBlock(uint64_t first, uint64_t last) const {
 
 }  // namespace
 
+EmissionGuide::EmissionGuide(size_t sources, int pixelsX, int pixelsY)
+    : sources_(sources),
+      pixelsX_(pixelsX),
+      pixelsY_(pixelsY),
+      guide_(static_cast<int>(std::max<size_t>(sources, 1)) * ApertureGuide::kBlockPixels, 1) {
+    if (pixelsX < 1 || pixelsY < 1)
+        throw std::invalid_argument("EmissionGuide: the detector has no pixels");
+}
+
+size_t EmissionGuide::bin(size_t source, int pixel, int cell) const {
+    const int x = pixel % pixelsX_, y = pixel / pixelsX_;
+    const int region = (y * kRegions / pixelsY_) * kRegions + x * kRegions / pixelsX_;
+    return (source * kRegionCount + static_cast<size_t>(region)) * ApertureGuide::kCellCount +
+           static_cast<size_t>(cell);
+}
+
+void EmissionGuide::prepare(const std::vector<double>& learned, double g) {
+    if (learned.size() != bins())
+        throw std::invalid_argument("EmissionGuide: " + std::to_string(learned.size()) +
+                                    " learned values for " + std::to_string(bins()) + " bins");
+    constexpr size_t cells = ApertureGuide::kCellCount;
+    std::vector<double> light(guide_.bins(), 0.0);  // [source][cell]
+    for (size_t s = 0; s < sources_; ++s) {
+        const double* x = learned.data() + s * kRegionCount * cells;
+        std::vector<double> total(kRegionCount, 0.0);
+        double all = 0.0;
+        for (size_t r = 0; r < kRegionCount; ++r) {
+            for (size_t c = 0; c < cells; ++c) total[r] += std::max(x[r * cells + c], 0.0);
+            all += total[r];
+        }
+        if (!(all > 0.0) || !std::isfinite(all)) continue;
+        const double lit = kLitFraction * all / kRegionCount;
+        for (size_t r = 0; r < kRegionCount; ++r) {
+            if (!(total[r] > 0.0)) continue;
+            const double weight = std::min(1.0, total[r] / lit) / total[r];
+            for (size_t c = 0; c < cells; ++c)
+                light[s * cells + c] += weight * std::max(x[r * cells + c], 0.0);
+        }
+    }
+    guide_.prepare(light, g);
+}
+
 PhotonImages tracePhotons(const TransportView& ts, const DetectorImage& detector,
                           const BackwardResult& back, const RenderOptions& options,
                           const PathJudge* judge, int k, double radiusMm, const Ranks& ranks,
-                          const LensConnector* connector) {
-    const PhotonPass pass(ts, detector, back, options, judge, k, radiusMm, ranks, connector);
+                          const LensConnector* connector, const EmissionGuide* emissionGuide) {
+    const PhotonPass pass(ts, detector, back, options, judge, k, radiusMm, ranks, connector,
+                          emissionGuide);
     PhotonImages result = pass.emptyImages();
     constexpr uint64_t kBlock = 4096;
     forBlocksInOrderOnRanks(

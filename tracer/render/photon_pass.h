@@ -29,6 +29,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "tracer/render/aperture_guide.h"
 #include "tracer/render/backward.h"
 #include "tracer/render/lens_connection.h"
 #include "tracer/render/path_judge.h"
@@ -50,21 +51,64 @@ struct PhotonImages {
     // With a guide (back.learned not empty): the gathered light per guide bin of its view
     // points (tracer/render/aperture_guide.h).
     std::vector<double> learned;
+    // With an emission guide: the light the photons gathered (caustic and secondary, plain) per
+    // bin of that guide (EmissionGuide::bin: source, image region, cell of the emission).
+    std::vector<double> emissionLearned;
     uint64_t photons = 0, segments = 0, gathers = 0, pruned = 0;
     // The segments and gathers of the ghost photons, and the probe rays that fitted the
     // gathering disks the photons reached (RenderPass::photonWork).
     uint64_t ghostWork = 0, diskRays = 0;
 };
 
+// The photons' emission guide (RenderOptions::photonGuideFraction, docs/render.md, "Photons
+// emitted where they were gathered"). Per source, a grid of ApertureGuide::kCells x kCells cells
+// over the two uniforms that place its photons (Source::emit's u[1], u[2], the origin; a point
+// source's u[3], u[4], the direction). The photons of a pass learn how much light each cell
+// gathered into each of kRegions x kRegions regions of the image. The next pass draws a cell
+// with probability (1 - g) / cells + g q(cell), q the mean over the image's regions of each
+// region's light spread over the cells (its share of it), each region weighted 1, or less
+// when its light is below kLitFraction of the mean region's: every lit part of the image gets
+// an equal say in where photons go, not only its brightest part. A photon's flux is divided by
+// the density it was drawn with (ApertureGuide::warp); every cell keeps (1 - g) of its uniform
+// share, so no weight exceeds 1 / (1 - g).
+class EmissionGuide {
+  public:
+    static constexpr int kRegions = 8;
+    static constexpr int kRegionCount = kRegions * kRegions;
+    static constexpr double kLitFraction = 0.01;
+
+    EmissionGuide() = default;
+    EmissionGuide(size_t sources, int pixelsX, int pixelsY);
+    // The learned values: [source][region][cell].
+    size_t bins() const { return sources_ * kRegionCount * ApertureGuide::kCellCount; }
+    size_t bin(size_t source, int pixel, int cell) const;
+    // Sampling for guided fraction g in [0, 1) from learned sums (bins() values, >= 0); a
+    // source with no light learned: as it emits.
+    void prepare(const std::vector<double>& learned, double g);
+    // Source s's uniforms (u, v) in [0, 1), warped; their density on the unit square.
+    ApertureGuide::Warped warp(size_t source, double u, double v) const {
+        return guide_.warp(static_cast<int>(source) * ApertureGuide::kBlockPixels, u, v);
+    }
+
+  private:
+    size_t sources_ = 0;
+    int pixelsX_ = 1, pixelsY_ = 1;
+    ApertureGuide guide_;  // one block per source
+};
+
 // Pass k's photons, gathered at `back`'s view points with radius radiusMm. Across `ranks`
 // (tracer/runtime/ranks.h) every rank holds the whole `back` and traces its blocks of photons; the
 // images are complete on rank 0, bitwise those of one process.
 // With a connector (tracer/render/lens_connection.h), the light it connects is not gathered (but
-// for its audit).
+// for its audit). With an emission guide (EmissionGuide, prepared from the light the
+// passes before gathered), the photons beyond the ghost photons are emitted through it, each
+// photon's flux divided by its density, and the images' emissionLearned holds what this pass
+// gathered per bin.
 PhotonImages tracePhotons(const TransportView& ts, const DetectorImage& detector,
                           const BackwardResult& back, const RenderOptions& options,
                           const PathJudge* judge, int k, double radiusMm,
                           const Ranks& ranks = Ranks::alone(),
-                          const LensConnector* connector = nullptr);
+                          const LensConnector* connector = nullptr,
+                          const EmissionGuide* emissionGuide = nullptr);
 
 }  // namespace veil

@@ -754,12 +754,29 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
     };
     // 1. Backward: visible, direct, view points.
     BackwardOptions bo = backwardOptions(k);
+    // The learned light: the aperture guide's bins, then the emission guide's (each only when
+    // on; empty before the first pass).
+    auto learnedPart = [&](size_t from, size_t bins) {
+        if (learned.empty()) return std::vector<double>(bins, 0.0);
+        if (learned.size() < from + bins)
+            throw std::invalid_argument("Renderer::runPass: " + std::to_string(learned.size()) +
+                                        " learned values, fewer than the guides' bins");
+        return std::vector<double>(learned.begin() + static_cast<std::ptrdiff_t>(from),
+                                   learned.begin() + static_cast<std::ptrdiff_t>(from + bins));
+    };
     ApertureGuide guide;
     if (options_.guideFraction > 0.0) {
         guide = ApertureGuide(detector_.geometry().pixelsX, detector_.geometry().pixelsY);
-        guide.prepare(learned.empty() ? std::vector<double>(guide.bins(), 0.0) : learned,
-                      options_.guideFraction);
+        guide.prepare(learnedPart(0, guide.bins()), options_.guideFraction);
         bo.guide = &guide;
+    }
+    EmissionGuide emission;
+    const bool emissionGuided = options_.photonGuideFraction > 0.0;
+    if (emissionGuided) {
+        emission = EmissionGuide(ts_.sources.size(), detector_.geometry().pixelsX,
+                                 detector_.geometry().pixelsY);
+        emission.prepare(learnedPart(bo.guide ? guide.bins() : 0, emission.bins()),
+                         options_.photonGuideFraction);
     }
     BackwardResult back = traceBackward(ts_, detector_, aperture_, bo);
     out.pixels[static_cast<int>(RenderComponent::Visible)] = back.visible.fluxes();
@@ -775,7 +792,8 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
     RenderOptions po = options_;
     if (photonsPerSource > 0) po.photonsPerPass = photonsPerSource;
     PhotonImages acc = tracePhotons(ts_, detector_, back, po, judge_, k, radiusMm, ranks_,
-                                    connector_.any() ? &connector_ : nullptr);
+                                    connector_.any() ? &connector_ : nullptr,
+                                    emissionGuided ? &emission : nullptr);
     const size_t criteria = judge_ ? static_cast<size_t>(judge_->count()) : 0;
     std::vector<double>& visible = out.pixels[static_cast<int>(RenderComponent::Visible)];
     for (int p = 0; p < pixels; ++p) visible[static_cast<size_t>(p)] += acc.visible[p];
@@ -820,6 +838,7 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
         out.learned = std::move(back.learned);
         for (size_t b = 0; b < out.learned.size(); ++b) out.learned[b] += acc.learned[b];
     }
+    out.learned.insert(out.learned.end(), acc.emissionLearned.begin(), acc.emissionLearned.end());
     out.photons = acc.photons;
     out.photonSegments = acc.segments;
     out.gathers = acc.gathers;

@@ -10,7 +10,9 @@
 //      meet scattering surfaces, and at every view point next-event estimation toward each source
 //      gives the direct component.
 //   2. Forward (tracer/render/photon_pass.h): photonsPerPass photons per source on quasi-random
-//      points of the emission, the same transport (tracer/transport/interaction.h, flux mode).
+//      points of the emission (those beyond the ghost photons drawn partly where the photons of
+//      the passes before gathered light: photonGuideFraction), the same transport
+//      (tracer/transport/interaction.h, flux mode).
 //      Until its first scatter a photon splits at every interface (every Fresnel branch; the first
 //      ghostPhotonsPerPass follow every branch, the others' weak branches play roulette);
 //      then it follows one child chosen by weight, with Russian roulette relative to its flux
@@ -105,7 +107,9 @@ struct RenderPass {
     double backwardSeconds = 0.0, photonSeconds = 0.0;  // wall clock of the two stages
     double partSeconds = 0.0;                           // and of the parts' points
     // With a guide: the light the pass's pixel rays brought back per guide bin (visible,
-    // direct and gathered), which the passes after it learn from.
+    // direct and gathered), which the passes after it learn from; then, with the photons'
+    // emission guide (RenderOptions::photonGuideFraction), the light its photons gathered per
+    // bin of that guide (EmissionGuide, tracer/render/photon_pass.h).
     std::vector<double> learned;
 };
 
@@ -230,8 +234,9 @@ class RenderState {
                             const DetectorGeometry& geometry);
     bool sameSums(const RenderState& o) const;
 
-    // The light learned per aperture guide bin over the passes (empty before the first pass
-    // and without a guide): what the next pass's guide is prepared from.
+    // The light learned per bin of the aperture guide, then of the photons' emission guide,
+    // over the passes (empty before the first pass and without guides): what the next pass's
+    // guides are prepared from.
     const std::vector<double>& learned() const { return learned_; }
     // The photons per source of the next pass when they are balanced
     // (RenderPass::nextPhotonsPerSource of the last pass added; 0 before the first).
@@ -269,8 +274,8 @@ class Renderer {
              RenderOptions options, const PathJudge* judge = nullptr, Ranks ranks = Ranks::alone());
     const ExitAperture& aperture() const { return aperture_; }
     const RenderOptions& options() const { return options_; }
-    // Pass k (1, 2, ...) at radius radiusMm, its pixel rays guided by the light learned in the
-    // passes before it (RenderState::learned(); empty: nothing learned yet).
+    // Pass k (1, 2, ...) at radius radiusMm, its pixel rays and photons guided by the light
+    // learned in the passes before it (RenderState::learned(); empty: nothing learned yet).
     // photonsPerSource: the pass's photons per source (0: RenderOptions::photonsPerPass;
     // RenderState::photonsPerPass() when they are balanced).
     RenderPass runPass(int k, double radiusMm, const std::vector<double>& learned = {},

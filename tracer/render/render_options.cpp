@@ -35,6 +35,8 @@ void RenderOptions::check() const {
         fail("the detector smoothing radius must lie in [0, 1000] pixels");
     if (!(guideFraction >= 0.0 && guideFraction < 1.0))
         fail("the guided fraction of the pixel rays must lie in [0, 1)");
+    if (!(photonGuideFraction >= 0.0 && photonGuideFraction < 1.0))
+        fail("the guided fraction of the photons must lie in [0, 1)");
     if (!(followLobesBelowDeg >= 0.0 && followLobesBelowDeg <= 90.0))
         fail("the half width below which lobes are followed must lie in [0, 90] degrees");
     if (partSamples > kMaxPartSamples)
@@ -48,7 +50,8 @@ std::ostream& operator<<(std::ostream& os, const RenderOptions& o) {
               << (o.splitBackward ? ", split" : ", random") << ", roulette "
               << o.rouletteRelativeFlux
               << (o.quasiRandomPhotons ? ", sobol photons" : ", random photons") << ", guide "
-              << o.guideFraction << ", follow lobes below " << o.followLobesBelowDeg << " deg"
+              << o.guideFraction << ", photon guide " << o.photonGuideFraction
+              << ", follow lobes below " << o.followLobesBelowDeg << " deg"
               << (o.connectThroughLens ? ", connected through the lens" : "") << ", "
               << o.partSamples << " part samples}";
 }

@@ -59,6 +59,12 @@ struct RenderOptions {
     // rays drawn where the passes before it found light, in [0, 1); 0 = uniform over the
     // aperture (every pass the same distribution).
     double guideFraction = 0.5;
+    // Learned photon emission (docs/render.md, "Photons emitted where they were gathered"): the
+    // fraction of each pass's photons beyond the ghost photons whose origin (a point source's:
+    // direction) is drawn, on a grid over the source's uniforms, in proportion to the light the
+    // photons of the passes before it gathered from each cell; each photon's flux is divided
+    // by the density it was drawn with. In [0, 1); 0 = every photon as the source emits it.
+    double photonGuideFraction = 0.5;
     // Narrow lobes (BackwardOptions::followLobesBelowRad): scatter lobes with a half width at
     // half maximum below this many degrees are followed by the backward rays instead of
     // gathering photons; 0: every scattering surface gathers.
