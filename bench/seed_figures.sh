@@ -77,6 +77,8 @@ bias = c.get("radius_bias", {})  # absent before the radius bias was measured
 note = ""
 if bias.get("detected"):
     note = ", bias detected" + ("" if bias.get("bounded", True) else ", not bounded")
+if s.get("few_photons"):
+    note += f", few photons ({s['gathered_effective_photons']:.0f})"
 z = "-"
 refText = "-"
 r = ref.get(row)

@@ -252,6 +252,16 @@ double RenderResult::targetError() const { return targetErrorOf(state, spec.stop
 
 namespace {
 
+// Whether the gathered light rests on few photons (RenderState::kFewPhotons) while it is at least
+// 1 % of the stray light: its error bar need not hold.
+bool fewPhotons(const RenderState& state) {
+    const double n = state.effectivePhotons();
+    const double gathered = state.component(RenderComponent::Caustic).totalFlux() +
+                            state.component(RenderComponent::Secondary).totalFlux();
+    return n > 0.0 && n < RenderState::kFewPhotons &&
+           std::abs(gathered) >= 0.01 * std::abs(state.strayLight().totalFlux());
+}
+
 // One line on the gathered light's radius bias (RadiusBias).
 std::string radiusBiasText(const RadiusBias& b, double gathered) {
     std::ostringstream os;
@@ -356,6 +366,8 @@ nlohmann::json RenderResult::summary() const {
     summary["image_forming"] = fluxJson(state.imageForming());
     summary["stray"] = fluxJson(state.strayLight(), &bias);
     summary["stray"]["mean_relative_error"] = jsonNumber(state.strayMeanRelativeError());
+    summary["gathered_effective_photons"] = state.effectivePhotons();
+    summary["few_photons"] = fewPhotons(state);
     summary["radius_bias"] =
         biasJson(bias, gatheredOf(state.component(RenderComponent::Caustic),
                                   state.component(RenderComponent::Secondary)));
@@ -437,6 +449,15 @@ std::string RenderResult::text(const std::string& folder) const {
     const double gathered = state.component(RenderComponent::Caustic).totalFlux() +
                             state.component(RenderComponent::Secondary).totalFlux();
     text << "  " << radiusBiasText(bias, gathered) << "\n";
+    if (fewPhotons(state))
+        text << "  FEW PHOTONS: the gathered light rests on " << std::defaultfloat
+             << std::setprecision(2) << state.effectivePhotons()
+             << " effective photons over the passes (fewer than "
+             << static_cast<int>(RenderState::kFewPhotons)
+             << "): its error bar may not hold, a pass that missed the rare photons looks like "
+                "one that did not need them. Run longer (docs/render.md, \"Error bars from few "
+                "passes\")\n"
+             << std::setprecision(6);
     for (int k = 0; k < state.criteria(); ++k) {
         const DetectorImage img = state.criterionTotal(k);
         const RadiusBias kb = state.criterionRadiusBias(k);

@@ -126,6 +126,7 @@ struct PhotonBlock {
     std::vector<double> emissionLearned;  // with an emission guide: [its bin]
     uint64_t photons = 0, segments = 0, gathers = 0, pruned = 0;
     uint64_t ghostWork = 0;  // the segments and gathers of the ghost photons (splitAll)
+    double gatheredSum = 0.0, gatheredSquares = 0.0;  // PhotonImages'
 };
 
 // One photon as emitted: its random stream (shared by all its branches) and the thresholds of
@@ -460,6 +461,8 @@ void PhotonPass::add(const PhotonBlock& b, PhotonImages& result) {
     result.gathers += b.gathers;
     result.pruned += b.pruned;
     result.ghostWork += b.ghostWork;
+    result.gatheredSum += b.gatheredSum;
+    result.gatheredSquares += b.gatheredSquares;
 }
 
 Bytes PhotonPass::pack(const PhotonBlock& b) {
@@ -468,6 +471,8 @@ Bytes PhotonPass::pack(const PhotonBlock& b) {
     w.putVector(b.learned);
     w.putVector(b.emissionLearned);
     for (uint64_t n : {b.photons, b.segments, b.gathers, b.pruned, b.ghostWork}) w.put(n);
+    w.put(b.gatheredSum);
+    w.put(b.gatheredSquares);
     return w.take();
 }
 
@@ -479,6 +484,8 @@ PhotonBlock PhotonPass::unpack(const Bytes& bytes) {
     b.emissionLearned = r.getVector<double>();
     for (uint64_t* n : {&b.photons, &b.segments, &b.gathers, &b.pruned, &b.ghostWork})
         *n = r.get<uint64_t>();
+    b.gatheredSum = r.get<double>();
+    b.gatheredSquares = r.get<double>();
     if (!r.done()) throw std::runtime_error("a block of photons from another rank is damaged");
     return b;
 }
@@ -537,9 +544,10 @@ class BlockTracer {
     std::vector<std::byte> states_, scratch_;  // states: per branch
     std::vector<PathEvent> suffix_;
     std::vector<Verdict> verdicts_;  // this hit's judged suffixes
-    // With an emission guide: the photon's gathered light (plain caustic and secondary) by
-    // pixel, summed into its bins when it ends.
-    std::vector<std::pair<int, double>> gathered_;
+    // The photon's gathered light (plain caustic and secondary), and with an emission guide
+    // the same by pixel, summed into its bins when it ends.
+    double gathered_ = 0.0;
+    std::vector<std::pair<int, double>> gatheredByPixel_;
 };
 
 void BlockTracer::book(int slot, uint64_t matched, const std::vector<int>* spread, int pixel,
@@ -552,8 +560,10 @@ void BlockTracer::book(int slot, uint64_t matched, const std::vector<int>* sprea
             block_.deposits.push_back({image, pixel, value});
         }
     };
-    if (p_.emissionGuide_ && !spread && (slot == 1 || slot == 2))
-        gathered_.emplace_back(pixel, value);
+    if (!spread && (slot == 1 || slot == 2)) {
+        gathered_ += value;
+        if (p_.emissionGuide_) gatheredByPixel_.emplace_back(pixel, value);
+    }
     if (!p_.prune_ || matched != 0) into(static_cast<uint32_t>(slot));
     for (uint64_t m = matched; m != 0; m &= m - 1)
         if (slot < 4) into(static_cast<uint32_t>(5 + 4 * std::countr_zero(m) + slot));
@@ -577,14 +587,17 @@ void BlockTracer::tracePhoton(uint64_t i) {
         }
     }
     stack_.push_back(first);
-    gathered_.clear();
+    gathered_ = 0.0;
+    gatheredByPixel_.clear();
     while (!stack_.empty()) {
         PhotonBranch br = stack_.back();
         stack_.pop_back();
         follow(br, ph);
     }
+    block_.gatheredSum += gathered_;
+    block_.gatheredSquares += gathered_ * gathered_;
     if (ph.emissionCell >= 0)
-        for (const auto& [pixel, value] : gathered_)
+        for (const auto& [pixel, value] : gatheredByPixel_)
             block_.emissionLearned[p_.emissionGuide_->bin(ph.source, pixel, ph.emissionCell)] +=
                 value;
 }

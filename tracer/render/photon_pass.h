@@ -55,6 +55,10 @@ struct PhotonImages {
     // bin of that guide (EmissionGuide::bin: source, image region, cell of the emission).
     std::vector<double> emissionLearned;
     uint64_t photons = 0, segments = 0, gathers = 0, pruned = 0;
+    // Over the photons, the sum of each one's gathered light (plain caustic and secondary, at
+    // every view point it reached) and of its square: how many photons carry the gathered
+    // light (RenderState::effectivePhotons).
+    double gatheredSum = 0.0, gatheredSquares = 0.0;
     // The segments and gathers of the ghost photons, and the probe rays that fitted the
     // gathering disks the photons reached (RenderPass::photonWork).
     uint64_t ghostWork = 0, diskRays = 0;

@@ -229,6 +229,8 @@ void RenderState::add(const RenderPass& pass) {
         for (size_t b = 0; b < learned_.size(); ++b) learned_[b] += pass.learned[b];
     }
     photonsPerPass_ = pass.nextPhotonsPerSource;
+    gatheredSum_ += pass.gatheredSum;
+    gatheredSquares_ += pass.gatheredSquares;
     ++passes_;
     // Knaus and Zwicker: r_{k+1}^2 = r_k^2 (k + alpha) / (k + 1), k the pass just added.
     const double k = passes_;
@@ -265,6 +267,10 @@ void RenderState::shareFromRoot(const Ranks& ranks) {
     alpha_ = r.get<double>();
     learned_ = r.getVector<double>();
     photonsPerPass_ = r.get<uint64_t>();
+}
+
+double RenderState::effectivePhotons() const {
+    return gatheredSquares_ > 0.0 ? gatheredSum_ * gatheredSum_ / gatheredSquares_ : 0.0;
 }
 
 DetectorImage RenderState::component(RenderComponent c) const {
@@ -340,7 +346,8 @@ bool RenderState::sameSums(const RenderState& o) const {
     for (size_t k = 0; k < criterionSums_.size(); ++k)
         for (size_t i = 0; i < sums_.size(); ++i)
             if (!criterionSums_[k][i].sameSums(o.criterionSums_[k][i])) return false;
-    return passes_ == o.passes_ && learned_ == o.learned_ && radiusMm_ == o.radiusMm_ &&
+    return passes_ == o.passes_ && learned_ == o.learned_ && gatheredSum_ == o.gatheredSum_ &&
+           gatheredSquares_ == o.gatheredSquares_ && radiusMm_ == o.radiusMm_ &&
            photonsPerPass_ == o.photonsPerPass_ && initialRadiusMm_ == o.initialRadiusMm_ &&
            alpha_ == o.alpha_;
 }
@@ -349,8 +356,8 @@ namespace {
 
 constexpr char kMagic[8] = {'V', 'E', 'I', 'L', 'R', 'N', 'D', 'R'};
 // 2: the criteria's sums follow the plain ones; 3: the guide; 4: the radius differences;
-// 5: the next pass's photons
-constexpr uint32_t kVersion = 5;
+// 5: the next pass's photons; 6: the photons' gathered sums
+constexpr uint32_t kVersion = 6;
 
 template <class T>
 void put(std::ostream& os, const T& v) {
@@ -410,6 +417,8 @@ void RenderState::write(const std::filesystem::path& path, uint64_t fingerprint)
         put(os, uint64_t(learned_.size()));
         putVector(os, learned_);
         put(os, photonsPerPass_);
+        put(os, gatheredSum_);
+        put(os, gatheredSquares_);
         os.flush();
         if (!os) {
             std::error_code ec;
@@ -476,6 +485,8 @@ RenderState RenderState::read(const std::filesystem::path& path, uint64_t finger
     if (!is || bins > (uint64_t{1} << 28)) fail("the checkpoint is damaged");
     s.learned_ = getVector<double>(is, static_cast<size_t>(bins));
     s.photonsPerPass_ = get<uint64_t>(is);
+    s.gatheredSum_ = get<double>(is);
+    s.gatheredSquares_ = get<double>(is);
     if (!is) fail("the checkpoint is truncated");
     if (s.passes_ < 0 || !(s.radiusMm_ > 0.0)) fail("the checkpoint is damaged");
     return s;
@@ -840,6 +851,8 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
     }
     out.learned.insert(out.learned.end(), acc.emissionLearned.begin(), acc.emissionLearned.end());
     out.photons = acc.photons;
+    out.gatheredSum = acc.gatheredSum;
+    out.gatheredSquares = acc.gatheredSquares;
     out.photonSegments = acc.segments;
     out.gathers = acc.gathers;
     // The work of the two sides: the view points' (their backward segments, and one ray per

@@ -92,6 +92,9 @@ struct RenderPass {
     // Of backwardSegments, the rays the lens connections traced (tracer/render/lens_connection.h).
     uint64_t connectionRays = 0;
     uint64_t photons = 0, photonSegments = 0, gathers = 0;
+    // Over its photons, the sum of each one's gathered light and of its square
+    // (PhotonImages::gatheredSum, gatheredSquares).
+    double gatheredSum = 0.0, gatheredSquares = 0.0;
     // The points drawn on small lit parts (tracer/render/part_light.h), those whose light
     // reached a pixel, and the rays they traced.
     uint64_t partSamples = 0, partFound = 0, partRays = 0;
@@ -238,6 +241,13 @@ class RenderState {
     // over the passes (empty before the first pass and without guides): what the next pass's
     // guides are prepared from.
     const std::vector<double>& learned() const { return learned_; }
+    // How many photons carry the gathered light over the passes: (sum c)^2 / sum c^2 over
+    // every photon's gathered light c (its effective number; 0 when none gathered any). Below
+    // kFewPhotons a few photons make the gathered light, and its error bar from the passes'
+    // spread need not hold: a pass that missed the rare photons looks like one that did not
+    // need them (docs/render.md, "Error bars from few passes").
+    static constexpr double kFewPhotons = 100.0;
+    double effectivePhotons() const;
     // The photons per source of the next pass when they are balanced
     // (RenderPass::nextPhotonsPerSource of the last pass added; 0 before the first).
     uint64_t photonsPerPass() const { return photonsPerPass_; }
@@ -258,6 +268,7 @@ class RenderState {
     std::vector<DetectorImage> criterionRadiusDifference_;
     DetectorImage imageForming_, stray_;
     std::vector<double> learned_;
+    double gatheredSum_ = 0.0, gatheredSquares_ = 0.0;
     uint64_t photonsPerPass_ = 0;
     int passes_ = 0;
     double radiusMm_ = 0.0, initialRadiusMm_ = 0.0, alpha_ = 2.0 / 3.0;

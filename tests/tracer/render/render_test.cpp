@@ -207,6 +207,19 @@ CameraEquation cameraEquation() {
     return c;
 }
 
+// Options with which the photons alone carry the camera equation's light: no connection
+// through the window, no parts' points; r1 60 mm (the plate is lit uniformly: no radius bias).
+RenderOptions photonsAlone(uint64_t raysPerPixel, uint64_t photons) {
+    RenderOptions o;
+    o.raysPerPixel = raysPerPixel;
+    o.photonsPerPass = photons;
+    o.ghostPhotonsPerPass = 1000;
+    o.initialRadiusMm = 60.0;
+    o.connectThroughLens = false;
+    o.partSamples = 0;
+    return o;
+}
+
 TEST(Render, CausticLightOnAPlateObeysTheCameraEquation) {
     const CameraEquation c = cameraEquation();
     RenderOptions o;
@@ -231,13 +244,7 @@ TEST(Render, GuidedPhotonsKeepTheCameraEquation) {
     // reads 10x high).
     const CameraEquation c = cameraEquation();
     auto run = [&](double guide) {
-        RenderOptions o;
-        o.raysPerPixel = 256;
-        o.photonsPerPass = 20000;
-        o.ghostPhotonsPerPass = 1000;
-        o.initialRadiusMm = 60.0;
-        o.connectThroughLens = false;
-        o.partSamples = 0;
+        RenderOptions o = photonsAlone(256, 20000);
         o.guideFraction = 0.0;  // RenderState::learned() then holds the emission guide's alone
         o.photonGuideFraction = guide;
         return render(*c.scene, o, 12, c.aperture);
@@ -261,6 +268,35 @@ TEST(Render, GuidedPhotonsKeepTheCameraEquation) {
         rim += learned[static_cast<size_t>(j * ApertureGuide::kCells + ApertureGuide::kCells - 1)];
     }
     EXPECT_GT(centre, 100.0 * rim) << centre << " " << rim;
+    // Hundreds of photons carry this light (478): no few-photons warning.
+    EXPECT_GT(guided.effectivePhotons(), RenderState::kFewPhotons);
+}
+
+TEST(Render, PhotonSumsAreTheGatheredLight) {
+    // The sums behind RenderState::effectivePhotons: with the photons alone carrying the light
+    // (no connection, no parts), the sum of every photon's gathered light is the pass's caustic
+    // and secondary light, and (sum c)^2 / sum c^2 lies between 1 and the photons that
+    // gathered any.
+    const CameraEquation c = cameraEquation();
+    const RenderOptions o = photonsAlone(64, 5000);
+    const Renderer renderer(c.scene->transport().view, c.scene->transport().images[0], c.aperture,
+                            o);
+    RenderState state(c.scene->transport().images[0].geometry(), o.initialRadiusMm, o.alpha);
+    double gathered = 0.0;
+    for (int k = 1; k <= 3; ++k) {
+        const RenderPass pass = renderer.runPass(k, state.radiusMm(), state.learned());
+        double light = 0.0;
+        for (const auto rc : {RenderComponent::Caustic, RenderComponent::Secondary})
+            for (const double v : pass.pixels[static_cast<int>(rc)]) light += v;
+        EXPECT_NEAR(pass.gatheredSum, light, 1e-9 * light);
+        EXPECT_GT(light, 0.0);
+        EXPECT_LE(pass.gatheredSquares, pass.gatheredSum * pass.gatheredSum);
+        gathered += pass.gatheredSum;
+        state.add(pass);
+    }
+    EXPECT_GE(state.effectivePhotons(), 1.0);
+    EXPECT_LE(state.effectivePhotons(), 3.0 * 5000.0);
+    EXPECT_GT(gathered, 0.0);
 }
 
 TEST(Render, AgreesWithForwardMonteCarloInTotalAndPerPixel) {
