@@ -599,8 +599,7 @@ double PixelTracer::lobeWeight(const Branch& br, size_t source, const Vec3& x,
     if (!lc || br.lobeObject < 0 || !(br.lobePdf > 0.0)) return 1.0;
     // The designed crossings since the lobe: one per specular event after its segment.
     const int steps = br.depth - br.lobeDepth;
-    if (steps < 1 || steps > 64 || !(lc->chains(source, br.lobeObject) >> (steps - 1) & 1u))
-        return 1.0;
+    if (!lc->hasChain(source, br.lobeObject, steps)) return 1.0;
     LensConnector::Work work;
     const auto c = lc->found(source, s.wavelength, s.wavelengthNm, steps, br.lobePoint,
                              br.lobeObject, Ray{x, -br.ray.direction}, work);

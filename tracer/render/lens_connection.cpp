@@ -13,7 +13,7 @@ namespace veil {
 namespace {
 
 constexpr uint64_t kPilotSeed = 0x6c656e73636f6e6eULL;  // the pilot's own stream key
-constexpr int kMaxChain = 64;                           // bits of a chains() mask
+constexpr int kMaxChain = LensConnector::kMaxSteps;     // bits of a chains() mask
 constexpr int kNewtonIterations = 8;
 constexpr int kLineSearchHalvings = 4;
 constexpr double kWidestDeg = 80.0;      // a cone's parameter scale: tan of at most this

@@ -77,9 +77,15 @@ class LensConnector {
 
     // The chains by which source s lights object `object` through the lens as designed: bit
     // k - 1 set for k designed crossings (k up to 64). 0 for no chain.
+    static constexpr int kMaxSteps = 64;  // bits of a chains() mask
     uint64_t chains(size_t source, int object) const {
         if (chains_.empty()) return 0;
         return chains_[source * objects_ + static_cast<size_t>(object)];
+    }
+    // Whether source s lights `object` by a chain of `steps` designed crossings (false for
+    // steps outside 1..kMaxSteps).
+    bool hasChain(size_t source, int object, int steps) const {
+        return steps >= 1 && steps <= kMaxSteps && ((chains(source, object) >> (steps - 1)) & 1u);
     }
     bool any() const { return any_; }
     // The ways the solve parametrizes source s's rays: 1, or 2 for a narrow-coned area (the

@@ -649,8 +649,7 @@ void BlockTracer::follow(PhotonBranch br, Photon& ph) {
 
 double BlockTracer::gatherShare(const PhotonBranch& br, const SceneHit& hit, Photon& ph) {
     const LensConnector* lc = p_.connector_;
-    if (!lc || br.scattered || br.designed < 1 || br.designed > 64) return 1.0;
-    if (((lc->chains(ph.source, hit.object) >> (br.designed - 1)) & 1) == 0) return 1.0;
+    if (!lc || br.scattered || !lc->hasChain(ph.source, hit.object, br.designed)) return 1.0;
     // The connection tries this point for this photon's fixed half: its light is the
     // connection's, but for the audit.
     LensConnector::Work work;
