@@ -388,37 +388,32 @@ Photon PhotonPass::emit(uint64_t i, EmittedRay& e) const {
     const Source& source = ts_.sources[ph.source];
     ph.deposits = photonsSeeSource(source);
     ph.splitAll = i % perSource_ < ghostPhotons_;
+    // The emission's uniforms: Sobol dimensions 0 and 1 (the best pair) to the origin, 2 and 3
+    // to the direction, 4 to the line; or the photon's own stream (as Source::emit(rng) draws
+    // them).
+    std::array<double, Source::kEmitUniforms> u;
+    if (options_.quasiRandomPhotons) {
+        const SobolOwen& q = emission_[ph.source];
+        const uint64_t j = i % perSource_;
+        u = {q.sample(j, 4), q.sample(j, 0), q.sample(j, 1), q.sample(j, 2), q.sample(j, 3)};
+    } else {
+        for (double& x : u) x = ph.rng.uniform();
+    }
+    double density = 1.0;
     if (emissionGuide_) {
-        // The same uniforms as below; the pair that places the photon (a point's direction,
-        // any other kind's origin) warped by the guide, but for the ghost photons, which carry
-        // the visible light for all photons.
-        std::array<double, Source::kEmitUniforms> u;
-        if (options_.quasiRandomPhotons) {
-            const SobolOwen& q = emission_[ph.source];
-            const uint64_t j = i % perSource_;
-            u = {q.sample(j, 4), q.sample(j, 0), q.sample(j, 1), q.sample(j, 2), q.sample(j, 3)};
-        } else {
-            for (double& x : u) x = ph.rng.uniform();
-        }
+        // The pair that places the photon (a point's direction, any other kind's origin),
+        // warped by the guide but for the ghost photons, which carry the visible light for all
+        // photons.
         const size_t a = source.delta() == Source::Delta::Position ? 3 : 1;
         ApertureGuide::Warped w{u[a], u[a + 1], 1.0, ApertureGuide::cellOf(u[a], u[a + 1])};
         if (!ph.splitAll) w = emissionGuide_->warp(ph.source, u[a], u[a + 1]);
         u[a] = w.u;
         u[a + 1] = w.v;
-        e = source.emit(u, perSource_);
-        e.flux /= w.density;
+        density = w.density;
         ph.emissionCell = w.cell;
-    } else if (options_.quasiRandomPhotons) {
-        // Sobol dimensions 0 and 1 (the best pair) to the origin, 2 and 3 to the direction, 4
-        // to the line.
-        const SobolOwen& q = emission_[ph.source];
-        const uint64_t j = i % perSource_;
-        e = source.emit(
-            {q.sample(j, 4), q.sample(j, 0), q.sample(j, 1), q.sample(j, 2), q.sample(j, 3)},
-            perSource_);
-    } else {
-        e = source.emit(ph.rng, perSource_);
     }
+    e = source.emit(u, perSource_);
+    e.flux /= density;
     ph.wavelength = e.wavelength;
     ph.wavelengthNm = e.wavelengthNm;
     ph.emitted = e.ray;
@@ -544,10 +539,11 @@ class BlockTracer {
     std::vector<std::byte> states_, scratch_;  // states: per branch
     std::vector<PathEvent> suffix_;
     std::vector<Verdict> verdicts_;  // this hit's judged suffixes
-    // The photon's gathered light (plain caustic and secondary), and with an emission guide
-    // the same by pixel, summed into its bins when it ends.
+    // The photon being traced: its source and emission guide cell (-1: no guide), and its
+    // gathered light (plain caustic and secondary) so far.
+    size_t source_ = 0;
+    int emissionCell_ = -1;
     double gathered_ = 0.0;
-    std::vector<std::pair<int, double>> gatheredByPixel_;
 };
 
 void BlockTracer::book(int slot, uint64_t matched, const std::vector<int>* spread, int pixel,
@@ -562,7 +558,8 @@ void BlockTracer::book(int slot, uint64_t matched, const std::vector<int>* sprea
     };
     if (!spread && (slot == 1 || slot == 2)) {
         gathered_ += value;
-        if (p_.emissionGuide_) gatheredByPixel_.emplace_back(pixel, value);
+        if (emissionCell_ >= 0)
+            block_.emissionLearned[p_.emissionGuide_->bin(source_, pixel, emissionCell_)] += value;
     }
     if (!p_.prune_ || matched != 0) into(static_cast<uint32_t>(slot));
     for (uint64_t m = matched; m != 0; m &= m - 1)
@@ -587,8 +584,9 @@ void BlockTracer::tracePhoton(uint64_t i) {
         }
     }
     stack_.push_back(first);
+    source_ = ph.source;
+    emissionCell_ = ph.emissionCell;
     gathered_ = 0.0;
-    gatheredByPixel_.clear();
     while (!stack_.empty()) {
         PhotonBranch br = stack_.back();
         stack_.pop_back();
@@ -596,10 +594,6 @@ void BlockTracer::tracePhoton(uint64_t i) {
     }
     block_.gatheredSum += gathered_;
     block_.gatheredSquares += gathered_ * gathered_;
-    if (ph.emissionCell >= 0)
-        for (const auto& [pixel, value] : gatheredByPixel_)
-            block_.emissionLearned[p_.emissionGuide_->bin(ph.source, pixel, ph.emissionCell)] +=
-                value;
 }
 
 void BlockTracer::follow(PhotonBranch br, Photon& ph) {
