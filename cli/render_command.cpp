@@ -140,6 +140,12 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
                     "it gathered light, in [0, 1) (0: as the sources emit)")
         ->check(CLI::Range(0.0, 0.99))
         ->capture_default_str();
+    sub->add_option("--scatter-guide", o.scatterGuide,
+                    "share of the photons' scattered directions drawn toward where the photons "
+                    "of the passes before gathered light after scattering at the same place, in "
+                    "[0, 1) (0: as the surfaces scatter)")
+        ->check(CLI::Range(0.0, 0.99))
+        ->capture_default_str();
     sub->add_option("--follow-lobes-below", o.followLobesBelow,
                     "scatter lobes narrower than this half width (degrees) are followed by the "
                     "pixel rays instead of gathering photons (0: every surface gathers)")
@@ -220,6 +226,7 @@ RenderRunSpec renderSpec(const RenderCommandOptions& o) {
     ro.areaSamples = o.areaSamples;
     ro.guideFraction = o.guide;
     ro.photonGuideFraction = o.photonGuide;
+    ro.scatterGuideFraction = o.scatterGuide;
     ro.followLobesBelowDeg = o.followLobesBelow;
     ro.connectThroughLens = o.connect == "on";
     ro.partSamples = o.partSamples;

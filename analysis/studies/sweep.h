@@ -79,6 +79,7 @@ struct SweepSpec {
         RenderOptions o;
         o.guideFraction = 0.0;
         o.photonGuideFraction = 0.0;
+        o.scatterGuideFraction = 0.0;
         return o;
     }
     std::string detector;

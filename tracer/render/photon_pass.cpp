@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 #include <numbers>
+#include <numeric>
 
 #include "tracer/records/detector.h"
 #include "tracer/records/path_history.h"
@@ -108,6 +109,7 @@ struct PhotonBranch {
     int designed = 0;               // its step on the lens's designed path (DesignedPath)
     size_t state = 0;               // with criteria: its path state's offset in the photon's arena
     uint64_t alive = ~uint64_t{0};  // criteria its path may still match
+    int scatterVertex = -1;  // with a scatter guide: its last scatter (BlockTracer::vertices_)
 };
 
 // A block's photons keep what they deposit as a log, image by image in order (image 0..4 the
@@ -124,6 +126,7 @@ struct PhotonBlock {
     std::vector<Deposit> deposits;
     std::vector<double> learned;
     std::vector<double> emissionLearned;  // with an emission guide: [its bin]
+    std::vector<double> scatterLearned;   // with a scatter guide: [its bin]
     uint64_t photons = 0, segments = 0, gathers = 0, pruned = 0;
     uint64_t ghostWork = 0;  // the segments and gathers of the ghost photons (splitAll)
     double gatheredSum = 0.0, gatheredSquares = 0.0;  // PhotonImages'
@@ -157,7 +160,7 @@ class PhotonPass {
     PhotonPass(const TransportView& ts, const DetectorImage& detector, const BackwardResult& back,
                const RenderOptions& options, const PathJudge* judge, int k, double radiusMm,
                const Ranks& ranks, const LensConnector* connector,
-               const EmissionGuide* emissionGuide);
+               const EmissionGuide* emissionGuide, const ScatterGuide* scatterGuide);
 
     uint64_t total() const { return perSource_ * ts_.sources.size(); }
     // The probe rays of the disks the pass's photons gathered into (each counted once, however
@@ -204,6 +207,7 @@ class PhotonPass {
     const PathJudge* judge_;
     const LensConnector* connector_;
     const EmissionGuide* emissionGuide_;
+    const ScatterGuide* scatterGuide_;
     const DesignedPath designed_;
     const int k_;
     const double radiusMm_;
@@ -236,7 +240,8 @@ class PhotonPass {
 PhotonPass::PhotonPass(const TransportView& ts, const DetectorImage& detector,
                        const BackwardResult& back, const RenderOptions& options,
                        const PathJudge* judge, int k, double radiusMm, const Ranks& ranks,
-                       const LensConnector* connector, const EmissionGuide* emissionGuide)
+                       const LensConnector* connector, const EmissionGuide* emissionGuide,
+                       const ScatterGuide* scatterGuide)
     : ts_(ts),
       detector_(detector),
       back_(back),
@@ -244,6 +249,7 @@ PhotonPass::PhotonPass(const TransportView& ts, const DetectorImage& detector,
       judge_(judge),
       connector_(connector && connector->any() ? connector : nullptr),
       emissionGuide_(emissionGuide),
+      scatterGuide_(scatterGuide),
       designed_(*ts.scene),
       k_(k),
       radiusMm_(radiusMm),
@@ -437,6 +443,7 @@ PhotonImages PhotonPass::emptyImages() const {
                      {result.visible, result.caustic, result.secondary, result.gatheredHalf});
     result.learned.assign(back_.learned.size(), 0.0);
     if (emissionGuide_) result.emissionLearned.assign(emissionGuide_->bins(), 0.0);
+    if (scatterGuide_) result.scatterLearned.assign(scatterGuide_->bins(), 0.0);
     return result;
 }
 
@@ -451,6 +458,8 @@ void PhotonPass::add(const PhotonBlock& b, PhotonImages& result) {
     for (size_t p = 0; p < result.learned.size(); ++p) result.learned[p] += b.learned[p];
     for (size_t p = 0; p < result.emissionLearned.size(); ++p)
         result.emissionLearned[p] += b.emissionLearned[p];
+    for (size_t p = 0; p < result.scatterLearned.size(); ++p)
+        result.scatterLearned[p] += b.scatterLearned[p];
     result.photons += b.photons;
     result.segments += b.segments;
     result.gathers += b.gathers;
@@ -465,6 +474,7 @@ Bytes PhotonPass::pack(const PhotonBlock& b) {
     w.putVector(b.deposits);
     w.putVector(b.learned);
     w.putVector(b.emissionLearned);
+    w.putVector(b.scatterLearned);
     for (uint64_t n : {b.photons, b.segments, b.gathers, b.pruned, b.ghostWork}) w.put(n);
     w.put(b.gatheredSum);
     w.put(b.gatheredSquares);
@@ -477,6 +487,7 @@ PhotonBlock PhotonPass::unpack(const Bytes& bytes) {
     b.deposits = r.getVector<Deposit>();
     b.learned = r.getVector<double>();
     b.emissionLearned = r.getVector<double>();
+    b.scatterLearned = r.getVector<double>();
     for (uint64_t* n : {&b.photons, &b.segments, &b.gathers, &b.pruned, &b.ghostWork})
         *n = r.get<uint64_t>();
     b.gatheredSum = r.get<double>();
@@ -493,6 +504,7 @@ class BlockTracer {
         : p_(pass), scratch_(pass.stateBytes_) {
         block_.learned.assign(pass.back_.learned.size(), 0.0);
         if (pass.emissionGuide_) block_.emissionLearned.assign(pass.emissionGuide_->bins(), 0.0);
+        if (pass.scatterGuide_) block_.scatterLearned.assign(pass.scatterGuide_->bins(), 0.0);
     }
     PhotonBlock run(uint64_t first, uint64_t last) {
         for (uint64_t i = first; i < last; ++i) tracePhoton(i);
@@ -544,6 +556,14 @@ class BlockTracer {
     size_t source_ = 0;
     int emissionCell_ = -1;
     double gathered_ = 0.0;
+    // With a scatter guide: the photon's scatters (its scatter guide bin, the scatter before
+    // it on the same branch, -1 for none), and the last one of the branch gathering now.
+    struct ScatterVertex {
+        size_t bin;
+        int parent;
+    };
+    std::vector<ScatterVertex> vertices_;
+    int vertex_ = -1;
 };
 
 void BlockTracer::book(int slot, uint64_t matched, const std::vector<int>* spread, int pixel,
@@ -560,6 +580,13 @@ void BlockTracer::book(int slot, uint64_t matched, const std::vector<int>* sprea
         gathered_ += value;
         if (emissionCell_ >= 0)
             block_.emissionLearned[p_.emissionGuide_->bin(source_, pixel, emissionCell_)] += value;
+        // Every scatter before this gather led to it.
+        if (vertex_ >= 0) {
+            const double weighted =
+                p_.emissionGuide_ ? value * p_.emissionGuide_->regionWeight(pixel) : value;
+            for (int v = vertex_; v >= 0; v = vertices_[static_cast<size_t>(v)].parent)
+                block_.scatterLearned[vertices_[static_cast<size_t>(v)].bin] += weighted;
+        }
     }
     if (!p_.prune_ || matched != 0) into(static_cast<uint32_t>(slot));
     for (uint64_t m = matched; m != 0; m &= m - 1)
@@ -587,6 +614,7 @@ void BlockTracer::tracePhoton(uint64_t i) {
     source_ = ph.source;
     emissionCell_ = ph.emissionCell;
     gathered_ = 0.0;
+    vertices_.clear();
     while (!stack_.empty()) {
         PhotonBranch br = stack_.back();
         stack_.pop_back();
@@ -678,6 +706,7 @@ void BlockTracer::gather(const PhotonBranch& br, const SceneHit& hit, const Inte
                          double scatterScale, int wavelength) {
     const auto [firstVp, lastVp] = p_.grid_.candidates(hit.point);
     verdicts_.clear();
+    vertex_ = br.scatterVertex;
     // The photon's side of the face, and whether it lies in a gap there (looked at once, when
     // a view point first needs it).
     const double photonCos = glm::dot(br.ray.direction, hit.normal);
@@ -772,9 +801,13 @@ void BlockTracer::gather(const PhotonBranch& br, const SceneHit& hit, const Inte
 
 bool BlockTracer::become(PhotonBranch& b, const SceneHit& hit, const Interaction& in, int c,
                          double flux, Photon& ph) {
-    const auto dir = in.direction(c, ph.rng);
-    if (!dir) return false;
     const InteractionChild& child = in.children[c];
+    const int slot = child.scatter && p_.scatterGuide_ ? p_.scatterGuide_->slot(hit.point) : -1;
+    // The ghost photons scatter as the surface does: they carry the visible light, and the
+    // guide learns from them too.
+    const auto dir = slot >= 0 && !ph.splitAll ? p_.scatterGuide_->draw(in, c, slot, ph.rng, flux)
+                                               : in.direction(c, ph.rng);
+    if (!dir) return false;
     if (p_.judge_ && b.alive != 0) {
         b.alive = p_.judge_->push(
             states_.data() + b.state,
@@ -792,6 +825,11 @@ bool BlockTracer::become(PhotonBranch& b, const SceneHit& hit, const Interaction
     b.medium = child.medium;
     b.startObject = hit.object;
     b.startPrimitive = hit.primitive;
+    if (slot >= 0) {
+        vertices_.push_back(
+            {p_.scatterGuide_->bin(slot, ScatterGuide::cellOf(*dir)), b.scatterVertex});
+        b.scatterVertex = static_cast<int>(vertices_.size()) - 1;
+    }
     return true;
 }
 
@@ -853,10 +891,14 @@ EmissionGuide::EmissionGuide(size_t sources, int pixelsX, int pixelsY)
         throw std::invalid_argument("EmissionGuide: the detector has no pixels");
 }
 
-size_t EmissionGuide::bin(size_t source, int pixel, int cell) const {
+int EmissionGuide::region(int pixel) const {
     const int x = pixel % pixelsX_, y = pixel / pixelsX_;
-    const int region = (y * kRegions / pixelsY_) * kRegions + x * kRegions / pixelsX_;
-    return (source * kRegionCount + static_cast<size_t>(region)) * ApertureGuide::kCellCount +
+    return (y * kRegions / pixelsY_) * kRegions + x * kRegions / pixelsX_;
+}
+
+size_t EmissionGuide::bin(size_t source, int pixel, int cell) const {
+    return (source * kRegionCount + static_cast<size_t>(region(pixel))) *
+               ApertureGuide::kCellCount +
            static_cast<size_t>(cell);
 }
 
@@ -866,6 +908,21 @@ void EmissionGuide::prepare(const std::vector<double>& learned, double g) {
                                     " learned values for " + std::to_string(bins()) + " bins");
     constexpr size_t cells = ApertureGuide::kCellCount;
     std::vector<double> light(guide_.bins(), 0.0);  // [source][cell]
+    std::vector<double> regions(kRegionCount, 0.0);  // over all sources
+    for (size_t s = 0; s < sources_; ++s)
+        for (size_t r = 0; r < kRegionCount; ++r)
+            for (size_t c = 0; c < cells; ++c)
+                regions[r] += std::max(learned[(s * kRegionCount + r) * cells + c], 0.0);
+    regionWeight_.clear();
+    const double everywhere = std::accumulate(regions.begin(), regions.end(), 0.0);
+    if (everywhere > 0.0 && std::isfinite(everywhere)) {
+        const double mean = everywhere / kRegionCount, lit = kLitFraction * mean;
+        regionWeight_.assign(kRegionCount, 0.0);
+        for (size_t r = 0; r < kRegionCount; ++r)
+            regionWeight_[r] = regions[r] > 0.0
+                                   ? mean * std::min(1.0, regions[r] / lit) / regions[r]
+                                   : 1.0 / kLitFraction;
+    }
     for (size_t s = 0; s < sources_; ++s) {
         const double* x = learned.data() + s * kRegionCount * cells;
         std::vector<double> total(kRegionCount, 0.0);
@@ -889,9 +946,10 @@ void EmissionGuide::prepare(const std::vector<double>& learned, double g) {
 PhotonImages tracePhotons(const TransportView& ts, const DetectorImage& detector,
                           const BackwardResult& back, const RenderOptions& options,
                           const PathJudge* judge, int k, double radiusMm, const Ranks& ranks,
-                          const LensConnector* connector, const EmissionGuide* emissionGuide) {
+                          const LensConnector* connector, const EmissionGuide* emissionGuide,
+                          const ScatterGuide* scatterGuide) {
     const PhotonPass pass(ts, detector, back, options, judge, k, radiusMm, ranks, connector,
-                          emissionGuide);
+                          emissionGuide, scatterGuide);
     PhotonImages result = pass.emptyImages();
     constexpr uint64_t kBlock = 4096;
     forBlocksInOrderOnRanks(

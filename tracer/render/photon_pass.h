@@ -34,6 +34,7 @@
 #include "tracer/render/lens_connection.h"
 #include "tracer/render/path_judge.h"
 #include "tracer/render/render_options.h"
+#include "tracer/render/scatter_guide.h"
 
 namespace veil {
 
@@ -54,6 +55,9 @@ struct PhotonImages {
     // With an emission guide: the light the photons gathered (caustic and secondary, plain) per
     // bin of that guide (EmissionGuide::bin: source, image region, cell of the emission).
     std::vector<double> emissionLearned;
+    // With a scatter guide: the light gathered after a scatter per bin of that guide
+    // (ScatterGuide::bin: the scatter's place, the cell of its direction), region-weighted.
+    std::vector<double> scatterLearned;
     uint64_t photons = 0, segments = 0, gathers = 0, pruned = 0;
     // Over the photons, the sum of each one's gathered light (plain caustic and secondary, at
     // every view point it reached) and of its square: how many photons carry the gathered
@@ -93,11 +97,19 @@ class EmissionGuide {
     ApertureGuide::Warped warp(size_t source, double u, double v) const {
         return guide_.warp(static_cast<int>(source) * ApertureGuide::kBlockPixels, u, v);
     }
+    // The weight of light gathered into pixel's region for the other photon guides: the same
+    // equal say per lit region, scaled so that a region with the mean region's light weighs 1
+    // (1 everywhere before any light was learned).
+    double regionWeight(int pixel) const {
+        return regionWeight_.empty() ? 1.0 : regionWeight_[static_cast<size_t>(region(pixel))];
+    }
 
   private:
+    int region(int pixel) const;
     size_t sources_ = 0;
     int pixelsX_ = 1, pixelsY_ = 1;
-    ApertureGuide guide_;  // one block per source
+    ApertureGuide guide_;               // one block per source
+    std::vector<double> regionWeight_;  // [region], over all sources (empty: none learned)
 };
 
 // Pass k's photons, gathered at `back`'s view points with radius radiusMm. Across `ranks`
@@ -107,12 +119,15 @@ class EmissionGuide {
 // for its audit). With an emission guide (EmissionGuide, prepared from the light the
 // passes before gathered), the photons beyond the ghost photons are emitted through it, each
 // photon's flux divided by its density, and the images' emissionLearned holds what this pass
-// gathered per bin.
+// gathered per bin. With a scatter guide (ScatterGuide), the scatters of the photons beyond the
+// ghost photons draw their directions through it where it has learned light, and the images'
+// scatterLearned holds what this pass's scatters led to.
 PhotonImages tracePhotons(const TransportView& ts, const DetectorImage& detector,
                           const BackwardResult& back, const RenderOptions& options,
                           const PathJudge* judge, int k, double radiusMm,
                           const Ranks& ranks = Ranks::alone(),
                           const LensConnector* connector = nullptr,
-                          const EmissionGuide* emissionGuide = nullptr);
+                          const EmissionGuide* emissionGuide = nullptr,
+                          const ScatterGuide* scatterGuide = nullptr);
 
 }  // namespace veil

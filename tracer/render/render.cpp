@@ -765,8 +765,8 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
     };
     // 1. Backward: visible, direct, view points.
     BackwardOptions bo = backwardOptions(k);
-    // The learned light: the aperture guide's bins, then the emission guide's (each only when
-    // on; empty before the first pass).
+    // The learned light: the aperture guide's bins, then the emission guide's, then the
+    // scatter guide's (each only when on; empty before the first pass).
     auto learnedPart = [&](size_t from, size_t bins) {
         if (learned.empty()) return std::vector<double>(bins, 0.0);
         if (learned.size() < from + bins)
@@ -789,6 +789,15 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
         emission.prepare(learnedPart(bo.guide ? guide.bins() : 0, emission.bins()),
                          options_.photonGuideFraction);
     }
+    ScatterGuide scatter;
+    const bool scatterGuided = options_.scatterGuideFraction > 0.0;
+    if (scatterGuided) {
+        scatter = ScatterGuide(ts_.scene->bounds());
+        scatter.prepare(
+            learnedPart((bo.guide ? guide.bins() : 0) + (emissionGuided ? emission.bins() : 0),
+                        scatter.bins()),
+            options_.scatterGuideFraction);
+    }
     BackwardResult back = traceBackward(ts_, detector_, aperture_, bo);
     out.pixels[static_cast<int>(RenderComponent::Visible)] = back.visible.fluxes();
     out.pixels[static_cast<int>(RenderComponent::Direct)] = back.direct.fluxes();
@@ -802,9 +811,10 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
     // 2. Forward photons gathered at the view points.
     RenderOptions po = options_;
     if (photonsPerSource > 0) po.photonsPerPass = photonsPerSource;
-    PhotonImages acc = tracePhotons(ts_, detector_, back, po, judge_, k, radiusMm, ranks_,
-                                    connector_.any() ? &connector_ : nullptr,
-                                    emissionGuided ? &emission : nullptr);
+    PhotonImages acc =
+        tracePhotons(ts_, detector_, back, po, judge_, k, radiusMm, ranks_,
+                     connector_.any() ? &connector_ : nullptr, emissionGuided ? &emission : nullptr,
+                     scatterGuided ? &scatter : nullptr);
     const size_t criteria = judge_ ? static_cast<size_t>(judge_->count()) : 0;
     std::vector<double>& visible = out.pixels[static_cast<int>(RenderComponent::Visible)];
     for (int p = 0; p < pixels; ++p) visible[static_cast<size_t>(p)] += acc.visible[p];
@@ -850,6 +860,7 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
         for (size_t b = 0; b < out.learned.size(); ++b) out.learned[b] += acc.learned[b];
     }
     out.learned.insert(out.learned.end(), acc.emissionLearned.begin(), acc.emissionLearned.end());
+    out.learned.insert(out.learned.end(), acc.scatterLearned.begin(), acc.scatterLearned.end());
     out.photons = acc.photons;
     out.gatheredSum = acc.gatheredSum;
     out.gatheredSquares = acc.gatheredSquares;

@@ -37,6 +37,8 @@ void RenderOptions::check() const {
         fail("the guided fraction of the pixel rays must lie in [0, 1)");
     if (!(photonGuideFraction >= 0.0 && photonGuideFraction < 1.0))
         fail("the guided fraction of the photons must lie in [0, 1)");
+    if (!(scatterGuideFraction >= 0.0 && scatterGuideFraction < 1.0))
+        fail("the guided fraction of the photons' scatters must lie in [0, 1)");
     if (!(followLobesBelowDeg >= 0.0 && followLobesBelowDeg <= 90.0))
         fail("the half width below which lobes are followed must lie in [0, 90] degrees");
     if (partSamples > kMaxPartSamples)
@@ -50,9 +52,9 @@ std::ostream& operator<<(std::ostream& os, const RenderOptions& o) {
               << (o.splitBackward ? ", split" : ", random") << ", roulette "
               << o.rouletteRelativeFlux
               << (o.quasiRandomPhotons ? ", sobol photons" : ", random photons") << ", guide "
-              << o.guideFraction << ", photon guide " << o.photonGuideFraction
-              << ", follow lobes below " << o.followLobesBelowDeg << " deg"
-              << (o.connectThroughLens ? ", connected through the lens" : "") << ", "
+              << o.guideFraction << ", photon guide " << o.photonGuideFraction << ", scatter guide "
+              << o.scatterGuideFraction << ", follow lobes below " << o.followLobesBelowDeg
+              << " deg" << (o.connectThroughLens ? ", connected through the lens" : "") << ", "
               << o.partSamples << " part samples}";
 }
 

@@ -65,6 +65,13 @@ struct RenderOptions {
     // photons of the passes before it gathered from each cell; each photon's flux is divided
     // by the density it was drawn with. In [0, 1); 0 = every photon as the source emits it.
     double photonGuideFraction = 0.5;
+    // Learned scatter directions (tracer/render/scatter_guide.h, docs/render.md, "Photons
+    // scattered toward what the sensor sees"): the fraction of the scattered directions of the
+    // photons beyond the ghost photons drawn, per place in the scene, in proportion to the
+    // light that the passes before gathered after scattering there in each direction; each
+    // photon's flux is weighted by the bsdf's density over the mixture's. In [0, 1); 0 = every
+    // direction as the surface scatters.
+    double scatterGuideFraction = 0.5;
     // Narrow lobes (BackwardOptions::followLobesBelowRad): scatter lobes with a half width at
     // half maximum below this many degrees are followed by the backward rays instead of
     // gathering photons; 0: every scattering surface gathers.

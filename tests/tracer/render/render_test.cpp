@@ -246,6 +246,7 @@ TEST(Render, GuidedPhotonsKeepTheCameraEquation) {
     auto run = [&](double guide) {
         RenderOptions o = photonsAlone(256, 20000);
         o.guideFraction = 0.0;  // RenderState::learned() then holds the emission guide's alone
+        o.scatterGuideFraction = 0.0;
         o.photonGuideFraction = guide;
         return render(*c.scene, o, 12, c.aperture);
     };
@@ -971,6 +972,42 @@ TEST(Render, TwiceScatteredErrorDoesNotDependOnTheReflectance) {
         << "errors " << error[0] << ", " << error[1];
 }
 
+TEST(Render, GuidedScattersKeepTheTwiceScatteredLight) {
+    // The scatter guide (tracer/render/scatter_guide.h) draws the photons' scattered directions
+    // toward the plate and the wall where the passes before gathered light, each weighted by
+    // the surface's density over the mixture's: the twice scattered light guided (90 % of the
+    // directions) agrees with it unguided, and the total with forward Monte Carlo.
+    WindowScene w;
+    w.wall = true;
+    const auto s = windowPlateScene(w);
+    auto run = [&](double g) {
+        RenderOptions o;
+        o.raysPerPixel = 64;
+        o.photonsPerPass = 20000;
+        o.initialRadiusMm = 4.0;
+        o.scatterGuideFraction = g;
+        return render(*s, o, 16, plateAperture());
+    };
+    const RenderState guided = run(0.9), plain = run(0.0);
+    const uint64_t n = guided.passes();
+    const DetectorImage a = guided.component(RenderComponent::Secondary),
+                        b = plain.component(RenderComponent::Secondary);
+    const double sa = std::sqrt(a.totalVariance(n)), sb = std::sqrt(b.totalVariance(n));
+    ASSERT_GT(b.totalFlux(), 0.0);
+    EXPECT_LE(std::abs(a.totalFlux() - b.totalFlux()), 4.0 * std::hypot(sa, sb))
+        << a.totalFlux() << " +- " << sa << " vs " << b.totalFlux() << " +- " << sb;
+    // 16 passes of 20000 photons: 10.7 % guided, 9.4 % unguided (the plate's light reaches the
+    // wall from everywhere: little for a guide to learn here).
+    EXPECT_LT(sa, 0.15 * b.totalFlux());
+    const auto [reference, sf] = forwardTotal(*s, 1000000, 13);
+    const DetectorImage total = guided.total();
+    const double st = std::sqrt(total.totalVariance(n));
+    // With the radius bias bound of AgreesWithForwardMonteCarloInTotalAndPerPixel (1e-3 of the
+    // flux; the radius here is smaller).
+    EXPECT_LE(std::abs(total.totalFlux() - reference), 4.0 * std::hypot(st, sf) + 1e-3 * reference)
+        << total.totalFlux() << " +- " << st << " vs " << reference << " +- " << sf;
+}
+
 TEST(Render, BalancedPhotonsEvenOutTheWorkOfTheTwoSides) {
     RenderOptions o;
     o.ghostPhotonsPerPass = 16384;
@@ -1040,7 +1077,9 @@ TEST(Render, BalancedPhotonsKeepTheEstimateUnbiased) {
 }
 
 TEST(Render, ResumedAndThreadedRunsAreBitwiseTheSame) {
-    const auto s = windowPlateScene({});
+    WindowScene w;
+    w.wall = true;  // light scattered twice: the scatter guide learns and guides too
+    const auto s = windowPlateScene(w);
     RenderOptions o;
     o.raysPerPixel = 16;
     o.photonsPerPass = 5000;
@@ -1091,6 +1130,14 @@ TEST(Render, ResumedAndThreadedRunsAreBitwiseTheSame) {
     // checkpoint carried it.
     ASSERT_FALSE(straight.learned().empty());
     EXPECT_EQ(resumed.learned(), straight.learned());
+    // The learned light of all three guides: the aperture's, the emission's, the scatters'.
+    const size_t aperture = ApertureGuide(g.pixelsX, g.pixelsY).bins(),
+                 emission = EmissionGuide(1, g.pixelsX, g.pixelsY).bins();
+    ASSERT_GT(straight.learned().size(), aperture + emission);
+    double scattered = 0.0;
+    for (size_t b = aperture + emission; b < straight.learned().size(); ++b)
+        scattered += straight.learned()[b];
+    EXPECT_GT(scattered, 0.0);
     // A checkpoint of another fingerprint or grid is refused, naming the file.
     EXPECT_THROW(RenderState::read(cp, print + 1, g), std::runtime_error);
     DetectorGeometry other = g;
