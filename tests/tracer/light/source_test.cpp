@@ -1010,6 +1010,69 @@ class EmissionBins {
     int positionBins_ = 1, directionBins_ = 1;
 };
 
+// The two strategies of next-event estimation at a view point (tracer/render/backward.cpp
+// directAt) weigh one direction w by the balance heuristic: light sampling by
+// p_l / (p_l + p_b), bsdf sampling by p_b / (p_b + p_l), p_b the lobe's density. The weights
+// sum to one only if both evaluate the same p_l: sampleIncident()'s pdfSr for its own draw,
+// and incidentPdf() where a bsdf-sampled ray crosses the emitter. Checked per draw, and
+// incidentPdf over the sphere of directions integrates to the share of draws that carry
+// light (the density is per draw), by Monte Carlo over a cone about the emitter.
+TEST(SourceEvaluation, MisWeightsOfLightAndBsdfSamplingSumToOne) {
+    const Scene s(kEvaluatedSources);
+    uint64_t seed = 400;
+    int kinds = 0;
+    for (const Source& src : s.sources) {
+        if (src.delta() != Source::Delta::None) continue;
+        ++kinds;
+        const EmissionChart c = chartOf(src);
+        const double extent = c.surface == EmissionChart::Surface::Disk
+                                  ? c.radiusMm
+                                  : 0.5 * std::hypot(c.sizeMm.x, c.sizeMm.y);
+        const double lateral = 0.3 * extent, d = 40.0;
+        const Vec3 p = c.centre + d * c.n + lateral * c.u;
+        // Light sampling: each draw's density where its ray crosses the emitter.
+        CounterRng rng(++seed, 0);
+        int valid = 0;
+        const int draws = 20000;
+        for (int i = 0; i < draws; ++i) {
+            const auto in = src.sampleIncident(p, 0, rng.uniform(), rng.uniform());
+            if (!in || !(in->value > 0.0)) continue;
+            ++valid;
+            ASSERT_GT(in->pdfSr, 0.0) << src;
+            const auto t = src.crossing({p, in->toSource}, kInfinity);
+            ASSERT_TRUE(t) << src << ": the light's own direction misses the emitter";
+            const double pb = src.incidentPdf(p, p + *t * in->toSource, in->toSource);
+            ASSERT_NEAR(pb, in->pdfSr, 1e-9 * in->pdfSr) << src;
+            for (const double lobe : {0.01, 1.0, 300.0})
+                ASSERT_NEAR(in->pdfSr / (in->pdfSr + lobe) + lobe / (lobe + pb), 1.0, 1e-12);
+        }
+        ASSERT_GT(valid, draws / 100) << src;  // the window: its 3.25 degree cone, 3 %
+        // The density over a cone of directions about the emitter as seen from p.
+        const Vec3 axis = -c.n;
+        const double cone = std::min(std::atan((extent + lateral) / d) + 0.02, c.coneRad + 0.01);
+        const double solid = 2.0 * kPi * (1.0 - std::cos(cone));
+        const Vec3 u = c.u, v = glm::cross(axis, u);
+        double sum = 0.0, sum2 = 0.0;
+        const int m = 200000;
+        for (int i = 0; i < m; ++i) {
+            const double z = 1.0 - rng.uniform() * (1.0 - std::cos(cone));
+            const double phi = 2.0 * kPi * rng.uniform(), r = std::sqrt(1.0 - z * z);
+            const Vec3 w = z * axis + r * (std::cos(phi) * u + std::sin(phi) * v);
+            const auto t = src.crossing({p, w}, kInfinity);
+            const double x = t ? src.incidentPdf(p, p + *t * w, w) * solid : 0.0;
+            sum += x;
+            sum2 += x * x;
+        }
+        const double mean = sum / m, sigma = std::sqrt((sum2 / m - mean * mean) / (m - 1));
+        const double share = static_cast<double>(valid) / draws;
+        const double shareSigma = std::sqrt(share * (1.0 - share) / draws);
+        EXPECT_LT(std::abs(mean - share), 4.0 * std::hypot(sigma, shareSigma) + 1e-3)
+            << src << ": the density integrates to " << mean << " +- " << sigma << ", " << share
+            << " of the draws carry light";
+    }
+    EXPECT_EQ(kinds, 6);  // the sun, the window and four Lambertian emitters
+}
+
 TEST(SourceEvaluation, EmitFollowsThePdf) {
     const Scene s(kEvaluatedSources);
     for (const Source& src : s.sources) {

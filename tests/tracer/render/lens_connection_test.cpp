@@ -372,6 +372,17 @@ std::optional<Ray> emittedThrough(const TransportView& ts, const Vec3& p, const 
     return Ray{ray.origin - back * e, e};
 }
 
+// The Sun 3 degrees off axis, a window emitting inside a 10 degree cone and a wide Lambertian
+// disk 30 mm before the lens (sources 0, 1, 2).
+std::unique_ptr<PreparedScene> sunWindowDiskScene(const std::string& name) {
+    return singletScene(name,
+                        "[[source]]\nname = \"sun\"\nkind = \"sun\"\nfield_deg = [0.0, 3.0]\n"
+                        "[[source]]\nname = \"window\"\nkind = \"window\"\ncone_deg = 10.0\n"
+                        "[[source]]\nname = \"disk\"\nkind = \"lambertian\"\n"
+                        "position_mm = [0.0, 0.0, -30.0]\nnormal = [0.0, 0.0, 1.0]\n"
+                        "radius_mm = 20.0\nflux = 1.0\n");
+}
+
 // The directions connect() draws at a point follow its density: a chi-square test of their
 // histogram against the density integrated over each cell, the density at any direction
 // coming from found() for the source's own ray along it (emittedThrough), so that the two
@@ -379,13 +390,7 @@ std::optional<Ray> emittedThrough(const TransportView& ts, const Vec3& p, const 
 // solved), a narrow-coned window (the same, and its other way: the point drawn, the direction
 // solved) and a wide Lambertian disk (the point drawn, the direction solved).
 TEST(LensConnection, DirectionsFollowTheirDensityByChiSquare) {
-    const auto scene =
-        singletScene("chi2",
-                     "[[source]]\nname = \"sun\"\nkind = \"sun\"\nfield_deg = [0.0, 3.0]\n"
-                     "[[source]]\nname = \"window\"\nkind = \"window\"\ncone_deg = 10.0\n"
-                     "[[source]]\nname = \"disk\"\nkind = \"lambertian\"\n"
-                     "position_mm = [0.0, 0.0, -30.0]\nnormal = [0.0, 0.0, 1.0]\n"
-                     "radius_mm = 20.0\nflux = 1.0\n");
+    const auto scene = sunWindowDiskScene("chi2");
     const TransportView& ts = scene->transport().view;
     const LensConnector lc(ts);
     constexpr int kSamples = 20000, kCells = 8, kSub = 16;
@@ -480,6 +485,40 @@ TEST(LensConnection, DirectionsFollowTheirDensityByChiSquare) {
         EXPECT_GE(bins, 20) << "source " << s << " mode " << mode;
         EXPECT_LT(z, 4.0) << "source " << s << " mode " << mode << ": chi2 " << chi2 << " with "
                           << k << " dof";
+    }
+}
+
+// At a followed narrow lobe (tracer/render/backward.cpp), the connection's light is weighed
+// p_c / (p_c + p_lobe), and a source that the lobe's own direction reaches through the same
+// chain p_lobe / (p_lobe + p_c'), p_c' from found() for that path. The two weights sum to one
+// only if found() gives the connection's own density for the connection's own path: checked
+// on every draw, for the Sun, a window both ways and a wide Lambertian disk, the path rebuilt
+// by the independent trace back from the point (emittedThrough).
+TEST(LensConnection, MisWeightsOfTheConnectionAndTheLobeSumToOne) {
+    const auto scene = sunWindowDiskScene("mis");
+    const TransportView& ts = scene->transport().view;
+    const LensConnector lc(ts);
+    for (const auto& [s, mode] : {std::pair{size_t{0}, 0}, std::pair{size_t{1}, 0},
+                                  std::pair{size_t{1}, 1}, std::pair{size_t{2}, 0}}) {
+        const Vec3 p = s == 2 ? Vec3(0.5, -0.3, 60.0) : litPoint(*scene, s, 1.5, -1.0);
+        int checked = 0;
+        for (int i = 0; i < 500; ++i) {
+            CounterRng rng(61 + s, static_cast<uint64_t>(i));
+            const double u1 = rng.uniform(), u2 = rng.uniform();
+            LensConnector::Work work;
+            const auto c = lc.connectAs(mode, s, 0, 550.0, 2, p, -1, u1, u2, work);
+            if (!c) continue;
+            ASSERT_GT(c->pdfSr, 0.0);
+            const auto emitted = emittedThrough(ts, p, c->toLight, ts.sources[s]);
+            ASSERT_TRUE(emitted) << "source " << s << ": the connection's path does not trace back";
+            const auto f = lc.foundAs(mode, s, 0, 550.0, 2, p, -1, *emitted, work);
+            ASSERT_TRUE(f) << "source " << s << " mode " << mode << ": its own path not found";
+            EXPECT_NEAR(f->pdfSr, c->pdfSr, 1e-6 * c->pdfSr) << "source " << s << " mode " << mode;
+            for (const double lobe : {1e-3 * c->pdfSr, c->pdfSr, 1e3 * c->pdfSr})
+                EXPECT_NEAR(c->pdfSr / (c->pdfSr + lobe) + lobe / (lobe + f->pdfSr), 1.0, 1e-6);
+            ++checked;
+        }
+        EXPECT_GT(checked, 50) << "source " << s << " mode " << mode;
     }
 }
 
