@@ -146,6 +146,12 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
                     "[0, 1) (0: as the surfaces scatter)")
         ->check(CLI::Range(0.0, 0.99))
         ->capture_default_str();
+    sub->add_option("--weight-window", o.weightWindow,
+                    "photons that expect more than W times an average photon's gathered light "
+                    "where they scatter split, those below 1/W play roulette, from what the "
+                    "passes before learned (0: off; W in [1, 1e6])")
+        ->check(CLI::Range(0.0, 1e6))
+        ->capture_default_str();
     sub->add_option("--follow-lobes-below", o.followLobesBelow,
                     "scatter lobes narrower than this half width (degrees) are followed by the "
                     "pixel rays instead of gathering photons (0: every surface gathers)")
@@ -227,6 +233,7 @@ RenderRunSpec renderSpec(const RenderCommandOptions& o) {
     ro.guideFraction = o.guide;
     ro.photonGuideFraction = o.photonGuide;
     ro.scatterGuideFraction = o.scatterGuide;
+    ro.weightWindow = o.weightWindow;
     ro.followLobesBelowDeg = o.followLobesBelow;
     ro.connectThroughLens = o.connect == "on";
     ro.partSamples = o.partSamples;

@@ -39,6 +39,7 @@ struct RenderCommandOptions {
     double guide = 0.5;    // guided share of the pixel rays (RenderOptions::guideFraction)
     double photonGuide = 0.5;  // guided share of the photons (RenderOptions::photonGuideFraction)
     double scatterGuide = 0.5;      // guided share of their scatters (scatterGuideFraction)
+    double weightWindow = 0.0;      // RenderOptions::weightWindow (0: off)
     double followLobesBelow = 0.0;  // degrees (RenderOptions::followLobesBelowDeg)
     std::string connect = "on";     // RenderOptions::connectThroughLens
     uint64_t partSamples = 65536;   // RenderOptions::partSamples

@@ -41,7 +41,8 @@ uint64_t fingerprintOf(const TransportView& ts, const DetectorGeometry& g, const
        << o.areaSamples << " " << o.quasiRandomPhotons << " " << o.ghostPhotons() << " "
        << o.photonRescueRelativeFlux << " " << o.guideFraction << " " << o.followLobesBelowDeg
        << " " << o.balancePhotons << " " << o.maxPhotonsPerPass << " " << o.connectThroughLens
-       << " " << o.partSamples << " " << o.photonGuideFraction << " " << o.scatterGuideFraction;
+       << " " << o.partSamples << " " << o.photonGuideFraction << " " << o.scatterGuideFraction
+       << " " << o.weightWindow;
     for (const std::string& w : where) os << "\nwhere " << w;
     const std::string text = os.str();
     uint64_t h = 1469598103934665603ull;

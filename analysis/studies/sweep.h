@@ -80,6 +80,7 @@ struct SweepSpec {
         o.guideFraction = 0.0;
         o.photonGuideFraction = 0.0;
         o.scatterGuideFraction = 0.0;
+        o.weightWindow = 0.0;
         return o;
     }
     std::string detector;

@@ -150,6 +150,9 @@ struct Photon {
     double lowFlux = 0.0, keepFlux = 0.0;
     Ray emitted{};  // as the source emitted it (the lens connection's audit)
     int emissionCell = -1;  // with an emission guide: its cell there
+    // Its source's flux per photon, before the emission guide's density: the weight windows'
+    // average photon.
+    double nominalFlux = 0.0;
 };
 
 // What a whole pass shares, built once: the view point grid, the rim corrections, the
@@ -419,6 +422,7 @@ Photon PhotonPass::emit(uint64_t i, EmittedRay& e) const {
         ph.emissionCell = w.cell;
     }
     e = source.emit(u, perSource_);
+    ph.nominalFlux = e.flux;
     e.flux /= density;
     ph.wavelength = e.wavelength;
     ph.wavelengthNm = e.wavelengthNm;
@@ -529,6 +533,10 @@ class BlockTracer {
     // match its path any more (prune).
     bool become(PhotonBranch& b, const SceneHit& hit, const Interaction& in, int c, double flux,
                 Photon& ph);
+    // become() past the weight window: as child c (a scatter in the scatter guide's `slot`, or
+    // -1) with `flux`; `windowed`: the window changed the flux (its roulette starts anew).
+    bool becomeOne(PhotonBranch& b, const SceneHit& hit, const Interaction& in, int c, int slot,
+                   double flux, Photon& ph, bool windowed);
     // The children after a hit: every one before the first scatter (the ghosts live in the
     // weak reflected branches), then one by weight. False when the branch ends.
     bool next(PhotonBranch& br, const SceneHit& hit, const Interaction& in, double scatterScale,
@@ -560,6 +568,7 @@ class BlockTracer {
     // it on the same branch, -1 for none), and the last one of the branch gathering now.
     struct ScatterVertex {
         size_t bin;
+        int slot;
         int parent;
     };
     std::vector<ScatterVertex> vertices_;
@@ -584,8 +593,11 @@ void BlockTracer::book(int slot, uint64_t matched, const std::vector<int>* sprea
         if (vertex_ >= 0) {
             const double weighted =
                 p_.emissionGuide_ ? value * p_.emissionGuide_->regionWeight(pixel) : value;
-            for (int v = vertex_; v >= 0; v = vertices_[static_cast<size_t>(v)].parent)
-                block_.scatterLearned[vertices_[static_cast<size_t>(v)].bin] += weighted;
+            for (int v = vertex_; v >= 0; v = vertices_[static_cast<size_t>(v)].parent) {
+                const ScatterVertex& x = vertices_[static_cast<size_t>(v)];
+                block_.scatterLearned[x.bin] += weighted;
+                block_.scatterLearned[p_.scatterGuide_->gatheredBin(x.slot)] += value;
+            }
         }
     }
     if (!p_.prune_ || matched != 0) into(static_cast<uint32_t>(slot));
@@ -622,6 +634,10 @@ void BlockTracer::tracePhoton(uint64_t i) {
     }
     block_.gatheredSum += gathered_;
     block_.gatheredSquares += gathered_ * gathered_;
+    if (p_.scatterGuide_) {
+        block_.scatterLearned[p_.scatterGuide_->totalGatheredBin()] += gathered_;
+        block_.scatterLearned[p_.scatterGuide_->emittedBin()] += e.flux;
+    }
 }
 
 void BlockTracer::follow(PhotonBranch br, Photon& ph) {
@@ -803,6 +819,30 @@ bool BlockTracer::become(PhotonBranch& b, const SceneHit& hit, const Interaction
                          double flux, Photon& ph) {
     const InteractionChild& child = in.children[c];
     const int slot = child.scatter && p_.scatterGuide_ ? p_.scatterGuide_->slot(hit.point) : -1;
+    if (slot < 0 || ph.splitAll || p_.options_.weightWindow == 0.0)
+        return becomeOne(b, hit, in, c, slot, flux, ph, false);
+    // The weight window: split or roulette by what the photon expects to bring from here. The
+    // light it scatters is then a photon of its own (its roulette relative to its new flux).
+    const ScatterGuide::Window w =
+        p_.scatterGuide_->window(slot, flux / ph.nominalFlux, ph.rng.uniform());
+    if (w.photons == 0) return false;
+    const bool windowed = w.factor != 1.0;
+    flux *= w.factor;
+    for (int j = 1; j < w.photons; ++j) {
+        PhotonBranch copy = b;
+        if (p_.judge_) {  // its own copy of the path state
+            copy.state = states_.size();
+            states_.resize(states_.size() + p_.stateBytes_);
+            std::memcpy(states_.data() + copy.state, states_.data() + b.state, p_.stateBytes_);
+        }
+        if (becomeOne(copy, hit, in, c, slot, flux, ph, true)) stack_.push_back(copy);
+    }
+    return becomeOne(b, hit, in, c, slot, flux, ph, windowed);
+}
+
+bool BlockTracer::becomeOne(PhotonBranch& b, const SceneHit& hit, const Interaction& in, int c,
+                            int slot, double flux, Photon& ph, bool windowed) {
+    const InteractionChild& child = in.children[c];
     // The ghost photons scatter as the surface does: they carry the visible light, and the
     // guide learns from them too.
     const auto dir = slot >= 0 && !ph.splitAll ? p_.scatterGuide_->draw(in, c, slot, ph.rng, flux)
@@ -817,7 +857,8 @@ bool BlockTracer::become(PhotonBranch& b, const SceneHit& hit, const Interaction
         ++block_.pruned;
         return false;
     }
-    if (child.scatter && !b.scattered) b.rouletteFlux = p_.options_.rouletteRelativeFlux * flux;
+    if (child.scatter && (!b.scattered || windowed))
+        b.rouletteFlux = p_.options_.rouletteRelativeFlux * flux;
     b.designed = p_.designed_.forward(b.designed, hit.object, child.event);
     (child.scatter ? b.scattered : b.specular) = true;
     b.flux = flux;
@@ -827,8 +868,10 @@ bool BlockTracer::become(PhotonBranch& b, const SceneHit& hit, const Interaction
     b.startPrimitive = hit.primitive;
     if (slot >= 0) {
         vertices_.push_back(
-            {p_.scatterGuide_->bin(slot, ScatterGuide::cellOf(*dir)), b.scatterVertex});
+            {p_.scatterGuide_->bin(slot, ScatterGuide::cellOf(*dir)), slot, b.scatterVertex});
         b.scatterVertex = static_cast<int>(vertices_.size()) - 1;
+        block_.scatterLearned[p_.scatterGuide_->scatteredBin(slot)] += flux;
+        block_.scatterLearned[p_.scatterGuide_->scattersBin(slot)] += 1.0;
     }
     return true;
 }

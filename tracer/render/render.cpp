@@ -790,13 +790,13 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
                          options_.photonGuideFraction);
     }
     ScatterGuide scatter;
-    const bool scatterGuided = options_.scatterGuideFraction > 0.0;
+    const bool scatterGuided = options_.scatterGuideFraction > 0.0 || options_.weightWindow > 0.0;
     if (scatterGuided) {
         scatter = ScatterGuide(ts_.scene->bounds());
         scatter.prepare(
             learnedPart((bo.guide ? guide.bins() : 0) + (emissionGuided ? emission.bins() : 0),
                         scatter.bins()),
-            options_.scatterGuideFraction);
+            options_.scatterGuideFraction, options_.weightWindow);
     }
     BackwardResult back = traceBackward(ts_, detector_, aperture_, bo);
     out.pixels[static_cast<int>(RenderComponent::Visible)] = back.visible.fluxes();

@@ -39,6 +39,8 @@ void RenderOptions::check() const {
         fail("the guided fraction of the photons must lie in [0, 1)");
     if (!(scatterGuideFraction >= 0.0 && scatterGuideFraction < 1.0))
         fail("the guided fraction of the photons' scatters must lie in [0, 1)");
+    if (!(weightWindow == 0.0 || (weightWindow >= 1.0 && weightWindow <= 1e6)))
+        fail("the weight window must be 0 (off) or lie in [1, 1e6]");
     if (!(followLobesBelowDeg >= 0.0 && followLobesBelowDeg <= 90.0))
         fail("the half width below which lobes are followed must lie in [0, 90] degrees");
     if (partSamples > kMaxPartSamples)
@@ -53,8 +55,9 @@ std::ostream& operator<<(std::ostream& os, const RenderOptions& o) {
               << o.rouletteRelativeFlux
               << (o.quasiRandomPhotons ? ", sobol photons" : ", random photons") << ", guide "
               << o.guideFraction << ", photon guide " << o.photonGuideFraction << ", scatter guide "
-              << o.scatterGuideFraction << ", follow lobes below " << o.followLobesBelowDeg
-              << " deg" << (o.connectThroughLens ? ", connected through the lens" : "") << ", "
+              << o.scatterGuideFraction << ", weight window " << o.weightWindow
+              << ", follow lobes below " << o.followLobesBelowDeg << " deg"
+              << (o.connectThroughLens ? ", connected through the lens" : "") << ", "
               << o.partSamples << " part samples}";
 }
 

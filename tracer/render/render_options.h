@@ -72,6 +72,11 @@ struct RenderOptions {
     // photon's flux is weighted by the bsdf's density over the mixture's. In [0, 1); 0 = every
     // direction as the surface scatters.
     double scatterGuideFraction = 0.5;
+    // Weight windows at the photons' scatters (tracer/render/scatter_guide.h): from what the
+    // passes before learned per place in the scene, a photon that expects more than this many
+    // times an average photon's gathered light splits (into at most 8), one that expects less
+    // than its inverse plays Russian roulette. 0 = off; otherwise in [1, 1e6].
+    double weightWindow = 0.0;
     // Narrow lobes (BackwardOptions::followLobesBelowRad): scatter lobes with a half width at
     // half maximum below this many degrees are followed by the backward rays instead of
     // gathering photons; 0: every scattering surface gathers.

@@ -50,15 +50,29 @@ int ScatterGuide::cellOf(const Vec3& w) {
     return band * kSectors + sector;
 }
 
-void ScatterGuide::prepare(const std::vector<double>& learned, double g) {
+void ScatterGuide::prepare(const std::vector<double>& learned, double g, double window) {
     if (learned.size() != bins())
         throw std::invalid_argument("ScatterGuide: " + std::to_string(learned.size()) +
                                     " learned values for " + std::to_string(bins()) + " bins");
     if (!(g >= 0.0 && g < 1.0))
         throw std::invalid_argument("ScatterGuide: the guided fraction must lie in [0, 1)");
+    if (!(window == 0.0 || (window >= 1.0 && window <= 1e6)))
+        throw std::invalid_argument("ScatterGuide: the weight window must be 0 or in [1, 1e6]");
     g_ = g;
-    cdf_.assign(bins(), 0.0);
-    q_.assign(bins(), 0.0);
+    window_ = window;
+    yield_.assign(slots_, -1.0);
+    const double mean = learned[totalGatheredBin()] / learned[emittedBin()];
+    if (window > 0.0 && mean > 0.0 && std::isfinite(mean)) {
+        for (size_t s = 0; s < slots_; ++s) {
+            const int slot = static_cast<int>(s);
+            const double scattered = learned[scatteredBin(slot)];
+            if (!(learned[scattersBin(slot)] >= kMinScatters && scattered > 0.0)) continue;
+            const double y = std::max(learned[gatheredBin(slot)], 0.0) / scattered / mean;
+            if (std::isfinite(y)) yield_[s] = y;
+        }
+    }
+    cdf_.assign(slots_ * kCellCount, 0.0);
+    q_.assign(slots_ * kCellCount, 0.0);
     lit_.assign(slots_, 0);
     if (g == 0.0) return;
     for (size_t s = 0; s < slots_; ++s) {
@@ -89,6 +103,26 @@ Vec3 ScatterGuide::sample(int slot, double u0, double u1, double u2) const {
     const double phi = 2.0 * kPi * (sector + u2) / kSectors;
     const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
     return {r * std::cos(phi), r * std::sin(phi), z};
+}
+
+double ScatterGuide::ratio(int slot, double relative) const {
+    if (yield_.empty()) return -1.0;
+    const double y = yield_[static_cast<size_t>(slot)];
+    return y >= 0.0 ? relative * y : -1.0;
+}
+
+ScatterGuide::Window ScatterGuide::window(int slot, double relative, double u) const {
+    const double r = ratio(slot, relative);
+    if (!(r >= 0.0)) return {};
+    if (r > window_) {
+        const int n = static_cast<int>(std::min(r, static_cast<double>(kMaxSplit)));
+        return {n, 1.0 / n};
+    }
+    if (r < 1.0 / window_) {
+        const double q = std::max(r, kMinSurvival);
+        return u < q ? Window{1, 1.0 / q} : Window{0, 0.0};
+    }
+    return {};
 }
 
 double ScatterGuide::pdf(int slot, const Vec3& w) const {

@@ -972,40 +972,50 @@ TEST(Render, TwiceScatteredErrorDoesNotDependOnTheReflectance) {
         << "errors " << error[0] << ", " << error[1];
 }
 
-TEST(Render, GuidedScattersKeepTheTwiceScatteredLight) {
+TEST(Render, GuidedAndWindowedScattersKeepTheTwiceScatteredLight) {
     // The scatter guide (tracer/render/scatter_guide.h) draws the photons' scattered directions
     // toward the plate and the wall where the passes before gathered light, each weighted by
-    // the surface's density over the mixture's: the twice scattered light guided (90 % of the
-    // directions) agrees with it unguided, and the total with forward Monte Carlo.
+    // the surface's density over the mixture's; the weight windows split and roulette the
+    // photons where they scatter by the yield learned there. The twice scattered light guided
+    // (90 % of the directions), and with windows of 1.5 (most scatters split or play
+    // roulette), agrees with it unguided, and each total with forward Monte Carlo.
     WindowScene w;
     w.wall = true;
     const auto s = windowPlateScene(w);
-    auto run = [&](double g) {
+    auto run = [&](double g, double window) {
         RenderOptions o;
         o.raysPerPixel = 64;
         o.photonsPerPass = 20000;
         o.initialRadiusMm = 4.0;
         o.scatterGuideFraction = g;
+        o.weightWindow = window;
         return render(*s, o, 16, plateAperture());
     };
-    const RenderState guided = run(0.9), plain = run(0.0);
-    const uint64_t n = guided.passes();
-    const DetectorImage a = guided.component(RenderComponent::Secondary),
-                        b = plain.component(RenderComponent::Secondary);
-    const double sa = std::sqrt(a.totalVariance(n)), sb = std::sqrt(b.totalVariance(n));
+    const RenderState plain = run(0.0, 0.0);
+    const uint64_t n = plain.passes();
+    const DetectorImage b = plain.component(RenderComponent::Secondary);
+    const double sb = std::sqrt(b.totalVariance(n));
     ASSERT_GT(b.totalFlux(), 0.0);
-    EXPECT_LE(std::abs(a.totalFlux() - b.totalFlux()), 4.0 * std::hypot(sa, sb))
-        << a.totalFlux() << " +- " << sa << " vs " << b.totalFlux() << " +- " << sb;
-    // 16 passes of 20000 photons: 10.7 % guided, 9.4 % unguided (the plate's light reaches the
-    // wall from everywhere: little for a guide to learn here).
-    EXPECT_LT(sa, 0.15 * b.totalFlux());
     const auto [reference, sf] = forwardTotal(*s, 1000000, 13);
-    const DetectorImage total = guided.total();
-    const double st = std::sqrt(total.totalVariance(n));
-    // With the radius bias bound of AgreesWithForwardMonteCarloInTotalAndPerPixel (1e-3 of the
-    // flux; the radius here is smaller).
-    EXPECT_LE(std::abs(total.totalFlux() - reference), 4.0 * std::hypot(st, sf) + 1e-3 * reference)
-        << total.totalFlux() << " +- " << st << " vs " << reference << " +- " << sf;
+    for (const auto& [g, window] : {std::pair{0.9, 0.0}, std::pair{0.0, 1.5}}) {
+        const RenderState state = run(g, window);
+        const DetectorImage a = state.component(RenderComponent::Secondary);
+        const double sa = std::sqrt(a.totalVariance(n));
+        EXPECT_LE(std::abs(a.totalFlux() - b.totalFlux()), 4.0 * std::hypot(sa, sb))
+            << "guide " << g << ", window " << window << ": " << a.totalFlux() << " +- " << sa
+            << " vs " << b.totalFlux() << " +- " << sb;
+        // 16 passes of 20000 photons: 9.4 % unguided, 10.7 % guided (the plate's light reaches
+        // the wall from everywhere: little for a guide to learn here).
+        EXPECT_LT(sa, 0.15 * b.totalFlux()) << "guide " << g << ", window " << window;
+        const DetectorImage total = state.total();
+        const double st = std::sqrt(total.totalVariance(n));
+        // With the radius bias bound of AgreesWithForwardMonteCarloInTotalAndPerPixel (1e-3 of
+        // the flux; the radius here is smaller).
+        EXPECT_LE(std::abs(total.totalFlux() - reference),
+                  4.0 * std::hypot(st, sf) + 1e-3 * reference)
+            << "guide " << g << ", window " << window << ": " << total.totalFlux() << " +- " << st
+            << " vs " << reference << " +- " << sf;
+    }
 }
 
 TEST(Render, BalancedPhotonsEvenOutTheWorkOfTheTwoSides) {

@@ -32,7 +32,7 @@ TEST(ScatterGuide, PlacesFallInTheGridsCells) {
     // 160 x 20 x 10 mm: cubes of 10 mm (16 along the longest side), 16 x 2 x 1 of them.
     const ScatterGuide guide(box(Vec3(0.0), Vec3(160.0, 20.0, 10.0)));
     EXPECT_EQ(guide.slots(), size_t{32});
-    EXPECT_EQ(guide.bins(), size_t{32} * kCells);
+    EXPECT_EQ(guide.bins(), size_t{32} * (kCells + 3) + 2);  // cells, then yields, then totals
     EXPECT_EQ(guide.slot(Vec3(5.0, 5.0, 5.0)), 0);
     EXPECT_EQ(guide.slot(Vec3(15.0, 5.0, 5.0)), 1);
     EXPECT_EQ(guide.slot(Vec3(5.0, 15.0, 5.0)), 16);
@@ -211,6 +211,60 @@ TEST(ScatterGuide, GuidedScattersKeepTheSurfacesIntegrals) {
               4.0 * std::hypot(guided.coneError, plain.coneError))
         << guided.cone << " vs " << plain.cone;
     EXPECT_GT(plain.cone, 0.2);
+}
+
+TEST(ScatterGuide, WeightWindowsKeepTheExpectedFlux) {
+    // Slot 0 yields 4x the mean light per scattered flux, slot 1 a hundredth of it, slot 2 has
+    // too few scatters learned, slot 3 none.
+    ScatterGuide guide(row());
+    std::vector<double> learned(guide.bins(), 0.0);
+    learned[guide.totalGatheredBin()] = 2.0;
+    learned[guide.emittedBin()] = 1.0;  // mean yield 2
+    auto set = [&](int slot, double gathered, double scattered, double scatters) {
+        learned[guide.gatheredBin(slot)] = gathered;
+        learned[guide.scatteredBin(slot)] = scattered;
+        learned[guide.scattersBin(slot)] = scatters;
+    };
+    set(0, 8.0, 1.0, 500.0);
+    set(1, 0.02, 1.0, 500.0);
+    set(2, 8.0, 1.0, ScatterGuide::kMinScatters - 1.0);
+    guide.prepare(learned, 0.0, 2.0);
+    EXPECT_DOUBLE_EQ(guide.ratio(0, 0.5), 2.0);
+    EXPECT_DOUBLE_EQ(guide.ratio(1, 1.0), 0.01);
+    EXPECT_EQ(guide.ratio(2, 1.0), -1.0);
+    EXPECT_EQ(guide.ratio(3, 1.0), -1.0);
+    EXPECT_FALSE(guide.guides(0));  // a window without the guide
+    // photons x factor averages to 1 over the uniform: splits, roulettes, no window.
+    auto expected = [&](int slot, double relative, int& split, int& died) {
+        const int m = 100000;
+        double sum = 0.0;
+        split = died = 0;
+        for (int i = 0; i < m; ++i) {
+            const ScatterGuide::Window w = guide.window(slot, relative, (i + 0.5) / m);
+            sum += w.photons * w.factor;
+            split = std::max(split, w.photons);
+            died += w.photons == 0;
+        }
+        return sum / m;
+    };
+    int split = 0, died = 0;
+    EXPECT_NEAR(expected(0, 1.5, split, died), 1.0, 1e-12);  // ratio 6: 6 photons
+    EXPECT_EQ(split, 6);
+    EXPECT_NEAR(expected(0, 10.0, split, died), 1.0, 1e-12);  // ratio 40: kMaxSplit
+    EXPECT_EQ(split, ScatterGuide::kMaxSplit);
+    EXPECT_NEAR(expected(0, 0.5, split, died), 1.0, 1e-12);  // ratio 2: inside the window
+    EXPECT_EQ(split, 1);
+    EXPECT_EQ(died, 0);
+    EXPECT_NEAR(expected(1, 20.0, split, died), 1.0, 1e-4);  // ratio 0.2: kept 1 in 5
+    EXPECT_NEAR(died, 80000, 1);
+    EXPECT_NEAR(expected(1, 1.0, split, died), 1.0, 1e-4);  // ratio 0.01: kMinSurvival
+    EXPECT_NEAR(died, 100000 * (1.0 - ScatterGuide::kMinSurvival), 1);
+    EXPECT_NEAR(expected(2, 1.0, split, died), 1.0, 1e-12);
+    EXPECT_EQ(died, 0);
+    // Off (0), or an absurd window: refused or no window.
+    guide.prepare(learned, 0.0, 0.0);
+    EXPECT_EQ(guide.ratio(0, 1.0), -1.0);
+    EXPECT_THROW(guide.prepare(learned, 0.0, 0.5), std::invalid_argument);
 }
 
 }  // namespace
