@@ -263,6 +263,14 @@ bool fewPhotons(const RenderState& state) {
            std::abs(gathered) >= 0.01 * std::abs(state.strayLight().totalFlux());
 }
 
+// Whether the light the pixel rays brought back rests on few rays while it is at least 1 % of
+// the stray light.
+bool fewRays(const RenderState& state) {
+    const double n = state.effectiveRays();
+    return n > 0.0 && n < RenderState::kFewPhotons &&
+           std::abs(state.rayLight()) >= 0.01 * std::abs(state.strayLight().totalFlux());
+}
+
 // One line on the gathered light's radius bias (RadiusBias).
 std::string radiusBiasText(const RadiusBias& b, double gathered) {
     std::ostringstream os;
@@ -369,6 +377,8 @@ nlohmann::json RenderResult::summary() const {
     summary["stray"]["mean_relative_error"] = jsonNumber(state.strayMeanRelativeError());
     summary["gathered_effective_photons"] = state.effectivePhotons();
     summary["few_photons"] = fewPhotons(state);
+    summary["backward_effective_rays"] = state.effectiveRays();
+    summary["few_rays"] = fewRays(state);
     summary["radius_bias"] =
         biasJson(bias, gatheredOf(state.component(RenderComponent::Caustic),
                                   state.component(RenderComponent::Secondary)));
@@ -458,6 +468,15 @@ std::string RenderResult::text(const std::string& folder) const {
              << "): its error bar may not hold, a pass that missed the rare photons looks like "
                 "one that did not need them. Run longer (docs/render.md, \"Error bars from few "
                 "passes\")\n"
+             << std::setprecision(6);
+    if (fewRays(state))
+        text << "  FEW RAYS: the light the pixel rays found (a source seen directly or through "
+                "the lens, next-event and connected light) rests on "
+             << std::defaultfloat << std::setprecision(2) << state.effectiveRays()
+             << " effective rays over the passes (fewer than "
+             << static_cast<int>(RenderState::kFewPhotons)
+             << "): its error bar may not hold. Run longer or raise --rays-per-pixel "
+                "(docs/render.md, \"Error bars from few passes\")\n"
              << std::setprecision(6);
     for (int k = 0; k < state.criteria(); ++k) {
         const DetectorImage img = state.criterionTotal(k);

@@ -902,6 +902,13 @@ BackwardResult mergePixels(const DetectorImage& detector, const BackwardOptions&
             for (uint64_t k = 0; k < perPixel; ++k)
                 result.learned[options.guide->bin(p, po.cell[k])] +=
                     po.visible[k] + po.direct[k] + po.caustic[k] + po.secondary[k];
+        for (uint64_t k = 0; k < perPixel; ++k) {
+            const double c = std::max(
+                po.visible[k] + po.direct[k] + po.caustic[k] + po.secondary[k] - po.imageForming[k],
+                0.0);
+            result.raySum += c;
+            result.raySquares += c * c;
+        }
         for (double v : po.visible)
             if (v != 0.0) result.visible.add(p, v);
         for (double v : po.direct)

@@ -146,6 +146,10 @@ struct BackwardResult {
     uint64_t segments = 0;
     uint64_t connectionRays = 0;  // traced by the lens connections (in `segments` too)
     uint64_t prunedBranches = 0;  // backward branches stopped by the criteria (prune)
+    // Over the pixel rays, the sum of each one's stray light (visible, direct, caustic and
+    // secondary as it brought them back, less the image-forming light) and of its square: how
+    // many rays carry that light (RenderState::effectiveRays).
+    double raySum = 0.0, raySquares = 0.0;
     // The visible image's total flux variance: the sum of its pixels' (independent) ones.
     double visibleTotalVariance(uint64_t raysPerPixel) const;
     double directTotalVariance(uint64_t raysPerPixel) const;

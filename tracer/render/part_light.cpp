@@ -536,7 +536,10 @@ PartLight::Result PartLight::trace(const DetectorImage& detector, uint64_t sampl
             for (uint64_t m = e.matched; m != 0; m &= m - 1)
                 result.byCriterion[static_cast<size_t>(std::countr_zero(m))]
                                   [static_cast<size_t>(e.pixel)] += e.flux;
-            if (!(prune && e.matched == 0)) result.pixels[static_cast<size_t>(e.pixel)] += e.flux;
+            if (prune && e.matched == 0) continue;
+            result.pixels[static_cast<size_t>(e.pixel)] += e.flux;
+            result.sum += e.flux;
+            result.squares += e.flux * e.flux;
         }
     };
     auto pack = [](const Block& b) {

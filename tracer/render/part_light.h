@@ -132,6 +132,9 @@ class PartLight {
         std::vector<double> pixels;                    // flux per pixel
         std::vector<std::vector<double>> byCriterion;  // [criterion][pixel]
         uint64_t samples = 0, rays = 0, found = 0;     // found: samples that reached a pixel
+        // Over the samples, the sum of the flux each brought to its pixel and of its square
+        // (RenderState::effectiveRays).
+        double sum = 0.0, squares = 0.0;
     };
     // One pass's estimate from `samples` points drawn from the streams of `seed`.
     Result trace(const DetectorImage& detector, uint64_t samples, uint64_t seed,

@@ -231,6 +231,8 @@ void RenderState::add(const RenderPass& pass) {
     photonsPerPass_ = pass.nextPhotonsPerSource;
     gatheredSum_ += pass.gatheredSum;
     gatheredSquares_ += pass.gatheredSquares;
+    raySum_ += pass.raySum;
+    raySquares_ += pass.raySquares;
     ++passes_;
     // Knaus and Zwicker: r_{k+1}^2 = r_k^2 (k + alpha) / (k + 1), k the pass just added.
     const double k = passes_;
@@ -271,6 +273,10 @@ void RenderState::shareFromRoot(const Ranks& ranks) {
 
 double RenderState::effectivePhotons() const {
     return gatheredSquares_ > 0.0 ? gatheredSum_ * gatheredSum_ / gatheredSquares_ : 0.0;
+}
+
+double RenderState::effectiveRays() const {
+    return raySquares_ > 0.0 ? raySum_ * raySum_ / raySquares_ : 0.0;
 }
 
 DetectorImage RenderState::component(RenderComponent c) const {
@@ -347,7 +353,8 @@ bool RenderState::sameSums(const RenderState& o) const {
         for (size_t i = 0; i < sums_.size(); ++i)
             if (!criterionSums_[k][i].sameSums(o.criterionSums_[k][i])) return false;
     return passes_ == o.passes_ && learned_ == o.learned_ && gatheredSum_ == o.gatheredSum_ &&
-           gatheredSquares_ == o.gatheredSquares_ && radiusMm_ == o.radiusMm_ &&
+           gatheredSquares_ == o.gatheredSquares_ && raySum_ == o.raySum_ &&
+           raySquares_ == o.raySquares_ && radiusMm_ == o.radiusMm_ &&
            photonsPerPass_ == o.photonsPerPass_ && initialRadiusMm_ == o.initialRadiusMm_ &&
            alpha_ == o.alpha_;
 }
@@ -357,7 +364,7 @@ namespace {
 constexpr char kMagic[8] = {'V', 'E', 'I', 'L', 'R', 'N', 'D', 'R'};
 // 2: the criteria's sums follow the plain ones; 3: the guide; 4: the radius differences;
 // 5: the next pass's photons; 6: the photons' gathered sums
-constexpr uint32_t kVersion = 6;
+constexpr uint32_t kVersion = 7;
 
 template <class T>
 void put(std::ostream& os, const T& v) {
@@ -419,6 +426,8 @@ void RenderState::write(const std::filesystem::path& path, uint64_t fingerprint)
         put(os, photonsPerPass_);
         put(os, gatheredSum_);
         put(os, gatheredSquares_);
+        put(os, raySum_);
+        put(os, raySquares_);
         os.flush();
         if (!os) {
             std::error_code ec;
@@ -487,6 +496,8 @@ RenderState RenderState::read(const std::filesystem::path& path, uint64_t finger
     s.photonsPerPass_ = get<uint64_t>(is);
     s.gatheredSum_ = get<double>(is);
     s.gatheredSquares_ = get<double>(is);
+    s.raySum_ = get<double>(is);
+    s.raySquares_ = get<double>(is);
     if (!is) fail("the checkpoint is truncated");
     if (s.passes_ < 0 || !(s.radiusMm_ > 0.0)) fail("the checkpoint is damaged");
     return s;
@@ -863,6 +874,8 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
     out.learned.insert(out.learned.end(), acc.scatterLearned.begin(), acc.scatterLearned.end());
     out.photons = acc.photons;
     out.gatheredSum = acc.gatheredSum;
+    out.raySum = back.raySum;
+    out.raySquares = back.raySquares;
     out.gatheredSquares = acc.gatheredSquares;
     out.photonSegments = acc.segments;
     out.gathers = acc.gathers;
@@ -896,6 +909,8 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
                     lt.byCriterion[c][i];
                 out.criteriaGatheredHalf[c][i] += lt.byCriterion[c][i];
             }
+        out.raySum += lt.sum;
+        out.raySquares += lt.squares;
         out.partSamples = lt.samples;
         out.partFound = lt.found;
         out.partRays = lt.rays;

@@ -95,6 +95,10 @@ struct RenderPass {
     // Over its photons, the sum of each one's gathered light and of its square
     // (PhotonImages::gatheredSum, gatheredSquares).
     double gatheredSum = 0.0, gatheredSquares = 0.0;
+    // Over its pixel rays, the same for the stray light each brought back
+    // (BackwardResult::raySum, raySquares), and over the points on small lit parts for the
+    // light each brought to its pixel (PartLight::Result::sum, squares).
+    double raySum = 0.0, raySquares = 0.0;
     // The points drawn on small lit parts (tracer/render/part_light.h), those whose light
     // reached a pixel, and the rays they traced.
     uint64_t partSamples = 0, partFound = 0, partRays = 0;
@@ -248,6 +252,13 @@ class RenderState {
     // need them (docs/render.md, "Error bars from few passes").
     static constexpr double kFewPhotons = 100.0;
     double effectivePhotons() const;
+    // The same over the light found without photons, per ray that found it: every pixel
+    // ray's stray light as the backward stage brought it back (visible, direct, caustic and
+    // secondary less the image-forming light: a source seen by few pixel rays, light
+    // connected at few view points) and every small lit part's point's light on its pixel;
+    // and that light's mean per pass. Below kFewPhotons its error bar need not hold either.
+    double effectiveRays() const;
+    double rayLight() const { return passes_ > 0 ? raySum_ / passes_ : 0.0; }
     // The photons per source of the next pass when they are balanced
     // (RenderPass::nextPhotonsPerSource of the last pass added; 0 before the first).
     uint64_t photonsPerPass() const { return photonsPerPass_; }
@@ -269,6 +280,7 @@ class RenderState {
     DetectorImage imageForming_, stray_;
     std::vector<double> learned_;
     double gatheredSum_ = 0.0, gatheredSquares_ = 0.0;
+    double raySum_ = 0.0, raySquares_ = 0.0;
     uint64_t photonsPerPass_ = 0;
     int passes_ = 0;
     double radiusMm_ = 0.0, initialRadiusMm_ = 0.0, alpha_ = 2.0 / 3.0;
