@@ -21,13 +21,13 @@
 // The same sums give the weight windows (RenderOptions::weightWindow, `--weight-window W`):
 // per cube, the light gathered after its scatters over the flux they scattered, its yield;
 // over the passes, the light gathered over the flux emitted. A photon that scatters in a cube
-// then expects ratio = (its flux / its emitted flux) (cube's yield / mean yield) of what an
-// average photon brings. Above W it splits into min(ratio, kMaxSplit) photons of its flux
-// over that count, each drawing its own direction; below 1 / W it plays Russian roulette,
-// kept with probability max(ratio, kMinSurvival), its flux divided by it. Where the photon
-// heads toward what the sensor sees it is followed more often; where it heads away, less
-// (adjoint-driven Russian roulette and splitting). Both keep the expected flux, so each pass
-// stays unbiased; a cube with fewer than kMinScatters scatters learned has no window.
+// then expects ratio = (its flux / its source's flux per photon) (cube's yield / mean yield)
+// of what an average photon brings. Above W it splits into min(ratio, kMaxSplit) photons of its
+// flux over that count, each drawing its own direction; below 1 / W it plays Russian roulette, kept
+// with probability max(ratio, kMinSurvival), its flux divided by it. Where the photon heads toward
+// what the sensor sees it is followed more often; where it heads away, less (adjoint-driven Russian
+// roulette and splitting). Both keep the expected flux, so each pass stays unbiased; a cube with
+// fewer than kMinScatters scatters learned has no window.
 //
 // The learned light is weighted per image region (EmissionGuide::regionWeight) where the
 // emission guide is on, so a dim part of the image draws photons as well as a bright one.
@@ -82,9 +82,10 @@ class ScatterGuide {
     // >= 0). A slot with no light learned is not guided.
     void prepare(const std::vector<double>& learned, double g, double window = 0.0);
     double fraction() const { return g_; }
-    // The photons a scattered photon of relative flux `relative` (its flux over its emitted
-    // flux) in `slot` becomes, from one uniform u, and the factor on its flux: {1, 1} without
-    // a window there; {n, 1 / n} split; {1, 1 / q} or {0, 0} after roulette.
+    // The photons a scattered photon of relative flux `relative` (its flux over its source's
+    // flux per photon, before the emission guide's density) in `slot` becomes, from one uniform u,
+    // and the factor on its flux: {1, 1} without a window there; {n, 1 / n} split; {1, 1 / q} or
+    // {0, 0} after roulette.
     struct Window {
         int photons = 1;
         double factor = 1.0;
