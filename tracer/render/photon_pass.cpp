@@ -952,26 +952,16 @@ void EmissionGuide::prepare(const std::vector<double>& learned, double g) {
     constexpr size_t cells = ApertureGuide::kCellCount;
     std::vector<double> light(guide_.bins(), 0.0);  // [source][cell]
     std::vector<double> regions(kRegionCount, 0.0);  // over all sources
-    for (size_t s = 0; s < sources_; ++s)
-        for (size_t r = 0; r < kRegionCount; ++r)
-            for (size_t c = 0; c < cells; ++c)
-                regions[r] += std::max(learned[(s * kRegionCount + r) * cells + c], 0.0);
-    regionWeight_.clear();
-    const double everywhere = std::accumulate(regions.begin(), regions.end(), 0.0);
-    if (everywhere > 0.0 && std::isfinite(everywhere)) {
-        const double mean = everywhere / kRegionCount, lit = kLitFraction * mean;
-        regionWeight_.assign(kRegionCount, 0.0);
-        for (size_t r = 0; r < kRegionCount; ++r)
-            regionWeight_[r] = regions[r] > 0.0
-                                   ? mean * std::min(1.0, regions[r] / lit) / regions[r]
-                                   : 1.0 / kLitFraction;
-    }
     for (size_t s = 0; s < sources_; ++s) {
         const double* x = learned.data() + s * kRegionCount * cells;
         std::vector<double> total(kRegionCount, 0.0);
         double all = 0.0;
         for (size_t r = 0; r < kRegionCount; ++r) {
-            for (size_t c = 0; c < cells; ++c) total[r] += std::max(x[r * cells + c], 0.0);
+            for (size_t c = 0; c < cells; ++c) {
+                const double v = std::max(x[r * cells + c], 0.0);
+                total[r] += v;
+                regions[r] += v;
+            }
             all += total[r];
         }
         if (!(all > 0.0) || !std::isfinite(all)) continue;
@@ -982,6 +972,16 @@ void EmissionGuide::prepare(const std::vector<double>& learned, double g) {
             for (size_t c = 0; c < cells; ++c)
                 light[s * cells + c] += weight * std::max(x[r * cells + c], 0.0);
         }
+    }
+    regionWeight_.clear();
+    const double everywhere = std::accumulate(regions.begin(), regions.end(), 0.0);
+    if (everywhere > 0.0 && std::isfinite(everywhere)) {
+        const double mean = everywhere / kRegionCount, lit = kLitFraction * mean;
+        regionWeight_.assign(kRegionCount, 0.0);
+        for (size_t r = 0; r < kRegionCount; ++r)
+            regionWeight_[r] = regions[r] > 0.0
+                                   ? mean * std::min(1.0, regions[r] / lit) / regions[r]
+                                   : 1.0 / kLitFraction;
     }
     guide_.prepare(light, g);
 }
