@@ -117,6 +117,22 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
     addCount(sub, "--ghost-photons", o.ghostPhotons,
              "of those, how many follow every specular branch and deposit the sources' visible "
              "light and ghosts (at most --photons)");
+    sub->add_option("--visible-photons", o.visiblePhotons,
+                    "more photons per sun, beam or point source per pass that follow every "
+                    "specular branch and deposit the visible light alone, gathering nothing: auto "
+                    "(65536 or --photons if fewer in the first two passes, then as many as spend "
+                    "the time where the --target-on error comes from) or a count for every pass "
+                    "(0: none)")
+        ->check(CLI::Validator(
+            [](std::string& s) -> std::string {
+                if (s == "auto") return {};
+                std::string error;
+                if (!parseCount(s, &error))
+                    return "--visible-photons takes auto or a count: " + error;
+                return {};
+            },
+            "auto|N"))
+        ->capture_default_str();
     addCount(sub, "--rays-per-pixel", o.raysPerPixel, "backward rays per pixel per pass");
     sub->add_option("--radius", o.radiusMm,
                     "initial gathering radius r1 in mm (0: 1 % of the scattering parts' size)")
@@ -221,6 +237,20 @@ RenderRunSpec renderSpec(const RenderCommandOptions& o) {
         ro.photonsPerPass = *parseCount(o.photons, nullptr);
     }
     ro.ghostPhotonsPerPass = o.ghostPhotons;
+    if (o.visiblePhotons == "auto") {
+        // For a target the visible light is a part of (the stray light, the total, the
+        // visible component): as many as the photons of a pass, up to 65536 (a run of few
+        // photons is a quick one). For a criterion or another component: the fewest, from
+        // where the balance grows them if the target's error calls for them.
+        const RenderTarget& t = spec.stop.target;
+        const bool visibleTarget =
+            t.component ? *t.component == RenderComponent::Visible : t.criterion < 0;
+        ro.visiblePhotonsPerPass =
+            visibleTarget ? std::min(kAutoVisiblePhotons, ro.photonsPerPass) : kMinVisiblePhotons;
+        ro.balanceVisible = true;
+    } else {
+        ro.visiblePhotonsPerPass = *parseCount(o.visiblePhotons, nullptr);
+    }
     ro.alpha = o.alpha;
     ro.seed = o.seed;
     ro.rouletteRelativeFlux = o.roulette;

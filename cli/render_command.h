@@ -31,6 +31,7 @@ struct RenderCommandOptions {
     // points: RenderOptions::balancePhotons) or a count for every pass.
     std::string photons = "auto";
     uint64_t ghostPhotons = 16384;  // of those, following every specular branch
+    std::string visiblePhotons = "auto";  // more, depositing the visible light alone
     uint64_t raysPerPixel = 16;
     double radiusMm = 0.0;  // 0: automatic
     double alpha = 2.0 / 3.0;

@@ -42,7 +42,7 @@ uint64_t fingerprintOf(const TransportView& ts, const DetectorGeometry& g, const
        << o.photonRescueRelativeFlux << " " << o.guideFraction << " " << o.followLobesBelowDeg
        << " " << o.balancePhotons << " " << o.maxPhotonsPerPass << " " << o.connectThroughLens
        << " " << o.partSamples << " " << o.photonGuideFraction << " " << o.scatterGuideFraction
-       << " " << o.weightWindow;
+       << " " << o.weightWindow << " " << o.visiblePhotonsPerPass << " " << o.balanceVisible;
     for (const std::string& w : where) os << "\nwhere " << w;
     const std::string text = os.str();
     uint64_t h = 1469598103934665603ull;
@@ -58,6 +58,28 @@ double targetErrorOf(const RenderState& state, const RenderTarget& target) {
     if (target.criterion >= 0) return state.criterionMeanRelativeError(target.criterion);
     if (target.stray) return state.strayMeanRelativeError();
     return state.meanRelativeError();
+}
+
+// The visible photons per source of the next pass (balancedVisiblePhotons) for the target's
+// error: its image and that image's visible component.
+uint64_t nextVisiblePhotons(const RenderState& state, const RenderTarget& target,
+                            const RenderOptions& o, const RenderPass& pass) {
+    const int k = state.passes();
+    const double inverse = state.visibleInverseSum();
+    if (target.component) {
+        const DetectorImage c = state.component(*target.component);
+        const bool visible = *target.component == RenderComponent::Visible;
+        return balancedVisiblePhotons(o, pass, c, visible ? &c : nullptr, k, inverse);
+    }
+    if (target.criterion >= 0) {
+        const DetectorImage v =
+            state.criterionComponent(target.criterion, RenderComponent::Visible);
+        return balancedVisiblePhotons(o, pass, state.criterionTotal(target.criterion), &v, k,
+                                      inverse);
+    }
+    const DetectorImage v = state.component(RenderComponent::Visible);
+    return balancedVisiblePhotons(o, pass, target.stray ? state.strayLight() : state.total(), &v, k,
+                                  inverse);
 }
 
 std::string percent(double relativeError) {
@@ -184,9 +206,18 @@ RenderResult RenderRun::run(const std::function<void(const RenderPassEvent&)>& o
     while (true) {
         if (ranks.root()) r.stopReason = stopReason(seconds());
         if (!ranks.broadcastFlag(r.stopReason.empty())) break;
-        const RenderPass pass = renderer_->runPass(state_.passes() + 1, state_.radiusMm(),
-                                                   state_.learned(), state_.photonsPerPass());
+        const RenderPass pass =
+            renderer_->runPass(state_.passes() + 1, state_.radiusMm(), state_.learned(),
+                               state_.photonsPerPass(), state_.visiblePhotons());
         state_.add(pass, ranks);
+        if (spec_.options.balanceVisible) {
+            ByteWriter w;
+            if (ranks.root())
+                w.put(nextVisiblePhotons(state_, spec_.stop.target, spec_.options, pass));
+            Bytes bytes = w.take();
+            ranks.broadcast(bytes);
+            state_.setVisiblePhotons(ByteReader(bytes).get<uint64_t>());
+        }
         if (!ranks.root()) continue;
         if (!spec_.checkpoint.empty()) state_.write(spec_.checkpoint, fingerprint_);
         r.photons += pass.photons;
@@ -195,6 +226,7 @@ RenderResult RenderRun::run(const std::function<void(const RenderPassEvent&)>& o
         r.backwardSegments += pass.backwardSegments;
         r.connectionRays += pass.connectionRays;
         r.lastPhotonsPerSource = pass.photonsPerSource;
+        r.lastVisiblePerSource = pass.visiblePerSource;
         r.viewPointWork += pass.viewPointWork;
         r.photonWork += pass.photonWork;
         r.photonSegments += pass.photonSegments;
@@ -322,6 +354,8 @@ nlohmann::json RenderResult::summary() const {
                           {"balanced_photons", ro.balancePhotons},
                           {"max_photons_per_source_per_pass", ro.maxPhotonsPerPass},
                           {"ghost_photons_per_source_per_pass", ro.ghostPhotons()},
+                          {"visible_photons_per_source_per_pass", ro.visiblePhotonsPerPass},
+                          {"balanced_visible_photons", ro.balanceVisible},
                           {"initial_radius_mm", ro.initialRadiusMm},
                           {"alpha", ro.alpha},
                           {"roulette", ro.rouletteRelativeFlux},
@@ -334,6 +368,7 @@ nlohmann::json RenderResult::summary() const {
                           {"photon_points", ro.quasiRandomPhotons ? "sobol" : "random"}};
     summary["final_radius_mm"] = state.radiusMm();
     summary["photons_per_source_last_pass"] = lastPhotonsPerSource;
+    summary["visible_photons_per_source_last_pass"] = lastVisiblePerSource;
     summary["exit_aperture"] = {
         {"center_mm", {aperture.centerMm.x, aperture.centerMm.y, aperture.centerMm.z}},
         {"radius_mm", aperture.radiusMm}};
@@ -510,7 +545,12 @@ std::string RenderResult::text(const std::string& folder) const {
              << " in the first pass, " << lastPhotonsPerSource << " in the last)";
     else
         text << ro.photonsPerPass << " photons per source";
-    text << " and " << ro.raysPerPixel << " rays per pixel per pass\n";
+    text << " and " << ro.raysPerPixel << " rays per pixel per pass";
+    if (lastVisiblePerSource > 0) {
+        text << ", " << lastVisiblePerSource << " visible photons per source in the last";
+        if (ro.balanceVisible) text << " (balanced against the target's error)";
+    }
+    text << "\n";
     if (!spec.ranks.single())
         text << "  across " << spec.ranks.size() << " ranks: rank 0 received "
              << static_cast<double>(traffic.received) / 1e6 << " MB and sent "

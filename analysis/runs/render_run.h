@@ -102,6 +102,7 @@ struct RenderResult {
     uint64_t photons = 0, gathers = 0, viewPoints = 0, prunedBranches = 0, prunedPhotons = 0;
     uint64_t backwardSegments = 0, photonSegments = 0, connectionRays = 0;
     uint64_t lastPhotonsPerSource = 0;           // the photons per source of this run's last pass
+    uint64_t lastVisiblePerSource = 0;           // and its visible photons per source
     uint64_t viewPointWork = 0, photonWork = 0;  // RenderPass's, summed
     double backwardSeconds = 0.0, photonSeconds = 0.0;
     // The points drawn on small lit parts (tracer/render/part_light.h), those that reached a

@@ -154,6 +154,11 @@ TEST(RenderCommand, ResumingGivesTheStraightRun) {
     EXPECT_EQ(resumed["total"]["flux"].get<double>(), straight["total"]["flux"].get<double>());
     EXPECT_EQ(resumed["mean_relative_error"].get<double>(),
               straight["mean_relative_error"].get<double>());
+    // The third pass's visible photons, balanced after the second (from the checkpoint in the
+    // resumed run), moved away from the first two passes' 5000 (--photons 5k).
+    EXPECT_EQ(resumed["visible_photons_per_source_last_pass"].get<uint64_t>(),
+              straight["visible_photons_per_source_last_pass"].get<uint64_t>());
+    EXPECT_NE(straight["visible_photons_per_source_last_pass"].get<uint64_t>(), 5000u);
     // Other options than the checkpoint's: refused, naming the file.
     r = runVeil("render " + kSun + " --passes 4 --photons 6k --rays-per-pixel 2 --resume " + b);
     EXPECT_EQ(r.exitCode, 1);

@@ -87,8 +87,8 @@ TEST(RenderVsTrace, ScatteredLightAgreesInTotalAndOnBlocks) {
               << "); worst block |z| " << worst << "\n";
     EXPECT_GE(lit, 8);  // the light spreads over the detector: the blocks test something
 
-    // The light that scattered nowhere (the Sun's image and ghosts): deposited by the
-    // photons that split every branch (--ghost-photons, their flux scaled to all photons),
+    // The light that scattered nowhere (the Sun's image and ghosts): deposited by the ghost
+    // photons, which split every branch and end at their first scatter (--ghost-photons),
     // with the rescue roulette below 1e-4 of a photon; trace without a cull.
     const veil::ExrLayer* tv = te.layer("where2");
     const veil::ExrLayer* rv = re.layer("where2");

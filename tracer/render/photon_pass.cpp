@@ -128,7 +128,8 @@ struct PhotonBlock {
     std::vector<double> emissionLearned;  // with an emission guide: [its bin]
     std::vector<double> scatterLearned;   // with a scatter guide: [its bin]
     uint64_t photons = 0, segments = 0, gathers = 0, pruned = 0;
-    uint64_t ghostWork = 0;  // the segments and gathers of the ghost photons (splitAll)
+    uint64_t ghostWork = 0;    // the segments and gathers of the ghost photons
+    uint64_t visibleWork = 0;  // the segments of the visible photons
     double gatheredSum = 0.0, gatheredSquares = 0.0;  // PhotonImages'
 };
 
@@ -142,11 +143,12 @@ struct Photon {
     double wavelengthNm = 0.0;
     double rouletteFlux = 0.0;  // after the first scatter, rouletteRelativeFlux of the photon
     // Until their first scatter photons split at every interface. The first ghostPhotons of a
-    // source's quasi-random photons follow every branch (below the cull, roulette at the
-    // rescue level) and deposit the visible light, for all of them; the others' branches play
-    // roulette below rouletteFlux, as after a scatter: their weak ghosts matter only where
-    // they scatter.
-    bool splitAll = false;
+    // source's quasi-random photons, and the visible photons, follow every branch (below the
+    // cull, roulette at the rescue level) and deposit the visible light; the others' branches
+    // play roulette below rouletteFlux, as after a scatter: their weak ghosts matter only
+    // where they scatter. A visible photon drops its scattered children and gathers nothing.
+    bool splitAll = false, visibleOnly = false;
+    double visibleScale = 0.0;  // its visible deposits' factor
     double lowFlux = 0.0, keepFlux = 0.0;
     Ray emitted{};  // as the source emitted it (the lens connection's audit)
     int emissionCell = -1;  // with an emission guide: its cell there
@@ -165,7 +167,10 @@ class PhotonPass {
                const Ranks& ranks, const LensConnector* connector,
                const EmissionGuide* emissionGuide, const ScatterGuide* scatterGuide);
 
-    uint64_t total() const { return perSource_ * ts_.sources.size(); }
+    // The photons (photonsPerPass per source), then the visible photons
+    // (visiblePhotonsPerPass per source whose visible light the photons deposit).
+    uint64_t total() const { return gathering() + visiblePhotons_ * visibleSources_.size(); }
+    uint64_t gathering() const { return perSource_ * ts_.sources.size(); }
     // The probe rays of the disks the pass's photons gathered into (each counted once, however
     // many threads raced to fit it): once the photons are traced, the same for every thread
     // and rank count. Across ranks, a collective call.
@@ -226,10 +231,12 @@ class PhotonPass {
     // Per view point and side: whether a photon of this rank gathered there (its disk's probe
     // rays count as the pass's work whichever rank fitted it).
     mutable std::vector<std::atomic<uint8_t>> reached_;
-    const uint64_t perSource_, ghostPhotons_;
-    const double visibleScale_;
+    const uint64_t perSource_, ghostPhotons_, visiblePhotons_;
+    std::vector<size_t> visibleSources_;  // the sources whose visible light photons deposit
     const uint64_t photonSeed_;
-    std::vector<SobolOwen> emission_;  // one scramble of the Sobol points per source and pass
+    // One scramble of the Sobol points per source and pass, for the photons and for the
+    // visible photons (independent of each other).
+    std::vector<SobolOwen> emission_, visibleEmission_;
     const int renderedObject_;
     double rho_ = 0.0;  // the detector's smoothing disk this pass (mm)
     // Criteria: photon prefixes stream through the judge; a gather or a deposit judges the
@@ -265,8 +272,7 @@ PhotonPass::PhotonPass(const TransportView& ts, const DetectorImage& detector,
       reached_(2 * back.viewPoints.size()),
       perSource_(options.photonsPerPass),
       ghostPhotons_(options.ghostPhotons()),
-      visibleScale_(static_cast<double>(options.photonsPerPass) /
-                    static_cast<double>(options.ghostPhotons())),
+      visiblePhotons_(options.visiblePhotonsPerPass),
       photonSeed_(passSeed(options.seed, static_cast<uint64_t>(k), 1)),
       renderedObject_(detector.geometry().object),
       criteria_(judge ? static_cast<size_t>(judge->count()) : 0),
@@ -275,9 +281,13 @@ PhotonPass::PhotonPass(const TransportView& ts, const DetectorImage& detector,
     for (auto& x : disks_) x.store(0.0f, std::memory_order_relaxed);
     for (auto& x : reached_) x.store(0, std::memory_order_relaxed);
     if (!ranks.single()) shareCorrectionsAcrossRanks();
-    for (size_t s = 0; s < ts.sources.size(); ++s)
+    for (size_t s = 0; s < ts.sources.size(); ++s) {
         emission_.emplace_back(passSeed(options.seed, static_cast<uint64_t>(k), 3) ^
                                (0x9E3779B97F4A7C15ull * (s + 1)));
+        visibleEmission_.emplace_back(passSeed(options.seed, static_cast<uint64_t>(k), 6) ^
+                                      (0x9E3779B97F4A7C15ull * (s + 1)));
+        if (photonsSeeSource(ts.sources[s]) && visiblePhotons_ > 0) visibleSources_.push_back(s);
+    }
     // The detector's smoothing disk shrinks with the gathering radius.
     const DetectorGeometry& dg = detector.geometry();
     rho_ = options.detectorRadiusPixels * std::max(dg.pixelWidthMm(), dg.pixelHeightMm()) *
@@ -393,17 +403,33 @@ void PhotonPass::splatCells(const Vec3& point, std::vector<int>& cells) const {
 
 Photon PhotonPass::emit(uint64_t i, EmittedRay& e) const {
     Photon ph{CounterRng(photonSeed_, i)};
-    ph.source = i / perSource_;
+    // Index j of its source's photons of its kind (the photons or the visible photons). The
+    // ghost and the visible photons deposit the visible light, each 1 / (their number) of it.
+    uint64_t j = 0, count = perSource_;
+    if (i < gathering()) {
+        ph.source = i / perSource_;
+        j = i % perSource_;
+        ph.splitAll = j < ghostPhotons_;
+    } else {
+        const uint64_t g = i - gathering();
+        ph.source = visibleSources_[g / visiblePhotons_];
+        j = g % visiblePhotons_;
+        count = visiblePhotons_;
+        ph.splitAll = ph.visibleOnly = true;
+    }
     const Source& source = ts_.sources[ph.source];
-    ph.deposits = photonsSeeSource(source);
-    ph.splitAll = i % perSource_ < ghostPhotons_;
+    ph.deposits = ph.splitAll && photonsSeeSource(source);
+    if (ph.deposits) {
+        const bool visibleToo = !visibleSources_.empty();  // every deposit-source has them
+        ph.visibleScale = static_cast<double>(count) /
+                          static_cast<double>(ghostPhotons_ + (visibleToo ? visiblePhotons_ : 0));
+    }
     // The emission's uniforms: Sobol dimensions 0 and 1 (the best pair) to the origin, 2 and 3
     // to the direction, 4 to the line; or the photon's own stream (as Source::emit(rng) draws
     // them).
     std::array<double, Source::kEmitUniforms> u;
     if (options_.quasiRandomPhotons) {
-        const SobolOwen& q = emission_[ph.source];
-        const uint64_t j = i % perSource_;
+        const SobolOwen& q = ph.visibleOnly ? visibleEmission_[ph.source] : emission_[ph.source];
         u = {q.sample(j, 4), q.sample(j, 0), q.sample(j, 1), q.sample(j, 2), q.sample(j, 3)};
     } else {
         for (double& x : u) x = ph.rng.uniform();
@@ -411,8 +437,8 @@ Photon PhotonPass::emit(uint64_t i, EmittedRay& e) const {
     double density = 1.0;
     if (emissionGuide_) {
         // The pair that places the photon (a point's direction, any other kind's origin),
-        // warped by the guide but for the ghost photons, which carry the visible light for all
-        // photons.
+        // warped by the guide but for the ghost and visible photons, which carry the visible
+        // light.
         const size_t a = source.delta() == Source::Delta::Position ? 3 : 1;
         ApertureGuide::Warped w{u[a], u[a + 1], 1.0, ApertureGuide::cellOf(u[a], u[a + 1])};
         if (!ph.splitAll) w = emissionGuide_->warp(ph.source, u[a], u[a + 1]);
@@ -421,7 +447,7 @@ Photon PhotonPass::emit(uint64_t i, EmittedRay& e) const {
         density = w.density;
         ph.emissionCell = w.cell;
     }
-    e = source.emit(u, perSource_);
+    e = source.emit(u, count);
     ph.nominalFlux = e.flux;
     e.flux /= density;
     ph.wavelength = e.wavelength;
@@ -469,6 +495,7 @@ void PhotonPass::add(const PhotonBlock& b, PhotonImages& result) {
     result.gathers += b.gathers;
     result.pruned += b.pruned;
     result.ghostWork += b.ghostWork;
+    result.visibleWork += b.visibleWork;
     result.gatheredSum += b.gatheredSum;
     result.gatheredSquares += b.gatheredSquares;
 }
@@ -479,7 +506,8 @@ Bytes PhotonPass::pack(const PhotonBlock& b) {
     w.putVector(b.learned);
     w.putVector(b.emissionLearned);
     w.putVector(b.scatterLearned);
-    for (uint64_t n : {b.photons, b.segments, b.gathers, b.pruned, b.ghostWork}) w.put(n);
+    for (uint64_t n : {b.photons, b.segments, b.gathers, b.pruned, b.ghostWork, b.visibleWork})
+        w.put(n);
     w.put(b.gatheredSum);
     w.put(b.gatheredSquares);
     return w.take();
@@ -492,7 +520,8 @@ PhotonBlock PhotonPass::unpack(const Bytes& bytes) {
     b.learned = r.getVector<double>();
     b.emissionLearned = r.getVector<double>();
     b.scatterLearned = r.getVector<double>();
-    for (uint64_t* n : {&b.photons, &b.segments, &b.gathers, &b.pruned, &b.ghostWork})
+    for (uint64_t* n :
+         {&b.photons, &b.segments, &b.gathers, &b.pruned, &b.ghostWork, &b.visibleWork})
         *n = r.get<uint64_t>();
     b.gatheredSum = r.get<double>();
     b.gatheredSquares = r.get<double>();
@@ -521,7 +550,7 @@ class BlockTracer {
     void follow(PhotonBranch br, Photon& ph);
     // Light that scattered nowhere lands on the rendered detector: the visible component of
     // the sources the photons stand for.
-    void depositVisible(const PhotonBranch& br, const SceneHit& hit);
+    void depositVisible(const PhotonBranch& br, const SceneHit& hit, const Photon& ph);
     // The share of the light scattered at `hit` the photon gathers: 1, or 0 where the lens
     // connection counts it (tracer/render/lens_connection.h), or kAuditRate where its audit
     // finds a path the connection misses.
@@ -647,19 +676,30 @@ void BlockTracer::follow(PhotonBranch br, Photon& ph) {
         const auto hit = ts.scene->closestHit(br.ray, kInfinity, br.startObject,
                                               br.startPrimitive, br.medium);
         ++block_.segments;
-        if (ph.splitAll) ++block_.ghostWork;
+        if (ph.visibleOnly) {
+            ++block_.visibleWork;
+        } else if (ph.splitAll) {
+            ++block_.ghostWork;
+        }
         if (!hit) break;
         const double alpha = ts.media->absorptionPerMm(br.medium, w);
         if (alpha > 0.0) br.flux *= std::exp(-alpha * hit->t);
         if (ts.detectorOfObject[hit->object] >= 0) {
             if (ph.deposits && ph.splitAll && !br.scattered && hit->object == p_.renderedObject_)
-                depositVisible(br, *hit);
+                depositVisible(br, *hit, ph);
             break;
         }
         const Interaction in =
             interact(ts, *hit, br.ray.direction, w, ph.wavelengthNm, TransportMode::Flux);
         bool scatters = false;
         for (int c = 0; c < in.count; ++c) scatters |= in.children[c].scatter;
+        // A visible photon's light is the visible light: it drops its scattered children and
+        // gathers nothing (gathering, a ghost photon costs about 3.5x as much on the Sun
+        // example).
+        if (ph.visibleOnly) {
+            if (in.count == 0 || !next(br, *hit, in, 0.0, ph)) break;
+            continue;
+        }
         // Until its first scatter a branch is followed whatever its flux (its ghosts are the
         // visible light, smooth only when every branch of every photon lands); where it first
         // meets a scattering surface, the light it scatters plays Russian roulette: below
@@ -704,7 +744,7 @@ double BlockTracer::gatherShare(const PhotonBranch& br, const SceneHit& hit, Pho
     return found ? 0.0 : static_cast<double>(LensConnector::kAuditRate);
 }
 
-void BlockTracer::depositVisible(const PhotonBranch& br, const SceneHit& hit) {
+void BlockTracer::depositVisible(const PhotonBranch& br, const SceneHit& hit, const Photon& ph) {
     p_.splatCells(hit.point, cells_);
     if (cells_.empty()) return;
     uint64_t matched = 0;
@@ -713,9 +753,9 @@ void BlockTracer::depositVisible(const PhotonBranch& br, const SceneHit& hit) {
                                     br.medium));
         matched = judged(br);
     }
-    book(0, matched, &cells_, 0, br.flux * p_.visibleScale_);
+    book(0, matched, &cells_, 0, br.flux * ph.visibleScale);
     if (p_.designed_.completeForward(br.designed))
-        book(4, matched, &cells_, 0, br.flux * p_.visibleScale_);
+        book(4, matched, &cells_, 0, br.flux * ph.visibleScale);
 }
 
 void BlockTracer::gather(const PhotonBranch& br, const SceneHit& hit, const Interaction& in,

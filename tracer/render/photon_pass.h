@@ -63,9 +63,10 @@ struct PhotonImages {
     // every view point it reached) and of its square: how many photons carry the gathered
     // light (RenderState::effectivePhotons).
     double gatheredSum = 0.0, gatheredSquares = 0.0;
-    // The segments and gathers of the ghost photons, and the probe rays that fitted the
-    // gathering disks the photons reached (RenderPass::photonWork).
-    uint64_t ghostWork = 0, diskRays = 0;
+    // The segments and gathers of the ghost photons, the segments of the visible photons, and
+    // the probe rays that fitted the gathering disks the photons reached
+    // (RenderPass::photonWork).
+    uint64_t ghostWork = 0, visibleWork = 0, diskRays = 0;
 };
 
 // The photons' emission guide (RenderOptions::photonGuideFraction, docs/render.md, "Photons

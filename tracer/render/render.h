@@ -106,10 +106,13 @@ struct RenderPass {
     // same for every thread and rank count): the view points' side (backward segments, the
     // rays that lit them directly) against the photons' (their segments and gathers, and the
     // probe rays of the gathering disks they reached; ghostWork the ghost photons' segments
-    // and gathers, whose number is fixed). With RenderOptions::balancePhotons, the photons per
-    // source of the next pass that even the two out (balancedPhotons).
+    // and gathers, whose number is fixed; visibleWork the visible photons' segments). With
+    // RenderOptions::balancePhotons, the photons per source of the next pass that even the two out
+    // (balancedPhotons).
     uint64_t photonsPerSource = 0;
-    uint64_t viewPointWork = 0, photonWork = 0, ghostWork = 0;
+    // Of them, the ghost photons; and the visible photons per source (RenderOptions).
+    uint64_t ghostPerSource = 0, visiblePerSource = 0;
+    uint64_t viewPointWork = 0, photonWork = 0, ghostWork = 0, visibleWork = 0;
     uint64_t nextPhotonsPerSource = 0;
     double backwardSeconds = 0.0, photonSeconds = 0.0;  // wall clock of the two stages
     double partSeconds = 0.0;                           // and of the parts' points
@@ -131,12 +134,34 @@ ExitAperture exitApertureFor(const Scene& scene, const DetectorGeometry& detecto
 
 // The photons per source for the pass after `pass` that make the work of its photons about
 // that of its view points: the photons beyond the ghost photons (whose number is fixed) scaled
-// by (viewPointWork - ghostWork) / (their work), by at most 4x either way per pass, kept within
+// by (viewPointWork - ghostWork) / (their work; the visible photons' is neither side's), by at
+// most 4x either way per pass, kept within
 // [kMinBalancedPhotons, maxPhotonsPerPass - ghost photons] beyond the ghost photons. Each
 // pass's estimate stays unbiased whatever its photon count; the count changes only the noise
 // per unit of time (docs/render.md, "Photons balanced against view points").
 inline constexpr uint64_t kMinBalancedPhotons = 4096;
 uint64_t balancedPhotons(const RenderOptions& options, const RenderPass& pass);
+
+// The visible photons per source for the pass after `pass` that spend the pass's time where
+// the error of `target` (a mean over `passes` passes, with its variances) comes from: the
+// visible light's share of its variance (the variance of `visible`, the same image's visible
+// component; none: no share) against the rest, each pixel weighted by 1 / (its standard error
+// x its light), as its mean relative error responds to them. Per pass, time T_v on the visible
+// photons and T_r on the rest leave a variance a / T_v + b / T_r at best when
+// T_v / T_r = sqrt(a / b) (a and b in the units of the pass's split, the visible light's
+// variance per pass scaled to the pass's photons: inverseSum is the sum over the passes of
+// 1 / (ghost + visible photons)). The step moves the split to the geometric mean of the two,
+// by at most 4x either way, within [kMinVisiblePhotons, maxPhotonsPerPass] and with the
+// visible photons' work at most kMostVisibleWork x the rest's. After one pass (no variance
+// yet): as it was, or a quarter when `visible` holds no light. A pass without visible photons
+// (none asked for, or no source the photons see): as it was. Each pass stays unbiased
+// whatever its count (docs/render.md, "Visible photons balanced against the error").
+inline constexpr uint64_t kMinVisiblePhotons = 1024;
+inline constexpr uint64_t kAutoVisiblePhotons = 65536;  // veil render's first two passes
+inline constexpr double kMostVisibleWork = 8.0;
+uint64_t balancedVisiblePhotons(const RenderOptions& options, const RenderPass& pass,
+                                const DetectorImage& target, const DetectorImage* visible,
+                                int passes, double inverseSum);
 
 // r_1 when none is given: 1 % of the diagonal of the bounding box of the scene's objects
 // that scatter (those with a scatter model). ModelError when no object scatters.
@@ -207,8 +232,9 @@ class RenderState {
     DetectorImage component(RenderComponent c) const;
     DetectorImage total() const;
     // The mean relative standard error of the total over the lit pixels: those whose mean
-    // is at least litFraction of the image's mean pixel value. Infinity before two passes or
-    // when nothing is lit.
+    // is at least litFraction of the image's mean pixel value, each pixel's from the spread
+    // of the passes, the mean divided by standardErrorBias(passes). Infinity before two
+    // passes or when nothing is lit.
     static constexpr double kLitFraction = 0.01;
     double meanRelativeError() const;
     int litPixels() const;
@@ -262,6 +288,12 @@ class RenderState {
     // The photons per source of the next pass when they are balanced
     // (RenderPass::nextPhotonsPerSource of the last pass added; 0 before the first).
     uint64_t photonsPerPass() const { return photonsPerPass_; }
+    // The visible photons per source of the next pass when they are balanced (set by the run
+    // after each pass: balancedVisiblePhotons; -1 before the first), and the sum over the
+    // passes of 1 / (ghost + visible photons per source) that balancing reads.
+    int64_t visiblePhotons() const { return visiblePhotons_; }
+    void setVisiblePhotons(uint64_t n) { visiblePhotons_ = static_cast<int64_t>(n); }
+    double visibleInverseSum() const { return visibleInverseSum_; }
 
   private:
     using Sums = std::array<DetectorImage, kRenderComponents + 1>;  // components, then total
@@ -282,6 +314,8 @@ class RenderState {
     double gatheredSum_ = 0.0, gatheredSquares_ = 0.0;
     double raySum_ = 0.0, raySquares_ = 0.0;
     uint64_t photonsPerPass_ = 0;
+    int64_t visiblePhotons_ = -1;
+    double visibleInverseSum_ = 0.0;
     int passes_ = 0;
     double radiusMm_ = 0.0, initialRadiusMm_ = 0.0, alpha_ = 2.0 / 3.0;
 };
@@ -301,8 +335,10 @@ class Renderer {
     // learned in the passes before it (RenderState::learned(); empty: nothing learned yet).
     // photonsPerSource: the pass's photons per source (0: RenderOptions::photonsPerPass;
     // RenderState::photonsPerPass() when they are balanced).
+    // visiblePhotons: its visible photons per source (-1: RenderOptions::visiblePhotonsPerPass;
+    // RenderState::visiblePhotons() when they are balanced).
     RenderPass runPass(int k, double radiusMm, const std::vector<double>& learned = {},
-                       uint64_t photonsPerSource = 0) const;
+                       uint64_t photonsPerSource = 0, int64_t visiblePhotons = -1) const;
     // The backward stage of pass k.
     BackwardOptions backwardOptions(int k) const;
 
@@ -386,6 +422,10 @@ inline constexpr double kGatherNormalCos = 0.9;
 // Whether the photons, rather than the backward rays, count a source's visible component:
 // the sun and the delta kinds (collimated, point), which a backward ray cannot find.
 bool photonsSeeSource(const Source& s);
+
+// c4(n): the mean of the sample standard deviation of n normal samples over their standard
+// deviation (1 below two samples); RenderState's mean relative errors divide by it.
+double standardErrorBias(uint64_t n);
 
 // The seed of stream family `purpose` of pass k: distinct for every (seed, k, purpose).
 uint64_t passSeed(uint64_t seed, uint64_t pass, uint32_t purpose);

@@ -36,6 +36,16 @@ struct RenderOptions {
     // rouletteRelativeFlux (kept at it): they serve the gathered light.
     uint64_t ghostPhotonsPerPass = 16384;
     uint64_t ghostPhotons() const { return std::min(ghostPhotonsPerPass, photonsPerPass); }
+    // Visible photons: visiblePhotonsPerPass more photons per pass of each sun, collimated
+    // and point source (of a quasi-random sequence of their own) follow every specular branch
+    // as the ghost photons do, but drop their scattered children and gather nothing: they
+    // deposit the visible light alone, at about a third of a ghost photon's cost. The ghost
+    // and the visible photons each deposit 1 / (their number) of it. 0: none.
+    uint64_t visiblePhotonsPerPass = 0;
+    // Balanced visible photons (balancedVisiblePhotons in render.h, set by the run after each
+    // pass): visiblePhotonsPerPass in the first two passes, then as many as spend the pass's
+    // time where the target's error comes from; off: visiblePhotonsPerPass in every pass.
+    bool balanceVisible = false;
     double photonMinRelativeFlux = 1e-4;
     double photonRescueRelativeFlux = 1e-2;
     // The photons' visible deposits (the sun's ghosts) are spread evenly over the pixels whose

@@ -17,6 +17,7 @@
 #include <filesystem>
 #include <iostream>
 #include <numbers>
+#include <random>
 
 #include "geometry/scene.h"
 #include "lensdata/glass_catalog.h"
@@ -768,13 +769,17 @@ TEST(Render, RaySumsCountTheRaysThatCarryTheDirectLight) {
 // (1 - R)^2 of what enters, the ghosts' (1 - R)^2 (R^2 + R^4 + ...), so of the light on the
 // detector (1 - R) / (1 + R) the image-forming share is (1 - R)^2 / ((1 - R) / (1 + R)) and
 // the stray share the rest, R^2 (1 + ...) = 1 - (1 - R)(1 + R).
-TEST(Render, ImageFormingLightIsTheDesignedPathAndTheGhostsAreStray) {
-    const auto s = windowBoxScene(
+std::unique_ptr<PreparedScene> sunThroughWindowScene() {
+    return windowBoxScene(
         5.0, 10.0, Vec3(100.0, 100.0, -20.0), Vec3(110.0, 110.0, -19.0),
         "[[mesh]]\nname = \"block\"\nfile = \"{box}\"\nproperty = \"white\"\n"
         "[properties.white]\nscatter = { model = \"lambertian\", reflectance = 0.5 }\n"
         "[[source]]\nname = \"sun\"\nkind = \"sun\"\nfield_deg = [0.0, 0.0]\n"
         "[detector]\nname = \"det\"\nz_mm = 50.0\nsize_mm = [10.0, 10.0]\npixels = [1, 1]\n");
+}
+
+TEST(Render, ImageFormingLightIsTheDesignedPathAndTheGhostsAreStray) {
+    const auto s = sunThroughWindowScene();
     const ExitAperture a = exitApertureFor(s->scene(), s->transport().images[0].geometry());
     RenderOptions o;
     o.raysPerPixel = 16;
@@ -789,6 +794,36 @@ TEST(Render, ImageFormingLightIsTheDesignedPathAndTheGhostsAreStray) {
     EXPECT_NEAR(image / total, (1.0 - R) * (1.0 + R), 1e-5) << image << " of " << total;
     EXPECT_NEAR(stray / total, 1.0 - (1.0 - R) * (1.0 + R), 1e-5) << stray << " of " << total;
     EXPECT_NEAR(image + stray, total, 1e-12 * total);
+}
+
+// The visible photons deposit the sun's light as the ghost photons do, each 1 / (their
+// number) of it: through the window the image-forming and the ghost light keep their closed
+// forms, and the visible light is the ghost photons' alone within its noise.
+TEST(Render, VisiblePhotonsCarryTheVisibleLightAsTheGhostPhotonsDo) {
+    const auto s = sunThroughWindowScene();
+    const ExitAperture a = exitApertureFor(s->scene(), s->transport().images[0].geometry());
+    const double R = 0.04;
+    double visible[2], sigma[2];
+    for (const uint64_t v : {uint64_t{0}, uint64_t{50000}}) {
+        RenderOptions o;
+        o.raysPerPixel = 16;
+        o.photonsPerPass = 20000;
+        o.ghostPhotonsPerPass = 1000;
+        o.visiblePhotonsPerPass = v;
+        o.initialRadiusMm = 1.0;
+        const RenderState state = render(*s, o, 4, a);
+        const double total = state.total().totalFlux();
+        ASSERT_GT(total, 0.0);
+        EXPECT_NEAR(state.imageForming().totalFlux() / total, (1.0 - R) * (1.0 + R), 1e-5);
+        EXPECT_NEAR(state.strayLight().totalFlux() / total, 1.0 - (1.0 - R) * (1.0 + R), 1e-5);
+        const DetectorImage vis = state.component(RenderComponent::Visible);
+        visible[v > 0] = vis.totalFlux();
+        sigma[v > 0] = std::sqrt(vis.totalVariance(state.passes()));
+        std::cout << v << " visible photons: visible " << visible[v > 0] << " +- " << sigma[v > 0]
+                  << "\n";
+    }
+    EXPECT_NEAR(visible[1], visible[0], 4.0 * std::hypot(sigma[0], sigma[1]) + 1e-9 * visible[0]);
+    EXPECT_LT(3.0 * sigma[1], sigma[0]);  // 51 times the photons: about 7x less noise
 }
 
 // A Gaussian 5 degree plate lit through a window by a large Lambertian emitter and seen
@@ -882,6 +917,28 @@ TEST(Render, FollowedLobeConnectedThroughTheLensAgreesWithForwardMonteCarlo) {
     // the better one over part of the directions, and together they beat the lobe alone
     // (measured: 0.5 % against 3.2 %).
     EXPECT_LT(3.0 * sigmaOn, sigmaOff);
+}
+
+// The bias of a standard error from n passes: closed forms at 2 and 3 passes, and the mean
+// of the sample standard deviation of 4 normal draws over 200 000 trials.
+TEST(Render, StandardErrorBiasIsTheMeanSampleDeviation) {
+    EXPECT_EQ(standardErrorBias(1), 1.0);
+    EXPECT_NEAR(standardErrorBias(2), std::sqrt(2.0 / std::numbers::pi), 1e-12);
+    EXPECT_NEAR(standardErrorBias(3), std::sqrt(std::numbers::pi) / 2.0, 1e-12);
+    EXPECT_GT(standardErrorBias(1000), 0.9997);
+    std::mt19937_64 rng(7);
+    std::normal_distribution<double> normal;
+    const int trials = 200000;
+    double sum = 0.0, squares = 0.0;
+    for (int t = 0; t < trials; ++t) {
+        double x[4], mean = 0.0, var = 0.0;
+        for (double& v : x) mean += (v = normal(rng)) / 4.0;
+        for (double v : x) var += (v - mean) * (v - mean) / 3.0;
+        sum += std::sqrt(var);
+        squares += var;
+    }
+    const double m = sum / trials, sd = std::sqrt((squares / trials - m * m) / trials);
+    EXPECT_NEAR(m, standardErrorBias(4), 4.0 * sd) << m << " +- " << sd;
 }
 
 TEST(Render, RadiusShrinksByTheProgressiveRule) {
@@ -1103,6 +1160,85 @@ TEST(Render, BalancedPhotonsEvenOutTheWorkOfTheTwoSides) {
     pass.photonsPerSource = 5000;
     pass.ghostWork = pass.photonWork;
     EXPECT_EQ(balancedPhotons(o, pass), 5000u + kMinBalancedPhotons);
+}
+
+// A mean image of `passes` passes whose pixels have the given means and variances (of the
+// mean), as RenderState::total() gives it.
+DetectorImage meanImage(const std::vector<double>& mean, const std::vector<double>& variance,
+                        int passes) {
+    const DetectorGeometry g{"d", Frame{}, 1.0, 1.0, static_cast<int>(mean.size()), 1, -1};
+    std::vector<double> squares(mean.size());
+    const double k = passes;
+    for (size_t p = 0; p < mean.size(); ++p)
+        squares[p] = variance[p] * (k - 1.0) / k + mean[p] * mean[p] / k;
+    double total = 0.0;
+    for (double m : mean) total += m;
+    return DetectorImage::fromSums(g, mean, squares,
+                                   std::vector<uint64_t>(mean.size(), uint64_t(passes)), total,
+                                   total * total / k, uint64_t(passes));
+}
+
+TEST(Render, BalancedVisiblePhotonsFollowTheTargetsError) {
+    RenderOptions o;
+    o.maxPhotonsPerPass = 4000000;
+    RenderPass pass;
+    pass.ghostPerSource = 16384;
+    pass.visiblePerSource = 65536;
+    pass.viewPointWork = 3000000;
+    pass.photonWork = 2000000;  // of which the visible photons' 1e6: T_v / T_r = 1 / 4
+    pass.visibleWork = 1000000;
+    const int k = 4;
+    const double inverse = k / 81920.0;  // every pass at this pass's photons
+    // Two pixels of equal light and variance; the visible light's share of it a / (a + b).
+    auto next = [&](double share) {
+        const DetectorImage target = meanImage({1.0, 1.0}, {0.01, 0.01}, k);
+        const DetectorImage visible = meanImage({0.5, 0.5}, {0.01 * share, 0.01 * share}, k);
+        return balancedVisiblePhotons(o, pass, target, &visible, k, inverse);
+    };
+    // At the best split the variance shares are the time shares: a / b = T_v / T_r.
+    EXPECT_EQ(next(0.2), 65536u);
+    // a / b = 1 against 1 / 4: the best ratio is sqrt(1 x 1/4) = 1 / 2, 2x the time; the step
+    // goes halfway in the logarithm, sqrt(2).
+    EXPECT_EQ(next(0.5), uint64_t(std::round(65536 * std::sqrt(2.0))));
+    // a / b = 1 / 16: half the time; halfway, 1 / sqrt(2).
+    EXPECT_EQ(next(1.0 / 17.0), uint64_t(std::round(65536 / std::sqrt(2.0))));
+    // No visible light in the target's error: a quarter, down to the fewest.
+    EXPECT_EQ(next(0.0), 16384u);
+    EXPECT_EQ(balancedVisiblePhotons(o, pass, meanImage({1.0, 1.0}, {0.01, 0.01}, k), nullptr, k,
+                                     inverse),
+              16384u);
+    pass.visiblePerSource = 2048;
+    EXPECT_EQ(next(0.0), kMinVisiblePhotons);
+    pass.visiblePerSource = 65536;
+    // All of it: 4x at most, and then the visible photons' work at most 8x the rest's.
+    EXPECT_EQ(next(1.0), 4u * 65536u);
+    pass.photonWork = 9500000;  // T_v / T_r = 8.5 / 4: 4x would be 8.5x the rest's work
+    pass.visibleWork = 8500000;
+    EXPECT_EQ(next(1.0), uint64_t(std::round(65536 * kMostVisibleWork * 4.0 / 8.5)));
+    pass.photonWork = 2000000;
+    pass.visibleWork = 1000000;
+    // The passes before had fewer photons (the inverse sum twice this pass's): the visible
+    // variance per pass at this pass's photons is half what the mean's says. A third of the
+    // variance is then a / b = (1/6) / (2/3) = T_v / T_r: the best split.
+    {
+        const DetectorImage target = meanImage({1.0, 1.0}, {0.01, 0.01}, k);
+        const DetectorImage visible = meanImage({0.5, 0.5}, {0.01 / 3.0, 0.01 / 3.0}, k);
+        EXPECT_EQ(balancedVisiblePhotons(o, pass, target, &visible, k, 2.0 * inverse), 65536u);
+    }
+    // No visible photons traced (none asked for, or no source the photons see): as it was.
+    pass.visiblePerSource = 0;
+    EXPECT_EQ(next(1.0), 0u);
+    pass.visiblePerSource = 65536;
+    pass.visibleWork = 0;
+    EXPECT_EQ(next(1.0), 65536u);
+    // After one pass (no variance yet): as it was where the target holds visible light, a
+    // quarter where it holds none.
+    pass.visibleWork = 1000000;
+    const DetectorImage one = meanImage({1.0}, {0.0}, 1);
+    EXPECT_EQ(balancedVisiblePhotons(o, pass, one, &one, 1, inverse), 65536u);
+    EXPECT_EQ(balancedVisiblePhotons(o, pass, one, nullptr, 1, inverse), 16384u);
+    const DetectorImage dark = meanImage({0.0}, {0.0}, 1);
+    EXPECT_EQ(balancedVisiblePhotons(o, pass, one, &dark, 1, inverse), 16384u);
 }
 
 TEST(Render, BalancedPhotonsKeepTheEstimateUnbiased) {
