@@ -130,10 +130,18 @@ void addTransportFlags(CLI::App* sub, TransportFlags& f) {
         ->check(CLI::IsMember({"split", "random"}))
         ->capture_default_str();
     sub->add_option("--min-flux", f.minRelativeFlux,
-                    "cull a branch below this share of its ray's emitted flux, after every bounce "
-                    "(both modes)")
+                    "a branch below this share of its ray's emitted flux, after every bounce "
+                    "(both modes), plays Russian roulette: kept at --rescue-flux or ended")
         ->check(finiteRange(0.0, 1.0))
         ->capture_default_str();
+    sub->add_option("--rescue-flux", f.rescueRelativeFlux,
+                    "the share of its ray's emitted flux a branch keeps when it survives the "
+                    "roulette below --min-flux (at least --min-flux)")
+        ->check(finiteRange(0.0, 1.0))
+        ->capture_default_str();
+    sub->add_flag("--min-flux-cut", f.minFluxCut,
+                  "cut the branches below --min-flux instead of playing roulette: faster, "
+                  "biased low (the budget's 'cut' line bounds what the detectors lack)");
     sub->add_option("--max-split-depth", f.maxSplitDepth, "split mode: deepest split followed")
         ->check(CLI::Range(1, 100000))
         ->capture_default_str();
@@ -161,7 +169,14 @@ void applyTransportFlags(const TransportFlags& f, TransportOptions& options) {
                              std::to_string(kMaxUnculledSplitDepth) + ", or --mode random");
     options.mode =
         f.mode == "random" ? TransportOptions::Mode::Random : TransportOptions::Mode::Split;
+    if (!f.minFluxCut && f.minRelativeFlux > 0.0 && f.rescueRelativeFlux < f.minRelativeFlux) {
+        std::ostringstream text;
+        text << "must be at least --min-flux (" << f.minRelativeFlux << "), or the roulette's "
+             << "survivors would carry less than they had; " << f.rescueRelativeFlux << " given";
+        throw ModelError("--rescue-flux", text.str());
+    }
     options.minRelativeFlux = f.minRelativeFlux;
+    options.rescueRelativeFlux = f.minFluxCut ? 0.0 : f.rescueRelativeFlux;
     options.maxSplitDepth = f.maxSplitDepth;
     options.rouletteRelativeFlux = f.roulette;
     options.maxSegments = f.maxSegments;

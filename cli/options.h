@@ -51,6 +51,8 @@ CLI::Option* addOutputFile(CLI::App* sub, std::string& file, const std::string& 
 struct TransportFlags {
     std::string mode = "split";
     double minRelativeFlux = 1e-4;
+    double rescueRelativeFlux = 1e-2;  // Russian roulette below minRelativeFlux, kept at this
+    bool minFluxCut = false;           // cut below minRelativeFlux instead (biased)
     int maxSplitDepth = 64;
     double roulette = 0.0;
     int maxSegments = 1000;

@@ -41,8 +41,8 @@ void addPathDrawingOptions(CLI::App* sub, std::string& colour, std::string& mode
         ->check(CLI::IsMember({"split", "random"}))
         ->capture_default_str();
     sub->add_option("--min-flux", minRelativeFlux,
-                    "cull a branch below this share of its ray's emitted flux, after every bounce "
-                    "(both modes)")
+                    "a branch below this share of its ray's emitted flux, after every bounce "
+                    "(both modes), plays Russian roulette: kept at 1e-2 of it or ended")
         ->check(CLI::Range(0.0, 1.0))
         ->capture_default_str();
 }
@@ -60,6 +60,7 @@ PathSelectionOptions pathSelectionOptions(const SceneTransport& trace, const std
     po.transport.mode =
         mode == "random" ? TransportOptions::Mode::Random : TransportOptions::Mode::Split;
     po.transport.minRelativeFlux = minRelativeFlux;
+    po.transport.rescueRelativeFlux = std::max(1e-2, minRelativeFlux);
     return po;
 }
 

@@ -102,6 +102,7 @@ nlohmann::json StrayLightResult::summary() const {
                          {"absorbed_volume", b.absorbedVolume},
                          {"escaped", b.escaped},
                          {"culled", b.culled},
+                         {"cut", b.cut},
                          {"dropped", b.dropped},
                          {"dropped_branches",
                           {{"no_refracted_direction", b.droppedBranches[0]},
@@ -147,6 +148,9 @@ std::string StrayLightResult::text() const {
     line("absorbed", b.absorbed());
     line("escaped", b.escaped);
     line("culled", b.culled);
+    // Flux cut without roulette (--min-flux-cut, the split depth, the segments): what the
+    // detectors may lack.
+    if (b.cut > 0) line("  of which cut", b.cut);
     if (b.dropped > 0 || b.droppedBranches[0] + b.droppedBranches[1] > 0) {
         line("dropped", b.dropped);
         text << "    (" << b.droppedBranches[0] << " " << DropReason::NoRefractedDirection << ", "

@@ -251,6 +251,7 @@ nlohmann::json fingerprint(const SweepSpec& spec, const nlohmann::json& hashes,
     j["seed"] = t.seed;
     j["mode"] = t.mode == TransportOptions::Mode::Random ? "random" : "split";
     j["min_flux"] = t.minRelativeFlux;
+    j["rescue_flux"] = t.rescueRelativeFlux;  // 0: cut below min_flux
     j["max_split_depth"] = t.maxSplitDepth;
     j["roulette"] = t.rouletteRelativeFlux;
     j["max_segments"] = t.maxSegments;

@@ -394,6 +394,8 @@ TEST(VeilTrace, HostileInputStopsBeforeTracing) {
     expectStop("trace" + lens + " --min-flux 0", "--min-flux: 0 in split mode");
     expectStop("trace" + lens + " --min-flux nan", "--min-flux: value nan not in range");
     expectStop("trace" + lens + " --roulette nan", "--roulette: value nan not in range");
+    expectStop("trace" + lens + " --min-flux 0.01 --rescue-flux 0.001",
+               "--rescue-flux: must be at least --min-flux (0.01)");
     expectStop("trace" + lens + " --seed -1", "--seed -1 is not a whole number");
     expectStop("trace" + lens + " --seed 99999999999999999999", "is not a whole number");
     expectStop("trace" + lens + " --where 'hit(#18446744073709551617)'",

@@ -46,10 +46,10 @@ TEST(RenderVsTrace, ScatteredLightAgreesInTotalAndOnBlocks) {
     const std::string rdir = ::testing::TempDir() + "veil_render_vs_trace_r";
     std::filesystem::remove_all(tdir);
     std::filesystem::remove_all(rdir);
+    // veil trace's defaults: every branch followed down to 1e-4 of its ray, Russian roulette
+    // below (kept at 1e-2), so no light is cut.
     VeilRun t = runVeil("trace " + scene +
-                        " -n 4M --seed 7 --where scatter --where 'not scatter' --min-flux 0"
-                        " --roulette 0.01 --quiet -o " +
-                        tdir);
+                        " -n 4M --seed 7 --where scatter --where 'not scatter' --quiet -o " + tdir);
     ASSERT_EQ(t.exitCode, 0) << t.err;
     VeilRun r =
         runVeil("render " + scene +
@@ -88,8 +88,9 @@ TEST(RenderVsTrace, ScatteredLightAgreesInTotalAndOnBlocks) {
     EXPECT_GE(lit, 8);  // the light spreads over the detector: the blocks test something
 
     // The light that scattered nowhere (the Sun's image and ghosts): deposited by the ghost
-    // photons, which split every branch and end at their first scatter (--ghost-photons),
-    // with the rescue roulette below 1e-4 of a photon; trace without a cull.
+    // photons (--ghost-photons, which split every branch and gather) and the visible photons
+    // (--visible-photons, which split every branch and gather nothing), with the rescue
+    // roulette below 1e-4 of a photon; the trace plays the same roulette, kept at 1e-2.
     const veil::ExrLayer* tv = te.layer("where2");
     const veil::ExrLayer* rv = re.layer("where2");
     ASSERT_TRUE(tv && rv);

@@ -21,9 +21,9 @@ namespace veil {
 std::ostream& operator<<(std::ostream& os, const TransportOptions& o) {
     return os << "TransportOptions{"
               << (o.mode == TransportOptions::Mode::Split ? "split" : "random")
-              << ", min relative flux " << o.minRelativeFlux << ", max split depth "
-              << o.maxSplitDepth << ", roulette " << o.rouletteRelativeFlux << ", max segments "
-              << o.maxSegments << ", seed " << o.seed << "}";
+              << ", min relative flux " << o.minRelativeFlux << ", rescue " << o.rescueRelativeFlux
+              << ", max split depth " << o.maxSplitDepth << ", roulette " << o.rouletteRelativeFlux
+              << ", max segments " << o.maxSegments << ", seed " << o.seed << "}";
 }
 
 double FluxBudget::imbalance() const {
@@ -37,6 +37,7 @@ void FluxBudget::merge(const FluxBudget& o) {
     absorbedVolume += o.absorbedVolume;
     escaped += o.escaped;
     culled += o.culled;
+    cut += o.cut;
     dropped += o.dropped;
     rouletteGain += o.rouletteGain;
     for (int r = 0; r < kDropReasons; ++r) droppedBranches[r] += o.droppedBranches[r];
@@ -50,6 +51,7 @@ std::ostream& operator<<(std::ostream& os, const FluxBudget& b) {
     return os << "FluxBudget{emitted " << b.emitted << ", detected " << b.detected << ", absorbed "
               << b.absorbed() << " (surface " << b.absorbedSurface << ", volume "
               << b.absorbedVolume << "), escaped " << b.escaped << ", culled " << b.culled
+              << " (cut " << b.cut << ")"
               << ", dropped " << b.dropped << " (" << b.droppedBranches[0] << " "
               << DropReason::NoRefractedDirection << ", " << b.droppedBranches[1] << " "
               << DropReason::NoScatterDirection << "), roulette gain " << b.rouletteGain
@@ -187,6 +189,9 @@ class RayTracer {
     }
     void cull(Branch& br, CullReason why, FluxBudget& b) {
         b.culled += br.flux;
+        if (why == CullReason::MinFlux || why == CullReason::MaxSplitDepth ||
+            why == CullReason::MaxSegments)
+            b.cut += br.flux;
         if (why == CullReason::Criterion) ++b.prunedBranches;
         record(br.node, EventType::Culled, br.ray.origin, br.ray.direction, br.flux, -1, 0,
                br.medium, static_cast<uint8_t>(why));
@@ -238,13 +243,28 @@ class RayTracer {
         return true;
     }
 
-    // The branch's flux against the cull threshold and Russian roulette, after every bounce.
-    bool survives(Branch& br, double cullFlux, double rouletteFlux, CounterRng& rng,
-                  FluxBudget& b) {
-        if (br.flux < cullFlux) {
+    // A branch below minRelativeFlux (cullFlux): Russian roulette kept at the rescue flux, or
+    // cut without one. False: it ends.
+    bool aboveMin(Branch& br, double cullFlux, CounterRng& rng, FluxBudget& b) {
+        if (!(br.flux < cullFlux)) return true;
+        const double rescue = o_.rescueRelativeFlux * (cullFlux / o_.minRelativeFlux);
+        if (!(rescue > 0.0)) {
             cull(br, CullReason::MinFlux, b);
             return false;
         }
+        if (!(rng.uniform() * rescue < br.flux)) {
+            cull(br, CullReason::RussianRoulette, b);
+            return false;
+        }
+        b.rouletteGain += rescue - br.flux;
+        br.flux = rescue;
+        return true;
+    }
+
+    // The branch's flux against the cull threshold and Russian roulette, after every bounce.
+    bool survives(Branch& br, double cullFlux, double rouletteFlux, CounterRng& rng,
+                  FluxBudget& b) {
+        if (!aboveMin(br, cullFlux, rng, b)) return false;
         if (rouletteFlux > 0.0 && br.flux < rouletteFlux) {
             if (rng.uniform() * rouletteFlux < br.flux) {
                 b.rouletteGain += rouletteFlux - br.flux;
@@ -338,10 +358,7 @@ class RayTracer {
                         stack_.pop_back();
                         continue;
                     }
-                    if (c.flux < cullFlux) {
-                        cull(c, CullReason::MinFlux, b);
-                        stack_.pop_back();
-                    }
+                    if (!aboveMin(c, cullFlux, c.rng, b)) stack_.pop_back();
                 }
                 br.flux *= in.children[0].share;
                 br.depth += 1;

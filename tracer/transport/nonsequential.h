@@ -11,11 +11,12 @@
 //           carries the whole non-absorbed flux on.
 // After every bounce, in both modes and whether the surface split the flux or kept one
 // channel (an opaque diffuse mount has only its scatter channel), a branch below
-// minRelativeFlux of its ray's emitted flux is culled (biased: its flux is lost, and counted
-// as culled), and one below rouletteRelativeFlux plays unbiased Russian roulette: it survives
-// with probability flux / threshold, carrying the threshold flux, or is culled. So a ray
-// bouncing inside a 1 % black mount stops after two or three bounces at the default 1e-4,
-// not after a hundred at 1e-38 W.
+// minRelativeFlux of its ray's emitted flux either plays Russian roulette, when
+// rescueRelativeFlux > 0: it survives with probability flux / rescue, carrying the rescue flux
+// (unbiased; veil trace's default, rescue 1e-2), or is cut (biased: its flux is lost, counted
+// as culled and as cut). A branch below rouletteRelativeFlux plays Russian roulette too,
+// carrying that threshold's flux. So a ray bouncing inside a 1 % black mount stops after two
+// or three bounces at 1e-4, not after a hundred at 1e-38 W.
 //
 // Every surface interaction is the shared step of tracer/transport/interaction.h; this pass carries
 // flux forward and records the events.
@@ -53,7 +54,9 @@ class PathHistory;
 struct TransportOptions {
     enum class Mode { Split, Random };
     Mode mode = Mode::Split;
-    double minRelativeFlux = 1e-4;      // cull branches below this share (every bounce)
+    double minRelativeFlux = 1e-4;      // below this share (every bounce): roulette or cut
+    double rescueRelativeFlux = 0.0;    // > 0: roulette below minRelativeFlux, kept at this
+                                        // share; 0: cut (biased)
     int maxSplitDepth = 64;             // split mode: cull deeper branches
     double rouletteRelativeFlux = 0.0;  // 0 = no Russian roulette
     int maxSegments = 1000;             // per branch
@@ -84,6 +87,10 @@ struct FluxBudget {
     double absorbedVolume = 0.0;
     double escaped = 0.0;
     double culled = 0.0;
+    // Of culled, the flux cut without roulette (below minRelativeFlux without rescue, beyond
+    // maxSplitDepth or maxSegments): light lost to the estimate, the most the detectors can
+    // lack (roulette's losses are paid back by its survivors).
+    double cut = 0.0;
     double dropped = 0.0;  // channels without a direction (tracer/transport/interaction.h)
     double rouletteGain = 0.0;
     uint64_t droppedBranches[kDropReasons] = {};  // by DropReason
