@@ -615,6 +615,13 @@ class CodeVParser {
                                  " (no catalog " + vendor + " has it)");
                     return Material::catalog(glass->name());
                 }
+        if (const Glass* glass = catalog_.findSuccessor(name, preferred);
+            glass && !inPrivateGlasses(g.text)) {
+            note(Severity::Info, g.loc,
+                 "glass " + g.text + " is in no loaded catalog under that name; taken as " +
+                     glass->name() + " (" + glass->catalog() + "), the glass the name denotes");
+            return Material::catalog(glass->name());
+        }
         std::string msg = "unknown glass '" + g.text + "'";
         if (inPrivateGlasses(g.text))
             msg += ": private glass catalogs (PRV, line " + std::to_string(privateLoc_.line) +

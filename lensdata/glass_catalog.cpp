@@ -6,6 +6,7 @@
 #include <fstream>
 #include <iterator>
 #include <set>
+#include <tuple>
 #include <utility>
 
 #include "lensdata/agf_reader.h"
@@ -182,6 +183,16 @@ const Glass* GlassCatalog::find(std::string_view name,
     return nullptr;
 }
 
+const Glass* GlassCatalog::findSuccessor(std::string_view name,
+                                         std::span<const std::string> preferred) const {
+    if (name.empty() || find(name, preferred)) return nullptr;
+    const std::string n(name);
+    for (const std::string& candidate :
+         {"N-" + n, "N-" + n + "A", "H-" + n, "H-" + n + "L", "H-" + n + "A", "P-" + n})
+        if (const Glass* g = find(candidate, preferred)) return g;
+    return nullptr;
+}
+
 std::vector<std::string> GlassCatalog::catalogNames() const {
     std::vector<std::string> names;
     for (const Catalog& c : catalogs_) names.push_back(c.name);
@@ -209,21 +220,42 @@ size_t GlassCatalog::size() const {
 std::vector<std::string> GlassCatalog::suggestions(std::string_view name, int count) const {
     const std::string key = upper(name);
     const int maxDistance = std::max<int>(2, static_cast<int>(key.size()) / 2);
-    std::vector<std::pair<int, std::string>> scored;
+    // The name after a maker's prefix of one or two letters (N-BK7: BK7), else the name.
+    auto stem = [](const std::string& n) {
+        const size_t dash = n.find('-');
+        return dash != std::string::npos && dash >= 1 && dash <= 2 ? n.substr(dash + 1) : n;
+    };
+    const std::string keyStem = stem(key);
+    // (kind, edits, catalog, name): the name itself, then the same stem, then a stem one
+    // letter longer or shorter, then the rest within maxDistance edits; ties to the catalog
+    // loaded first (Schott's successor before another maker's namesake).
+    std::vector<std::tuple<int, int, size_t, std::string>> scored;
     std::set<std::string> seen;
-    for (const Catalog& c : catalogs_) {
-        for (const Glass& g : c.glasses) {
+    for (size_t ci = 0; ci < catalogs_.size(); ++ci) {
+        for (const Glass& g : catalogs_[ci].glasses) {
             std::string upperName = upper(g.name());
             if (!seen.insert(upperName).second) continue;
+            const std::string s = stem(upperName);
             const int d = editDistance(key, upperName);
-            if (d <= maxDistance) scored.emplace_back(d, g.name());
+            int kind = 3;
+            if (upperName == key) {
+                kind = 0;
+            } else if (s == keyStem) {
+                kind = 1;
+            } else if (!keyStem.empty() && !s.empty() &&
+                       (s.rfind(keyStem, 0) == 0 || keyStem.rfind(s, 0) == 0) &&
+                       std::max(s.size(), keyStem.size()) - std::min(s.size(), keyStem.size()) <=
+                           1) {
+                kind = 2;
+            }
+            if (kind < 3 || d <= maxDistance) scored.emplace_back(kind, d, ci, g.name());
         }
     }
     std::sort(scored.begin(), scored.end());
     std::vector<std::string> out;
-    for (auto& [d, n] : scored) {
+    for (auto& t : scored) {
         if (static_cast<int>(out.size()) >= count) break;
-        out.push_back(std::move(n));
+        out.push_back(std::move(std::get<3>(t)));
     }
     return out;
 }

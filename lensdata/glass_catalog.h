@@ -68,6 +68,13 @@ class GlassCatalog {
     // Case-insensitive lookup. Catalogs listed in `preferred` are searched first, in that
     // order (a lens file's GCAT line), then all others in load order. nullptr if unknown.
     const Glass* find(std::string_view name, std::span<const std::string> preferred = {}) const;
+    // The glass a legacy or vendor name denotes where no loaded catalog has the name itself:
+    // the maker's successor under its prefix (Schott's lead-free BK7 -> N-BK7, PSK53A ->
+    // N-PSK53A; CDGM's K9 -> H-K9L, QK3 -> H-QK3). Tried in order: N-X, N-XA, H-X, H-XL,
+    // H-XA, P-X, each as find() looks (the preferred catalogs first). nullptr when none; a
+    // name find() knows is not looked at.
+    const Glass* findSuccessor(std::string_view name,
+                               std::span<const std::string> preferred = {}) const;
     // Names of all catalogs, in load order.
     std::vector<std::string> catalogNames() const;
     // Glasses of one catalog (empty if unknown).
@@ -75,9 +82,11 @@ class GlassCatalog {
     // The CC comment lines of one catalog (empty if unknown).
     std::vector<std::string> comments(std::string_view catalog) const;
     size_t size() const;
-    // Up to `count` known names closest to `name` by edit distance (case-insensitive
-    // Damerau-Levenshtein), nearest first, for "unknown glass, did you mean". Names further
-    // than max(2, name.size() / 2) edits are not suggested.
+    // Up to `count` known names closest to `name`, for "unknown glass, did you mean": first
+    // those whose stem (the name after a maker's prefix of one or two letters: N-BK7's BK7)
+    // is the name, then those whose stem starts with it or it with the stem (K9 and H-K9L),
+    // then by edit distance (case-insensitive Damerau-Levenshtein), nearest first. Names
+    // further than max(2, name.size() / 2) edits and of another stem are not suggested.
     std::vector<std::string> suggestions(std::string_view name, int count = 3) const;
 
   private:

@@ -763,9 +763,15 @@ void ZmxParser::resolveGlasses() {
             }
             continue;
         }
-        if (const Glass* glass = catalog_.find(g.name, preferred)) {
+        const Glass* glass = catalog_.find(g.name, preferred);
+        const bool successor = !glass && (glass = catalog_.findSuccessor(g.name, preferred));
+        if (successor)
+            note(Severity::Info, g.loc,
+                 "glass " + g.name + " is in no loaded catalog under that name; taken as " +
+                     glass->name() + " (" + glass->catalog() + "), the glass the name denotes");
+        if (glass) {
             s.material = Material::catalog(glass->name());
-            if (!preferred.empty() &&
+            if (!successor && !preferred.empty() &&
                 std::none_of(preferred.begin(), preferred.end(),
                              [&](const std::string& c) { return c == upper(glass->catalog()); }))
                 note(Severity::Info, g.loc,

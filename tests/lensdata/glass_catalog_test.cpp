@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
@@ -449,6 +450,34 @@ TEST(GlassCatalog, SuggestsCloseNames) {
     // A transposition is one edit.
     EXPECT_EQ(c.suggestions("N-KB7", 1), (std::vector<std::string>{"N-BK7"}));
     EXPECT_TRUE(c.suggestions("QQQQQQQQQQQQQQQQ").empty());
+    // A legacy name's successor first, by its stem: BK7 is N-BK7's (edit distance would give
+    // K7, BAF7, BAK2), K9 starts H-K9L's.
+    s = c.suggestions("BK7");
+    ASSERT_FALSE(s.empty());
+    EXPECT_EQ(s[0], "N-BK7");
+    s = c.suggestions("k9");
+    EXPECT_NE(std::find(s.begin(), s.end(), "H-K9L"), s.end());
+}
+
+// Legacy and vendor names where the loaded catalogs hold the glass under its maker's new name.
+TEST(GlassCatalog, FindsTheSuccessorsOfLegacyNames) {
+    const GlassCatalog& c = GlassCatalog::builtIn();
+    auto successor = [&](const char* name) {
+        const Glass* g = c.findSuccessor(name);
+        return g ? g->name() + " " + g->catalog() : std::string("none");
+    };
+    EXPECT_EQ(successor("BK7"), "N-BK7 SCHOTT");
+    EXPECT_EQ(successor("bak1"), "N-BAK1 SCHOTT");
+    EXPECT_EQ(successor("FK51"), "N-FK51 SCHOTT");
+    EXPECT_EQ(successor("PSK53A"), "N-PSK53A SCHOTT");
+    EXPECT_EQ(successor("K9"), "H-K9L CDGM");
+    EXPECT_EQ(successor("QK3"), "H-QK3 CDGM");
+    EXPECT_EQ(successor("BK10"), "N-BK10 SCHOTT");
+    // A name the catalogs know is its own glass (SF5 is still Schott's lead flint).
+    EXPECT_EQ(successor("SF5"), "none");
+    EXPECT_EQ(successor("N-BK7"), "none");
+    EXPECT_EQ(successor("UNOBTAINIUM"), "none");
+    EXPECT_EQ(successor(""), "none");
 }
 
 // User Catalogs

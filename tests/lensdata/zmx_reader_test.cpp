@@ -645,6 +645,26 @@ TEST(ZmxReader, UnknownGlassIsReportedWithItsLine) {
     EXPECT_EQ(rx.surfaces[2].material, Material::catalog("UNOBTAINIUM"));
 }
 
+// A legacy name the catalogs hold under its maker's new name (BK7, now Schott's N-BK7; K9,
+// CDGM's H-K9L) is that glass, with a note naming it, not the file's stored model glass.
+TEST(ZmxReader, LegacyGlassNamesAreTheirSuccessors) {
+    const std::string text =
+        "ENPD 10\nSURF 0\n DISZ INFINITY\nSURF 1\n STOP\n CURV 0.02\n DISZ 2\n"
+        " GLAS BK7 0 0 1.5168 64.17 0 0 0 0 0 0\nSURF 2\n DISZ 1\nSURF 3\n CURV -0.01\n"
+        " DISZ 2\n GLAS K9 0 0 1.5163 64.06 0 0 0 0 0 0\nSURF 4\n DISZ 40\nSURF 5\n";
+    const Prescription rx = readZmxText(text, "legacy.zmx", GlassCatalog::builtIn());
+    EXPECT_EQ(rx.surfaces[1].material, Material::catalog("N-BK7"));
+    EXPECT_EQ(rx.surfaces[3].material, Material::catalog("H-K9L"));
+    const ImportNote* bk7 = findNote(rx,
+                                     "glass BK7 is in no loaded catalog under that name; "
+                                     "taken as N-BK7 (SCHOTT)");
+    ASSERT_NE(bk7, nullptr) << reportText(rx);
+    EXPECT_EQ(bk7->severity, ImportNote::Severity::Info);
+    EXPECT_EQ(bk7->loc.line, 8);
+    EXPECT_NE(findNote(rx, "taken as H-K9L (CDGM)"), nullptr) << reportText(rx);
+    EXPECT_EQ(findNote(rx, "unknown glass"), nullptr) << reportText(rx);
+}
+
 // GCAT naming a catalog veil has not loaded explains every glass that falls back: a warning,
 // with the way to load it, not an info line among the others.
 TEST(ZmxReader, UnloadedGcatCatalogIsAWarningWithTheFix) {
