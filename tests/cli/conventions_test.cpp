@@ -102,6 +102,13 @@ TEST(CliConventions, RayCountsAreWholeNumbersWithSuffixes) {
     VeilRun r = runVeil("trace examples/scenes/longfocus_360mm_sun.toml -n 1.5 -o " + dir);
     EXPECT_EQ(r.exitCode, 2);
     EXPECT_NE(r.err.find("'1.5' is not a whole number"), std::string::npos) << r.err;
+    r = runVeil("trace examples/scenes/longfocus_360mm_sun.toml -n 0.0005k -o " + dir);
+    EXPECT_EQ(r.exitCode, 2);
+    EXPECT_NE(r.err.find("'0.0005k' is not a whole number"), std::string::npos) << r.err;
+    // A suffix times a fraction that makes a whole number is that number.
+    r = runVeil("trace examples/lenses/singlet.toml -n 0.5k --json");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_EQ(nlohmann::json::parse(r.out)["rays_per_source"].get<uint64_t>(), 500u);
     r = runVeil("trace examples/scenes/longfocus_360mm_sun.toml -n 0 -o " + dir);
     EXPECT_EQ(r.exitCode, 2);
     r = runVeil("trace examples/scenes/longfocus_360mm_sun.toml -n ten -o " + dir);
