@@ -233,6 +233,9 @@ class PhotonPass {
     mutable std::vector<std::atomic<uint8_t>> reached_;
     const uint64_t perSource_, ghostPhotons_, visiblePhotons_;
     std::vector<size_t> visibleSources_;  // the sources whose visible light photons deposit
+    // The visible deposits' factor of a ghost and of a visible photon: its emitted count over
+    // the ghost and visible photons' together (each deposits 1 / their number of the light).
+    double ghostScale_ = 0.0, visibleScale_ = 0.0;
     const uint64_t photonSeed_;
     // One scramble of the Sobol points per source and pass, for the photons and for the
     // visible photons (independent of each other).
@@ -288,6 +291,10 @@ PhotonPass::PhotonPass(const TransportView& ts, const DetectorImage& detector,
                                       (0x9E3779B97F4A7C15ull * (s + 1)));
         if (photonsSeeSource(ts.sources[s]) && visiblePhotons_ > 0) visibleSources_.push_back(s);
     }
+    const double depositing =
+        static_cast<double>(ghostPhotons_ + (visibleSources_.empty() ? 0 : visiblePhotons_));
+    ghostScale_ = static_cast<double>(perSource_) / depositing;
+    visibleScale_ = static_cast<double>(visiblePhotons_) / depositing;
     // The detector's smoothing disk shrinks with the gathering radius.
     const DetectorGeometry& dg = detector.geometry();
     rho_ = options.detectorRadiusPixels * std::max(dg.pixelWidthMm(), dg.pixelHeightMm()) *
@@ -419,11 +426,7 @@ Photon PhotonPass::emit(uint64_t i, EmittedRay& e) const {
     }
     const Source& source = ts_.sources[ph.source];
     ph.deposits = ph.splitAll && photonsSeeSource(source);
-    if (ph.deposits) {
-        const bool visibleToo = !visibleSources_.empty();  // every deposit-source has them
-        ph.visibleScale = static_cast<double>(count) /
-                          static_cast<double>(ghostPhotons_ + (visibleToo ? visiblePhotons_ : 0));
-    }
+    ph.visibleScale = ph.visibleOnly ? visibleScale_ : ghostScale_;
     // The emission's uniforms: Sobol dimensions 0 and 1 (the best pair) to the origin, 2 and 3
     // to the direction, 4 to the line; or the photon's own stream (as Source::emit(rng) draws
     // them).

@@ -146,6 +146,7 @@ class RayTracer {
         const int w = e.wavelength;
         const double cullFlux = o_.minRelativeFlux * e.flux;
         const double rouletteFlux = o_.rouletteRelativeFlux * e.flux;
+        rescueFlux_ = o_.rescueRelativeFlux * e.flux;
         stack_.clear();
         Branch first{e.ray, e.flux, 0, 0, 0, -1, -1, root, nullptr};
         first.rng = rng;  // the ray's stream, after the emission's numbers
@@ -247,7 +248,7 @@ class RayTracer {
     // cut without one. False: it ends.
     bool aboveMin(Branch& br, double cullFlux, CounterRng& rng, FluxBudget& b) {
         if (!(br.flux < cullFlux)) return true;
-        const double rescue = o_.rescueRelativeFlux * (cullFlux / o_.minRelativeFlux);
+        const double rescue = rescueFlux_;
         if (!(rescue > 0.0)) {
             cull(br, CullReason::MinFlux, b);
             return false;
@@ -375,6 +376,7 @@ class RayTracer {
     std::vector<Branch> stack_;
     PathHistory history_;
     Bounds3 sceneBounds_;
+    double rescueFlux_ = 0.0;  // this ray's: rescueRelativeFlux of its emitted flux
 };
 
 }  // namespace
