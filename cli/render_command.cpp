@@ -120,9 +120,9 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
     sub->add_option("--visible-photons", o.visiblePhotons,
                     "more photons per sun, beam or point source per pass that follow every "
                     "specular branch and deposit the visible light alone, gathering nothing: auto "
-                    "(65536 or --photons if fewer in the first two passes, then as many as spend "
-                    "the time where the --target-on error comes from) or a count for every pass "
-                    "(0: none)")
+                    "(first 65536, or --photons if fewer, when the --target-on image holds the "
+                    "visible light, else 1024; then as many as spend the time where that "
+                    "image's error comes from) or a count for every pass (0: none)")
         ->check(CLI::Validator(
             [](std::string& s) -> std::string {
                 if (s == "auto") return {};
