@@ -6,6 +6,7 @@
 #include <limits>
 #include <memory>
 #include <numbers>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -212,62 +213,82 @@ std::vector<double> profileRadii(double rMax, std::initializer_list<double> extr
     return r;
 }
 
-void checkThickness(const LensSolid& s) {
-    // Beyond both face rims the thickness is the edge's: flats that cross show up here (an
-    // anamorphic face reaches the edge, and the profile below covers its rim).
-    const double edge = anamorphic(s) ? 1.0 : s.direction * (s.back.rimZMm - s.front.rimZMm);
-    if (!(edge > 0.0)) {
-        throw ModelError(s.name, std::string(edge < 0.0 ? "negative" : "zero") +
-                                     " edge thickness " + messageNumber(edge) +
-                                     " mm at r = " + messageNumber(s.edgeRadiusMm) + " mm");
+// The thinnest point of an element: the edge (beyond both face rims, where flats that cross
+// show up; an anamorphic face reaches the edge and the profile covers its rim) or anywhere
+// on the profile from the axis out.
+LensSolidProblem thinnestPoint(const LensSolid& s, int index) {
+    LensSolidProblem worst{LensSolidProblem::Kind::Thickness,       index, index,
+                           std::numeric_limits<double>::infinity(), 0.0,   true};
+    if (!anamorphic(s)) {
+        worst.valueMm = s.direction * (s.back.rimZMm - s.front.rimZMm);
+        worst.atRadiusMm = s.edgeRadiusMm;
     }
-    double worst = std::numeric_limits<double>::infinity(), worstR = 0.0;
     const std::vector<double> azimuths = profileAzimuths(anamorphic(s));
     for (double r : profileRadii(s.edgeRadiusMm, {s.front.faceRadiusMm, s.back.faceRadiusMm})) {
         for (double phi : azimuths) {
             const double x = r * std::cos(phi), y = r * std::sin(phi);
             const double t = s.direction * (s.backZAt(x, y) - s.frontZAt(x, y));
-            if (t < worst) {
-                worst = t;
-                worstR = r;
+            if (t < worst.valueMm || std::isnan(t)) {
+                worst.valueMm = t;
+                worst.atRadiusMm = r;
+                worst.atEdge = false;
             }
         }
     }
-    if (!(worst > 0.0)) {
-        throw ModelError(s.name, "front and back faces cross: thickness " + messageNumber(worst) +
-                                     " mm at r = " + messageNumber(worstR) + " mm");
-    }
+    return worst;
+}
+
+void checkThickness(const LensSolid& s) {
+    const LensSolidProblem t = thinnestPoint(s, 0);
+    if (t.valueMm > 0.0) return;
+    if (t.atEdge)
+        throw ModelError(s.name, std::string(t.valueMm < 0.0 ? "negative" : "zero") +
+                                     " edge thickness " + messageNumber(t.valueMm) +
+                                     " mm at r = " + messageNumber(t.atRadiusMm) + " mm");
+    throw ModelError(s.name, "front and back faces cross: thickness " + messageNumber(t.valueMm) +
+                                 " mm at r = " + messageNumber(t.atRadiusMm) + " mm");
 }
 
 // Neighbours across an air gap (no mirror in between, so light keeps its direction) must not
-// overlap anywhere both exist.
-void checkAirGap(const Prescription& p, const LensSolid& a, const LensSolid& b) {
+// overlap anywhere both exist. Returns the narrowest point of the gap, or nothing for
+// neighbours that are not compared.
+std::optional<LensSolidProblem> narrowestGap(const Prescription& p, const LensSolid& a,
+                                             const LensSolid& b, int index) {
     for (int j = a.back.surface; j < b.front.surface; ++j) {
-        if (p.surfaces[j].mirror) return;
+        if (p.surfaces[j].mirror) return std::nullopt;
     }
-    if (a.direction != b.direction) return;
+    if (a.direction != b.direction) return std::nullopt;
     // Elements on different axes (a coordinate break between them) are not compared.
-    if (!samePlace(a.placement, b.placement)) return;
+    if (!samePlace(a.placement, b.placement)) return std::nullopt;
     const double rMax = std::min(a.edgeRadiusMm, b.edgeRadiusMm);
-    double worst = std::numeric_limits<double>::infinity(), worstR = 0.0;
+    LensSolidProblem worst{LensSolidProblem::Kind::AirGap,          index, index + 1,
+                           std::numeric_limits<double>::infinity(), 0.0,   false};
     const std::vector<double> azimuths = profileAzimuths(anamorphic(a) || anamorphic(b));
     for (double r : profileRadii(rMax, {a.back.faceRadiusMm, b.front.faceRadiusMm})) {
         for (double phi : azimuths) {
             const double x = r * std::cos(phi), y = r * std::sin(phi);
             const double gap = a.direction * (b.frontZAt(x, y) - a.backZAt(x, y));
-            if (gap < worst) {
-                worst = gap;
-                worstR = r;
+            if (gap < worst.valueMm || std::isnan(gap)) {
+                worst.valueMm = gap;
+                worst.atRadiusMm = r;
             }
         }
     }
-    if (worst < -kOverlapToleranceMm) {
-        throw ModelError(a.name, "overlaps " + b.name + ": air gap " + messageNumber(worst) +
-                                     " mm at r = " + messageNumber(worstR) + " mm");
+    return worst;
+}
+
+void checkAirGap(const Prescription& p, const LensSolid& a, const LensSolid& b) {
+    const std::optional<LensSolidProblem> g = narrowestGap(p, a, b, 0);
+    if (g && !(g->valueMm >= -kOverlapToleranceMm)) {
+        throw ModelError(a.name, "overlaps " + b.name + ": air gap " + messageNumber(g->valueMm) +
+                                     " mm at r = " + messageNumber(g->atRadiusMm) + " mm");
     }
 }
 
-std::vector<LensSolid> solidsOfNamed(const Prescription& p) {
+// The solids of a named prescription. Thickness and overlap problems throw, or, given
+// `problems`, are listed there (every element and neighbour pair, worst point first).
+std::vector<LensSolid> solidsOfNamed(const Prescription& p,
+                                     std::vector<LensSolidProblem>* problems = nullptr) {
     p.validate();
     const std::vector<double> z = vertexZ(p);
     const std::vector<Frame> frames = surfaceFrames(p);
@@ -356,10 +377,18 @@ std::vector<LensSolid> solidsOfNamed(const Prescription& p) {
                                      "mechanical semi-diameter");
             *side = makeSide(p, z, side->surface, s.edgeRadiusMm, false);
         }
-        checkThickness(s);
+        if (problems)
+            problems->push_back(thinnestPoint(s, static_cast<int>(k)));
+        else
+            checkThickness(s);
     }
     for (size_t k = 0; k + 1 < count; ++k) {
-        if (!cementedToNext(k)) checkAirGap(p, out[k], out[k + 1]);
+        if (cementedToNext(k)) continue;
+        if (!problems) {
+            checkAirGap(p, out[k], out[k + 1]);
+        } else if (auto g = narrowestGap(p, out[k], out[k + 1], static_cast<int>(k))) {
+            problems->push_back(*g);
+        }
     }
     return out;
 }
@@ -422,6 +451,12 @@ double LensSolid::frontZAt(double xMm, double yMm) const { return sideZAt(front,
 double LensSolid::backZAt(double xMm, double yMm) const { return sideZAt(back, xMm, yMm); }
 
 std::vector<LensSolid> lensSolids(const Prescription& p) { return solidsOfNamed(withNames(p)); }
+
+std::vector<LensSolid> measuredLensSolids(const Prescription& p,
+                                          std::vector<LensSolidProblem>& measures) {
+    measures.clear();
+    return solidsOfNamed(withNames(p), &measures);
+}
 
 namespace {
 

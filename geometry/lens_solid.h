@@ -171,6 +171,25 @@ std::ostream& operator<<(std::ostream& os, const LensSolid& s);
 // repeat a pass through glass already listed are left out. Throws ModelError.
 std::vector<LensSolid> lensSolids(const Prescription& p);
 
+// The thinnest point of an element (Thickness: first == second == its index in the solids)
+// or the narrowest air gap between neighbours (AirGap: second == first + 1), mm. Negative
+// values are overlaps; lensSolids() requires thickness > 0 and gaps >= -1e-9 mm.
+struct LensSolidProblem {
+    enum class Kind { Thickness, AirGap };
+    Kind kind = Kind::Thickness;
+    int first = 0, second = 0;  // indices into the solids
+    double valueMm = 0.0;
+    double atRadiusMm = 0.0;
+    bool atEdge = false;  // Thickness: the edge between the flats (or rims) is the thinnest
+};
+
+// The solids as lensSolids() plans them, without the thickness and overlap checks: instead,
+// `measures` gets the thinnest point of every element and the narrowest gap of every pair
+// of neighbours that are compared (cemented neighbours and neighbours across a mirror or a
+// coordinate break are not). Structural errors (missing sizes, holes in glass) still throw.
+std::vector<LensSolid> measuredLensSolids(const Prescription& p,
+                                          std::vector<LensSolidProblem>& measures);
+
 // Adds the faces of every lens element and every mirror to the scene (see the top of this
 // file). Throws ModelError for missing sizes, negative thickness, overlapping elements and
 // name clashes.

@@ -80,23 +80,26 @@ void MechanicsBuilder::readSurfaces() {
 
 void MechanicsBuilder::makeBodies() {
     const std::vector<Element> elements = rx_.elements();
-    auto requireSize = [&](int s) {
+    // A lens face is exact to its clear semi-diameter and flat beyond (pieceRange), so only
+    // that must lie within the surface's rim; a mirror sheet follows its sag to mech_sd.
+    auto requireSize = [&](int s, bool sheet) {
         const SurfaceInfo& si = surfaces_[s];
         if (!(si.mechMm > 0.0))
             throw ModelError(si.name,
                              "mechanics need its size: give sd or mech_sd (clear or mechanical "
                              "semi-diameter)");
         const double rim = maxRadius(si.shape);
-        if (si.mechMm > rim)
-            throw ModelError(si.name, "semi-diameter " + fmt(si.mechMm) +
+        const double exactTo = sheet ? si.mechMm : si.clearMm;
+        if (exactTo > rim)
+            throw ModelError(si.name, "semi-diameter " + fmt(exactTo) +
                                           " mm lies beyond the rim of the surface (" + fmt(rim) +
                                           " mm)");
     };
     // Elements; consecutive ones sharing a surface are cemented into one body.
     for (size_t e = 0; e < elements.size(); ++e) {
         const Element& el = elements[e];
-        requireSize(el.frontSurface);
-        requireSize(el.backSurface);
+        requireSize(el.frontSurface, false);
+        requireSize(el.backSurface, false);
         Piece p;
         p.name = el.name;
         p.surfaces = {el.frontSurface, el.backSurface};
@@ -141,7 +144,7 @@ void MechanicsBuilder::makeBodies() {
     // Mirrors without glass: thin sheets.
     for (int i = 1; i + 1 < n; ++i) {
         if (!rx_.surfaces[i].mirror || surfaces_[i].body >= 0) continue;
-        requireSize(i);
+        requireSize(i, true);
         Piece p;
         p.name = surfaces_[i].name;
         p.surfaces = {i};

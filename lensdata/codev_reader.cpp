@@ -406,9 +406,7 @@ class CodeVParser {
         } else if (code == "WTF") {
             fieldWeights_ = numbers(c);
         } else if (code == "VUX" || code == "VLX" || code == "VUY" || code == "VLY") {
-            ignored(c,
-                    "vignetting factors are not imported: veil vignettes by tracing the "
-                    "apertures (CIR)");
+            vignetting_[code] = numbers(c);
         } else {
             return false;
         }
@@ -731,10 +729,21 @@ class CodeVParser {
         const size_t n = std::max({fieldX_.size(), fieldY_.size(), size_t(1)});
         if ((!fieldX_.empty() && fieldX_.size() != n) || (!fieldY_.empty() && fieldY_.size() != n))
             throw ParseError(fieldLoc_, "the x and y field lists have different lengths");
-        for (size_t i = 0; i < n; ++i)
-            sys.fields.push_back({i < fieldX_.size() ? fieldX_[i] : 0.0,
-                                  i < fieldY_.size() ? fieldY_[i] : 0.0,
-                                  i < fieldWeights_.size() ? fieldWeights_[i] : 1.0});
+        for (size_t i = 0; i < n; ++i) {
+            Field f{i < fieldX_.size() ? fieldX_[i] : 0.0, i < fieldY_.size() ? fieldY_[i] : 0.0,
+                    i < fieldWeights_.size() ? fieldWeights_[i] : 1.0};
+            // Upper and lower factors cut the pupil to [-(1 - VL), 1 - VU]: its centre and
+            // half width.
+            auto factor = [&](const char* code) {
+                const auto it = vignetting_.find(code);
+                return it != vignetting_.end() && i < it->second.size() ? it->second[i] : 0.0;
+            };
+            f.vdx = 0.5 * (factor("VLX") - factor("VUX"));
+            f.vcx = 0.5 * (factor("VLX") + factor("VUX"));
+            f.vdy = 0.5 * (factor("VLY") - factor("VUY"));
+            f.vcy = 0.5 * (factor("VLY") + factor("VUY"));
+            sys.fields.push_back(f);
+        }
         if (sys.fieldKind == SystemData::FieldKind::ObjectHeightMm &&
             std::isinf(surfaces_[0].surface.thicknessMm))
             throw ParseError(fieldLoc_,
@@ -774,6 +783,7 @@ class CodeVParser {
     FileLoc referenceLoc_;
     std::optional<SystemData::FieldKind> fieldKind_;
     std::vector<double> fieldX_, fieldY_, fieldWeights_;
+    std::map<std::string, std::vector<double>> vignetting_;  // VUX, VLX, VUY, VLY per field
     FileLoc fieldLoc_;
 };
 

@@ -170,6 +170,12 @@ struct Field {
     double x = 0.0;  // degrees for angle fields, mm for object and image heights
     double y = 0.0;
     double weight = 1.0;
+    // Vignetting factors (Zemax VDX, VDY, VCX, VCY; CODE V's VUX, VLX, VUY, VLY become these):
+    // the beam the designer meant fills the pupil points (vdx + px (1 - vcx), vdy + py (1 -
+    // vcy)) for px, py on the unit pupil. They size the automatic clear semi-diameters, as in
+    // the programs that write them; the scene's light is vignetted by its apertures.
+    double vdx = 0.0, vdy = 0.0, vcx = 0.0, vcy = 0.0;
+    bool vignetted() const { return vdx != 0.0 || vdy != 0.0 || vcx != 0.0 || vcy != 0.0; }
 };
 
 struct Wavelength {

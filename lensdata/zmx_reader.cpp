@@ -136,10 +136,6 @@ constexpr std::array kSkippedTags = {
     SkippedTag{"ROPD", "OPD reference settings"},
     SkippedTag{"HYPR", "huygens/analysis settings"},
     SkippedTag{"PICB", "paraxial ignore-coordinate-break setting"},
-    SkippedTag{"VDXN", "field vignetting decenter x (clear apertures are used instead)"},
-    SkippedTag{"VDYN", "field vignetting decenter y (clear apertures are used instead)"},
-    SkippedTag{"VCXN", "field vignetting compression x (clear apertures are used instead)"},
-    SkippedTag{"VCYN", "field vignetting compression y (clear apertures are used instead)"},
     SkippedTag{"VANN", "field vignetting angle (clear apertures are used instead)"},
     SkippedTag{"POLS", "polarization analysis settings"},
     SkippedTag{"GLRS", "glass rest settings"},
@@ -286,6 +282,7 @@ class ZmxParser {
     FileLoc fieldTypeLoc_;
     std::optional<int> fieldCount_, waveCount_;
     std::vector<double> xFields_, yFields_, fieldWeights_;
+    std::array<std::vector<double>, 4> vignetting_;  // VDX, VDY, VCX, VCY per field
     bool oldFieldForm_ = false;
     std::map<int, std::pair<double, double>> wavm_;  // index -> (um, weight)
     std::vector<double> waveList_, waveWeights_;     // WAVL / WAVN and WWGT / WWGN
@@ -302,6 +299,10 @@ class ZmxParser {
 
     // Summaries
     std::map<std::string, TagCount> skipped_;  // known, display-only tags
+    // Unknown commands, per tag: how often, the first line and its text.
+    std::map<std::string, std::pair<TagCount, std::string>> unknown_;
+    // GCAT names no loaded catalog has: a Warning only if a glass is then not found.
+    std::vector<std::pair<std::string, FileLoc>> unloadedCatalogs_;
     std::map<std::string, TagCount> solves_;   // solves and pickups on imported values
 };
 
@@ -402,8 +403,11 @@ void ZmxParser::dispatch(const Line& line) {
         if (c.count++ == 0) c.first = locOf(line);
         return;
     }
-    note(Severity::Warning, locOf(line),
-         "unknown command '" + tag + "' ignored: " + trim(line.text));
+    auto& [count, text] = unknown_[tag];
+    if (count.count++ == 0) {
+        count.first = locOf(line);
+        text = trim(line.text);
+    }
 }
 
 bool ZmxParser::headerCommand(const std::string& tag, const Line& line) {
@@ -458,11 +462,7 @@ bool ZmxParser::headerCommand(const std::string& tag, const Line& line) {
             sys.glassCatalogs.push_back(name);
             const bool loaded = std::any_of(known.begin(), known.end(),
                                             [&](const auto& k) { return upper(k) == name; });
-            if (!loaded)
-                note(Severity::Warning, locOf(line, line.tokens[i]),
-                     "glass catalog " + name +
-                         " named by GCAT is not loaded; glasses are looked up in the other "
-                         "catalogs (" + kGlassCatalogHint + ")");
+            if (!loaded) unloadedCatalogs_.push_back({name, locOf(line, line.tokens[i])});
         }
     } else if (tag == "FTYP") {
         // FTYP <type> <object telecentric> <field count> <wavelength count> <?> <?> <afocal>
@@ -490,6 +490,14 @@ bool ZmxParser::headerCommand(const std::string& tag, const Line& line) {
         oldFieldForm_ = tag == "YFLD";
     } else if (tag == "FWGN" || tag == "FWGT") {
         fieldWeights_ = numberList(line);
+    } else if (tag == "VDXN") {
+        vignetting_[0] = numberList(line);
+    } else if (tag == "VDYN") {
+        vignetting_[1] = numberList(line);
+    } else if (tag == "VCXN") {
+        vignetting_[2] = numberList(line);
+    } else if (tag == "VCYN") {
+        vignetting_[3] = numberList(line);
     } else if (tag == "WAVM") {
         // WAVM <index> <wavelength um> <weight>
         const int index = integer(line, 1, "wavelength index");
@@ -736,6 +744,7 @@ void ZmxParser::resolveGlasses() {
     const std::string where = preferred.empty()
                                   ? "in any loaded catalog"
                                   : "in " + joinNames(preferred) + " or any other loaded catalog";
+    bool allFound = true;
     for (const GlassRef& g : glasses_) {
         Surface& s = rx_.surfaces[g.surface];
         const std::string name = upper(g.name);
@@ -787,6 +796,7 @@ void ZmxParser::resolveGlasses() {
             }
             continue;
         }
+        allFound = false;
         std::string msg = "unknown glass '" + g.name + "': not found " + where;
         const auto suggestions = catalog_.suggestions(g.name);
         if (!suggestions.empty()) msg += " (did you mean " + joinNames(suggestions) + "?)";
@@ -803,6 +813,14 @@ void ZmxParser::resolveGlasses() {
                      "must be supplied in a catalog before tracing: " + kGlassCatalogHint);
         }
     }
+    // A catalog the file names but veil does not have matters only if a glass was then not
+    // found; otherwise it is an Info of the import report.
+    for (const auto& [name, loc] : unloadedCatalogs_)
+        note(allFound ? Severity::Info : Severity::Warning, loc,
+             "glass catalog " + name + " named by GCAT is not loaded; " +
+                 (allFound ? std::string("every glass of the file was found in the loaded catalogs")
+                           : "glasses are looked up in the other catalogs (" +
+                                 std::string(kGlassCatalogHint) + ")"));
 }
 
 void ZmxParser::applyMirrors() {
@@ -914,6 +932,9 @@ void ZmxParser::buildFields() {
         f.x = i < xFields_.size() ? xFields_[i] : 0.0;
         f.y = i < yFields_.size() ? yFields_[i] : 0.0;
         f.weight = i < fieldWeights_.size() ? fieldWeights_[i] : 1.0;
+        double* factors[4] = {&f.vdx, &f.vdy, &f.vcx, &f.vcy};
+        for (int k = 0; k < 4; ++k)
+            if (i < vignetting_[k].size()) *factors[k] = vignetting_[k][i];
         sys.fields.push_back(f);
     }
     if (type == 0) {
@@ -1059,6 +1080,13 @@ void ZmxParser::summarize() {
         note(Severity::Info, c.first,
              std::to_string(c.count) + " " + tag +
                  " line(s) skipped: " + (s ? s->meaning : "not needed"));
+    }
+    for (const auto& [tag, u] : unknown_) {
+        const auto& [c, text] = u;
+        note(Severity::Warning, c.first,
+             "unknown command '" + tag + "' ignored" +
+                 (c.count > 1 ? " (" + std::to_string(c.count) + " lines; the first: " : ": ") +
+                 text + (c.count > 1 ? ")" : ""));
     }
     for (const auto& [tag, c] : solves_)
         note(Severity::Info, c.first,

@@ -36,4 +36,21 @@ inline void finishLens(Prescription& p) {
     p.validate();
 }
 
+// An equiconvex singlet of model glass nd 1.5 (radii +-radiusMm) in an f/- beam of 10 mm,
+// both faces sized clearSd, mechSd; the image 50 mm behind.
+inline Prescription equiconvexSinglet(double radiusMm, double centreMm, double clearSd,
+                                      double mechSd) {
+    Prescription p = startLens(kInfinity, 10.0);
+    Surface s1 = surface(radiusMm, centreMm, Material::model(1.5, 60.0));
+    s1.clearSemiDiameterMm = clearSd;
+    s1.mechSemiDiameterMm = mechSd;
+    Surface s2 = surface(-radiusMm, 50.0);
+    s2.clearSemiDiameterMm = clearSd;
+    s2.mechSemiDiameterMm = mechSd;
+    p.surfaces.push_back(s1);
+    p.surfaces.push_back(s2);
+    finishLens(p);
+    return p;
+}
+
 }  // namespace veil::test

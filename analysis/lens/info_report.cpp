@@ -152,6 +152,25 @@ nlohmann::json InfoReport::json() const {
                                  {"front", prescription.surfaces[e.frontSurface].name},
                                  {"back", prescription.surfaces[e.backSurface].name},
                                  {"material", e.material.label()}});
+    if (build) {
+        nlohmann::json b{{"built", build->built},     {"elements", build->elements},
+                         {"objects", build->objects}, {"mechanical_parts", build->mechanicalParts},
+                         {"notes", build->notes},     {"size_changes", nlohmann::json::array()}};
+        if (!build->built) b["error"] = build->error;
+        for (const LensSizeChange& c : build->sizeChanges) {
+            nlohmann::json faces = nlohmann::json::array();
+            for (const LensSizeChange::Face& f : c.faces)
+                faces.push_back({{"name", f.name},
+                                 {"clear_semi_diameter_mm_file", f.clearBeforeMm},
+                                 {"clear_semi_diameter_mm", f.clearAfterMm}});
+            b["size_changes"].push_back({{"element", c.element},
+                                         {"faces", faces},
+                                         {"outer_radius_mm_file", c.radiusBeforeMm},
+                                         {"outer_radius_mm", c.radiusAfterMm},
+                                         {"reason", c.reason}});
+        }
+        j["scene_build"] = b;
+    }
     j["spots"] = nlohmann::json::array();
     auto landed = [](const SpotResult& s, double v) {
         return s.raysLanded > 0 ? jsonNumber(v) : nlohmann::json();
@@ -316,6 +335,35 @@ std::string InfoReport::text() const {
     if (noRays)
         os << "  n/a: no ray of the bundle landed on the image surface (vignetted or missed)\n";
     if (notFinite) os << "  n/a: the value is beyond the range of double precision\n";
+    if (build) {
+        os << "\nScene build: ";
+        if (build->built)
+            os << "the lens builds (" << build->elements << " element(s), " << build->objects
+               << " objects, " << build->mechanicalParts << " mechanical part(s))\n";
+        else
+            os << "FAILED: " << build->error << "\n";
+        if (!build->sizeChanges.empty()) {
+            os << "  Sized to fit: the file's sizes do not build; these elements were made "
+                  "smaller\n"
+               << "  element  face          clear sd (file -> built)   outer radius (file -> built)"
+                  "   because the file's sizes gave\n";
+            for (const LensSizeChange& c : build->sizeChanges) {
+                for (size_t k = 0; k < c.faces.size(); ++k) {
+                    const LensSizeChange::Face& f = c.faces[k];
+                    std::ostringstream clear, radius;
+                    clear << std::fixed << std::setprecision(3) << f.clearBeforeMm << " -> "
+                          << f.clearAfterMm;
+                    if (k == 0)
+                        radius << std::fixed << std::setprecision(3) << c.radiusBeforeMm << " -> "
+                               << c.radiusAfterMm;
+                    os << "  " << std::left << std::setw(9) << (k == 0 ? c.element : "")
+                       << std::setw(14) << f.name << std::setw(27) << clear.str() << std::setw(31)
+                       << radius.str() << (k == 0 ? c.reason : "") << std::right << "\n";
+                }
+            }
+        }
+        for (const std::string& n : build->notes) os << "  " << n << "\n";
+    }
     os << "\nImport report: ";
     if (prescription.report.empty()) {
         os << "nothing to report\n";

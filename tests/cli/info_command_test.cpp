@@ -72,6 +72,47 @@ TEST(VeilInfo, UnknownTomlKeyNamesItsPosition) {
     EXPECT_NE(r.err.find("thikness"), std::string::npos) << r.err;
 }
 
+// info builds the scene trace would build: what was fitted is a table, in JSON too.
+TEST(VeilInfo, SaysWhetherTheLensBuildsAndWhatWasFittedToBuildIt) {
+    const VeilRun r = runVeil("info tests/data/codev/lens_reflection_test.seq");
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.out.find("Scene build: the lens builds"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("Sized to fit: the file's sizes do not build"), std::string::npos)
+        << r.out;
+    EXPECT_NE(r.out.find("L1       L1.front      0.875 -> 0.7"), std::string::npos) << r.out;
+    const VeilRun j = runVeil("info tests/data/codev/lens_reflection_test.seq --json");
+    ASSERT_EQ(j.exitCode, 0) << j.err;
+    const nlohmann::json b = nlohmann::json::parse(j.out)["scene_build"];
+    EXPECT_TRUE(b["built"].get<bool>());
+    ASSERT_EQ(b["size_changes"].size(), 1u);
+    EXPECT_EQ(b["size_changes"][0]["element"], "L1");
+    EXPECT_EQ(b["size_changes"][0]["outer_radius_mm_file"], 0.875);
+}
+
+// A lens whose light needs glass that cannot be there: first-order data still print, and
+// the exit code says it does not build, with what fits.
+TEST(VeilInfo, ALensThatCannotBeBuiltExitsWith1AndSaysWhatFits) {
+    const std::string path = ::testing::TempDir() + "veil_info_crossing.toml";
+    {
+        std::ofstream out(path);
+        // R +-50, 1 mm thick: the edge closes at r = 7.05 mm, and the f/3 beam needs 8.
+        out << "[system]\nname = \"too thin\"\nwavelengths_nm = [587.5618]\n"
+               "aperture = { epd_mm = 16.0 }\nfields_deg = [0.0]\nsurfaces = [\n"
+               "  { stop = true, t = 1.0 },\n  { r = 50.0, t = 1.0, glass = \"N-BK7\", sd = 10 },\n"
+               "  { r = -50.0, t = 48.0, sd = 10 },\n]\n";
+    }
+    const VeilRun r = runVeil("info " + path);
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_NE(r.out.find("effective focal length"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("Scene build: FAILED: L1.front: its faces L1.front and L1.back cross "
+                         "inside the light"),
+              std::string::npos)
+        << r.out;
+    EXPECT_NE(r.err.find("the largest semi-diameter that fits is 7.05"), std::string::npos)
+        << r.err;
+    std::filesystem::remove(path);
+}
+
 TEST(VeilInfo, BadCommandLineExitsWith2) {
     EXPECT_EQ(runVeil("info").exitCode, 2);
     EXPECT_EQ(runVeil("frobnicate x").exitCode, 2);

@@ -413,16 +413,7 @@ TEST(LensSolid, CatadioptricMirrorsAreThinFaces) {
 // Errors
 
 TEST(LensSolid, ThinLensIsANegativeEdgeThicknessError) {
-    Prescription p = test::startLens(kInf, 10.0);
-    Surface s1 = test::surface(50.0, 1.0, Material::model(1.5, 60.0));
-    s1.clearSemiDiameterMm = 10.0;
-    s1.mechSemiDiameterMm = 12.0;
-    Surface s2 = test::surface(-50.0, 50.0);
-    s2.clearSemiDiameterMm = 10.0;
-    s2.mechSemiDiameterMm = 12.0;
-    p.surfaces.push_back(s1);
-    p.surfaces.push_back(s2);
-    test::finishLens(p);
+    Prescription p = test::equiconvexSinglet(50.0, 1.0, 10.0, 12.0);
     // Both rims are sag(10) = 50 - sqrt(2400) from their vertices, toward each other.
     const double rim = 50.0 - std::sqrt(2400.0);
     std::ostringstream expect;

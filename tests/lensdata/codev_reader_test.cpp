@@ -59,8 +59,26 @@ TEST(CodeVReader, DoubleGaussReadsAsTheTomlExample) {
     EXPECT_EQ(seq.system.wavelengths[seq.system.primaryWavelength].nm, 587.5618);
     // What was read but not imported is said once per command, as Info; nothing worse.
     for (const ImportNote& n : seq.report) EXPECT_EQ(n.severity, ImportNote::Severity::Info) << n;
-    EXPECT_NE(findNote(seq, "VUY"), nullptr) << reportText(seq);
+    EXPECT_EQ(findNote(seq, "VUY"), nullptr) << reportText(seq);  // imported (all zero)
+    for (const Field& f : seq.system.fields) EXPECT_FALSE(f.vignetted());
     EXPECT_NE(findNote(seq, "PIM"), nullptr) << reportText(seq);
+}
+
+// CODE V's upper and lower vignetting factors cut the pupil to [-(1 - VLY), 1 - VUY]: they
+// become Zemax's decenter and compression, (VLY - VUY) / 2 and (VLY + VUY) / 2. The file is
+// a CODE V export kept under tests/data (tests/data/README.md).
+TEST(CodeVReader, VignettingFactorsBecomeDecenterAndCompression) {
+    const Prescription rx =
+        readLensFile(VEIL_SOURCE_DIR "/tests/data/codev/ag_dblgauss.seq", GlassCatalog::builtIn());
+    ASSERT_EQ(rx.system.fields.size(), 3u);  // VUY 0 0.2 0.4, VLY 0 0.25 0.4
+    EXPECT_FALSE(rx.system.fields[0].vignetted());
+    EXPECT_NEAR(rx.system.fields[1].vdy, 0.025, 1e-15);
+    EXPECT_NEAR(rx.system.fields[1].vcy, 0.225, 1e-15);
+    EXPECT_EQ(rx.system.fields[2].vdy, 0.0);
+    EXPECT_NEAR(rx.system.fields[2].vcy, 0.4, 1e-15);
+    EXPECT_EQ(rx.system.fields[2].vdx, 0.0);
+    EXPECT_EQ(rx.system.fields[2].vcx, 0.0);
+    EXPECT_EQ(findNote(rx, "VUY"), nullptr) << reportText(rx);
 }
 
 // Curvature mode, lower case, a continuation line, comments and ';', inch units, an asphere,

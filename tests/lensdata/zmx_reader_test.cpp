@@ -559,6 +559,23 @@ TEST(ZmxReader, OlderFieldAndWavelengthForms) {
     EXPECT_DOUBLE_EQ(rx.surfaces[1].clearSemiDiameterMm, 12.7);
 }
 
+TEST(ZmxReader, VignettingFactorsAreReadPerField) {
+    const std::string text =
+        "NAME v\nENPD 10\nFTYP 0 0 2 1\nXFLN 0 0\nYFLN 0 10\nVDXN 0 0.05\nVDYN 0 -0.1\n"
+        "VCXN 0 0.2\nVCYN 0 0.3\nWAVM 1 0.55 1\nSURF 0\n DISZ INFINITY\nSURF 1\n STOP\n"
+        " CURV 0.02\n DISZ 3\n GLAS N-BK7 0 0 1.5168 64.17\nSURF 2\n CURV -0.02\n DISZ 45\n"
+        "SURF 3\n";
+    const Prescription rx = readZmxText(text, "v.zmx", GlassCatalog::builtIn());
+    ASSERT_EQ(rx.system.fields.size(), 2u);
+    EXPECT_FALSE(rx.system.fields[0].vignetted());
+    const Field& f = rx.system.fields[1];
+    EXPECT_EQ(f.vdx, 0.05);
+    EXPECT_EQ(f.vdy, -0.1);
+    EXPECT_EQ(f.vcx, 0.2);
+    EXPECT_EQ(f.vcy, 0.3);
+    EXPECT_EQ(findNote(rx, "VCYN"), nullptr);  // read, not skipped
+}
+
 TEST(ZmxReader, ObjectNumericalApertureAndConeAngle) {
     const std::string head = "NAME na\nFTYP 1 0 1 1\nYFLN 0\nWAVM 1 0.55 1\n";
     const std::string body =
@@ -682,6 +699,39 @@ TEST(ZmxReader, UnloadedGcatCatalogIsAWarningWithTheFix) {
     ASSERT_NE(glass, nullptr) << reportText(rx);
     EXPECT_EQ(glass->severity, ImportNote::Severity::Warning);
     EXPECT_EQ(rx.surfaces[1].material, Material::model(1.58913, 61.15));
+
+    // When every glass is found anyway, the catalog is an Info of the import report (which
+    // commands do not print), not a warning.
+    const std::string found =
+        "GCAT LIGHTPATH SCHOTT\nENPD 10\nSURF 0\n DISZ INFINITY\nSURF 1\n STOP\n CURV 0.02\n"
+        " DISZ 2\n GLAS N-BK7 0 0 1.5168 64.17 0 0 0 0 0 0\nSURF 2\n DISZ 40\nSURF 3\n";
+    const Prescription ok = readZmxText(found, "found.zmx", GlassCatalog::builtIn());
+    const ImportNote* quiet = findNote(ok, "glass catalog LIGHTPATH named by GCAT is not loaded");
+    ASSERT_NE(quiet, nullptr) << reportText(ok);
+    EXPECT_EQ(quiet->severity, ImportNote::Severity::Info);
+    EXPECT_NE(quiet->message.find("every glass of the file was found"), std::string::npos);
+}
+
+// An unknown command repeated on many lines (a merit function's operands, surface ids) is one
+// warning per command, with its count and first line.
+TEST(ZmxReader, RepeatedUnknownCommandsAreOneWarningEach) {
+    std::string text =
+        "ENPD 10\nSURF 0\n DISZ INFINITY\n SSID 0\nSURF 1\n STOP\n SSID 1\n CURV 0.02\n"
+        " DISZ 2\n GLAS N-BK7\nSURF 2\n SSID 2\n DISZ 40\nSURF 3\n";
+    text += "FROB 1\n";
+    const Prescription rx = readZmxText(text, "ssid.zmx", GlassCatalog::builtIn());
+    int ssid = 0;
+    for (const ImportNote& n : rx.report)
+        if (n.message.find("'SSID'") != std::string::npos) {
+            ++ssid;
+            EXPECT_EQ(n.message, "unknown command 'SSID' ignored (3 lines; the first: SSID 0)");
+            EXPECT_EQ(n.loc.line, 4);
+            EXPECT_EQ(n.severity, ImportNote::Severity::Warning);
+        }
+    EXPECT_EQ(ssid, 1) << reportText(rx);
+    const ImportNote* frob = findNote(rx, "unknown command 'FROB'");
+    ASSERT_NE(frob, nullptr);
+    EXPECT_EQ(frob->message, "unknown command 'FROB' ignored: FROB 1");
 }
 
 // The built-in Hoya, Nikon and Sumita catalogs answer GCAT lines naming them: each glass

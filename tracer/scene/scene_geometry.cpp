@@ -14,8 +14,18 @@
 
 namespace veil {
 
+namespace {
+// An automatic image semi-diameter below this fraction of the last lens surface's clear one
+// is a spot radius, not a sensor; the sensor then gets kSensorFloorFraction of it.
+constexpr double kTinySensorFraction = 1e-3;
+constexpr double kSensorFloorFraction = 0.1;
+// How far behind the last face a sensor on that face is placed.
+constexpr double kImageClearanceMm = 1e-3;
+}  // namespace
+
 SceneGeometry buildSceneGeometry(const SceneSpec& file, const GlassCatalog& catalog,
                                  const SceneOptions& options) {
+    if (file.sizeError) throw *file.sizeError;
     SceneGeometry s;
     s.model = file.model ? file.model
                          : std::make_shared<const SequentialModel>(
@@ -80,8 +90,47 @@ SceneGeometry buildSceneGeometry(const SceneSpec& file, const GlassCatalog& cata
     det.kind = ObjectKind::Detector;
     det.part = "sensor";
     det.frame = model.surface(image).frame;
-    // Large enough for the image circle and for every detector rectangle placed on it.
+    // An image on the last face itself (no gap) would be met by no ray leaving that face, which
+    // starts on it: the sensor moves kImageClearanceMm on, the way the light goes.
+    if (image >= 2 && p.surfaces[image - 1].thicknessMm == 0.0 &&
+        !p.surfaces[image - 1].coordinateBreak) {
+        double direction = 1.0;
+        for (int i = 1; i < image; ++i)
+            if (p.surfaces[i].mirror) direction = -direction;
+        det.frame.translation += det.frame.rotation * Vec3(0.0, 0.0, direction * kImageClearanceMm);
+        ImportNote note;
+        note.severity = ImportNote::Severity::Info;
+        note.loc = is.origin;
+        note.message = "the image lies on " + p.surfaces[image - 1].name +
+                       " itself: the sensor is placed " + messageNumber(kImageClearanceMm) +
+                       " mm behind it, where the light leaving that face can reach it";
+        s.notes.push_back(std::move(note));
+    }
+    // Large enough for the image circle and for every detector rectangle placed on it. An
+    // image semi-diameter a program computed for a single on-axis field is the spot's radius,
+    // micrometres or less: a sensor of that size records nothing of a scene's light. It gets a
+    // tenth of the last lens surface's clear semi-diameter instead, said.
     double sensorRadius = is.clearSemiDiameterMm;
+    double lastLens = 0.0;
+    for (int i = image - 1; i > 0 && lastLens == 0.0; --i)
+        if (!p.surfaces[i].coordinateBreak &&
+            (p.surfaces[i].mirror || !p.surfaces[i].material.isAir() ||
+             !p.surfaces[i - 1].material.isAir()))
+            lastLens = p.surfaces[i].clearSemiDiameterMm;
+    if (is.semiDiameterAutomatic && sensorRadius < kTinySensorFraction * lastLens) {
+        const double given = sensorRadius;
+        sensorRadius = kSensorFloorFraction * lastLens;
+        ImportNote note;
+        note.severity = ImportNote::Severity::Warning;
+        note.loc = is.origin;
+        note.message = "the image surface's semi-diameter " + messageNumber(given) +
+                       " mm (computed for the file's fields) would make a sensor that records "
+                       "nothing; the sensor is " +
+                       messageNumber(sensorRadius) +
+                       " mm in radius, a tenth of the last lens surface's; give the detector its "
+                       "size with [detector] size_mm";
+        s.notes.push_back(std::move(note));
+    }
     for (const DetectorSpec& d : file.detectors)
         if ((d.object.empty() || d.object == "sensor" || d.object == "image") && !d.zMm && d.sizeMm)
             sensorRadius =

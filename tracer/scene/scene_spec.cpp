@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <map>
 #include <sstream>
 
+#include "geometry/lens_fit.h"
 #include "geometry/lens_solid.h"
 #include "geometry/surface_frames.h"
 #include "lensdata/glass_catalog.h"
@@ -36,6 +38,26 @@ std::shared_ptr<const SequentialModel> modelOf(const Prescription& p, const Glas
     return std::make_shared<const SequentialModel>(SequentialModel::build(p, catalog));
 }
 
+// Sizes that build: the file's, or where they make elements overlap or too thin, fitted to
+// the traced bundle (geometry/lens_fit.h), every change a warning in the import report.
+void fit(SceneSpec& f, const GlassCatalog& catalog) {
+    LensFit fitted;
+    try {
+        fitted = fitLensSizes(f.prescription, [&] { return tracedSemiDiameters(*f.model); });
+    } catch (const ModelError& e) {
+        f.sizeError = e;
+        return;
+    }
+    if (fitted.changes.empty()) return;
+    f.prescription = std::move(fitted.prescription);
+    for (const LensSizeChange& c : fitted.changes)
+        f.prescription.report.push_back(
+            {ImportNote::Severity::Warning, c.origin, "sized to fit: " + describe(c)});
+    f.sizeChanges = std::move(fitted.changes);
+    f.model =
+        std::make_shared<const SequentialModel>(SequentialModel::build(f.prescription, catalog));
+}
+
 void size(SceneSpec& f, const Prescription& given, const GlassCatalog& catalog) {
     // An error in the import report (a glass no catalog has, a surface type veil does not
     // model, a field type it cannot read) stops here, before anything is built: the first at
@@ -58,11 +80,42 @@ void size(SceneSpec& f, const Prescription& given, const GlassCatalog& catalog) 
     if (!open) {
         f.prescription = p;
         f.model = std::move(model);
-        return;
+    } else {
+        f.prescription = withAutomaticSemiDiameters(*model);
+        f.model = std::make_shared<const SequentialModel>(
+            SequentialModel::build(f.prescription, catalog));
     }
-    f.prescription = withAutomaticSemiDiameters(*model);
-    f.model =
-        std::make_shared<const SequentialModel>(SequentialModel::build(f.prescription, catalog));
+    fit(f, catalog);
+}
+
+// A lens file's coating names (Zemax COAT, CODE V) that no optical property of the scene
+// defines leave their faces at the scene's default for lens faces, with one warning per name:
+// a vendor's coating name says nothing veil can trace, and it should not stop the build.
+void dropUnknownCoatings(SceneSpec& f) {
+    Prescription named = f.prescription;
+    named.assignNames();
+    std::vector<std::string> order;
+    std::map<std::string, std::vector<int>> faces;
+    for (size_t i = 0; i < named.surfaces.size(); ++i) {
+        const std::string& c = named.surfaces[i].coating;
+        if (c.empty() || f.properties.find(c) >= 0) continue;
+        if (!faces.count(c)) order.push_back(c);
+        faces[c].push_back(static_cast<int>(i));
+    }
+    for (const std::string& c : order) {
+        std::string list;
+        for (int i : faces[c]) {
+            list += (list.empty() ? "" : ", ") + named.surfaces[i].name;
+            f.prescription.surfaces[i].coating.clear();
+        }
+        f.prescription.report.push_back(
+            {ImportNote::Severity::Warning, named.surfaces[faces[c].front()].origin,
+             "coating '" + c + "' is not an optical property veil knows: " + list +
+                 (faces[c].size() > 1 ? " are" : " is") +
+                 " left uncoated (the scene's default for lens faces); a scene can define it "
+                 "in [properties." +
+                 c + "]"});
+    }
 }
 
 }  // namespace
@@ -116,6 +169,7 @@ SceneSpec readSceneFile(const std::filesystem::path& path, const GlassCatalog& c
     if (lowerExtension(path) != ".toml") {
         if (!edits.empty()) editOfNonToml(edits.front(), path);
         size(f, readLensFile(path, catalog), catalog);
+        dropUnknownCoatings(f);
         return f;
     }
     if (!inputFileExists(path)) throw ParseError({path.string(), 0, 0}, "no such file");
@@ -156,6 +210,7 @@ SceneSpec readSceneFile(const std::filesystem::path& path, const GlassCatalog& c
         f.sources = readSources(doc, f.prescription, *f.model);
         f.detectors = readDetectors(doc);
         f.properties = PropertyTable::read(doc);
+        if (lens && lowerExtension(lens->asString()) != ".toml") dropUnknownCoatings(f);
         f.properties.checkScatterEnergy(*f.model);
     } catch (const std::exception&) {
         doc.checkUsedInOpenedTables();

@@ -16,9 +16,11 @@
 #include <optional>
 #include <vector>
 
+#include "geometry/lens_fit.h"
 #include "geometry/mechanics.h"
 #include "geometry/mesh_io.h"
 #include "geometry/scene.h"
+#include "lensdata/errors.h"
 #include "tracer/light/source.h"
 #include "tracer/records/detector.h"
 #include "tracer/surfaces/property_table.h"
@@ -37,6 +39,12 @@ struct SceneSpec {
     // needs it (sources, the scene, the ghost tracer); whoever edits the prescription (the
     // default ghost scene moves the image) builds it anew.
     std::shared_ptr<const SequentialModel> model;
+    // Where the file's sizes did not build (elements overlapping or too thin), the lens was
+    // fitted (geometry/lens_fit.h): what changed, per element, also in prescription.report.
+    std::vector<LensSizeChange> sizeChanges;
+    // A lens that cannot be built at any size: thrown by buildSceneGeometry(), so that what
+    // needs no solids (first-order data) still works.
+    std::optional<ModelError> sizeError;
     std::optional<MechanicsSpec> mechanics;
     std::vector<MeshImportSpec> meshes;
     std::vector<Source> sources;          // [[source]]

@@ -1,15 +1,21 @@
 #pragma once
 // Automatic clear semi-diameters, as lens design programs compute them: the largest ray
 // height on each surface over every field and wavelength, for rays around the rim of the
-// pupil and the chief ray (real aiming), without vignetting.
+// pupil and the chief ray (real aiming), in the beam each field's vignetting factors leave
+// (Field::vdx...: as Zemax and CODE V size their automatic apertures), clipped nowhere.
 
 #include "tracer/sequential/sequential_model.h"
 
 namespace veil {
 
+// The traced semi-diameter of every surface (the stop's: its real radius from the pupil
+// solve), whatever the file gives. rimRays: rays around the pupil rim per field and
+// wavelength.
+std::vector<double> tracedSemiDiameters(const SequentialModel& model, int rimRays = 64);
+
 // Returns a copy of the prescription in which every surface without a clear
 // semi-diameter (0) gets the traced one, flagged semiDiameterAutomatic. Surfaces that have
-// one keep it. rimRays: rays around the pupil rim per field and wavelength.
+// one keep it.
 Prescription withAutomaticSemiDiameters(const SequentialModel& model, int rimRays = 64);
 
 }  // namespace veil

@@ -6,8 +6,11 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
 
+#include "geometry/lens_solid.h"
 #include "lensdata/glass_catalog.h"
+#include "lensdata/lens_file.h"
 #include "lensdata/prescription.h"
 #include "tracer/scene/prepared_scene.h"
 #include "tracer/scene/scene_geometry.h"
@@ -198,6 +201,159 @@ TEST(SceneSpec, MaterialLibrariesAreReadBeforeTheScenesProperties) {
     e = errorOf("materials = \"lib/typo.toml\"\n");
     EXPECT_NE(e.find("typo.toml:2"), std::string::npos) << e;
     EXPECT_NE(e.find("reflectanse"), std::string::npos) << e;
+}
+
+}  // namespace
+}  // namespace veil
+
+namespace veil {
+namespace {
+
+// A CODE V double Gauss (tests/data/README.md) whose full field is vignetted 40 % top and
+// bottom (VUY, VLY). Its automatic semi-diameters are sized by the vignetted beam, as CODE V
+// sizes them, and it builds as written. The full beam would need L2 wider than its faces
+// allow: without the factors the lens cannot be built, and the error says what fits.
+TEST(SceneSpec, VignettingFactorsSizeTheLens) {
+    const GlassCatalog& catalog = GlassCatalog::builtIn();
+    const std::filesystem::path file = VEIL_SOURCE_DIR "/tests/data/codev/ag_dblgauss.seq";
+    const SceneSpec asWritten = readSceneFile(file, catalog);
+    EXPECT_TRUE(asWritten.sizeChanges.empty());
+    EXPECT_FALSE(asWritten.sizeError);
+    EXPECT_NO_THROW(buildSceneGeometry(asWritten, catalog));
+
+    const std::filesystem::path copy =
+        std::filesystem::temp_directory_path() / "veil_fit_unvignetted.seq";
+    {
+        std::ifstream in(file);
+        std::ofstream out(copy);
+        std::string line;
+        while (std::getline(in, line))
+            if (line.rfind("VUY", 0) != 0 && line.rfind("VLY", 0) != 0) out << line << "\n";
+    }
+    const SceneSpec full = readSceneFile(copy, catalog);
+    std::filesystem::remove(copy);
+    ASSERT_TRUE(full.sizeError);
+    const std::string what = full.sizeError->what();
+    EXPECT_EQ(full.sizeError->object(), "L2.front");
+    EXPECT_NE(what.find("its faces L2.front and L2.back cross inside the light"), std::string::npos)
+        << what;
+    EXPECT_NE(what.find("the largest semi-diameter that fits is 28."), std::string::npos) << what;
+    // First-order work goes on; the scene build stops with that error.
+    EXPECT_TRUE(full.model);
+    try {
+        buildSceneGeometry(full, catalog);
+        FAIL() << "built";
+    } catch (const ModelError& e) {
+        EXPECT_EQ(std::string(e.what()), what);
+    }
+}
+
+// A CODE V singlet (tests/data/README.md) whose semi-diameters leave a negative edge is
+// fitted: the element shrinks to an edge of a quarter of its centre thickness, reported.
+TEST(SceneSpec, ALensWhoseSizesDoNotBuildIsFittedAndSaysSo) {
+    const GlassCatalog& catalog = GlassCatalog::builtIn();
+    const SceneSpec spec =
+        readSceneFile(VEIL_SOURCE_DIR "/tests/data/codev/lens_reflection_test.seq", catalog);
+    ASSERT_FALSE(spec.sizeError) << spec.sizeError->what();
+    ASSERT_EQ(spec.sizeChanges.size(), 1u);
+    const LensSizeChange& c = spec.sizeChanges[0];
+    EXPECT_EQ(c.element, "L1");
+    EXPECT_EQ(c.radiusBeforeMm, 0.875);
+    EXPECT_LT(c.radiusAfterMm, 0.875);
+    EXPECT_NE(c.reason.find("edge thickness -0.033"), std::string::npos) << c.reason;
+    int warned = 0;
+    for (const ImportNote& n : spec.prescription.report)
+        if (n.message.rfind("sized to fit: L1: ", 0) == 0) {
+            ++warned;
+            EXPECT_EQ(n.severity, ImportNote::Severity::Warning);
+        }
+    EXPECT_EQ(warned, 1);
+    // The model is of the fitted sizes, and the scene builds from them.
+    expectModelOf(*spec.model, spec.prescription);
+    const std::vector<LensSolid> solids = lensSolids(spec.prescription);
+    const double centre =
+        solids[0].direction * (solids[0].back.vertexZMm - solids[0].front.vertexZMm);
+    EXPECT_NEAR(solids[0].direction * (solids[0].back.rimZMm - solids[0].front.rimZMm),
+                std::min(0.5, 0.25 * centre), 1e-9);
+    EXPECT_NO_THROW(buildSceneGeometry(spec, catalog));
+}
+
+// A coating name from a lens file that no optical property defines is a warning naming it,
+// and its faces are left at the default, instead of stopping the build.
+TEST(SceneSpec, AnUnknownCoatingOfALensFileLeavesItsFacesUncoated) {
+    const GlassCatalog& catalog = GlassCatalog::builtIn();
+    const std::filesystem::path zmx =
+        std::filesystem::temp_directory_path() / "veil_unknown_coat.zmx";
+    {
+        std::ofstream out(zmx);
+        out << "NAME c\nENPD 10\nFTYP 0 0 1 1\nYFLN 0\nWAVM 1 0.55 1\nSURF 0\n DISZ INFINITY\n"
+               "SURF 1\n STOP\n CURV 0.02\n DISZ 3\n GLAS N-BK7 0 0 1.5168 64.17\n COAT THORA\n"
+               " DIAM 6 1\nSURF 2\n CURV -0.02\n DISZ 45\n COAT THORA\n DIAM 6 1\nSURF 3\n";
+    }
+    const std::filesystem::path toml =
+        std::filesystem::temp_directory_path() / "veil_unknown_coat.toml";
+    {
+        std::ofstream out(toml);
+        out << "lens = \"veil_unknown_coat.zmx\"\n[[source]]\nname = \"sun\"\nkind = \"sun\"\n"
+               "field_deg = [0.0, 1.0]\n";
+    }
+    const SceneSpec spec = readSceneFile(toml, catalog);
+    EXPECT_TRUE(spec.prescription.surfaces[1].coating.empty());
+    EXPECT_TRUE(spec.prescription.surfaces[2].coating.empty());
+    int warnings = 0;
+    for (const ImportNote& n : spec.prescription.report)
+        if (n.message.find("coating 'THORA'") != std::string::npos) {
+            ++warnings;
+            EXPECT_EQ(n.severity, ImportNote::Severity::Warning);
+            EXPECT_NE(n.message.find("L1.front, L1.back are left uncoated"), std::string::npos)
+                << n.message;
+            EXPECT_EQ(n.loc.line, 8);  // SURF 1
+        }
+    EXPECT_EQ(warnings, 1);
+    const auto prepared = PreparedScene::build(spec, catalog);
+    EXPECT_TRUE(prepared->hasSources());
+    EXPECT_EQ(readSceneFile(zmx, catalog).prescription.report.size(),
+              spec.prescription.report.size());
+    std::filesystem::remove(zmx);
+    std::filesystem::remove(toml);
+}
+
+}  // namespace
+}  // namespace veil
+
+namespace veil {
+namespace {
+
+// A Zemax file sized for one on-axis field: its automatic image semi-diameter is the spot's,
+// nanometres. The sensor gets a tenth of the last lens surface instead, with a warning, and
+// an image on the last face itself moves behind it, where the light leaving the face can
+// reach it.
+TEST(SceneGeometry, ASpotSizedImageMakesAUsableSensorSaid) {
+    const GlassCatalog& catalog = GlassCatalog::builtIn();
+    const std::filesystem::path zmx =
+        std::filesystem::temp_directory_path() / "veil_spot_image.zmx";
+    {
+        std::ofstream out(zmx);
+        out << "NAME s\nENPD 10\nFTYP 0 0 1 1\nYFLN 0\nWAVM 1 0.55 1\nSURF 0\n DISZ INFINITY\n"
+               "SURF 1\n STOP\n CURV 0.02\n DISZ 3\n GLAS N-BK7 0 0 1.5168 64.17\n DIAM 6 0\n"
+               "SURF 2\n CURV -0.02\n DISZ 0\n DIAM 6 0\nSURF 3\n DIAM 1e-8 0\n";
+    }
+    const SceneSpec spec = readSceneFile(zmx, catalog);
+    std::filesystem::remove(zmx);
+    const SceneGeometry g = buildSceneGeometry(spec, catalog);
+    const SceneObject* sensor = g.scene.find("sensor");
+    ASSERT_NE(sensor, nullptr);
+    const auto& patch = std::get<SurfacePatch>(std::get<FaceGeometry>(sensor->geometry));
+    EXPECT_NEAR(std::get<CircularAperture>(patch.aperture).radiusMm, 0.6, 1e-12);
+    bool warned = false, moved = false;
+    for (const ImportNote& n : g.notes) {
+        warned |= n.severity == ImportNote::Severity::Warning &&
+                  n.message.find("the sensor is 0.6 mm in radius") != std::string::npos;
+        moved |= n.message.find("the image lies on L1.back itself") != std::string::npos;
+    }
+    EXPECT_TRUE(warned);
+    EXPECT_TRUE(moved);
+    EXPECT_NEAR(sensor->frame.translation.z, 3.0 + 1e-3, 1e-12);
 }
 
 }  // namespace
