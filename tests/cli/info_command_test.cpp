@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -475,6 +476,28 @@ TEST(VeilTrace, HostileInputStopsBeforeTracing) {
                                          "size_mm = [24, 1e-7]\n";
     expectStop("trace " + dir + "/thin.toml -n 10 -o " + dir + "/out",
                "thin.toml:37:1: detector 'thin': its pixels are 0.09375 x 1e-07 mm");
+}
+
+// A Cassegrain file (tests/data/README.md) gives no hole in its primary: a sequential trace
+// passes it. The scene opens one where the light comes back, says so, and the on-axis beam
+// (filling surface 1, radius 10.291 mm) reaches the image through the annulus of the
+// primary (10.031 mm) outside the secondary's shadow (3.3367 mm): (10.031^2 - 3.3367^2) /
+// 10.291^2 of it, within 4 binomial sigmas.
+TEST(VeilTrace, ACassegrainGetsTheHoleItsLightComesBackThrough) {
+    const std::string out = ::testing::TempDir() + "veil_cassegrain_hole";
+    const VeilRun r = runVeil(
+        "trace tests/data/zmx/HoO-V2C18Ex03.zmx -n 20000 --field 0,0 "
+        "--seed 3 --json -o " +
+        out);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.err.find("M1: a central hole of 2.1"), std::string::npos) << r.err;
+    const nlohmann::json j = nlohmann::json::parse(r.out);
+    const double detected = j["detectors"][0]["flux"].get<double>();
+    const double emitted = j["budget"]["emitted"].get<double>();
+    const double expected = (10.031 * 10.031 - 3.3367 * 3.3367) / (10.291 * 10.291);
+    const double sigma = std::sqrt(expected * (1.0 - expected) / 20000.0);
+    EXPECT_NEAR(detected / emitted, expected, 4.0 * sigma);
+    std::filesystem::remove_all(out);
 }
 
 // A scene without [[source]] is traced with one beam per system field, and says so.

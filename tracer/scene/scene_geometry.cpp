@@ -34,17 +34,21 @@ SceneGeometry buildSceneGeometry(const SceneSpec& file, const GlassCatalog& cata
     s.prescription = file.prescription;
     s.notes = s.prescription.report;
     const Prescription& p = s.prescription;
+    // The solids and mounts: mirrors with the holes the light comes back through.
+    Prescription solids = p;
+    for (size_t i = 0; i < file.mirrorHoles.size() && i < solids.surfaces.size(); ++i)
+        if (file.mirrorHoles[i] > 0.0) solids.surfaces[i].innerSemiDiameterMm = file.mirrorHoles[i];
 
     LensSolidOptions lensOptions;
     if (options.mechanics && file.mechanics && !file.mechanics->lensEdgeProperty.empty()) {
         lensOptions.edgeProperty = file.mechanics->lensEdgeProperty;
         lensOptions.flatProperty = file.mechanics->lensEdgeProperty;
     }
-    addLensSolids(p, s.scene, lensOptions);
+    addLensSolids(solids, s.scene, lensOptions);
 
     if (options.mechanics && file.mechanics) {
         std::vector<std::string> left;
-        s.mechanicalParts = buildMechanics(p, *file.mechanics, &left);
+        s.mechanicalParts = buildMechanics(solids, *file.mechanics, &left);
         for (const std::string& n : left) {
             ImportNote note;
             note.severity = ImportNote::Severity::Info;

@@ -58,6 +58,36 @@ void fit(SceneSpec& f, const GlassCatalog& catalog) {
         std::make_shared<const SequentialModel>(SequentialModel::build(f.prescription, catalog));
 }
 
+// Mirrors in air that the light passes back through (a Cassegrain primary without the hole
+// its file does not give): the scene's mirror gets the hole, with a warning.
+void openMirrorHoles(SceneSpec& f) {
+    if (f.sizeError) return;
+    const std::vector<double> holes = returningLightHoles(*f.model);
+    Prescription named = f.prescription;
+    named.assignNames();
+    for (size_t i = 0; i < holes.size(); ++i) {
+        if (holes[i] <= 0.0) continue;
+        const Surface& s = named.surfaces[i];
+        if (holes[i] >= s.clearSemiDiameterMm) {
+            f.prescription.report.push_back(
+                {ImportNote::Severity::Warning, s.origin,
+                 "the light comes back through " + s.name +
+                     "'s place out to its rim (r = " + messageNumber(holes[i]) +
+                     " mm): no hole is opened, and the mirror stops "
+                     "that light in the scene"});
+            continue;
+        }
+        if (f.mirrorHoles.empty()) f.mirrorHoles.assign(holes.size(), 0.0);
+        f.mirrorHoles[i] = holes[i];
+        f.prescription.report.push_back(
+            {ImportNote::Severity::Warning, s.origin,
+             s.name + ": a central hole of " + messageNumber(holes[i]) +
+                 " mm semi-diameter is opened in the scene: the light comes back through the "
+                 "mirror's place there (a sequential trace passes it, so the file gives no "
+                 "hole); give the hole (hole_sd, or OBSC/CLAP in Zemax) to size it yourself"});
+    }
+}
+
 void size(SceneSpec& f, const Prescription& given, const GlassCatalog& catalog) {
     // An error in the import report (a glass no catalog has, a surface type veil does not
     // model, a field type it cannot read) stops here, before anything is built: the first at
@@ -86,6 +116,7 @@ void size(SceneSpec& f, const Prescription& given, const GlassCatalog& catalog) 
             SequentialModel::build(f.prescription, catalog));
     }
     fit(f, catalog);
+    openMirrorHoles(f);
 }
 
 // A lens file's coating names (Zemax COAT, CODE V) that no optical property of the scene

@@ -45,6 +45,10 @@ struct SceneSpec {
     // A lens that cannot be built at any size: thrown by buildSceneGeometry(), so that what
     // needs no solids (first-order data) still works.
     std::optional<ModelError> sizeError;
+    // Per surface, a central hole the scene's mirror gets because the light comes back
+    // through its place (returningLightHoles, tracer/sequential/auto_apertures.h); 0 = none.
+    // The sequential model keeps the file's mirror (its rays never meet it twice).
+    std::vector<double> mirrorHoles;
     std::optional<MechanicsSpec> mechanics;
     std::vector<MeshImportSpec> meshes;
     std::vector<Source> sources;          // [[source]]

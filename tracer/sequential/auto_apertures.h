@@ -13,6 +13,15 @@ namespace veil {
 // wavelength.
 std::vector<double> tracedSemiDiameters(const SequentialModel& model, int rimRays = 64);
 
+// For each mirror in air without a hole, the hole the light needs where it comes back through
+// the mirror's place after leaving it (a Cassegrain primary, whose secondary sends the light
+// back through it to the image): the largest radius at which the bundle's later segments
+// cross the mirror's surface within its clear semi-diameter, 5 % wider; 0 where no light
+// comes back. Sequential programs trace past such a mirror and files rarely give the hole; a
+// solid disc would stop all the light. A hole as wide as the mirror is returned as it is:
+// the caller decides.
+std::vector<double> returningLightHoles(const SequentialModel& model, int rimRays = 64);
+
 // Returns a copy of the prescription in which every surface without a clear
 // semi-diameter (0) gets the traced one, flagged semiDiameterAutomatic. Surfaces that have
 // one keep it.
