@@ -11,6 +11,7 @@
 #include <limits>
 #include <sstream>
 
+#include "lensdata/toml_document.h"
 #include "tracer/records/path_history.h"
 
 namespace veil {
@@ -268,8 +269,12 @@ class TextParser {
                 if (!names.empty()) names += ", ";
                 names += n;
             }
-            fail("unknown criterion '" + std::string(word) + "'; expected seq, not or a leaf (" +
-                     names + ")",
+            std::vector<std::string> all{"seq", "not"};
+            for (std::string_view n : kLeafNames) all.emplace_back(n);
+            const std::string guess = closestSpelling(word, all);
+            fail("unknown criterion '" + std::string(word) + "'" +
+                     (guess.empty() ? "" : " (did you mean '" + guess + "'?)") +
+                     "; expected seq, not or a leaf (" + names + ")",
                  start);
         }
         Criterion leaf;
@@ -562,8 +567,10 @@ struct Compiler {
                 // Name what there is to choose from.
                 std::string known;
                 size_t listed = 0, total = 0;
+                std::vector<std::string> every;
                 for (const auto& choices : candidates) {
                     if (choices.empty()) continue;
+                    for (std::string_view n : choices) every.emplace_back(n);
                     ++total;
                     if (listed < 40) {
                         known += (listed ? ", " : "") + std::string(choices.front());
@@ -571,8 +578,10 @@ struct Compiler {
                     }
                 }
                 if (total > listed) known += ", ... (" + std::to_string(total) + " in all)";
+                const std::string guess = closestSpelling(p.text, every);
                 fail(p,
                      what + " pattern '" + p.text + "' matches no " + what +
+                         (guess.empty() ? "" : " (did you mean '" + guess + "'?)") +
                          (total ? "; the scene's " + what + (total == 1 ? " is " : "s are ") + known
                                 : "; the scene has none"));
             }

@@ -3,6 +3,7 @@
 #include "analysis/reports/format.h"
 #include "geometry/scene.h"
 #include "lensdata/errors.h"
+#include "lensdata/toml_document.h"
 #include "tracer/scene/scene_transport.h"
 #include "tracer/surfaces/property_table.h"
 
@@ -43,13 +44,30 @@ std::vector<std::string> applyCoatingOverrides(SceneTransport& trace, const Scen
             for (const std::string& a : obj.aliases) match = match || globMatch(glob, a);
             if (!match) continue;
             any = true;
+            // A wildcard coats optical faces: not butt ends, flats or cemented interfaces.
+            if (!coatingPatternReaches(glob, obj)) continue;
             int& cur = trace.view.propertyOfObject[obj.id];
             if (cur == index) continue;
-            changes.push_back(obj.name + ": " + trace.view.properties[cur].name() + " -> " + name);
+            std::string change =
+                obj.name + ": " + trace.view.properties[cur].name() + " -> " + name;
+            if (isCementedFace(obj))
+                change +=
+                    " (warning: a cemented interface, glass on both sides: a coating "
+                    "designed for air there reflects far more than the bare glass pair)";
+            changes.push_back(change);
             cur = index;
         }
-        if (!any)
-            throw ParseError({where, 1, 1}, "object pattern '" + glob + "' matches no object");
+        if (!any) {
+            std::vector<std::string> names;
+            for (const SceneObject& obj : scene.objects()) {
+                names.push_back(obj.name);
+                names.insert(names.end(), obj.aliases.begin(), obj.aliases.end());
+            }
+            const std::string guess = closestSpelling(glob, names);
+            throw ParseError({where, 1, 1},
+                             "object pattern '" + glob + "' matches no object" +
+                                 (guess.empty() ? "" : " (did you mean '" + guess + "'?)"));
+        }
     }
     return changes;
 }

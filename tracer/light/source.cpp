@@ -892,8 +892,20 @@ class SourceReader {
         if (kind == "collimated" || kind == "sun") return readBeam(t, kind, name);
         if (kind == "point") return readPoint(t, name);
         if (kind == "window" || kind == "lambertian") return readArea(t, kind, name);
-        t.require("kind").fail("unknown source kind '" + kind +
-                               "' (known: collimated, sun, point, window, lambertian)");
+        // The kind is the error: the other keys belong to the kind meant, and are not
+        // reported as unknown before it.
+        for (const auto& [key, value] : t.table()) t.get(key.str());
+        const std::vector<std::string> kinds{"collimated", "sun", "point", "window", "lambertian"};
+        std::string lower = kind;
+        std::transform(lower.begin(), lower.end(), lower.begin(),
+                       [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+        const std::string guess = closestSpelling(kind, kinds);
+        t.require("kind").fail("unknown source kind '" + kind + "'" +
+                               (std::find(kinds.begin(), kinds.end(), lower) != kinds.end()
+                                    ? " (kinds are lower case: '" + lower + "')"
+                                : guess.empty() ? std::string()
+                                                : " (did you mean '" + guess + "'?)") +
+                               "; the kinds are collimated, sun, point, window and lambertian");
     }
 
   private:

@@ -209,6 +209,17 @@ SceneSpec readSceneFile(const std::filesystem::path& path, const GlassCatalog& c
     const auto lens = root.has("lens") ? root.get("lens") : std::nullopt;
     for (const SceneEdit& e : edits)
         if (!(lens && editsLens(e))) doc.set(e.key, e.value, e.origin);
+    // Neither a lens file nor [system]: a misspelt top-level key is the likelier cause.
+    if (!lens && !root.has("system")) {
+        for (const auto& [key, value] : root.table()) {
+            const std::string guess = closestSpelling(key.str(), {"lens", "system"});
+            if (guess.empty()) continue;
+            root.get(key.str())->fail("unknown key '" + std::string(key.str()) +
+                                      "' (did you mean '" + guess +
+                                      "'?): a scene names its lens with `lens = \"file\"` or "
+                                      "holds it in [system]");
+        }
+    }
     if (lens) {
         if (root.has("system"))
             lens->fail(

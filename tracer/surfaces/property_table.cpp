@@ -28,6 +28,24 @@ OpticalProperty groundGlass(std::string name) {
 
 std::string quoted(std::string_view s) { return "'" + std::string(s) + "'"; }
 
+}  // namespace
+
+bool isCementedFace(const SceneObject& o) {
+    return o.kind == ObjectKind::LensFace && o.mediumFront != 0 && o.mediumBack != 0;
+}
+
+bool coatingPatternReaches(std::string_view pattern, const SceneObject& o) {
+    bool match = globMatch(pattern, o.name);
+    for (const std::string& a : o.aliases) match = match || globMatch(pattern, a);
+    if (!match) return false;
+    if (pattern.find_first_of("*?") == std::string_view::npos) return true;
+    if (o.kind == ObjectKind::LensEdge) return pattern.find("edge") != std::string_view::npos;
+    if (o.kind == ObjectKind::LensFlat) return pattern.find("flat") != std::string_view::npos;
+    return !isCementedFace(o);
+}
+
+namespace {
+
 std::string didYouMean(std::string_view word, const std::vector<std::string>& candidates) {
     const std::string close = closestSpelling(word, candidates);
     return close.empty() ? std::string() : " (did you mean '" + close + "'?)";
@@ -503,8 +521,14 @@ std::vector<int> PropertyTable::resolve(const Scene& scene) const {
             });
             if (!any) {
                 const FileLoc loc = k < r.patternLocs.size() ? r.patternLocs[k] : r.loc;
+                std::vector<std::string> names;
+                for (const SceneObject& o : objects) {
+                    names.push_back(o.name);
+                    names.insert(names.end(), o.aliases.begin(), o.aliases.end());
+                }
                 throw ParseError(loc, "[[assign]] objects = '" + r.patterns[k] +
-                                          "' matches no object in the scene");
+                                          "' matches no object in the scene" +
+                                          didYouMean(r.patterns[k], names));
             }
         }
     }
@@ -519,7 +543,7 @@ std::vector<int> PropertyTable::resolve(const Scene& scene) const {
             name = {};
             for (auto r = rules_.rbegin(); r != rules_.rend() && name.empty(); ++r)
                 for (const std::string& p : r->patterns)
-                    if (matches(p, o)) {
+                    if (coatingPatternReaches(p, o)) {
                         name = r->property;
                         break;
                     }

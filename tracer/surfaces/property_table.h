@@ -61,6 +61,14 @@ std::ostream& operator<<(std::ostream& os, const AssignRule& r);
 // Whole-string glob match: '*' matches any run of characters (dots included), '?' one.
 bool globMatch(std::string_view pattern, std::string_view text);
 
+// Whether a coating pattern reaches this object: its name or an alias matches. A pattern
+// with wildcards ('L*.*', 'L3.*') means the optical faces a user coats: it leaves out the
+// butt ends unless it spells "edge", the flats unless it spells "flat", and cemented
+// interfaces (glass on both sides), which only their own name reaches.
+bool coatingPatternReaches(std::string_view pattern, const SceneObject& o);
+// An optical face with glass on both sides (a cemented interface).
+bool isCementedFace(const SceneObject& o);
+
 class PropertyTable {
   public:
     // The built-ins only.

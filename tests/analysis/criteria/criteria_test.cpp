@@ -201,10 +201,13 @@ TEST(CriteriaNames, GlobsAliasesAndErrors) {
         return {-1, ""};
     };
     // An unknown name lists what the scene has.
-    EXPECT_EQ(error("hit(sensor) and scatter(spacer9 | baffle*)"),
-              std::make_pair(25, std::string("object pattern 'spacer9' matches no object; the "
-                                             "scene's objects are L4.front, L4.back, L4.edge, "
-                                             "spacer1, spacer2, barrel, stop, sensor")));
+    EXPECT_EQ(
+        error("hit(sensor) and scatter(spacer9 | baffle*)"),
+        std::make_pair(
+            25,
+            std::string("object pattern 'spacer9' matches no object (did you mean 'spacer1'?); the "
+                        "scene's objects are L4.front, L4.back, L4.edge, "
+                        "spacer1, spacer2, barrel, stop, sensor")));
     EXPECT_EQ(error("detector(barrel)"),
               std::make_pair(10, std::string("detector pattern 'barrel' matches no detector; "
                                              "the scene's detector is sensor")));

@@ -41,7 +41,7 @@ std::unique_ptr<PreparedScene> plateScene(const std::string& coating) {
         "[[source]]\nname = \"plate\"\nkind = \"lambertian\"\nposition_mm = [0.0, 0.0, -200.0]\n"
         "radius_mm = 500.0\nflux = 1.0\n"
         "[detector]\nsize_mm = [0.2, 0.2]\npixels = [1, 1]\n"
-        "[[assign]]\nobjects = \"L1.*\"\nproperty = \"%s\"\n",
+        "[[assign]]\nobjects = [\"L1.*\", \"L1.edge\"]\nproperty = \"%s\"\n",
         coating.c_str());
     fclose(f);
     return PreparedScene::read(path, GlassCatalog::builtIn());

@@ -54,7 +54,7 @@ std::unique_ptr<PreparedScene> litPlateScene(int pixels = 1, double detectorMm =
             "[[source]]\nname = \"lamp\"\nkind = \"lambertian\"\nposition_mm = [0.0, 0.0, %g]\n"
             "normal = [0.0, 0.0, -1.0]\nradius_mm = %g\nflux = %g\n"
             "[detector]\nsize_mm = [%g, %g]\npixels = [%d, %d]\n"
-            "[[assign]]\nobjects = \"L1.*\"\nproperty = \"ideal_ar\"\n",
+            "[[assign]]\nobjects = [\"L1.*\", \"L1.edge\"]\nproperty = \"ideal_ar\"\n",
             singletSystem(99.0).c_str(), std::filesystem::path(stem + ".off").filename().c_str(),
             kReflectance, -200.0 + kEmitterGap, kEmitterRadius, kSourceFlux, detectorMm, detectorMm,
             pixels, pixels);
@@ -156,7 +156,7 @@ std::unique_ptr<PreparedScene> windowPlateScene(const WindowScene& w) {
             "[[source]]\nname = \"lamp\"\nkind = \"lambertian\"\nposition_mm = [0.0, 0.0, 60.0]\n"
             "normal = [0.0, 0.0, -1.0]\nradius_mm = %g\nflux = 1.0\n"
             "[detector]\nname = \"det\"\nz_mm = -20.0\nsize_mm = [%g, %g]\npixels = [%d, %d]\n"
-            "[[assign]]\nobjects = \"L1.*\"\nproperty = \"ideal_ar\"\n",
+            "[[assign]]\nobjects = [\"L1.*\", \"L1.edge\"]\nproperty = \"ideal_ar\"\n",
             std::filesystem::path(stem + ".off").filename().c_str(),
             w.cap ? "[[mesh]]\nname = \"cap\"\nfile = \"" : "",
             w.cap ? std::filesystem::path(stem + ".cap.off").filename().c_str() : "",
@@ -582,7 +582,7 @@ std::unique_ptr<PreparedScene> smallLitPlateScene() {
         "[[source]]\nname = \"lamp\"\nkind = \"point\"\nposition_mm = [0.0, 0.0, 2.5]\n"
         "half_angle_deg = 80\naxis = [0, 0, -1]\nflux = 1.0\n"
         "[detector]\nname = \"det\"\nz_mm = 30.0\nsize_mm = [20.0, 20.0]\npixels = [4, 4]\n"
-        "[[assign]]\nobjects = \"L1.*\"\nproperty = \"ideal_ar\"\n");
+        "[[assign]]\nobjects = [\"L1.*\", \"L1.edge\"]\nproperty = \"ideal_ar\"\n");
 }
 
 TEST(Render, RadiusBiasOnASmallLitPartIsDetectedAndBounded) {
@@ -663,7 +663,7 @@ struct PointLampScene {
                 "[[source]]\nname = \"lamp\"\nkind = \"point\"\nposition_mm = [%g, %g, %g]\n"
                 "half_angle_deg = 180\nflux = %g\n"
                 "[detector]\nname = \"det\"\nz_mm = %g\nsize_mm = [%g, %g]\npixels = [2, 2]\n"
-                "[[assign]]\nobjects = \"L1.*\"\nproperty = \"ideal_ar\"\n",
+                "[[assign]]\nobjects = [\"L1.*\", \"L1.edge\"]\nproperty = \"ideal_ar\"\n",
                 planeWindowSystem(glass, 600.0, n).c_str(),
                 std::filesystem::path(stem + ".off").filename().c_str(), R, lamp.x, lamp.y, lamp.z,
                 flux, detZ, side, side);
@@ -838,7 +838,7 @@ TEST(Render, FollowedNarrowLobesAgreeWithForwardMonteCarlo) {
         "[[source]]\nname = \"lamp\"\nkind = \"lambertian\"\nposition_mm = [0.0, 0.0, 20.0]\n"
         "normal = [0.0, 0.0, -1.0]\nradius_mm = 100.0\nflux = 1.0\n"
         "[detector]\nname = \"det\"\nz_mm = 40.0\nsize_mm = [40.0, 40.0]\npixels = [2, 2]\n"
-        "[[assign]]\nobjects = \"L1.*\"\nproperty = \"ideal_ar\"\n");
+        "[[assign]]\nobjects = [\"L1.*\", \"L1.edge\"]\nproperty = \"ideal_ar\"\n");
     const SceneTransport& t = s->transport();
     const auto [ref, refSigma] = forwardTotal(*s, 2000000, 3);
     const ExitAperture a = exitApertureFor(s->scene(), t.images[0].geometry());
@@ -886,7 +886,7 @@ TEST(Render, FollowedLobeConnectedThroughTheLensAgreesWithForwardMonteCarlo) {
             "[[source]]\nname = \"lamp\"\nkind = \"lambertian\"\nposition_mm = [0.0, 0.0, -20.0]\n"
             "normal = [0.0, 0.0, 1.0]\nradius_mm = 10.0\nflux = 1.0\n"
             "[detector]\nname = \"det\"\nz_mm = 290.0\nsize_mm = [40.0, 40.0]\npixels = [2, 2]\n"
-            "[[assign]]\nobjects = [\"L1.*\", \"L2.back\"]\nproperty = \"ideal_ar\"\n"
+            "[[assign]]\nobjects = [\"L1.*\", \"L1.edge\", \"L2.back\"]\nproperty = \"ideal_ar\"\n"
             "[[assign]]\nobjects = \"L2.front\"\nproperty = \"diffuser\"\n");
     fclose(f);
     const auto s = PreparedScene::read(path, GlassCatalog::builtIn());
