@@ -585,6 +585,38 @@ TEST(Ghosts, CoatingOverrideRemovesTheGhostsOfTheCoatedFacesAndSaysWhatChanged) 
                  ParseError);
 }
 
+// A wildcard coats the air-facing optical faces: L*.* on the double Gauss (two cemented
+// doublets) changes the 8 air-glass faces, not the butt ends, flats or the cemented
+// interfaces; naming a cemented interface coats it, with a warning.
+TEST(Ghosts, WildcardCoatingsLeaveButtEndsFlatsAndCementedInterfaces) {
+    GhostScene g(VEIL_SOURCE_DIR "/examples/lenses/double_gauss_50mm.toml", {{0.0, 0.0}});
+    const std::vector<std::string> changes =
+        applyCoatingOverrides(g.trace, g.setup.scene, g.file.properties, {"L*.*=ideal_ar"});
+    EXPECT_EQ(changes.size(), 8u);
+    for (const std::string& c : changes) {
+        EXPECT_EQ(c.find("edge"), std::string::npos) << c;
+        EXPECT_EQ(c.find("flat"), std::string::npos) << c;
+        EXPECT_EQ(c.find("L2.back"), std::string::npos) << c;
+        EXPECT_EQ(c.find("L4.back"), std::string::npos) << c;
+    }
+    const std::vector<std::string> edges =
+        applyCoatingOverrides(g.trace, g.setup.scene, g.file.properties, {"L*.edge=absorber"});
+    EXPECT_EQ(edges.size(), 6u);
+    const std::vector<std::string> cemented =
+        applyCoatingOverrides(g.trace, g.setup.scene, g.file.properties, {"L3.front=ideal_ar"});
+    ASSERT_EQ(cemented.size(), 1u);
+    EXPECT_EQ(cemented[0].rfind("L2.back: uncoated -> ideal_ar (warning: a cemented interface", 0),
+              0u)
+        << cemented[0];
+    try {
+        applyCoatingOverrides(g.trace, g.setup.scene, g.file.properties, {"L1.frnt=ideal_ar"});
+        FAIL() << "no error";
+    } catch (const ParseError& e) {
+        EXPECT_NE(std::string(e.what()).find("(did you mean 'L1.front'?)"), std::string::npos)
+            << e.what();
+    }
+}
+
 TEST(Ghosts, WindowSourcesAreRefusedByName) {
     const GlassCatalog& catalog = GlassCatalog::builtIn();
     const SceneSpec file =

@@ -278,6 +278,36 @@ TEST(SceneSpec, ALensWhoseSizesDoNotBuildIsFittedAndSaysSo) {
     EXPECT_NO_THROW(buildSceneGeometry(spec, catalog));
 }
 
+// A source kind in the wrong case, a misspelt kind and a misspelt lens key are reported as
+// what they are, not as the unknown keys or missing tables they lead to.
+TEST(SceneSpec, MisspeltKindsAndLensKeysSayWhatWasMeant) {
+    const GlassCatalog& catalog = GlassCatalog::builtIn();
+    const std::filesystem::path dir = std::filesystem::temp_directory_path();
+    auto errorOf = [&](const std::string& text) -> std::string {
+        const std::filesystem::path path = dir / "veil_misspelt.toml";
+        std::ofstream(path) << text;
+        try {
+            readSceneFile(path, catalog);
+        } catch (const ParseError& e) {
+            return e.what();
+        }
+        return "";
+    };
+    const std::string lens = "lens = \"" VEIL_SOURCE_DIR "/examples/lenses/singlet.toml\"\n";
+    const std::string source = "[[source]]\nkind = \"Sun\"\nfield_deg = [0.0, 1.0]\n";
+    std::string e = errorOf(lens + source);
+    EXPECT_NE(e.find("3:8: unknown source kind 'Sun' (kinds are lower case: 'sun')"),
+              std::string::npos)
+        << e;
+    e = errorOf(lens + "[[source]]\nkind = \"colimated\"\nfield_deg = [0.0, 1.0]\n");
+    EXPECT_NE(e.find("unknown source kind 'colimated' (did you mean 'collimated'?)"),
+              std::string::npos)
+        << e;
+    e = errorOf("lense = \"singlet.toml\"\n" + source);
+    EXPECT_NE(e.find("1:9: unknown key 'lense' (did you mean 'lens'?)"), std::string::npos) << e;
+    std::filesystem::remove(dir / "veil_misspelt.toml");
+}
+
 // A coating name from a lens file that no optical property defines is a warning naming it,
 // and its faces are left at the default, instead of stopping the build.
 TEST(SceneSpec, AnUnknownCoatingOfALensFileLeavesItsFacesUncoated) {
