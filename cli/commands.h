@@ -40,6 +40,9 @@ std::unique_ptr<tbb::global_control> limitThreads(int threads);
 // The scene's warnings and errors on standard error: import notes, parts left out, and a
 // detector that looks misplaced (analysis/lens/detector_checks.h).
 void reportSceneNotes(const PreparedScene& scene);
+// The import warnings of a scene file (its lens's and the fit's), on standard error, for the
+// commands that build their scenes inside a study (pst, sweep, glare).
+void reportImportWarnings(const SceneSpec& spec);
 // The scene of a command that traces: its sources replaced by one beam per --field when
 // given; a scene without [[source]] gets one beam per system field (said on standard error).
 std::unique_ptr<PreparedScene> prepareTracedScene(const CommonOptions& common,

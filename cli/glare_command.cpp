@@ -74,6 +74,7 @@ int runGlareCommand(const CommonOptions& common, const GlareOptions& o) {
     const GlassCatalog catalog = loadCatalog(common);
     const std::filesystem::path dir = outputFolder(o.output, "glare", o.json);
     const SceneSpec file = readScene(common, o.file, catalog);
+    reportImportWarnings(file);
     GlareSpec spec;
     for (const auto& [x, y] : parseFields(o.fields)) spec.fieldsDeg.push_back(Vec2(x, y));
     spec.spotDiameterDeg = o.spotDeg;
@@ -90,6 +91,12 @@ int runGlareCommand(const CommonOptions& common, const GlareOptions& o) {
     spec.render.raysPerPixel = o.raysPerPixel;
     spec.render.seed = o.seed;
     const auto limit = limitThreads(o.threads);
+    if (spec.spread != GlareSpreadAt::None)
+        std::cerr << "veil: note: each measurement takes --passes " << spec.passes
+                  << "; the glare spread function adds, per field it is measured at, a point "
+                     "source of "
+                  << 2 * spec.passes << " passes and a check of 2 x " << spec.passes
+                  << " (--gsf none leaves it out)\n";
     ProgressReporter reporter;
     if (!o.quiet) spec.progress = reporter.sink();
     const GlareResult result = runGlare(file, catalog, spec);

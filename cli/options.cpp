@@ -305,9 +305,10 @@ void printReport(const std::string& jsonText, const std::string& text,
         nlohmann::json j = nlohmann::json::parse(jsonText);
         j["files"] = written.json();
         std::cout << j.dump(2) << "\n";
-    } else if (!quiet) {
+    } else {
+        // --quiet drops the progress and the list of files, never the results.
         std::cout << text << "\n";
-        written.print(std::cout);
+        if (!quiet) written.print(std::cout);
     }
 }
 

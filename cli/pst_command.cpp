@@ -81,6 +81,7 @@ int runPstCommand(const CommonOptions& common, const PstOptions& o) {
     spec.transport.seed = o.seed;
     spec.where = o.where;
     const GlassCatalog catalog = loadCatalog(common);
+    reportImportWarnings(readScene(common, o.file, catalog));
     const std::filesystem::path dir = outputFolder(o.output, "pst", o.json);
     const auto limit = limitThreads(o.threads);
     ProgressReporter reporter;

@@ -52,6 +52,11 @@ void reportSceneNotes(const PreparedScene& scene) {
         std::cerr << "veil: " << n << "\n";
 }
 
+void reportImportWarnings(const SceneSpec& spec) {
+    for (const ImportNote& n : spec.prescription.report)
+        if (n.severity != ImportNote::Severity::Info) std::cerr << "veil: " << n << "\n";
+}
+
 std::unique_ptr<PreparedScene> prepareTracedScene(const CommonOptions& common,
                                                   const std::string& path,
                                                   const std::vector<std::string>& fields,

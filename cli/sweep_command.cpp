@@ -98,6 +98,7 @@ int runSweepCommand(const CommonOptions& common, const SweepOptions& o) {
     // The variants are counted (and a --zip mismatch found) before the catalog is loaded.
     const size_t count = sweepVariants(spec).size();
     const GlassCatalog catalog = loadCatalog(common);
+    reportImportWarnings(readScene(common, o.file, catalog));
     spec.folder = outputFolder(o.output, "sweep", false);
     // Under mpirun the variants split over the ranks; rank 0 writes (docs/scaling.md).
     spec.ranks = Ranks::world();
@@ -131,6 +132,12 @@ int runSweepCommand(const CommonOptions& common, const SweepOptions& o) {
          << resumed << " read from an earlier run, " << reused
          << " on the first variant's geometry), " << failed << " could not be run";
     printReport(result.json(), text.str(), written, o.json, o.quiet);
+    // A sweep none of whose variants could be run did nothing that was asked.
+    if (failed == static_cast<int>(count) && count > 0) {
+        std::cerr << "veil: error: no variant could be run; the first one's error: "
+                  << result.variants.front().error << "\n";
+        return 1;
+    }
     return 0;
 }
 

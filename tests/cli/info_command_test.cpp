@@ -500,6 +500,32 @@ TEST(VeilTrace, ACassegrainGetsTheHoleItsLightComesBackThrough) {
     std::filesystem::remove_all(out);
 }
 
+// Studies that build their scenes themselves show the lens's import warnings, --quiet keeps
+// the results (it drops progress and the list of files), and a sweep none of whose variants
+// could be run exits 1.
+TEST(VeilStudies, WarningsShowQuietKeepsResultsAndASweepThatRanNothingFails) {
+    const std::string out = ::testing::TempDir() + "veil_studies_warnings";
+    const VeilRun pst = runVeil(
+        "pst tests/data/codev/lens_reflection_test.seq --angles 5 -n 50 "
+        "--quiet -o " +
+        out + "/pst");
+    ASSERT_EQ(pst.exitCode, 0) << pst.err;
+    EXPECT_NE(pst.err.find("warning: sized to fit: L1: "), std::string::npos) << pst.err;
+    EXPECT_NE(pst.out.find("| angle (deg) | in field | PST total"), std::string::npos) << pst.out;
+    EXPECT_EQ(pst.out.find("wrote "), std::string::npos) << pst.out;
+    const VeilRun sweep = runVeil(
+        "sweep examples/lenses/singlet.toml --vary system.surfaces[2].r=59.26,60 -n 20 "
+        "--where 'hit(nothing)' --quiet -o " +
+        out + "/sweep");
+    EXPECT_EQ(sweep.exitCode, 1);
+    EXPECT_NE(sweep.out.find("2 could not be run"), std::string::npos) << sweep.out;
+    EXPECT_NE(sweep.err.find("veil: error: no variant could be run; the first one's error: "
+                             "--where 1:1:5: object pattern 'nothing' matches no object"),
+              std::string::npos)
+        << sweep.err;
+    std::filesystem::remove_all(out);
+}
+
 // A scene without [[source]] is traced with one beam per system field, and says so.
 TEST(VeilTrace, SceneWithoutSourceTracesTheSystemFields) {
     const VeilRun r = runVeil("trace examples/scenes/double_gauss_50mm.toml -n 20 --json");
