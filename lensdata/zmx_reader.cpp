@@ -658,8 +658,11 @@ void ZmxParser::xdatCommand(const Line& line) {
             unsupported_->lostParameters.push_back("XDAT " + std::string(line.tokens[1].text) +
                                                    " = " + std::string(line.tokens[2].text));
     } else if (surfaceTypes_.back() == "TOROIDAL") {
-        // The toroid's Zernike sag terms: PARM 13 counts them and is reported there.
-        if (line.tokens.size() > 2 && number(line, 2, "extra data value") != 0.0)
+        // The toroid's extra data: XDAT 1 is the number of Zernike terms, XDAT 2 their
+        // normalization radius, XDAT 3 on the Zernike sag terms themselves; only a term that
+        // is not zero changes the shape.
+        const int n = integer(line, 1, "extra data number");
+        if (n >= 3 && line.tokens.size() > 2 && number(line, 2, "extra data value") != 0.0)
             note(Severity::Error, locOf(line),
                  "TOROIDAL Zernike sag term XDAT " + std::string(line.tokens[1].text) + " = " +
                      std::string(line.tokens[2].text) + " is not modelled by veil");

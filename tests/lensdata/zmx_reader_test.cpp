@@ -830,7 +830,8 @@ TEST(ZmxReader, ToroidalAndBiconicSurfaces) {
     EXPECT_NO_THROW(rx.validate());
 }
 
-// The toroid's Zernike sag terms are not modelled: an Error at the count and at each value.
+// The toroid's Zernike sag terms are not modelled: an Error at the count and at each value
+// that is not zero; XDAT 1 and 2 (the count and the normalization radius) are no terms.
 TEST(ZmxReader, ToroidalZernikeTermsAreErrors) {
     const std::string text =
         "ENPD 1\nWAVM 1 0.55 1\nSURF 0\n DISZ INFINITY\nSURF 1\n TYPE TOROIDAL\n CURV 0.05\n"
@@ -845,6 +846,17 @@ TEST(ZmxReader, ToroidalZernikeTermsAreErrors) {
     ASSERT_NE(term, nullptr) << reportText(rx);
     EXPECT_EQ(term->severity, ImportNote::Severity::Error);
     EXPECT_EQ(term->loc.line, 12);
+    EXPECT_EQ(findNote(rx, "XDAT 2 = 10"), nullptr) << reportText(rx);  // the radius is no term
+
+    // As Zemax writes a toroid without Zernike terms: the count 0 and the normalization
+    // radius 100 (XDAT 1, XDAT 2) are no terms, and the lens loads.
+    const std::string plain =
+        "ENPD 1\nWAVM 1 0.55 1\nSURF 0\n DISZ INFINITY\nSURF 1\n TYPE TOROIDAL\n CURV 0.05\n"
+        " PARM 1 40\n XDAT 1 0 0 0 1 0 0 \"\"\n XDAT 2 1.0E+02 0 0 1 0 0 \"\"\n"
+        " DISZ 4\n GLAS N-BK7 0 0 1.5168 64.17\n DIAM 5 1\nSURF 2\n DISZ 40\nSURF 3\n";
+    const Prescription ok = readZmxText(plain, "t.zmx", GlassCatalog::builtIn());
+    for (const ImportNote& n : ok.report) EXPECT_NE(n.severity, ImportNote::Severity::Error) << n;
+    ASSERT_TRUE(ok.surfaces[1].anamorphic);
 }
 
 TEST(ZmxReader, UnsupportedSurfacesAndCommandsAreReported) {

@@ -51,8 +51,7 @@ double crossingRadius(const SequentialModel& model, int s, const Vec3& a, const 
     const SurfaceShape& shape = model.surface(s).shape;
     auto f = [&](double t) {
         const Vec3 q = model.localPoint(s, a + t * (b - a));
-        const double rSq = q.x * q.x + q.y * q.y;
-        return std::make_pair(q.z - sag(shape, rSq), std::sqrt(rSq));
+        return std::make_pair(q.z - sagAt(shape, q.x, q.y), std::hypot(q.x, q.y));
     };
     double best = -1.0;
     double t0 = 0.0;
