@@ -68,6 +68,19 @@ void openMirrorHoles(SceneSpec& f) {
     for (size_t i = 0; i < holes.size(); ++i) {
         if (holes[i] <= 0.0) continue;
         const Surface& s = named.surfaces[i];
+        // A central hole fits a mirror on the axis of the light; in a folded or off-axis
+        // system the light crosses the whole parent mirror the file gives (its used segment
+        // is an aperture veil does not import), which is said instead.
+        if (!f.model->coaxial()) {
+            f.prescription.report.push_back(
+                {ImportNote::Severity::Warning, s.origin,
+                 "the light comes back through " + s.name +
+                     "'s place (out to r = " + messageNumber(holes[i]) +
+                     " mm from its vertex): the scene's mirror is the "
+                     "whole disc the file gives, which stops that light; give it the aperture "
+                     "of the segment the light uses"});
+            continue;
+        }
         if (holes[i] >= s.clearSemiDiameterMm) {
             f.prescription.report.push_back(
                 {ImportNote::Severity::Warning, s.origin,
