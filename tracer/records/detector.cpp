@@ -188,6 +188,11 @@ DetectorGeometry placeDetector(const DetectorSpec& spec, const Scene& scene) {
     g.object = o->id;
     g.frame.rotation = o->frame.rotation;
     g.frame.translation = o->frame.toGlobalPoint(Vec3(spec.centerMm, 0.0));
+    if (const FaceGeometry* face = std::get_if<FaceGeometry>(&o->geometry))
+        if (const SurfacePatch* patch = std::get_if<SurfacePatch>(face)) {
+            g.aperture = patch->aperture;
+            g.apertureOffsetMm = spec.centerMm;
+        }
     std::optional<Vec2> size = spec.sizeMm;
     if (!size) {
         size = apertureBox(*o);
@@ -526,7 +531,9 @@ PixelRay samplePixelRay(const DetectorImage& image, int pixel, const ExitApertur
     r.cosPixel = glm::dot(r.ray.direction, g.normal());
     r.cosAperture = std::abs(glm::dot(r.ray.direction, aperture.normal));
     r.pdf = pixelRayDensity(image, aperture, r.distanceMm, r.cosAperture);
-    r.importance = r.cosPixel > 0.0 ? 1.0 : 0.0;
+    // W_e: the sensitive side, and only where the detector's object is (a square grid over a
+    // round sensor has corners that record nothing).
+    r.importance = r.cosPixel > 0.0 && g.sensitiveAt(x, y) ? 1.0 : 0.0;
     return r;
 }
 
@@ -544,7 +551,10 @@ double pixelRayPdf(const DetectorImage& image, int pixel, const ExitAperture& ap
 
 double pixelImportance(const DetectorImage& image, int pixel, const Ray& ray) {
     if (image.pixelOf(ray.origin) != pixel) return 0.0;
-    return glm::dot(ray.direction, image.geometry().normal()) > 0.0 ? 1.0 : 0.0;
+    const DetectorGeometry& g = image.geometry();
+    const Vec3 local = g.frame.toLocalPoint(ray.origin);
+    if (!g.sensitiveAt(local.x, local.y)) return 0.0;
+    return glm::dot(ray.direction, g.normal()) > 0.0 ? 1.0 : 0.0;
 }
 
 std::array<Vec3, 4> pixelCornersGlobal(const DetectorImage& image, int pixel) {

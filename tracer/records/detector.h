@@ -53,6 +53,7 @@
 #include <utility>
 #include <vector>
 
+#include "geometry/aperture.h"
 #include "geometry/frame.h"
 #include "geometry/scene.h"
 #include "lensdata/errors.h"
@@ -109,8 +110,19 @@ struct DetectorGeometry {
     // The scene object whose hits it records; -1 for a free detector that is not in the scene
     // yet (add detectorSceneObject() and store the id addObject() returns here).
     int object = -1;
+    // On an object with an aperture (the sensor's disc): that aperture, in the detector's own
+    // (x, y) shifted by `apertureOffsetMm` (the detector's centre on the object). Only points
+    // inside it are sensitive, as only light hitting the object is recorded: the renderer's
+    // pixel rays start there, not in the grid's corners beyond a round sensor.
+    std::optional<Aperture> aperture;
+    Vec2 apertureOffsetMm{0.0};
 
     int pixelCount() const { return pixelsX * pixelsY; }
+    // Whether the detector records light at local (x, y): inside its object's aperture.
+    bool sensitiveAt(double xMm, double yMm) const {
+        return !aperture ||
+               apertureContains(*aperture, xMm + apertureOffsetMm.x, yMm + apertureOffsetMm.y);
+    }
     double pixelWidthMm() const { return widthMm / pixelsX; }
     double pixelHeightMm() const { return heightMm / pixelsY; }
     double pixelAreaMm2() const { return pixelWidthMm() * pixelHeightMm(); }
@@ -286,8 +298,9 @@ std::ostream& operator<<(std::ostream& os, const DetectorImage& image);
 // point uniform in the pixel toward a point uniform on the aperture disk.
 //
 // Importance. A pixel records flux (DetectorImage sums W or lm per pixel), so its importance
-// is W_e(x, w) = 1 for x in the pixel and w leaving the sensitive side (dot(w, normal()) > 0,
-// w pointing back along the arriving light), 0 otherwise: dimensionless, and the flux the
+// is W_e(x, w) = 1 for x in the pixel where the detector is sensitive (inside its object's
+// aperture: sensitiveAt) and w leaving the sensitive side (dot(w, normal()) > 0, w pointing
+// back along the arriving light), 0 otherwise: dimensionless, and the flux the
 // pixel records is
 //     Phi_pixel = integral over the pixel of integral over the hemisphere of
 //                 W_e(x, w) L(x, -w) cos(theta_pixel) dw dA,
@@ -319,7 +332,7 @@ struct PixelRay {
     double cosPixel = 0.0;     // dot(direction, normal()); <= 0: aperture behind the detector
     double cosAperture = 0.0;  // |dot(direction, aperture normal)|
     double pdf = 0.0;          // per mm^2 per sr (see above); 0 when cosAperture = 0
-    double importance = 0.0;   // W_e: 1 when cosPixel > 0, else 0
+    double importance = 0.0;   // W_e: 1 when cosPixel > 0 and the origin is sensitive, else 0
 };
 std::ostream& operator<<(std::ostream& os, const PixelRay& r);
 
@@ -340,7 +353,8 @@ PixelRay samplePixelRay(const DetectorImage& image, int pixel, const ExitApertur
 double pixelRayPdf(const DetectorImage& image, int pixel, const ExitAperture& aperture,
                    const Ray& ray);
 // W_e of a ray leaving the detector (see above) for `pixel`: 1 when its origin falls in that
-// pixel (pixelOf) and it leaves the sensitive side, else 0.
+// pixel (pixelOf), on the detector's object (sensitiveAt), and it leaves the sensitive side,
+// else 0.
 double pixelImportance(const DetectorImage& image, int pixel, const Ray& ray);
 // The pixel's corners in global coordinates: (xEdge(c), yEdge(r)), (xEdge(c + 1), yEdge(r)),
 // (xEdge(c + 1), yEdge(r + 1)), (xEdge(c), yEdge(r + 1)) for column c and row r, i.e. top

@@ -616,6 +616,51 @@ TEST(DetectorEmission, RaysLeaveThePixelUniformlyAndCoverTheApertureUniformly) {
     EXPECT_LT(footprint.statistic(), footprint.limit()) << "pixel, 16 bins";
 }
 
+// A grid over a round sensor (the default detector: the box of the sensor's disc) records
+// only where the sensor is, as a forward ray records only what hits the object: a pixel ray
+// from a corner outside the disc carries no importance. The fraction of the grid's pixel
+// rays that do is the disc's share of the square, pi / 4, within 5 binomial sigmas.
+TEST(DetectorEmission, OnlyTheObjectsApertureIsSensitive) {
+    DetectorGeometry g = unitGrid(tiltedFrame());
+    g.widthMm = g.heightMm = 4.0;
+    g.pixelsX = g.pixelsY = 4;
+    g.aperture = CircularAperture{2.0};
+    const DetectorImage im(g);
+    const ExitAperture a = apertureBefore(g.frame);
+    int sensitive = 0;
+    const int n = 40000;
+    for (int i = 0; i < n; ++i) {
+        CounterRng rng(406, static_cast<uint64_t>(i));
+        const int pixel = i % im.pixelCount();
+        const PixelRay r = samplePixelRay(im, pixel, a, rng);
+        const Vec3 local = g.frame.toLocalPoint(r.ray.origin);
+        const bool inside = std::hypot(local.x, local.y) <= 2.0;
+        ASSERT_EQ(r.importance, inside ? 1.0 : 0.0) << r;
+        ASSERT_EQ(pixelImportance(im, pixel, r.ray), inside ? 1.0 : 0.0) << r;
+        EXPECT_GT(r.pdf, 0.0);  // the sampling itself is unchanged
+        sensitive += inside;
+    }
+    const double p = kPiD / 4.0, sigma = std::sqrt(p * (1.0 - p) / n);
+    EXPECT_NEAR(static_cast<double>(sensitive) / n, p, 5.0 * sigma);
+    // The corner pixel (0, 0) lies wholly outside the disc except its inner corner.
+    EXPECT_FALSE(g.sensitiveAt(-1.9, 1.9));
+    EXPECT_TRUE(g.sensitiveAt(-1.0, 1.0));
+    // Placed on an object, the detector takes its aperture, shifted by its centre.
+    Scene scene;
+    SceneObject o;
+    o.name = "sensor";
+    o.kind = ObjectKind::Detector;
+    o.geometry = FaceGeometry{SurfacePatch{SurfaceShape{}, CircularAperture{5.0}}};
+    scene.addObject(o);
+    DetectorSpec spec;
+    spec.centerMm = Vec2(3.0, 0.0);
+    spec.sizeMm = Vec2(4.0, 4.0);
+    const DetectorGeometry placed = placeDetector(spec, scene);
+    ASSERT_TRUE(placed.aperture);
+    EXPECT_TRUE(placed.sensitiveAt(1.9, 0.0));   // x = 4.9 on the object
+    EXPECT_FALSE(placed.sensitiveAt(1.9, 1.9));  // r = 5.25 on the object
+}
+
 TEST(DetectorEmission, PdfIsTheAreaProductTimesTheSolidAngleJacobian) {
     const Frame f = tiltedFrame();
     const DetectorImage im(unitGrid(f));
