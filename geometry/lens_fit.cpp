@@ -275,8 +275,7 @@ class Fitter {
         const LensSolid& eb = file_[b];
         const int fa = a == b ? ea.front.surface : ea.back.surface;
         const int fb = a == b ? ea.back.surface : eb.front.surface;
-        std::vector<double> zero(file_.size());
-        for (size_t k = 0; k < file_.size(); ++k) zero[k] = 0.0;
+        const std::vector<double> zero(file_.size(), 0.0);
         const std::vector<LensSolidProblem> atNeed = measure(zero);
         const LensSolidProblem* worst = nullptr;
         for (const LensSolidProblem& m : atNeed)

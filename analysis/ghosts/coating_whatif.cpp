@@ -58,12 +58,7 @@ std::vector<std::string> applyCoatingOverrides(SceneTransport& trace, const Scen
             cur = index;
         }
         if (!any) {
-            std::vector<std::string> names;
-            for (const SceneObject& obj : scene.objects()) {
-                names.push_back(obj.name);
-                names.insert(names.end(), obj.aliases.begin(), obj.aliases.end());
-            }
-            const std::string guess = closestSpelling(glob, names);
+            const std::string guess = closestSpelling(glob, namesAndAliases(scene.objects()));
             throw ParseError({where, 1, 1},
                              "object pattern '" + glob + "' matches no object" +
                                  (guess.empty() ? "" : " (did you mean '" + guess + "'?)"));

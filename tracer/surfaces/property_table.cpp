@@ -34,6 +34,15 @@ bool isCementedFace(const SceneObject& o) {
     return o.kind == ObjectKind::LensFace && o.mediumFront != 0 && o.mediumBack != 0;
 }
 
+std::vector<std::string> namesAndAliases(const std::vector<SceneObject>& objects) {
+    std::vector<std::string> names;
+    for (const SceneObject& o : objects) {
+        names.push_back(o.name);
+        names.insert(names.end(), o.aliases.begin(), o.aliases.end());
+    }
+    return names;
+}
+
 bool coatingPatternReaches(std::string_view pattern, const SceneObject& o) {
     bool match = globMatch(pattern, o.name);
     for (const std::string& a : o.aliases) match = match || globMatch(pattern, a);
@@ -521,14 +530,9 @@ std::vector<int> PropertyTable::resolve(const Scene& scene) const {
             });
             if (!any) {
                 const FileLoc loc = k < r.patternLocs.size() ? r.patternLocs[k] : r.loc;
-                std::vector<std::string> names;
-                for (const SceneObject& o : objects) {
-                    names.push_back(o.name);
-                    names.insert(names.end(), o.aliases.begin(), o.aliases.end());
-                }
                 throw ParseError(loc, "[[assign]] objects = '" + r.patterns[k] +
                                           "' matches no object in the scene" +
-                                          didYouMean(r.patterns[k], names));
+                                          didYouMean(r.patterns[k], namesAndAliases(objects)));
             }
         }
     }

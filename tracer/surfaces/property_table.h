@@ -68,6 +68,8 @@ bool globMatch(std::string_view pattern, std::string_view text);
 bool coatingPatternReaches(std::string_view pattern, const SceneObject& o);
 // An optical face with glass on both sides (a cemented interface).
 bool isCementedFace(const SceneObject& o);
+// Every name the objects answer to (names, then aliases), for did-you-mean suggestions.
+std::vector<std::string> namesAndAliases(const std::vector<SceneObject>& objects);
 
 class PropertyTable {
   public:
