@@ -173,6 +173,16 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
                     "pixel rays instead of gathering photons (0: every surface gathers)")
         ->check(CLI::Range(0.0, 90.0))
         ->capture_default_str();
+    sub->add_option("--splat-lobes-below", o.splatLobesBelow,
+                    "scatter lobes narrower than this half width (degrees), unless followed: "
+                    "photons scattering there trace --lobe-splats directions from the lobe "
+                    "to the sensor instead of gathering (0: every surface gathers)")
+        ->check(CLI::Range(0.0, 90.0))
+        ->capture_default_str();
+    sub->add_option("--lobe-splats", o.lobeSplats,
+                    "directions drawn from a splatted lobe per photon scatter there")
+        ->check(CLI::Range(1, 4096))
+        ->capture_default_str();
     sub->add_option("--connect", o.connect,
                     "light of collimated, sun and point sources that reaches a scattering "
                     "surface through the lens as designed: solved through the lens at every "
@@ -183,6 +193,11 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
              "points drawn per pass on the small parts the lens lights and the pixels see "
              "through it (a stop's edge, butt ends, flats), their light traced to the pixels "
              "(0: off; needs --connect on)",
+             0);
+    addCount(sub, "--part-photons", o.partPhotons,
+             "photons drawn per pass on the parts the lens lights, with the light solved "
+             "through the lens, scattering on from there, where the scene has splatted lobes "
+             "(--splat-lobes-below; 0: off; needs --connect on)",
              0);
     sub->add_option("--roulette", o.roulette,
                     "photons below this share of their emitted flux (once scattered: of their flux "
@@ -265,8 +280,11 @@ RenderRunSpec renderSpec(const RenderCommandOptions& o) {
     ro.scatterGuideFraction = o.scatterGuide;
     ro.weightWindow = o.weightWindow;
     ro.followLobesBelowDeg = o.followLobesBelow;
+    ro.splatLobesBelowDeg = o.splatLobesBelow;
+    ro.lobeSplats = o.lobeSplats;
     ro.connectThroughLens = o.connect == "on";
     ro.partSamples = o.partSamples;
+    ro.partPhotons = o.partPhotons;
     spec.detector = o.detector;
     spec.where = o.where;
     spec.scene = o.file;

@@ -42,8 +42,11 @@ struct RenderCommandOptions {
     double scatterGuide = 0.5;      // guided share of their scatters (scatterGuideFraction)
     double weightWindow = 0.0;      // RenderOptions::weightWindow (0: off)
     double followLobesBelow = 0.0;  // degrees (RenderOptions::followLobesBelowDeg)
+    double splatLobesBelow = 15.0;  // degrees (RenderOptions::splatLobesBelowDeg)
+    int lobeSplats = 1024;          // RenderOptions::lobeSplats
     std::string connect = "on";     // RenderOptions::connectThroughLens
     uint64_t partSamples = 65536;   // RenderOptions::partSamples
+    uint64_t partPhotons = 16384;   // RenderOptions::partPhotons
     std::string backward = "random";
     std::string photonPoints = "sobol";
     double minWeight = 1e-4;

@@ -42,7 +42,8 @@ uint64_t fingerprintOf(const TransportView& ts, const DetectorGeometry& g, const
        << o.photonRescueRelativeFlux << " " << o.guideFraction << " " << o.followLobesBelowDeg
        << " " << o.balancePhotons << " " << o.maxPhotonsPerPass << " " << o.connectThroughLens
        << " " << o.partSamples << " " << o.photonGuideFraction << " " << o.scatterGuideFraction
-       << " " << o.weightWindow << " " << o.visiblePhotonsPerPass << " " << o.balanceVisible;
+       << " " << o.weightWindow << " " << o.visiblePhotonsPerPass << " " << o.balanceVisible << " "
+       << o.splatLobesBelowDeg << " " << o.lobeSplats << " " << o.partPhotons;
     for (const std::string& w : where) os << "\nwhere " << w;
     const std::string text = os.str();
     uint64_t h = 1469598103934665603ull;
@@ -365,6 +366,9 @@ nlohmann::json RenderResult::summary() const {
                           {"follow_lobes_below_deg", ro.followLobesBelowDeg},
                           {"connect_through_lens", ro.connectThroughLens},
                           {"part_samples_per_pass", ro.partSamples},
+                          {"splat_lobes_below_deg", ro.splatLobesBelowDeg},
+                          {"lobe_splats", ro.lobeSplats},
+                          {"part_photons_per_pass", ro.partPhotons},
                           {"photon_points", ro.quasiRandomPhotons ? "sobol" : "random"}};
     summary["final_radius_mm"] = state.radiusMm();
     summary["photons_per_source_last_pass"] = lastPhotonsPerSource;

@@ -196,6 +196,17 @@ std::vector<bool> followedLobes(const TransportView& ts, double belowRad) {
     return out;
 }
 
+std::vector<bool> splattedLobes(const TransportView& ts, double splatBelowRad,
+                                double followBelowRad) {
+    std::vector<bool> out;
+    if (!(splatBelowRad > 0.0)) return out;
+    const std::vector<bool> followed = followedLobes(ts, followBelowRad);
+    for (size_t p = 0; p < ts.properties.size(); ++p)
+        out.push_back(!followed[p] && ts.properties[p].hasScatter() &&
+                      lobeHalfWidthRad(ts.properties[p]) < splatBelowRad);
+    return out;
+}
+
 double lobeHalfWidthRad(const OpticalProperty& p) {
     return std::visit(
         [](const auto& m) -> double {

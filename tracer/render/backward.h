@@ -168,6 +168,11 @@ double lobeHalfWidthRad(const OpticalProperty& p);
 // [property]: whether the backward rays follow its lobe (it scatters, with a half width below
 // belowRad; BackwardOptions::followLobesBelowRad).
 std::vector<bool> followedLobes(const TransportView& ts, double belowRad);
+// [property]: whether photons splat its lobe onto the detector instead of gathering there
+// (RenderOptions::splatLobesBelowDeg): it scatters, with a half width below splatBelowRad, and
+// the backward rays do not follow it (followBelowRad). Empty when splatBelowRad is 0.
+std::vector<bool> splattedLobes(const TransportView& ts, double splatBelowRad,
+                                double followBelowRad);
 
 // The context of light travelling along `lightDirection` (unit) onto the view point's
 // surface: normal toward the light's side, n1 the index there (media at wavelength index

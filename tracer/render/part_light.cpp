@@ -154,13 +154,18 @@ struct PartLight::Scratch {
 };
 
 PartLight::PartLight(const TransportView& ts, const LensConnector& connector, int detectorObject,
-                     const std::vector<bool>& followed, double radiusMm)
+                     const std::vector<bool>& followed, double radiusMm, PartMode mode,
+                     const std::vector<bool>& splatted)
     : ts_(&ts),
       lc_(&connector),
+      mode_(mode),
+      splatted_(splatted),
       detectorObject_(detectorObject),
       objects_(ts.scene->objects().size()) {
     const DesignedPath& dp = connector.designed();
     if (!connector.any() || dp.steps() == 0 || detectorObject < 0) return;
+    const bool photons = mode == PartMode::Photons;
+    if (photons && std::find(splatted.begin(), splatted.end(), true) == splatted.end()) return;
     const Scene& scene = *ts.scene;
     for (int k = 0; k < dp.steps(); ++k) faces_.emplace_back(scene, dp.objectOfStep(k));
     faces_.emplace_back(scene, detectorObject);
@@ -175,14 +180,24 @@ PartLight::PartLight(const TransportView& ts, const LensConnector& connector, in
             const int prop = ts.propertyOfObject[o];
             if (static_cast<size_t>(prop) < followed.size() && followed[static_cast<size_t>(prop)])
                 continue;
+            if (photons && !ts.properties[static_cast<size_t>(prop)].hasScatter()) continue;
             if (!tried[o]) {
                 tried[o] = true;
                 shapes_[o] = PartShape(scene, static_cast<int>(o));
-                if (!(shapes_[o].areaMm2() < most)) shapes_[o] = PartShape();
+                if (!photons && !(shapes_[o].areaMm2() < most)) shapes_[o] = PartShape();
             }
             if (!shapes_[o].valid()) continue;
             for (uint64_t m = chains; m != 0; m &= m - 1) {
                 const int steps = std::countr_zero(m) + 1;
+                if (photons) {
+                    Target t;
+                    t.source = s;
+                    t.object = static_cast<int>(o);
+                    t.steps = steps;
+                    t.onward = -1;
+                    candidates.push_back(std::move(t));
+                    continue;
+                }
                 for (int j = steps; j <= dp.steps(); ++j)
                     if (faces_[static_cast<size_t>(j)].valid()) {
                         Target t;
@@ -252,6 +267,8 @@ PartLight::PartLight(const TransportView& ts, const LensConnector& connector, in
                     for (size_t c = 0; c < kCellCount; ++c) active.push_back(a * kCellCount + c);
             }
             if (active.empty()) break;
+            std::vector<std::vector<uint64_t>> places(active.size());  // photon mode's
+            std::vector<int> legs(active.size(), 0), lobes(active.size(), 0);
             tbb::parallel_for(size_t{0}, active.size(), [&](size_t k) {
                 const size_t i = active[k];
                 const size_t t = alive[i / kCellCount];
@@ -271,9 +288,14 @@ PartLight::PartLight(const TransportView& ts, const LensConnector& connector, in
                     LensConnector::Work work;
                     Splat sp;
                     ++tries[i];
-                    if (!sample(candidates[t], uv, kCellCount / box.area(), rng, nullptr, scratch,
-                                work, sp))
-                        continue;
+                    const bool found =
+                        photons ? samplePhoton(candidates[t], uv, kCellCount / box.area(), rng,
+                                               work, sp, &places[k])
+                                : sample(candidates[t], uv, kCellCount / box.area(), rng, nullptr,
+                                         scratch, work, sp);
+                    if (!found) continue;
+                    legs[k] += sp.legs;
+                    lobes[k] += sp.lobes;
                     sum2[i] += sp.flux * sp.flux;
                     ++hits[i];
                     pilot.aimed[static_cast<size_t>(cell) * kAimCount +
@@ -283,6 +305,12 @@ PartLight::PartLight(const TransportView& ts, const LensConnector& connector, in
             for (size_t i = 0; i < hits.size(); ++i) {
                 pilots[alive[i / kCellCount]].back().found += hits[i];
                 hits[i] = 0;
+            }
+            for (const auto& p : places) productive_.insert(productive_.end(), p.begin(), p.end());
+            for (size_t k = 0; k < active.size(); ++k) {
+                Target& t = candidates[alive[active[k] / kCellCount]];
+                t.legs += legs[k];
+                t.lobes += lobes[k];
             }
         }
         std::vector<size_t> lit;
@@ -302,6 +330,8 @@ PartLight::PartLight(const TransportView& ts, const LensConnector& connector, in
         alive = std::move(lit);
     }
 
+    std::sort(productive_.begin(), productive_.end());
+    productive_.erase(std::unique(productive_.begin(), productive_.end()), productive_.end());
     // Targets: the candidates whose pilot found light on level 0; the rest are left to the view
     // points. A target's strata: its level 0 cells (the defensive share, and in proportion to
     // their light when it has no deeper level) and its deepest level's cells (in proportion to
@@ -380,12 +410,191 @@ double PartLight::density(const Target& target, const Vec2& uv) const {
 }
 
 bool PartLight::owns(size_t s, int object, int steps, int designed) const {
-    if (targetsOf_.empty()) return false;
+    if (targetsOf_.empty() || mode_ != PartMode::Onward) return false;
     for (int t : targetsOf_[s * objects_ + static_cast<size_t>(object)]) {
         const Target& target = targets_[static_cast<size_t>(t)];
         if (target.steps == steps && target.onward == designed) return true;
     }
     return false;
+}
+
+bool PartLight::carries(size_t s, int object, int steps) const {
+    if (targetsOf_.empty() || mode_ != PartMode::Photons) return false;
+    for (int t : targetsOf_[s * objects_ + static_cast<size_t>(object)])
+        if (targets_[static_cast<size_t>(t)].steps == steps) return true;
+    return false;
+}
+
+const PartLight::Stratum& PartLight::stratumOf(double u) const {
+    const size_t k =
+        std::min(static_cast<size_t>(std::upper_bound(cumulative_.begin(), cumulative_.end(),
+                                                      u * cumulative_.back()) -
+                                     cumulative_.begin()),
+                 cumulative_.size() - 1);
+    return strata_[k];
+}
+
+std::optional<PartLight::Start> PartLight::start(uint64_t i, uint64_t seed,
+                                                 LensConnector::Work& work,
+                                                 std::vector<PathEvent>* chain) const {
+    if (targets_.empty() || mode_ != PartMode::Photons) return std::nullopt;
+    CounterRng rng(seed, i);
+    const Stratum& st = stratumOf(rng.uniform());
+    const Target& target = targets_[static_cast<size_t>(st.target)];
+    const Vec2 uv =
+        target.levels[static_cast<size_t>(st.level)].at(st.cell, rng.uniform(), rng.uniform());
+    return lit(target, uv, density(target, uv), rng, work, chain);
+}
+
+std::optional<PartLight::Start> PartLight::lit(const Target& target, const Vec2& uv,
+                                               double uvDensity, CounterRng& rng,
+                                               LensConnector::Work& work,
+                                               std::vector<PathEvent>* chain) const {
+    const TransportView& ts = *ts_;
+    // Every uniform is drawn whether or not the point has light.
+    const double u1 = rng.uniform(), u2 = rng.uniform(), uw = rng.uniform();
+    const auto x = shapes_[static_cast<size_t>(target.object)].at(std::clamp(uv.x, 0.0, 1.0),
+                                                                  std::clamp(uv.y, 0.0, 1.0));
+    if (!x) return std::nullopt;
+    const MediaOptics& media = *ts.media;
+    const int wavelengths = media.wavelengthCount();
+    const int w = std::min(wavelengths - 1, static_cast<int>(uw * wavelengths));
+    const double nm = media.wavelengthNm(w);
+    const auto c = lc_->connect(target.source, w, nm, target.steps, x->point, target.object, u1, u2,
+                                work, chain);
+    if (!c) return std::nullopt;
+    const double density = uvDensity * x->density;
+    const double flux =
+        c->value * std::abs(glm::dot(c->toLight, x->normal)) / density * wavelengths;
+    if (!(flux > 0.0) || !std::isfinite(flux)) return std::nullopt;
+    Start out;
+    out.source = target.source;
+    out.object = target.object;
+    out.primitive = x->primitive;
+    out.steps = target.steps;
+    out.line = w;
+    out.wavelengthNm = nm;
+    out.point = x->point;
+    out.normal = x->normal;
+    out.toLight = c->toLight;
+    out.distanceMm = c->distanceMm;
+    out.flux = flux;
+    out.legsPerLobe = target.lobes > 0 ? static_cast<double>(target.legs) / target.lobes : 1.0;
+    return out;
+}
+
+SceneHit PartLight::hitOf(const Scene& scene, const Start& s) {
+    const SceneObject& o = scene.object(s.object);
+    SceneHit hit;
+    hit.object = s.object;
+    hit.primitive = s.primitive;
+    hit.t = s.distanceMm;
+    hit.point = s.point;
+    hit.normal = s.normal;
+    hit.fromFront = glm::dot(s.toLight, s.normal) > 0.0;
+    hit.mediumFrom = hit.fromFront ? o.mediumFront : o.mediumBack;
+    hit.mediumTo = hit.fromFront ? o.mediumBack : o.mediumFront;
+    return hit;
+}
+
+bool PartLight::productive(int object, int primitive) const {
+    return std::binary_search(productive_.begin(), productive_.end(), placeKey(object, primitive));
+}
+
+bool PartLight::samplePhoton(const Target& target, const Vec2& uv, double uvDensity,
+                             CounterRng& rng, LensConnector::Work& work, Splat& out,
+                             std::vector<uint64_t>* places) const {
+    const TransportView& ts = *ts_;
+    const auto st = lit(target, uv, uvDensity, rng, work, nullptr);
+    if (!st) return false;
+    const SceneHit at = hitOf(*ts.scene, *st);
+    const Interaction in =
+        interact(ts, at, -st->toLight, st->line, st->wavelengthNm, TransportMode::Flux);
+    // Follows `ray` (leaving `from`) by one child by weight until it meets the detector or a
+    // scatter: the flux share that reaches the detector's object (0 for none), and where it
+    // scattered (hit valid, children interacted) when it did.
+    struct Leg {
+        double share = 0.0;
+        std::optional<SceneHit> scatterHit;
+        Interaction scatterAt;
+        Vec3 arriving{0.0};
+    };
+    constexpr int kMostSegments = 64;
+    auto leg = [&](Ray ray, int medium, int from, int fromPrimitive) {
+        Leg l;
+        double share = 1.0;
+        for (int segment = 0; segment < kMostSegments; ++segment) {
+            const auto h = ts.scene->closestHit(ray, kInfinity, from, fromPrimitive, medium);
+            ++work.rays;
+            if (!h) return l;
+            const double alpha = ts.media->absorptionPerMm(medium, st->line);
+            if (alpha > 0.0) share *= std::exp(-alpha * h->t);
+            if (ts.detectorOfObject[h->object] >= 0) {
+                if (h->object == detectorObject_) l.share = share;
+                return l;
+            }
+            Interaction next =
+                interact(ts, *h, ray.direction, st->line, st->wavelengthNm, TransportMode::Flux);
+            if (next.count == 0) return l;
+            bool scatters = false;
+            for (int c = 0; c < next.count; ++c) scatters |= next.children[c].scatter;
+            if (scatters) {
+                l.share = share;
+                l.scatterHit = *h;
+                l.scatterAt = next;
+                l.arriving = ray.direction;
+                return l;
+            }
+            const int k = next.count > 1 ? chooseChild(next, rng.uniform()) : 0;
+            share *= next.total;
+            const auto d = next.direction(k, rng);
+            if (!d) return l;
+            ray = {h->point, *d};
+            medium = next.children[k].medium;
+            from = h->object;
+            fromPrimitive = h->primitive;
+        }
+        return l;
+    };
+    // kPilotSplits directions from the part's lobe; where one meets a splatted lobe,
+    // kPilotSplits directions from that one, each followed by one child by weight to the
+    // detector (a scatter ends it).
+    double total = 0.0;
+    int lobes = 0;  // those that met a splatted lobe whose light reached the detector
+    for (int i = 0; i < kPilotSplits; ++i) {
+        const double scattered = scatteredShare(in);
+        const int c = chooseScatterChild(in, rng.uniform());
+        if (c < 0) return false;
+        const auto dir = in.direction(c, rng);
+        if (!dir) continue;
+        const Leg first = leg({st->point, *dir}, in.children[c].medium, st->object, st->primitive);
+        if (!first.scatterHit) continue;
+        const SceneHit& b = *first.scatterHit;
+        const size_t prop = static_cast<size_t>(ts.propertyOfObject[b.object]);
+        if (!(prop < splatted_.size() && splatted_[prop])) continue;
+        bool reached = false;
+        for (int j = 0; j < kPilotSplits; ++j) {
+            const double onward = scatteredShare(first.scatterAt);
+            const int cb = chooseScatterChild(first.scatterAt, rng.uniform());
+            const auto db = first.scatterAt.direction(cb, rng);
+            if (!db) continue;
+            const Leg second =
+                leg({b.point, *db}, first.scatterAt.children[cb].medium, b.object, b.primitive);
+            if (second.scatterHit || !(second.share > 0.0)) continue;
+            total += scattered * first.share * onward * second.share;
+            reached = true;
+            if (places) {
+                places->push_back(placeKey(st->object, st->primitive));
+                places->push_back(placeKey(b.object, b.primitive));
+            }
+        }
+        if (reached) ++lobes;
+    }
+    out.flux = st->flux * total / (kPilotSplits * kPilotSplits);
+    out.aim = 0;
+    out.legs = kPilotSplits;
+    out.lobes = lobes;
+    return out.flux > 0.0 && std::isfinite(out.flux);
 }
 
 bool PartLight::sample(const Target& target, const Vec2& uv, double uvDensity, CounterRng& rng,
@@ -481,7 +690,7 @@ PartLight::Result PartLight::trace(const DetectorImage& detector, uint64_t sampl
     const size_t criteria = judge ? static_cast<size_t>(judge->count()) : 0;
     result.byCriterion.assign(criteria, std::vector<double>(pixels, 0.0));
     result.samples = samples;
-    if (targets_.empty() || samples == 0) return result;
+    if (targets_.empty() || samples == 0 || mode_ != PartMode::Onward) return result;
     struct Entry {
         int pixel = 0;
         double flux = 0.0;
@@ -492,7 +701,6 @@ PartLight::Result PartLight::trace(const DetectorImage& detector, uint64_t sampl
         uint64_t rays = 0;
     };
     const double perSample = 1.0 / static_cast<double>(samples);
-    const double all = cumulative_.back();
     auto produce = [&](uint64_t first, uint64_t last) {
         Block b;
         Scratch sc;
@@ -502,12 +710,7 @@ PartLight::Result PartLight::trace(const DetectorImage& detector, uint64_t sampl
         }
         for (uint64_t i = first; i < last; ++i) {
             CounterRng rng(seed, i);
-            const double pick = rng.uniform() * all;
-            const size_t k = std::min(
-                static_cast<size_t>(std::upper_bound(cumulative_.begin(), cumulative_.end(), pick) -
-                                    cumulative_.begin()),
-                cumulative_.size() - 1);
-            const Stratum& st = strata_[k];
+            const Stratum& st = stratumOf(rng.uniform());
             const Target& target = targets_[static_cast<size_t>(st.target)];
             const Vec2 uv = target.levels[static_cast<size_t>(st.level)].at(st.cell, rng.uniform(),
                                                                             rng.uniform());

@@ -46,6 +46,26 @@
 //      view points'. Both estimate the same light, so moving it changes the noise, not the
 //      expectation.
 //
+// Photon mode (PartMode::Photons; docs/render.md, "Photons from the lit parts"). Where the
+// scene has lobes that the photons splat onto the detector (RenderOptions::splatLobesBelowDeg:
+// a 5 degree Gaussian mount), light that one small part scatters onto another narrow part and
+// from there to the sensor is found by the sources' photons only where they hit the first part
+// (a stop's bevel) and then the second within its lobe. Here the chains' parts are the
+// starting points of photons instead:
+//
+//   1. Parts. Every chain (s, object, k) of the connector on an object that scatters, whose
+//      lobe the backward rays do not follow, whose shape can be drawn by area, at any size (a
+//      whole stop plate: the pilot finds its lit bevel). A target is one whose pilot finds
+//      light on the detector after at least one splatted scatter past the part: from the
+//      point, one direction drawn from the part's lobe and one child by weight at every
+//      interaction, as far as the detector.
+//   2. Points: as above, start() draws a point and its light (the connection's) and returns
+//      the photon's start, its flux that light over the point's density.
+//   3. Ownership. The photon pass gives the sources' photons that reach a target's object by
+//      its chain where the connection tries (LensConnector::inView) no scattered children
+//      there, but for the audit (kAuditRate times, where the connection misses their path):
+//      the light scattered at those points is the part photons', whatever it does next.
+//
 // Deterministic: sample i of a pass draws from CounterRng(seed, i), blocks of samples are
 // reduced in a fixed order on rank 0 (tracer/runtime/ordered_blocks.h); thread-safe.
 
@@ -94,6 +114,8 @@ class PartShape {
     std::vector<double> areas_;        // theirs
 };
 
+enum class PartMode { Onward, Photons };
+
 class PartLight {
   public:
     static constexpr int kCells = 16;
@@ -114,15 +136,52 @@ class PartLight {
     // kDefensive of a uniform share), then a point uniform in the cell.
     static constexpr int kAim = 8;
     static constexpr int kAimCount = kAim * kAim;
+    // Photon mode's pilot: directions drawn from the part's lobe per point, and from a
+    // splatted lobe it meets per direction.
+    static constexpr int kPilotSplits = 16;
 
     PartLight() = default;
     // The targets (see the header comment) of the connector's chains, and their pilot.
     // followed[property]: the backward rays follow that property's lobe (no view point, no
     // part). radiusMm: the first pass's gathering radius.
+    // Photon mode: splatted[property] as splattedLobes() gives it (no target without one).
     PartLight(const TransportView& ts, const LensConnector& connector, int detectorObject,
-              const std::vector<bool>& followed, double radiusMm);
+              const std::vector<bool>& followed, double radiusMm, PartMode mode = PartMode::Onward,
+              const std::vector<bool>& splatted = {});
     bool any() const { return !targets_.empty(); }
     size_t targets() const { return targets_.size(); }
+    PartMode mode() const { return mode_; }
+
+    // Photon mode: whether the light source s's chain of `steps` crossings scatters at
+    // `object` where the connection tries is the part photons'.
+    bool carries(size_t s, int object, int steps) const;
+    // Photon mode: photon i of a pass (the streams of `seed`): a point drawn on a target and
+    // the light the connection finds there; none where it finds none. With `chain`, the
+    // chain's events as light travels them (after Emit, before the scatter at the point).
+    struct Start {
+        size_t source = 0;
+        int object = -1, primitive = 0, steps = 0, line = 0;
+        double wavelengthNm = 0.0;
+        Vec3 point{0.0}, normal{0.0};
+        Vec3 toLight{0.0};  // unit, back along the arriving ray
+        double distanceMm = 0.0;
+        // The flux arriving on the part that the point stands for (the connection's light
+        // over the point's density, times the model's lines: one is drawn per point), for
+        // one photon a pass: divide by the photons.
+        double flux = 0.0;
+        // The pilot's directions from the target's lit points per one that met a splatted
+        // lobe: how many to draw from the point for about one such lobe (the photon pass's
+        // split there, at most RenderOptions::lobeSplats).
+        double legsPerLobe = 1.0;
+    };
+    std::optional<Start> start(uint64_t i, uint64_t seed, LensConnector::Work& work,
+                               std::vector<PathEvent>* chain = nullptr) const;
+    // Photon mode: whether the pilot saw light reach the detector from a scatter at this
+    // place (an exact face, or a mesh's triangle), as the part or as the splatted lobe after
+    // it: there the photons split (RenderOptions::lobeSplats), elsewhere one direction does.
+    bool productive(int object, int primitive) const;
+    // The hit a start's light makes on its part (the interaction there).
+    static SceneHit hitOf(const Scene& scene, const Start& s);
 
     // Whether a view point on `object`, reached from the detector down to designed step
     // `designed`, leaves the connection of source s's chain of `steps` crossings to this.
@@ -155,6 +214,7 @@ class PartLight {
         std::vector<double> aimCumulative;       // its running sums
         std::vector<Level> levels{Level{}};      // the whole map, then the pilot's zoom
         std::vector<int> first;                  // [level]: its cell 0's stratum
+        int legs = 0, lobes = 0;                 // photon mode's pilot (Start::legsPerLobe)
     };
     struct Stratum {
         int target = 0, level = 0, cell = 0;
@@ -162,7 +222,9 @@ class PartLight {
     struct Splat {
         int pixel = -1;
         double flux = 0.0;
-        int aim = 0;  // the aim cell
+        int aim = 0;              // the aim cell
+        int legs = 0, lobes = 0;  // photon mode: directions drawn, and those that met a
+                                  // splatted lobe
     };
     struct Scratch;
     // The point of target t at uv of its map, drawn with density uvDensity per unit of the
@@ -174,9 +236,27 @@ class PartLight {
     // The density per unit of the map with which a pass draws uv on target t (its levels'
     // mixture).
     double density(const Target& t, const Vec2& uv) const;
+    // The point of target t at uv and its light (Start), drawn with uvDensity.
+    std::optional<Start> lit(const Target& t, const Vec2& uv, double uvDensity, CounterRng& rng,
+                             LensConnector::Work& work, std::vector<PathEvent>* chain) const;
+    // The pilot's sample in photon mode: from the point, kPilotSplits directions from its
+    // lobe, one child by weight onward; where one meets a splatted lobe, kPilotSplits
+    // directions from it on to the detector: the mean flux that reaches it.
+    bool samplePhoton(const Target& t, const Vec2& uv, double uvDensity, CounterRng& rng,
+                      LensConnector::Work& work, Splat& out,
+                      std::vector<uint64_t>* places = nullptr) const;
+    static uint64_t placeKey(int object, int primitive) {
+        return (static_cast<uint64_t>(static_cast<uint32_t>(object)) << 32) |
+               static_cast<uint32_t>(primitive);
+    }
+    // The stratum of a pass's sample drawn from u, and its point on the target's map.
+    const Stratum& stratumOf(double u) const;
 
     const TransportView* ts_ = nullptr;
     const LensConnector* lc_ = nullptr;
+    PartMode mode_ = PartMode::Onward;
+    std::vector<bool> splatted_;        // photon mode: [property]
+    std::vector<uint64_t> productive_;  // photon mode: placeKey()s, sorted
     int detectorObject_ = -1;
     size_t objects_ = 0;
     std::vector<PartShape> shapes_;  // [object]: the candidates' (others invalid)

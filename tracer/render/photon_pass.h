@@ -19,6 +19,17 @@
 //              share its own part of its disk (viewPointDisk)
 //   secondary  the same once the photon has scattered before
 // and, with path criteria, the same three per criterion on the joined paths.
+// At a splatted lobe (RenderOptions::splatLobesBelowDeg: a scatter lobe narrower than 15
+// degrees that the pixel rays do not follow) a photon gathers nothing: it draws directions
+// from the lobe (RenderOptions::lobeSplats where the part photons' pilot saw light reach the
+// detector from that place, one elsewhere), follows each along specular events to the
+// rendered detector, and adds its light to the pixel it lands in, caustic or secondary as a
+// gather there would be. A view point on a narrow lobe gathers a photon only when it arrives
+// within the lobe's width of the one direction that reaches the pixel; the splat finds the
+// same paths (last scatter there, then specular to the detector) from the light's side.
+// Part photons (RenderOptions::partPhotons, tracer/render/part_light.h PartMode::Photons) start
+// on the parts the lens lights as designed with the light the connection finds there; the
+// sources' photons give their scattered children there only to the connection's audit.
 // Emission: photon j of a source takes point j of an Owen-scrambled Sobol sequence
 // (tracer/runtime/qmc.h), scrambled by passSeed(seed, k, 3) and the source, for its origin,
 // direction and line (RenderOptions::quasiRandomPhotons; otherwise its own random numbers).
@@ -37,6 +48,8 @@
 #include "tracer/render/scatter_guide.h"
 
 namespace veil {
+
+class PartLight;
 
 struct PhotonImages {
     std::vector<double> visible, caustic, secondary;  // flux per pixel
@@ -129,6 +142,7 @@ PhotonImages tracePhotons(const TransportView& ts, const DetectorImage& detector
                           const Ranks& ranks = Ranks::alone(),
                           const LensConnector* connector = nullptr,
                           const EmissionGuide* emissionGuide = nullptr,
-                          const ScatterGuide* scatterGuide = nullptr);
+                          const ScatterGuide* scatterGuide = nullptr,
+                          const PartLight* partPhotons = nullptr);
 
 }  // namespace veil

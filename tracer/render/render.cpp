@@ -546,6 +546,15 @@ Renderer::Renderer(const TransportView& ts, const DetectorImage& detector, ExitA
             options_.initialRadiusMm > 0.0 ? options_.initialRadiusMm : defaultInitialRadius(ts_);
         parts_ = PartLight(ts_, connector_, detector_.geometry().object, followed, r1);
     }
+    if (connector_.any() && options_.partPhotons > 0 && options_.splatLobesBelowDeg > 0.0) {
+        const double followRad = options_.followLobesBelowDeg * std::numbers::pi / 180.0;
+        const std::vector<bool> splatted =
+            splattedLobes(ts_, options_.splatLobesBelowDeg * std::numbers::pi / 180.0, followRad);
+        const double r1 =
+            options_.initialRadiusMm > 0.0 ? options_.initialRadiusMm : defaultInitialRadius(ts_);
+        partPhotons_ = PartLight(ts_, connector_, detector_.geometry().object,
+                                 followedLobes(ts_, followRad), r1, PartMode::Photons, splatted);
+    }
 }
 
 bool inGapAt(const Scene& scene, const Vec3& point, int object, int primitive, const Vec3& side,
@@ -894,10 +903,10 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
     RenderOptions po = options_;
     if (photonsPerSource > 0) po.photonsPerPass = photonsPerSource;
     if (visiblePhotons >= 0) po.visiblePhotonsPerPass = static_cast<uint64_t>(visiblePhotons);
-    PhotonImages acc =
-        tracePhotons(ts_, detector_, back, po, judge_, k, radiusMm, ranks_,
-                     connector_.any() ? &connector_ : nullptr, emissionGuided ? &emission : nullptr,
-                     scatterGuided ? &scatter : nullptr);
+    PhotonImages acc = tracePhotons(
+        ts_, detector_, back, po, judge_, k, radiusMm, ranks_,
+        connector_.any() ? &connector_ : nullptr, emissionGuided ? &emission : nullptr,
+        scatterGuided ? &scatter : nullptr, partPhotons_.any() ? &partPhotons_ : nullptr);
     const size_t criteria = judge_ ? static_cast<size_t>(judge_->count()) : 0;
     std::vector<double>& visible = out.pixels[static_cast<int>(RenderComponent::Visible)];
     for (int p = 0; p < pixels; ++p) visible[static_cast<size_t>(p)] += acc.visible[p];

@@ -351,6 +351,7 @@ class Renderer {
     Ranks ranks_;
     LensConnector connector_;  // RenderOptions::connectThroughLens (its pilot, once)
     PartLight parts_;          // RenderOptions::partSamples (its pilot, once)
+    PartLight partPhotons_;    // RenderOptions::partPhotons (PartMode::Photons; its pilot, once)
 };
 
 // Where photons land around a view point v, for the light that reaches it from one side of

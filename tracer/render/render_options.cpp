@@ -43,8 +43,14 @@ void RenderOptions::check() const {
         fail("the weight window must be 0 (off) or lie in [1, 1e6]");
     if (!(followLobesBelowDeg >= 0.0 && followLobesBelowDeg <= 90.0))
         fail("the half width below which lobes are followed must lie in [0, 90] degrees");
+    if (!(splatLobesBelowDeg >= 0.0 && splatLobesBelowDeg <= 90.0))
+        fail("the half width below which lobes are splatted must lie in [0, 90] degrees");
+    if (lobeSplats < 1 || lobeSplats > 4096)
+        fail("the splats per narrow lobe scatter must lie in [1, 4096]");
     if (partSamples > kMaxPartSamples)
         fail("the part samples per pass must lie in [0, " + std::to_string(kMaxPartSamples) + "]");
+    if (partPhotons > kMaxPartSamples)
+        fail("the part photons per pass must lie in [0, " + std::to_string(kMaxPartSamples) + "]");
 }
 
 std::ostream& operator<<(std::ostream& os, const RenderOptions& o) {
@@ -56,9 +62,10 @@ std::ostream& operator<<(std::ostream& os, const RenderOptions& o) {
               << (o.quasiRandomPhotons ? ", sobol photons" : ", random photons") << ", guide "
               << o.guideFraction << ", photon guide " << o.photonGuideFraction << ", scatter guide "
               << o.scatterGuideFraction << ", weight window " << o.weightWindow
-              << ", follow lobes below " << o.followLobesBelowDeg << " deg"
+              << ", follow lobes below " << o.followLobesBelowDeg << " deg, splat lobes below "
+              << o.splatLobesBelowDeg << " deg (" << o.lobeSplats << " splats)"
               << (o.connectThroughLens ? ", connected through the lens" : "") << ", "
-              << o.partSamples << " part samples}";
+              << o.partSamples << " part samples, " << o.partPhotons << " part photons}";
 }
 
 }  // namespace veil

@@ -91,6 +91,17 @@ struct RenderOptions {
     // half maximum below this many degrees are followed by the backward rays instead of
     // gathering photons; 0: every scattering surface gathers.
     double followLobesBelowDeg = 0.0;
+    // Narrow lobes splatted (docs/render.md, "Narrow lobes splatted onto the sensor"): where a
+    // photon scatters at a surface whose lobe has a half width at half maximum below this many
+    // degrees (and the backward rays do not follow it), it gathers nothing at the view
+    // points there; instead lobeSplats directions drawn from the lobe are traced along
+    // specular paths to the detector, each adding its light to the pixel it lands in. The same
+    // light as the gather (paths whose last scatter is there), found from the other end.
+    // 0: every scattering surface gathers.
+    double splatLobesBelowDeg = 15.0;
+    // Directions per splat where the part photons' pilot saw a splatted lobe's light reach the
+    // detector (one elsewhere), and the most directions a part photon draws at its point.
+    int lobeSplats = 1024;
     // Light connected through the lens (tracer/render/lens_connection.h): at every view point
     // and followed lobe, the light of the sources that reaches it through the lens as designed
     // is solved for (Newton on the source's ray) instead of gathered from photons (at a followed
@@ -103,6 +114,12 @@ struct RenderOptions {
     // them. 0: off. Needs connectThroughLens.
     uint64_t partSamples = 65536;
     static constexpr uint64_t kMaxPartSamples = uint64_t{1} << 32;
+    // Photons from the small lit parts (tracer/render/part_light.h, PartMode::Photons;
+    // docs/render.md, "Photons from the lit parts"): with splatted lobes in the scene, photons
+    // per pass that start on the parts the lens lights as designed, with the light the
+    // connection finds there, and scatter on from them as photons; the sources' photons leave
+    // that scattered light to them. 0: off. Needs connectThroughLens.
+    uint64_t partPhotons = 16384;
     // Throws std::invalid_argument naming the option when a value is out of range.
     void check() const;
 };

@@ -115,4 +115,23 @@ int chooseChild(const Interaction& in, double u) {
     return k;
 }
 
+double scatteredShare(const Interaction& in) {
+    double s = 0.0;
+    for (int c = 0; c < in.count; ++c)
+        if (in.children[c].scatter) s += in.children[c].share;
+    return s;
+}
+
+int chooseScatterChild(const Interaction& in, double u) {
+    double x = u * scatteredShare(in);
+    int chosen = -1;
+    for (int k = 0; k < in.count; ++k) {
+        if (!in.children[k].scatter) continue;
+        chosen = k;
+        x -= in.children[k].share;
+        if (x < 0.0) break;
+    }
+    return chosen;
+}
+
 }  // namespace veil

@@ -100,6 +100,10 @@ Interaction interact(const TransportView& ts, const SceneHit& hit, const Vec3& d
 // One child chosen with probability proportional to its share, from one uniform u in [0, 1).
 // The chosen child then carries the whole non-absorbed flux (total): unbiased.
 int chooseChild(const Interaction& in, double u);
+// The scattered children's shares together, and one of them chosen in proportion to its share
+// from one uniform u in [0, 1) (-1 when none scatters).
+double scatteredShare(const Interaction& in);
+int chooseScatterChild(const Interaction& in, double u);
 
 // Russian roulette: a flux below `below` survives with probability flux / keep (keep >=
 // below) and then carries `keep`; returns the flux to carry on, 0 when it dies. Draws one

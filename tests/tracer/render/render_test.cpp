@@ -842,22 +842,28 @@ TEST(Render, FollowedNarrowLobesAgreeWithForwardMonteCarlo) {
     const SceneTransport& t = s->transport();
     const auto [ref, refSigma] = forwardTotal(*s, 2000000, 3);
     const ExitAperture a = exitApertureFor(s->scene(), t.images[0].geometry());
-    for (const double follow : {15.0, 0.0}) {
+    // Followed by the pixel rays, gathered from photons, and splatted by the photons
+    // (RenderOptions::splatLobesBelowDeg, the default).
+    for (const auto [follow, splat] :
+         {std::pair{15.0, 0.0}, std::pair{0.0, 0.0}, std::pair{0.0, 15.0}}) {
         RenderOptions o;
         o.raysPerPixel = 2048;  // the aperture spans most of the hemisphere
         o.photonsPerPass = 50000;
         o.initialRadiusMm = 6.0;
         o.followLobesBelowDeg = follow;
+        o.splatLobesBelowDeg = splat;
         const RenderState state = render(*s, o, 8, a);
         const DetectorImage caustic = state.component(RenderComponent::Caustic);
         const double sigma =
             state.radiusBias().errorWith(std::sqrt(caustic.totalVariance(state.passes())));
         EXPECT_LE(std::abs(caustic.totalFlux() - ref), 3.0 * std::hypot(sigma, refSigma))
-            << "follow " << follow << ": " << caustic.totalFlux() << " +- " << sigma << " vs "
-            << ref << " +- " << refSigma;
-        EXPECT_LT(sigma, 0.12 * ref) << "follow " << follow;
-        // Followed, no photon is gathered: no radius bias to find.
-        if (follow > 0.0) {
+            << "follow " << follow << ", splat " << splat << ": " << caustic.totalFlux() << " +- "
+            << sigma << " vs " << ref << " +- " << refSigma;
+        std::cout << "follow " << follow << ", splat " << splat << ": " << caustic.totalFlux()
+                  << " +- " << sigma << " vs " << ref << " +- " << refSigma << "\n";
+        EXPECT_LT(sigma, 0.12 * ref) << "follow " << follow << ", splat " << splat;
+        // Followed or splatted, no photon is gathered: no radius bias to find.
+        if (follow > 0.0 || splat > 0.0) {
             EXPECT_EQ(state.radiusBias().difference, 0.0);
         }
     }
