@@ -844,7 +844,7 @@ TEST(Render, FollowedNarrowLobesAgreeWithForwardMonteCarlo) {
     const ExitAperture a = exitApertureFor(s->scene(), t.images[0].geometry());
     // Followed by the pixel rays, gathered from photons, and splatted by the photons
     // (RenderOptions::splatLobesBelowDeg, the default).
-    for (const auto [follow, splat] :
+    for (const auto& [follow, splat] :
          {std::pair{15.0, 0.0}, std::pair{0.0, 0.0}, std::pair{0.0, 15.0}}) {
         RenderOptions o;
         o.raysPerPixel = 2048;  // the aperture spans most of the hemisphere
@@ -948,7 +948,7 @@ TEST(Render, StandardErrorBiasIsTheMeanSampleDeviation) {
 }
 
 TEST(Render, RadiusShrinksByTheProgressiveRule) {
-    const DetectorGeometry g{"d", Frame{}, 1.0, 1.0, 1, 1, -1};
+    const DetectorGeometry g{"d", Frame{}, 1.0, 1.0, 1, 1, -1, std::nullopt, Vec2(0.0)};
     RenderState state(g, 3.0, 2.0 / 3.0);
     RenderPass pass;
     for (auto& v : pass.pixels) v.assign(1, 1.0);
@@ -1172,7 +1172,8 @@ TEST(Render, BalancedPhotonsEvenOutTheWorkOfTheTwoSides) {
 // mean), as RenderState::total() gives it.
 DetectorImage meanImage(const std::vector<double>& mean, const std::vector<double>& variance,
                         int passes) {
-    const DetectorGeometry g{"d", Frame{}, 1.0, 1.0, static_cast<int>(mean.size()), 1, -1};
+    const DetectorGeometry g{"d", Frame{}, 1.0,          1.0,      static_cast<int>(mean.size()),
+                             1,   -1,      std::nullopt, Vec2(0.0)};
     std::vector<double> squares(mean.size());
     const double k = passes;
     for (size_t p = 0; p < mean.size(); ++p)
