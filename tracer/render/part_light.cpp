@@ -167,8 +167,10 @@ PartLight::PartLight(const TransportView& ts, const LensConnector& connector, in
     const bool photons = mode == PartMode::Photons;
     if (photons && std::find(splatted.begin(), splatted.end(), true) == splatted.end()) return;
     const Scene& scene = *ts.scene;
-    for (int k = 0; k < dp.steps(); ++k) faces_.emplace_back(scene, dp.objectOfStep(k));
-    faces_.emplace_back(scene, detectorObject);
+    if (!photons) {  // the faces light goes on through (photon mode draws none)
+        for (int k = 0; k < dp.steps(); ++k) faces_.emplace_back(scene, dp.objectOfStep(k));
+        faces_.emplace_back(scene, detectorObject);
+    }
     const double most = kDisks * std::numbers::pi * radiusMm * radiusMm;
     shapes_.resize(objects_);
     std::vector<bool> tried(objects_, false);

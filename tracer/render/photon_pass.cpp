@@ -624,6 +624,14 @@ class BlockTracer {
     // dense: summed into the block's dense images (PhotonBlock::dense), not logged.
     void book(int slot, uint64_t matched, const std::vector<int>* spread, int pixel, double value,
               bool dense = false);
+    // A copy of the path state at offset `from` in the photon's arena (a split branch's own):
+    // its offset.
+    size_t copyState(size_t from) {
+        const size_t at = states_.size();
+        states_.resize(at + p_.stateBytes_);
+        std::memcpy(states_.data() + at, states_.data() + from, p_.stateBytes_);
+        return at;
+    }
     // The criteria a path of this branch's events and `suffix_` matches.
     uint64_t judged(const PhotonBranch& br) {
         if (br.alive == 0) return uint64_t{0};
@@ -730,12 +738,11 @@ void BlockTracer::tracePartPhoton(uint64_t j) {
     gathered_ = 0.0;
     vertices_.clear();
     // Scattered children in proportion to their shares (the others are not the part photons'
-    // light: the sources' photons keep them); at a splatted lobe lobeSplats of them, as the
-    // splats there: the point's light, which costs the connection's solve, goes a long way.
-    // As many directions as meet kLobesPerPartPhoton splatted lobes that reach the detector
-    // on average (the pilot's measure), at most lobeSplats; each such lobe then splits into
-    // lobeSplats splats. Measured on figure 10b (60 s): 1 lobe a photon 46.7 % mean pixel
-    // error, 4 lobes 40.4 % (docs/render.md, "Photons from the lit parts").
+    // light: the sources' photons keep them). The point's light costs the connection's solve,
+    // so it goes a long way: as many directions as meet kLobesPerPartPhoton splatted lobes that
+    // reach the detector on average (the pilot's measure), at most lobeSplats; each such lobe then
+    // splits into lobeSplats splats. Measured on figure 10b (60 s): 1 lobe a photon 46.7 % mean
+    // pixel error, 4 lobes 40.4 % (docs/render.md, "Photons from the lit parts").
     const int n =
         p_.parts_->productive(st->object, st->primitive)
             ? static_cast<int>(std::clamp(std::round(st->legsPerLobe * kLobesPerPartPhoton), 1.0,
@@ -747,14 +754,8 @@ void BlockTracer::tracePartPhoton(uint64_t j) {
     for (int i = 0; i < n; ++i) {
         const int c = chooseScatterChild(in, ph.rng.uniform());
         PhotonBranch child = br;
-        if (p_.judge_) {  // its own copy of the chain's path state (kept at br.state)
-            child.state = states_.size();
-            states_.resize(states_.size() + p_.stateBytes_);
-            std::memcpy(states_.data() + child.state, states_.data() + br.state, p_.stateBytes_);
-        }
-        if (!becomeOne(child, at, in, c, -1, each, ph, false)) continue;
-        child.rouletteFlux = p_.options_.rouletteRelativeFlux * each;
-        stack_.push_back(child);
+        if (p_.judge_) child.state = copyState(br.state);  // the chain's state stays at br.state
+        if (becomeOne(child, at, in, c, -1, each, ph, false)) stack_.push_back(child);
     }
     while (!stack_.empty()) {
         PhotonBranch b = stack_.back();
@@ -1093,11 +1094,7 @@ bool BlockTracer::become(PhotonBranch& b, const SceneHit& hit, const Interaction
     flux *= w.factor;
     for (int j = 1; j < w.photons; ++j) {
         PhotonBranch copy = b;
-        if (p_.judge_) {  // its own copy of the path state
-            copy.state = states_.size();
-            states_.resize(states_.size() + p_.stateBytes_);
-            std::memcpy(states_.data() + copy.state, states_.data() + b.state, p_.stateBytes_);
-        }
+        if (p_.judge_) copy.state = copyState(b.state);
         if (becomeOne(copy, hit, in, c, slot, flux, ph, true)) stack_.push_back(copy);
     }
     return becomeOne(b, hit, in, c, slot, flux, ph, windowed);
@@ -1156,12 +1153,7 @@ bool BlockTracer::next(PhotonBranch& br, const SceneHit& hit, const Interaction&
             if (!(keep > 0.0)) continue;
             PhotonBranch child = br;
             child.segments = br.segments + 1;
-            if (p_.judge_) {  // its own copy of the path state
-                child.state = states_.size();
-                states_.resize(states_.size() + p_.stateBytes_);
-                std::memcpy(states_.data() + child.state, states_.data() + br.state,
-                            p_.stateBytes_);
-            }
+            if (p_.judge_) child.state = copyState(br.state);
             if (become(child, hit, in, k, keep, ph)) stack_.push_back(child);
         }
         c = 0;
