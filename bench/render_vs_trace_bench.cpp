@@ -235,7 +235,7 @@ int main(int argc, char** argv) {
     if (!pngDir.empty()) {
         std::filesystem::create_directories(pngDir);
         PreviewOptions po;
-        po.decades = 3.0;
+        po.scale.decades = 3.0;
         po.title = "veil trace, " + std::to_string(static_cast<int>(forwardSeconds)) +
                    " s: scattered light";
         po.emittedRays = forward.emittedRays;

@@ -18,6 +18,7 @@
 #include <sstream>
 
 #include "analysis/pictures/picture.h"
+#include "analysis/reports/image_output.h"
 #include "lensdata/errors.h"
 #include "lensdata/output_file.h"
 #include "tracer/records/ray_database.h"
@@ -218,6 +219,64 @@ std::vector<std::pair<double, double>> parseFields(const std::vector<std::string
         out.emplace_back(x, y);
     }
     return out;
+}
+
+std::optional<std::pair<double, double>> parseRange(const std::string& text, std::string* error) {
+    const size_t colon = text.find(':');
+    auto number = [](const std::string& t, double& v) {
+        char* end = nullptr;
+        v = std::strtod(t.c_str(), &end);
+        return !t.empty() && end == t.c_str() + t.size() && std::isfinite(v);
+    };
+    double lo = 0.0, hi = 0.0;
+    if (colon == std::string::npos || !number(text.substr(0, colon), lo) ||
+        !number(text.substr(colon + 1), hi)) {
+        if (error) *error = "'" + text + "' is not LO:HI (two numbers, such as 1e-9:3e-7)";
+        return std::nullopt;
+    }
+    if (!(lo > 0.0 && hi > lo)) {
+        if (error) *error = "'" + text + "' needs 0 < LO < HI (the colour scale is logarithmic)";
+        return std::nullopt;
+    }
+    return std::make_pair(lo, hi);
+}
+
+void addPreviewFlags(CLI::App* sub, PreviewFlags& f) {
+    sub->add_option("--decades", f.decades,
+                    "PNG previews: the colour scale spans D decades below the brightest pixel "
+                    "(default: chosen from the light shown, docs/cli.md)")
+        ->check(CLI::Validator(
+            [](std::string& s) -> std::string {
+                char* end = nullptr;
+                const double v = std::strtod(s.c_str(), &end);
+                if (end == s.c_str() || *end != '\0' || !(v > 0.0 && v <= 30.0))
+                    return "--decades " + s + " is not a number of decades in (0, 30]";
+                return {};
+            },
+            "D in (0, 30]"));
+    sub->add_option("--range", f.range,
+                    "PNG previews: the colour scale from LO to HI, in the preview's unit "
+                    "(irradiance, flux per mm^2)")
+        ->check(CLI::Validator(
+            [](std::string& s) -> std::string {
+                std::string error;
+                return parseRange(s, &error) ? std::string() : "--range " + error;
+            },
+            "LO:HI"));
+    sub->get_option("--range")->excludes(sub->get_option("--decades"));
+}
+
+PreviewScale previewScale(const PreviewFlags& f) {
+    PreviewScale s;
+    s.decades = f.decades;
+    if (!f.range.empty()) {
+        std::string error;
+        const auto r = parseRange(f.range, &error);
+        if (!r) throw ParseError({"--range", 0, 0}, error);
+        s.lo = r->first;
+        s.hi = r->second;
+    }
+    return s;
 }
 
 void requireWritableFolder(const std::filesystem::path& folder, const std::string& option,

@@ -27,6 +27,7 @@
 
 namespace veil {
 class Picture;
+struct PreviewScale;
 struct TransportOptions;
 }
 
@@ -63,6 +64,17 @@ void addTransportFlags(CLI::App* sub, TransportFlags& flags);
 // --max-split-depth is at most this (2^20 branches per ray): ModelError naming --min-flux.
 inline constexpr int kMaxUnculledSplitDepth = 20;
 void applyTransportFlags(const TransportFlags& flags, TransportOptions& options);
+// --decades D and --range LO:HI: the PNG previews' colour scale (PreviewScale: chosen from
+// the light without them).
+struct PreviewFlags {
+    double decades = 0.0;
+    std::string range;  // "LO:HI" in the preview's unit, or empty
+};
+void addPreviewFlags(CLI::App* sub, PreviewFlags& flags);
+// "LO:HI" with 0 < LO < HI, both finite, into (LO, HI); nullopt with *error set otherwise.
+std::optional<std::pair<double, double>> parseRange(const std::string& text, std::string* error);
+// The flags as a PreviewScale (a malformed --range is a ParseError naming it).
+PreviewScale previewScale(const PreviewFlags& flags);
 // --json and --quiet.
 void addReportFlags(CLI::App* sub, bool& json, bool& quiet);
 // --field X,Y (repeatable).

@@ -226,6 +226,7 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
     addFields(sub, o.fields);
     addRunControls(sub, o.threads, o.seed);
     addReportFlags(sub, o.json, o.quiet);
+    addPreviewFlags(sub, o.preview);
 }
 
 // The run's spec from the options, every option checked before the scene is read.
@@ -315,7 +316,9 @@ RenderCommandRun renderIntoFolder(const PreparedScene& scene, RenderRunSpec spec
     const auto limit = limitThreads(o.threads);
     RenderCommandRun out{run.run(), {}};
     if (!root || dir.empty()) return out;  // a rank's share went to rank 0
-    for (const std::filesystem::path& f : writeRenderFiles(out.result, dir)) written.add(f);
+    for (const std::filesystem::path& f :
+         writeRenderFiles(out.result, dir, previewScale(o.preview)))
+        written.add(f);
     written.add(dir / kCheckpoint);
     written.finishRun();
     out.written = std::move(written);

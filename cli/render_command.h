@@ -57,6 +57,7 @@ struct RenderCommandOptions {
     uint64_t seed = 1;
     bool json = false;
     bool quiet = false;
+    PreviewFlags preview;  // --decades, --range
 };
 void addRenderCommand(CLI::App& app, RenderCommandOptions& options);
 int runRender(const CommonOptions& common, const RenderCommandOptions& options);

@@ -42,6 +42,7 @@ void addTraceCommand(CLI::App& app, TraceOptions& o) {
     sub->add_flag("--prune", o.prune,
                   "with --where: stop tracing a branch as soon as no criterion can match it "
                   "(faster; then only the criterion images are complete)");
+    addPreviewFlags(sub, o.preview);
     sub->add_option("--save-rays", o.saveRays,
                     "write every ray's path history to this ray database file "
                     "(docs/ray-database.md); its size is estimated before tracing");
@@ -154,7 +155,9 @@ TraceCommandRun traceIntoFolder(const PreparedScene& scene, StrayLightSpec spec,
         written.add(o.saveRays);
     }
     if (!dir.empty())
-        for (const std::filesystem::path& f : writeTraceFiles(out.result, dir)) written.add(f);
+        for (const std::filesystem::path& f :
+             writeTraceFiles(out.result, dir, previewScale(o.preview)))
+            written.add(f);
     written.finishRun();
     out.written = std::move(written);
     return out;

@@ -28,6 +28,7 @@ struct TraceOptions {
     bool eventsOnly = false;         // the database without positions and directions
     std::vector<std::string> where;  // path criteria: one image per criterion plus the rest
     bool prune = false;              // cull branches once every --where criterion is false
+    PreviewFlags preview;            // --decades, --range
 };
 void addTraceCommand(CLI::App& app, TraceOptions& options);
 int runTrace(const CommonOptions& common, const TraceOptions& options);

@@ -55,7 +55,7 @@ void writeImages(const GhostRun& run, const fs::path& out, const GhostFilesSpec&
     PreviewOptions po;
     po.fluxUnit = run.report.unit;
     po.emittedRays = run.monteCarlo.emittedRays;
-    po.decades = spec.decades;
+    po.scale.decades = spec.decades;
     const int det = run.detector;
     // Every image sums the sources (fields): said in its title when there are several.
     const size_t nSources = view.sources.size();

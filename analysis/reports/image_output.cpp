@@ -411,9 +411,19 @@ Color falseColour(double t) {
     return {a.r + f * (b.r - a.r), a.g + f * (b.g - a.g), a.b + f * (b.b - a.b), 1.0};
 }
 
-Color previewColour(double value, double maxValue, double decades) {
-    if (!(value > 0.0) || !(maxValue > 0.0)) return {0.0, 0.0, 0.0, 1.0};
-    return falseColour(1.0 + std::log10(value / maxValue) / decades);
+Color previewColour(double value, double minValue, double maxValue) {
+    if (!(value > 0.0) || !(maxValue > 0.0) || !(minValue > 0.0)) return {0.0, 0.0, 0.0, 1.0};
+    if (!(maxValue > minValue)) return falseColour(value >= maxValue ? 1.0 : 0.0);
+    return falseColour(std::log10(value / minValue) / std::log10(maxValue / minValue));
+}
+
+void PreviewScale::check() const {
+    if (!(decades >= 0.0 && std::isfinite(decades)))
+        throw std::invalid_argument("preview decades must be > 0 (or 0: chosen from the light)");
+    if (fixed() || lo != 0.0) {
+        if (!(lo > 0.0 && hi > lo && std::isfinite(hi)))
+            throw std::invalid_argument("a preview range needs 0 < low < high, both finite");
+    }
 }
 
 double previewValue(const DetectorImage& image, int pixel, PreviewQuantity quantity) {
@@ -426,8 +436,7 @@ std::string previewLabel(PreviewQuantity quantity, const std::string& fluxUnit) 
 }
 
 PreviewLayout previewLayout(const DetectorImage& image, const PreviewOptions& options) {
-    if (!(options.decades > 0.0))
-        throw std::invalid_argument("writeDetectorPng: decades must be > 0");
+    options.scale.check();
     if (options.imageSizePx < 16)
         throw std::invalid_argument("writeDetectorPng: imageSizePx must be >= 16");
     const DetectorGeometry& g = image.geometry();
@@ -459,19 +468,62 @@ PreviewLayout previewLayout(const DetectorImage& image, const PreviewOptions& op
     l.xTicks = niceTicks(-0.5 * g.widthMm, 0.5 * g.widthMm, std::max(2, int(l.imageW / 55.0)));
     l.yTicks = niceTicks(-0.5 * g.heightMm, 0.5 * g.heightMm, std::max(2, int(l.imageH / 55.0)));
     for (int p = 0; p < image.pixelCount(); ++p)
-        l.maxValue = std::max(l.maxValue, previewValue(image, p, options.quantity));
-    l.minValue = l.maxValue * std::pow(10.0, -options.decades);
+        l.imageMax = std::max(l.imageMax, previewValue(image, p, options.quantity));
+    // The scale (PreviewScale), from the range's light.
+    const PreviewScale& sc = options.scale;
+    const DetectorImage& from = options.rangeImage ? *options.rangeImage : image;
+    std::vector<double> lit;
+    for (int p = 0; p < from.pixelCount(); ++p) {
+        const double v = previewValue(from, p, options.quantity);
+        if (v > 0.0 && std::isfinite(v)) lit.push_back(v);
+    }
+    std::sort(lit.begin(), lit.end());
+    if (sc.fixed()) {
+        l.maxValue = sc.hi;
+        l.minValue = sc.lo;
+    } else if (!lit.empty()) {
+        const size_t n = lit.size();
+        if (sc.decades > 0.0) {
+            l.maxValue = lit.back();
+            l.minValue = l.maxValue * std::pow(10.0, -sc.decades);
+        } else {
+            const size_t top = n - 1 - static_cast<size_t>(PreviewScale::kAutoTopShare * n);
+            const size_t bottom = static_cast<size_t>(PreviewScale::kAutoBottomQuantile * n);
+            l.maxValue = lit[top];
+            const double decades =
+                std::clamp(std::log10(l.maxValue / lit[std::min(bottom, top)]),
+                           PreviewScale::kAutoMinDecades, PreviewScale::kAutoMaxDecades);
+            l.minValue = l.maxValue * std::pow(10.0, -decades);
+        }
+    }
+    if (l.maxValue > 0.0)
+        for (int p = 0; p < image.pixelCount(); ++p)
+            if (previewValue(image, p, options.quantity) > l.maxValue) ++l.above;
 
     // Notes below: the grid and the values, then the view; the page widens to hold them.
     std::ostringstream values;
     values << formatNumber(g.widthMm) << " x " << formatNumber(g.heightMm) << " mm, "
            << image.pixelsX() << " x " << image.pixelsY() << " pixels; ";
-    if (l.maxValue > 0.0)
-        values << "max " << formatNumber(l.maxValue) << " "
-               << unitOf(options.quantity, options.fluxUnit) << ", " << options.decades
-               << " decades";
-    else
+    const std::string unit = unitOf(options.quantity, options.fluxUnit);
+    if (l.imageMax > 0.0) {
+        values << "max " << formatNumber(l.imageMax) << " " << unit;
+        if (l.maxValue > 0.0) {
+            values << "; scale " << formatNumber(l.minValue) << " to " << formatNumber(l.maxValue)
+                   << " ("
+                   << (sc.fixed() ? std::string("--range")
+                       : sc.decades > 0.0
+                           ? formatNumber(sc.decades) + " decades"
+                           : "auto, " + formatNumber(std::log10(l.maxValue / l.minValue)) +
+                                 " decades")
+                   << (options.rangeImage && !options.rangeName.empty()
+                           ? " of the " + options.rangeName
+                           : std::string())
+                   << ")";
+            if (l.above > 0) values << ", " << l.above << " pixels above";
+        }
+    } else {
         values << "no flux";
+    }
     if (options.emittedRays > 0)
         values << "; total " << formatNumber(image.totalFlux()) << " " << options.fluxUnit
                << " \u00b1 " << formatNumber(100.0 * image.totalRelativeError(options.emittedRays))
@@ -498,7 +550,7 @@ cairo_surface_t* detectorPixels(const DetectorImage& image, const PreviewOptions
         auto* line = reinterpret_cast<uint32_t*>(data + static_cast<size_t>(row) * stride);
         for (int column = 0; column < nx; ++column) {
             const double v = previewValue(image, image.pixelIndex(column, row), options.quantity);
-            const Color c = previewColour(v, l.maxValue, options.decades);
+            const Color c = previewColour(v, l.minValue, l.maxValue);
             line[column] = (0xFFu << 24) | (uint32_t(toByte(c.r)) << 16) |
                            (uint32_t(toByte(c.g)) << 8) | uint32_t(toByte(c.b));
         }
@@ -589,25 +641,44 @@ void drawColourBar(cairo_t* cr, const PreviewLayout& l, const PreviewOptions& op
     cairo_rectangle(cr, l.barX - 0.5, l.barY - 0.5, l.barW + 1.0, l.barH + 1.0);
     cairo_stroke(cr);
 
-    // Ticks at the powers of ten inside [minValue, maxValue].
+    // Ticks at the powers of ten inside [minValue, maxValue]; on a scale of less than
+    // kLinearTicksBelow decades, at round values instead.
+    constexpr double kLinearTicksBelow = 1.5;
     const double labelSize = kLabelSize;
     cairo_set_line_width(cr, 1.0);
-    if (l.maxValue > 0.0) {
+    if (l.maxValue > 0.0 && l.maxValue > l.minValue) {
         const double top = std::log10(l.maxValue);
-        const int kHi = static_cast<int>(std::floor(top));
-        const int kLo = static_cast<int>(std::ceil(top - options.decades));
-        // At most about 12 labels: every step-th power.
-        const int step = std::max(1, (kHi - kLo + 12) / 12);
-        int drawn = 0;
-        for (int k = kHi; k >= kLo; --k) {
-            const double y = l.barY + l.barH * (top - k) / options.decades;
+        const double decades = top - std::log10(l.minValue);
+        auto tick = [&](double y) {
             cairo_set_source_rgb(cr, 0.0, 0.0, 0.0);
             cairo_move_to(cr, l.barX + l.barW, y);
             cairo_line_to(cr, l.barX + l.barW + 5.0, y);
             cairo_stroke(cr);
-            if ((kHi - k) % step == 0) {
-                drawPowerOfTen(cr, l.barX + l.barW + 8.0, y + 0.35 * labelSize, k, labelSize);
+        };
+        int drawn = 0;
+        if (decades < kLinearTicksBelow) {
+            const Ticks t = niceTicks(l.minValue, l.maxValue, 6);
+            cairo_set_font_size(cr, labelSize);
+            for (double v : t.values) {
+                if (!(v > 0.0)) continue;
+                const double y = l.barY + l.barH * (top - std::log10(v)) / decades;
+                tick(y);
+                cairo_move_to(cr, l.barX + l.barW + 8.0, y + 0.35 * labelSize);
+                cairo_show_text(cr, formatNumber(v).c_str());
                 ++drawn;
+            }
+        } else {
+            const int kHi = static_cast<int>(std::floor(top));
+            const int kLo = static_cast<int>(std::ceil(top - decades));
+            // At most about 12 labels: every step-th power.
+            const int step = std::max(1, (kHi - kLo + 12) / 12);
+            for (int k = kHi; k >= kLo; --k) {
+                const double y = l.barY + l.barH * (top - k) / decades;
+                tick(y);
+                if ((kHi - k) % step == 0) {
+                    drawPowerOfTen(cr, l.barX + l.barW + 8.0, y + 0.35 * labelSize, k, labelSize);
+                    ++drawn;
+                }
             }
         }
         if (drawn == 0) {

@@ -133,13 +133,41 @@ enum class PreviewQuantity {
     Flux,        // flux per pixel (fluxUnit)
 };
 
+// The colour scale of a preview: log10 of the quantity from lo to hi.
+//   fixed range (lo, hi > 0): that range.
+//   decades > 0: hi the largest value of the range's light, lo hi 10^-decades.
+//   auto (neither; the default): hi the value that only the brightest kAutoTopShare of the lit
+//     pixels exceed (single bright pixels of a Monte Carlo image, a source's image in the
+//     frame, do not set the scale), lo the lit pixels' kAutoBottomQuantile, at least
+//     kAutoMinDecades and at most kAutoMaxDecades below hi: a near-uniform veil spans the
+//     colour map instead of one flat colour at the top of a 3-decade bar.
+// Pixels above hi show in its colour, those below lo in the lowest; the notes count those
+// above.
+struct PreviewScale {
+    static constexpr double kAutoTopShare = 5e-4;
+    static constexpr double kAutoBottomQuantile = 0.01;
+    static constexpr double kAutoMinDecades = 0.1;
+    static constexpr double kAutoMaxDecades = 4.0;
+    double decades = 0.0;
+    double lo = 0.0, hi = 0.0;
+    bool fixed() const { return hi > 0.0; }
+    // std::invalid_argument unless decades >= 0 (finite), and a fixed range has
+    // 0 < lo < hi, both finite.
+    void check() const;
+};
+
 struct PreviewOptions {
     PreviewQuantity quantity = PreviewQuantity::Irradiance;
-    double decades = 6.0;        // dynamic range below the maximum, > 0
+    PreviewScale scale;          // auto by default
     std::string fluxUnit = "W";  // unit of the source flux: "W" or "lm"
     int imageSizePx = 800;       // longer side of the detector area in the PNG
     std::string title;           // empty: "Detector <name>"
     uint64_t emittedRays = 0;    // > 0 adds the total flux and its relative error
+    // The light that sets the scale (null: the image): the light the run asked for, so that a
+    // source's own image in the frame does not black out its stray light. `rangeName` names
+    // it in the notes.
+    const DetectorImage* rangeImage = nullptr;
+    std::string rangeName;
 };
 
 // Where things are in the PNG, in PNG pixels (origin top left): the detector area, the
@@ -148,8 +176,10 @@ struct PreviewLayout {
     int widthPx = 0, heightPx = 0;
     double imageX = 0, imageY = 0, imageW = 0, imageH = 0;
     double barX = 0, barY = 0, barW = 0, barH = 0;
-    double maxValue = 0.0;  // the largest value of the quantity; 0 for an empty image
-    double minValue = 0.0;  // maxValue * 10^-decades: the bottom of the colour bar
+    double maxValue = 0.0;  // the top of the colour bar (PreviewScale); 0: nothing lit
+    double minValue = 0.0;  // the bottom of the colour bar
+    double imageMax = 0.0;  // the image's largest value
+    int above = 0;          // pixels above maxValue
     double widthMm = 0.0, heightMm = 0.0;  // the detector
     Ticks xTicks, yTicks;                  // detector-local mm
     double markX = 0, markY = 0;           // origin of the orientation mark's arrows
@@ -162,16 +192,16 @@ struct PreviewLayout {
 };
 PreviewLayout previewLayout(const DetectorImage& image, const PreviewOptions& options = {});
 
-// Throws std::invalid_argument for decades <= 0 or imageSizePx < 16, std::runtime_error
-// naming the path when the file cannot be written.
+// Throws std::invalid_argument for a bad scale (PreviewScale::check) or imageSizePx < 16,
+// std::runtime_error naming the path when the file cannot be written.
 void writeDetectorPng(const std::filesystem::path& path, const DetectorImage& image,
                       const PreviewOptions& options = {});
 
 // The colour map at t in [0, 1] (clamped), opaque.
 Color falseColour(double t);
 // The colour of one value: black for value <= 0 (or NaN), falseColour of its position on
-// the log scale [maxValue 10^-decades, maxValue] otherwise (clamped at both ends).
-Color previewColour(double value, double maxValue, double decades);
+// the log scale [minValue, maxValue] otherwise (clamped at both ends).
+Color previewColour(double value, double minValue, double maxValue);
 // The displayed quantity of one pixel.
 double previewValue(const DetectorImage& image, int pixel, PreviewQuantity quantity);
 // The colour bar's label: "irradiance (W/mm²)" or "flux per pixel (W)".

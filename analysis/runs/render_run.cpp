@@ -587,7 +587,8 @@ std::vector<std::pair<std::string, DetectorImage>> RenderResult::imageLayers() c
 }
 
 std::vector<std::filesystem::path> writeRenderFiles(const RenderResult& r,
-                                                    const std::filesystem::path& dir) {
+                                                    const std::filesystem::path& dir,
+                                                    const PreviewScale& scale) {
     std::vector<std::filesystem::path> written;
     const int criterionCount = r.state.criteria();
     const std::vector<std::pair<std::string, DetectorImage>> images = r.imageLayers();
@@ -605,12 +606,18 @@ std::vector<std::filesystem::path> writeRenderFiles(const RenderResult& r,
     PreviewOptions po;
     po.fluxUnit = r.unit;
     po.emittedRays = n;
-    po.decades = 3.0;  // stray light spans a few decades; 6 would flatten it
+    po.scale = scale;
     const DetectorImage& stray = images[images.size() - 2].second;
     const DetectorImage& formed = images[images.size() - 1].second;
     po.title =
         name + (formed.totalFlux() != 0.0 ? ": all light, " : ": stray light, ") + passesText(n);
-    writeDetectorPng(dir / (name + ".png"), total, po);
+    // All the light on the stray light's scale: the sources' image above it.
+    PreviewOptions all = po;
+    if (formed.totalFlux() != 0.0 && stray.totalFlux() != 0.0) {
+        all.rangeImage = &stray;
+        all.rangeName = "stray light";
+    }
+    writeDetectorPng(dir / (name + ".png"), total, all);
     written.push_back(dir / (name + ".png"));
     if (formed.totalFlux() != 0.0 && stray.totalFlux() != 0.0) {
         PreviewOptions sp = po;

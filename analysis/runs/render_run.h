@@ -30,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/reports/image_output.h"
 #include "analysis/reports/progress.h"
 #include "tracer/render/render.h"
 #include "tracer/runtime/ranks.h"
@@ -167,7 +168,9 @@ size_t findDetector(const SceneTransport& transport, const std::string& name);
 // The files of a finished run into `folder`, which must exist: DETECTOR.exr (layers total,
 // visible, direct, caustic, secondary, and whereK with its components), DETECTOR.png and a
 // PNG per lit component and per criterion, summary.json. Returns them in that order.
+// `scale`: the PNGs' colour scale (auto by default; PreviewScale).
 std::vector<std::filesystem::path> writeRenderFiles(const RenderResult& result,
-                                                    const std::filesystem::path& folder);
+                                                    const std::filesystem::path& folder,
+                                                    const PreviewScale& scale = {});
 
 }  // namespace veil

@@ -192,7 +192,8 @@ std::vector<std::pair<std::string, const DetectorImage*>> StrayLightResult::imag
 }
 
 std::vector<std::filesystem::path> writeTraceFiles(const StrayLightResult& result,
-                                                   const std::filesystem::path& dir) {
+                                                   const std::filesystem::path& dir,
+                                                   const PreviewScale& scale) {
     std::vector<std::filesystem::path> written;
     std::filesystem::create_directories(dir);
     const uint64_t total = result.emittedRays;
@@ -208,7 +209,23 @@ std::vector<std::filesystem::path> writeTraceFiles(const StrayLightResult& resul
         PreviewOptions po;
         po.fluxUnit = result.fluxUnit;
         po.emittedRays = total;
-        writeDetectorPng(dir / (name + ".png"), img, po);
+        po.scale = scale;
+        // With criteria, all the light on the scale of the light they match: the light the
+        // run asked for, which a source's image in the frame would otherwise black out.
+        PreviewOptions all = po;
+        DetectorImage asked(img.geometry());
+        if (result.layers && n > 0) {
+            for (size_t c = 0; c < n; ++c) {
+                const DetectorImage& im = result.layers->images()[c][d];
+                for (int p = 0; p < im.pixelCount(); ++p)
+                    if (im.flux(p) != 0.0) asked.add(p, im.flux(p));
+            }
+            if (asked.totalFlux() > 0.0) {
+                all.rangeImage = &asked;
+                all.rangeName = n == 1 ? "--where light" : "--where criteria's light";
+            }
+        }
+        writeDetectorPng(dir / (name + ".png"), img, all);
         written.push_back(dir / (name + ".png"));
         if (!result.layers) continue;
         for (size_t c = 0; c <= n; ++c) {

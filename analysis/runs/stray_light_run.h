@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "analysis/criteria/criterion_images.h"
+#include "analysis/reports/image_output.h"
 #include "analysis/reports/progress.h"
 
 namespace veil {
@@ -81,9 +82,11 @@ struct StrayLightResult {
 };
 
 // One EXR per detector (its total, "all", and its criterion layers), a PNG of each, and
-// summary.json, into `folder` (created as needed); returns them in that order.
+// summary.json, into `folder` (created as needed); returns them in that order. `scale`: the
+// PNGs' colour scale (auto by default; PreviewScale).
 std::vector<std::filesystem::path> writeTraceFiles(const StrayLightResult& result,
-                                                   const std::filesystem::path& folder);
+                                                   const std::filesystem::path& folder,
+                                                   const PreviewScale& scale = {});
 
 // Throws ParseError for a criterion that does not parse or names nothing in the scene, and
 // ModelError when the scene has no source or prune is asked without criteria, before tracing.

@@ -11,6 +11,8 @@
 #include <nlohmann/json.hpp>
 #include <numeric>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "analysis/reports/image_output.h"
 #include "run_veil.h"
@@ -59,3 +61,32 @@ TEST(VeilTrace, ExrImagesReadBackToTheSummaryFlux) {
 }
 
 }  // namespace
+
+// The previews' colour scale: --range and --decades are checked before any ray is traced,
+// and a good one is used.
+TEST(VeilTrace, PreviewScaleOptionsAreCheckedAndUsed) {
+    const std::filesystem::path dir =
+        std::filesystem::path(::testing::TempDir()) / "veil_trace_preview_scale";
+    std::filesystem::remove_all(dir);
+    const std::string run =
+        "trace examples/scenes/longfocus_360mm_sun.toml -n 400 --threads 1 --quiet -o " +
+        dir.string();
+    for (const auto& [args, says] : std::vector<std::pair<std::string, std::string>>{
+             {"--range 3:1", "0 < LO < HI"},
+             {"--range 0:1", "0 < LO < HI"},
+             {"--range 1e-9", "LO:HI"},
+             {"--range a:b", "LO:HI"},
+             {"--decades 0", "--decades 0"},
+             {"--decades -2", "--decades"},
+             {"--decades 3 --range 1e-9:1e-3", "excludes"}}) {
+        const VeilRun r = runVeil(run + " " + args);
+        EXPECT_NE(r.exitCode, 0) << args;
+        EXPECT_NE(r.err.find(says), std::string::npos) << args << ": " << r.err;
+        EXPECT_FALSE(std::filesystem::exists(dir / "summary.json")) << args;
+    }
+    for (const std::string args : {"--range 1e-9:1e-3", "--decades 2.5"}) {
+        const VeilRun r = runVeil(run + " " + args);
+        ASSERT_EQ(r.exitCode, 0) << args << ": " << r.err;
+        EXPECT_TRUE(std::filesystem::exists(dir / "sensor_image.png")) << args;
+    }
+}

@@ -276,11 +276,12 @@ TEST(FalseColour, IsPerceptuallyOrderedAndDistinctFromBlack) {
     EXPECT_NEAR(falseColour(std::nan("")).b, bottom.b, 0.0);
 
     // Log scale: a value 3 decades below the maximum sits half way on a 6-decade scale.
-    const Color mid = previewColour(1e-3, 1.0, 6.0), half = falseColour(0.5);
+    const Color mid = previewColour(1e-3, 1e-6, 1.0), half = falseColour(0.5);
     EXPECT_NEAR(mid.g, half.g, 1e-12);
-    EXPECT_NEAR(previewColour(1e-9, 1.0, 6.0).b, bottom.b, 1e-12);  // below: lowest colour
+    EXPECT_NEAR(previewColour(1e-9, 1e-6, 1.0).b, bottom.b, 1e-12);  // below: lowest colour
+    EXPECT_NEAR(previewColour(7.0, 1e-6, 1.0).r, top.r, 1e-12);      // above: the top colour
     for (double v : {0.0, -1.0, std::nan("")}) {
-        const Color c = previewColour(v, 1.0, 6.0);
+        const Color c = previewColour(v, 1e-6, 1.0);
         EXPECT_EQ(c.r + c.g + c.b, 0.0) << v;
     }
 }
@@ -313,6 +314,7 @@ TEST(DetectorPng, DecodesToTheLayoutWithTheExpectedColours) {
     PreviewOptions o;
     o.fluxUnit = "W";
     o.emittedRays = 100;
+    o.scale.decades = 6.0;
     const std::filesystem::path path = dir / "sensor.png";
     writeDetectorPng(path, im, o);
     EXPECT_EQ(filesIn(dir), std::vector<std::string>{"sensor.png"});
@@ -423,6 +425,7 @@ TEST(DetectorPng, TheColourBarNamesTheQuantityAndItsUnit) {
     const PreviewLayout l = previewLayout(im, o);
     ASSERT_EQ(l.notes.size(), 2u);
     EXPECT_NE(l.notes[0].find("max 1 lm/mm\u00b2"), std::string::npos) << l.notes[0];
+    EXPECT_NE(l.notes[0].find("(auto, 0.1 decades)"), std::string::npos) << l.notes[0];
     EXPECT_NE(l.notes[1].find("behind the detector"), std::string::npos);
     EXPECT_EQ(l.title, "Detector sensor");
     for (const std::string& n : l.notes) EXPECT_GT(l.widthPx, Picture::textWidthPt(n, 12.0));
@@ -437,7 +440,7 @@ TEST(DetectorPng, EmptyImagesAndOptions) {
     PreviewOptions o;
     o.quantity = PreviewQuantity::Flux;
     o.imageSizePx = 300;
-    o.decades = 2.5;
+    o.scale.decades = 2.5;
     writeDetectorPng(dir / "empty.png", empty, o);
     const PreviewLayout l = previewLayout(empty, o);
     EXPECT_EQ(l.imageH, 300.0);
@@ -450,11 +453,83 @@ TEST(DetectorPng, EmptyImagesAndOptions) {
                  "no flux");
     cairo_surface_destroy(s);
 
-    o.decades = 0.0;
-    EXPECT_THROW(writeDetectorPng(dir / "bad.png", empty, o), std::invalid_argument);
-    o.decades = 6.0;
+    for (const PreviewScale bad :
+         {PreviewScale{-1.0, 0.0, 0.0}, PreviewScale{0.0, 2.0, 1.0}, PreviewScale{0.0, 0.0, 1.0},
+          PreviewScale{0.0, 1.0, 0.0}, PreviewScale{std::nan(""), 0.0, 0.0}}) {
+        o.scale = bad;
+        EXPECT_THROW(writeDetectorPng(dir / "bad.png", empty, o), std::invalid_argument);
+    }
+    o.scale = {};
     EXPECT_THROW(writeDetectorPng(dir / "missing" / "x.png", empty, o), std::runtime_error);
     EXPECT_EQ(filesIn(dir), std::vector<std::string>{"empty.png"});
+}
+
+// The automatic scale: a source's image in the frame, or a few bright single pixels, do not
+// set the top; a near-uniform veil spans the colour map; the light the run asked for sets the
+// scale of an image that holds more.
+TEST(DetectorPng, TheAutomaticScaleFollowsTheBulkOfTheLight) {
+    DetectorGeometry g = grid();  // 7 x 5 pixels
+    g.pixelsX = 100;
+    g.pixelsY = 100;
+    g.widthMm = 10.0;
+    g.heightMm = 10.0;
+    const double area = 0.01;
+    // A veil from 0.9 to 1.1 across the detector, and 4 pixels of a source's image at 1e6.
+    DetectorImage veil(g), withImage(g);
+    for (int p = 0; p < veil.pixelCount(); ++p) {
+        const double v = 0.9 + 0.2 * (p % 100) / 99.0;
+        veil.add(p, v * area);
+        withImage.add(p, v * area);
+    }
+    for (int p : {5050, 5051, 5150, 5151}) withImage.add(p, 1e6 * area);
+    PreviewOptions o;
+    const PreviewLayout l = previewLayout(veil, o);
+    // The top at the veil's brightest (only 5 pixels in 1e4 could be above it), the bottom at its
+    // 1st percentile: log10(1.1 / 0.902) = 0.086 decades, widened to the least, 0.1.
+    EXPECT_NEAR(l.maxValue, 1.1, 0.003);
+    EXPECT_NEAR(std::log10(l.maxValue / l.minValue), PreviewScale::kAutoMinDecades, 1e-12);
+    // The veil's darkest and brightest columns lie near the two ends of the colour map.
+    const double tLo = std::log10(0.9 / l.minValue) / std::log10(l.maxValue / l.minValue);
+    EXPECT_LT(tLo, 0.25);
+    EXPECT_EQ(l.above, 0);
+    // The same veil with the source's image: the image is 4 pixels above the scale, which the
+    // veil still spans.
+    const PreviewLayout li = previewLayout(withImage, o);
+    EXPECT_NEAR(li.maxValue, 1.1, 0.003);
+    EXPECT_EQ(li.above, 4);
+    EXPECT_NEAR(li.imageMax, 1e6 + 1.0, 1.0);
+    // When the image covers more than the share the top ignores, the light asked for (the
+    // veil, as rangeImage) still sets it; the notes say so.
+    DetectorImage bigImage = withImage;
+    for (int p = 0; p < 400; ++p) bigImage.add(p, 1e6 * area);
+    EXPECT_GT(previewLayout(bigImage, o).maxValue, 1e5);
+    PreviewOptions asked = o;
+    asked.rangeImage = &veil;
+    asked.rangeName = "stray light";
+    const PreviewLayout lb = previewLayout(bigImage, asked);
+    EXPECT_NEAR(lb.maxValue, 1.1, 0.003);
+    EXPECT_EQ(lb.above, 404);
+    EXPECT_NE(lb.notes[0].find("of the stray light"), std::string::npos) << lb.notes[0];
+    EXPECT_NE(lb.notes[0].find("404 pixels above"), std::string::npos) << lb.notes[0];
+    // A fixed range is used as given; a fixed number of decades below the brightest pixel.
+    PreviewOptions fixed = o;
+    fixed.scale.lo = 0.5;
+    fixed.scale.hi = 2.0;
+    const PreviewLayout lf = previewLayout(withImage, fixed);
+    EXPECT_EQ(lf.minValue, 0.5);
+    EXPECT_EQ(lf.maxValue, 2.0);
+    EXPECT_NE(lf.notes[0].find("--range"), std::string::npos) << lf.notes[0];
+    PreviewOptions three = o;
+    three.scale.decades = 3.0;
+    const PreviewLayout l3 = previewLayout(withImage, three);
+    EXPECT_NEAR(l3.maxValue, 1e6 + 1.0, 1.0);
+    EXPECT_NEAR(l3.minValue, l3.maxValue * 1e-3, 1e-6);
+    EXPECT_EQ(l3.above, 0);
+    // Monte Carlo noise over many decades: at most kAutoMaxDecades.
+    DetectorImage sparse(g);
+    for (int p = 0; p < sparse.pixelCount(); ++p) sparse.add(p, std::pow(10.0, -(p % 9)) * area);
+    const PreviewLayout ls = previewLayout(sparse, o);
+    EXPECT_NEAR(std::log10(ls.maxValue / ls.minValue), PreviewScale::kAutoMaxDecades, 1e-12);
 }
 
 }  // namespace
