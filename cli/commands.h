@@ -38,8 +38,14 @@ SceneSpec readScene(const CommonOptions& common, const std::string& path,
 // Caps the worker threads while the result lives (threads <= 0: all cores, returns null).
 std::unique_ptr<tbb::global_control> limitThreads(int threads);
 // The scene's warnings and errors on standard error: import notes, parts left out, and a
-// detector that looks misplaced (analysis/lens/detector_checks.h).
+// detector that looks misplaced (analysis/lens/detector_checks.h), and a note naming the
+// uncoated lens faces (uncoatedFacesNote).
 void reportSceneNotes(const PreparedScene& scene);
+// The lens faces in air left uncoated (PropertyTable::uncoatedFaces), named with their count
+// and what to do; empty when every one is coated. Faces are uncoated by default, and a bare
+// lens reflects about 4 % at each: a multicoated lens studied uncoated looks tens of times
+// worse than it is.
+std::string uncoatedFacesNote(const PreparedScene& scene);
 // The import warnings of a scene file (its lens's and the fit's), on standard error, for the
 // commands that build their scenes inside a study (pst, sweep, glare).
 void reportImportWarnings(const SceneSpec& spec);

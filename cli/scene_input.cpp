@@ -3,6 +3,7 @@
 // one beam per system field for a file without sources).
 
 #include <iostream>
+#include <sstream>
 
 #include "analysis/lens/default_scene.h"
 #include "analysis/lens/detector_checks.h"
@@ -12,6 +13,7 @@
 #include "tracer/scene/prepared_scene.h"
 #include "tracer/scene/scene_geometry.h"
 #include "tracer/scene/scene_spec.h"
+#include "tracer/surfaces/property_table.h"
 
 namespace veil::cli {
 
@@ -45,11 +47,27 @@ std::unique_ptr<tbb::global_control> limitThreads(int threads) {
                                                  static_cast<size_t>(threads));
 }
 
+std::string uncoatedFacesNote(const PreparedScene& scene) {
+    const std::vector<std::string> names = scene.spec().properties.uncoatedFaces(scene.scene());
+    if (names.empty()) return {};
+    int faces = 0;
+    for (const SceneObject& o : scene.scene().objects())
+        faces += o.kind == ObjectKind::LensFace && !isCementedFace(o) ? 1 : 0;
+    std::ostringstream os;
+    os << names.size() << " of " << faces
+       << " lens faces in air are uncoated (bare Fresnel, about 4 % reflected at n = 1.5): ";
+    for (size_t i = 0; i < names.size(); ++i) os << (i > 0 ? ", " : "") << names[i];
+    os << ". Coat them with [[assign]] (docs/format.md) to study the lens as built";
+    return os.str();
+}
+
 void reportSceneNotes(const PreparedScene& scene) {
     for (const ImportNote& n : scene.geometry().notes)
         if (n.severity != ImportNote::Severity::Info) std::cerr << "veil: " << n << "\n";
     for (const ImportNote& n : detectorPlacementWarnings(scene.spec(), scene.geometry()))
         std::cerr << "veil: " << n << "\n";
+    const std::string uncoated = uncoatedFacesNote(scene);
+    if (!uncoated.empty()) std::cerr << "veil: note: " << uncoated << "\n";
 }
 
 void reportImportWarnings(const SceneSpec& spec) {

@@ -90,3 +90,40 @@ TEST(VeilTrace, PreviewScaleOptionsAreCheckedAndUsed) {
         EXPECT_TRUE(std::filesystem::exists(dir / "sensor_image.png")) << args;
     }
 }
+
+// Faces are uncoated by default: every command that builds the scene names the lens faces in
+// air left so, and says nothing of a cemented interface or once every face is coated.
+TEST(VeilTrace, TheUncoatedLensFacesAreNamed) {
+    const std::filesystem::path dir =
+        std::filesystem::path(::testing::TempDir()) / "veil_trace_uncoated";
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    const VeilRun bare =
+        runVeil("trace examples/lenses/achromat.toml -n 200 --threads 1 --quiet -o " +
+                (dir / "bare").string());
+    ASSERT_EQ(bare.exitCode, 0) << bare.err;
+    EXPECT_NE(bare.err.find("note: 2 of 2 lens faces in air are uncoated"), std::string::npos)
+        << bare.err;
+    EXPECT_NE(bare.err.find("L1.front, L2.back."), std::string::npos) << bare.err;
+    EXPECT_EQ(bare.err.find("L1.back"), std::string::npos) << bare.err;  // cemented
+
+    const std::filesystem::path scene = dir / "coated.toml";
+    std::ofstream(scene)
+        << "lens = \""
+        << (std::filesystem::path(VEIL_SOURCE_DIR) / "examples/lenses/achromat.toml").string()
+        << "\"\n[[assign]]\nobjects = [\"L1.front\"]\nproperty = \"ideal_ar\"\n";
+    const VeilRun one =
+        runVeil("objects " + scene.string() + " -n 200 --quiet -o " + (dir / "one").string());
+    ASSERT_EQ(one.exitCode, 0) << one.err;
+    EXPECT_NE(one.err.find("note: 1 of 2 lens faces in air are uncoated"), std::string::npos)
+        << one.err;
+    EXPECT_NE(one.err.find("uncoated (bare Fresnel, about 4 % reflected at n = 1.5): L2.back."),
+              std::string::npos)
+        << one.err;
+    std::ofstream(scene, std::ios::app)
+        << "[[assign]]\nobjects = [\"L2.back\"]\nproperty = \"ideal_ar\"\n";
+    const VeilRun both = runVeil("trace " + scene.string() + " -n 200 --threads 1 --quiet -o " +
+                                 (dir / "both").string());
+    ASSERT_EQ(both.exitCode, 0) << both.err;
+    EXPECT_EQ(both.err.find("are uncoated"), std::string::npos) << both.err;
+}

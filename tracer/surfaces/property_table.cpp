@@ -432,6 +432,18 @@ std::string_view PropertyTable::defaultName(ObjectKind kind) {
     return "absorber";
 }
 
+std::vector<std::string> PropertyTable::uncoatedFaces(const Scene& scene) const {
+    const std::vector<int> of = resolve(scene);
+    std::vector<std::string> names;
+    for (const SceneObject& o : scene.objects()) {
+        if (o.kind != ObjectKind::LensFace || isCementedFace(o)) continue;
+        const int p = of[static_cast<size_t>(o.id)];
+        if (p >= 0 && std::holds_alternative<FresnelSpecular>(property(p).specular()))
+            names.push_back(o.name);
+    }
+    return names;
+}
+
 int PropertyTable::define(OpticalProperty p) {
     const int i = find(p.name());
     if (i >= 0) {

@@ -93,6 +93,10 @@ class PropertyTable {
     // matches no object, and ModelError naming the object for a property name that is not
     // defined.
     std::vector<int> resolve(const Scene& scene) const;
+    // The lens faces between glass and air (or another gas-like medium index: not cemented)
+    // whose resolved property reflects by bare Fresnel: uncoated, whether by default or by
+    // assignment. Their names, in object order. Throws as resolve() does.
+    std::vector<std::string> uncoatedFaces(const Scene& scene) const;
 
     // Refuses (ModelError naming the property) scatter that would take more than all the
     // light at one of the model's wavelengths: K-correlation roughness past the smooth-surface
