@@ -41,6 +41,11 @@ std::unique_ptr<tbb::global_control> limitThreads(int threads);
 // detector that looks misplaced (analysis/lens/detector_checks.h), and a note naming the
 // uncoated lens faces (uncoatedFacesNote).
 void reportSceneNotes(const PreparedScene& scene);
+// The lines a command prints of an import report, each once: the glass substitutions first
+// (an unknown glass replaced or missing, and the glass a legacy name was taken as), then the
+// other warnings and errors in the report's order, then the commands of the file veil does not
+// read, on one line when there are several. Other infos are left to veil info.
+std::vector<std::string> importNoteLines(const std::vector<ImportNote>& notes);
 // The lens faces in air left uncoated (PropertyTable::uncoatedFaces), named with their count
 // and what to do; empty when every one is coated. Faces are uncoated by default, and a bare
 // lens reflects about 4 % at each: a multicoated lens studied uncoated looks tens of times

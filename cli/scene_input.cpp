@@ -2,8 +2,10 @@
 // scene's notes on standard error, and the scene of a command that traces (--field beams, or
 // one beam per system field for a file without sources).
 
+#include <algorithm>
 #include <iostream>
 #include <sstream>
+#include <tuple>
 
 #include "analysis/lens/default_scene.h"
 #include "analysis/lens/detector_checks.h"
@@ -47,6 +49,60 @@ std::unique_ptr<tbb::global_control> limitThreads(int threads) {
                                                  static_cast<size_t>(threads));
 }
 
+std::vector<std::string> importNoteLines(const std::vector<ImportNote>& notes) {
+    using Severity = ImportNote::Severity;
+    using Topic = ImportNote::Topic;
+    std::vector<const ImportNote*> glassNotes, unknown;
+    std::vector<std::string> other;
+    auto text = [](const ImportNote& n) {
+        std::ostringstream os;
+        if (n.severity == Severity::Info) {
+            os << n.loc << ": note: " << n.message;
+        } else {
+            os << n;
+        }
+        return os.str();
+    };
+    for (const ImportNote& n : notes) {
+        if (n.topic == Topic::UnknownCommand && n.severity == Severity::Warning) {
+            unknown.push_back(&n);
+            continue;
+        }
+        // The glass a legacy name denotes is a substitution the user should see; other
+        // infos stay in the import report (veil info).
+        if (n.severity == Severity::Info && n.topic != Topic::Glass) continue;
+        if (n.topic == Topic::Glass) {
+            glassNotes.push_back(&n);
+        } else {
+            other.push_back(text(n));
+        }
+    }
+    // The glasses in file order.
+    std::stable_sort(
+        glassNotes.begin(), glassNotes.end(), [](const ImportNote* a, const ImportNote* b) {
+            return std::tie(a->loc.file, a->loc.line) < std::tie(b->loc.file, b->loc.line);
+        });
+    std::vector<std::string> lines;
+    for (const ImportNote* n : glassNotes) lines.push_back(text(*n));
+    lines.insert(lines.end(), other.begin(), other.end());
+    if (unknown.size() == 1) {
+        lines.push_back(text(*unknown.front()));
+    } else if (unknown.size() > 1) {
+        std::ostringstream os;
+        os << unknown.front()->loc.file << ": warning: " << unknown.size()
+           << " commands veil does not read were ignored: ";
+        for (size_t i = 0; i < unknown.size(); ++i)
+            os << (i > 0 ? ", " : "")
+               << (unknown[i]->subject.empty() ? unknown[i]->message : unknown[i]->subject);
+        lines.push_back(os.str());
+    }
+    // Each once, in that order.
+    std::vector<std::string> once;
+    for (std::string& l : lines)
+        if (std::find(once.begin(), once.end(), l) == once.end()) once.push_back(std::move(l));
+    return once;
+}
+
 std::string uncoatedFacesNote(const PreparedScene& scene) {
     const std::vector<std::string> names = scene.spec().properties.uncoatedFaces(scene.scene());
     if (names.empty()) return {};
@@ -62,17 +118,17 @@ std::string uncoatedFacesNote(const PreparedScene& scene) {
 }
 
 void reportSceneNotes(const PreparedScene& scene) {
-    for (const ImportNote& n : scene.geometry().notes)
-        if (n.severity != ImportNote::Severity::Info) std::cerr << "veil: " << n << "\n";
-    for (const ImportNote& n : detectorPlacementWarnings(scene.spec(), scene.geometry()))
-        std::cerr << "veil: " << n << "\n";
+    std::vector<ImportNote> notes = scene.geometry().notes;
+    for (ImportNote& n : detectorPlacementWarnings(scene.spec(), scene.geometry()))
+        notes.push_back(std::move(n));
+    for (const std::string& line : importNoteLines(notes)) std::cerr << "veil: " << line << "\n";
     const std::string uncoated = uncoatedFacesNote(scene);
     if (!uncoated.empty()) std::cerr << "veil: note: " << uncoated << "\n";
 }
 
 void reportImportWarnings(const SceneSpec& spec) {
-    for (const ImportNote& n : spec.prescription.report)
-        if (n.severity != ImportNote::Severity::Info) std::cerr << "veil: " << n << "\n";
+    for (const std::string& line : importNoteLines(spec.prescription.report))
+        std::cerr << "veil: " << line << "\n";
 }
 
 std::unique_ptr<PreparedScene> prepareTracedScene(const CommonOptions& common,

@@ -187,8 +187,10 @@ class CodeVParser {
     }
 
   private:
-    void note(Severity s, const FileLoc& loc, const std::string& message) {
-        report_.push_back({s, loc, message});
+    void note(Severity s, const FileLoc& loc, const std::string& message,
+              ImportNote::Topic topic = ImportNote::Topic::General,
+              const std::string& subject = {}) {
+        report_.push_back({s, loc, message, topic, subject});
     }
     // Info notes once per command code, with the number of times it was seen.
     void ignored(const Command& c, const std::string& why) {
@@ -525,7 +527,9 @@ class CodeVParser {
             ignored(c, "display or analysis data");
         } else {
             note(Severity::Warning, codeToken.loc,
-                 "unknown command '" + codeToken.text + "': skipped");
+                 "unknown command '" + codeToken.text + "': skipped",
+                 ImportNote::Topic::UnknownCommand,
+                 codeToken.text + " (line " + std::to_string(codeToken.loc.line) + ")");
         }
     }
 
@@ -617,7 +621,8 @@ class CodeVParser {
             glass && !inPrivateGlasses(g.text)) {
             note(Severity::Info, g.loc,
                  "glass " + g.text + " is in no loaded catalog under that name; taken as " +
-                     glass->name() + " (" + glass->catalog() + "), the glass the name denotes");
+                     glass->name() + " (" + glass->catalog() + "), the glass the name denotes",
+                 ImportNote::Topic::Glass);
             return Material::catalog(glass->name());
         }
         std::string msg = "unknown glass '" + g.text + "'";
@@ -635,7 +640,7 @@ class CodeVParser {
             }
             msg += "; load its catalog with --glass-catalog FILE.agf";
         }
-        note(Severity::Error, g.loc, msg);
+        note(Severity::Error, g.loc, msg, ImportNote::Topic::Glass);
         return Material::catalog(g.text);
     }
 

@@ -16,6 +16,7 @@
 #include <optional>
 #include <ostream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "lensdata/errors.h"
@@ -205,9 +206,24 @@ struct SystemData {
 // A line of an import report: something in the input that was not used as written.
 struct ImportNote {
     enum class Severity { Info, Warning, Error };
+    // What the note is about, for the reports that group them: a glass taken for another or
+    // not found (Glass; the successor a legacy name denotes is an Info worth showing), a
+    // command of the file that veil does not read (UnknownCommand, `subject` its name, line
+    // and count), anything else.
+    enum class Topic { General, Glass, UnknownCommand };
+    ImportNote() = default;
+    ImportNote(Severity s, FileLoc at, std::string text, Topic about = Topic::General,
+               std::string what = {})
+        : severity(s),
+          loc(std::move(at)),
+          message(std::move(text)),
+          topic(about),
+          subject(std::move(what)) {}
     Severity severity = Severity::Warning;
     FileLoc loc;
     std::string message;
+    Topic topic = Topic::General;
+    std::string subject;
 };
 std::ostream& operator<<(std::ostream& os, const ImportNote& n);
 

@@ -232,8 +232,9 @@ class ZmxParser {
     std::vector<double> numberList(const Line& line) const;
     std::string restOfLine(const Line& line, size_t firstToken) const;
 
-    void note(Severity s, FileLoc loc, std::string message) {
-        report_.push_back({s, std::move(loc), std::move(message)});
+    void note(Severity s, FileLoc loc, std::string message,
+              ImportNote::Topic topic = ImportNote::Topic::General, std::string subject = {}) {
+        report_.push_back({s, std::move(loc), std::move(message), topic, std::move(subject)});
     }
     void countSolve(const std::string& what, const FileLoc& loc) {
         TagCount& c = solves_[what];
@@ -780,7 +781,8 @@ void ZmxParser::resolveGlasses() {
         if (successor)
             note(Severity::Info, g.loc,
                  "glass " + g.name + " is in no loaded catalog under that name; taken as " +
-                     glass->name() + " (" + glass->catalog() + "), the glass the name denotes");
+                     glass->name() + " (" + glass->catalog() + "), the glass the name denotes",
+                 ImportNote::Topic::Glass);
         if (glass) {
             s.material = Material::catalog(glass->name());
             if (!successor && !preferred.empty() &&
@@ -807,13 +809,16 @@ void ZmxParser::resolveGlasses() {
             s.material = Material::model(*g.nd, *g.vd, g.dPgF.value_or(0.0));
             note(Severity::Warning, g.loc,
                  msg + "; replaced by the model glass nd = " + formatNumber(*g.nd) +
-                     ", Vd = " + formatNumber(*g.vd) + " stored in the file");
+                     ", Vd = " + formatNumber(*g.vd) + " stored in the file",
+                 ImportNote::Topic::Glass);
         } else {
             s.material = Material::catalog(g.name);
             note(Severity::Error, g.loc,
                  msg +
                      "; the file stores no usable nd/Vd, so the name is kept and the glass "
-                     "must be supplied in a catalog before tracing: " + kGlassCatalogHint);
+                     "must be supplied in a catalog before tracing: " +
+                     kGlassCatalogHint,
+                 ImportNote::Topic::Glass);
         }
     }
     // A catalog the file names but veil does not have matters only if a glass was then not
@@ -823,7 +828,8 @@ void ZmxParser::resolveGlasses() {
              "glass catalog " + name + " named by GCAT is not loaded; " +
                  (allFound ? std::string("every glass of the file was found in the loaded catalogs")
                            : "glasses are looked up in the other catalogs (" +
-                                 std::string(kGlassCatalogHint) + ")"));
+                                 std::string(kGlassCatalogHint) + ")"),
+             allFound ? ImportNote::Topic::General : ImportNote::Topic::Glass);
 }
 
 void ZmxParser::applyMirrors() {
@@ -1089,7 +1095,10 @@ void ZmxParser::summarize() {
         note(Severity::Warning, c.first,
              "unknown command '" + tag + "' ignored" +
                  (c.count > 1 ? " (" + std::to_string(c.count) + " lines; the first: " : ": ") +
-                 text + (c.count > 1 ? ")" : ""));
+                 text + (c.count > 1 ? ")" : ""),
+             ImportNote::Topic::UnknownCommand,
+             tag + " (line " + std::to_string(c.first.line) +
+                 (c.count > 1 ? ", " + std::to_string(c.count) + " lines)" : ")"));
     }
     for (const auto& [tag, c] : solves_)
         note(Severity::Info, c.first,

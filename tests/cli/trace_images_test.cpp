@@ -127,3 +127,39 @@ TEST(VeilTrace, TheUncoatedLensFacesAreNamed) {
     ASSERT_EQ(both.exitCode, 0) << both.err;
     EXPECT_EQ(both.err.find("are uncoated"), std::string::npos) << both.err;
 }
+
+// A command prints the import report once, grouped: the glasses first in file order (the
+// catalog a glass was not found in, a legacy name taken as the glass it denotes, an unknown
+// glass replaced by the file's nd/Vd), then the other warnings, then the commands veil does
+// not read on one line.
+TEST(VeilTrace, ImportWarningsAreGroupedWithTheGlassesFirst) {
+    const std::filesystem::path dir =
+        std::filesystem::path(::testing::TempDir()) / "veil_trace_grouped_warnings";
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    const std::filesystem::path lens = dir / "w.zmx";
+    std::ofstream(lens) << "GCAT LIGHTPATH SCHOTT\nENPD 10\nSURF 0\n DISZ INFINITY\n SSID 0\n"
+                           "SURF 1\n STOP\n SSID 1\n CURV 0.02\n DISZ 2\n GLAS BK7\nSURF 2\n"
+                           " DISZ 1\nSURF 3\n CURV 0.01\n DISZ 3\n"
+                           " GLAS MYSTERY 0 0 1.6 40 0 0 0 0 0 0\nSURF 4\n DISZ 40\nSURF 5\n"
+                           "FROB 1\nZORK 2\n";
+    for (const std::string command : {"trace", "objects"}) {
+        const VeilRun r = runVeil(command + " " + lens.string() + " -n 20 --quiet -o " +
+                                  (dir / command).string());
+        ASSERT_EQ(r.exitCode, 0) << r.err;
+        std::vector<size_t> at;
+        for (const std::string said :
+             {":1:6: warning: glass catalog LIGHTPATH named by GCAT is not loaded",
+              ":11:7: note: glass BK7 is in no loaded catalog under that name; taken as N-BK7",
+              ":17:7: warning: unknown glass 'MYSTERY'", "warning: no fields in the file",
+              "w.zmx: warning: 3 commands veil does not read were ignored: SSID (line 5, 2 "
+              "lines), FROB (line 21), ZORK (line 22)\n"}) {
+            const size_t first = r.err.find(said);
+            ASSERT_NE(first, std::string::npos) << command << ": " << said << "\n" << r.err;
+            EXPECT_EQ(r.err.find(said, first + 1), std::string::npos) << command << ": " << said;
+            at.push_back(first);
+        }
+        EXPECT_TRUE(std::is_sorted(at.begin(), at.end())) << command << "\n" << r.err;
+        EXPECT_EQ(r.err.find("unknown command 'FROB'"), std::string::npos) << r.err;
+    }
+}
