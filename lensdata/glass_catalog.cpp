@@ -190,6 +190,9 @@ const Glass* GlassCatalog::findSuccessor(std::string_view name,
     for (const std::string& candidate :
          {"N-" + n, "N-" + n + "A", "H-" + n, "H-" + n + "L", "H-" + n + "A", "P-" + n})
         if (const Glass* g = find(candidate, preferred)) return g;
+    // CDGM's reformulated glasses keep the name with an A (H-ZF7L: H-ZF7LA).
+    if (upper(n).rfind("H-", 0) == 0)
+        if (const Glass* g = find(n + "A", preferred)) return g;
     return nullptr;
 }
 
