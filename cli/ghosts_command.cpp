@@ -96,13 +96,15 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
     if (!o.quiet) spec.progress = reporter.sink();
     const auto limit = limitThreads(o.threads);
     runGhostAnalysis(run, catalog, spec);
-    reporter.finish();
     const fs::path out = outputFolder(o.output, "ghosts", o.json);
     WrittenFiles written;
     written.beginRun(out);
-    if (!out.empty())
-        for (const fs::path& f : writeGhostFiles(run, out, {!o.noImages, o.decades, o.top, o.paths, o.seed}))
-            written.add(f);
+    if (!out.empty()) {
+        GhostFilesSpec files{!o.noImages, o.decades, o.top, o.paths, o.seed, {}};
+        files.progress = spec.progress;
+        for (const fs::path& f : writeGhostFiles(run, out, files)) written.add(f);
+    }
+    reporter.finish();
     written.finishRun();
     if (o.json) {
         nlohmann::json j = run.report.json();

@@ -23,7 +23,12 @@ constexpr int kBarWidth = 30;
 // A task of unknown size in a log: a line at most this often.
 constexpr double kOpenLineSeconds = 10.0;
 
-double rate(uint64_t units, double seconds) { return seconds > 0.0 ? units / seconds : 0.0; }
+// Before kRateSeconds a rate is not known yet (a task's first event can carry a whole batch
+// done in no measurable time: billions of rays/s), and shows as 0.
+constexpr double kRateSeconds = 0.05;
+double rate(uint64_t units, double seconds) {
+    return seconds >= kRateSeconds ? units / seconds : 0.0;
+}
 
 // A rate as text: whole numbers from 100 up, three significant digits below (passes/s).
 std::string rateText(double r) {

@@ -67,7 +67,57 @@ std::string GhostReportRow::flags() const {
     std::string f;
     if (nearFocus) f += "near-focus";
     if (!glassFocus.empty()) f += std::string(f.empty() ? "" : " ") + "focus-in-glass";
+    if (!mcCheck.empty()) f += std::string(f.empty() ? "" : " ") + mcCheck;
     return f;
+}
+
+void checkAgainstMonteCarlo(GhostReport& r, size_t mechanicalParts) {
+    std::vector<double> perHit;
+    for (const GhostReportRow& g : r.rows)
+        if (g.mcFlux > 0.0 && g.mcRelativeError > 0.0)
+            perHit.push_back(g.mcFlux * g.mcRelativeError * g.mcRelativeError);
+    double typicalHit = NAN;
+    if (!perHit.empty()) {
+        std::nth_element(perHit.begin(), perHit.begin() + perHit.size() / 2, perHit.end());
+        typicalHit = perHit[perHit.size() / 2];
+    }
+    const bool mechanics = mechanicalParts > 0;
+    r.mcFlagged = 0;
+    r.mcNote.clear();
+    for (GhostReportRow& g : r.rows) {
+        g.mcZ = NAN;
+        g.mcExpectedHits = NAN;
+        g.mcCheck.clear();
+        g.mcWhy.clear();
+        if (g.mcFlux > 0.0 && g.mcRelativeError > 0.0) {
+            g.mcZ = (g.mcFlux - g.flux) / (g.mcFlux * g.mcRelativeError);
+            if (std::abs(g.mcZ) > kMcDisagreeSigma) g.mcCheck = "mc-disagrees";
+        } else if (g.mcFlux == 0.0 && g.flux > 0.0 && typicalHit > 0.0) {
+            g.mcExpectedHits = g.flux / typicalHit;
+            if (g.mcExpectedHits >= kMcExpectedHits) g.mcCheck = "mc-none";
+        }
+        if (g.mcCheck.empty()) continue;
+        ++r.mcFlagged;
+        const bool less = g.mcCheck == "mc-none" || g.mcZ < 0.0;
+        if (less && mechanics)
+            g.mcWhy = "the Monte Carlo meets the mechanics (" + std::to_string(mechanicalParts) +
+                      " parts), which the sequential estimate does not";
+        else if (less)
+            g.mcWhy = "the sequential estimate clips at the faces' apertures only";
+        else
+            g.mcWhy =
+                "the Monte Carlo also counts other paths through the same surfaces "
+                "(the criterion's)";
+    }
+    if (r.mcFlagged > 0)
+        r.mcNote = std::to_string(r.mcFlagged) + " of " + std::to_string(r.rows.size()) +
+                   " ghosts flagged where the Monte Carlo contradicts the sequential estimate "
+                   "(mc-disagrees: beyond " +
+                   fix(kMcDisagreeSigma, 0) + " of its sigmas; mc-none: no hit where " +
+                   fix(kMcExpectedHits, 0) +
+                   " or more were expected). The sequential estimate follows the ghost's "
+                   "faces alone, clipped at their apertures; the Monte Carlo traces the whole "
+                   "scene, mechanics included. Their rank is the sequential one";
 }
 
 GhostReport makeGhostReport(const GhostReportSpec& spec, const SceneGeometry& setup,
@@ -135,6 +185,7 @@ GhostReport makeGhostReport(const GhostReportSpec& spec, const SceneGeometry& se
         }
         r.rows.push_back(std::move(row));
     }
+    if (r.haveMc) checkAgainstMonteCarlo(r, setup.mechanicalParts.size());
     return r;
 }
 
@@ -162,6 +213,8 @@ nlohmann::json GhostReport::json() const {
     if (haveMc) {
         j["all_ghosts"]["mc_flux"] = mcAllGhostsFlux;
         j["all_ghosts"]["mc_relative_error"] = jsonNumber(mcAllGhostsError);
+        j["mc_flagged"] = mcFlagged;
+        j["mc_note"] = mcNote;
         j["monte_carlo"] = {{"rays_per_source", mcRaysPerSource},
                             {"emitted_rays", mcEmittedRays},
                             {"seed", seed},
@@ -193,6 +246,10 @@ ReportTable GhostReport::table() const {
     column("mc_flux", "Monte Carlo (" + unit + ")", "mc_flux_" + unit, "Monte Carlo", 20);
     column("mc_relative_flux", "", "", "", 0);
     column("mc_relative_error", "", "", "", 0);
+    column("mc_z", "", "", "", 0);
+    column("mc_expected_hits", "", "", "", 0);
+    column("mc_check", "", "", "", 0);
+    column("mc_why", "", "", "", 0);
     column("focus_mm", "focus - detector (mm)", "", "focus mm", 10);
     column("footprint_mm", "footprint (mm)", "", "foot mm", 9);
     column("peak_irradiance", "peak irradiance (" + unit + "/mm²)",
@@ -220,10 +277,21 @@ ReportTable GhostReport::table() const {
             haveMc ? mcText(g.mcFlux, g.mcRelativeError) : "-");
         ReportCell mcRel = ReportCell::number(g.mcRelativeFlux, haveMc ? sci(g.mcRelativeFlux, 6) : "", "", "");
         ReportCell mcErr = ReportCell::number(g.mcRelativeError, haveMc ? sci(g.mcRelativeError, 3) : "", "", "");
+        ReportCell mcZ = ReportCell::number(g.mcZ, haveMc ? csvNumber(g.mcZ) : "", "", "");
+        ReportCell mcExpected =
+            ReportCell::number(g.mcExpectedHits, haveMc ? csvNumber(g.mcExpectedHits) : "", "", "");
+        ReportCell mcCheck = ReportCell::text(g.mcCheck, true);
+        ReportCell mcWhy = ReportCell::text(g.mcWhy, true);
+        mcZ.json = jsonNumber(g.mcZ);
+        mcExpected.json = jsonNumber(g.mcExpectedHits);
         if (!haveMc) {
             mc.withoutJson();
             mcRel.withoutJson();
             mcErr.withoutJson();
+            mcZ.withoutJson();
+            mcExpected.withoutJson();
+            mcCheck.withoutJson();
+            mcWhy.withoutJson();
         }
         ReportCell focus = ReportCell::number(g.focusMm, csvNumber(g.focusMm), fix(g.focusMm, 2),
                                               fix(g.focusMm, 1));
@@ -268,9 +336,10 @@ ReportTable GhostReport::table() const {
                                       {"focus_in_glass", s.glassFocus},
                                       {"rays_traced", s.raysTraced},
                                       {"rays_arrived", s.raysArrived}});
-        table.addRow({rank, ghost, flux, relativeFlux, mc, mcRel, mcErr, focus, footprint, peak,
-                      relativePeak, nearFocus, glass, flags, baseline, baselineFlux, criterion,
-                      source, surfaces, perSource});
+        table.addRow({rank,      ghost,        flux,         relativeFlux, mc,       mcRel,
+                      mcErr,     mcZ,          mcExpected,   mcCheck,      mcWhy,    focus,
+                      footprint, peak,         relativePeak, nearFocus,    glass,    flags,
+                      baseline,  baselineFlux, criterion,    source,       surfaces, perSource});
     }
     return table;
 }
@@ -308,6 +377,14 @@ std::string GhostReport::markdown() const {
     if (!coatingChanges.empty()) columns.push_back("baseline_rank");
     if (several) columns.push_back("source");
     md << table().markdown(columns);
+    if (!mcNote.empty()) {
+        md << "\n" << mcNote << ":\n\n";
+        for (const GhostReportRow& g : rows)
+            if (!g.mcCheck.empty())
+                md << "- " << g.rank << ". " << g.label << ": " << g.mcCheck
+                   << (std::isfinite(g.mcZ) ? " (z " + fix(g.mcZ, 1) + ")" : "") << "; " << g.mcWhy
+                   << "\n";
+    }
     md << "\nCriteria (docs/criteria.md) of the ranked ghosts, usable with veil trace --where and "
           "veil paths --where:\n\n";
     for (const GhostReportRow& g : rows) md << g.rank << ". `" << g.criterion << "`\n";
@@ -347,6 +424,7 @@ std::string GhostReport::terminal(size_t topRows, const std::string& footer) con
     columns.push_back("flags");
     if (!coatingChanges.empty()) columns.push_back("baseline_rank");
     out << "\n" << table().terminal(topRows, columns);
+    if (!mcNote.empty()) out << "  " << mcNote << "\n";
     out << footer;
     return out.str();
 }

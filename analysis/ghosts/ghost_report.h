@@ -22,6 +22,9 @@
 
 namespace veil {
 
+inline constexpr double kMcDisagreeSigma = 3.0;
+inline constexpr double kMcExpectedHits = 9.0;
+
 struct GhostReportRow {
     size_t rank = 0;
     std::string label;  // "L6.back > L5.front"
@@ -44,9 +47,19 @@ struct GhostReportRow {
     double mcFlux = 0.0;
     double mcRelativeFlux = 0.0;
     double mcRelativeError = 0.0;
+    // The Monte Carlo against the sequential estimate: z = (mc - sequential) / (mc's sigma),
+    // NaN without hits; and, where it found none, the hits it should have found at the
+    // sequential flux (the sequential flux over a hit's typical flux, the median of
+    // mcFlux * mcRelativeError^2 over the rows with hits). mcCheck: "mc-disagrees" for
+    // |z| > kMcDisagreeSigma, "mc-none" for no hits where kMcExpectedHits were expected
+    // (Poisson: p < 1.3e-4), else "". mcWhy: what veil can tell of the cause.
+    double mcZ = 0.0;
+    double mcExpectedHits = 0.0;
+    std::string mcCheck;
+    std::string mcWhy;
     int baselineRank = 0;  // coating what-if: the rank before the change; 0 = none
     double baselineRelativeFlux = 0.0;
-    std::string flags() const;  // "near-focus", "focus-in-glass"
+    std::string flags() const;  // "near-focus", "focus-in-glass", mcCheck
 };
 
 struct GhostReport {
@@ -79,6 +92,10 @@ struct GhostReport {
     double mcSeconds = 0.0;
 
     std::vector<GhostReportRow> rows;  // rank order
+    // The rows the Monte Carlo contradicts (GhostReportRow::mcCheck), and what differs
+    // between the two estimates: said under the table.
+    size_t mcFlagged = 0;
+    std::string mcNote;
 
     // One row per ghost (analysis/reports/report_table.h); every format is written from it.
     ReportTable table() const;
@@ -102,6 +119,11 @@ struct GhostReportSpec {
     uint64_t mcRaysPerSource = 0;
     uint64_t seed = 0;
 };
+
+// Sets every row's mcZ, mcExpectedHits, mcCheck and mcWhy from its sequential and Monte Carlo
+// fluxes, and the report's mcFlagged and mcNote (`mechanicalParts`: the scene's, which the
+// Monte Carlo meets and the sequential estimate does not). makeGhostReport calls it.
+void checkAgainstMonteCarlo(GhostReport& report, size_t mechanicalParts);
 
 // `mc` may be null (no Monte Carlo); `detector` is the detector index the analysis used.
 GhostReport makeGhostReport(const GhostReportSpec& spec, const SceneGeometry& geometry,

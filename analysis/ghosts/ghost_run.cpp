@@ -95,14 +95,36 @@ void writePathPictures(const GhostRun& run, const fs::path& out, const GhostFile
     const Picture base = drawLayout(setup.scene, lo);
     const PathPictureOptions pp;  // clipped to the layout's frame
     const NameTable names = criterionNames(setup.scene, ts.view);
-    auto draw = [&](const std::string& criterion, const fs::path& stem) {
+    const GhostAnalysis& a = run.analysis;
+    const size_t k = std::min<size_t>(static_cast<size_t>(spec.top), a.ghosts.size());
+    // The rays a picture may cost: what its Monte Carlo hit rate says pathRays take (4x), at
+    // most kMaxPathRays; a ghost the Monte Carlo never found gets the rays it already spent,
+    // which found none (at a rate above 3 / N it would have, 95 % of the time).
+    constexpr uint64_t kMaxPathRays = 200000;
+    const uint64_t batch = 2000;
+    auto budget = [&](size_t row) -> uint64_t {
+        const GhostMonteCarlo& mc = run.monteCarlo;
+        if (!mc.images || row >= run.report.rows.size()) return kMaxPathRays;
+        const GhostReportRow& g = run.report.rows[row];
+        const double emitted = static_cast<double>(mc.emittedRays);
+        if (!(g.mcFlux > 0.0) || !(g.mcRelativeError > 0.0))
+            return std::clamp<uint64_t>(mc.emittedRays, batch, kMaxPathRays);
+        const double hits = 1.0 / (g.mcRelativeError * g.mcRelativeError);
+        const double rays = 4.0 * spec.pathRays * emitted / hits;
+        return static_cast<uint64_t>(
+            std::clamp(rays, static_cast<double>(batch), static_cast<double>(kMaxPathRays)));
+    };
+    auto draw = [&](const std::string& criterion, const fs::path& stem, uint64_t maxRays,
+                    const std::string& task) {
         const std::vector<CompiledCriterion> one{compileCriterion(criterion, names)};
         const CriteriaFilter filter(one);
         PathSelectionOptions so;
         so.where = criterion;
         so.count = static_cast<size_t>(spec.pathRays);
-        so.maxRays = 200000;
-        so.batchRays = 2000;
+        so.maxRays = maxRays;
+        so.batchRays = batch;
+        so.progress = spec.progress;
+        so.task = task;
         so.transport.seed = spec.seed;
         so.transport.minRelativeFlux = 1e-9;
         so.transport.filter = &filter;
@@ -113,10 +135,12 @@ void writePathPictures(const GhostRun& run, const fs::path& out, const GhostFile
         pic.writePng(png, 2000);
         written.push_back(png);
     };
-    const GhostAnalysis& a = run.analysis;
-    const size_t k = std::min<size_t>(static_cast<size_t>(spec.top), a.ghosts.size());
-    for (size_t r = 0; r < k; ++r) draw(a.ghosts[r].path.criterion, out / "paths" / ghostStem(r + 1));
-    draw(a.allGhostsCriterion, out / "paths" / "all_ghosts");
+    for (size_t r = 0; r < k; ++r)
+        draw(a.ghosts[r].path.criterion, out / "paths" / ghostStem(r + 1), budget(r),
+             "path picture " + std::to_string(r + 1) + " of " + std::to_string(k + 1));
+    draw(
+        a.allGhostsCriterion, out / "paths" / "all_ghosts", kMaxPathRays,
+        "path picture " + std::to_string(k + 1) + " of " + std::to_string(k + 1) + " (all ghosts)");
 }
 
 }  // namespace

@@ -65,6 +65,8 @@ struct GhostFilesSpec {
     int top = 10;          // path pictures of the first `top` ghosts (0: none)
     int pathRays = 200;    // emitted rays per path picture
     uint64_t seed = 1;
+    // The path pictures' search, ghost by ghost (may be empty).
+    ProgressSink progress;
 };
 
 // Into `folder` (created as needed); returns the files in the order written.

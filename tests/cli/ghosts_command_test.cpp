@@ -58,6 +58,30 @@ TEST(VeilGhosts, BareZemaxLensGetsTheDefaultSceneAndEveryFormat) {
         EXPECT_NE(e.path().extension(), ".tmp") << e.path();
 }
 
+// Drawing the path pictures shows progress, ghost by ghost, and each one's search is bounded
+// by what the Monte Carlo found (at most 4x the rays its hit rate says the picture takes).
+TEST(VeilGhosts, PathPicturesShowProgressAndCostBoundedRays) {
+    const std::string out = outDir("ghosts_progress");
+    const VeilRun r = runVeil(
+        "ghosts tests/data/zmx/US00583336-2-scaled.zmx -n 300 --top 2 "
+        "--paths 20 --threads 1 -o " +
+        out);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    for (const char* said : {"path picture 1 of 3: done, ", "path picture 2 of 3: done, ",
+                             "path picture 3 of 3 (all ghosts): done, "})
+        EXPECT_NE(r.err.find(said), std::string::npos) << said << "\n" << r.err;
+    // The first ghost's search ends by 4 x 20 / (its hit rate) rays.
+    const nlohmann::json j = nlohmann::json::parse(readText(out + "/ghosts.json"));
+    const double relErr = j["ghosts"][0]["mc_relative_error"].get<double>();
+    const double emitted = j["monte_carlo"]["emitted_rays"].get<double>();
+    const double bound = std::max(2000.0, 4.0 * 20.0 * emitted * relErr * relErr);
+    const size_t at = r.err.find("path picture 1 of 3: done, ");
+    ASSERT_NE(at, std::string::npos);
+    const double rays =
+        std::stod(r.err.substr(at + std::string("path picture 1 of 3: done, ").size()));
+    EXPECT_LE(rays, bound + 2000.0) << r.err;
+}
+
 // A toroidal face swept about its own centre of curvature is that sphere: its lens, built
 // with the anamorphic code (faces to the edge, an edge cylinder ending on the curved rims,
 // sags by interval enclosures), gives the spherical lens's ghost table.

@@ -124,5 +124,61 @@ TEST(GhostReport, ZeroMonteCarloFluxSaysNoHits) {
     EXPECT_NE(r.markdown().find("0 (no hits)"), std::string::npos);
 }
 
+// Rows where the Monte Carlo contradicts the sequential estimate are flagged: beyond 3 of its
+// sigmas, or no hit where the typical hit's flux says 9 or more were expected (a Poisson
+// count of 0 then has p < 1.3e-4); rows within the noise, or with too few hits expected to
+// miss, are not. The note says how many and what differs.
+TEST(GhostReport, RowsTheMonteCarloContradictsAreFlagged) {
+    GhostReport r;
+    r.haveMc = true;
+    r.unit = "W";
+    r.sources = {"sun"};
+    auto add = [&](double flux, double mc, double relErr) {
+        GhostReportRow row;
+        row.rank = r.rows.size() + 1;
+        row.label = "ghost " + std::to_string(row.rank);
+        row.flux = flux;
+        row.mcFlux = mc;
+        row.mcRelativeError = relErr;
+        r.rows.push_back(row);
+    };
+    const double inf = std::numeric_limits<double>::infinity();
+    add(1.0e-4, 1.02e-4, 0.01);  // z +2 (hits of 1e-8 each: 1e-4 x 0.01^2)
+    add(1.0e-4, 0.90e-4, 0.02);  // z -5.6
+    add(1.0e-4, 1.20e-4, 0.05);  // z +3.3
+    add(1.0e-7, 0.0, inf);       // 10 hits expected at 1e-8 each, none found
+    add(5.0e-8, 0.0, inf);       // 5 expected: a miss is no contradiction
+    add(0.0, 0.0, inf);          // nothing either way
+    for (int k = 0; k < 4; ++k) add(1.0e-4, 1.0e-4, 0.01);  // 1e-8 a hit: the median
+    checkAgainstMonteCarlo(r, 0);
+    EXPECT_NEAR(r.rows[0].mcZ, 2.0 / 1.02, 1e-9);
+    EXPECT_EQ(r.rows[0].mcCheck, "");
+    EXPECT_NEAR(r.rows[1].mcZ, -0.1 / 0.018, 1e-9);
+    EXPECT_EQ(r.rows[1].mcCheck, "mc-disagrees");
+    EXPECT_EQ(r.rows[2].mcCheck, "mc-disagrees");
+    EXPECT_NEAR(r.rows[3].mcExpectedHits, 10.0, 1e-6);
+    EXPECT_EQ(r.rows[3].mcCheck, "mc-none");
+    EXPECT_NEAR(r.rows[4].mcExpectedHits, 5.0, 1e-6);
+    EXPECT_EQ(r.rows[4].mcCheck, "");
+    EXPECT_EQ(r.rows[5].mcCheck, "");
+    for (size_t k = 6; k < 10; ++k) EXPECT_EQ(r.rows[k].mcCheck, "");
+    EXPECT_EQ(r.mcFlagged, 3u);
+    EXPECT_NE(r.rows[1].flags().find("mc-disagrees"), std::string::npos);
+    EXPECT_NE(r.rows[1].mcWhy.find("apertures only"), std::string::npos) << r.rows[1].mcWhy;
+    EXPECT_NE(r.rows[2].mcWhy.find("other paths"), std::string::npos) << r.rows[2].mcWhy;
+    // With mechanics, light the Monte Carlo lacks is put to them.
+    checkAgainstMonteCarlo(r, 7);
+    EXPECT_NE(r.rows[3].mcWhy.find("mechanics (7 parts)"), std::string::npos) << r.rows[3].mcWhy;
+    // Every format says so.
+    EXPECT_NE(r.terminal(0, "").find("3 of 10 ghosts flagged"), std::string::npos);
+    EXPECT_NE(r.markdown().find("- 2. ghost 2: mc-disagrees (z -5.6)"), std::string::npos)
+        << r.markdown();
+    const nlohmann::json j = r.json();
+    EXPECT_EQ(j["mc_flagged"], 3);
+    EXPECT_EQ(j["ghosts"][1]["mc_check"], "mc-disagrees");
+    EXPECT_NEAR(j["ghosts"][1]["mc_z"].get<double>(), -0.1 / 0.018, 1e-9);
+    EXPECT_TRUE(j["ghosts"][0]["mc_expected_hits"].is_null());
+}
+
 }  // namespace
 }  // namespace veil
