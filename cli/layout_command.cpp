@@ -49,6 +49,7 @@ int runLayout(const CommonOptions& common, const LayoutOptions& options) {
     if (prepared->hasSources())
         lo.sources = layoutSources(prepared->transport().view.sources, setup.scene);
     lo.axisVerticesMm = layoutAxis(*setup.model);
+    lo.detectors = layoutDetectors(setup.detectors);
     const Picture pic = drawLayout(setup.scene, lo);
     const std::filesystem::path dir = outputFolder(options.output, "layout", options.json);
     WrittenFiles written;

@@ -113,6 +113,7 @@ int runPaths(const CommonOptions& common, const PathsOptions& o) {
     lo.title = setup.prescription.system.name.empty() ? o.file : setup.prescription.system.name;
     lo.sources = layoutSources(ts.view.sources, setup.scene);
     lo.axisVerticesMm = layoutAxis(*setup.model);
+    lo.detectors = layoutDetectors(setup.detectors);
     const Picture base = drawLayout(setup.scene, lo);
     PathPictureOptions pp;
     pp.colouring = o.colour == "event" ? PathColouring::EventType : PathColouring::LogFlux;

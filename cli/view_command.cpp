@@ -147,6 +147,7 @@ int runView(const CommonOptions& common, const ViewOptions& o) {
     SceneViewOptions vo;
     vo.title = setup.prescription.system.name.empty() ? o.file : setup.prescription.system.name;
     vo.chordToleranceMm = o.chordToleranceMm;
+    vo.detectors = setup.detectors;
     vo.colouring = o.colour == "event" ? PathColouring::EventType : PathColouring::LogFlux;
     std::optional<PathSelection> sel;
     if (!o.where.empty()) {

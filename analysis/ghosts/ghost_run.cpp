@@ -92,6 +92,7 @@ void writePathPictures(const GhostRun& run, const fs::path& out, const GhostFile
                                                       : setup.prescription.system.name;
     lo.sources = layoutSources(ts.view.sources, setup.scene);
     lo.axisVerticesMm = layoutAxis(*setup.model);
+    lo.detectors = layoutDetectors(setup.detectors);
     const Picture base = drawLayout(setup.scene, lo);
     const PathPictureOptions pp;  // clipped to the layout's frame
     const NameTable names = criterionNames(setup.scene, ts.view);

@@ -229,6 +229,10 @@ Group groupOf(ObjectKind k) {
 
 // `filled`: the group was drawn as closed outlines (else as lines only, like a mirror's
 // section or a detector).
+// With detector grids drawn: the surface a grid lies on, pale and thin, and the grid thick.
+const Color kSensorSurfaceColour = Color::hex(0xe0a0a0);
+constexpr double kGridWidth = 3.0;
+
 LegendEntry legendEntry(Group g, bool filled) {
     static const std::map<Group, std::pair<const char*, ObjectKind>> kNames = {
         {Group::Glass, {"glass", ObjectKind::LensFace}},
@@ -404,9 +408,14 @@ Picture drawLayout(const Scene& scene, const LayoutOptions& options) {
     });
     std::map<std::string, Bounds3> partBounds, detectorBounds;
     std::map<Group, bool> drawn;  // group -> some of it drawn filled
+    const bool grids = !options.detectors.empty();
     for (const SectionPath* p : order) {
         if (p->zy.size() < 2) continue;
-        const Style st = styleFor(p->kind);
+        Style st = styleFor(p->kind);
+        if (grids && p->kind == ObjectKind::Detector) {
+            st.stroke = kSensorSurfaceColour;
+            st.width = 0.8;
+        }
         if (p->closed)
             pic.polygon(p->zy, st.fill, st.stroke, st.width);
         else
@@ -417,6 +426,8 @@ Picture drawLayout(const Scene& scene, const LayoutOptions& options) {
         if (g == Group::Glass || g == Group::Mirror || g == Group::Detector)
             for (const Vec2& q : p->zy) bounds[p->part].extend(Vec3(0.0, q.y, q.x));
     }
+    for (const LayoutDetector& d : options.detectors)
+        pic.polyline({d.fromZY, d.toZY}, styleFor(ObjectKind::Detector).stroke, kGridWidth);
     std::vector<Label> labels;
     for (const LayoutSource& s : options.sources)
         if (std::optional<Label> l = drawSource(pic, s, pad)) labels.push_back(*l);
@@ -438,12 +449,63 @@ Picture drawLayout(const Scene& scene, const LayoutOptions& options) {
     pic.scaleBar();
 
     std::vector<LegendEntry> legend;
-    for (const auto& [g, filled] : drawn) legend.push_back(legendEntry(g, filled));
+    for (const auto& [g, filled] : drawn) {
+        if (g == Group::Detector && grids) {
+            legend.push_back(
+                {"sensor surface", LegendEntry::Swatch::Line, {}, kSensorSurfaceColour, 1.6});
+            continue;
+        }
+        legend.push_back(legendEntry(g, filled));
+    }
+    if (grids)
+        legend.push_back({"detector (recorded area)",
+                          LegendEntry::Swatch::Line,
+                          {},
+                          styleFor(ObjectKind::Detector).stroke,
+                          kGridWidth});
     legend.push_back({"optical axis", LegendEntry::Swatch::DashedLine, {}, kAxisColour, 0.8});
     if (!options.sources.empty())
         legend.push_back({"source", LegendEntry::Swatch::Arrow, {}, kSourceColour, 1.0});
     pic.legend(std::move(legend));
     return pic;
+}
+
+std::vector<LayoutDetector> layoutDetectors(const std::vector<DetectorGeometry>& grids) {
+    std::vector<LayoutDetector> out;
+    for (const DetectorGeometry& g : grids) {
+        if (!(g.widthMm > 0.0) || !(g.heightMm > 0.0)) continue;
+        const double w = 0.5 * g.widthMm, h = 0.5 * g.heightMm;
+        const Vec3 corners[4] = {
+            g.frame.toGlobalPoint({-w, -h, 0.0}), g.frame.toGlobalPoint({w, -h, 0.0}),
+            g.frame.toGlobalPoint({w, h, 0.0}), g.frame.toGlobalPoint({-w, h, 0.0})};
+        // Where the rectangle's edges cross x = 0 (an edge in the plane gives its ends).
+        std::vector<Vec2> cut;
+        for (int e = 0; e < 4; ++e) {
+            const Vec3& a = corners[e];
+            const Vec3& b = corners[(e + 1) % 4];
+            if (a.x == 0.0) cut.emplace_back(a.z, a.y);
+            if ((a.x < 0.0 && b.x > 0.0) || (a.x > 0.0 && b.x < 0.0)) {
+                const double t = a.x / (a.x - b.x);
+                const Vec3 p = a + t * (b - a);
+                cut.emplace_back(p.z, p.y);
+            }
+        }
+        if (cut.size() < 2) continue;
+        // The two points furthest apart.
+        LayoutDetector d{g.name, cut[0], cut[1]};
+        double best = -1.0;
+        for (size_t i = 0; i < cut.size(); ++i)
+            for (size_t j = i + 1; j < cut.size(); ++j) {
+                const double dist = glm::length(cut[i] - cut[j]);
+                if (dist > best) {
+                    best = dist;
+                    d.fromZY = cut[i];
+                    d.toZY = cut[j];
+                }
+            }
+        out.push_back(d);
+    }
+    return out;
 }
 
 }  // namespace veil

@@ -16,6 +16,7 @@
 
 #include "analysis/pictures/picture.h"
 #include "tracer/light/source.h"
+#include "tracer/records/detector.h"
 
 namespace veil {
 
@@ -67,6 +68,15 @@ struct LayoutSourceOptions {
 std::vector<LayoutSource> layoutSources(const std::vector<Source>& sources, const Scene& scene,
                                         const LayoutSourceOptions& options = {});
 
+// A detector's recorded area as a layout draws it: its pixel grid's rectangle
+// (tracer/records/detector.h) cut by the section plane x = 0, as the segment's ends (z, y).
+struct LayoutDetector {
+    std::string name;
+    Vec2 fromZY{0.0}, toZY{0.0};
+};
+// The grids of the detectors the plane x = 0 cuts (one it misses is left out).
+std::vector<LayoutDetector> layoutDetectors(const std::vector<DetectorGeometry>& grids);
+
 struct LayoutOptions {
     double chordToleranceMm = 0.005;  // section sampling of exact faces
     bool labels = true;               // element, detector and source names
@@ -79,6 +89,10 @@ struct LayoutOptions {
     // first vertex (if that lies inside), then vertex to vertex, each stretch once: a fold
     // shows where the axis turns.
     std::vector<Vec3> axisVerticesMm;
+    // The detectors' recorded areas (layoutDetectors()), drawn as thick lines over the sensor
+    // surfaces, which are then drawn thin: what records light is the grid, not the whole
+    // surface it lies on.
+    std::vector<LayoutDetector> detectors;
 };
 
 // The vertices of every surface light meets, surface 1 to the image (coordinate breaks left

@@ -232,8 +232,10 @@ nlohmann::json sceneViewData(const Scene& scene, const std::vector<Source>& sour
     }
     nlohmann::json objects = nlohmann::json::array();
     for (const SceneObject& obj : scene.objects()) {
-        const std::optional<Look> look = lookOf(obj.kind);
+        std::optional<Look> look = lookOf(obj.kind);
         if (!look) continue;
+        if (obj.kind == ObjectKind::Detector && !o.detectors.empty())
+            look = Look{"sensor surface", 0xe0a0a0, 0.35};
         const Part& part = parts[obj.id];
         objects.push_back({{"name", obj.name},
                            {"part", obj.part.empty() ? obj.name : obj.part},
@@ -243,6 +245,29 @@ nlohmann::json sceneViewData(const Scene& scene, const std::vector<Source>& sour
                            {"triangles", part.indices.size() / 3},
                            {"positions", floats(part.positions)},
                            {"indices", uints(part.indices)}});
+    }
+    // The grids: a rectangle each, a hair in front of the sensor surface on its sensitive side
+    // so that the two do not fight for the same depth.
+    for (const DetectorGeometry& g : o.detectors) {
+        if (!(g.widthMm > 0.0) || !(g.heightMm > 0.0)) continue;
+        const double w = 0.5 * g.widthMm, h = 0.5 * g.heightMm;
+        const double lift = 1e-3 * std::max(g.widthMm, g.heightMm);
+        std::vector<float> positions;
+        for (const Vec3& c :
+             {Vec3(-w, -h, -lift), Vec3(w, -h, -lift), Vec3(w, h, -lift), Vec3(-w, h, -lift)}) {
+            const Vec3 p = g.frame.toGlobalPoint(c);
+            push(positions, p);
+            bounds.extend(p);
+        }
+        const std::vector<uint32_t> indices{0, 1, 2, 0, 2, 3};
+        objects.push_back({{"name", g.name},
+                           {"part", g.name},
+                           {"kind", "detector"},
+                           {"color", hexColour(Color::hex(0xd03030))},
+                           {"opacity", 0.9},
+                           {"triangles", 2},
+                           {"positions", floats(positions)},
+                           {"indices", uints(indices)}});
     }
     const double size = bounds.empty() ? 1.0 : glm::length(bounds.hi - bounds.lo);
     nlohmann::json markers = sourceMarkers(scene, sources, size);

@@ -19,6 +19,7 @@
 
 #include "analysis/pictures/path_picture.h"
 #include "tracer/light/source.h"
+#include "tracer/records/detector.h"
 
 namespace veil {
 
@@ -31,6 +32,9 @@ struct SceneViewOptions {
     const PathSelection* paths = nullptr;
     PathColouring colouring = PathColouring::LogFlux;
     double decades = 6.0;  // LogFlux: the ramp spans [max 10^-decades, max]
+    // The detectors' pixel grids (SceneGeometry::detectors): each drawn as its rectangle, the
+    // area that records light, over its sensor surface, which is then drawn pale.
+    std::vector<DetectorGeometry> detectors;
 };
 
 // The page's data. Throws std::invalid_argument for a chord tolerance or decades <= 0.

@@ -636,6 +636,7 @@ Picture drawObjects(const PreparedScene& prepared, const ObjectsResult& result, 
             shown.push_back(s);
     lo.sources = layoutSources(shown, scene);
     lo.axisVerticesMm = layoutAxis(prepared.model());
+    lo.detectors = layoutDetectors(prepared.geometry().detectors);
     Picture pic = drawLayout(scene, lo);
     std::vector<LegendEntry> legend = pic.legendEntries();
 

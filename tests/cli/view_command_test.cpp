@@ -99,17 +99,33 @@ TEST(ViewCommand, OnePageHoldsEveryObjectAndFetchesNothing) {
                                 dir + "/scene.ply");
     ASSERT_EQ(exp.exitCode, 0) << exp.err;
     std::set<std::string> names;
-    size_t triangles = 0;
+    size_t triangles = 0, grids = 0;
     for (const nlohmann::json& o : data["objects"]) {
         names.insert(o["name"].get<std::string>());
         const auto positions = decode<float>(o["positions"]);
         const auto indices = decode<uint32_t>(o["indices"]);
         ASSERT_EQ(indices.size(), 3 * o["triangles"].get<size_t>()) << o["name"];
         for (uint32_t i : indices) ASSERT_LT(3 * i + 2, positions.size()) << o["name"];
+        if (o["kind"] == "detector") {
+            // The detector's grid, the area that records light: a rectangle of two triangles
+            // on its sensor surface, which is drawn pale.
+            ++grids;
+            EXPECT_EQ(o["triangles"].get<size_t>(), 2u);
+            ASSERT_EQ(positions.size(), 12u);
+            const double dx = std::abs(positions[3] - positions[0]),
+                         dy = std::abs(positions[7] - positions[4]);
+            EXPECT_GT(dx, 1.0);
+            EXPECT_GT(dy, 1.0);
+            continue;
+        }
+        if (o["name"] == "sensor") {
+            EXPECT_EQ(o["kind"], "sensor surface");
+        }
         triangles += o["triangles"].get<size_t>();
     }
+    EXPECT_EQ(grids, 1u);
     EXPECT_EQ(triangles, nlohmann::json::parse(exp.out)["triangles"].get<size_t>());
-    EXPECT_EQ(report["triangles"].get<size_t>(), triangles);
+    EXPECT_EQ(report["triangles"].get<size_t>(), triangles + 2 * grids);
     for (const char* n : {"L1.front", "L1.edge", "stop", "barrel", "sensor"})
         EXPECT_EQ(names.count(n), 1u) << n;
 

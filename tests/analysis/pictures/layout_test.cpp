@@ -222,6 +222,55 @@ TEST(DrawLayout, TheLegendListsTheKindsDrawn) {
     EXPECT_EQ(labels.back(), "source");
 }
 
+// A detector's grid cut by the section plane x = 0: the segment across its recorded area, in
+// any orientation, and nothing for a grid the plane misses.
+TEST(LayoutDetectors, TheGridIsCutByTheSectionPlane) {
+    DetectorGeometry g;
+    g.name = "grid";
+    g.widthMm = 64.0;
+    g.heightMm = 48.0;
+    g.frame = Frame::alongAxis(100.0);
+    std::vector<LayoutDetector> d = layoutDetectors({g});
+    ASSERT_EQ(d.size(), 1u);
+    EXPECT_EQ(d[0].name, "grid");
+    EXPECT_NEAR(d[0].fromZY.x, 100.0, 1e-12);
+    EXPECT_NEAR(d[0].toZY.x, 100.0, 1e-12);
+    EXPECT_NEAR(std::abs(d[0].fromZY.y - d[0].toZY.y), 48.0, 1e-12);  // the height lies along y
+    EXPECT_NEAR(d[0].fromZY.y + d[0].toZY.y, 0.0, 1e-12);
+    // Turned 90 degrees about z: its width along y.
+    DetectorGeometry turned = g;
+    turned.frame.rotation = glm::dmat3(Vec3(0, 1, 0), Vec3(-1, 0, 0), Vec3(0, 0, 1));
+    d = layoutDetectors({turned});
+    ASSERT_EQ(d.size(), 1u);
+    EXPECT_NEAR(std::abs(d[0].fromZY.y - d[0].toZY.y), 64.0, 1e-9);
+    // Tilted 30 degrees about x: the section is the tilted height, its ends off the plane z.
+    DetectorGeometry tilted = g;
+    const double c = std::cos(kPi / 6.0), sn = std::sin(kPi / 6.0);
+    tilted.frame.rotation = glm::dmat3(Vec3(1, 0, 0), Vec3(0, c, sn), Vec3(0, -sn, c));
+    d = layoutDetectors({tilted});
+    ASSERT_EQ(d.size(), 1u);
+    EXPECT_NEAR(glm::length(d[0].fromZY - d[0].toZY), 48.0, 1e-9);
+    EXPECT_NEAR(std::abs(d[0].fromZY.x - d[0].toZY.x), 48.0 * sn, 1e-9);
+    // Moved off to x = 40 mm: the plane misses it.
+    DetectorGeometry aside = g;
+    aside.frame.translation = Vec3(40.0, 0.0, 100.0);
+    EXPECT_TRUE(layoutDetectors({aside}).empty());
+}
+
+// With the grids given, the layout draws the recorded area and names it in the legend, the
+// sensor surface under it.
+TEST(DrawLayout, TheDetectorIsDrawnAsItsGrid) {
+    const Prepared sun = prepare(kSunScene);
+    LayoutOptions o;
+    o.detectors = layoutDetectors(sun.setup->detectors);
+    ASSERT_EQ(o.detectors.size(), 1u);
+    // The sun scene's 64 mm detector on its larger sensor surface.
+    EXPECT_NEAR(std::abs(o.detectors[0].fromZY.y - o.detectors[0].toZY.y), 64.0, 1e-9);
+    EXPECT_EQ(legendLabels(drawLayout(sun.setup->scene, o)),
+              (std::vector<std::string>{"glass", "mechanics", "aperture stop", "sensor surface",
+                                        "detector (recorded area)", "optical axis"}));
+}
+
 TEST(DrawLayout, LegendSwatchesLookLikeWhatIsDrawn) {
     // The catadioptric lens's mirrors are open curves, its elements and mechanics closed.
     const Prepared r = prepare(kWindowScene);
