@@ -119,6 +119,8 @@ void ProgressReporter::finish() {
                 drawOpen(seconds);
         }
         std::cerr << "\n" << std::flush;
+    } else if (last_.unit.empty()) {
+        std::cerr << last_.task << ": done in " << elapsed(seconds) << "\n" << std::flush;
     } else {
         std::ostringstream os;
         os << last_.task << ": done, " << last_.done << " " << last_.unit << " in "
@@ -151,6 +153,13 @@ void ProgressReporter::drawBar(double seconds) {
 
 void ProgressReporter::drawOpen(double seconds) {
     std::ostringstream os;
+    if (last_.unit.empty()) {
+        // A phase without units: its name and how long it has run.
+        os << "\r" << last_.task << ", " << elapsed(seconds) << "\033[K";
+        std::cerr << os.str() << std::flush;
+        lastDrawSeconds_ = seconds;
+        return;
+    }
     os << "\r" << last_.task << ": " << last_.done << " " << last_.unit;
     if (!last_.state.empty()) os << ", " << last_.state;
     os << ", ETA " << etaText(last_, seconds) << "\033[K";
@@ -162,7 +171,9 @@ void ProgressReporter::drawOpen(double seconds) {
 void ProgressReporter::writeLine(double seconds) {
     std::ostringstream os;
     os << last_.task << ": ";
-    if (last_.total > 0)
+    if (last_.unit.empty())
+        ;  // a phase: how long it has run
+    else if (last_.total > 0)
         os << std::fixed << std::setprecision(1) << 100.0 * last_.done / last_.total << " % ("
            << last_.done << " of " << last_.total << " " << last_.unit << "), "
            << rateText(rate(last_.done, seconds)) << " " << last_.unit << "/s, ";

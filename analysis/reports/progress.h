@@ -28,7 +28,9 @@ struct ProgressEvent {
     std::string task;           // what runs: "trace", "render", "sweep: variant 2 of 5 (...)"
     uint64_t done = 0;          // units done so far
     uint64_t total = 0;         // units in all; 0 = not known ahead (a render's stop rules)
-    std::string unit = "rays";  // plural: "rays", "passes", "batches"
+    // Plural: "rays", "passes", "batches"; empty for a phase that counts nothing (its name and
+    // time are shown: "render: preparing, 4.2 s").
+    std::string unit = "rays";
     std::string state;          // what the run knows besides the count ("error 12.3 %")
     // Seconds left when the run can tell better than done / total can (a render's error
     // falling as the passes go); NaN otherwise.

@@ -169,6 +169,10 @@ RenderRun::RenderRun(const PreparedScene& scene, RenderRunSpec spec)
         criteria_ = std::make_unique<RenderCriteria>(compileWhereList(spec_.where, names), names);
     }
     aperture_ = exitApertureFor(*ts.scene, geometry);
+    // The renderer's set-up can take seconds (the pilots of the lit parts' light).
+    if (spec_.progress && spec_.ranks.root())
+        spec_.progress(
+            {"render: preparing (the lens connections, the lit parts' pilots)", 0, 0, ""});
     renderer_ =
         std::make_unique<Renderer>(ts, *detector_, aperture_, o, criteria_.get(), spec_.ranks);
     fingerprint_ = fingerprintOf(ts, geometry, aperture_, o, spec_.where);
@@ -204,6 +208,13 @@ RenderResult RenderRun::run(const std::function<void(const RenderPassEvent&)>& o
     auto seconds = [&] {
         return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     };
+    // The passes' clock starts now, not at the first pass's end.
+    if (spec_.progress && ranks.root()) {
+        ProgressEvent e{"render", static_cast<uint64_t>(r.passesBefore),
+                        static_cast<uint64_t>(std::max(spec_.stop.passes, 0)), "passes"};
+        e.state = "pass " + std::to_string(r.passesBefore + 1) + " running";
+        spec_.progress(e);
+    }
     while (true) {
         if (ranks.root()) r.stopReason = stopReason(seconds());
         if (!ranks.broadcastFlag(r.stopReason.empty())) break;

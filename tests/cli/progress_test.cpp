@@ -98,3 +98,31 @@ TEST(VeilProgress, PathsReportsItsBatchesAndTheRaysItTook) {
 }
 
 }  // namespace
+
+namespace {
+
+// A render reports its set-up as a phase of its own, then its passes from the first one's
+// start: the whole run is accounted for (the set-up used to be silent, and the pass clock
+// started at the first pass's end).
+TEST(VeilProgress, RenderReportsItsSetUpAndTimesItsPassesFromTheStart) {
+    const std::string out = outDir("progress_render");
+    const VeilRun r = runVeil(
+        "render examples/scenes/longfocus_360mm_sun.toml --passes 1 --photons 5000 "
+        "--rays-per-pixel 1 --threads 1 -o " +
+        out);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const std::vector<std::string> prep =
+        reportLines(r.err, "render: preparing (the lens connections, the lit parts' pilots)");
+    ASSERT_EQ(prep.size(), 2u) << r.err;
+    EXPECT_NE(prep[1].find(": done in "), std::string::npos) << prep[1];
+    std::vector<std::string> passes;
+    for (const std::string& l : reportLines(r.err, "render"))
+        if (l.find("preparing") == std::string::npos) passes.push_back(l);
+    ASSERT_FALSE(passes.empty()) << r.err;
+    EXPECT_NE(passes.front().find("0.0 % (0 of 1 passes)"), std::string::npos) << r.err;
+    EXPECT_EQ(passes.back().rfind("render: done, 1 passes in ", 0), 0u) << r.err;
+    EXPECT_LT(r.err.find("render: preparing"), r.err.find("render: 0.0 %")) << r.err;
+    EXPECT_EQ(r.err.find('\r'), std::string::npos);
+}
+
+}  // namespace
