@@ -89,6 +89,7 @@ std::vector<std::pair<std::string, Subcommand>> subcommands() {
     return {{"info", subcommand(addInfoCommand, runInfo)},
             {"layout", subcommand(addLayoutCommand, runLayout)},
             {"export", subcommand(addExportCommand, runExport)},
+            {"export-lens", subcommand(addExportLensCommand, runExportLens)},
             {"trace", subcommand(addTraceCommand, runTrace)},
             {"rays", subcommand(addRaysCommand, runRays)},
             {"paths", subcommand(addPathsCommand, runPaths)},

@@ -72,6 +72,17 @@ struct InfoOptions {
 void addInfoCommand(CLI::App& app, InfoOptions& options);
 int runInfo(const CommonOptions& common, const InfoOptions& options);
 
+// veil export-lens FILE -o lens.toml: a lens file (Zemax, CODE V, or veil's own) as a veil
+// lens file (lensdata/toml_writer.h), with --set edits applied; on standard output without -o.
+struct ExportLensOptions {
+    std::string file;
+    std::string output;  // the TOML file; empty: standard output
+    bool json = false;
+    bool quiet = false;
+};
+void addExportLensCommand(CLI::App& app, ExportLensOptions& options);
+int runExportLens(const CommonOptions& common, const ExportLensOptions& options);
+
 struct LayoutOptions {
     std::string file;
     std::string output;  // folder: layout.svg, layout.png

@@ -15,6 +15,9 @@
 #include "cli/commands.h"
 #include "cli/options.h"
 #include "lensdata/glass_catalog.h"
+#include "lensdata/output_file.h"
+#include "lensdata/toml_reader.h"
+#include "lensdata/toml_writer.h"
 #include "tracer/scene/prepared_scene.h"
 #include "tracer/scene/scene_spec.h"
 
@@ -72,6 +75,55 @@ int runInfo(const CommonOptions& common, const InfoOptions& options) {
         std::cerr << "veil: error: the lens does not build into a scene: " << report.build->error
                   << "\n";
         return 1;
+    }
+    return 0;
+}
+
+void addExportLensCommand(CLI::App& app, ExportLensOptions& o) {
+    CLI::App* sub = app.add_subcommand(
+        "export-lens",
+        "a lens file (Zemax, CODE V) as a veil lens file to read and edit (docs/format.md)");
+    sub->add_option("file", o.file, "lens or scene file (.zmx, .seq, .toml)")->required();
+    addOutputFile(sub, o.output,
+                  "TOML file to write (folders created as needed; default: standard output)");
+    addReportFlags(sub, o.json, o.quiet);
+}
+
+int runExportLens(const CommonOptions& common, const ExportLensOptions& o) {
+    const GlassCatalog catalog = loadCatalog(common);
+    // The lens as the commands read and build it: --set edits applied, and sizes that did not
+    // build fitted (each change a comment at the top, as the import's other warnings).
+    const SceneSpec spec = readScene(common, o.file, catalog);
+    reportImportWarnings(spec);
+    const Prescription& lens = spec.prescription;
+    const std::string name = std::filesystem::path(o.file).filename().string();
+    std::string text = prescriptionToml(lens, catalog, name);
+    std::string said;
+    for (const ImportNote& n : lens.report)
+        if (n.severity != ImportNote::Severity::Info) said += "#   " + n.message + "\n";
+    if (!said.empty()) {
+        const size_t at = text.find("\n\n");
+        text.insert(at + 1, "# What the import changed or left out:\n" + said);
+    }
+    // What is written reads back (a check, not a second opinion: the same reader).
+    readTomlPrescriptionText(text, name + " as TOML", catalog);
+    WrittenFiles written;
+    if (o.output.empty()) {
+        std::cout << text;
+        return 0;
+    }
+    const std::filesystem::path out(o.output);
+    if (out.has_parent_path()) std::filesystem::create_directories(out.parent_path());
+    writeTextFile(out, text);
+    written.add(out);
+    if (o.json) {
+        nlohmann::json j{
+            {"file", o.file}, {"surfaces", lens.surfaces.size()}, {"files", written.json()}};
+        std::cout << j.dump(2) << "\n";
+    } else if (!o.quiet) {
+        std::cout << lens.surfaces.size() << " surfaces of " << name
+                  << " written as a veil lens file\n";
+        written.print(std::cout);
     }
     return 0;
 }

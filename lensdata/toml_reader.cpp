@@ -35,6 +35,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "lensdata/glass_catalog.h"
@@ -244,6 +245,13 @@ void LensReader::readRow(const TomlTable& row, bool last, Material& incident) {
     readShape(row, s);
     s.clearSemiDiameterMm = row.number("sd", 0.0, NumberRange::atLeast(0.0));
     s.mechSemiDiameterMm = row.number("mech_sd", 0.0, NumberRange::atLeast(0.0));
+    if (const auto automatic = row.get("sd_auto")) {
+        s.semiDiameterAutomatic = automatic->asBool();
+        if (s.semiDiameterAutomatic && !(s.clearSemiDiameterMm > 0.0))
+            automatic->fail(
+                "sd_auto marks a given sd as computed by the program that wrote it; "
+                "this row has no sd");
+    }
     if (const auto hole = row.get("hole_sd")) {
         s.innerSemiDiameterMm = hole->asNumber(NumberRange::atLeast(0.0));
         // Reported at the value here; validate() would only name the surface.
@@ -318,9 +326,9 @@ void LensReader::readRow(const TomlTable& row, bool last, Material& incident) {
 void LensReader::readBreakRow(const TomlTable& row, const TomlValue& brk, Surface& s,
                               const Material& incident) {
     // { break = { decenter_mm = [x, y], tilt_deg = [x, y, z], tilt_first = false }, t = ... }
-    for (const char* key : {"r", "c", "conic", "asph", "asph_r2", "asph_odd", "qbfs", "qcon",
-                            "toroidal", "biconic", "sd", "mech_sd", "hole_sd", "stop", "mirror",
-                            "coating"})
+    for (const char* key :
+         {"r", "c", "conic", "asph", "asph_r2", "asph_odd", "qbfs", "qcon", "toroidal", "biconic",
+          "sd", "mech_sd", "sd_auto", "hole_sd", "stop", "mirror", "coating"})
         if (const auto v = row.get(key))
             v->fail(std::string("a coordinate break row takes no '") + key +
                     "': it is a flat dummy surface (only break, t, glass, name and comment)");
@@ -557,6 +565,27 @@ void LensReader::readFields(const TomlTable& system) {
                           std::to_string(sys.fields.size()) + " fields");
         for (size_t i = 0; i < entries.size(); ++i)
             sys.fields[i].weight = entries[i].asNumber(NumberRange::atLeast(0.0));
+    }
+    if (const auto v = system.get("field_vignetting")) {
+        const std::vector<TomlValue> entries = v->asArray();
+        if (entries.size() != sys.fields.size())
+            v->fail("field_vignetting has " + std::to_string(entries.size()) + " entries for " +
+                    std::to_string(sys.fields.size()) + " fields");
+        for (size_t i = 0; i < entries.size(); ++i) {
+            const std::vector<TomlValue> f = entries[i].asArray();
+            if (f.size() != 4)
+                entries[i].fail(entries[i].path() +
+                                " must be [vdx, vdy, vcx, vcy] (4 numbers, got " +
+                                std::to_string(f.size()) + ")");
+            Field& field = sys.fields[i];
+            field.vdx = f[0].asNumber(NumberRange::any());
+            field.vdy = f[1].asNumber(NumberRange::any());
+            // A compression of 1 or more would leave no beam.
+            const NumberRange compression{-std::numeric_limits<double>::infinity(), 1.0, false,
+                                          true};
+            field.vcx = f[2].asNumber(compression);
+            field.vcy = f[3].asNumber(compression);
+        }
     }
     sys.rectangularField = system.boolean("rectangular_field", false);
 }

@@ -130,14 +130,17 @@ def test_render_components_add_up_and_equal_the_executable(tmp_path):
 
 
 def test_a_render_run_reports_its_passes_and_writes_only_into_output(tmp_path):
-    """A RenderRun's progress events, one per pass, its scene built once for two runs, and its
-    files and checkpoint in the output folder, from which a resumed run goes on."""
+    """A RenderRun's progress events (its set-up as a phase of its own, then the passes from the
+    first one's start, one event per pass), its scene built once for two runs, and its files and
+    checkpoint in the output folder, from which a resumed run goes on."""
     scene = veil.Scene(SUN)
     events = []
     options = dict(photons="2k", rays_per_pixel=1, time_limit="none", seed=4)
     first = scene.render(passes=2, output=tmp_path / "r", progress=events.append, **options)
-    assert [e["done"] for e in events] == [1, 2]
-    assert all(e["task"] == "render" and e["unit"] == "passes" for e in events)
+    assert events[0]["task"].startswith("render: preparing") and events[0]["unit"] == ""
+    passes = events[1:]
+    assert [e["done"] for e in passes] == [0, 1, 2]
+    assert all(e["task"] == "render" and e["unit"] == "passes" for e in passes)
     built = scene._prepared()
     assert (tmp_path / "r" / "render.checkpoint").exists()
     assert (tmp_path / "r" / "sensor_image.exr").exists()
@@ -223,7 +226,7 @@ def test_view_writes_one_page(tmp_path):
     result = veil.Scene(SUN).view(page, where="fresnel{2} and hit(sensor)", first=5)
     assert page.exists()
     assert result.report["paths_drawn"] >= 5
-    assert result.report["objects"] == 42
+    assert result.report["objects"] == 43  # 42 scene objects and the detector's grid
 
 
 def test_scatter_reports_library_materials_and_follows_edits():

@@ -546,3 +546,51 @@ TEST(VeilTrace, SceneWithoutSourceTracesTheSystemFields) {
 }
 
 }  // namespace
+
+namespace {
+
+// An imported lens as veil's own lens file: export-lens writes it, and it is the same lens
+// (veil info gives the same EFL and F/# to the last digit); --set edits an imported lens
+// through the same text, with its errors named "FILE as TOML".
+TEST(VeilExportLens, AnImportedLensIsWrittenAsTomlAndEditedWithSet) {
+    const std::string dir = ::testing::TempDir() + "veil_export_lens";
+    std::filesystem::remove_all(dir);
+    for (const std::string file :
+         {"tests/data/zmx/US00583336-2-scaled.zmx", "tests/data/codev/double_gauss_50mm.seq"}) {
+        const std::string out = dir + "/" + std::filesystem::path(file).stem().string() + ".toml";
+        const VeilRun w = runVeil("export-lens " + file + " -o " + out);
+        ASSERT_EQ(w.exitCode, 0) << w.err;
+        EXPECT_NE(w.out.find("written as a veil lens file"), std::string::npos) << w.out;
+        const VeilRun a = runVeil("info " + file + " --json");
+        const VeilRun b = runVeil("info " + out + " --json");
+        ASSERT_EQ(a.exitCode, 0) << a.err;
+        ASSERT_EQ(b.exitCode, 0) << b.err;
+        const nlohmann::json ja = nlohmann::json::parse(a.out), jb = nlohmann::json::parse(b.out);
+        EXPECT_EQ(ja["efl_mm"].get<double>(), jb["efl_mm"].get<double>()) << file;
+        EXPECT_EQ(ja["f_number"].get<double>(), jb["f_number"].get<double>()) << file;
+        EXPECT_EQ(ja["surfaces"].size(), jb["surfaces"].size()) << file;
+        // Without -o, the text on standard output.
+        const VeilRun s = runVeil("export-lens " + file);
+        ASSERT_EQ(s.exitCode, 0) << s.err;
+        EXPECT_EQ(s.out, readText(out));
+    }
+    const std::string zmx = "tests/data/zmx/US00583336-2-scaled.zmx";
+    const VeilRun f2 = runVeil("info " + zmx + " --set system.aperture.f_number=2 --json");
+    ASSERT_EQ(f2.exitCode, 0) << f2.err;
+    EXPECT_EQ(nlohmann::json::parse(f2.out)["f_number"].get<double>(), 2.0);
+    // The second row's thickness (L1's glass) changes the focal length.
+    const VeilRun t = runVeil("info " + zmx + " --set 'system.surfaces[2].t=2.0' --json");
+    ASSERT_EQ(t.exitCode, 0) << t.err;
+    const VeilRun base = runVeil("info " + zmx + " --json");
+    EXPECT_NE(nlohmann::json::parse(t.out)["efl_mm"].get<double>(),
+              nlohmann::json::parse(base.out)["efl_mm"].get<double>());
+    const VeilRun typo = runVeil("info " + zmx + " --set 'system.surfacez[1].t=2'");
+    EXPECT_NE(typo.exitCode, 0);
+    EXPECT_NE(typo.err.find("no 'surfacez' in [system] of " + zmx +
+                            " as TOML (did you mean 'surfaces'?)"),
+              std::string::npos)
+        << typo.err;
+    std::filesystem::remove_all(dir);
+}
+
+}  // namespace

@@ -15,6 +15,7 @@
 #include "lensdata/prescription.h"
 #include "lensdata/toml_document.h"
 #include "lensdata/toml_reader.h"
+#include "lensdata/toml_writer.h"
 #include "tracer/sequential/auto_apertures.h"
 #include "tracer/sequential/image_fields.h"
 #include "tracer/sequential/sequential_model.h"
@@ -170,10 +171,19 @@ bool editsLens(const SceneEdit& e) {
     return e.key == "system" || e.key.starts_with("system.") || e.key.starts_with("system[");
 }
 
-[[noreturn]] void editOfNonToml(const SceneEdit& e, const std::filesystem::path& file) {
-    throw ParseError({e.origin, 0, 0}, file.filename().string() +
-                                           " is not a TOML file; only TOML scenes and lenses can "
-                                           "be edited");
+// An imported lens (Zemax, CODE V) as a TOML document to edit: the lens written as veil's
+// own lens file (lensdata/toml_writer.h), its errors named "FILE as TOML".
+TomlDocument importedAsToml(const std::filesystem::path& lensPath, const Prescription& imported,
+                            const GlassCatalog& catalog) {
+    return TomlDocument::fromString(
+        prescriptionToml(imported, catalog, lensPath.filename().string()),
+        lensPath.string() + " as TOML");
+}
+
+// The import's report goes with the edited lens: what the file held that veil did not keep.
+void keepImportReport(Prescription& edited, const Prescription& imported) {
+    edited.report.insert(edited.report.begin(), imported.report.begin(), imported.report.end());
+    edited.sourceFile = imported.sourceFile;
 }
 
 }  // namespace
@@ -188,7 +198,8 @@ bool editsTransportOnly(const std::string& key) {
 
 void checkSceneEdits(const std::filesystem::path& path, const std::vector<SceneEdit>& edits) {
     if (edits.empty()) return;
-    if (lowerExtension(path) != ".toml") editOfNonToml(edits.front(), path);
+    // An imported lens is written as TOML when it is read; its edits are checked then.
+    if (lowerExtension(path) != ".toml") return;
     if (!inputFileExists(path)) throw ParseError({path.string(), 0, 0}, "no such file");
     TomlDocument doc = TomlDocument::fromFile(path);
     const TomlTable root = doc.root();
@@ -200,24 +211,48 @@ void checkSceneEdits(const std::filesystem::path& path, const std::vector<SceneE
             continue;
         }
         const std::filesystem::path lensPath = path.parent_path() / lens->asString();
-        if (lowerExtension(lensPath) != ".toml") editOfNonToml(e, lensPath);
+        if (lowerExtension(lensPath) != ".toml") continue;  // checked as it is read
         if (!lensDoc) lensDoc = TomlDocument::fromFile(lensPath);
         lensDoc->set(e.key, e.value, e.origin);
     }
 }
 
+namespace {
+
+SceneSpec readSceneDocument(const std::filesystem::path& path, TomlDocument& doc,
+                            const GlassCatalog& catalog, const std::vector<SceneEdit>& edits,
+                            const Prescription* imported);
+
+}  // namespace
+
 SceneSpec readSceneFile(const std::filesystem::path& path, const GlassCatalog& catalog,
                         const std::vector<SceneEdit>& edits) {
-    SceneSpec f;
-    f.path = path;
     if (lowerExtension(path) != ".toml") {
-        if (!edits.empty()) editOfNonToml(edits.front(), path);
-        size(f, readLensFile(path, catalog), catalog);
-        dropUnknownCoatings(f);
-        return f;
+        const Prescription imported = readLensFile(path, catalog);
+        if (edits.empty()) {
+            SceneSpec f;
+            f.path = path;
+            size(f, imported, catalog);
+            dropUnknownCoatings(f);
+            return f;
+        }
+        // Edited: the lens as veil's own lens file, edited and read as one.
+        TomlDocument doc = importedAsToml(path, imported, catalog);
+        return readSceneDocument(path, doc, catalog, edits, &imported);
     }
     if (!inputFileExists(path)) throw ParseError({path.string(), 0, 0}, "no such file");
     TomlDocument doc = TomlDocument::fromFile(path);
+    return readSceneDocument(path, doc, catalog, edits, nullptr);
+}
+
+namespace {
+
+// A scene or lens document (`imported`: the lens it was written from, or null).
+SceneSpec readSceneDocument(const std::filesystem::path& path, TomlDocument& doc,
+                            const GlassCatalog& catalog, const std::vector<SceneEdit>& edits,
+                            const Prescription* imported) {
+    SceneSpec f;
+    f.path = path;
     const TomlTable root = doc.root();
     const auto lens = root.has("lens") ? root.get("lens") : std::nullopt;
     for (const SceneEdit& e : edits)
@@ -246,8 +281,15 @@ SceneSpec readSceneFile(const std::filesystem::path& path, const GlassCatalog& c
             if (editsLens(e)) lensEdits.push_back(e);
         if (lensEdits.empty()) {
             size(f, readLensFile(lensPath, catalog), catalog);
+        } else if (lowerExtension(lensPath) != ".toml") {
+            const Prescription lensImport = readLensFile(lensPath, catalog);
+            TomlDocument lensDoc = importedAsToml(lensPath, lensImport, catalog);
+            for (const SceneEdit& e : lensEdits) lensDoc.set(e.key, e.value, e.origin);
+            Prescription p = readTomlPrescription(lensDoc, catalog);
+            lensDoc.checkAllUsed();
+            keepImportReport(p, lensImport);
+            size(f, std::move(p), catalog);
         } else {
-            if (lowerExtension(lensPath) != ".toml") editOfNonToml(lensEdits.front(), lensPath);
             TomlDocument lensDoc = TomlDocument::fromFile(lensPath);
             for (const SceneEdit& e : lensEdits) lensDoc.set(e.key, e.value, e.origin);
             Prescription p = readTomlPrescription(lensDoc, catalog);
@@ -255,7 +297,9 @@ SceneSpec readSceneFile(const std::filesystem::path& path, const GlassCatalog& c
             size(f, std::move(p), catalog);
         }
     } else {
-        size(f, readTomlPrescription(doc, catalog), catalog);
+        Prescription p = readTomlPrescription(doc, catalog);
+        if (imported) keepImportReport(p, *imported);
+        size(f, std::move(p), catalog);
     }
     // A misspelt key explains more than the validation error it may cause in a later
     // section (a default used in its place): on any error, unknown keys are reported first.
@@ -265,7 +309,8 @@ SceneSpec readSceneFile(const std::filesystem::path& path, const GlassCatalog& c
         f.sources = readSources(doc, f.prescription, *f.model);
         f.detectors = readDetectors(doc);
         f.properties = PropertyTable::read(doc);
-        if (lens && lowerExtension(lens->asString()) != ".toml") dropUnknownCoatings(f);
+        if (imported || (lens && lowerExtension(lens->asString()) != ".toml"))
+            dropUnknownCoatings(f);
         f.properties.checkScatterEnergy(*f.model);
     } catch (const std::exception&) {
         doc.checkUsedInOpenedTables();
@@ -274,5 +319,7 @@ SceneSpec readSceneFile(const std::filesystem::path& path, const GlassCatalog& c
     doc.checkAllUsed();
     return f;
 }
+
+}  // namespace
 
 }  // namespace veil
