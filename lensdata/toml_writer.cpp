@@ -18,11 +18,8 @@ std::string num(double v) {
     if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
     std::array<char, 32> buf{};
     const auto [end, ec] = std::to_chars(buf.data(), buf.data() + buf.size(), v);
-    std::string s(buf.data(), end);
-    // TOML floats need a digit after the point or an exponent; integers are fine as floats'
-    // values in veil's reader, but "1e-05" is valid and "5" reads as an integer: both are
-    // numbers to the reader.
-    return s;
+    // "5" is a TOML integer and "1e-05" a float: veil's reader takes both as numbers.
+    return std::string(buf.data(), end);
 }
 
 // A TOML basic string.
