@@ -1,6 +1,7 @@
 #include "analysis/pictures/layout.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <iomanip>
 #include <map>
@@ -474,10 +475,7 @@ std::vector<LayoutDetector> layoutDetectors(const std::vector<DetectorGeometry>&
     std::vector<LayoutDetector> out;
     for (const DetectorGeometry& g : grids) {
         if (!(g.widthMm > 0.0) || !(g.heightMm > 0.0)) continue;
-        const double w = 0.5 * g.widthMm, h = 0.5 * g.heightMm;
-        const Vec3 corners[4] = {
-            g.frame.toGlobalPoint({-w, -h, 0.0}), g.frame.toGlobalPoint({w, -h, 0.0}),
-            g.frame.toGlobalPoint({w, h, 0.0}), g.frame.toGlobalPoint({-w, h, 0.0})};
+        const std::array<Vec3, 4> corners = g.corners();
         // Where the rectangle's edges cross x = 0 (an edge in the plane gives its ends).
         std::vector<Vec2> cut;
         for (int e = 0; e < 4; ++e) {

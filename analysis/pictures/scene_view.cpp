@@ -248,23 +248,20 @@ nlohmann::json sceneViewData(const Scene& scene, const std::vector<Source>& sour
     }
     // The grids: a rectangle each, a hair in front of the sensor surface on its sensitive side
     // so that the two do not fight for the same depth.
+    const Look grid = *lookOf(ObjectKind::Detector);
     for (const DetectorGeometry& g : o.detectors) {
         if (!(g.widthMm > 0.0) || !(g.heightMm > 0.0)) continue;
-        const double w = 0.5 * g.widthMm, h = 0.5 * g.heightMm;
-        const double lift = 1e-3 * std::max(g.widthMm, g.heightMm);
         std::vector<float> positions;
-        for (const Vec3& c :
-             {Vec3(-w, -h, -lift), Vec3(w, -h, -lift), Vec3(w, h, -lift), Vec3(-w, h, -lift)}) {
-            const Vec3 p = g.frame.toGlobalPoint(c);
+        for (const Vec3& p : g.corners(-1e-3 * std::max(g.widthMm, g.heightMm))) {
             push(positions, p);
             bounds.extend(p);
         }
         const std::vector<uint32_t> indices{0, 1, 2, 0, 2, 3};
         objects.push_back({{"name", g.name},
                            {"part", g.name},
-                           {"kind", "detector"},
-                           {"color", hexColour(Color::hex(0xd03030))},
-                           {"opacity", 0.9},
+                           {"kind", grid.kind},
+                           {"color", hexColour(Color::hex(grid.rgb))},
+                           {"opacity", grid.opacity},
                            {"triangles", 2},
                            {"positions", floats(positions)},
                            {"indices", uints(indices)}});

@@ -215,11 +215,7 @@ std::vector<std::filesystem::path> writeTraceFiles(const StrayLightResult& resul
         PreviewOptions all = po;
         DetectorImage asked(img.geometry());
         if (result.layers && n > 0) {
-            for (size_t c = 0; c < n; ++c) {
-                const DetectorImage& im = result.layers->images()[c][d];
-                for (int p = 0; p < im.pixelCount(); ++p)
-                    if (im.flux(p) != 0.0) asked.add(p, im.flux(p));
-            }
+            for (size_t c = 0; c < n; ++c) asked.merge(result.layers->images()[c][d]);
             if (asked.totalFlux() > 0.0) {
                 all.rangeImage = &asked;
                 all.rangeName = n == 1 ? "--where light" : "--where criteria's light";

@@ -128,6 +128,13 @@ struct DetectorGeometry {
     double pixelAreaMm2() const { return pixelWidthMm() * pixelHeightMm(); }
     // Unit normal of the sensitive side, global: the frame's -z axis.
     Vec3 normal() const { return frame.toGlobalDirection(Vec3(0.0, 0.0, -1.0)); }
+    // The grid's corners, global, in order around it (local (-w, -h), (w, -h), (w, h),
+    // (-w, h) over 2), at local z = zMm.
+    std::array<Vec3, 4> corners(double zMm = 0.0) const {
+        const double w = 0.5 * widthMm, h = 0.5 * heightMm;
+        return {frame.toGlobalPoint({-w, -h, zMm}), frame.toGlobalPoint({w, -h, zMm}),
+                frame.toGlobalPoint({w, h, zMm}), frame.toGlobalPoint({-w, h, zMm})};
+    }
 };
 std::ostream& operator<<(std::ostream& os, const DetectorGeometry& g);
 

@@ -632,6 +632,24 @@ class BlockTracer {
         std::memcpy(states_.data() + at, states_.data() + from, p_.stateBytes_);
         return at;
     }
+    // With criteria: a photon's path state anew at its emission by `source` (the arena holds
+    // it alone); the criteria it may still match.
+    uint64_t startPath(size_t source) {
+        states_.assign(p_.stateBytes_, std::byte{0});
+        p_.judge_->reset(states_.data());
+        return p_.judge_->push(states_.data(),
+                               pathEvent(EventType::Emit, static_cast<int>(source), 0, 0, 0));
+    }
+    // Follows every branch on the stack to its end, then books the photon's gathered light.
+    void drain(Photon& ph) {
+        while (!stack_.empty()) {
+            PhotonBranch b = stack_.back();
+            stack_.pop_back();
+            follow(b, ph);
+        }
+        block_.gatheredSum += gathered_;
+        block_.gatheredSquares += gathered_ * gathered_;
+    }
     // The criteria a path of this branch's events and `suffix_` matches.
     uint64_t judged(const PhotonBranch& br) {
         if (br.alive == 0) return uint64_t{0};
@@ -722,10 +740,7 @@ void BlockTracer::tracePartPhoton(uint64_t j) {
     br.specular = true;
     br.designed = st->steps;
     if (p_.judge_) {
-        states_.assign(p_.stateBytes_, std::byte{0});
-        p_.judge_->reset(states_.data());
-        br.alive = p_.judge_->push(
-            states_.data(), pathEvent(EventType::Emit, static_cast<int>(st->source), 0, 0, 0));
+        br.alive = startPath(st->source);
         for (const PathEvent& e : chain)
             if (br.alive != 0) br.alive = p_.judge_->push(states_.data(), e);
         if (p_.prune_ && br.alive == 0) {
@@ -757,13 +772,7 @@ void BlockTracer::tracePartPhoton(uint64_t j) {
         if (p_.judge_) child.state = copyState(br.state);  // the chain's state stays at br.state
         if (becomeOne(child, at, in, c, -1, each, ph, false)) stack_.push_back(child);
     }
-    while (!stack_.empty()) {
-        PhotonBranch b = stack_.back();
-        stack_.pop_back();
-        follow(b, ph);
-    }
-    block_.gatheredSum += gathered_;
-    block_.gatheredSquares += gathered_ * gathered_;
+    drain(ph);
 }
 
 void BlockTracer::tracePhoton(uint64_t i) {
@@ -775,10 +784,7 @@ void BlockTracer::tracePhoton(uint64_t i) {
     stack_.clear();
     PhotonBranch first{e.ray, e.flux, 0, -1, -1, false, false, 0, ph.rouletteFlux};
     if (p_.judge_) {
-        states_.assign(p_.stateBytes_, std::byte{0});
-        p_.judge_->reset(states_.data());
-        first.alive = p_.judge_->push(
-            states_.data(), pathEvent(EventType::Emit, static_cast<int>(ph.source), 0, 0, 0));
+        first.alive = startPath(ph.source);
         if (p_.prune_ && first.alive == 0) {
             ++block_.pruned;
             return;
@@ -789,13 +795,7 @@ void BlockTracer::tracePhoton(uint64_t i) {
     emissionCell_ = ph.emissionCell;
     gathered_ = 0.0;
     vertices_.clear();
-    while (!stack_.empty()) {
-        PhotonBranch br = stack_.back();
-        stack_.pop_back();
-        follow(br, ph);
-    }
-    block_.gatheredSum += gathered_;
-    block_.gatheredSquares += gathered_ * gathered_;
+    drain(ph);
     if (p_.scatterGuide_) {
         block_.scatterLearned[p_.scatterGuide_->totalGatheredBin()] += gathered_;
         block_.scatterLearned[p_.scatterGuide_->emittedBin()] += e.flux;
