@@ -138,9 +138,12 @@ double number(const Token& t, const std::string& what) {
 // A surface as the file gives it, before units and glasses are resolved.
 // A surface's decenter (XDE, YDE, ZDE in lens units; ADE, BDE, CDE in degrees) and its type:
 // basic (this surface and every one after it), DAR (decenter and return: this surface
-// only), BEN (bend: the coordinate system after the surface is tilted once more, a fold).
+// only), BEN (bend: the coordinate system after the surface is tilted once more, a fold), REV
+// (reverse: the basic decenter's operations in reverse order with their signs reversed, tilts
+// about z, y, x first and then the shift, so that the values of a basic decenter given again
+// with REV on a later surface restore the coordinates before it).
 struct Decenter {
-    enum class Type { Basic, DecenterAndReturn, Bend };
+    enum class Type { Basic, DecenterAndReturn, Bend, Reverse };
     Type type = Type::Basic;
     double x = 0.0, y = 0.0, z = 0.0, alpha = 0.0, beta = 0.0, gamma = 0.0;
     bool given() const {
@@ -260,7 +263,14 @@ class CodeVParser {
         in.surface.origin = c.code().loc;
         const double first = number(arg(c, 1, "radius"), code + " radius");
         in.surface.curvature = radiusMode_ ? (first == 0.0 ? 0.0 : 1.0 / first) : first;
-        if (c.tokens.size() > 2) in.surface.thicknessMm = number(c.tokens[2], code + " thickness");
+        if (c.tokens.size() > 2) {
+            // The object distance may be written INF (as some exporters do): infinity, as
+            // 1e10 lens units and more are.
+            const std::string t = upper(c.tokens[2].text);
+            in.surface.thicknessMm = code == "SO" && (t == "INF" || t == "INFINITY")
+                                         ? kInfinity
+                                         : number(c.tokens[2], code + " thickness");
+        }
         if (c.tokens.size() > 3) {
             if (upper(c.tokens[3].text) == "REFL")
                 in.reflect = true;
@@ -478,11 +488,12 @@ class CodeVParser {
              : code == "ADE" ? d.alpha
              : code == "BDE" ? d.beta
                              : d.gamma) = v;
-        } else if (code == "DAR" || code == "BEN") {
+        } else if (code == "DAR" || code == "BEN" || code == "REV") {
             auto [s, i] = target(c);
             (void)i;
-            s->decenter.type = code == "DAR" ? Decenter::Type::DecenterAndReturn
-                                             : Decenter::Type::Bend;
+            s->decenter.type = code == "DAR"   ? Decenter::Type::DecenterAndReturn
+                               : code == "BEN" ? Decenter::Type::Bend
+                                               : Decenter::Type::Reverse;
         } else {
             return false;
         }
@@ -493,13 +504,13 @@ class CodeVParser {
     // lens.
     void otherCommand(const Command& c, const std::string& code, const std::string& full) {
         const Token& codeToken = c.code();
-        if (code == "REV" || code == "RET") {
+        if (code == "RET") {
             auto [s, i] = target(c);
             (void)i;
             note(Severity::Error, codeToken.loc,
-                 code + (code == "REV" ? " (reverse decenter)" : " (return to a surface's coordinates)") +
-                     " is not supported by veil (surface " +
-                     std::to_string(s - surfaces_.data()) + "): only basic decenters, DAR and BEN");
+                 "RET (return to a surface's coordinates) is not supported by veil (surface " +
+                     std::to_string(s - surfaces_.data()) +
+                     "): only basic decenters, DAR, BEN and REV");
         } else if (code == "XTO" || code == "YTO" || code == "AAS" || code == "CYL" ||
                    code == "SPS" || code == "RDX" || code == "CUX") {
             unsupportedSurface(c, "surface profile " + full);
@@ -653,11 +664,25 @@ class CodeVParser {
     // and every surface after it (ZDE lengthens the gap before). DAR: the same break before
     // it and its inverse after it, which carries its thickness, measured from the returned
     // (undecentered) vertex. BEN: after the surface a break that tilts once more, as a fold.
+    // REV: before it the break that undoes a basic decenter of the same values (every value
+    // negated, tilts first), and the shift along z, negated too, after the tilts: a distance
+    // from that break to the surface.
     void buildSurfaces() {
         for (size_t i = 0; i < surfaces_.size(); ++i) {
             Surface s = std::move(surfaces_[i].surface);
             const Decenter& d = surfaces_[i].decenter;
             if (i == 0 || !d.given()) {
+                rx_.surfaces.push_back(std::move(s));
+                continue;
+            }
+            if (d.type == Decenter::Type::Reverse) {
+                Surface in;
+                in.coordinateBreak = CoordinateBreak{-d.x, -d.y, -d.alpha, -d.beta, -d.gamma, true};
+                in.thicknessMm = -d.z;
+                in.material = rx_.surfaces.back().material;
+                in.origin = s.origin;
+                in.comment = "reverse decenter (REV) of the next surface";
+                rx_.surfaces.push_back(std::move(in));
                 rx_.surfaces.push_back(std::move(s));
                 continue;
             }

@@ -160,9 +160,10 @@ TEST(CodeVReader, ImageHeightFieldsInLensUnits) {
 TEST(CodeVReader, WhatVeilCannotRepresentIsAnErrorAtItsLine) {
     const std::string text =
         "RDM;LEN\nEPD 10\nWL 550\nYAN 0\nSO 0 1e11\nS 50 5 NBK7_SCHOTT\n  STO\n"
-        "S -50 40\n  REV\n  XTO\nS 0 1 UNOBTAINIUM_SCHOTT\nFROB 1\nSI 0 0\nGO\n";
+        "S -50 40\n  RET S1\n  XTO\nS 0 1 UNOBTAINIUM_SCHOTT\nFROB 1\nSI 0 0\nGO\n";
     const Prescription rx = readCodeVText(text, "bad.seq", GlassCatalog::builtIn());
-    const ImportNote* decenter = findNote(rx, "REV (reverse decenter) is not supported");
+    const ImportNote* decenter =
+        findNote(rx, "RET (return to a surface's coordinates) is not supported");
     ASSERT_NE(decenter, nullptr) << reportText(rx);
     EXPECT_EQ(decenter->severity, ImportNote::Severity::Error);
     EXPECT_EQ(decenter->loc.line, 9);

@@ -85,5 +85,38 @@ TEST(CodeVImport, BentMirrorFoldsTheFocus) {
     }
 }
 
+// REV undoes a basic decenter of the same values: a dummy shifted and tilted (YDE, ADE, BDE,
+// ZDE), then a dummy with the same values and REV, then a singlet: the frames after REV are
+// the centred ones again, while the basic decenter alone leaves the axis turned.
+TEST(CodeVImport, ReverseDecenterRestoresTheAxis) {
+    auto model = [](const std::string& front, const std::string& back) {
+        const std::string text =
+            "RDM;LEN\nEPD 10\nWL 587.56\nYAN 0 3\nSO 0 1e11\n"
+            "S 0 15\n  STO\nS 0 0\n" +
+            front + "S 0 0\n" + back + "S 60 5 1.6:0\nS -250 80\nSI 0 0\nGO\n";
+        const Prescription p = readCodeVText(text, "rev.seq", GlassCatalog::builtIn());
+        for (const ImportNote& n : p.report)
+            EXPECT_NE(n.severity, ImportNote::Severity::Error) << n;
+        return SequentialModel::build(p, GlassCatalog::builtIn());
+    };
+    const std::string values = "YDE 0.4; ADE 2.5; BDE -1.5; ZDE 0.3\n";
+    const SequentialModel reversed = model("  " + values, "  REV; " + values);
+    EXPECT_FALSE(reversed.coaxial());
+    // The front face's frame is turned; the last faces' frames are the centred ones, shifted
+    // along z by the dummy's thickness only.
+    const int image = reversed.imageIndex();
+    const Frame& f = reversed.surface(image).frame;
+    EXPECT_NEAR(f.translation.x, 0.0, 1e-12);
+    EXPECT_NEAR(f.translation.y, 0.0, 1e-12);
+    EXPECT_NEAR(f.translation.z, 15.0 + 5.0 + 80.0, 1e-12);
+    const Vec3 z = reversed.surface(image).toGlobalDirection(Vec3(0.0, 0.0, 1.0));
+    EXPECT_NEAR(z.x, 0.0, 1e-15);
+    EXPECT_NEAR(z.y, 0.0, 1e-15);
+    // A basic decenter without REV leaves the axis turned.
+    const SequentialModel basic = model("  " + values, "");
+    const Vec3 zb = basic.surface(basic.imageIndex()).toGlobalDirection(Vec3(0.0, 0.0, 1.0));
+    EXPECT_GT(std::hypot(zb.x, zb.y), 0.03);
+}
+
 }  // namespace
 }  // namespace veil
