@@ -100,19 +100,21 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
                     "options");
     sub->add_option("--detector", o.detector, "the detector to render (default: the first)");
     sub->add_option("--photons", o.photons,
-                    "photons per source per pass: auto (100000 in the first pass, then as many "
-                    "as make their work that of the view points, at most 4M) or a count for "
-                    "every pass (20000, 2e4, 20k, 2M)")
+                    "photons per source per pass: auto (100000 in the first pass, as many as "
+                    "make their work that of the view points in the second, then as many as "
+                    "spend the time where the --target-on image's error comes from, at most "
+                    "4M), work (as many as make their work that of the view points in every "
+                    "pass) or a count for every pass (20000, 2e4, 20k, 2M)")
         ->check(CLI::Validator(
             [](std::string& s) -> std::string {
-                if (s == "auto") return {};
+                if (s == "auto" || s == "work") return {};
                 std::string error;
                 const auto n = parseCount(s, &error);
-                if (!n) return "--photons takes auto or a count: " + error;
+                if (!n) return "--photons takes auto, work or a count: " + error;
                 if (*n < 1) return "--photons must be at least 1";
                 return {};
             },
-            "auto|N"))
+            "auto|work|N"))
         ->capture_default_str();
     addCount(sub, "--ghost-photons", o.ghostPhotons,
              "of those, how many follow every specular branch and deposit the sources' visible "
@@ -247,8 +249,9 @@ RenderRunSpec renderSpec(const RenderCommandOptions& o) {
         throw ParseError({"--resume", 1, 1}, o.resume + " holds no " + kCheckpoint + " to continue");
     RenderOptions& ro = spec.options;
     ro.raysPerPixel = o.raysPerPixel;
-    if (o.photons == "auto") {
+    if (o.photons == "auto" || o.photons == "work") {
         ro.balancePhotons = true;
+        ro.balancePhotonsByError = o.photons == "auto";
     } else {
         ro.photonsPerPass = *parseCount(o.photons, nullptr);
     }

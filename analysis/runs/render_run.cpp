@@ -43,7 +43,8 @@ uint64_t fingerprintOf(const TransportView& ts, const DetectorGeometry& g, const
        << " " << o.balancePhotons << " " << o.maxPhotonsPerPass << " " << o.connectThroughLens
        << " " << o.partSamples << " " << o.photonGuideFraction << " " << o.scatterGuideFraction
        << " " << o.weightWindow << " " << o.visiblePhotonsPerPass << " " << o.balanceVisible << " "
-       << o.splatLobesBelowDeg << " " << o.lobeSplats << " " << o.partPhotons;
+       << o.splatLobesBelowDeg << " " << o.lobeSplats << " " << o.partPhotons << " "
+       << o.balancePhotonsByError;
     for (const std::string& w : where) os << "\nwhere " << w;
     const std::string text = os.str();
     uint64_t h = 1469598103934665603ull;
@@ -81,6 +82,27 @@ uint64_t nextVisiblePhotons(const RenderState& state, const RenderTarget& target
     const DetectorImage v = state.component(RenderComponent::Visible);
     return balancedVisiblePhotons(o, pass, target.stray ? state.strayLight() : state.total(), &v, k,
                                   inverse);
+}
+
+// The photons per source of the next pass (balancedPhotonsByError) for the target's error:
+// its image and the pass's photon halves of the same light. A target the photons do not
+// gather for (the visible or the direct component) keeps the balance by work.
+uint64_t nextPhotons(const RenderState& state, const RenderTarget& target, const RenderOptions& o,
+                     const RenderPass& pass) {
+    const int k = state.passes();
+    if (target.component) {
+        if (*target.component == RenderComponent::Visible ||
+            *target.component == RenderComponent::Direct)
+            return pass.nextPhotonsPerSource;
+        return balancedPhotonsByError(o, pass, state.component(*target.component),
+                                      pass.photonParity, k);
+    }
+    if (target.criterion >= 0)
+        return balancedPhotonsByError(
+            o, pass, state.criterionTotal(target.criterion),
+            pass.criteriaPhotonParity.at(static_cast<size_t>(target.criterion)), k);
+    return balancedPhotonsByError(o, pass, target.stray ? state.strayLight() : state.total(),
+                                  pass.photonParity, k);
 }
 
 std::string percent(double relativeError) {
@@ -230,6 +252,13 @@ RenderResult RenderRun::run(const std::function<void(const RenderPassEvent&)>& o
             ranks.broadcast(bytes);
             state_.setVisiblePhotons(ByteReader(bytes).get<uint64_t>());
         }
+        if (spec_.options.balancePhotons && spec_.options.balancePhotonsByError) {
+            ByteWriter w;
+            if (ranks.root()) w.put(nextPhotons(state_, spec_.stop.target, spec_.options, pass));
+            Bytes bytes = w.take();
+            ranks.broadcast(bytes);
+            state_.setPhotonsPerPass(ByteReader(bytes).get<uint64_t>());
+        }
         if (!ranks.root()) continue;
         if (!spec_.checkpoint.empty()) state_.write(spec_.checkpoint, fingerprint_);
         r.photons += pass.photons;
@@ -361,26 +390,28 @@ nlohmann::json RenderResult::summary() const {
                             {"rank0_bytes_received", traffic.received},
                             {"rank0_bytes_sent", traffic.sent},
                             {"rank0_seconds_in_mpi", traffic.seconds}};
-    summary["options"] = {{"rays_per_pixel", ro.raysPerPixel},
-                          {"photons_per_source_per_pass", ro.photonsPerPass},
-                          {"balanced_photons", ro.balancePhotons},
-                          {"max_photons_per_source_per_pass", ro.maxPhotonsPerPass},
-                          {"ghost_photons_per_source_per_pass", ro.ghostPhotons()},
-                          {"visible_photons_per_source_per_pass", ro.visiblePhotonsPerPass},
-                          {"balanced_visible_photons", ro.balanceVisible},
-                          {"initial_radius_mm", ro.initialRadiusMm},
-                          {"alpha", ro.alpha},
-                          {"roulette", ro.rouletteRelativeFlux},
-                          {"area_samples", ro.areaSamples},
-                          {"guide", ro.guideFraction},
-                          {"photon_guide", ro.photonGuideFraction},
-                          {"follow_lobes_below_deg", ro.followLobesBelowDeg},
-                          {"connect_through_lens", ro.connectThroughLens},
-                          {"part_samples_per_pass", ro.partSamples},
-                          {"splat_lobes_below_deg", ro.splatLobesBelowDeg},
-                          {"lobe_splats", ro.lobeSplats},
-                          {"part_photons_per_pass", ro.partPhotons},
-                          {"photon_points", ro.quasiRandomPhotons ? "sobol" : "random"}};
+    summary["options"] = {
+        {"rays_per_pixel", ro.raysPerPixel},
+        {"photons_per_source_per_pass", ro.photonsPerPass},
+        {"balanced_photons", ro.balancePhotons},
+        {"photons_balanced_by_error", ro.balancePhotons && ro.balancePhotonsByError},
+        {"max_photons_per_source_per_pass", ro.maxPhotonsPerPass},
+        {"ghost_photons_per_source_per_pass", ro.ghostPhotons()},
+        {"visible_photons_per_source_per_pass", ro.visiblePhotonsPerPass},
+        {"balanced_visible_photons", ro.balanceVisible},
+        {"initial_radius_mm", ro.initialRadiusMm},
+        {"alpha", ro.alpha},
+        {"roulette", ro.rouletteRelativeFlux},
+        {"area_samples", ro.areaSamples},
+        {"guide", ro.guideFraction},
+        {"photon_guide", ro.photonGuideFraction},
+        {"follow_lobes_below_deg", ro.followLobesBelowDeg},
+        {"connect_through_lens", ro.connectThroughLens},
+        {"part_samples_per_pass", ro.partSamples},
+        {"splat_lobes_below_deg", ro.splatLobesBelowDeg},
+        {"lobe_splats", ro.lobeSplats},
+        {"part_photons_per_pass", ro.partPhotons},
+        {"photon_points", ro.quasiRandomPhotons ? "sobol" : "random"}};
     summary["final_radius_mm"] = state.radiusMm();
     summary["photons_per_source_last_pass"] = lastPhotonsPerSource;
     summary["visible_photons_per_source_last_pass"] = lastVisiblePerSource;
@@ -556,8 +587,10 @@ std::string RenderResult::text(const std::string& folder) const {
     text << ")\n";
     text << "  radius " << ro.initialRadiusMm << " mm -> " << state.radiusMm() << " mm, ";
     if (ro.balancePhotons && lastPhotonsPerSource != ro.photonsPerPass)
-        text << "photons per source balanced against the view points (" << ro.photonsPerPass
-             << " in the first pass, " << lastPhotonsPerSource << " in the last)";
+        text << "photons per source balanced against "
+             << (ro.balancePhotonsByError ? "the target's error" : "the view points") << " ("
+             << ro.photonsPerPass << " in the first pass, " << lastPhotonsPerSource
+             << " in the last)";
     else
         text << ro.photonsPerPass << " photons per source";
     text << " and " << ro.raysPerPixel << " rays per pixel per pass";

@@ -206,10 +206,10 @@ TEST(RenderCommand, BadInputStopsBeforeAnyPass) {
     r = runVeil("render " + kSun + " --alpha 1.5 -o " + dir);
     EXPECT_EQ(r.exitCode, 2);
     EXPECT_FALSE(std::filesystem::exists(dir));
-    // --photons takes auto or a count, nothing else.
+    // --photons takes auto, work or a count, nothing else.
     r = runVeil("render " + kSun + " --photons lots -o " + dir);
     EXPECT_EQ(r.exitCode, 2);
-    EXPECT_NE(r.err.find("--photons takes auto or a count: 'lots' is not a whole number"),
+    EXPECT_NE(r.err.find("--photons takes auto, work or a count: 'lots' is not a whole number"),
               std::string::npos)
         << r.err;
     r = runVeil("render " + kSun + " --photons 0 -o " + dir);

@@ -116,11 +116,14 @@ struct PhotonBranch {
     int scatterVertex = -1;  // with a scatter guide: its last scatter (BlockTracer::vertices_)
 };
 
-// A block's photons keep what they deposit as a log, image by image in order (image 0..4 the
-// plain visible, caustic and secondary light, the gathered light within half the radius and
-// the image-forming light, 5 + 4 k + slot criterion k's), added to the
+// A block's photons keep what they deposit as a log, image by image in order (image 0..5 the
+// plain visible, caustic and secondary light, the gathered light within half the radius, the
+// image-forming light and the photon halves' difference, kPlainImages + kCriterionImages k +
+// slot criterion k's, slots 0..3 and 5 as the plain ones), added to the
 // pass's images in block order (tracer/runtime/ordered_blocks.h): bitwise the same images for
 // every thread count, memory with the gathers of a few blocks, not images per block.
+constexpr uint32_t kPlainImages = 6, kCriterionImages = 5;
+constexpr uint32_t kParityImage = 5;
 struct Deposit {
     uint32_t image;
     int pixel;
@@ -496,8 +499,9 @@ PhotonImages PhotonPass::emptyImages() const {
     result.secondary.assign(pixels, 0.0);
     result.gatheredHalf.assign(pixels, 0.0);
     result.imageForming.assign(pixels, 0.0);
-    result.by.assign(criteria_,
-                     {result.visible, result.caustic, result.secondary, result.gatheredHalf});
+    result.parity.assign(pixels, 0.0);
+    result.by.assign(criteria_, {result.visible, result.caustic, result.secondary,
+                                 result.gatheredHalf, result.parity});
     result.learned.assign(back_.learned.size(), 0.0);
     if (emissionGuide_) result.emissionLearned.assign(emissionGuide_->bins(), 0.0);
     if (scatterGuide_) result.scatterLearned.assign(scatterGuide_->bins(), 0.0);
@@ -505,16 +509,18 @@ PhotonImages PhotonPass::emptyImages() const {
 }
 
 void PhotonPass::add(const PhotonBlock& b, PhotonImages& result) {
-    std::vector<double>* images[5] = {&result.visible, &result.caustic, &result.secondary,
-                                      &result.gatheredHalf, &result.imageForming};
-    for (const Deposit& d : b.deposits) {
-        std::vector<double>& image =
-            d.image < 5 ? *images[d.image] : result.by[(d.image - 5) / 4][(d.image - 5) % 4];
-        image[static_cast<size_t>(d.pixel)] += d.value;
-    }
+    std::vector<double>* images[kPlainImages] = {&result.visible,      &result.caustic,
+                                                 &result.secondary,    &result.gatheredHalf,
+                                                 &result.imageForming, &result.parity};
+    auto imageOf = [&](size_t i) -> std::vector<double>& {
+        if (i < kPlainImages) return *images[i];
+        const size_t j = i - kPlainImages;
+        return result.by[j / kCriterionImages][j % kCriterionImages];
+    };
+    for (const Deposit& d : b.deposits) imageOf(d.image)[static_cast<size_t>(d.pixel)] += d.value;
     for (size_t i = 0; i < b.dense.size(); ++i) {
         if (b.dense[i].empty()) continue;
-        std::vector<double>& image = i < 5 ? *images[i] : result.by[(i - 5) / 4][(i - 5) % 4];
+        std::vector<double>& image = imageOf(i);
         for (size_t p = 0; p < image.size(); ++p) image[p] += b.dense[i][p];
     }
     for (size_t p = 0; p < result.learned.size(); ++p) result.learned[p] += b.learned[p];
@@ -669,6 +675,9 @@ class BlockTracer {
     size_t source_ = 0;
     int emissionCell_ = -1;
     double gathered_ = 0.0;
+    // +1 for the photons beyond the ghost photons of even index, -1 for the odd ones, 0 for
+    // the ghost and the part photons (PhotonImages::parity).
+    double parity_ = 1.0;
     // With a scatter guide: the photon's scatters (its scatter guide bin, the scatter before
     // it on the same branch, -1 for none), and the last one of the branch gathering now.
     struct ScatterVertex {
@@ -682,17 +691,17 @@ class BlockTracer {
 
 void BlockTracer::book(int slot, uint64_t matched, const std::vector<int>* spread, int pixel,
                        double value, bool dense) {
-    auto into = [&](uint32_t image) {
+    auto into = [&](uint32_t image, double v) {
         if (dense) {
             if (block_.dense.size() <= image) block_.dense.resize(image + 1);
             std::vector<double>& d = block_.dense[image];
             if (d.empty()) d.assign(static_cast<size_t>(p_.detector_.pixelCount()), 0.0);
-            d[static_cast<size_t>(pixel)] += value;
+            d[static_cast<size_t>(pixel)] += v;
         } else if (spread) {
-            const double share = value / static_cast<double>(spread->size());
+            const double share = v / static_cast<double>(spread->size());
             for (int px : *spread) block_.deposits.push_back({image, px, share});
         } else {
-            block_.deposits.push_back({image, pixel, value});
+            block_.deposits.push_back({image, pixel, v});
         }
     };
     if (!spread && (slot == 1 || slot == 2)) {
@@ -710,9 +719,19 @@ void BlockTracer::book(int slot, uint64_t matched, const std::vector<int>* sprea
             }
         }
     }
-    if (!p_.prune_ || matched != 0) into(static_cast<uint32_t>(slot));
-    for (uint64_t m = matched; m != 0; m &= m - 1)
-        if (slot < 4) into(static_cast<uint32_t>(5 + 4 * std::countr_zero(m) + slot));
+    // The gathered light again, signed by the photon's half (PhotonImages::parity).
+    const bool halves = (slot == 1 || slot == 2) && parity_ != 0.0;
+    const double signed_ = parity_ * value;
+    if (!p_.prune_ || matched != 0) {
+        into(static_cast<uint32_t>(slot), value);
+        if (halves) into(kParityImage, signed_);
+    }
+    for (uint64_t m = matched; m != 0; m &= m - 1) {
+        const uint32_t first =
+            kPlainImages + kCriterionImages * static_cast<uint32_t>(std::countr_zero(m));
+        if (slot < 4) into(first + static_cast<uint32_t>(slot), value);
+        if (halves) into(first + 4, signed_);
+    }
 }
 
 void BlockTracer::tracePartPhoton(uint64_t j) {
@@ -724,6 +743,7 @@ void BlockTracer::tracePartPhoton(uint64_t j) {
     block_.segments += work.rays;
     if (!st) return;
     Photon ph{CounterRng(p_.partSeed_ ^ 0x5ca77e7ULL, j)};
+    parity_ = 0.0;  // a fixed count: not the balance's (PhotonImages::parity)
     ph.source = st->source;
     ph.wavelength = st->line;
     ph.wavelengthNm = st->wavelengthNm;
@@ -779,6 +799,8 @@ void BlockTracer::tracePhoton(uint64_t i) {
     if (i >= p_.withVisible()) return tracePartPhoton(i - p_.withVisible());
     EmittedRay e;
     Photon ph = p_.emit(i, e);
+    // The ghost photons' count is fixed: only the others' halves (PhotonImages::parity).
+    parity_ = ph.splitAll ? 0.0 : (i & 1) != 0 ? -1.0 : 1.0;
     ++block_.photons;
     if (!(e.flux > 0.0)) return;
     stack_.clear();

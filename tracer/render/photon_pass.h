@@ -60,8 +60,15 @@ struct PhotonImages {
     // The part of `visible` that crossed the lens as designed (DesignedPath): the sources'
     // image-forming light.
     std::vector<double> imageForming;
-    // With criteria: [criterion] {visible, caustic, secondary, gatheredHalf}.
-    std::vector<std::array<std::vector<double>, 4>> by;
+    // The gathered light (caustic and secondary, splats included) of the photons beyond the
+    // ghost photons (the ones the photon balance scales) of even index minus that of the odd
+    // ones: an image whose square estimates the variance those photons give the pass's
+    // gathered light (each half, twice its light, differs from the other by twice this; the
+    // variance of their mean is a quarter of that difference's square). The photon balance
+    // weighs it against the rest (balancedPhotonsByError, render.h).
+    std::vector<double> parity;
+    // With criteria: [criterion] {visible, caustic, secondary, gatheredHalf, parity}.
+    std::vector<std::array<std::vector<double>, 5>> by;
     // With a guide (back.learned not empty): the gathered light per guide bin of its view
     // points (tracer/render/aperture_guide.h).
     std::vector<double> learned;

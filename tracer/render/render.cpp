@@ -794,6 +794,49 @@ uint64_t balancedPhotons(const RenderOptions& o, const RenderPass& pass) {
     return ghost + static_cast<uint64_t>(next);
 }
 
+uint64_t balancedPhotonsByError(const RenderOptions& o, const RenderPass& pass,
+                                const DetectorImage& target, const std::vector<double>& parity,
+                                int passes) {
+    const uint64_t byWork = balancedPhotons(o, pass);
+    const uint64_t n = pass.photonsPerSource;
+    const uint64_t ghost = std::min(o.ghostPhotonsPerPass, n);
+    const uint64_t others = n - ghost;
+    const uint64_t otherWork =
+        pass.photonWork - std::min(pass.ghostWork + pass.visibleWork, pass.photonWork);
+    const int pixels = target.pixelCount();
+    if (passes < 2 || others == 0 || otherWork == 0 || parity.size() != static_cast<size_t>(pixels))
+        return byWork;
+    const double threshold = RenderState::kLitFraction * target.totalFlux() / pixels;
+    const auto k = static_cast<uint64_t>(passes);
+    // Per pass: the variance of a pixel is passes x that of its mean; the photons' share,
+    // parity^2.
+    double a = 0.0, total = 0.0;
+    for (int p = 0; p < pixels; ++p) {
+        const double mean = target.flux(p);
+        if (!(mean > 0.0) || mean < threshold) continue;
+        const double var = target.pixelVariance(p, k);
+        if (!(var > 0.0)) continue;
+        const double w = 1.0 / (std::sqrt(var) * mean);
+        const double d = parity[static_cast<size_t>(p)];
+        a += w * d * d;
+        total += w * var * static_cast<double>(k);
+    }
+    // The rest: what the photons leave of the spread, at least a tenth of it (one pass's
+    // photon halves are a noisy measure of their share).
+    const double b = std::max(total - a, 0.1 * total);
+    if (!(a > 0.0) || !(b > 0.0)) return byWork;
+    const double tp = static_cast<double>(otherWork);
+    const double tr = static_cast<double>(pass.viewPointWork + pass.photonWork) - tp;
+    if (!(tr > 0.0)) return byWork;
+    // Now T_p / T_r = tp / tr; the best, sqrt(a / b): halfway there in the logarithm.
+    const double step = std::sqrt(std::sqrt(a * tr / (b * tp)));
+    const uint64_t most = std::max(o.maxPhotonsPerPass, ghost + kMinBalancedPhotons) - ghost;
+    const double next =
+        std::clamp(std::round(static_cast<double>(others) * std::clamp(step, 0.25, 4.0)),
+                   static_cast<double>(kMinBalancedPhotons), static_cast<double>(most));
+    return ghost + static_cast<uint64_t>(next);
+}
+
 uint64_t balancedVisiblePhotons(const RenderOptions& o, const RenderPass& pass,
                                 const DetectorImage& target, const DetectorImage* visible,
                                 int passes, double inverseSum) {
@@ -925,8 +968,10 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
     out.imageForming = back.imageForming.fluxes();
     for (int p = 0; p < pixels; ++p)
         out.imageForming[static_cast<size_t>(p)] += acc.imageForming[static_cast<size_t>(p)];
+    out.photonParity = std::move(acc.parity);
     out.criteria.resize(criteria);
     out.criteriaGatheredHalf.resize(criteria);
+    out.criteriaPhotonParity.resize(criteria);
     for (size_t c = 0; c < criteria; ++c) {
         auto& x = out.criteria[c];
         x[static_cast<int>(RenderComponent::Visible)] = std::move(back.visibleByCriterion[c]);
@@ -941,6 +986,7 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
             x[static_cast<int>(RenderComponent::Secondary)][i] += back.secondaryByCriterion[c][i];
         }
         out.criteriaGatheredHalf[c] = std::move(acc.by[c][3]);
+        out.criteriaPhotonParity[c] = std::move(acc.by[c][4]);
         for (int p = 0; p < pixels; ++p) {
             const size_t i = static_cast<size_t>(p);
             out.criteriaGatheredHalf[c][i] +=

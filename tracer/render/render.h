@@ -82,6 +82,11 @@ struct RenderPass {
     // plain, and per criterion.
     std::vector<double> gatheredHalf;
     std::vector<std::vector<double>> criteriaGatheredHalf;
+    // The photons' share of the pass's noise: their gathered light, even photons' minus odd
+    // photons' (PhotonImages::parity), plain and per criterion. Its square estimates the
+    // variance the photons give each pixel (balancedPhotonsByError).
+    std::vector<double> photonParity;
+    std::vector<std::vector<double>> criteriaPhotonParity;
     // The part of the visible light that crossed the lens as designed
     // (tracer/render/designed_path.h): the sources' image-forming light. The rest of the total
     // is stray light.
@@ -141,6 +146,23 @@ ExitAperture exitApertureFor(const Scene& scene, const DetectorGeometry& detecto
 // per unit of time (docs/render.md, "Photons balanced against view points").
 inline constexpr uint64_t kMinBalancedPhotons = 4096;
 uint64_t balancedPhotons(const RenderOptions& options, const RenderPass& pass);
+
+// The photons per source for the pass after `pass` that spend the pass's time where the error
+// of `target` (a mean over `passes` passes, with its variances) comes from, once two passes
+// have given it a variance: the photons' share of each pixel's variance per pass (the square
+// of `parity`, the pass's image of the same light's photon halves, RenderPass::photonParity)
+// against the rest (the passes' spread less that share), each pixel weighted by 1 / (its
+// standard error x its light) as for the visible photons below. Time T_p on the photons beyond
+// the ghost photons and T_r on the rest of the pass (view points, ghost and visible photons)
+// leave a variance a / T_p + b / T_r at best when T_p / T_r = sqrt(a / b); the step moves the
+// split to the geometric mean of now and that, by at most 4x either way, within the bounds
+// of balancedPhotons. Before two passes, or where the target holds no gathered light or no
+// spread: balancedPhotons (the work of the two sides evened out). The photons' count changes
+// only the noise per unit of time: every pass stays unbiased (docs/render.md, "Photons
+// balanced against the error").
+uint64_t balancedPhotonsByError(const RenderOptions& options, const RenderPass& pass,
+                                const DetectorImage& target, const std::vector<double>& parity,
+                                int passes);
 
 // The visible photons per source for the pass after `pass` that spend the pass's time where
 // the error of `target` (a mean over `passes` passes, with its variances) comes from: the
@@ -293,6 +315,9 @@ class RenderState {
     // passes of 1 / (ghost + visible photons per source) that balancing reads.
     int64_t visiblePhotons() const { return visiblePhotons_; }
     void setVisiblePhotons(uint64_t n) { visiblePhotons_ = static_cast<int64_t>(n); }
+    // Sets the photons per source of the next pass (the run's balance by the target's error,
+    // balancedPhotonsByError, in place of the pass's own by work).
+    void setPhotonsPerPass(uint64_t n) { photonsPerPass_ = n; }
     double visibleInverseSum() const { return visibleInverseSum_; }
 
   private:

@@ -15,6 +15,10 @@ struct RenderOptions {
     // many photons per source as make their work about that of the view points' side, up to
     // maxPhotonsPerPass; off: photonsPerPass in every pass.
     bool balancePhotons = false;
+    // With balancePhotons: from the third pass on, the photons follow the target's error
+    // instead (balancedPhotonsByError, set by the run after each pass): as many as spend the
+    // pass's time where that error comes from.
+    bool balancePhotonsByError = false;
     uint64_t maxPhotonsPerPass = 4000000;
     double initialRadiusMm = 0.0;      // r_1; 0: defaultInitialRadius()
     double alpha = 2.0 / 3.0;          // radius reduction, in (0, 1)

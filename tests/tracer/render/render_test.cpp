@@ -1248,6 +1248,106 @@ TEST(Render, BalancedVisiblePhotonsFollowTheTargetsError) {
     EXPECT_EQ(balancedVisiblePhotons(o, pass, one, &dark, 1, inverse), 16384u);
 }
 
+TEST(Render, BalancedPhotonsFollowTheTargetsError) {
+    RenderOptions o;
+    o.maxPhotonsPerPass = 4000000;
+    o.ghostPhotonsPerPass = 16384;
+    RenderPass pass;
+    pass.photonsPerSource = 16384 + 100000;  // 100k beyond the ghost photons
+    pass.viewPointWork = 3000000;
+    pass.photonWork = 2000000;  // of which the ghost and visible photons' 1e6: T_p / T_r = 1 / 4
+    pass.ghostWork = 500000;
+    pass.visibleWork = 500000;
+    const int k = 4;
+    // Two pixels of equal light whose variance per pass is 4 x 0.01; the photons' share of it
+    // s, as their halves' difference d, d^2 = 0.04 s.
+    auto next = [&](double share) {
+        const DetectorImage target = meanImage({1.0, 1.0}, {0.01, 0.01}, k);
+        const double d = std::sqrt(0.04 * share);
+        return balancedPhotonsByError(o, pass, target, {d, -d}, k) - 16384;
+    };
+    // At the best split the variance shares are the time shares: a / b = T_p / T_r.
+    EXPECT_EQ(next(0.2), 100000u);
+    // a / b = 1 against 1 / 4: the best is 2x the time; halfway in the logarithm, sqrt(2).
+    EXPECT_EQ(next(0.5), uint64_t(std::round(100000 * std::sqrt(2.0))));
+    // a / b = 1 / 16: half the time; halfway, 1 / sqrt(2).
+    EXPECT_EQ(next(1.0 / 17.0), uint64_t(std::round(100000 / std::sqrt(2.0))));
+    // All of it: the rest is taken as at least a tenth (one pass's halves are noisy), a / b =
+    // 10, (10 x 4)^(1/4).
+    EXPECT_EQ(next(1.0), uint64_t(std::round(100000 * std::pow(40.0, 0.25))));
+    // No gathered light in the target's error, one pass, no spread, or no photons beyond the
+    // ghost photons: the balance by work (its room 3e6 - 1e6 against their 1e6: 2x).
+    EXPECT_EQ(next(0.0), 200000u);
+    EXPECT_EQ(balancedPhotons(o, pass) - 16384, 200000u);
+    const DetectorImage one = meanImage({1.0, 1.0}, {0.0, 0.0}, 1);
+    EXPECT_EQ(balancedPhotonsByError(o, pass, one, {0.1, 0.1}, 1), balancedPhotons(o, pass));
+    const DetectorImage flat = meanImage({1.0, 1.0}, {0.0, 0.0}, k);
+    EXPECT_EQ(balancedPhotonsByError(o, pass, flat, {0.1, 0.1}, k), balancedPhotons(o, pass));
+    EXPECT_EQ(balancedPhotonsByError(o, pass, meanImage({1.0, 1.0}, {0.01, 0.01}, k), {0.1}, k),
+              balancedPhotons(o, pass));
+    // 4x at most a pass, and within the bounds.
+    pass.viewPointWork = 300000000;
+    EXPECT_EQ(next(0.5), 400000u);
+    o.maxPhotonsPerPass = 16384 + 250000;
+    EXPECT_EQ(next(0.5), 250000u);
+    o.maxPhotonsPerPass = 4000000;
+    pass.viewPointWork = 30000;
+    pass.photonWork = 200000000;
+    pass.ghostWork = 500000;
+    pass.visibleWork = 500000;
+    EXPECT_EQ(next(1.0 / 17.0), 25000u);
+    pass.photonsPerSource = 16384 + 5000;
+    EXPECT_EQ(next(1.0 / 17.0), kMinBalancedPhotons);
+}
+
+// The photon halves (RenderPass::photonParity): the square of their difference estimates the
+// variance the photons give the gathered light, which the photon balance weighs against the
+// rest. With 1000 photons and 1024 rays per pixel the view points add about a sixth of the
+// passes' spread of the gathered flux (measured at 32000 photons: 1.2e-8 of spread, 1.5e-9 of
+// it the photons'), so the mean squared difference is most of the spread (0.94 of it as run);
+// and it falls as 1 / N with the photons (44x for 32x as run, each a mean of 80 squares).
+TEST(Render, PhotonHalvesMeasureThePhotonsShareOfTheVariance) {
+    WindowScene w;
+    w.wall = true;  // twice-scattered light too
+    const auto s = windowPlateScene(w);
+    auto run = [&](uint64_t photons, int passes) {
+        RenderOptions o;
+        o.raysPerPixel = 1024;
+        o.photonsPerPass = photons;
+        o.ghostPhotonsPerPass = 1;  // all but one photon are ones the balance scales
+        o.quasiRandomPhotons = false;
+        o.initialRadiusMm = 4.0;
+        o.alpha = 0.99;  // the radius all but fixed: the passes alike
+        const Renderer renderer(s->transport().view, s->transport().images[0], plateAperture(), o);
+        std::vector<double> gathered, halves;
+        for (int k = 1; k <= passes; ++k) {
+            const RenderPass pass = renderer.runPass(k, o.initialRadiusMm, {}, 0);
+            double g = 0.0, d = 0.0;
+            for (size_t p = 0; p < pass.photonParity.size(); ++p) {
+                g += pass.pixels[static_cast<int>(RenderComponent::Caustic)][p] +
+                     pass.pixels[static_cast<int>(RenderComponent::Secondary)][p];
+                d += pass.photonParity[p];
+            }
+            gathered.push_back(g);
+            halves.push_back(d * d);
+        }
+        double mean = 0.0, squares = 0.0, halvesMean = 0.0;
+        for (double g : gathered) mean += g / passes;
+        for (double g : gathered) squares += (g - mean) * (g - mean) / (passes - 1);
+        for (double h : halves) halvesMean += h / passes;
+        return std::pair{squares, halvesMean};
+    };
+    const auto [spread, halves] = run(1000, 80);
+    // Each of the two is a mean of 80 squares: about 16 % off at one sigma.
+    EXPECT_GT(halves, 0.55 * spread);
+    EXPECT_LT(halves, 1.6 * spread);
+    const auto [spreadMany, halvesMany] = run(32000, 80);
+    EXPECT_GT(halves / halvesMany, 32.0 / 1.8);
+    EXPECT_LT(halves / halvesMany, 32.0 * 1.8);
+    // There the view points' share shows: the photons' is a small part of the spread.
+    EXPECT_LT(halvesMany, 0.5 * spreadMany);
+}
+
 TEST(Render, BalancedPhotonsKeepTheEstimateUnbiased) {
     // Every pass's estimate is unbiased whatever its photon count, so the mean over passes of
     // different counts is too: the balanced render against forward Monte Carlo, as
