@@ -222,6 +222,21 @@ TEST(CodeVReader, DecentersBecomeCoordinateBreaks) {
     EXPECT_TRUE(rx.surfaces[10].coordinateBreak->identity());  // ZDE alone: no shift or tilt
 }
 
+// An object distance written INF (as some exporters write it) is infinity, as 1e10 lens units
+// and more are; INF elsewhere is no number.
+TEST(CodeVReader, ObjectDistanceInfIsInfinity) {
+    const std::string lens = "S 50 5 1.5168:64.17\n  STO\nS -50 45\nSI 0 0\n";
+    for (const char* so : {"SO 0 INF\n", "SO 0 inf\n", "SO 0 1e10\n"}) {
+        const Prescription rx =
+            readCodeVText(std::string("RDM\nEPD 10\nWL 550\nYAN 0\n") + so + lens, "inf.seq",
+                          GlassCatalog::builtIn());
+        EXPECT_TRUE(std::isinf(rx.surfaces[0].thicknessMm)) << so;
+    }
+    EXPECT_THROW(readCodeVText("RDM\nEPD 10\nWL 550\nYAN 0\nSO 0 1e11\nS 50 INF\nSI 0 0\n",
+                               "inf.seq", GlassCatalog::builtIn()),
+                 ParseError);
+}
+
 TEST(CodeVReader, MalformedInputNamesFileLineAndColumn) {
     const GlassCatalog& catalog = GlassCatalog::builtIn();
     try {
