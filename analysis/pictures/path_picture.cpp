@@ -162,7 +162,13 @@ PathSelection selectPaths(const TransportView& ts, const std::vector<DetectorIma
             matched += hits;
             if (!kept.leaves.empty()) first.add(std::move(kept));
         };
-        traceNonsequential(ts, detectors, perSource, to, {}, onRay);
+        // Progress within the batch too: a batch of rays with histories can take seconds.
+        std::function<void(uint64_t)> within;
+        if (options.progress)
+            within = [&](uint64_t done) {
+                options.progress({options.task, offset + done, options.maxRays});
+            };
+        traceNonsequential(ts, detectors, perSource, to, within, onRay);
         result.raysTraced += perSource * sources;
         if (options.progress) options.progress({options.task, result.raysTraced, options.maxRays});
         if (first.stored() >= options.count) break;

@@ -335,7 +335,8 @@ double GlareBench::fieldAngleAtHeight(double heightMm) const {
     return 0.5 * (lo + hi);
 }
 
-std::pair<double, double> GlareBench::ghostIrradiance(GlareField& f) const {
+std::pair<double, double> GlareBench::ghostIrradiance(
+    GlareField& f, const std::function<void(uint64_t, uint64_t)>& progress) const {
     const GhostTracer& tracer = *ghostTracer_;
     const double cosField = std::cos(spec_.fieldHalfAngleDeg * kDeg);
     AreaEmitter spot;
@@ -358,11 +359,16 @@ std::pair<double, double> GlareBench::ghostIrradiance(GlareField& f) const {
         }
         return e;
     };
-    // Paths in parallel (the tracer is read-only), summed in path order.
+    // Paths in parallel (the tracer is read-only), summed in path order; in batches, so that
+    // the progress is reported from this thread (a double Gauss's 2.7 s were silent).
     const std::vector<GhostPath> paths = tracer.enumerate();
     std::vector<double> each(paths.size(), 0.0);
-    tbb::parallel_for(size_t(0), paths.size(),
-                      [&](size_t k) { each[k] = irradiance(paths[k], true); });
+    constexpr size_t kBatch = 32;
+    for (size_t first = 0; first < paths.size(); first += kBatch) {
+        const size_t last = std::min(paths.size(), first + kBatch);
+        tbb::parallel_for(first, last, [&](size_t k) { each[k] = irradiance(paths[k], true); });
+        if (progress) progress(last, paths.size());
+    }
     double ghosts = 0.0;
     f.ghosts.clear();
     for (size_t k = 0; k < paths.size(); ++k) {
@@ -522,6 +528,9 @@ double coreSideMm(const GlareField& f) { return 8.0 * f.spotImageRadiusMm; }
 GlareSpread measureSpread(PreparedScene& p, const GlareBench& bench, const GlareField& f,
                           const GlareSpec& spec, const GlassCatalog& catalog,
                           const std::function<void(int)>& progress) {
+    // The phase starts before its scene is built and its renderer set up (seconds on a
+    // double Gauss).
+    progress(0);
     GlareSpread g;
     const double rho = f.spotImageRadiusMm;
     g.radiusMm = bench.spreadRadiusMm(f);
@@ -559,7 +568,6 @@ GlareSpread measureSpread(PreparedScene& p, const GlareBench& bench, const Glare
         const PixelShares curve = annulusShares(side, n, g.edgesMm);
         const PixelShares vgi = annulusShares(side, n, vgiEdges);
         run.detector = core ? "gsf_core" : "gsf";
-        if (core) progress(0);
         RenderRun(p, run).run([&](const RenderPassEvent& e) {
             const int pass = e.pass;
             const RenderPassTotals t = passTotals(*e.rendered);
@@ -681,7 +689,11 @@ GlareResult runGlare(const SceneSpec& file, const GlassCatalog& catalog, const G
         };
         measure(*p, bench, gf, spec, 0.0, catalog, progress("black field", spec.passes),
                 progress("white field", spec.passes));
-        const auto [ghosts, image] = bench.ghostIrradiance(gf);
+        const auto [ghosts, image] = bench.ghostIrradiance(gf, [&](uint64_t done, uint64_t total) {
+            if (spec.progress)
+                spec.progress({"glare: position " + std::to_string(fi + 1) + ", ghost prediction",
+                               done, total, "ghost paths"});
+        });
         if (gf.white.value > 0.0) {
             gf.ghostPrediction = ghosts / gf.white.value;
             gf.imagePrediction = image / gf.white.value;

@@ -203,7 +203,9 @@ class GlareBench {
     // The ghost analysis's irradiances at f's spot image centre (radiance 1 outside the
     // spot): the black field's through every two-reflection ghost, and the bright field's
     // through the nominal path. Fills f.ghosts (their irradiances, to be divided by white).
-    std::pair<double, double> ghostIrradiance(GlareField& f) const;
+    // progress(done, total): the paths done, from the calling thread, every few paths.
+    std::pair<double, double> ghostIrradiance(
+        GlareField& f, const std::function<void(uint64_t, uint64_t)>& progress = {}) const;
     const std::string& spectrumText() const { return spectrumText_; }
     const std::string& unit() const { return unit_; }
     double radiusHintMm() const { return radiusHintMm_; }  // initial photon radius

@@ -126,3 +126,35 @@ TEST(VeilProgress, RenderReportsItsSetUpAndTimesItsPassesFromTheStart) {
 }
 
 }  // namespace
+
+namespace {
+
+// glare reports every phase of a position, the ghost prediction between the fields and the
+// point source included (a double Gauss's 2.7 s were silent), and the point source's phase
+// from before its scene is built.
+TEST(VeilProgress, GlareReportsTheGhostPredictionAndThePointSourceFromTheirStart) {
+    const std::string dir = outDir("progress_glare");
+    const VeilRun r = runVeil(
+        "glare examples/lenses/singlet.toml --field 0,0 --passes 2 --photons 5k "
+        "--rays-per-pixel 16 --threads 1 -o " +
+        dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_EQ(r.err.find('\r'), std::string::npos);
+    const std::vector<std::string> ghosts =
+        reportLines(r.err, "glare: position 1, ghost prediction");
+    ASSERT_FALSE(ghosts.empty()) << r.err;
+    EXPECT_EQ(ghosts.back().rfind("glare: position 1, ghost prediction: done, ", 0), 0u)
+        << ghosts.back();
+    EXPECT_NE(ghosts.back().find(" ghost paths in "), std::string::npos) << ghosts.back();
+    const std::vector<std::string> point = reportLines(r.err, "glare: position 1, point source");
+    ASSERT_FALSE(point.empty()) << r.err;
+    EXPECT_NE(point.front().find("0.0 % (0 of 4 passes)"), std::string::npos) << r.err;
+    EXPECT_LT(r.err.find("glare: position 1, white field: done"),
+              r.err.find("glare: position 1, ghost prediction"))
+        << r.err;
+    EXPECT_LT(r.err.find("glare: position 1, ghost prediction: done"),
+              r.err.find("glare: position 1, point source"))
+        << r.err;
+}
+
+}  // namespace
