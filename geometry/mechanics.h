@@ -70,6 +70,7 @@
 #include <optional>
 #include <ostream>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "geometry/triangle_mesh.h"
@@ -199,9 +200,14 @@ std::ostream& operator<<(std::ostream& os, const MechanicalPart& p);
 // kind: barrel, retainers, spacers, stop, field stop, baffles, vanes, then the user's parts
 // in the order given. Parts that do not fit
 // (a spacer with no radial or axial room, a retainer behind a mirror) are left out; when
-// `notes` is given, one line per part left out says why. Throws ModelError naming the part
+// `notes` is given, one line per part left out, moved or thinned says why. A line that
+// starts with kMechanicsWarning changes the light the lens passes (a stop plate left out:
+// the lens's own apertures limit it): the caller shows it as a warning. The stop plate goes
+// against a face that reaches into its place (a meniscus bulging through the stop plane) and
+// is left out where no plate fits at all. Throws ModelError naming the part
 // (and what it collides with) on failure; ModelError naming the surface when a lens surface
 // has neither sd nor mech_sd, or a semi-diameter beyond the rim of its conic.
+inline constexpr std::string_view kMechanicsWarning = "warning: ";
 std::vector<MechanicalPart> buildMechanics(const Prescription& prescription,
                                            const MechanicsSpec& spec,
                                            std::vector<std::string>* notes = nullptr);

@@ -540,6 +540,7 @@ std::vector<MechanicalPart> MechanicsBuilder::build() {
     // Plates are placed where the user (or the stop surface) says: check them against the
     // glass first, so a misplaced one is named rather than the spacer next to it.
     for (const Plate& p : plates_) {
+        if (p.dropped) continue;
         // Counter-clockwise; the stop's knife edge is the closing edge.
         const double zl = p.z0 - p.edgeHalf, zu = p.z0 + p.edgeHalf;
         std::vector<Vec2> profile{{p.ri, zl}};

@@ -113,6 +113,7 @@ struct Plate {
     int region = 0;
     int pushedAgainst = -1;  // stop on a lens face or mirror: that body
     int pushSide = 0;        // -1: plate below the body (smaller z), +1 above
+    bool dropped = false;    // no room for it (placeStop says why): not built
 
     double hLo(double r) const {
         return std::min(tLo, edgeHalf + std::max(0.0, r - ri) * tanBevel);
@@ -157,6 +158,8 @@ class MechanicsBuilder {
     void computeBores();
     void placePlates();
     void placeStop(Plate& stop);
+    // Marks the stop plate dropped, with a note saying why and what limits the light instead.
+    void dropStop(Plate& p, const std::string& why);
     void makeSpacersAndRetainers();
     void makeBarrel();
     void checkParts();

@@ -8,6 +8,7 @@
 #include <limits>
 #include <map>
 #include <numbers>
+#include <optional>
 #include <sstream>
 
 #include "geometry/mechanics_builder.h"
@@ -213,8 +214,14 @@ void MechanicsBuilder::computeBores() {
 }
 
 void MechanicsBuilder::placePlates() {
-    for (Plate& p : plates_)
+    for (size_t i = 0; i < plates_.size(); ++i) {
+        Plate& p = plates_[i];
         if (p.kind == PlateKind::Stop) placeStop(p);
+        if (p.dropped) {
+            std::vector<int>& in = regions_[p.region].plates;
+            in.erase(std::remove(in.begin(), in.end(), static_cast<int>(i)), in.end());
+        }
+    }
 }
 
 void MechanicsBuilder::placeStop(Plate& p) {
@@ -233,19 +240,20 @@ void MechanicsBuilder::placeStop(Plate& p) {
                                      fmt(p.ro - p.ri) + " mm radial width");
     const double tCap = explicitThickness ? T / 2.0 : e + 0.5 * bevelRise;
     const double r0 = p.ri * cosHalfStep_, r1 = p.ro;
+    // Whether half-thickness t on one side keeps clear of `body`.
+    auto sideFits = [&](int body, bool upperSide, double t) {
+        Plate q = p;
+        (upperSide ? q.tHi : q.tLo) = t;
+        if (upperSide)
+            return minOver([&](double r) { return bodyLower(body, r) - gap - plateUpper(q, r); },
+                           r0, r1) >= 0.0;
+        return minOver([&](double r) { return plateLower(q, r) - gap - bodyUpper(body, r); }, r0,
+                       r1) >= 0.0;
+    };
     // Largest half-thickness on one side that keeps clear of `body` (-1: none).
     auto maxSide = [&](int body, bool upperSide) {
         if (body < 0) return std::min(T, tCap);
-        auto fits = [&](double t) {
-            Plate q = p;
-            (upperSide ? q.tHi : q.tLo) = t;
-            if (upperSide)
-                return minOver(
-                           [&](double r) { return bodyLower(body, r) - gap - plateUpper(q, r); },
-                           r0, r1) >= 0.0;
-            return minOver([&](double r) { return plateLower(q, r) - gap - bodyUpper(body, r); },
-                           r0, r1) >= 0.0;
-        };
+        auto fits = [&](double t) { return sideFits(body, upperSide, t); };
         double lo = e, hi = std::min(T, tCap);
         if (fits(hi)) return hi;
         if (!fits(lo)) return lo;
@@ -256,10 +264,31 @@ void MechanicsBuilder::placeStop(Plate& p) {
         return lo;
     };
     const Region& region = regions_[p.region];
+    std::optional<double> movedFrom;  // the stop plane, when a face pushes the plate off it
+    if (p.pushedAgainst < 0 && !explicitThickness) {
+        // A free stop whose plate, however thin, would cut a face that reaches the stop plane
+        // within the plate's radii on one side (a meniscus bulging through it): the plate goes
+        // against that face instead, as on a stop on the face, moved as little as keeps the
+        // contact gap, and says so.
+        const bool lowBlocked = region.below >= 0 && !sideFits(region.below, false, e);
+        const bool highBlocked = region.above >= 0 && !sideFits(region.above, true, e);
+        if (lowBlocked && highBlocked) {
+            dropStop(p, "no plate fits between " + bodies_[region.below].name + " and " +
+                            bodies_[region.above].name + " at the stop plane");
+            return;
+        }
+        if (lowBlocked || highBlocked) {
+            p.pushedAgainst = lowBlocked ? region.below : region.above;
+            p.pushSide = lowBlocked ? 1 : -1;
+            movedFrom = p.z0;
+        }
+    }
     if (p.pushedAgainst >= 0) {
         // Against the glass (or mirror) on one side: half the thickness there, the plate
         // moved until it keeps the contact gap; the other half on the free side.
         const int body = p.pushedAgainst;
+        // The free side: the body on the other side must leave room for the plate's edge.
+        const int other = p.pushSide < 0 ? region.below : region.above;
         const double half = std::min(T / 2.0, tCap);
         p.tLo = p.tHi = half;
         if (p.pushSide < 0) {
@@ -273,6 +302,18 @@ void MechanicsBuilder::placeStop(Plate& p) {
                             r0, r1);
             p.tHi = std::min(T - half, maxSide(region.above, true));
         }
+        if (other >= 0 && !sideFits(other, p.pushSide > 0, p.pushSide > 0 ? p.tHi : p.tLo) &&
+            !sideFits(other, p.pushSide > 0, e)) {
+            dropStop(p, "no plate fits between " + bodies_[body].name + " and " +
+                            bodies_[other].name + ", where the stop lies");
+            return;
+        }
+        if (movedFrom)
+            note("stop: " + bodies_[p.pushedAgainst].name +
+                 " reaches into the stop plate's place (between r = " + fmt(p.ri) + " and " +
+                 fmt(p.ro) + " mm of the stop plane): the plate is moved " +
+                 fmt(std::abs(p.z0 - *movedFrom), 4) +
+                 " mm along the axis, against it with the contact gap, to clear it");
         return;
     }
     const double maxLo = maxSide(region.below, false);
@@ -288,6 +329,15 @@ void MechanicsBuilder::placeStop(Plate& p) {
     }
     p.tLo = tLo;
     p.tHi = tHi;
+}
+
+void MechanicsBuilder::dropStop(Plate& p, const std::string& why) {
+    p.dropped = true;
+    const int s = rx_.stopIndex();
+    note(std::string(kMechanicsWarning) + "stop: " + why +
+         ": no stop plate is built, so the light is limited by the lens's own "
+         "apertures there (the stop's clear semi-diameter " +
+         fmt(rx_.surfaces[s].clearSemiDiameterMm) + " mm limits the sequential rays alone)");
 }
 
 // Mechanics Builder: Rings
@@ -411,6 +461,7 @@ void MechanicsBuilder::makeBarrel() {
             zEnd = std::max(zEnd, v.y);
         }
     for (const Plate& p : plates_) {
+        if (p.dropped) continue;
         zStart = std::min(zStart, p.z0 - p.tLo);
         zEnd = std::max(zEnd, p.z0 + p.tHi);
     }

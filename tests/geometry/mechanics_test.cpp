@@ -33,8 +33,11 @@
 namespace veil {
 namespace {
 
+using ::testing::AllOf;
+using ::testing::Contains;
 using ::testing::HasSubstr;
 using ::testing::Not;
+using ::testing::StartsWith;
 namespace fs = std::filesystem;
 
 fs::path lensPath(const std::string& name) {
@@ -265,6 +268,59 @@ TEST(Mechanics, StopOnALensFaceSitsOnTheAirSide) {
     EXPECT_LT(top.y, rim);
     EXPECT_GT(top.y, rim - 0.25);
     EXPECT_LE(deepestInGlass(rx, stop->mesh).depth, 0.0);
+}
+
+// A free stop whose neighbour reaches into the plate's place (a face concave toward it that
+// crosses the stop plane inside the plate's radii): the plate goes against that face, moved
+// along the axis as little as keeps the contact gap, clear of the glass, and a note says by
+// how much.
+TEST(Mechanics, StopPlateMovesOffAFaceThatReachesItsPlane) {
+    Prescription rx = lens("singlet.toml");
+    rx.surfaces[2].curvature = -1.0 / 25.0;  // L1.front concave: 2.1 mm deep at r = 10
+    rx.validate();
+    std::vector<std::string> notes;
+    const std::vector<MechanicalPart> parts = buildMechanics(rx, MechanicsSpec{}, &notes);
+    const MechanicalPart* stop = findPart(parts, "stop");
+    ASSERT_NE(stop, nullptr);
+    EXPECT_LE(deepestInGlass(rx, stop->mesh).depth, 0.0);
+    // The stop plane is z = 0 and L1.front's vertex z = 1; its rim at r = 10.5 lies 1.32 mm
+    // before the plane, and the plate's knife edge now just in front of that.
+    const double rim = 1.0 + sag(makeShape(-1.0 / 25.0, 0.0, {}), 10.5 * 10.5);
+    EXPECT_LT(stop->profile.back().y, rim);
+    EXPECT_GT(stop->profile.back().y, rim - 0.5);
+    ASSERT_FALSE(notes.empty());
+    EXPECT_THAT(notes, Contains(HasSubstr("stop: L1 reaches into the stop plate's place")));
+    EXPECT_THAT(notes, Contains(HasSubstr("the plate is moved")));
+    for (const std::string& n : notes) EXPECT_NE(n.rfind(kMechanicsWarning, 0), 0u) << n;
+}
+
+// A stop on a face whose neighbour leaves no room for a plate (a plano-concave 0.02 mm in
+// front of L1.front, of the same curvature): no plate is built, and a warning says so and what
+// limits the light instead.
+TEST(Mechanics, StopPlateWithNoRoomIsLeftOutWithAWarning) {
+    Prescription rx = lens("singlet.toml");
+    rx.surfaces.erase(rx.surfaces.begin() + 1);  // the stop onto L1.front, as above
+    rx.surfaces[1].stop = true;
+    rx.surfaces[1].clearSemiDiameterMm = 10.0;
+    Surface front = rx.surfaces[1], back = rx.surfaces[1];
+    front.stop = back.stop = false;
+    front.curvature = 0.0;
+    front.thicknessMm = 2.0;
+    front.material = Material::catalog("N-BK7");
+    back.thicknessMm = 0.02;
+    back.material = Material::air();
+    rx.surfaces.insert(rx.surfaces.begin() + 1, {front, back});
+    for (Surface& su : rx.surfaces) su.name.clear();
+    rx.assignNames();
+    rx.validate();
+    std::vector<std::string> notes;
+    const std::vector<MechanicalPart> parts = buildMechanics(rx, MechanicsSpec{}, &notes);
+    EXPECT_EQ(findPart(parts, "stop"), nullptr);
+    EXPECT_THAT(notes, Contains(AllOf(StartsWith(std::string(kMechanicsWarning)),
+                                      HasSubstr("no plate fits between L2 and L1"),
+                                      HasSubstr("no stop plate is built"))));
+    for (const MechanicalPart& p : parts)
+        EXPECT_LE(deepestInGlass(rx, p.mesh).depth, 0.0) << p.name;
 }
 
 TEST(Mechanics, StopWithoutSemiDiameterIsAModelErrorNamingIt) {

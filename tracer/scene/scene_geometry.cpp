@@ -51,9 +51,10 @@ SceneGeometry buildSceneGeometry(const SceneSpec& file, const GlassCatalog& cata
         s.mechanicalParts = buildMechanics(solids, *file.mechanics, &left);
         for (const std::string& n : left) {
             ImportNote note;
-            note.severity = ImportNote::Severity::Info;
+            const bool warning = n.rfind(kMechanicsWarning, 0) == 0;
+            note.severity = warning ? ImportNote::Severity::Warning : ImportNote::Severity::Info;
             note.loc.file = file.path.string();
-            note.message = n;
+            note.message = warning ? n.substr(kMechanicsWarning.size()) : n;
             s.notes.push_back(std::move(note));
         }
         for (const MechanicalPart& part : s.mechanicalParts) {
