@@ -509,7 +509,35 @@ void MechanicsBuilder::makeBarrel() {
         steps.push_back({zLowerStep, own});
         steps.push_back({zUpperStep, above});
     }
-    // Keep the steps in order (a clash shows up in the clearance checks) and inside the tube.
+    // A step to the bore the barrel already has is none. Where two steps cross (a seat
+    // between two bodies with no axial room for it: a concave face reaching past its
+    // neighbour's rim), the seat goes: one step from the bore before to the bore after, at
+    // the later body's place when the bore widens (the ring lies beyond the earlier body's
+    // radius) and at the earlier body's otherwise. What is still out of order is kept in
+    // order (a clash shows up in the clearance checks); then the steps inside the tube.
+    {
+        std::vector<Step> kept;
+        std::vector<double> before;  // the bore before each kept step
+        double current = first;
+        for (const Step& st : steps) {
+            if (st.boreAfter == current) continue;
+            if (!kept.empty() && st.z < kept.back().z) {
+                const double was = before.back();
+                if (st.boreAfter > was) kept.back().z = st.z;
+                kept.back().boreAfter = st.boreAfter;
+                current = st.boreAfter;
+                if (kept.back().boreAfter == was) {
+                    kept.pop_back();
+                    before.pop_back();
+                }
+                continue;
+            }
+            kept.push_back(st);
+            before.push_back(current);
+            current = st.boreAfter;
+        }
+        steps = std::move(kept);
+    }
     for (size_t i = 1; i < steps.size(); ++i) steps[i].z = std::max(steps[i].z, steps[i - 1].z);
     std::vector<Step> inside;
     double startBore = first;

@@ -323,6 +323,33 @@ TEST(Mechanics, StopPlateWithNoRoomIsLeftOutWithAWarning) {
         EXPECT_LE(deepestInGlass(rx, p.mesh).depth, 0.0) << p.name;
 }
 
+// Two elements whose air gap leaves no axial room for a seat: the second's concave front face
+// reaches past the first's rim (US 8,427,765's L3 and L4: 0.22 mm of air on the axis, 0.02 mm
+// at r = 7). The barrel steps once, from the first's bore to the second's, in front of the
+// second's rim, instead of a seat pushed into its glass.
+TEST(Mechanics, BarrelStepsOnceWhereNoSeatFitsBetweenTwoElements) {
+    const fs::path file = fs::path(::testing::TempDir()) / "veil_mechanics_no_seat.toml";
+    {
+        std::ofstream out(file);
+        out << "[system]\nwavelengths_nm = [587.5618]\naperture = { f_number = 4.0 }\n"
+               "fields_deg = [0.0, 5.0]\nsurfaces = [\n"
+               "  { stop = true, t = 5.0, sd = 4.0 },\n"
+               "  { r = 30.0, t = 2.0, glass = \"N-BK7\", sd = 6.0, mech_sd = 7.0 },\n"
+               "  { r = -53.59, t = 0.22, sd = 7.0 },\n"
+               "  { r = -37.47, t = 3.6, glass = \"N-BK7\", sd = 7.53, mech_sd = 8.3 },\n"
+               "  { r = -11.763, t = 20.0, sd = 8.3 },\n]\n";
+    }
+    const Prescription rx = readLensFile(file, GlassCatalog::builtIn());
+    const std::vector<MechanicalPart> parts = buildMechanics(rx, MechanicsSpec{});
+    const MechanicalPart* barrel = findPart(parts, "barrel");
+    ASSERT_NE(barrel, nullptr);
+    const GlassHit g = deepestInGlass(rx, barrel->mesh);
+    EXPECT_LE(g.depth, 0.0) << "inside " << g.element << " at " << g.where;
+    // One step between the two bores: no bore between 7.05 and 8.35 mm.
+    for (const Vec2& v : barrel->profile)
+        if (v.x > 7.06 && v.x < 8.34) ADD_FAILURE() << "a seat at r = " << v.x << ", z = " << v.y;
+}
+
 TEST(Mechanics, StopWithoutSemiDiameterIsAModelErrorNamingIt) {
     Prescription rx = lens("double_gauss_50mm.toml");
     rx.surfaces[rx.stopIndex()].clearSemiDiameterMm = 0.0;
