@@ -32,6 +32,10 @@ namespace veil {
 
 namespace {
 
+// The most an index relative to air may lie below 1 and still be read as air: a gas or vacuum
+// (vacuum relative to air at 20 C and 1 atm is 0.99973).
+constexpr double kGasIndexBelowAir = 1e-3;
+
 // Tokens and Lines
 
 struct Token {
@@ -765,6 +769,15 @@ void ZmxParser::resolveGlasses() {
             } else if (nd >= 1.0 && vd == 0.0) {
                 // Vd = 0 is Zemax's constant (dispersion-free) index.
                 s.material = Material::model(nd, 0.0);
+            } else if (nd < 1.0 && nd >= 1.0 - kGasIndexBelowAir && vd == 0.0) {
+                // An index a little below air's: a gas or vacuum relative to air (vacuum is
+                // 0.99973), which veil's indices relative to air cannot hold below 1.
+                s.material = Material::air();
+                note(Severity::Warning, g.loc,
+                     "model glass nd = " + formatNumber(nd) +
+                         ", Vd = 0 (a gas or vacuum relative to air) imported as air: its "
+                         "index differs by " +
+                         formatNumber(1.0 - nd) + ", which veil leaves out");
             } else if (nd < 1.0 || vd < 0.0) {
                 s.material = Material::model(std::max(nd, 1.0), 0.0);
                 note(Severity::Error, g.loc,

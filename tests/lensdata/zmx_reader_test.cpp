@@ -783,6 +783,27 @@ TEST(ZmxReader, ConstantIndexModelGlassHasNoDispersion) {
     EXPECT_EQ(n->loc.line, 14);
 }
 
+// An index a little below 1 with Vd = 0 is a gas or vacuum relative to air (US 2003/0048547's
+// object space is 0.999982): air, with a warning saying by how much; below 0.999, an error.
+TEST(ZmxReader, GasIndexJustBelowAirIsAirWithAWarning) {
+    auto read = [](const std::string& nd) {
+        return readZmxText("ENPD 10\nSURF 0\n DISZ INFINITY\n GLAS ___BLANK 1 0 " + nd +
+                               " 0 0 0 0 0 0 0\nSURF 1\n STOP\n CURV 0.02\n DISZ 2\n"
+                               " GLAS ___BLANK 1 0 1.7 0 0 0 0 0 0 0\nSURF 2\n DISZ 40\nSURF 3\n",
+                           "gas.zmx", GlassCatalog::builtIn());
+    };
+    const Prescription gas = read("0.999982");
+    EXPECT_TRUE(gas.surfaces[0].material.isAir());
+    const ImportNote* n = findNote(gas, "model glass nd = 0.999982, Vd = 0 (a gas or vacuum");
+    ASSERT_NE(n, nullptr) << reportText(gas);
+    EXPECT_EQ(n->severity, ImportNote::Severity::Warning);
+    EXPECT_NE(n->message.find("differs by 1.8e-05"), std::string::npos) << n->message;
+    const Prescription below = read("0.998");
+    const ImportNote* e = findNote(below, "model glass nd = 0.998, Vd = 0 is not physical");
+    ASSERT_NE(e, nullptr) << reportText(below);
+    EXPECT_EQ(e->severity, ImportNote::Severity::Error);
+}
+
 // A Q-type surface (TYPE QED_TYPE) is an Error that says how to bring it in: veil models the
 // surface (TOML qbfs / qcon) but does not read its .zmx encoding.
 TEST(ZmxReader, QTypeSurfaceSaysHowToBringItIn) {
