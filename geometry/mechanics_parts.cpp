@@ -302,8 +302,7 @@ void MechanicsBuilder::placeStop(Plate& p) {
                             r0, r1);
             p.tHi = std::min(T - half, maxSide(region.above, true));
         }
-        if (other >= 0 && !sideFits(other, p.pushSide > 0, p.pushSide > 0 ? p.tHi : p.tLo) &&
-            !sideFits(other, p.pushSide > 0, e)) {
+        if (other >= 0 && !sideFits(other, p.pushSide > 0, e)) {
             dropStop(p, "no plate fits between " + bodies_[body].name + " and " +
                             bodies_[other].name + ", where the stop lies");
             return;

@@ -118,12 +118,12 @@ struct PhotonBranch {
 
 // A block's photons keep what they deposit as a log, image by image in order (image 0..5 the
 // plain visible, caustic and secondary light, the gathered light within half the radius, the
-// image-forming light and the photon halves' difference, kPlainImages + kCriterionImages k +
-// slot criterion k's, slots 0..3 and 5 as the plain ones), added to the
+// image-forming light and the photon halves' difference; kPlainImages + kCriterionImages k +
+// slot criterion k's: slots 0..3 as the plain ones, 4 its halves' difference), added to the
 // pass's images in block order (tracer/runtime/ordered_blocks.h): bitwise the same images for
 // every thread count, memory with the gathers of a few blocks, not images per block.
 constexpr uint32_t kPlainImages = 6, kCriterionImages = 5;
-constexpr uint32_t kParityImage = 5;
+constexpr uint32_t kParityImage = 5, kCriterionParitySlot = 4;
 struct Deposit {
     uint32_t image;
     int pixel;
@@ -225,6 +225,9 @@ class PhotonPass {
     const DetectorImage& detector_;
     const BackwardResult& back_;
     const RenderOptions& options_;
+    // The photon halves' images (PhotonImages::parity) are booked only when the balance by
+    // error reads them: two more deposits a gather otherwise spent for nothing.
+    bool halves_ = false;
     const PathJudge* judge_;
     const LensConnector* connector_;
     const EmissionGuide* emissionGuide_;
@@ -277,6 +280,7 @@ PhotonPass::PhotonPass(const TransportView& ts, const DetectorImage& detector,
       detector_(detector),
       back_(back),
       options_(options),
+      halves_(options.balancePhotons && options.balancePhotonsByError),
       judge_(judge),
       connector_(connector && connector->any() ? connector : nullptr),
       emissionGuide_(emissionGuide),
@@ -676,7 +680,8 @@ class BlockTracer {
     int emissionCell_ = -1;
     double gathered_ = 0.0;
     // +1 for the photons beyond the ghost photons of even index, -1 for the odd ones, 0 for
-    // the ghost and the part photons (PhotonImages::parity).
+    // the ghost and the part photons and when no balance reads the halves
+    // (PhotonImages::parity).
     double parity_ = 1.0;
     // With a scatter guide: the photon's scatters (its scatter guide bin, the scatter before
     // it on the same branch, -1 for none), and the last one of the branch gathering now.
@@ -730,7 +735,7 @@ void BlockTracer::book(int slot, uint64_t matched, const std::vector<int>* sprea
         const uint32_t first =
             kPlainImages + kCriterionImages * static_cast<uint32_t>(std::countr_zero(m));
         if (slot < 4) into(first + static_cast<uint32_t>(slot), value);
-        if (halves) into(first + 4, signed_);
+        if (halves) into(first + kCriterionParitySlot, signed_);
     }
 }
 
@@ -800,7 +805,7 @@ void BlockTracer::tracePhoton(uint64_t i) {
     EmittedRay e;
     Photon ph = p_.emit(i, e);
     // The ghost photons' count is fixed: only the others' halves (PhotonImages::parity).
-    parity_ = ph.splitAll ? 0.0 : (i & 1) != 0 ? -1.0 : 1.0;
+    parity_ = !p_.halves_ || ph.splitAll ? 0.0 : (i & 1) != 0 ? -1.0 : 1.0;
     ++block_.photons;
     if (!(e.flux > 0.0)) return;
     stack_.clear();

@@ -65,7 +65,9 @@ struct PhotonImages {
     // ones: an image whose square estimates the variance those photons give the pass's
     // gathered light (each half, twice its light, differs from the other by twice this; the
     // variance of their mean is a quarter of that difference's square). The photon balance
-    // weighs it against the rest (balancedPhotonsByError, render.h).
+    // weighs it against the rest (balancedPhotonsByError, render.h). Booked only with
+    // RenderOptions::balancePhotons and balancePhotonsByError (zeros otherwise): it costs a
+    // deposit a gather.
     std::vector<double> parity;
     // With criteria: [criterion] {visible, caustic, secondary, gatheredHalf, parity}.
     std::vector<std::array<std::vector<double>, 5>> by;

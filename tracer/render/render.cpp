@@ -794,6 +794,27 @@ uint64_t balancedPhotons(const RenderOptions& o, const RenderPass& pass) {
     return ghost + static_cast<uint64_t>(next);
 }
 
+namespace {
+
+// Calls f(p, mean, variance of the mean, weight) for each of the target's lit pixels (at least
+// RenderState::kLitFraction of the mean pixel's light) with a variance, the weight
+// 1 / (standard error x light): how the mean relative pixel error responds to that pixel's
+// variance. The photon balances split that error between the parts of a pass.
+template <class F>
+void forEachLitPixel(const DetectorImage& target, uint64_t passes, F&& f) {
+    const int pixels = target.pixelCount();
+    const double threshold = RenderState::kLitFraction * target.totalFlux() / pixels;
+    for (int p = 0; p < pixels; ++p) {
+        const double mean = target.flux(p);
+        if (!(mean > 0.0) || mean < threshold) continue;
+        const double var = target.pixelVariance(p, passes);
+        if (!(var > 0.0)) continue;
+        f(p, var, 1.0 / (std::sqrt(var) * mean));
+    }
+}
+
+}  // namespace
+
 uint64_t balancedPhotonsByError(const RenderOptions& o, const RenderPass& pass,
                                 const DetectorImage& target, const std::vector<double>& parity,
                                 int passes) {
@@ -806,21 +827,15 @@ uint64_t balancedPhotonsByError(const RenderOptions& o, const RenderPass& pass,
     const int pixels = target.pixelCount();
     if (passes < 2 || others == 0 || otherWork == 0 || parity.size() != static_cast<size_t>(pixels))
         return byWork;
-    const double threshold = RenderState::kLitFraction * target.totalFlux() / pixels;
     const auto k = static_cast<uint64_t>(passes);
     // Per pass: the variance of a pixel is passes x that of its mean; the photons' share,
     // parity^2.
     double a = 0.0, total = 0.0;
-    for (int p = 0; p < pixels; ++p) {
-        const double mean = target.flux(p);
-        if (!(mean > 0.0) || mean < threshold) continue;
-        const double var = target.pixelVariance(p, k);
-        if (!(var > 0.0)) continue;
-        const double w = 1.0 / (std::sqrt(var) * mean);
+    forEachLitPixel(target, k, [&](int p, double var, double w) {
         const double d = parity[static_cast<size_t>(p)];
         a += w * d * d;
         total += w * var * static_cast<double>(k);
-    }
+    });
     // The rest: what the photons leave of the spread, at least a tenth of it (one pass's
     // photon halves are a noisy measure of their share).
     const double b = std::max(total - a, 0.1 * total);
@@ -856,20 +871,13 @@ uint64_t balancedVisiblePhotons(const RenderOptions& o, const RenderPass& pass,
     // of n_k photons leave (1 / K^2) sum sigma^2 / n_k; one pass of n, sigma^2 / n.
     const double n = static_cast<double>(pass.ghostPerSource + now);
     const double perPass = static_cast<double>(passes) / (n * inverseSum);
-    const int pixels = target.pixelCount();
-    const double threshold = RenderState::kLitFraction * target.totalFlux() / pixels;
     const auto k = static_cast<uint64_t>(passes);
     double a = 0.0, b = 0.0;
-    for (int p = 0; p < pixels; ++p) {
-        const double mean = target.flux(p);
-        if (!(mean > 0.0) || mean < threshold) continue;
-        const double var = target.pixelVariance(p, k);
-        if (!(var > 0.0)) continue;
+    forEachLitPixel(target, k, [&](int p, double var, double w) {
         const double vis = visible ? std::clamp(visible->pixelVariance(p, k), 0.0, var) : 0.0;
-        const double w = 1.0 / (std::sqrt(var) * mean);
         a += w * vis * perPass;
         b += w * (var - vis);
-    }
+    });
     const double tv = static_cast<double>(pass.visibleWork);
     const double tr = static_cast<double>(pass.viewPointWork + pass.photonWork) - tv;
     double step = 4.0;

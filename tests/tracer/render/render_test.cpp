@@ -1318,6 +1318,7 @@ TEST(Render, PhotonHalvesMeasureThePhotonsShareOfTheVariance) {
         o.quasiRandomPhotons = false;
         o.initialRadiusMm = 4.0;
         o.alpha = 0.99;  // the radius all but fixed: the passes alike
+        o.balancePhotons = o.balancePhotonsByError = true;  // the halves are booked for it
         const Renderer renderer(s->transport().view, s->transport().images[0], plateAperture(), o);
         std::vector<double> gathered, halves;
         for (int k = 1; k <= passes; ++k) {
