@@ -450,12 +450,58 @@ double LensSolid::backZ(double rMm) const { return sideZ(back, rMm); }
 double LensSolid::frontZAt(double xMm, double yMm) const { return sideZAt(front, xMm, yMm); }
 double LensSolid::backZAt(double xMm, double yMm) const { return sideZAt(back, xMm, yMm); }
 
-std::vector<LensSolid> lensSolids(const Prescription& p) { return solidsOfNamed(withNames(p)); }
+int endImmersedImage(Prescription& p) {
+    const int image = p.imageIndex();
+    if (image < 2) return -1;
+    const Surface& last = p.surfaces[image - 1];
+    if (last.material.isAir() || last.coordinateBreak || last.mirror) return -1;
+    std::string element;
+    double frontSd = 0.0;
+    for (const Element& e : p.elements())
+        if (e.backSurface == image) {
+            element = e.name;
+            frontSd = p.surfaces[e.frontSurface].clearSemiDiameterMm;
+        }
+    if (element.empty()) return -1;
+    Surface face = p.surfaces[image];
+    face.name = element + ".back";
+    face.material = Material::air();
+    face.thicknessMm = 0.0;
+    face.stop = false;
+    face.mirror = false;
+    // The medium goes on past the image in truth: light beyond the sensor is lost in it, and
+    // nothing comes back from the end the model gives it.
+    face.coating = "absorber";
+    face.mechSemiDiameterMm = 0.0;
+    face.innerSemiDiameterMm = 0.0;
+    // An automatic image size computed for one on-axis field is a spot: the medium keeps the
+    // width it has at its front instead.
+    if (!(face.clearSemiDiameterMm > 1e-3 * frontSd)) {
+        face.clearSemiDiameterMm = frontSd;
+        face.semiDiameterAutomatic = true;
+    }
+    p.surfaces[image - 1].thicknessMm += kImmersedImageClearanceMm;
+    p.surfaces.insert(p.surfaces.begin() + image, face);
+    return image;
+}
+
+namespace {
+Prescription solidsPrescription(const Prescription& p, int* added = nullptr) {
+    Prescription named = withNames(p);
+    const int a = endImmersedImage(named);
+    if (added) *added = a;
+    return named;
+}
+}  // namespace
+
+std::vector<LensSolid> lensSolids(const Prescription& p) {
+    return solidsOfNamed(solidsPrescription(p));
+}
 
 std::vector<LensSolid> measuredLensSolids(const Prescription& p,
                                           std::vector<LensSolidProblem>& measures) {
     measures.clear();
-    return solidsOfNamed(withNames(p), &measures);
+    return solidsOfNamed(solidsPrescription(p), &measures);
 }
 
 namespace {
@@ -467,7 +513,7 @@ class LensSolidBuilder {
   public:
     LensSolidBuilder(const Prescription& prescription, Scene& scene,
                      const LensSolidOptions& options)
-        : p_(withNames(prescription)),
+        : p_(solidsPrescription(prescription, &added_)),
           solids_(solidsOfNamed(p_)),
           frames_(surfaceFrames(p_)),
           scene_(scene),
@@ -515,6 +561,7 @@ class LensSolidBuilder {
     // face (a spot secondary) cut out of the face.
     void addOnFace(int i, Planned& match, const std::vector<std::string>& names);
 
+    int added_ = -1;  // the face endImmersedImage added, or -1; set before p_ by its initializer
     const Prescription p_;
     const std::vector<LensSolid> solids_;
     const std::vector<Frame> frames_;
@@ -536,7 +583,7 @@ SceneObject LensSolidBuilder::opticalFace(const LensSolid& s, const LensSide& si
                                                                    : options_.opticalFaceProperty);
     o.frame = alongAxisOf(s.placement, side.vertexZMm);
     o.geometry = FaceGeometry{SurfacePatch{side.shape, CircularAperture{side.faceRadiusMm}}};
-    o.sequentialSurface = side.surface;
+    o.sequentialSurface = side.surface == added_ ? -1 : side.surface;
     return o;
 }
 

@@ -171,6 +171,18 @@ std::ostream& operator<<(std::ostream& os, const LensSolid& s);
 // repeat a pass through glass already listed are left out. Throws ModelError.
 std::vector<LensSolid> lensSolids(const Prescription& p);
 
+// An image inside a medium (an immersion objective's specimen in water, a sensor under glass
+// cemented to it): the gap before the image holds glass, which a solid cannot leave open.
+// Every function here that builds solids first gives such a prescription a face
+// kImmersedImageClearanceMm behind the image, of the image surface's shape, where the medium
+// ends, named as the element's back face (L12.back), an absorber (the medium goes on in truth:
+// light past the sensor is lost in it). A sensor at the image then lies inside the medium and
+// meets the light as it arrives there: no interface, no Fresnel loss and no total internal
+// reflection at the image. The added face has no sequential surface
+// (SceneObject::sequentialSurface -1). Returns its index, or -1 where the image is in air.
+inline constexpr double kImmersedImageClearanceMm = 1e-3;
+int endImmersedImage(Prescription& p);
+
 // The thinnest point of an element (Thickness: first == second == its index in the solids)
 // or the narrowest air gap between neighbours (AirGap: second == first + 1), mm. Negative
 // values are overlaps; lensSolids() requires thickness > 0 and gaps >= -1e-9 mm.

@@ -71,7 +71,11 @@ std::vector<ImportNote> detectorPlacementWarnings(const SceneSpec& file,
             if (r > s.edgeRadiusMm) continue;
             const double zf = s.frontZAt(c.x, c.y), zb = s.backZAt(c.x, c.y);
             const double z0 = std::min(zf, zb), z1 = std::max(zf, zb);
-            if (c.z > z0 && c.z < z1) {
+            // An image inside the medium (endImmersedImage): a detector on the image lies
+            // inside the glass by design, the medium ending just behind it.
+            const bool immersed = s.back.surface == model.imageIndex() &&
+                                  std::abs(c.z - zb) <= 1.5 * kImmersedImageClearanceMm;
+            if (c.z > z0 && c.z < z1 && !immersed) {
                 warn("(centre at z = " + mm(c.z) + ") lies inside lens element " + s.name +
                      ", whose glass runs from z = " + mm(z0) + " to " + mm(z1) +
                      " there: the light it records has not left the element; place it with "

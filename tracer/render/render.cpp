@@ -81,13 +81,25 @@ ExitAperture exitApertureFor(const Scene& scene, const DetectorGeometry& detecto
         if (o.id == detector.object || o.kind == ObjectKind::Detector ||
             o.kind == ObjectKind::Dummy)
             continue;
-        double objectZ = -kInfinity;
+        double objectZ = -kInfinity, objectLowZ = kInfinity;
         forEachBoundingPoint(scene, o, [&](const Vec3& g) {
             const Vec3 p = detector.frame.toLocalPoint(g);
             objectZ = std::max(objectZ, p.z);
+            objectLowZ = std::min(objectLowZ, p.z);
             radius = std::max(radius, std::hypot(p.x, p.y));
         });
         if (objectZ == -kInfinity) continue;
+        // A lens element across the detector's plane: an image inside its glass
+        // (endImmersedImage), where pixel rays would have to start in the medium.
+        const bool glass = o.kind == ObjectKind::LensFace || o.kind == ObjectKind::LensEdge ||
+                           o.kind == ObjectKind::LensFlat;
+        if (glass && objectZ >= 0.0 && objectLowZ < 0.0)
+            throw ModelError(detector.name,
+                             "lies inside the glass of " + o.part +
+                                 " (an image inside a medium): the renderer starts its pixel "
+                                 "rays in air in front of the detector, and cannot render "
+                                 "a detector inside a medium yet; trace this scene with "
+                                 "`veil trace`, whose sources start outside the glass");
         if (!(objectZ < 0.0))
             throw ModelError(o.name, "lies beside or behind detector '" + detector.name + "' (" +
                                          std::to_string(objectZ) +

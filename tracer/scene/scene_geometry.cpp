@@ -21,6 +21,7 @@ constexpr double kTinySensorFraction = 1e-3;
 constexpr double kSensorFloorFraction = 0.1;
 // How far behind the last face a sensor on that face is placed.
 constexpr double kImageClearanceMm = 1e-3;
+
 }  // namespace
 
 SceneGeometry buildSceneGeometry(const SceneSpec& file, const GlassCatalog& catalog,
@@ -43,6 +44,24 @@ SceneGeometry buildSceneGeometry(const SceneSpec& file, const GlassCatalog& cata
     if (options.mechanics && file.mechanics && !file.mechanics->lensEdgeProperty.empty()) {
         lensOptions.edgeProperty = file.mechanics->lensEdgeProperty;
         lensOptions.flatProperty = file.mechanics->lensEdgeProperty;
+    }
+    {
+        Prescription immersed = solids;
+        immersed.assignNames();
+        const int added = endImmersedImage(immersed);
+        if (added >= 0) {
+            const Surface& medium = immersed.surfaces[added - 1];
+            ImportNote note;
+            note.severity = ImportNote::Severity::Info;
+            note.loc = p.surfaces[p.imageIndex()].origin;
+            note.message = "the image lies inside the glass after " + medium.name + " (" +
+                           medium.material.label() + "): " + immersed.surfaces[added].name +
+                           ", where that medium ends, is placed " +
+                           messageNumber(kImmersedImageClearanceMm) +
+                           " mm behind the image, so that the sensor lies inside the medium "
+                           "and meets the light as it arrives there";
+            s.notes.push_back(std::move(note));
+        }
     }
     addLensSolids(solids, s.scene, lensOptions);
 

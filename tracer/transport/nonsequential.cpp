@@ -400,14 +400,22 @@ TraceResult traceNonsequential(const TransportView& ts, const std::vector<Detect
             [&](uint64_t first, uint64_t last) {
                 Accumulator acc(detectors);
                 RayTracer tracer(ts, options);
+                // Progress counts rays within a block too: a block of long branching rays
+                // (parallel uncoated plates) can take minutes.
+                constexpr uint64_t kProgressRays = 64;
+                uint64_t counted = first;
                 for (uint64_t i = first; i < last; ++i) {
                     // Ray i belongs to source i / raysPerSource; its random stream is keyed by
                     // i alone, so sources never share numbers.
                     tracer.trace(static_cast<int>(i / raysPerSource), i, raysPerSource, acc);
                     if (options.recordHistories && onRay) onRay(i, tracer.history());
+                    if (options.ranks.single() && i + 1 - counted == kProgressRays) {
+                        done += kProgressRays;
+                        counted = i + 1;
+                    }
                 }
                 acc.rays = last - first;
-                if (options.ranks.single()) done += acc.rays;
+                if (options.ranks.single()) done += last - counted;
                 return acc;
             },
             [&](const Accumulator& acc) {

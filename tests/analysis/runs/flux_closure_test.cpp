@@ -12,6 +12,7 @@
 #include <string>
 
 #include "tests/analysis/prepared_scene.h"
+#include "tracer/render/render.h"
 
 namespace veil {
 namespace {
@@ -101,6 +102,72 @@ TEST(FluxClosure, TotalInternalReflectionLosesNothing) {
     EXPECT_LT(b.absorbed(), 1e-12 * b.emitted) << b;
     EXPECT_LT(std::abs(b.imbalance()), 1e-12 * b.emitted) << b;
     EXPECT_EQ(b.dropped, 0.0) << b;
+}
+
+}  // namespace
+}  // namespace veil
+
+namespace veil {
+namespace {
+
+// An image inside a medium: a plate of n = 1.5, then a water block (n = 1.333) whose glass
+// reaches the image, as an immersion objective's specimen side. The block's solid ends in
+// an absorbing face just behind the image, so the sensor lies inside the water and meets the
+// light there. The truth: a normal collimated beam through two lossless elements, traced
+// incoherently to all orders, reaches the water with T_p T_w / (1 - R_p R_w), R_p = 1 - T_p,
+// T_p = (1 - R) / (1 + R) the plate's, R = ((1.5 - 1) / 2.5)^2, T_w = 1 - R_w the water
+// face's, R_w = ((1.333 - 1) / 2.333)^2; nothing returns from inside the water.
+TEST(FluxClosure, AnImmersedImageMeetsTheLightInsideTheMedium) {
+    Prepared r = test::prepare(writeScene("immersed", R"([system]
+name = "immersed"
+wavelengths_nm = [587.5618]
+aperture = { epd_mm = 8.0 }
+fields_deg = [0.0]
+surfaces = [
+  { stop = true, t = 5.0, sd = 4.0 },
+  { r = inf, t = 3.0, glass = { nd = 1.5, vd = 0.0 }, sd = 10.0 },
+  { r = inf, t = 4.0, sd = 10.0 },
+  { r = inf, t = 2.0, glass = { nd = 1.333, vd = 0.0 }, sd = 10.0 },
+  { image = true, sd = 10.0 },
+]
+[[source]]
+name = "beam"
+kind = "collimated"
+field_deg = 0.0
+)"));
+    const SceneObject* end = r.setup->scene.find("L2.back");
+    ASSERT_NE(end, nullptr);
+    EXPECT_EQ(end->sequentialSurface, -1);
+    EXPECT_EQ(end->property, "absorber");
+    const SceneObject* sensor = r.setup->scene.find("sensor");
+    ASSERT_NE(sensor, nullptr);
+    EXPECT_NEAR(sensor->frame.translation.z, 14.0, 1e-12);  // on the image, inside the water
+    bool said = false;
+    for (const ImportNote& n : r.setup->notes)
+        said |=
+            n.message.find("the image lies inside the glass after L2.front") != std::string::npos;
+    EXPECT_TRUE(said);
+
+    TransportOptions o;
+    o.mode = TransportOptions::Mode::Split;
+    o.minRelativeFlux = 1e-12;
+    o.maxSplitDepth = 200;
+    o.seed = 3;
+    const FluxBudget b = traceNonsequential(r.trace.view, r.trace.images, 200, o).budget;
+    const double R = std::pow(0.5 / 2.5, 2), Rw = std::pow(0.333 / 2.333, 2);
+    const double Tp = (1.0 - R) / (1.0 + R), Tw = 1.0 - Rw;
+    const double truth = Tp * Tw / (1.0 - (1.0 - Tp) * Rw);
+    EXPECT_NEAR(b.detected / b.emitted, truth, 1e-9) << b;
+    EXPECT_LT(std::abs(b.imbalance()), 1e-12 * b.emitted) << b;
+
+    // The renderer, whose pixel rays start in air, says why it cannot take this detector.
+    try {
+        exitApertureFor(r.setup->scene, r.setup->detectors.at(0));
+        ADD_FAILURE() << "the renderer took a detector inside the water";
+    } catch (const ModelError& e) {
+        EXPECT_NE(std::string(e.what()).find("lies inside the glass of L2"), std::string::npos)
+            << e.what();
+    }
 }
 
 }  // namespace
