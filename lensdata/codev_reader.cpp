@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "lensdata/errors.h"
+#include "lensdata/glass.h"
 #include "lensdata/input_file.h"
 #include "lensdata/text_decoding.h"
 
@@ -330,10 +331,34 @@ class CodeVParser {
         const std::string full = upper(codeToken.text);
         // Inside a private catalog block (PRV ... END), its wavelengths and glasses.
         if (inPrivate_) {
-            if (!codeToken.quoted && full.rfind("END", 0) == 0)
+            if (!codeToken.quoted && full.rfind("END", 0) == 0) {
                 inPrivate_ = false;
-            else if (codeToken.quoted)
-                privateNames_.insert(normalized(codeToken.text));
+            } else if (!codeToken.quoted && full == "PWL") {
+                privateWavelengths_ = numbers(c);
+            } else if (codeToken.quoted) {
+                // 'NAME' n1 n2 ...: the indices at the PWL wavelengths.
+                if (privateWavelengths_.empty())
+                    throw ParseError(codeToken.loc, "private glass '" + codeToken.text +
+                                                        "' comes before its wavelengths (PWL)");
+                const std::vector<double> indices = numbers(c);
+                if (indices.size() != privateWavelengths_.size())
+                    throw ParseError(codeToken.loc,
+                                     "private glass '" + codeToken.text + "' gives " +
+                                         std::to_string(indices.size()) + " indices for the " +
+                                         std::to_string(privateWavelengths_.size()) +
+                                         " wavelengths of PWL");
+                try {
+                    Glass::table(codeToken.text, privateWavelengths_, indices);
+                } catch (const std::invalid_argument& e) {
+                    throw ParseError(codeToken.loc,
+                                     "private glass '" + codeToken.text + "': " + e.what());
+                }
+                privateGlasses_[normalized(codeToken.text)] =
+                    Material::table(codeToken.text, privateWavelengths_, indices);
+            } else {
+                note(Severity::Warning, codeToken.loc,
+                     full + " inside a private glass catalog (PRV ... END): skipped");
+            }
             return;
         }
         if (codeToken.quoted) {
@@ -525,7 +550,6 @@ class CodeVParser {
                      "(only CIR limits rays)");
         } else if (code == "PRV") {
             inPrivate_ = true;
-            privateLoc_ = codeToken.loc;
         } else if (code == "ZOO") {
             note(Severity::Error, codeToken.loc,
                  "ZOO: zoom and multiple positions are not supported by veil");
@@ -604,6 +628,9 @@ class CodeVParser {
     }
 
     Material catalogGlass(const Token& g) {
+        // A private glass (PRV) is the lens's own: it comes before any catalog's.
+        if (auto it = privateGlasses_.find(normalized(g.text)); it != privateGlasses_.end())
+            return it->second;
         std::string name = g.text, vendor;
         if (const size_t us = name.rfind('_'); us != std::string::npos && us > 0) {
             vendor = upper(name.substr(us + 1));
@@ -628,8 +655,7 @@ class CodeVParser {
                                  " (no catalog " + vendor + " has it)");
                     return Material::catalog(glass->name());
                 }
-        if (const Glass* glass = catalog_.findSuccessor(name, preferred);
-            glass && !inPrivateGlasses(g.text)) {
+        if (const Glass* glass = catalog_.findSuccessor(name, preferred)) {
             note(Severity::Info, g.loc,
                  "glass " + g.text + " is in no loaded catalog under that name; taken as " +
                      glass->name() + " (" + glass->catalog() + "), the glass the name denotes",
@@ -637,26 +663,17 @@ class CodeVParser {
             return Material::catalog(glass->name());
         }
         std::string msg = "unknown glass '" + g.text + "'";
-        if (inPrivateGlasses(g.text))
-            msg += ": private glass catalogs (PRV, line " + std::to_string(privateLoc_.line) +
-                   ") are not supported by veil";
-        else {
-            msg += ": not found in any catalog veil has loaded";
-            const auto suggestions = catalog_.suggestions(name);
-            if (!suggestions.empty()) {
-                msg += " (did you mean ";
-                for (size_t k = 0; k < suggestions.size(); ++k)
-                    msg += (k ? ", " : "") + suggestions[k];
-                msg += "?)";
-            }
-            msg += "; load its catalog with --glass-catalog FILE.agf";
+        msg +=
+            ": not found in any catalog veil has loaded, nor in the file's private glasses (PRV)";
+        const auto suggestions = catalog_.suggestions(name);
+        if (!suggestions.empty()) {
+            msg += " (did you mean ";
+            for (size_t k = 0; k < suggestions.size(); ++k) msg += (k ? ", " : "") + suggestions[k];
+            msg += "?)";
         }
+        msg += "; load its catalog with --glass-catalog FILE.agf";
         note(Severity::Error, g.loc, msg, ImportNote::Topic::Glass);
         return Material::catalog(g.text);
-    }
-
-    bool inPrivateGlasses(const std::string& name) const {
-        return privateNames_.count(normalized(name)) > 0;
     }
 
     // The prescription's surfaces: each decentered surface gets coordinate breaks
@@ -804,8 +821,8 @@ class CodeVParser {
     bool rdmSeen_ = false;
     bool radiusMode_ = true;
     bool inPrivate_ = false;
-    FileLoc privateLoc_;
-    std::set<std::string> privateNames_;
+    std::vector<double> privateWavelengths_;          // PWL, nm
+    std::map<std::string, Material> privateGlasses_;  // by normalized name
     double unit_ = 1.0;
     std::optional<SystemAperture> aperture_;
     std::vector<double> wavelengths_, wavelengthWeights_;

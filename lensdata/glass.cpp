@@ -41,6 +41,8 @@ std::string_view formulaName(DispersionFormula f) {
             return "Extended 3";
         case DispersionFormula::Model:
             return "Model";
+        case DispersionFormula::Table:
+            return "Table";
     }
     return "unknown formula";
 }
@@ -77,6 +79,8 @@ int formulaCoefficientCount(DispersionFormula f) {
             return 9;
         case DispersionFormula::Model:
             return 4;
+        case DispersionFormula::Table:
+            return 0;
     }
     return 0;
 }
@@ -100,10 +104,61 @@ double sellmeierSum(const std::array<double, 12>& c, int first, int terms, doubl
     return s;
 }
 
+// The natural cubic spline of n over x = 1 / lambda^2 through a table's (nm, n) pairs (by
+// increasing wavelength, so by decreasing x), at wavelength `um`; straight beyond its ends.
+double tableIndex(std::span<const double> c, double um) {
+    const size_t n = c.size() / 2;
+    if (n == 0) return kNaN;
+    if (n == 1) return c[1];
+    // Points by increasing x.
+    std::vector<double> x(n), y(n);
+    for (size_t i = 0; i < n; ++i) {
+        const double l = c[2 * (n - 1 - i)] * 1e-3;
+        x[i] = 1.0 / (l * l);
+        y[i] = c[2 * (n - 1 - i) + 1];
+    }
+    // Second derivatives m (m[0] = m[n-1] = 0, natural): the tridiagonal system
+    //   h[i-1]/6 m[i-1] + (h[i-1] + h[i])/3 m[i] + h[i]/6 m[i+1] = slope[i] - slope[i-1]
+    // by Thomas' algorithm (diagonally dominant: no pivoting needed).
+    std::vector<double> m(n, 0.0), diag(n, 0.0), rhs(n, 0.0);
+    for (size_t i = 1; i + 1 < n; ++i) {
+        const double h0 = x[i] - x[i - 1], h1 = x[i + 1] - x[i];
+        diag[i] = (h0 + h1) / 3.0;
+        rhs[i] = (y[i + 1] - y[i]) / h1 - (y[i] - y[i - 1]) / h0;
+        if (i > 1) {
+            const double w = (h0 / 6.0) / diag[i - 1];
+            diag[i] -= w * h0 / 6.0;  // the row above's super-diagonal, h[i-1] / 6
+            rhs[i] -= w * rhs[i - 1];
+        }
+    }
+    for (size_t i = n - 2; i >= 1; --i) {
+        m[i] = (rhs[i] - (x[i + 1] - x[i]) / 6.0 * m[i + 1]) / diag[i];
+        if (i == 1) break;
+    }
+    const double xv = 1.0 / (um * um);
+    // The segment holding xv (the end ones beyond the table).
+    size_t k = 0;
+    while (k + 2 < n && xv > x[k + 1]) ++k;
+    const double h = x[k + 1] - x[k];
+    if (xv < x[0] || xv > x[n - 1]) {
+        // Straight: the spline's slope at the end.
+        const bool low = xv < x[0];
+        const size_t e = low ? 0 : n - 1;
+        const double slope =
+            low ? (y[1] - y[0]) / h - h * (2.0 * m[0] + m[1]) / 6.0
+                : (y[n - 1] - y[n - 2]) / h + h * (m[n - 2] + 2.0 * m[n - 1]) / 6.0;
+        return y[e] + slope * (xv - x[e]);
+    }
+    const double a = (x[k + 1] - xv) / h, b = (xv - x[k]) / h;
+    return a * y[k] + b * y[k + 1] +
+           ((a * a * a - a) * m[k] + (b * b * b - b) * m[k + 1]) * h * h / 6.0;
+}
+
 }  // namespace
 
 double evaluateDispersion(DispersionFormula formula, std::span<const double> coefficients,
                           double wavelengthUm) {
+    if (formula == DispersionFormula::Table) return tableIndex(coefficients, wavelengthUm);
     // Copy into a zero-padded array: missing coefficients are zero, extra ones ignored.
     std::array<double, 12> c{};
     const size_t count = std::min<size_t>(coefficients.size(), formulaCoefficientCount(formula));
@@ -152,6 +207,8 @@ double evaluateDispersion(DispersionFormula formula, std::span<const double> coe
                        il2 * (c[4] + il2 * (c[5] + il2 * (c[6] + il2 * (c[7] + il2 * c[8]))))));
         case DispersionFormula::Model:
             return c[0] + il2 * (c[1] + il2 * c[2]) + c[3] * l2;
+        case DispersionFormula::Table:
+            break;  // above
     }
     return kNaN;
 }
@@ -269,6 +326,41 @@ Glass Glass::model(double nd, double vd, double dPgF) {
     glass.ndCatalog = nd;
     glass.vdCatalog = vd;
     glass.extraData = {0.0, 0.0, 0.0, dPgF, 0.0};
+    return glass;
+}
+
+Glass Glass::table(std::string name, std::vector<double> wavelengthsNm,
+                   std::vector<double> indices) {
+    if (wavelengthsNm.size() != indices.size())
+        throw std::invalid_argument("a glass table needs one index per wavelength (" +
+                                    std::to_string(wavelengthsNm.size()) + " wavelengths, " +
+                                    std::to_string(indices.size()) + " indices)");
+    if (wavelengthsNm.size() < 2)
+        throw std::invalid_argument("a glass table needs at least two wavelengths");
+    std::vector<std::pair<double, double>> points;
+    for (size_t i = 0; i < indices.size(); ++i) {
+        if (!(std::isfinite(wavelengthsNm[i]) && wavelengthsNm[i] > 0.0))
+            throw std::invalid_argument("a glass table's wavelength " + shortest(wavelengthsNm[i]) +
+                                        " nm is not > 0");
+        if (!(std::isfinite(indices[i]) && indices[i] > 0.0))
+            throw std::invalid_argument("a glass table's index " + shortest(indices[i]) + " at " +
+                                        shortest(wavelengthsNm[i]) + " nm is not > 0");
+        points.emplace_back(wavelengthsNm[i], indices[i]);
+    }
+    std::sort(points.begin(), points.end());
+    std::vector<double> c;
+    for (size_t i = 0; i < points.size(); ++i) {
+        if (i > 0 && points[i].first == points[i - 1].first)
+            throw std::invalid_argument("a glass table gives " + shortest(points[i].first) +
+                                        " nm twice");
+        c.push_back(points[i].first);
+        c.push_back(points[i].second);
+    }
+    Glass glass(std::move(name), "TABLE", DispersionFormula::Table, std::move(c));
+    glass.minWavelengthNm = points.front().first;
+    glass.maxWavelengthNm = points.back().first;
+    glass.ndCatalog = glass.index(kLineD);
+    glass.vdCatalog = glass.abbeNumber();
     return glass;
 }
 

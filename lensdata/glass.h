@@ -53,11 +53,12 @@ enum class DispersionFormula {
     Extended2 = 12,
     Extended3 = 13,
     Model = 100,  // veil's model-glass formula n = A + B l^-2 + C l^-4 + D l^2, see Glass::model()
+    Table = 101,  // measured indices, interpolated: see Glass::table()
 };
 std::ostream& operator<<(std::ostream& os, DispersionFormula f);
 // Name as written in docs and reports ("Sellmeier 1"); the AGF number maps via the enum value.
 std::string_view formulaName(DispersionFormula f);
-// Number of coefficients the formula reads.
+// Number of coefficients the formula reads (Table: 0, any number of (nm, n) pairs).
 int formulaCoefficientCount(DispersionFormula f);
 // The formula with AGF number `agfNumber` (1..13), or nullopt for any other number.
 std::optional<DispersionFormula> dispersionFormulaFromAgf(int agfNumber);
@@ -106,6 +107,15 @@ class Glass {
     // than without the t line). Named "nd/Vd" or "nd/Vd/dPgF", catalog "MODEL".
     // Vd = 0 means a constant index nd at every wavelength (no dispersion).
     static Glass model(double nd, double vd, double dPgF = 0.0);
+    // A glass given by its index at a few wavelengths (a CODE V private catalog's PRV table,
+    // a lens file's table form). Between the points, the natural cubic spline of n over
+    // x = 1 / lambda^2 through them: the Cauchy variable, in which a glass's index is nearly
+    // linear, so the spline is exact at the points and bends little between them. Outside,
+    // the spline's end lines (a natural spline's ends are straight), and inRange() is false.
+    // Coefficients: nm0, n0, nm1, n1, ... by increasing wavelength. Needs at least two
+    // points, distinct wavelengths > 0 and finite indices > 0 (std::invalid_argument).
+    static Glass table(std::string name, std::vector<double> wavelengthsNm,
+                       std::vector<double> indices);
 
     const std::string& name() const { return name_; }
     const std::string& catalog() const { return catalog_; }

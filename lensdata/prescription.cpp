@@ -21,8 +21,16 @@ std::string Material::label() const {
             if (dPgF != 0.0) os << "/" << dPgF;
             return os.str();
         }
+        case Kind::Table:
+            return name + " (table)";
     }
     return "?";
+}
+
+std::optional<Glass> Material::ownGlass() const {
+    if (kind == Kind::Model) return Glass::model(nd, vd, dPgF);
+    if (kind == Kind::Table) return Glass::table(name, tableNm, tableIndex);
+    return std::nullopt;
 }
 
 std::ostream& operator<<(std::ostream& os, const Material& m) { return os << m.label(); }
@@ -282,6 +290,13 @@ void Prescription::validate() const {
         if (s.material.kind == Material::Kind::Model &&
             (s.material.nd < 1.0 || s.material.vd < 0.0))
             throw ModelError(nameOf(i), "model glass needs nd >= 1 and Vd >= 0 (0: no dispersion)");
+        if (s.material.kind == Material::Kind::Table) {
+            try {
+                Glass::table(s.material.name, s.material.tableNm, s.material.tableIndex);
+            } catch (const std::invalid_argument& e) {
+                throw ModelError(nameOf(i), "glass " + s.material.name + ": " + e.what());
+            }
+        }
     }
     if (stops > 1) throw ModelError("stop", "more than one surface is flagged as the stop");
     if (surfaces[0].stop) throw ModelError("object", "the object surface cannot be the stop");

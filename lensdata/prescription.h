@@ -20,23 +20,37 @@
 #include <vector>
 
 #include "lensdata/errors.h"
+#include "lensdata/glass.h"
 
 namespace veil {
 
 // What fills a gap.
 struct Material {
-    enum class Kind { Air, Catalog, Model };
+    enum class Kind { Air, Catalog, Model, Table };
     Kind kind = Kind::Air;
-    std::string name;   // catalog glass name (Kind::Catalog)
+    std::string name;   // catalog glass name (Kind::Catalog), the table's name (Kind::Table)
     double nd = 1.0;    // Kind::Model
     double vd = 0.0;    // Kind::Model; 0 = constant index (no dispersion)
     double dPgF = 0.0;  // Kind::Model
+    // Kind::Table: indices at wavelengths (nm), as Glass::table() takes them.
+    std::vector<double> tableNm;
+    std::vector<double> tableIndex;
 
     static Material air() { return {}; }
-    static Material catalog(std::string glassName) { return {Kind::Catalog, std::move(glassName)}; }
-    static Material model(double nd, double vd, double dPgF = 0.0) {
-        return {Kind::Model, {}, nd, vd, dPgF};
+    static Material catalog(std::string glassName) {
+        return {Kind::Catalog, std::move(glassName), 1.0, 0.0, 0.0, {}, {}};
     }
+    static Material model(double nd, double vd, double dPgF = 0.0) {
+        return {Kind::Model, {}, nd, vd, dPgF, {}, {}};
+    }
+    static Material table(std::string name, std::vector<double> wavelengthsNm,
+                          std::vector<double> indices) {
+        return {Kind::Table,       std::move(name), 1.0, 0.0, 0.0, std::move(wavelengthsNm),
+                std::move(indices)};
+    }
+    // The glass of a Model or Table material (Glass::model, Glass::table); nullopt for the
+    // others.
+    std::optional<Glass> ownGlass() const;
     bool isAir() const { return kind == Kind::Air; }
     std::string label() const;  // "AIR", "N-BK7", "model 1.5168/64.17"
     bool operator==(const Material&) const = default;

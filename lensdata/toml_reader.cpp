@@ -456,6 +456,23 @@ Material LensReader::readMaterial(const TomlValue& value) const {
             message += " (did you mean " + quotedList(suggestions, " or ") + "?)";
         value.fail(message + "; " + kGlassCatalogHint);
     }
+    if (value.isTable() && value.asTable().has("nm")) {
+        const TomlTable table = value.asTable();
+        const std::string name = table.require("name", "the glass's name").asString();
+        const TomlValue nm = table.require("nm", "the wavelengths, nm");
+        const TomlValue n = table.require("n", "the index at each wavelength");
+        std::vector<double> wavelengths, indices;
+        for (const TomlValue& v : nm.asArray())
+            wavelengths.push_back(v.asNumber(NumberRange::above(0.0)));
+        for (const TomlValue& v : n.asArray())
+            indices.push_back(v.asNumber(NumberRange::above(0.0)));
+        try {
+            Glass::table(name, wavelengths, indices);
+        } catch (const std::invalid_argument& e) {
+            value.fail(e.what());
+        }
+        return Material::table(name, std::move(wavelengths), std::move(indices));
+    }
     if (value.isTable()) {
         const TomlTable model = value.asTable();
         const double nd = model.require("nd", "refractive index at 587.56 nm")
@@ -466,7 +483,8 @@ Material LensReader::readMaterial(const TomlValue& value) const {
         return Material::model(nd, vd, dPgF);
     }
     value.failExpected(
-        "a catalog glass name (\"N-BK7\"), \"AIR\" or a model glass { nd = 1.5168, vd = 64.17 }");
+        "a catalog glass name (\"N-BK7\"), \"AIR\", a model glass { nd = 1.5168, vd = 64.17 } "
+        "or a table { name = \"E48\", nm = [486.1, 587.6, 656.3], n = [1.5378, 1.5312, 1.5286] }");
 }
 
 void LensReader::readAperture(const TomlTable& system) {

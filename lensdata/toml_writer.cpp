@@ -80,6 +80,18 @@ std::string material(const Material& m) {
         case Material::Kind::Model:
             return "{ nd = " + num(m.nd) + ", vd = " + num(m.vd) +
                    (m.dPgF != 0.0 ? ", dpgf = " + num(m.dPgF) : "") + " }";
+        case Material::Kind::Table: {
+            std::string nm, n;
+            for (size_t i = 0; i < m.tableNm.size(); ++i) {
+                if (i) {
+                    nm += ", ";
+                    n += ", ";
+                }
+                nm += num(m.tableNm[i]);
+                n += num(m.tableIndex[i]);
+            }
+            return "{ name = " + str(m.name) + ", nm = [" + nm + "], n = [" + n + "] }";
+        }
     }
     return "\"AIR\"";
 }

@@ -258,3 +258,48 @@ TEST(CodeVReader, MalformedInputNamesFileLineAndColumn) {
 
 }  // namespace
 }  // namespace veil
+
+namespace veil {
+namespace {
+
+// A private glass catalog (PRV ... END: PWL wavelengths, then each glass's indices) gives
+// the lens its own glass, as in tests/data/codev/CODV_65988_noDOE.seq (whose first-order
+// data tests/analysis/lens/codev_first_order_test.cpp checks). n_d: SciPy's natural spline
+// through the table over 1 / lambda^2 gives 1.5311617964888755.
+TEST(CodeVReader, PrivateGlassCatalogGivesTheLensItsOwnGlass) {
+    const std::string text =
+        "EPD 12.0\nDIM M\nWL 656.2725 587.5618 486.1327\nREF 2\nYAN 0.0\n"
+        "PRV\n"
+        "  PWL 1600.0 1500.0 1400.0 1300.0 1200.0 1100.0 1000.0 900.0 800.0 700.0 650.0&\n"
+        "   600.0 587.6 546.1 486.1 480.0 460.0 440.0 404.7 400.0\n"
+        "  'E48' 1.5184 1.5188 1.5192 1.5197 1.5201 1.5219 1.5231 1.5247 1.5257 1.527&\n"
+        "   1.5286 1.5306 1.53116 1.5334 1.5378 1.5384 1.5404 1.5427 1.5476 1.5484\n"
+        "END\n"
+        "SO 0.0 0.1e14\nS 9.93 3.7 'E48'\n  STO\n  CIR 6.0\nS -48.3 12.94603127272\n  CIR 6.0\n"
+        "SI 0.0 0.0\nGO\n";
+    const Prescription rx = readCodeVText(text, "prv.seq", GlassCatalog::builtIn());
+    EXPECT_EQ(reportText(rx).find("Error"), std::string::npos) << reportText(rx);
+    const Material& m = rx.surfaces[1].material;
+    ASSERT_EQ(m.kind, Material::Kind::Table);
+    EXPECT_EQ(m.name, "E48");
+    ASSERT_EQ(m.tableNm.size(), 20u);
+    EXPECT_NEAR(m.ownGlass()->index(587.5618), 1.5311617964888755, 1e-13);
+    EXPECT_TRUE(rx.surfaces[2].material.isAir());
+
+    // A glass whose indices do not match PWL, or that comes before it: an error at its line.
+    const std::string bad =
+        "EPD 12.0\nWL 587.5618\nPRV\n PWL 500 600\n 'X1' 1.5 1.49 1.48\nEND\n"
+        "SO 0 1e14\nS 10 3 'X1'\nSTO\nS -50 10\nSI 0 0\n";
+    try {
+        readCodeVText(bad, "bad.seq", GlassCatalog::builtIn());
+        ADD_FAILURE() << "a table of 3 indices for 2 wavelengths was read";
+    } catch (const ParseError& e) {
+        EXPECT_NE(std::string(e.what()).find("bad.seq:5:2"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("gives 3 indices for the 2 wavelengths"),
+                  std::string::npos)
+            << e.what();
+    }
+}
+
+}  // namespace
+}  // namespace veil

@@ -72,8 +72,8 @@ TEST(TomlWriter, RealAndEveryKindOfLensReadsBackTheSame) {
          {"zmx/US00583336-2-scaled.zmx", "zmx/US00583336-2-scaled-utf16le.zmx",
           "zmx/HoO-V2C18Ex03.zmx", "zmx/HoO-V2C18Ex27.zmx", "codev/ag_dblgauss.seq",
           "codev/double_gauss_50mm.seq", "codev/lens_reflection_test.seq",
-          "toml/cooke_triplet.toml", "toml/odd_asphere_singlet.toml", "toml/qtype_singlet.toml",
-          "../../examples/lenses/anamorphic_cylinders.toml",
+          "codev/CODV_65988_noDOE.seq", "toml/cooke_triplet.toml", "toml/odd_asphere_singlet.toml",
+          "toml/qtype_singlet.toml", "../../examples/lenses/anamorphic_cylinders.toml",
           "../../examples/lenses/catadioptric_2000mm.toml",
           "../../examples/lenses/newtonian_500mm.toml",
           "../../examples/lenses/longfocus_360mm.toml"}) {

@@ -84,6 +84,8 @@ double indexOf(const Material& m, const Prescription& rx, const GlassCatalog& ca
             return 1.0;
         case Material::Kind::Model:
             return m.nd;
+        case Material::Kind::Table:
+            return m.ownGlass()->index(wavelengthNm);
         case Material::Kind::Catalog: {
             const Glass* g = catalog.find(m.name, rx.system.glassCatalogs);
             EXPECT_NE(g, nullptr) << m.name;

@@ -80,7 +80,8 @@ SequentialModel SequentialModel::build(const Prescription& p, const GlassCatalog
             case Material::Kind::Air:
                 break;
             case Material::Kind::Model:
-                glasses[i] = Glass::model(mat.nd, mat.vd, mat.dPgF);
+            case Material::Kind::Table:
+                glasses[i] = mat.ownGlass();
                 break;
             case Material::Kind::Catalog: {
                 const Glass* g = catalog.find(mat.name, p.system.glassCatalogs);

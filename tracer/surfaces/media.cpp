@@ -18,7 +18,8 @@ MediaOptics::MediaOptics(const Scene& scene, const GlassCatalog& catalog,
             case Material::Kind::Air:
                 break;
             case Material::Kind::Model:
-                glass = Glass::model(m.material.nd, m.material.vd, m.material.dPgF);
+            case Material::Kind::Table:
+                glass = m.material.ownGlass();
                 break;
             case Material::Kind::Catalog: {
                 const Glass* g = catalog.find(m.material.name, preferredCatalogs);

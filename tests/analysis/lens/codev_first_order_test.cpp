@@ -34,6 +34,19 @@ TEST(CodeVImport, DoubleGaussHasThePatentsFirstOrderData) {
     EXPECT_NEAR(a.entrancePupilDiameterMm, 25.0, 1e-12);
 }
 
+// A plastic singlet whose glass is the file's own (a PRV private catalog: 20 indices from
+// 400 to 1600 nm), from ray-optics' tests (tests/data/README.md). Truth: the thick-lens
+// formula with n_d from SciPy's natural spline through the table over 1 / lambda^2.
+TEST(CodeVImport, PrivateGlassSingletHasTheThickLensFocalLength) {
+    const GlassCatalog& catalog = GlassCatalog::builtIn();
+    const SceneSpec seq =
+        readSceneFile(VEIL_SOURCE_DIR "/tests/data/codev/CODV_65988_noDOE.seq", catalog);
+    const FirstOrderData f = computeFirstOrder(*seq.model, seq.model->primaryWavelength());
+    const double n = 1.5311617964888755, r1 = 9.93, r2 = -48.3, t = 3.7;
+    const double power = (n - 1.0) * (1.0 / r1 - 1.0 / r2 + (n - 1.0) * t / (n * r1 * r2));
+    EXPECT_NEAR(f.eflMm, 1.0 / power, 1e-9);
+}
+
 // A singlet decentered with its stop by YDE 0.35 on both faces (DAR: each returns, so the
 // image plane stays on the axis) images every field 0.35 mm further along y than the
 // centred singlet, to rounding.
