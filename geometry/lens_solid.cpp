@@ -285,23 +285,12 @@ void checkAirGap(const Prescription& p, const LensSolid& a, const LensSolid& b) 
     }
 }
 
-// The solids of a named prescription. Thickness and overlap problems throw, or, given
-// `problems`, are listed there (every element and neighbour pair, worst point first).
-std::vector<LensSolid> solidsOfNamed(const Prescription& p,
-                                     std::vector<LensSolidProblem>* problems = nullptr) {
-    p.validate();
-    const std::vector<double> z = vertexZ(p);
-    const std::vector<Frame> frames = surfaceFrames(p);
-    const int image = p.imageIndex();
+}  // namespace
 
-    // Elements, without repeated passes through glass already listed.
+std::vector<Element> distinctElements(const Prescription& p) {
+    const std::vector<Frame> frames = surfaceFrames(p);
     std::vector<Element> kept;
     for (const Element& e : p.elements()) {
-        if (e.backSurface >= image) {
-            throw ModelError(e.name,
-                             "glass reaches the image surface: a lens element needs its "
-                             "own back surface");
-        }
         const bool repeat = std::any_of(kept.begin(), kept.end(), [&](const Element& k) {
             if (!(k.material == e.material)) return false;
             return (coincide(p, frames, k.frontSurface, e.frontSurface) &&
@@ -311,6 +300,26 @@ std::vector<LensSolid> solidsOfNamed(const Prescription& p,
         });
         if (!repeat) kept.push_back(e);
     }
+    return kept;
+}
+
+namespace {
+
+// The solids of a named prescription. Thickness and overlap problems throw, or, given
+// `problems`, are listed there (every element and neighbour pair, worst point first).
+std::vector<LensSolid> solidsOfNamed(const Prescription& p,
+                                     std::vector<LensSolidProblem>* problems = nullptr) {
+    p.validate();
+    const std::vector<double> z = vertexZ(p);
+    const std::vector<Frame> frames = surfaceFrames(p);
+    const int image = p.imageIndex();
+
+    for (const Element& e : p.elements())
+        if (e.backSurface >= image)
+            throw ModelError(e.name,
+                             "glass reaches the image surface: a lens element needs its "
+                             "own back surface");
+    const std::vector<Element> kept = distinctElements(p);
 
     const size_t count = kept.size();
     std::vector<double> radius(count);
@@ -486,8 +495,32 @@ int endImmersedImage(Prescription& p) {
 }
 
 namespace {
+// A lens face with a central obscuration that a mirror on the same face covers (a Maksutov's
+// aluminized secondary spot on its meniscus): the glass is whole, and the spot, as wide as
+// the obscuration at least, is cut out of the face (addOnFace). Sequential traces keep the
+// obscuration, which stops the light the spot's back meets.
+void coverObscurationsWithSpots(Prescription& p) {
+    const std::vector<Frame> frames = surfaceFrames(p);
+    const int n = static_cast<int>(p.surfaces.size());
+    for (int i = 1; i + 1 < n; ++i) {
+        Surface& s = p.surfaces[i];
+        if (s.mirror || !(s.innerSemiDiameterMm > 0.0)) continue;
+        for (int j = 1; j + 1 < n; ++j) {
+            Surface& spot = p.surfaces[j];
+            if (j == i || !spot.mirror || !coincide(p, frames, i, j)) continue;
+            spot.clearSemiDiameterMm = std::max(spot.clearSemiDiameterMm, s.innerSemiDiameterMm);
+            if (spot.mechSemiDiameterMm > 0.0)
+                spot.mechSemiDiameterMm =
+                    std::max(spot.mechSemiDiameterMm, spot.clearSemiDiameterMm);
+            s.innerSemiDiameterMm = 0.0;
+            break;
+        }
+    }
+}
+
 Prescription solidsPrescription(const Prescription& p, int* added = nullptr) {
     Prescription named = withNames(p);
+    coverObscurationsWithSpots(named);
     const int a = endImmersedImage(named);
     if (added) *added = a;
     return named;

@@ -171,6 +171,11 @@ std::ostream& operator<<(std::ostream& os, const LensSolid& s);
 // repeat a pass through glass already listed are left out. Throws ModelError.
 std::vector<LensSolid> lensSolids(const Prescription& p);
 
+// The prescription's elements without the repeated passes through glass already listed (the
+// way back out of a cemented Mangin mirror crosses its front element again): one per piece of
+// glass, as the solids and the mounts build them.
+std::vector<Element> distinctElements(const Prescription& p);
+
 // An image inside a medium (an immersion objective's specimen in water, a sensor under glass
 // cemented to it): the gap before the image holds glass, which a solid cannot leave open.
 // Every function here that builds solids first gives such a prescription a face

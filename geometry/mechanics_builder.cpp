@@ -33,6 +33,7 @@
 #include <numbers>
 #include <sstream>
 
+#include "geometry/lens_solid.h"
 #include "geometry/mesh_check.h"
 #include "geometry/revolve.h"
 #include "geometry/surface_frames.h"
@@ -49,7 +50,11 @@ void MechanicsBuilder::readSurfaces() {
     for (int i = 0; i < n; ++i) {
         const Surface& s = rx_.surfaces[i];
         SurfaceInfo info;
-        info.name = s.name.empty() ? "S" + std::to_string(i) : s.name;
+        info.name = s.name;
+        if (info.name.empty()) {  // appended: GCC 12 warns falsely on "S" + ... here
+            info.name = "S";
+            info.name += std::to_string(i);
+        }
         info.shape = surfaceShape(s);
         info.clearMm = s.clearSemiDiameterMm > 0.0 ? s.clearSemiDiameterMm : s.mechSemiDiameterMm;
         info.mechMm = std::max(s.mechSemiDiameterMm, info.clearMm);
@@ -79,7 +84,8 @@ void MechanicsBuilder::readSurfaces() {
 }
 
 void MechanicsBuilder::makeBodies() {
-    const std::vector<Element> elements = rx_.elements();
+    // One body per piece of glass: a repeated pass (out of a cemented Mangin) is not another.
+    const std::vector<Element> elements = distinctElements(rx_);
     // A lens face is exact to its clear semi-diameter and flat beyond (pieceRange), so only
     // that must lie within the surface's rim; a mirror sheet follows its sag to mech_sd.
     auto requireSize = [&](int s, bool sheet) {

@@ -136,7 +136,10 @@ std::vector<Element> Prescription::elements() const {
         if (returnPass) continue;
         int back = i + 1;
         while (back + 1 < n && surfaces[back].coordinateBreak) ++back;
-        out.push_back({"L" + std::to_string(out.size() + 1), i, back, s.material});
+        // Appended, not "L" + ...: GCC 12 warns falsely (-Wrestrict) on the inlined concat.
+        std::string name = "L";
+        name += std::to_string(out.size() + 1);
+        out.push_back({std::move(name), i, back, s.material});
     }
     return out;
 }
@@ -153,11 +156,15 @@ void Prescription::assignNames() {
     }
     int mirrorCount = 0;
     for (int i = 1; i < n - 1; ++i) {
-        if (surfaces[i].mirror && names[i].empty()) names[i] = "M" + std::to_string(++mirrorCount);
+        if (surfaces[i].mirror && names[i].empty()) {
+            names[i] = "M";
+            names[i] += std::to_string(++mirrorCount);
+        }
     }
     for (int i = 1; i < n - 1; ++i) {
         if (!names[i].empty()) continue;
-        names[i] = surfaces[i].stop ? "stop" : "S" + std::to_string(i);
+        names[i] = surfaces[i].stop ? "stop" : "S";
+        if (!surfaces[i].stop) names[i] += std::to_string(i);
     }
     for (int i = 0; i < n; ++i)
         if (surfaces[i].name.empty()) surfaces[i].name = names[i];
@@ -209,11 +216,10 @@ void Prescription::validate() const {
                                             std::to_string(s.innerSemiDiameterMm) + " mm)");
         if (s.innerSemiDiameterMm > 0.0 && (i == 0 || i == n - 1))
             throw ModelError(nameOf(i), "the object and image surfaces cannot have a hole");
-        if (s.innerSemiDiameterMm > 0.0 && !(s.clearSemiDiameterMm > 0.0))
-            throw ModelError(nameOf(i), "a central hole of " +
-                                            std::to_string(s.innerSemiDiameterMm) +
-                                            " mm needs the clear semi-diameter around it");
-        if (s.innerSemiDiameterMm > 0.0 && s.innerSemiDiameterMm >= s.clearSemiDiameterMm)
+        // A hole without a clear semi-diameter gets the traced one around it (the scene's
+        // automatic semi-diameters); the solids need one either way.
+        if (s.innerSemiDiameterMm > 0.0 && s.clearSemiDiameterMm > 0.0 &&
+            s.innerSemiDiameterMm >= s.clearSemiDiameterMm)
             throw ModelError(nameOf(i), "hole semi-diameter " +
                                             std::to_string(s.innerSemiDiameterMm) +
                                             " mm must be smaller than the clear semi-diameter " +

@@ -350,6 +350,24 @@ TEST(Mechanics, BarrelStepsOnceWhereNoSeatFitsBetweenTwoElements) {
         if (v.x > 7.06 && v.x < 8.34) ADD_FAILURE() << "a seat at r = " << v.x << ", z = " << v.y;
 }
 
+// An achromatic Mangin (ray-optics' achroMangin_ok.seq, tests/data/README.md): a cemented
+// doublet whose back is the mirror, so the light crosses both elements again on its way out.
+// The way back through the front element is the same glass, not a third body: its smaller
+// semi-diameters (the returning beam is narrower) had set the barrel's bore inside the
+// mirror's rim (0.16 mm deep at r = 2.661 mm).
+TEST(Mechanics, ACementedManginsWayBackIsNoBodyOfItsOwn) {
+    Prescription rx = readLensFile(VEIL_SOURCE_DIR "/tests/data/codev/achroMangin_ok.seq",
+                                   GlassCatalog::builtIn());
+    // The semi-diameters veil traces for the file's beam (veil info).
+    const double sd[] = {0.0, 2.5, 2.5813, 2.6614, 2.4525, 2.2618};
+    for (int i = 1; i <= 5; ++i) rx.surfaces[i].clearSemiDiameterMm = sd[i];
+    const std::vector<MechanicalPart> parts = buildMechanics(rx, MechanicsSpec{});
+    const MechanicalPart* barrel = findPart(parts, "barrel");
+    ASSERT_NE(barrel, nullptr);
+    const GlassHit g = deepestInGlass(rx, barrel->mesh);
+    EXPECT_LE(g.depth, 0.0) << "inside " << g.element << " at " << g.where;
+}
+
 TEST(Mechanics, StopWithoutSemiDiameterIsAModelErrorNamingIt) {
     Prescription rx = lens("double_gauss_50mm.toml");
     rx.surfaces[rx.stopIndex()].clearSemiDiameterMm = 0.0;

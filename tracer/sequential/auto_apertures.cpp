@@ -82,15 +82,24 @@ double crossingRadius(const SequentialModel& model, int s, const Vec3& a, const 
 
 }  // namespace
 
-std::vector<double> tracedSemiDiameters(const SequentialModel& model, int rimRays) {
+std::vector<double> tracedSemiDiameters(const SequentialModel& model, int rimRays,
+                                        BundleFailures* failures) {
     const int n = model.surfaceCount();
     std::vector<double> maxR(n, 0.0);
+    if (failures) {
+        failures->count.assign(n, 0);
+        failures->last.assign(n, RayStatus::Ok);
+    }
     const RayAimer aimer(model, AimMode::Real);
     forEachBundleRay(model, aimer, rimRays, [&](const SequentialRayResult& r, int first) {
         for (size_t i = 0; i < r.path.size(); ++i) {
             const int s = first + static_cast<int>(i);
             const Vec3 q = model.localPoint(s, r.path[i].origin);
             maxR[s] = std::max(maxR[s], std::hypot(q.x, q.y));
+        }
+        if (failures && !r.ok() && r.surface >= 0 && r.surface < n) {
+            ++failures->count[r.surface];
+            failures->last[r.surface] = r.status;
         }
     });
     maxR[model.stopIndex()] = aimer.pupil().stopRadiusMm;
@@ -136,10 +145,36 @@ std::vector<double> returningLightHoles(const SequentialModel& model, int rimRay
 Prescription withAutomaticSemiDiameters(const SequentialModel& model, int rimRays) {
     Prescription p = model.prescription();
     const int n = model.surfaceCount();
-    const std::vector<double> maxR = tracedSemiDiameters(model, rimRays);
+    BundleFailures failures;
+    const std::vector<double> maxR = tracedSemiDiameters(model, rimRays, &failures);
     for (int i = 1; i < n; ++i) {
         Surface& s = p.surfaces[i];
         if (s.clearSemiDiameterMm > 0.0 || s.coordinateBreak) continue;  // breaks need none
+        const bool optical = s.mirror || !s.material.isAir() || !p.surfaces[i - 1].material.isAir();
+        if (maxR[i] == 0.0 && optical && i + 1 < n) {
+            // No ray crossed it: say where the bundle died, the first surface where rays failed.
+            int where = -1;
+            for (int j = 1; j <= i && where < 0; ++j)
+                if (failures.count[j] > 0) where = j;
+            std::string why;
+            if (where >= 0) {
+                const Surface& w = p.surfaces[where];
+                why = ": " + std::to_string(failures.count[where]) + " of the bundle's rays " +
+                      (failures.last[where] == RayStatus::Missed
+                           ? "miss " + w.name +
+                                 (w.curvature != 0.0
+                                      ? " (radius " + messageNumber(1.0 / w.curvature) +
+                                            " mm: a sphere narrower than the beam?)"
+                                      : "")
+                           : "fail at " + w.name + " (" +
+                                 std::string(toString(failures.last[where])) + ")");
+            }
+            p.report.push_back({ImportNote::Severity::Warning, s.origin,
+                                "no ray of the file's beam reaches " + s.name +
+                                    ", so it gets no clear semi-diameter" + why +
+                                    "; check the radii (curvatures read as radii?) and the "
+                                    "aperture, or give sd"});
+        }
         s.clearSemiDiameterMm = maxR[i];
         s.semiDiameterAutomatic = true;
         // The rays may need more than a mechanical size the file gives (the same number
