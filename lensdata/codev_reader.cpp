@@ -337,9 +337,35 @@ class CodeVParser {
                 privateWavelengths_ = numbers(c);
             } else if (codeToken.quoted) {
                 // 'NAME' n1 n2 ...: the indices at the PWL wavelengths.
-                if (privateWavelengths_.empty())
+                const bool formula = c.tokens.size() > 1 && !parseNumber(c.tokens[1].text);
+                if (privateWavelengths_.empty() && !formula)
                     throw ParseError(codeToken.loc, "private glass '" + codeToken.text +
                                                         "' comes before its wavelengths (PWL)");
+                // Or a formula: LAU, Laurent's n^2 = A0 + A1 l^2 + A2 l^-2 + ... + A5 l^-8
+                // (l in um), the Schott formula.
+                if (c.tokens.size() > 1 && !parseNumber(c.tokens[1].text)) {
+                    const std::string form = upper(c.tokens[1].text);
+                    if (form != "LAU")
+                        throw ParseError(c.tokens[1].loc,
+                                         "private glass '" + codeToken.text + "' is given by " +
+                                             form +
+                                             ", which veil does not read (an index table after "
+                                             "PWL, or LAU coefficients)");
+                    std::vector<double> coefficients = numbers(c, 2);
+                    if (coefficients.size() > 6)
+                        throw ParseError(c.tokens[1].loc,
+                                         "LAU takes at most 6 coefficients (A0 to A5), got " +
+                                             std::to_string(coefficients.size()));
+                    Material m = Material::withFormula(codeToken.text, DispersionFormula::Schott,
+                                                       std::move(coefficients));
+                    const double nd = m.ownGlass()->index(kLineD);
+                    if (!(nd > 0.0) || !std::isfinite(nd))
+                        throw ParseError(c.tokens[1].loc, "private glass '" + codeToken.text +
+                                                              "': its LAU formula gives no real "
+                                                              "index at the d line");
+                    privateGlasses_[normalized(codeToken.text)] = std::move(m);
+                    return;
+                }
                 const std::vector<double> indices = numbers(c);
                 if (indices.size() != privateWavelengths_.size())
                     throw ParseError(codeToken.loc,

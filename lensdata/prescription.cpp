@@ -23,6 +23,8 @@ std::string Material::label() const {
         }
         case Kind::Table:
             return name + " (table)";
+        case Kind::Formula:
+            return name + " (" + std::string(formulaName(formula)) + ")";
     }
     return "?";
 }
@@ -30,6 +32,12 @@ std::string Material::label() const {
 std::optional<Glass> Material::ownGlass() const {
     if (kind == Kind::Model) return Glass::model(nd, vd, dPgF);
     if (kind == Kind::Table) return Glass::table(name, tableNm, tableIndex);
+    if (kind == Kind::Formula) {
+        Glass g(name, "PRIVATE", formula, coefficients);
+        g.ndCatalog = g.index(kLineD);
+        g.vdCatalog = g.abbeNumber();
+        return g;
+    }
     return std::nullopt;
 }
 
@@ -296,6 +304,12 @@ void Prescription::validate() const {
         if (s.material.kind == Material::Kind::Model &&
             (s.material.nd < 1.0 || s.material.vd < 0.0))
             throw ModelError(nameOf(i), "model glass needs nd >= 1 and Vd >= 0 (0: no dispersion)");
+        if (s.material.kind == Material::Kind::Formula) {
+            const double n = s.material.ownGlass()->index(kLineD);
+            if (!(n > 0.0) || !std::isfinite(n))
+                throw ModelError(
+                    nameOf(i), "glass " + s.material.label() + " has no real index at the d line");
+        }
         if (s.material.kind == Material::Kind::Table) {
             try {
                 Glass::table(s.material.name, s.material.tableNm, s.material.tableIndex);

@@ -26,33 +26,58 @@ namespace veil {
 
 // What fills a gap.
 struct Material {
-    enum class Kind { Air, Catalog, Model, Table };
+    enum class Kind { Air, Catalog, Model, Table, Formula };
     Kind kind = Kind::Air;
-    std::string name;   // catalog glass name (Kind::Catalog), the table's name (Kind::Table)
+    // Catalog: the catalog glass's name; Table and Formula: the glass's own name.
+    std::string name;
     double nd = 1.0;    // Kind::Model
     double vd = 0.0;    // Kind::Model; 0 = constant index (no dispersion)
     double dPgF = 0.0;  // Kind::Model
     // Kind::Table: indices at wavelengths (nm), as Glass::table() takes them.
     std::vector<double> tableNm;
     std::vector<double> tableIndex;
+    // Kind::Formula: a dispersion formula and its coefficients (a CODE V private glass given
+    // by its Laurent coefficients, LAU, is the Schott formula).
+    DispersionFormula formula = DispersionFormula::Schott;
+    std::vector<double> coefficients;
 
     static Material air() { return {}; }
     static Material catalog(std::string glassName) {
-        return {Kind::Catalog, std::move(glassName), 1.0, 0.0, 0.0, {}, {}};
+        Material m;
+        m.kind = Kind::Catalog;
+        m.name = std::move(glassName);
+        return m;
     }
     static Material model(double nd, double vd, double dPgF = 0.0) {
-        return {Kind::Model, {}, nd, vd, dPgF, {}, {}};
+        Material m;
+        m.kind = Kind::Model;
+        m.nd = nd;
+        m.vd = vd;
+        m.dPgF = dPgF;
+        return m;
     }
     static Material table(std::string name, std::vector<double> wavelengthsNm,
                           std::vector<double> indices) {
-        return {Kind::Table,       std::move(name), 1.0, 0.0, 0.0, std::move(wavelengthsNm),
-                std::move(indices)};
+        Material m;
+        m.kind = Kind::Table;
+        m.name = std::move(name);
+        m.tableNm = std::move(wavelengthsNm);
+        m.tableIndex = std::move(indices);
+        return m;
     }
-    // The glass of a Model or Table material (Glass::model, Glass::table); nullopt for the
-    // others.
+    static Material withFormula(std::string name, DispersionFormula formula,
+                                std::vector<double> coefficients) {
+        Material m;
+        m.kind = Kind::Formula;
+        m.name = std::move(name);
+        m.formula = formula;
+        m.coefficients = std::move(coefficients);
+        return m;
+    }
+    // The glass of a Model, Table or Formula material; nullopt for the others.
     std::optional<Glass> ownGlass() const;
     bool isAir() const { return kind == Kind::Air; }
-    std::string label() const;  // "AIR", "N-BK7", "model 1.5168/64.17"
+    std::string label() const;  // "AIR", "N-BK7", "model 1.5168/64.17", "E48 (table)"
     bool operator==(const Material&) const = default;
 };
 std::ostream& operator<<(std::ostream& os, const Material& m);

@@ -456,6 +456,33 @@ Material LensReader::readMaterial(const TomlValue& value) const {
             message += " (did you mean " + quotedList(suggestions, " or ") + "?)";
         value.fail(message + "; " + kGlassCatalogHint);
     }
+    if (value.isTable() && value.asTable().has("formula")) {
+        const TomlTable table = value.asTable();
+        const std::string name = table.require("name", "the glass's name").asString();
+        const TomlValue f = table.require("formula", "a dispersion formula's name (\"Schott\")");
+        std::optional<DispersionFormula> formula;
+        std::vector<std::string> names;
+        for (int k = 1; k <= 13; ++k) {
+            const DispersionFormula d = *dispersionFormulaFromAgf(k);
+            names.emplace_back(formulaName(d));
+            if (equalsIgnoringCase(f.asString(), formulaName(d))) formula = d;
+        }
+        if (!formula)
+            f.fail("unknown dispersion formula; the formulas are " + quotedList(names, " or "));
+        std::vector<double> c;
+        for (const TomlValue& v :
+             table.require("coefficients", "the formula's coefficients").asArray())
+            c.push_back(v.asNumber());
+        if (c.size() > static_cast<size_t>(formulaCoefficientCount(*formula)))
+            value.fail("the " + std::string(formulaName(*formula)) + " formula takes " +
+                       std::to_string(formulaCoefficientCount(*formula)) + " coefficients (got " +
+                       std::to_string(c.size()) + ")");
+        const Material m = Material::withFormula(name, *formula, std::move(c));
+        const double n = m.ownGlass()->index(kLineD);
+        if (!(n > 0.0) || !std::isfinite(n))
+            value.fail("the formula gives no real index at the d line");
+        return m;
+    }
     if (value.isTable() && value.asTable().has("nm")) {
         const TomlTable table = value.asTable();
         const std::string name = table.require("name", "the glass's name").asString();

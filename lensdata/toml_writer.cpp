@@ -92,6 +92,16 @@ std::string material(const Material& m) {
             }
             return "{ name = " + str(m.name) + ", nm = [" + nm + "], n = [" + n + "] }";
         }
+        case Material::Kind::Formula: {
+            std::string c;
+            for (size_t i = 0; i < m.coefficients.size(); ++i) {
+                if (i) c += ", ";
+                c += num(m.coefficients[i]);
+            }
+            return "{ name = " + str(m.name) +
+                   ", formula = " + str(std::string(formulaName(m.formula))) +
+                   ", coefficients = [" + c + "] }";
+        }
     }
     return "\"AIR\"";
 }

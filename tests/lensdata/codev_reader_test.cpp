@@ -286,6 +286,27 @@ TEST(CodeVReader, PrivateGlassCatalogGivesTheLensItsOwnGlass) {
     EXPECT_NEAR(m.ownGlass()->index(587.5618), 1.5311617964888755, 1e-13);
     EXPECT_TRUE(rx.surfaces[2].material.isAir());
 
+    // A private glass by its Laurent coefficients (LAU: the Schott formula), as
+    // ray-optics' CODV_35571.seq gives Norland's NOA61 adhesive. Truth: Norland's published
+    // Cauchy fit n = 1.5375 + 8290.45 / l^2 - 2.11046e8 / l^4 (l in nm), whose square the
+    // coefficients expand.
+    const std::string lau =
+        "EPD 10\nWL 550\nPRV\n  PWL 550.0\n  'NOA61' LAU 2.36390625 0.0 0.025493134 "
+        "-0.000580235 -0.349933e-5 0.445404e-7\nEND\n"
+        "SO 0 1e14\nS 40 3 'NOA61'\nSTO\nS -40 30\nSI 0 0\n";
+    const Prescription adhesive = readCodeVText(lau, "lau.seq", GlassCatalog::builtIn());
+    const Material& noa = adhesive.surfaces[1].material;
+    ASSERT_EQ(noa.kind, Material::Kind::Formula);
+    EXPECT_EQ(noa.formula, DispersionFormula::Schott);
+    for (double l : {400.0, 550.0, 700.0})
+        EXPECT_NEAR(noa.ownGlass()->index(l),
+                    1.5375 + 8290.45 / (l * l) - 2.11046e8 / (l * l * l * l), 1e-9)
+            << l;
+    EXPECT_THROW(readCodeVText("EPD 10\nWL 550\nPRV\n 'X' SEL 1 2 3\nEND\nSO 0 1e14\nS 40 3 "
+                               "'X'\nSTO\nS -40 30\nSI 0 0\n",
+                               "sel.seq", GlassCatalog::builtIn()),
+                 ParseError);
+
     // A glass whose indices do not match PWL, or that comes before it: an error at its line.
     const std::string bad =
         "EPD 12.0\nWL 587.5618\nPRV\n PWL 500 600\n 'X1' 1.5 1.49 1.48\nEND\n"

@@ -11,6 +11,7 @@
 #include "lensdata/glass_catalog.h"
 #include "lensdata/prescription.h"
 #include "lensdata/toml_document.h"
+#include "lensdata/toml_writer.h"
 
 namespace veil {
 namespace {
@@ -950,6 +951,44 @@ TEST(TomlReader, UnphysicalValuesGetWarningsNamingTheSurface) {
                 ElementsAre());
     EXPECT_THAT(warnings("{ t = 100, sd = 20 },\n{ r = -400, t = -150, mirror = true, sd = 20 },\n"),
                 ElementsAre());
+}
+
+}  // namespace
+}  // namespace veil
+
+namespace veil {
+namespace {
+
+// A glass by its dispersion formula and coefficients, and by a table: read, written back and
+// read again to the same material; a formula veil does not know is an error naming them.
+TEST(TomlReader, GlassesByFormulaAndByTable) {
+    const std::string text = R"([system]
+aperture = { epd_mm = 10 }
+surfaces = [
+  { r = 40, t = 3, glass = { name = "NOA61", formula = "Schott", coefficients = [2.36390625, 0.0, 0.025493134, -0.000580235, -0.349933e-5, 0.445404e-7] }, sd = 6 },
+  { r = -40, t = 1, sd = 6 },
+  { r = 30, t = 2, glass = { name = "E48", nm = [486.1, 587.6, 656.3], n = [1.5378, 1.53116, 1.5286] }, sd = 6 },
+  { r = -30, t = 30, sd = 6 },
+]
+)";
+    const Prescription p = read(text);
+    EXPECT_EQ(p.surfaces[1].material.kind, Material::Kind::Formula);
+    EXPECT_NEAR(p.surfaces[1].material.ownGlass()->index(550.0), 1.5626000901577761, 1e-9);
+    EXPECT_EQ(p.surfaces[3].material.kind, Material::Kind::Table);
+    EXPECT_NEAR(p.surfaces[3].material.ownGlass()->index(587.6), 1.53116, 1e-14);
+    const Prescription back = readTomlPrescriptionText(
+        prescriptionToml(p, testCatalog(), "lens.toml"), "back.toml", testCatalog());
+    EXPECT_EQ(back.surfaces[1].material, p.surfaces[1].material);
+    EXPECT_EQ(back.surfaces[3].material, p.surfaces[3].material);
+    const ParseError e = parseErrorOf(R"([system]
+aperture = { epd_mm = 10 }
+surfaces = [
+  { r = 40, t = 3, glass = { name = "X", formula = "Cauchy", coefficients = [1.5] }, sd = 6 },
+  { r = -40, t = 30, sd = 6 },
+]
+)");
+    EXPECT_THAT(e.what(), HasSubstr("unknown dispersion formula; the formulas are 'Schott'"));
+    EXPECT_EQ(e.loc().line, 4) << e.what();
 }
 
 }  // namespace

@@ -85,6 +85,7 @@ double indexOf(const Material& m, const Prescription& rx, const GlassCatalog& ca
         case Material::Kind::Model:
             return m.nd;
         case Material::Kind::Table:
+        case Material::Kind::Formula:
             return m.ownGlass()->index(wavelengthNm);
         case Material::Kind::Catalog: {
             const Glass* g = catalog.find(m.name, rx.system.glassCatalogs);

@@ -23,7 +23,8 @@ constexpr double kHoleMargin = 1.05;
 // vignetting factors leave, per field and wavelength), traced without clipping, with its
 // path; `first` is the surface of path[0].
 void forEachBundleRay(const SequentialModel& model, const RayAimer& aimer, int rimRays,
-                      const std::function<void(const SequentialRayResult&, int first)>& use) {
+                      const std::function<void(const SequentialRayResult&, int first)>& use,
+                      int* aimFailures = nullptr) {
     const Prescription& p = model.prescription();
     SequentialTraceOptions opts;
     opts.clipApertures = false;
@@ -37,7 +38,10 @@ void forEachBundleRay(const SequentialModel& model, const RayAimer& aimer, int r
                 const double px = k < 0 ? 0.0 : std::cos(a), py = k < 0 ? 0.0 : std::sin(a);
                 const AimedRay ar =
                     aimer.aim(f, f.vdx + px * (1.0 - f.vcx), f.vdy + py * (1.0 - f.vcy), w);
-                if (ar.status != RayStatus::Ok) continue;
+                if (ar.status != RayStatus::Ok) {
+                    if (aimFailures) ++*aimFailures;
+                    continue;
+                }
                 use(traceSequential(model, w, ar.ray, opts), opts.firstSurface);
             }
         }
@@ -89,19 +93,23 @@ std::vector<double> tracedSemiDiameters(const SequentialModel& model, int rimRay
     if (failures) {
         failures->count.assign(n, 0);
         failures->last.assign(n, RayStatus::Ok);
+        failures->aim = 0;
     }
     const RayAimer aimer(model, AimMode::Real);
-    forEachBundleRay(model, aimer, rimRays, [&](const SequentialRayResult& r, int first) {
-        for (size_t i = 0; i < r.path.size(); ++i) {
-            const int s = first + static_cast<int>(i);
-            const Vec3 q = model.localPoint(s, r.path[i].origin);
-            maxR[s] = std::max(maxR[s], std::hypot(q.x, q.y));
-        }
-        if (failures && !r.ok() && r.surface >= 0 && r.surface < n) {
-            ++failures->count[r.surface];
-            failures->last[r.surface] = r.status;
-        }
-    });
+    forEachBundleRay(
+        model, aimer, rimRays,
+        [&](const SequentialRayResult& r, int first) {
+            for (size_t i = 0; i < r.path.size(); ++i) {
+                const int s = first + static_cast<int>(i);
+                const Vec3 q = model.localPoint(s, r.path[i].origin);
+                maxR[s] = std::max(maxR[s], std::hypot(q.x, q.y));
+            }
+            if (failures && !r.ok() && r.surface >= 0 && r.surface < n) {
+                ++failures->count[r.surface];
+                failures->last[r.surface] = r.status;
+            }
+        },
+        failures ? &failures->aim : nullptr);
     maxR[model.stopIndex()] = aimer.pupil().stopRadiusMm;
     return maxR;
 }
@@ -157,6 +165,10 @@ Prescription withAutomaticSemiDiameters(const SequentialModel& model, int rimRay
             for (int j = 1; j <= i && where < 0; ++j)
                 if (failures.count[j] > 0) where = j;
             std::string why;
+            if (where < 0 && failures.aim > 0)
+                why = ": ray aiming found no real ray for " + std::to_string(failures.aim) +
+                      " of the bundle's rays (an aperture the lens cannot pass: its entrance "
+                      "pupil wider than its front faces?)";
             if (where >= 0) {
                 const Surface& w = p.surfaces[where];
                 why = ": " + std::to_string(failures.count[where]) + " of the bundle's rays " +
@@ -171,7 +183,7 @@ Prescription withAutomaticSemiDiameters(const SequentialModel& model, int rimRay
             }
             p.report.push_back({ImportNote::Severity::Warning, s.origin,
                                 "no ray of the file's beam reaches " + s.name +
-                                    ", so it gets no clear semi-diameter" + why +
+                                    " off the axis, so it gets no clear semi-diameter" + why +
                                     "; check the radii (curvatures read as radii?) and the "
                                     "aperture, or give sd"});
         }

@@ -12,10 +12,11 @@ namespace veil {
 // The traced semi-diameter of every surface (the stop's: its real radius from the pupil
 // solve), whatever the file gives. rimRays: rays around the pupil rim per field and
 // wavelength. `failures` (optional): per surface, how many of the bundle's rays failed there,
-// and how the last one failed.
+// and how the last one failed; and how many rays ray aiming found no real ray for.
 struct BundleFailures {
     std::vector<int> count;
     std::vector<RayStatus> last;
+    int aim = 0;
 };
 std::vector<double> tracedSemiDiameters(const SequentialModel& model, int rimRays = 64,
                                         BundleFailures* failures = nullptr);

@@ -81,6 +81,7 @@ SequentialModel SequentialModel::build(const Prescription& p, const GlassCatalog
                 break;
             case Material::Kind::Model:
             case Material::Kind::Table:
+            case Material::Kind::Formula:
                 glasses[i] = mat.ownGlass();
                 break;
             case Material::Kind::Catalog: {

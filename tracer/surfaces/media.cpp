@@ -19,6 +19,7 @@ MediaOptics::MediaOptics(const Scene& scene, const GlassCatalog& catalog,
                 break;
             case Material::Kind::Model:
             case Material::Kind::Table:
+            case Material::Kind::Formula:
                 glass = m.material.ownGlass();
                 break;
             case Material::Kind::Catalog: {
