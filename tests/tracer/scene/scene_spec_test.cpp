@@ -278,6 +278,33 @@ TEST(SceneSpec, ALensWhoseSizesDoNotBuildIsFittedAndSaysSo) {
     EXPECT_NO_THROW(buildSceneGeometry(spec, catalog));
 }
 
+// A lens whose front sphere is narrower than the beam (ray-optics' landscape_lens.seq: its
+// numbers are curvatures, but it has no RDM N, so CODE V and veil read them as radii): no
+// ray of the bundle gets through, and the sizing says where they failed and what to check,
+// before the scene's own error about the missing size.
+TEST(SceneSpec, ASurfaceNoRayReachesIsSaidWithWhereTheRaysFailed) {
+    const std::filesystem::path seq =
+        std::filesystem::path(::testing::TempDir()) / "veil_landscape.seq";
+    std::ofstream(seq) << "tit 'Landscape lens'\ndim m\nso 0. 1.0e+10\ns 0. 1.664\nsto\n"
+                          "s -0.2 0.22 NBK7_SCHOTT\ns -0.387040626 10.150245\nsi 0 0\n"
+                          "epd 1.0\nwl 650 550 450\nref 2\nyim 0 3\n";
+    const SceneSpec spec = readSceneFile(seq, GlassCatalog::builtIn());
+    bool said = false;
+    for (const ImportNote& n : spec.prescription.report)
+        if (n.message.find("no ray of the file's beam reaches L1.front off the axis") !=
+            std::string::npos) {
+            said = true;
+            EXPECT_EQ(n.severity, ImportNote::Severity::Warning);
+            EXPECT_NE(n.message.find("miss L1.front (radius -0.2 mm: a sphere narrower than the "
+                                     "beam?)"),
+                      std::string::npos)
+                << n.message;
+            EXPECT_EQ(n.loc.line, 6) << n.message;
+        }
+    EXPECT_TRUE(said);
+    std::filesystem::remove(seq);
+}
+
 // A source kind in the wrong case, a misspelt kind and a misspelt lens key are reported as
 // what they are, not as the unknown keys or missing tables they lead to.
 TEST(SceneSpec, MisspeltKindsAndLensKeysSayWhatWasMeant) {
