@@ -305,8 +305,8 @@ void Prescription::validate() const {
             (s.material.nd < 1.0 || s.material.vd < 0.0))
             throw ModelError(nameOf(i), "model glass needs nd >= 1 and Vd >= 0 (0: no dispersion)");
         if (s.material.kind == Material::Kind::Formula) {
-            const double n = s.material.ownGlass()->index(kLineD);
-            if (!(n > 0.0) || !std::isfinite(n))
+            const double index = s.material.ownGlass()->index(kLineD);
+            if (!(index > 0.0) || !std::isfinite(index))
                 throw ModelError(
                     nameOf(i), "glass " + s.material.label() + " has no real index at the d line");
         }

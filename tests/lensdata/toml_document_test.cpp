@@ -68,8 +68,10 @@ TEST(TomlDocument, DottedKeysAreBounded) {
     EXPECT_THAT(e.message(), HasSubstr("more than 128 parts"));
     EXPECT_NO_THROW(TomlDocument::fromString(dottedKey(kMaxDottedKeyParts) + " = 1\n", "ok.toml"));
     EXPECT_THAT(parseErrorOf([] {
-                    TomlDocument::fromString("[" + dottedKey(kMaxDottedKeyParts + 1) + "]\n",
-                                             "t.toml");
+                    std::string table = "[";  // appended: GCC 12 warns falsely on "[" + ...
+                    table += dottedKey(kMaxDottedKeyParts + 1);
+                    table += "]\n";
+                    TomlDocument::fromString(table, "t.toml");
                 }).message(),
                 HasSubstr("more than 128 parts"));
     // Dots in strings, multi-line strings and comments are not key parts; values' dots reset.

@@ -285,12 +285,20 @@ PointSource pointSourceCoveringAperture(const EntranceAperture& a, const Vec3& p
             }
         }
     }
+    // The point must see the surface's front: in front of it where it lies within the
+    // surface's reach (inside a deep concave bowl is in front, and the cone then opens past
+    // 90 degrees), in front of all of it elsewhere.
     double minZ = kInfinity;
     for (const Sample& s : samples) minZ = std::min(minZ, s.point.z);
-    if (!(position.z < minZ)) {
+    const double rPoint = std::hypot(position.x, position.y);
+    double sagLo = 0.0, sagHi = 0.0;
+    if (rPoint < rUse) sagRange(a.shape, rPoint * rPoint, rPoint * rPoint, sagLo, sagHi);
+    const double limitZ = rPoint < rUse ? a.vertexZMm + sagLo : minZ;
+    if (!(position.z < limitZ)) {
         std::ostringstream m;
         m << "the point source at " << position << " mm is not in front of the surface "
-          << "(z < " << minZ << " mm); give it a half_angle_deg";
+          << "(z < " << limitZ << " mm" << (rPoint < rUse ? " at its radius" : "")
+          << "); give it a half_angle_deg";
         throw ModelError(a.surfaceName, m.str());
     }
 
@@ -342,7 +350,10 @@ PointSource pointSourceCoveringAperture(const EntranceAperture& a, const Vec3& p
         const double firstOrder = delta * std::sqrt(1.0 + sj.slopeSq) / std::max(d - delta, 0.0);
         const double spatial = (1.0 + 1.0 / std::tan(std::max(angle, 1e-9))) / (d * d);
         const double secondOrder = sj.deltaSq * ((1.0 + sj.slopeSq) * spatial + sj.curvature / d);
-        half = std::max(half, angle + std::min(firstOrder, secondOrder));
+        // Past 90 degrees (a point inside a concave bowl) the second-order bound's circle
+        // term turns negative and bounds nothing: the first-order one holds.
+        const double pad = secondOrder >= 0.0 ? std::min(firstOrder, secondOrder) : firstOrder;
+        half = std::max(half, angle + pad);
     }
     ps.halfAngleRad = std::min(half, kPi);
     return ps;

@@ -448,6 +448,40 @@ margin_mm = 1
     EXPECT_GT(largest, ps.halfAngleRad - 1e-4);  // no cone with this axis is much smaller
 }
 
+// A point inside a deep concave front (a meniscus whose first sphere, r = -15 mm, reaches
+// 6 mm toward the object at its 12 mm rim): the point 3 mm in front of the vertex is in
+// front of the glass, and the cone that covers the surface opens past 90 degrees (the rim
+// lies behind the point: 180 - atan(12 / 3) = 104 degrees). Brute force over the surface.
+// A point behind the glass at its own radius is refused.
+TEST(PointSource, APointInsideAConcaveFrontGetsAConeWiderThanAHemisphere) {
+    const std::string bowl = R"([system]
+aperture = { epd_mm = 10 }
+surfaces = [
+  { r = -15, t = 5, glass = { nd = 1.5168, vd = 64.17 }, sd = 12 },
+  { r = -15, t = 40, sd = 12 },
+]
+)";
+    const Scene s("[[source]]\nkind = \"point\"\nposition_mm = [0, 0, -3]\n", bowl);
+    const PointSource& ps = std::get<PointSource>(s.only().shape());
+    EXPECT_GT(ps.halfAngleRad, 90.0 * kDeg);
+    const EntranceAperture a = entranceAperture(s.p, s.model);
+    double largest = 0.0;
+    for (const Vec3& q : surfacePoints(a, 12.0, 7200)) {
+        const double angle = std::acos(glm::dot(glm::normalize(q - ps.positionMm), ps.axis));
+        EXPECT_LE(angle, ps.halfAngleRad) << q;
+        largest = std::max(largest, angle);
+    }
+    EXPECT_NEAR(largest, kPi - std::atan(12.0 / 3.0), 1e-3);
+    EXPECT_LT(ps.halfAngleRad, largest + 1e-3);
+    try {
+        Scene behind("[[source]]\nkind = \"point\"\nposition_mm = [0, 0, 1]\n", bowl);
+        ADD_FAILURE() << "a point inside the glass was taken";
+    } catch (const ParseError& e) {  // at the source's table, naming the surface
+        EXPECT_NE(std::string(e.what()).find("is not in front of the surface"), std::string::npos)
+            << e.what();
+    }
+}
+
 TEST(PointSource, GivenHalfAngleEmitsIntoThatCone) {
     const Scene s(R"(
 [[source]]
