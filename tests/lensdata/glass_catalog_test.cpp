@@ -38,12 +38,12 @@ TEST(GlassCatalog, BuiltInHoldsTheVendorCatalogsAndCrystals) {
     EXPECT_EQ(c.glasses("SCHOTT").size(), 170u);  // with 10 materials outside its catalog (B270)
     EXPECT_EQ(c.glasses("OHARA").size(), 417u);
     EXPECT_EQ(c.glasses("CDGM").size(), 162u);
-    EXPECT_EQ(c.glasses("CRYSTALS").size(), 7u);
+    EXPECT_EQ(c.glasses("CRYSTALS").size(), 8u);
     EXPECT_EQ(c.glasses("HOYA").size(), 190u);
     EXPECT_EQ(c.glasses("NIKON").size(), 363u);
     EXPECT_EQ(c.glasses("SUMITA").size(), 176u);
     EXPECT_EQ(c.glasses("INFRARED").size(), 11u);
-    EXPECT_EQ(c.size(), 1496u);
+    EXPECT_EQ(c.size(), 1497u);
     ASSERT_FALSE(c.comments("SCHOTT").empty());
     EXPECT_EQ(c.comments("SCHOTT")[0].rfind("SCHOTT. preferred.", 0), 0u);
     EXPECT_TRUE(c.comments("NOPE").empty());
@@ -52,7 +52,7 @@ TEST(GlassCatalog, BuiltInHoldsTheVendorCatalogsAndCrystals) {
     os << c;
     EXPECT_EQ(
         os.str(),
-        "GlassCatalog{SCHOTT: 170, OHARA: 417, CDGM: 162, CRYSTALS: 7, INFRARED: 11, HOYA: 190, "
+        "GlassCatalog{SCHOTT: 170, OHARA: 417, CDGM: 162, CRYSTALS: 8, INFRARED: 11, HOYA: 190, "
         "NIKON: 363, SUMITA: 176}");
 }
 
@@ -73,7 +73,7 @@ TEST(GlassCatalog, BuiltInTextParsesToTheBuiltInCatalog) {
     c.loadAgfText(std::string_view(detail::kBuiltinGlassData, detail::kBuiltinGlassDataSize),
                   "<built-in glass data>", "BUILTIN");
     const GlassCatalog& builtIn = GlassCatalog::builtIn();
-    ASSERT_EQ(c.size(), 1496u);
+    ASSERT_EQ(c.size(), 1497u);
     ASSERT_EQ(c.catalogNames(), builtIn.catalogNames());
     for (const std::string& name : builtIn.catalogNames()) {
         const std::vector<const Glass*> a = c.glasses(name), b = builtIn.glasses(name);
@@ -147,6 +147,13 @@ TEST(GlassCatalog, CrystalsMatchPublishedIndices) {
     EXPECT_NEAR(caf2->index(587.6), 1.43385, 1e-5);
     EXPECT_NEAR(sapphire->index(633.0), 1.7659, 5e-5);
     EXPECT_DOUBLE_EQ(silica->minWavelengthNm, 210.0);
+    // SILICA, the name lens files also give fused silica (Zemax's MISC catalog; a 248 nm
+    // lithography lens, US 5,831,776, whose EFL the placeholder nd 1.5 / Vd 40 had wrecked).
+    const Glass* silica2 = c.find("SILICA");
+    ASSERT_TRUE(silica2);
+    EXPECT_EQ(silica2->catalog(), "CRYSTALS");
+    EXPECT_NEAR(silica2->index(587.6), 1.45846, 1e-5);
+    EXPECT_EQ(silica2->index(248.0), silica->index(248.0));
     EXPECT_DOUBLE_EQ(caf2->maxWavelengthNm, 9700.0);
     // The indices data sheets quote, to the decimals they print: MgF2 (ordinary) n_o =
     // 1.3777 at the d line and 1.3770 at 632.8 nm; CVD ZnSe 2.4028 at 10.6 um (the CO2 laser line); silicon 3.4179 at 10 um and 3.4255
@@ -333,7 +340,7 @@ void checkEveryGlass(const std::string& catalog, size_t expectedCount) {
 TEST(GlassCatalog, EverySchottGlassMatchesItsNdAndVd) { checkEveryGlass("SCHOTT", 170); }
 TEST(GlassCatalog, EveryOharaGlassMatchesItsNdAndVd) { checkEveryGlass("OHARA", 417); }
 TEST(GlassCatalog, EveryCdgmGlassMatchesItsNdAndVd) { checkEveryGlass("CDGM", 162); }
-TEST(GlassCatalog, EveryCrystalMatchesItsNdAndVd) { checkEveryGlass("CRYSTALS", 7); }
+TEST(GlassCatalog, EveryCrystalMatchesItsNdAndVd) { checkEveryGlass("CRYSTALS", 8); }
 // The infrared crystals; the chalcogenides are opaque at d and skipped.
 TEST(GlassCatalog, EveryInfraredMaterialMatchesItsNdAndVd) { checkEveryGlass("INFRARED", 11); }
 TEST(GlassCatalog, EveryHoyaGlassMatchesItsNdAndVd) { checkEveryGlass("HOYA", 190); }
