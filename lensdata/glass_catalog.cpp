@@ -193,6 +193,18 @@ const Glass* GlassCatalog::findSuccessor(std::string_view name,
     // CDGM's reformulated glasses keep the name with an A (H-ZF7L: H-ZF7LA).
     if (upper(n).rfind("H-", 0) == 0)
         if (const Glass* g = find(n + "A", preferred)) return g;
+    const std::string u = upper(n);
+    // Schott's older names with an N before the number (SSKN5, LAFN21, BAFN10, KZFSN4): the
+    // N moved to the front (N-SSK5, N-LAF21, N-BAF10, N-KZFS4).
+    size_t digit = u.find_first_of("0123456789");
+    if (digit != std::string::npos && digit >= 3 && u[digit - 1] == 'N' &&
+        std::all_of(u.begin(), u.begin() + digit, [](char ch) { return ch >= 'A' && ch <= 'Z'; }))
+        if (const Glass* g = find("N-" + u.substr(0, digit - 1) + u.substr(digit), preferred))
+            return g;
+    // A molded variant (Ohara's L-TIM28_MOLD): the glass it is molded from.
+    constexpr std::string_view kMold = "_MOLD";
+    if (u.size() > kMold.size() && u.compare(u.size() - kMold.size(), kMold.size(), kMold) == 0)
+        if (const Glass* g = find(n.substr(0, n.size() - kMold.size()), preferred)) return g;
     return nullptr;
 }
 

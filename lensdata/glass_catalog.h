@@ -71,8 +71,10 @@ class GlassCatalog {
     // The glass a legacy or vendor name denotes where no loaded catalog has the name itself:
     // the maker's successor under its prefix (Schott's lead-free BK7 -> N-BK7, PSK53A ->
     // N-PSK53A; CDGM's K9 -> H-K9L, QK3 -> H-QK3). Tried in order: N-X, N-XA, H-X, H-XL,
-    // H-XA, P-X, each as find() looks (the preferred catalogs first). nullptr when none; a
-    // name find() knows is not looked at.
+    // H-XA, P-X, each as find() looks (the preferred catalogs first); then Schott's older
+    // names with an N before the number (SSKN5 -> N-SSK5, LAFN21 -> N-LAF21), and a molded
+    // variant's base glass (L-TIM28_MOLD -> L-TIM28). nullptr when none; a name find() knows
+    // is not looked at.
     const Glass* findSuccessor(std::string_view name,
                                std::span<const std::string> preferred = {}) const;
     // Names of all catalogs, in load order.

@@ -201,6 +201,10 @@ class ZmxParser {
         std::optional<double> nd, vd, dPgF;
         FileLoc loc;
     };
+    // nd 1.5, Vd 40 on a catalog glass's line: a placeholder, not the glass's data.
+    static bool placeholderGlassData(const GlassRef& g) {
+        return g.nd && g.vd && *g.nd == 1.5 && *g.vd == 40.0;
+    }
     // A surface whose TYPE is not imported: the note is written when its block ends, so that
     // it can list the parameters that were lost.
     struct UnsupportedSurface {
@@ -804,7 +808,7 @@ void ZmxParser::resolveGlasses() {
                 note(Severity::Info, g.loc,
                      "glass " + g.name + " is not in " + joinNames(preferred) + "; taken from " +
                          glass->catalog());
-            if (g.nd && *g.nd > 1.0) {
+            if (g.nd && *g.nd > 1.0 && !placeholderGlassData(g)) {
                 const double n = glass->index(kLineD);
                 if (std::isfinite(n) && std::abs(n - *g.nd) > 1e-4)
                     note(Severity::Info, g.loc,
@@ -818,7 +822,20 @@ void ZmxParser::resolveGlasses() {
         std::string msg = "unknown glass '" + g.name + "': not found " + where;
         const auto suggestions = catalog_.suggestions(g.name);
         if (!suggestions.empty()) msg += " (did you mean " + joinNames(suggestions) + "?)";
-        if (g.nd && g.vd && *g.nd > 1.0 && *g.vd > 0.0) {
+        if (placeholderGlassData(g)) {
+            // nd 1.5, Vd 40: what a program writes for a glass it did not have (every unknown
+            // glass of the corpus that stored it: COC, POLYSTYR, SSKN5, LAFN21, SILICA, ...),
+            // not the glass's data. A lens of it would be wrong by percents (US 5,831,776's
+            // silica at 248 nm: unfocused), so the name is kept, as an error.
+            s.material = Material::catalog(g.name);
+            note(Severity::Error, g.loc,
+                 msg +
+                     "; the file stores nd = 1.5, Vd = 40, the placeholder lens design programs "
+                     "write for a glass they did not have, not this glass's data; supply the "
+                     "glass in a catalog: " +
+                     kGlassCatalogHint,
+                 ImportNote::Topic::Glass);
+        } else if (g.nd && g.vd && *g.nd > 1.0 && *g.vd > 0.0) {
             s.material = Material::model(*g.nd, *g.vd, g.dPgF.value_or(0.0));
             note(Severity::Warning, g.loc,
                  msg + "; replaced by the model glass nd = " + formatNumber(*g.nd) +

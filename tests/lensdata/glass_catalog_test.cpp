@@ -482,6 +482,11 @@ TEST(GlassCatalog, FindsTheSuccessorsOfLegacyNames) {
     EXPECT_EQ(successor("BK10"), "N-BK10 SCHOTT");
     EXPECT_EQ(successor("H-ZF7L"), "H-ZF7LA CDGM");
     EXPECT_EQ(successor("h-zf52"), "H-ZF52A CDGM");
+    // Schott's older names with an N before the number, and a molded variant (names from
+    // real files: a Nikon objective patent, Smith's lens collection, US 8,427,765).
+    EXPECT_EQ(successor("SSKN5"), "N-SSK5 SCHOTT");
+    EXPECT_EQ(successor("LAFN21"), "N-LAF21 SCHOTT");
+    EXPECT_EQ(successor("L-TIM28_MOLD"), "L-TIM28 OHARA");
     // A name the catalogs know is its own glass (SF5 is still Schott's lead flint).
     EXPECT_EQ(successor("SF5"), "none");
     EXPECT_EQ(successor("N-BK7"), "none");

@@ -807,6 +807,35 @@ TEST(ZmxReader, GasIndexJustBelowAirIsAirWithAWarning) {
     EXPECT_EQ(e->severity, ImportNote::Severity::Error);
 }
 
+// nd 1.5, Vd 40 on a GLAS line is what programs write for a glass they did not have
+// (Liang's eye model's COC, US 5,831,776's SILICA): an unknown glass with it is an error,
+// not a model glass; a glass found anyway gets no "different catalog version" note.
+TEST(ZmxReader, ThePlaceholderNdVdIsNotAGlass) {
+    auto read = [](const std::string& glass) {
+        return readZmxText(
+            "ENPD 10\nSURF 0\n DISZ INFINITY\nSURF 1\n STOP\n CURV 0.02\n DISZ 2\n"
+            " GLAS " +
+                glass + " 0 0 1.5 4.0E+1 0 0 0 0 0 0\nSURF 2\n DISZ 40\nSURF 3\n",
+            "placeholder.zmx", GlassCatalog::builtIn());
+    };
+    const Prescription unknown = read("COC");
+    const ImportNote* e = findNote(unknown, "unknown glass 'COC'");
+    ASSERT_NE(e, nullptr) << reportText(unknown);
+    EXPECT_EQ(e->severity, ImportNote::Severity::Error);
+    EXPECT_NE(e->message.find("the placeholder lens design programs write"), std::string::npos)
+        << e->message;
+    EXPECT_EQ(e->loc.line, 8);
+    const Prescription found = read("SILICA");
+    EXPECT_EQ(found.surfaces[1].material, Material::catalog("SILICA"));
+    EXPECT_EQ(findNote(found, "different catalog version"), nullptr) << reportText(found);
+    // Other stored values still make a model glass, with a warning.
+    const Prescription model = readZmxText(
+        "ENPD 10\nSURF 0\n DISZ INFINITY\nSURF 1\n STOP\n CURV 0.02\n DISZ 2\n"
+        " GLAS NOSUCH 0 0 1.6 4.0E+1 0 0 0 0 0 0\nSURF 2\n DISZ 40\nSURF 3\n",
+        "model.zmx", GlassCatalog::builtIn());
+    EXPECT_EQ(model.surfaces[1].material, Material::model(1.6, 40.0));
+}
+
 // A Q-type surface (TYPE QED_TYPE) is an Error that says how to bring it in: veil models the
 // surface (TOML qbfs / qcon) but does not read its .zmx encoding.
 TEST(ZmxReader, QTypeSurfaceSaysHowToBringItIn) {
