@@ -541,6 +541,15 @@ std::vector<MechanicalPart> MechanicsBuilder::build() {
     makeRegions();
     makePlates();
     if (bodies_.empty() && plates_.empty()) return {};
+    // A barrel's bores and a plate's outer rim follow the glass and mirrors it holds: with
+    // none, there is nothing to size them by.
+    if (bodies_.empty())
+        throw ModelError("mechanics",
+                         "the lens has no lens element or mirror for the mount generator to "
+                         "hold, only its stop" +
+                             std::string(plates_.size() > 1 ? " and plates" : "") +
+                             ": leave [mechanics] out of this scene, or bring an aperture plate "
+                             "in as a [[mesh]] part");
     computeBores();
     placePlates();
     // Plates are placed where the user (or the stop surface) says: check them against the

@@ -368,6 +368,19 @@ TEST(Mechanics, ACementedManginsWayBackIsNoBodyOfItsOwn) {
     EXPECT_LE(g.depth, 0.0) << "inside " << g.element << " at " << g.where;
 }
 
+// A lens of nothing but its stop (and dummy surfaces: other projects' coordinate-break test
+// files) gives the mount generator nothing to size a barrel by: a model error that says so.
+// It crashed before (an end region's bore read from a body that did not exist).
+TEST(Mechanics, ALensWithNothingToHoldIsAModelError) {
+    const fs::path file = fs::path(::testing::TempDir()) / "veil_mechanics_stop_only.toml";
+    std::ofstream(file) << "[system]\naperture = { epd_mm = 10 }\nsurfaces = [\n"
+                           "  { stop = true, t = 10, sd = 5 },\n  { r = 0, t = 20 },\n]\n";
+    const Prescription rx = readLensFile(file, GlassCatalog::builtIn());
+    const ModelError e = modelErrorOf([&] { buildMechanics(rx, MechanicsSpec{}); });
+    EXPECT_EQ(e.object(), "mechanics");
+    EXPECT_THAT(e.what(), HasSubstr("no lens element or mirror for the mount generator to hold"));
+}
+
 TEST(Mechanics, StopWithoutSemiDiameterIsAModelErrorNamingIt) {
     Prescription rx = lens("double_gauss_50mm.toml");
     rx.surfaces[rx.stopIndex()].clearSemiDiameterMm = 0.0;
