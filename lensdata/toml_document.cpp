@@ -539,6 +539,16 @@ void assignValue(const toml::node* old, std::string_view text, const std::string
 
 }  // namespace
 
+void TomlDocument::eraseIfPresent(std::string_view tablePath, const std::string& name) {
+    toml::node* node = &state_->root;
+    for (const std::string& part : keyPathParts(tablePath)) {
+        toml::table* table = node->as_table();
+        node = table ? table->get(part) : nullptr;
+        if (!node) return;
+    }
+    if (toml::table* table = node->as_table()) table->erase(name);
+}
+
 void TomlDocument::set(std::string_view keyPath, std::string_view valueText,
                        const std::string& origin) {
     auto fail = [&](const std::string& message) -> void {

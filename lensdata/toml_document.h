@@ -196,6 +196,9 @@ class TomlDocument {
     // value's file:line:col in every later message about it. Throws ParseError at `origin`
     // for a path that names nothing (with the keys there) or a value that does not fit.
     void set(std::string_view keyPath, std::string_view valueText, const std::string& origin);
+    // Removes the key `name` from the table at `tablePath` (dotted, as set() takes it; "" is
+    // the root) when both are there; anything else is left alone.
+    void eraseIfPresent(std::string_view tablePath, const std::string& name);
 
     // Throws ParseError at the first key (in file order) that no reader used:
     // "unknown key 'foo' in [system]", "unknown table [mechanics]"; with "did you mean 'x'?"

@@ -196,6 +196,25 @@ bool editsTransportOnly(const std::string& key) {
     return false;
 }
 
+namespace {
+
+// An edit of a scene or lens document. The aperture is one of f_number, epd_mm, object_na
+// and float_by_stop: setting one replaces the kind the file gives (so that
+// `--set system.aperture.f_number=2` works on a lens whose aperture floats by the stop).
+void applyEdit(TomlDocument& doc, const SceneEdit& e) {
+    static const char* const kinds[] = {"f_number", "epd_mm", "object_na", "float_by_stop"};
+    constexpr std::string_view prefix = "system.aperture.";
+    if (e.key.rfind(prefix, 0) == 0) {
+        const std::string kind = e.key.substr(prefix.size());
+        if (std::find(std::begin(kinds), std::end(kinds), kind) != std::end(kinds))
+            for (const char* other : kinds)
+                if (kind != other) doc.eraseIfPresent("system.aperture", other);
+    }
+    doc.set(e.key, e.value, e.origin);
+}
+
+}  // namespace
+
 void checkSceneEdits(const std::filesystem::path& path, const std::vector<SceneEdit>& edits) {
     if (edits.empty()) return;
     // An imported lens is written as TOML when it is read; its edits are checked then.
@@ -207,13 +226,13 @@ void checkSceneEdits(const std::filesystem::path& path, const std::vector<SceneE
     std::optional<TomlDocument> lensDoc;
     for (const SceneEdit& e : edits) {
         if (!(lens && editsLens(e))) {
-            doc.set(e.key, e.value, e.origin);
+            applyEdit(doc, e);
             continue;
         }
         const std::filesystem::path lensPath = path.parent_path() / lens->asString();
         if (lowerExtension(lensPath) != ".toml") continue;  // checked as it is read
         if (!lensDoc) lensDoc = TomlDocument::fromFile(lensPath);
-        lensDoc->set(e.key, e.value, e.origin);
+        applyEdit(*lensDoc, e);
     }
 }
 
@@ -256,7 +275,7 @@ SceneSpec readSceneDocument(const std::filesystem::path& path, TomlDocument& doc
     const TomlTable root = doc.root();
     const auto lens = root.has("lens") ? root.get("lens") : std::nullopt;
     for (const SceneEdit& e : edits)
-        if (!(lens && editsLens(e))) doc.set(e.key, e.value, e.origin);
+        if (!(lens && editsLens(e))) applyEdit(doc, e);
     // Neither a lens file nor [system]: a misspelt top-level key is the likelier cause.
     if (!lens && !root.has("system")) {
         for (const auto& [key, value] : root.table()) {
@@ -284,14 +303,14 @@ SceneSpec readSceneDocument(const std::filesystem::path& path, TomlDocument& doc
         } else if (lowerExtension(lensPath) != ".toml") {
             const Prescription lensImport = readLensFile(lensPath, catalog);
             TomlDocument lensDoc = importedAsToml(lensPath, lensImport, catalog);
-            for (const SceneEdit& e : lensEdits) lensDoc.set(e.key, e.value, e.origin);
+            for (const SceneEdit& e : lensEdits) applyEdit(lensDoc, e);
             Prescription p = readTomlPrescription(lensDoc, catalog);
             lensDoc.checkAllUsed();
             keepImportReport(p, lensImport);
             size(f, std::move(p), catalog);
         } else {
             TomlDocument lensDoc = TomlDocument::fromFile(lensPath);
-            for (const SceneEdit& e : lensEdits) lensDoc.set(e.key, e.value, e.origin);
+            for (const SceneEdit& e : lensEdits) applyEdit(lensDoc, e);
             Prescription p = readTomlPrescription(lensDoc, catalog);
             lensDoc.checkAllUsed();
             size(f, std::move(p), catalog);

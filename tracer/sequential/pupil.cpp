@@ -83,7 +83,10 @@ PupilData computePupil(const SequentialModel& model, int w) {
             const double rs = p.surfaces[stop].clearSemiDiameterMm;
             if (!(rs > 0.0))
                 throw ModelError(p.surfaces[stop].name,
-                                 "aperture floats by stop size but the stop has no semi-diameter");
+                                 "aperture floats by stop size but the stop has no "
+                                 "semi-diameter; give the stop its size, or the aperture "
+                                 "another way (--set system.aperture.f_number=... or "
+                                 "system.aperture.epd_mm=...)");
             if (infinite) {
                 if (aS == 0.0)
                     throw ModelError(p.surfaces[stop].name, "no axial ray reaches the stop");

@@ -305,6 +305,30 @@ TEST(SceneSpec, ASurfaceNoRayReachesIsSaidWithWhereTheRaysFailed) {
     std::filesystem::remove(seq);
 }
 
+// A Zemax lens whose aperture floats by a stop without a size (DeepLens' ef35mm_f2.0.zmx)
+// says how to give the aperture, and the way it names works: --set system.aperture.f_number
+// replaces the file's kind of aperture (the aperture is one of them).
+TEST(SceneSpec, AnApertureSetReplacesTheFilesKindOfAperture) {
+    const std::filesystem::path zmx =
+        std::filesystem::path(::testing::TempDir()) / "veil_float_no_stop.zmx";
+    std::ofstream(zmx) << "FLOA\nWAVM 1 0.5876 1\nYFLN 0\nSURF 0\n DISZ INFINITY\n"
+                          "SURF 1\n STOP\n DISZ 5\nSURF 2\n CURV 0.02\n DISZ 3\n"
+                          " GLAS N-BK7 0 0 1.5168 64.17\n DIAM 8 1\nSURF 3\n CURV -0.02\n"
+                          " DISZ 45\n DIAM 8 1\nSURF 4\n";
+    const GlassCatalog& catalog = GlassCatalog::builtIn();
+    try {
+        readSceneFile(zmx, catalog);
+        ADD_FAILURE() << "a floating aperture without a stop size was taken";
+    } catch (const std::exception& e) {
+        EXPECT_NE(std::string(e.what()).find("--set system.aperture.f_number="), std::string::npos)
+            << e.what();
+    }
+    const SceneSpec f = readSceneFile(zmx, catalog, {{"system.aperture.f_number", "4", "--set"}});
+    EXPECT_EQ(f.prescription.system.aperture.kind, SystemAperture::Kind::ImageSpaceFNumber);
+    EXPECT_EQ(f.prescription.system.aperture.value, 4.0);
+    std::filesystem::remove(zmx);
+}
+
 // A source kind in the wrong case, a misspelt kind and a misspelt lens key are reported as
 // what they are, not as the unknown keys or missing tables they lead to.
 TEST(SceneSpec, MisspeltKindsAndLensKeysSayWhatWasMeant) {
