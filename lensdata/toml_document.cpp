@@ -546,7 +546,12 @@ void TomlDocument::eraseIfPresent(std::string_view tablePath, const std::string&
         node = table ? table->get(part) : nullptr;
         if (!node) return;
     }
-    if (toml::table* table = node->as_table()) table->erase(name);
+    toml::table* table = node->as_table();
+    if (!table) return;
+    // An edit's origin is keyed by its node: the key goes, and so does that entry (a later
+    // node at the same address must not inherit it).
+    if (const toml::node* gone = table->get(name)) state_->origins.erase(gone);
+    table->erase(name);
 }
 
 void TomlDocument::set(std::string_view keyPath, std::string_view valueText,
