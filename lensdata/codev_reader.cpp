@@ -352,17 +352,14 @@ class CodeVParser {
                                              ", which veil does not read (an index table after "
                                              "PWL, or LAU coefficients)");
                     std::vector<double> coefficients = numbers(c, 2);
-                    if (coefficients.size() > 6)
-                        throw ParseError(c.tokens[1].loc,
-                                         "LAU takes at most 6 coefficients (A0 to A5), got " +
-                                             std::to_string(coefficients.size()));
+                    try {
+                        Glass::withFormula(codeToken.text, DispersionFormula::Schott, coefficients);
+                    } catch (const std::invalid_argument& e) {
+                        throw ParseError(c.tokens[1].loc, "private glass '" + codeToken.text +
+                                                              "', LAU: " + e.what());
+                    }
                     Material m = Material::withFormula(codeToken.text, DispersionFormula::Schott,
                                                        std::move(coefficients));
-                    const double nd = m.ownGlass()->index(kLineD);
-                    if (!(nd > 0.0) || !std::isfinite(nd))
-                        throw ParseError(c.tokens[1].loc, "private glass '" + codeToken.text +
-                                                              "': its LAU formula gives no real "
-                                                              "index at the d line");
                     privateGlasses_[normalized(codeToken.text)] = std::move(m);
                     return;
                 }

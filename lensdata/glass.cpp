@@ -364,6 +364,22 @@ Glass Glass::table(std::string name, std::vector<double> wavelengthsNm,
     return glass;
 }
 
+Glass Glass::withFormula(std::string name, DispersionFormula formula,
+                         std::vector<double> coefficients) {
+    const int most = formulaCoefficientCount(formula);
+    if (formula == DispersionFormula::Table || formula == DispersionFormula::Model ||
+        coefficients.size() > static_cast<size_t>(most))
+        throw std::invalid_argument("the " + std::string(formulaName(formula)) + " formula takes " +
+                                    std::to_string(most) + " coefficients (got " +
+                                    std::to_string(coefficients.size()) + ")");
+    Glass glass(std::move(name), "PRIVATE", formula, std::move(coefficients));
+    glass.ndCatalog = glass.index(kLineD);
+    if (!(glass.ndCatalog > 0.0) || !std::isfinite(glass.ndCatalog))
+        throw std::invalid_argument("the formula gives no real index at the d line");
+    glass.vdCatalog = glass.abbeNumber();
+    return glass;
+}
+
 Glass Glass::withCoefficients(std::vector<double> coefficients) const {
     Glass copy = *this;
     copy.coefficients_ = std::move(coefficients);

@@ -116,6 +116,11 @@ class Glass {
     // points, distinct wavelengths > 0 and finite indices > 0 (std::invalid_argument).
     static Glass table(std::string name, std::vector<double> wavelengthsNm,
                        std::vector<double> indices);
+    // A glass given by one of the catalog formulas and its coefficients (a lens file's own
+    // glass, a CODE V private glass's LAU), catalog "PRIVATE". Needs at most the formula's
+    // coefficient count and a finite real index at the d line (std::invalid_argument).
+    static Glass withFormula(std::string name, DispersionFormula formula,
+                             std::vector<double> coefficients);
 
     const std::string& name() const { return name_; }
     const std::string& catalog() const { return catalog_; }

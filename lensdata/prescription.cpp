@@ -32,12 +32,7 @@ std::string Material::label() const {
 std::optional<Glass> Material::ownGlass() const {
     if (kind == Kind::Model) return Glass::model(nd, vd, dPgF);
     if (kind == Kind::Table) return Glass::table(name, tableNm, tableIndex);
-    if (kind == Kind::Formula) {
-        Glass g(name, "PRIVATE", formula, coefficients);
-        g.ndCatalog = g.index(kLineD);
-        g.vdCatalog = g.abbeNumber();
-        return g;
-    }
+    if (kind == Kind::Formula) return Glass::withFormula(name, formula, coefficients);
     return std::nullopt;
 }
 
@@ -304,15 +299,10 @@ void Prescription::validate() const {
         if (s.material.kind == Material::Kind::Model &&
             (s.material.nd < 1.0 || s.material.vd < 0.0))
             throw ModelError(nameOf(i), "model glass needs nd >= 1 and Vd >= 0 (0: no dispersion)");
-        if (s.material.kind == Material::Kind::Formula) {
-            const double index = s.material.ownGlass()->index(kLineD);
-            if (!(index > 0.0) || !std::isfinite(index))
-                throw ModelError(
-                    nameOf(i), "glass " + s.material.label() + " has no real index at the d line");
-        }
-        if (s.material.kind == Material::Kind::Table) {
+        if (s.material.kind == Material::Kind::Table ||
+            s.material.kind == Material::Kind::Formula) {
             try {
-                Glass::table(s.material.name, s.material.tableNm, s.material.tableIndex);
+                s.material.ownGlass();
             } catch (const std::invalid_argument& e) {
                 throw ModelError(nameOf(i), "glass " + s.material.name + ": " + e.what());
             }

@@ -473,15 +473,12 @@ Material LensReader::readMaterial(const TomlValue& value) const {
         for (const TomlValue& v :
              table.require("coefficients", "the formula's coefficients").asArray())
             c.push_back(v.asNumber());
-        if (c.size() > static_cast<size_t>(formulaCoefficientCount(*formula)))
-            value.fail("the " + std::string(formulaName(*formula)) + " formula takes " +
-                       std::to_string(formulaCoefficientCount(*formula)) + " coefficients (got " +
-                       std::to_string(c.size()) + ")");
-        const Material m = Material::withFormula(name, *formula, std::move(c));
-        const double n = m.ownGlass()->index(kLineD);
-        if (!(n > 0.0) || !std::isfinite(n))
-            value.fail("the formula gives no real index at the d line");
-        return m;
+        try {
+            Glass::withFormula(name, *formula, c);
+        } catch (const std::invalid_argument& e) {
+            value.fail(e.what());
+        }
+        return Material::withFormula(name, *formula, std::move(c));
     }
     if (value.isTable() && value.asTable().has("nm")) {
         const TomlTable table = value.asTable();

@@ -425,6 +425,18 @@ intensity_w_sr = 2.0
     expectFluxSumsToTotal(src, rays);
 }
 
+// The largest angle from the cone's axis to any of `points` seen from the source, each
+// checked to lie inside the cone.
+double largestAngleInCone(const PointSource& ps, const std::vector<Vec3>& points) {
+    double largest = 0.0;
+    for (const Vec3& q : points) {
+        const double angle = std::acos(glm::dot(glm::normalize(q - ps.positionMm), ps.axis));
+        EXPECT_LE(angle, ps.halfAngleRad) << q;
+        largest = std::max(largest, angle);
+    }
+    return largest;
+}
+
 TEST(PointSource, OffAxisConeCoversTheWholeSurfaceTightly) {
     const Scene s(R"(
 [[source]]
@@ -439,12 +451,7 @@ margin_mm = 1
     const Vec3 meridionalNormal = glm::normalize(glm::cross(Vec3(15, -10, 0), Vec3(0, 0, 1)));
     EXPECT_NEAR(glm::dot(ps.axis, meridionalNormal), 0.0, 1e-9);
     const EntranceAperture a = entranceAperture(s.p, s.model);
-    double largest = 0.0;
-    for (const Vec3& q : surfacePoints(a, 14.0, 7200)) {
-        const double angle = std::acos(glm::dot(glm::normalize(q - ps.positionMm), ps.axis));
-        EXPECT_LE(angle, ps.halfAngleRad) << q;
-        largest = std::max(largest, angle);
-    }
+    const double largest = largestAngleInCone(ps, surfacePoints(a, 14.0, 7200));
     EXPECT_GT(largest, ps.halfAngleRad - 1e-4);  // no cone with this axis is much smaller
 }
 
@@ -465,12 +472,7 @@ surfaces = [
     const PointSource& ps = std::get<PointSource>(s.only().shape());
     EXPECT_GT(ps.halfAngleRad, 90.0 * kDeg);
     const EntranceAperture a = entranceAperture(s.p, s.model);
-    double largest = 0.0;
-    for (const Vec3& q : surfacePoints(a, 12.0, 7200)) {
-        const double angle = std::acos(glm::dot(glm::normalize(q - ps.positionMm), ps.axis));
-        EXPECT_LE(angle, ps.halfAngleRad) << q;
-        largest = std::max(largest, angle);
-    }
+    const double largest = largestAngleInCone(ps, surfacePoints(a, 12.0, 7200));
     EXPECT_NEAR(largest, kPi - std::atan(12.0 / 3.0), 1e-3);
     EXPECT_LT(ps.halfAngleRad, largest + 1e-3);
     try {
