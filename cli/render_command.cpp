@@ -185,6 +185,12 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
                     "directions drawn from a splatted lobe per photon scatter there")
         ->check(CLI::Range(1, 4096))
         ->capture_default_str();
+    sub->add_option("--aimed-splats", o.aimedSplats,
+                    "share of a narrow lobe's splats aimed at the face their light goes on "
+                    "through as designed (the rest drawn from the lobe; weighed by multiple "
+                    "importance sampling)")
+        ->check(CLI::Range(0.0, 1.0))
+        ->capture_default_str();
     sub->add_option("--connect", o.connect,
                     "light of collimated, sun and point sources that reaches a scattering "
                     "surface through the lens as designed: solved through the lens at every "
@@ -286,6 +292,7 @@ RenderRunSpec renderSpec(const RenderCommandOptions& o) {
     ro.followLobesBelowDeg = o.followLobesBelow;
     ro.splatLobesBelowDeg = o.splatLobesBelow;
     ro.lobeSplats = o.lobeSplats;
+    ro.aimedSplats = o.aimedSplats;
     ro.connectThroughLens = o.connect == "on";
     ro.partSamples = o.partSamples;
     ro.partPhotons = o.partPhotons;

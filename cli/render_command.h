@@ -44,6 +44,7 @@ struct RenderCommandOptions {
     double followLobesBelow = 0.0;  // degrees (RenderOptions::followLobesBelowDeg)
     double splatLobesBelow = 15.0;  // degrees (RenderOptions::splatLobesBelowDeg)
     int lobeSplats = 1024;          // RenderOptions::lobeSplats
+    double aimedSplats = 0.5;       // RenderOptions::aimedSplats
     std::string connect = "on";     // RenderOptions::connectThroughLens
     uint64_t partSamples = 65536;   // RenderOptions::partSamples
     uint64_t partPhotons = 16384;   // RenderOptions::partPhotons

@@ -44,7 +44,7 @@ uint64_t fingerprintOf(const TransportView& ts, const DetectorGeometry& g, const
        << " " << o.partSamples << " " << o.photonGuideFraction << " " << o.scatterGuideFraction
        << " " << o.weightWindow << " " << o.visiblePhotonsPerPass << " " << o.balanceVisible << " "
        << o.splatLobesBelowDeg << " " << o.lobeSplats << " " << o.partPhotons << " "
-       << o.balancePhotonsByError;
+       << o.balancePhotonsByError << " " << o.aimedSplats;
     for (const std::string& w : where) os << "\nwhere " << w;
     const std::string text = os.str();
     uint64_t h = 1469598103934665603ull;
@@ -410,6 +410,7 @@ nlohmann::json RenderResult::summary() const {
         {"part_samples_per_pass", ro.partSamples},
         {"splat_lobes_below_deg", ro.splatLobesBelowDeg},
         {"lobe_splats", ro.lobeSplats},
+        {"aimed_splats", ro.aimedSplats},
         {"part_photons_per_pass", ro.partPhotons},
         {"photon_points", ro.quasiRandomPhotons ? "sobol" : "random"}};
     summary["final_radius_mm"] = state.radiusMm();

@@ -148,6 +148,48 @@ std::optional<PartPoint> PartShape::at(double u, double v) const {
     return out;
 }
 
+double PartShape::densityAt(const Vec3& point, int primitive) const {
+    switch (kind_) {
+        case Kind::None:
+            return 0.0;
+        case Kind::Mesh: {
+            const auto it = std::lower_bound(triangles_.begin(), triangles_.end(),
+                                             static_cast<uint32_t>(primitive));
+            if (primitive < 0 || it == triangles_.end() || *it != static_cast<uint32_t>(primitive))
+                return 0.0;
+            const size_t k = static_cast<size_t>(it - triangles_.begin());
+            return 1.0 / (static_cast<double>(triangles_.size()) * areas_[k]);
+        }
+        case Kind::Cylinder:
+            return 1.0 / area_;
+        default:
+            break;
+    }
+    const Vec3 local = object_->frame.toLocalPoint(point);
+    if (kind_ == Kind::Rectangle) {
+        if (std::abs(local.x) > a_ || std::abs(local.y) > b_) return 0.0;
+    } else {
+        const double r2 = local.x * local.x + local.y * local.y;
+        if (r2 < a_ * a_ || r2 > b_ * b_) return 0.0;
+    }
+    const Vec3 n = glm::normalize(faceNormal(std::get<FaceGeometry>(object_->geometry), local));
+    return std::abs(n.z) / mapArea_;
+}
+
+std::optional<Vec2> PartShape::uvOf(const Vec3& point) const {
+    if (kind_ != Kind::Disc && kind_ != Kind::Annulus && kind_ != Kind::Rectangle)
+        return std::nullopt;
+    const Vec3 local = object_->frame.toLocalPoint(point);
+    if (kind_ == Kind::Rectangle)
+        return Vec2(std::clamp((local.x / a_ + 1.0) * 0.5, 0.0, 1.0),
+                    std::clamp((local.y / b_ + 1.0) * 0.5, 0.0, 1.0));
+    const double r2 = local.x * local.x + local.y * local.y;
+    double v = std::atan2(local.y, local.x) / kTwoPi;
+    if (v < 0.0) v += 1.0;
+    return Vec2(std::clamp((r2 - a_ * a_) / (b_ * b_ - a_ * a_), 0.0, 1.0),
+                std::clamp(v, 0.0, 1.0));
+}
+
 struct PartLight::Scratch {
     std::vector<PathEvent> chain, onward;
     std::vector<std::byte> state, scratch;
@@ -167,10 +209,9 @@ PartLight::PartLight(const TransportView& ts, const LensConnector& connector, in
     const bool photons = mode == PartMode::Photons;
     if (photons && std::find(splatted.begin(), splatted.end(), true) == splatted.end()) return;
     const Scene& scene = *ts.scene;
-    if (!photons) {  // the faces light goes on through (photon mode draws none)
-        for (int k = 0; k < dp.steps(); ++k) faces_.emplace_back(scene, dp.objectOfStep(k));
-        faces_.emplace_back(scene, detectorObject);
-    }
+    // The faces light goes on through (photon mode: the faces its splats aim at).
+    for (int k = 0; k < dp.steps(); ++k) faces_.emplace_back(scene, dp.objectOfStep(k));
+    faces_.emplace_back(scene, detectorObject);
     const double most = kDisks * std::numbers::pi * radiusMm * radiusMm;
     shapes_.resize(objects_);
     std::vector<bool> tried(objects_, false);
@@ -270,6 +311,7 @@ PartLight::PartLight(const TransportView& ts, const LensConnector& connector, in
             }
             if (active.empty()) break;
             std::vector<std::vector<uint64_t>> places(active.size());  // photon mode's
+            std::vector<std::vector<std::pair<uint64_t, int>>> aims(active.size());
             std::vector<int> legs(active.size(), 0), lobes(active.size(), 0);
             tbb::parallel_for(size_t{0}, active.size(), [&](size_t k) {
                 const size_t i = active[k];
@@ -292,7 +334,7 @@ PartLight::PartLight(const TransportView& ts, const LensConnector& connector, in
                     ++tries[i];
                     const bool found =
                         photons ? samplePhoton(candidates[t], uv, kCellCount / box.area(), rng,
-                                               work, sp, &places[k])
+                                               work, sp, &places[k], &aims[k])
                                 : sample(candidates[t], uv, kCellCount / box.area(), rng, nullptr,
                                          scratch, work, sp);
                     if (!found) continue;
@@ -309,6 +351,7 @@ PartLight::PartLight(const TransportView& ts, const LensConnector& connector, in
                 hits[i] = 0;
             }
             for (const auto& p : places) productive_.insert(productive_.end(), p.begin(), p.end());
+            for (const auto& a : aims) aims_.insert(aims_.end(), a.begin(), a.end());
             for (size_t k = 0; k < active.size(); ++k) {
                 Target& t = candidates[alive[active[k] / kCellCount]];
                 t.legs += legs[k];
@@ -334,6 +377,41 @@ PartLight::PartLight(const TransportView& ts, const LensConnector& connector, in
 
     std::sort(productive_.begin(), productive_.end());
     productive_.erase(std::unique(productive_.begin(), productive_.end()), productive_.end());
+    // Each place's aim: the step most of its designed splats went on from (the smaller on a
+    // tie), kept only where that face can be drawn.
+    std::sort(aims_.begin(), aims_.end());
+    {
+        std::vector<std::pair<uint64_t, int>> best;
+        for (size_t i = 0; i < aims_.size();) {
+            size_t mostAt = i, count = 0;
+            size_t j = i;
+            while (j < aims_.size() && aims_[j].first == aims_[i].first) {
+                size_t k = j;
+                while (k < aims_.size() && aims_[k] == aims_[j]) ++k;
+                if (k - j > count) {
+                    count = k - j;
+                    mostAt = j;
+                }
+                j = k;
+            }
+            if (faces_[static_cast<size_t>(aims_[mostAt].second)].invertible())
+                best.push_back(aims_[mostAt]);
+            i = j;
+        }
+        aims_ = std::move(best);
+        // Per object, the step the most of its places aim at (the smaller on a tie).
+        std::vector<std::vector<int>> counts(objects_);
+        for (const auto& [key, step] : aims_) {
+            std::vector<int>& c = counts[static_cast<size_t>(key >> 32)];
+            if (c.size() <= static_cast<size_t>(step)) c.resize(static_cast<size_t>(step) + 1, 0);
+            ++c[static_cast<size_t>(step)];
+        }
+        objectAims_.assign(objects_, -1);
+        for (size_t o = 0; o < objects_; ++o)
+            if (!counts[o].empty())
+                objectAims_[o] = static_cast<int>(
+                    std::max_element(counts[o].begin(), counts[o].end()) - counts[o].begin());
+    }
     // Targets: the candidates whose pilot found light on level 0; the rest are left to the view
     // points. A target's strata: its level 0 cells (the defensive share, and in proportion to
     // their light when it has no deeper level) and its deepest level's cells (in proportion to
@@ -503,9 +581,17 @@ bool PartLight::productive(int object, int primitive) const {
     return std::binary_search(productive_.begin(), productive_.end(), placeKey(object, primitive));
 }
 
+int PartLight::aimStep(int object, int primitive) const {
+    const uint64_t key = placeKey(object, primitive);
+    const auto it = std::lower_bound(aims_.begin(), aims_.end(), std::pair<uint64_t, int>{key, -1});
+    return it != aims_.end() && it->first == key ? it->second : -1;
+}
+
 bool PartLight::samplePhoton(const Target& target, const Vec2& uv, double uvDensity,
                              CounterRng& rng, LensConnector::Work& work, Splat& out,
-                             std::vector<uint64_t>* places) const {
+                             std::vector<uint64_t>* places,
+                             std::vector<std::pair<uint64_t, int>>* aims) const {
+    const DesignedPath& dp = lc_->designed();
     const TransportView& ts = *ts_;
     const auto st = lit(target, uv, uvDensity, rng, work, nullptr);
     if (!st) return false;
@@ -520,10 +606,15 @@ bool PartLight::samplePhoton(const Target& target, const Vec2& uv, double uvDens
         std::optional<SceneHit> scatterHit;
         Interaction scatterAt;
         Vec3 arriving{0.0};
+        // Reaching the detector: the designed step it went on from (faces j..N-1 crossed as
+        // designed, then the detector), or -1.
+        int designedFrom = -1;
     };
     constexpr int kMostSegments = 64;
+    std::vector<std::pair<int, EventType>> crossed;
     auto leg = [&](Ray ray, int medium, int from, int fromPrimitive) {
         Leg l;
+        crossed.clear();
         double share = 1.0;
         for (int segment = 0; segment < kMostSegments; ++segment) {
             const auto h = ts.scene->closestHit(ray, kInfinity, from, fromPrimitive, medium);
@@ -532,7 +623,14 @@ bool PartLight::samplePhoton(const Target& target, const Vec2& uv, double uvDens
             const double alpha = ts.media->absorptionPerMm(medium, st->line);
             if (alpha > 0.0) share *= std::exp(-alpha * h->t);
             if (ts.detectorOfObject[h->object] >= 0) {
-                if (h->object == detectorObject_) l.share = share;
+                if (h->object == detectorObject_) {
+                    l.share = share;
+                    const int first = dp.steps() - static_cast<int>(crossed.size());
+                    int step = first;
+                    for (const auto& [object, event] : crossed)
+                        if (step >= 0) step = dp.forward(step, object, event);
+                    if (first >= 0 && step >= 0 && dp.completeForward(step)) l.designedFrom = first;
+                }
                 return l;
             }
             Interaction next =
@@ -549,6 +647,7 @@ bool PartLight::samplePhoton(const Target& target, const Vec2& uv, double uvDens
             }
             const int k = next.count > 1 ? chooseChild(next, rng.uniform()) : 0;
             share *= next.total;
+            crossed.emplace_back(h->object, next.children[k].event);
             const auto d = next.direction(k, rng);
             if (!d) return l;
             ray = {h->point, *d};
@@ -589,6 +688,8 @@ bool PartLight::samplePhoton(const Target& target, const Vec2& uv, double uvDens
                 places->push_back(placeKey(st->object, st->primitive));
                 places->push_back(placeKey(b.object, b.primitive));
             }
+            if (aims && second.designedFrom >= 0)
+                aims->emplace_back(placeKey(b.object, b.primitive), second.designedFrom);
         }
         if (reached) ++lobes;
     }

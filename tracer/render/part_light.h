@@ -100,6 +100,15 @@ class PartShape {
     bool valid() const { return kind_ != Kind::None; }
     double areaMm2() const { return area_; }
     std::optional<PartPoint> at(double u, double v) const;
+    // The density per mm^2 with which at() draws a point of this shape, at `point` (on triangle
+    // `primitive` of a mesh), for (u, v) uniform: 0 where at() never lands.
+    double densityAt(const Vec3& point, int primitive) const;
+    // The inverse of at() on an exact face with a circular, annular or rectangular aperture:
+    // the (u, v) at() maps to `point` (clamped to [0, 1]); none on other shapes.
+    std::optional<Vec2> uvOf(const Vec3& point) const;
+    bool invertible() const {
+        return kind_ == Kind::Disc || kind_ == Kind::Annulus || kind_ == Kind::Rectangle;
+    }
 
   private:
     enum class Kind { None, Disc, Annulus, Rectangle, Cylinder, Mesh };
@@ -180,6 +189,18 @@ class PartLight {
     // place (an exact face, or a mesh's triangle), as the part or as the splatted lobe after
     // it: there the photons split (RenderOptions::lobeSplats), elsewhere one direction does.
     bool productive(int object, int primitive) const;
+    // Photon mode: the designed step j from which the pilot's splats from this place went on
+    // as designed (faces j..N-1, then the detector; N straight to it), where the most of them
+    // did; -1 where none did. The photon pass aims splats there (aimFace()).
+    int aimStep(int object, int primitive) const;
+    // The step most of the object's places aim at (-1 for none): a place of that object the
+    // pilot did not see may still send light there (the pilot's places are a sample).
+    int aimStepOfObject(int object) const {
+        return objectAims_.empty() ? -1 : objectAims_[static_cast<size_t>(object)];
+    }
+    // The face of designed step j (N: the detector), drawn by area (PartShape); invalid where
+    // it cannot be drawn.
+    const PartShape& aimFace(int step) const { return faces_[static_cast<size_t>(step)]; }
     // The hit a start's light makes on its part (the interaction there).
     static SceneHit hitOf(const Scene& scene, const Start& s);
 
@@ -242,9 +263,12 @@ class PartLight {
     // The pilot's sample in photon mode: from the point, kPilotSplits directions from its
     // lobe, one child by weight onward; where one meets a splatted lobe, kPilotSplits
     // directions from it on to the detector: the mean flux that reaches it.
+    // With `places`, the places that led light to the detector; with `aims`, (place, j) for
+    // each splat that went on from a splatted lobe's place as designed from step j.
     bool samplePhoton(const Target& t, const Vec2& uv, double uvDensity, CounterRng& rng,
                       LensConnector::Work& work, Splat& out,
-                      std::vector<uint64_t>* places = nullptr) const;
+                      std::vector<uint64_t>* places = nullptr,
+                      std::vector<std::pair<uint64_t, int>>* aims = nullptr) const;
     static uint64_t placeKey(int object, int primitive) {
         return (static_cast<uint64_t>(static_cast<uint32_t>(object)) << 32) |
                static_cast<uint32_t>(primitive);
@@ -257,6 +281,8 @@ class PartLight {
     PartMode mode_ = PartMode::Onward;
     std::vector<bool> splatted_;        // photon mode: [property]
     std::vector<uint64_t> productive_;  // photon mode: placeKey()s, sorted
+    std::vector<std::pair<uint64_t, int>> aims_;  // photon mode: (placeKey, step), sorted
+    std::vector<int> objectAims_;                 // photon mode: [object] (aimStepOfObject)
     int detectorObject_ = -1;
     size_t objects_ = 0;
     std::vector<PartShape> shapes_;  // [object]: the candidates' (others invalid)

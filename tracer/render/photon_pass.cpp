@@ -3,6 +3,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <bit>
 #include <cmath>
@@ -24,6 +25,18 @@
 namespace veil {
 
 namespace {
+
+// The grid over the face a narrow lobe's aimed splats aim at (BlockTracer::splatLobe).
+constexpr int kSplatAimGrid = 8;
+constexpr int kSplatAimCells = kSplatAimGrid * kSplatAimGrid;
+
+// The scattered child of `in` on the side of `dir` (reflected or transmitted), -1 for none.
+int scatterChildToward(const Interaction& in, const Vec3& dir) {
+    const bool transmit = glm::dot(dir, in.context.normal) < 0.0;
+    for (int k = 0; k < in.count; ++k)
+        if (in.children[k].scatter && in.children[k].transmit == transmit) return k;
+    return -1;
+}
 
 // A view point as the grid stores it: where it is (float) and on which object, so that the
 // candidates of a cell are tested from contiguous memory; the full view point is read only
@@ -672,6 +685,11 @@ class BlockTracer {
     std::vector<int> cells_;
     std::vector<std::byte> states_, scratch_;  // states: per branch
     std::vector<std::byte> splatState_;        // a lobe splat's path state
+    std::vector<PathEvent> aimEvents_;         // an aimed splat's crossings
+    // A splat's aim grid (splatLobe): whether each cell's centre led to the detector, and the
+    // cells that did.
+    std::array<uint8_t, kSplatAimCells> aimLit_{};
+    std::array<int, kSplatAimCells> aimList_{};
     std::vector<PathEvent> suffix_;
     std::vector<Verdict> verdicts_;  // this hit's judged suffixes
     // The photon being traced: its source and emission guide cell (-1: no guide), and its
@@ -938,51 +956,147 @@ void BlockTracer::splatLobe(const PhotonBranch& br, const SceneHit& hit, const I
     if (!(scattered > 0.0)) return;
     // lobeSplats directions where the part photons' pilot saw light reach the detector from
     // this place (PartLight::productive), one elsewhere: most narrow lobes in a barrel send
-    // their light away from the sensor.
-    const int n =
-        p_.parts_ && p_.parts_->productive(hit.object, hit.primitive) ? p_.options_.lobeSplats : 1;
-    const double start = br.flux * scale * scattered / n;
-    if (!(start > 0.0)) return;
-    const double roulette = p_.options_.rouletteRelativeFlux * start;
+    // their light away from the sensor. Of those, aimedSplats aim at the face the pilot's
+    // splats went on through as designed (PartLight::aimStep).
+    const bool productive = p_.parts_ && p_.parts_->productive(hit.object, hit.primitive);
+    int aim = -1;
+    if (p_.parts_ && p_.options_.aimedSplats > 0.0) {
+        aim = p_.parts_->aimStep(hit.object, hit.primitive);
+        if (aim < 0) aim = p_.parts_->aimStepOfObject(hit.object);
+    }
+    const double arriving = br.flux * scale;
+    if (!(arriving > 0.0)) return;
     const int slot = br.scattered ? 2 : 1;
     vertex_ = br.scatterVertex;
-    for (int j = 0; j < n; ++j) {
+    const PartShape* face = aim >= 0 ? &p_.parts_->aimFace(aim) : nullptr;
+    const int aimObject = aim < 0                      ? -1
+                          : aim < p_.designed_.steps() ? p_.designed_.objectOfStep(aim)
+                                                       : p_.renderedObject_;
+    // Where on the face to aim: a kSplatAimGrid^2 grid over its map, each cell's centre traced
+    // once from here as designed; the aimed points are drawn uniformly in the cells next to
+    // (or at) a centre whose light reached the detector (the rest of the face is the lobe's
+    // alone). A place of an object that aims, which the pilot did not see (its places are a
+    // sample), counts as productive where some centre's light does.
+    int litCells = 0;
+    if (aim >= 0) {
+        std::array<uint8_t, kSplatAimCells> reached{};
+        bool any = false;
+        for (int cell = 0; cell < kSplatAimCells; ++cell) {
+            const auto y = face->at((cell % kSplatAimGrid + 0.5) / kSplatAimGrid,
+                                    (cell / kSplatAimGrid + 0.5) / kSplatAimGrid);
+            if (!y) continue;
+            const Vec3 dir = glm::normalize(y->point - hit.point);
+            const int c = scatterChildToward(in, dir);
+            if (c < 0 || !(in.property->bsdf(in.context, dir) > 0.0)) continue;
+            LensConnector::Work work;
+            const auto on = p_.connector_->onward({hit.point, dir}, hit.object, hit.primitive,
+                                                  in.children[c].medium, aim, ph.wavelength,
+                                                  ph.wavelengthNm, p_.renderedObject_, work);
+            block_.segments += work.rays;
+            if (on && p_.detector_.pixelOf(on->detectorHit.point)) {
+                reached[static_cast<size_t>(cell)] = 1;
+                any = true;
+            }
+        }
+        for (int cell = 0; any && cell < kSplatAimCells; ++cell) {
+            const int i = cell % kSplatAimGrid, j = cell / kSplatAimGrid;
+            bool near = false;
+            for (int dj = -1; dj <= 1 && !near; ++dj)
+                for (int di = -1; di <= 1 && !near; ++di) {
+                    const int ii = i + di, jj = j + dj;
+                    near = ii >= 0 && jj >= 0 && ii < kSplatAimGrid && jj < kSplatAimGrid &&
+                           reached[static_cast<size_t>(jj * kSplatAimGrid + ii)] != 0;
+                }
+            aimLit_[static_cast<size_t>(cell)] = near ? 1 : 0;
+            if (near) aimList_[static_cast<size_t>(litCells++)] = cell;
+        }
+    }
+    const int n = productive || litCells > 0 ? p_.options_.lobeSplats : 1;
+    // At least one direction from the lobe: the aim covers only its cells.
+    const int nAim =
+        litCells > 0 ? std::min(n - 1, static_cast<int>(std::lround(n * p_.options_.aimedSplats)))
+                     : 0;
+    const double roulette = p_.options_.rouletteRelativeFlux * arriving * scattered / n;
+    const int nLobe = n - nAim;
+    // The aim's density per mm^2 of a point y on the face.
+    auto aimDensity = [&](const Vec3& y, int primitive) {
+        const auto uv = face->uvOf(y);
+        if (!uv) return 0.0;
+        const int i = std::min(kSplatAimGrid - 1, static_cast<int>(uv->x * kSplatAimGrid));
+        const int j = std::min(kSplatAimGrid - 1, static_cast<int>(uv->y * kSplatAimGrid));
+        if (!aimLit_[static_cast<size_t>(j * kSplatAimGrid + i)]) return 0.0;
+        return static_cast<double>(kSplatAimCells) / litCells * face->densityAt(y, primitive);
+    };
+    // The lobe's density of a direction (a scattered child in proportion to its share, then
+    // its channel's pdf), and the aim's (a point on the face by area, per steradian at the
+    // place): the balance heuristic over the two, nLobe and nAim samples.
+    auto lobePdf = [&](const Vec3& dir) {
+        const bool transmit = glm::dot(dir, in.context.normal) < 0.0;
+        double share = 0.0;
+        for (int c = 0; c < in.count; ++c)
+            if (in.children[c].scatter && in.children[c].transmit == transmit)
+                share += in.children[c].share;
+        return share > 0.0 ? share / scattered * in.property->scatterPdf(in.context, dir) : 0.0;
+    };
+    auto judgeStart = [&](int c) {
+        uint64_t alive = br.alive;
+        if (!p_.judge_) return alive;
+        splatState_.assign(states_.begin() + static_cast<std::ptrdiff_t>(br.state),
+                           states_.begin() + static_cast<std::ptrdiff_t>(br.state) +
+                               static_cast<std::ptrdiff_t>(p_.stateBytes_));
+        if (alive != 0)
+            alive = p_.judge_->push(splatState_.data(),
+                                    pathEvent(in.children[c].event, hit.object, hit.primitive,
+                                              br.medium, in.children[c].medium));
+        return alive;
+    };
+    auto land = [&](const SceneHit& h, int medium, uint64_t alive, double flux) {
+        const auto pixel = p_.detector_.pixelOf(h.point);
+        if (!pixel) return;
+        uint64_t matched = 0;
+        if (p_.judge_ && alive != 0) {
+            suffix_.assign(
+                1, pathEvent(EventType::DetectorHit, h.object, h.primitive, medium, medium));
+            matched = p_.judge_->matches(splatState_.data(), suffix_, scratch_.data());
+        }
+        book(slot, matched, nullptr, *pixel, flux, true);
+        book(3, matched, nullptr, *pixel, flux, true);
+    };
+    const double lobeStart = nLobe > 0 ? arriving * scattered / nLobe : 0.0;
+    for (int j = 0; j < nLobe; ++j) {
         // A scattered child in proportion to its share, a direction from its lobe.
         const int c = chooseScatterChild(in, ph.rng.uniform());
         const auto dir = in.direction(c, ph.rng);
         if (!dir) continue;
-        uint64_t alive = br.alive;
-        if (p_.judge_) {
-            splatState_.assign(states_.begin() + static_cast<std::ptrdiff_t>(br.state),
-                               states_.begin() + static_cast<std::ptrdiff_t>(br.state) +
-                                   static_cast<std::ptrdiff_t>(p_.stateBytes_));
-            if (alive != 0)
-                alive = p_.judge_->push(splatState_.data(),
-                                        pathEvent(in.children[c].event, hit.object, hit.primitive,
-                                                  br.medium, in.children[c].medium));
-            if (p_.prune_ && alive == 0) continue;
-        }
+        uint64_t alive = judgeStart(c);
+        if (p_.judge_ && p_.prune_ && alive == 0) continue;
         Ray ray{hit.point, *dir};
-        double flux = start;
+        double flux = lobeStart;
+        // The path's designed step from the aimed face on (kOff once it leaves it), and the
+        // aim's density of this direction, where its first hit is on that face.
+        int at = aim >= 0 && nAim > 0 ? aim : DesignedPath::kOff;
+        double aimPdf = 0.0;
         int medium = in.children[c].medium, from = hit.object, fromPrimitive = hit.primitive;
         for (int segment = 0; segment < p_.options_.maxPhotonSegments; ++segment) {
             const auto h = ts.scene->closestHit(ray, kInfinity, from, fromPrimitive, medium);
             ++block_.segments;
             if (!h) break;
+            if (segment == 0 && at != DesignedPath::kOff) {
+                const double cosY = std::abs(glm::dot(ray.direction, h->normal));
+                if (h->object == aimObject && cosY > 0.0)
+                    aimPdf = aimDensity(h->point, h->primitive) * h->t * h->t / cosY;
+                if (!(aimPdf > 0.0)) at = DesignedPath::kOff;
+            }
             const double alpha = ts.media->absorptionPerMm(medium, ph.wavelength);
             if (alpha > 0.0) flux *= std::exp(-alpha * h->t);
             if (ts.detectorOfObject[h->object] >= 0) {
                 if (h->object != p_.renderedObject_) break;
-                const auto pixel = p_.detector_.pixelOf(h->point);
-                if (!pixel) break;
-                uint64_t matched = 0;
-                if (p_.judge_ && alive != 0) {
-                    suffix_.assign(1, pathEvent(EventType::DetectorHit, h->object, h->primitive,
-                                                medium, medium));
-                    matched = p_.judge_->matches(splatState_.data(), suffix_, scratch_.data());
+                double w = 1.0;
+                if (p_.designed_.completeForward(at)) {
+                    const double pl = nLobe * lobePdf(*dir);
+                    w = pl / (pl + nAim * aimPdf);
                 }
-                book(slot, matched, nullptr, *pixel, flux, true);
-                book(3, matched, nullptr, *pixel, flux, true);
+                land(*h, medium, alive, flux * w);
                 break;
             }
             const Interaction next = interact(ts, *h, ray.direction, ph.wavelength, ph.wavelengthNm,
@@ -990,6 +1104,7 @@ void BlockTracer::splatLobe(const PhotonBranch& br, const SceneHit& hit, const I
             if (next.count == 0) break;
             const int k = next.count > 1 ? chooseChild(next, ph.rng.uniform()) : 0;
             if (next.children[k].scatter) break;  // the photon's own later gathers count it
+            at = p_.designed_.forward(at, h->object, next.children[k].event);
             flux *= next.total;
             flux = playRoulette(flux, roulette, roulette, ph.rng);
             if (!(flux > 0.0)) break;
@@ -1006,6 +1121,49 @@ void BlockTracer::splatLobe(const PhotonBranch& br, const SceneHit& hit, const I
             from = h->object;
             fromPrimitive = h->primitive;
         }
+    }
+    // The aimed directions: a point on the face by area, the designed path on from it
+    // (LensConnector::onward), counted where that path's first crossing is the drawn point.
+    for (int j = 0; j < nAim; ++j) {
+        const int cell = aimList_[static_cast<size_t>(
+            std::min(litCells - 1, static_cast<int>(ph.rng.uniform() * litCells)))];
+        const double u = (cell % kSplatAimGrid + ph.rng.uniform()) / kSplatAimGrid;
+        const double v = (cell / kSplatAimGrid + ph.rng.uniform()) / kSplatAimGrid;
+        const auto y = face->at(u, v);
+        if (!y) continue;
+        Vec3 dir = y->point - hit.point;
+        const double d2 = glm::dot(dir, dir);
+        if (!(d2 > 0.0)) continue;
+        const double d = std::sqrt(d2);
+        dir /= d;
+        const double cosY = std::abs(glm::dot(dir, y->normal));
+        const double cosX = std::abs(glm::dot(dir, in.context.normal));
+        if (!(cosY > 0.0) || !(cosX > 0.0)) continue;
+        const double f = in.property->bsdf(in.context, dir);
+        if (!(f > 0.0)) continue;
+        const int c = scatterChildToward(in, dir);
+        if (c < 0) continue;
+        uint64_t alive = judgeStart(c);
+        if (p_.judge_ && p_.prune_ && alive == 0) continue;
+        LensConnector::Work work;
+        const auto on = p_.connector_->onward(
+            {hit.point, dir}, hit.object, hit.primitive, in.children[c].medium, aim, ph.wavelength,
+            ph.wavelengthNm, p_.renderedObject_, work, p_.judge_ ? &aimEvents_ : nullptr);
+        block_.segments += work.rays;
+        if (!on) continue;
+        const double tol = 1e-6 * std::max({1.0, std::abs(y->point.x), std::abs(y->point.y),
+                                            std::abs(y->point.z)}) +
+                           1e-7 * d;
+        if (glm::length(on->firstPoint - y->point) > tol) continue;
+        const double pa =
+            nAim * static_cast<double>(kSplatAimCells) / litCells * y->density * d2 / cosY;
+        const double flux = arriving * f * cosX / (nLobe * lobePdf(dir) + pa) * on->transmit;
+        if (!(flux > 0.0) || !std::isfinite(flux)) continue;
+        if (p_.judge_ && alive != 0)
+            for (size_t e = 0; e + 1 < aimEvents_.size() && alive != 0; ++e)
+                alive = p_.judge_->push(splatState_.data(), aimEvents_[e]);
+        if (p_.judge_ && p_.prune_ && alive == 0) continue;
+        land(on->detectorHit, on->medium, alive, flux);
     }
 }
 

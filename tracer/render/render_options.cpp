@@ -47,6 +47,8 @@ void RenderOptions::check() const {
         fail("the half width below which lobes are splatted must lie in [0, 90] degrees");
     if (lobeSplats < 1 || lobeSplats > 4096)
         fail("the splats per narrow lobe scatter must lie in [1, 4096]");
+    if (!(aimedSplats >= 0.0 && aimedSplats <= 1.0))
+        fail("the aimed share of a narrow lobe's splats must lie in [0, 1]");
     if (partSamples > kMaxPartSamples)
         fail("the part samples per pass must lie in [0, " + std::to_string(kMaxPartSamples) + "]");
     if (partPhotons > kMaxPartSamples)
@@ -63,8 +65,8 @@ std::ostream& operator<<(std::ostream& os, const RenderOptions& o) {
               << o.guideFraction << ", photon guide " << o.photonGuideFraction << ", scatter guide "
               << o.scatterGuideFraction << ", weight window " << o.weightWindow
               << ", follow lobes below " << o.followLobesBelowDeg << " deg, splat lobes below "
-              << o.splatLobesBelowDeg << " deg (" << o.lobeSplats << " splats)"
-              << (o.connectThroughLens ? ", connected through the lens" : "") << ", "
+              << o.splatLobesBelowDeg << " deg (" << o.lobeSplats << " splats, " << o.aimedSplats
+              << " aimed)" << (o.connectThroughLens ? ", connected through the lens" : "") << ", "
               << o.partSamples << " part samples, " << o.partPhotons << " part photons}";
 }
 

@@ -106,6 +106,12 @@ struct RenderOptions {
     // Directions per splat where the part photons' pilot saw a splatted lobe's light reach the
     // detector (one elsewhere), and the most directions a part photon draws at its point.
     int lobeSplats = 1024;
+    // Of those directions, the share aimed at the face the pilot's splats from that place went
+    // on through as designed (PartLight::aimStep: the next lens face behind a stop's bevel, or
+    // the detector itself), a point drawn on it by area; the rest drawn from the lobe. The two
+    // are weighed by multiple importance sampling (balance heuristic) on the path's direction,
+    // so a direction either could draw is counted once. 0: every direction from the lobe.
+    double aimedSplats = 0.5;
     // Light connected through the lens (tracer/render/lens_connection.h): at every view point
     // and followed lobe, the light of the sources that reaches it through the lens as designed
     // is solved for (Newton on the source's ray) instead of gathered from photons (at a followed

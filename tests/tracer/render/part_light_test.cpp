@@ -26,6 +26,7 @@
 #include "tests/tracer/render/box_mesh.h"
 #include "tracer/render/path_judge.h"
 #include "tracer/render/render.h"
+#include "tracer/runtime/rng.h"
 #include "tracer/scene/prepared_scene.h"
 #include "tracer/scene/scene_transport.h"
 #include "tracer/sequential/sequential_model.h"
@@ -264,6 +265,40 @@ TEST(PartLight, PointsLieOnTheirPartAndTheirDensityIntegratesToOne) {
                                                 : 2.0 * std::numbers::pi * 100.0 * sag;
         EXPECT_NEAR(meanInverse, area, 1e-3 * area) << name;
         EXPECT_NEAR(shape.areaMm2(), area, 1e-3 * area) << name;
+    }
+}
+
+// The aimed splats' density (docs/render.md, "Splats aimed through the lens"): a point the
+// photon pass finds by tracing (its hit) gets the density with which at() would have drawn it.
+// On exact faces uvOf() inverts at() and densityAt() is at()'s density; on a mesh, densityAt()
+// of a triangle's point is at()'s density there. A point off the shape has density 0.
+TEST(PartLight, DensityAtAPointIsTheDensityTheMapDrawsItWith) {
+    const auto s = ringScene();
+    const Scene& scene = s->scene();
+    for (const std::string name : {"ring", "L1.front", "L2.back", "L1.edge"}) {
+        const int id = objectId(scene, name);
+        const PartShape shape(scene, id);
+        ASSERT_TRUE(shape.valid()) << name;
+        const bool exact = name == "L1.front" || name == "L2.back";
+        EXPECT_EQ(shape.invertible(), exact) << name;
+        CounterRng rng(17, 0);
+        for (int k = 0; k < 200; ++k) {
+            const double u = rng.uniform(), v = rng.uniform();
+            const auto p = shape.at(u, v);
+            ASSERT_TRUE(p) << name;
+            EXPECT_NEAR(shape.densityAt(p->point, p->primitive), p->density, 1e-9 * p->density)
+                << name << " at " << u << ", " << v;
+            if (!exact) continue;
+            const auto uv = shape.uvOf(p->point);
+            ASSERT_TRUE(uv) << name;
+            EXPECT_NEAR(uv->x, u, 1e-9) << name;
+            // v wraps at 1 (the angle's zero).
+            EXPECT_NEAR(std::remainder(uv->y - v, 1.0), 0.0, 1e-9) << name;
+        }
+        if (exact) {  // beyond the face's clear aperture (12.5 mm)
+            const Vec3 off = scene.object(id).frame.toGlobalPoint(Vec3(13.0, 0.0, 0.0));
+            EXPECT_EQ(shape.densityAt(off, 0), 0.0) << name;
+        }
     }
 }
 
