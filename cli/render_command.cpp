@@ -202,6 +202,11 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
              "through it (a stop's edge, butt ends, flats), their light traced to the pixels "
              "(0: off; needs --connect on)",
              0);
+    sub->add_option("--part-directions", o.partDirections,
+                    "directions each of those points sends on toward the pixels (the light "
+                    "solved at the point shared among them)")
+        ->check(CLI::Range(1, 1024))
+        ->capture_default_str();
     addCount(sub, "--part-photons", o.partPhotons,
              "photons drawn per pass on the parts the lens lights, with the light solved "
              "through the lens, scattering on from there, where the scene has splatted lobes "
@@ -293,6 +298,7 @@ RenderRunSpec renderSpec(const RenderCommandOptions& o) {
     ro.splatLobesBelowDeg = o.splatLobesBelow;
     ro.lobeSplats = o.lobeSplats;
     ro.aimedSplats = o.aimedSplats;
+    ro.partDirections = o.partDirections;
     ro.connectThroughLens = o.connect == "on";
     ro.partSamples = o.partSamples;
     ro.partPhotons = o.partPhotons;

@@ -45,6 +45,7 @@ struct RenderCommandOptions {
     double splatLobesBelow = 15.0;  // degrees (RenderOptions::splatLobesBelowDeg)
     int lobeSplats = 1024;          // RenderOptions::lobeSplats
     double aimedSplats = 0.5;       // RenderOptions::aimedSplats
+    int partDirections = 32;        // RenderOptions::partDirections
     std::string connect = "on";     // RenderOptions::connectThroughLens
     uint64_t partSamples = 65536;   // RenderOptions::partSamples
     uint64_t partPhotons = 16384;   // RenderOptions::partPhotons

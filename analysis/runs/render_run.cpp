@@ -44,7 +44,7 @@ uint64_t fingerprintOf(const TransportView& ts, const DetectorGeometry& g, const
        << " " << o.partSamples << " " << o.photonGuideFraction << " " << o.scatterGuideFraction
        << " " << o.weightWindow << " " << o.visiblePhotonsPerPass << " " << o.balanceVisible << " "
        << o.splatLobesBelowDeg << " " << o.lobeSplats << " " << o.partPhotons << " "
-       << o.balancePhotonsByError << " " << o.aimedSplats;
+       << o.balancePhotonsByError << " " << o.aimedSplats << " " << o.partDirections;
     for (const std::string& w : where) os << "\nwhere " << w;
     const std::string text = os.str();
     uint64_t h = 1469598103934665603ull;
@@ -411,6 +411,7 @@ nlohmann::json RenderResult::summary() const {
         {"splat_lobes_below_deg", ro.splatLobesBelowDeg},
         {"lobe_splats", ro.lobeSplats},
         {"aimed_splats", ro.aimedSplats},
+        {"part_directions", ro.partDirections},
         {"part_photons_per_pass", ro.partPhotons},
         {"photon_points", ro.quasiRandomPhotons ? "sobol" : "random"}};
     summary["final_radius_mm"] = state.radiusMm();

@@ -702,7 +702,8 @@ bool PartLight::samplePhoton(const Target& target, const Vec2& uv, double uvDens
 
 bool PartLight::sample(const Target& target, const Vec2& uv, double uvDensity, CounterRng& rng,
                        const DetectorImage* detector, Scratch& sc, LensConnector::Work& work,
-                       Splat& out) const {
+                       Splat& out, int directions,
+                       const std::function<void(const Splat&, const Scratch&)>* each) const {
     const TransportView& ts = *ts_;
     // Every uniform is drawn whether or not the sample counts.
     const double u = std::clamp(uv.x, 0.0, 1.0), v = std::clamp(uv.y, 0.0, 1.0);
@@ -719,74 +720,95 @@ bool PartLight::sample(const Target& target, const Vec2& uv, double uvDensity, C
     const auto c = lc_->connect(target.source, w, nm, target.steps, x->point, target.object, u1, u2,
                                 work, events ? &sc.chain : nullptr);
     if (!c) return false;
-    // The direction: toward a point of the face light goes on through (or the detector).
-    int aim = std::min(kAimCount - 1, static_cast<int>(ua * kAimCount));
-    double aimShare = 1.0 / kAimCount;
-    if (!target.aim.empty()) {
-        const double all = target.aimCumulative.back();
-        aim = static_cast<int>(std::min<size_t>(
-            static_cast<size_t>(std::upper_bound(target.aimCumulative.begin(),
-                                                 target.aimCumulative.end(), ua * all) -
-                                target.aimCumulative.begin()),
-            kAimCount - 1));
-        aimShare = target.aim[static_cast<size_t>(aim)] / all;
+    // One direction: toward a point of the face light goes on through (or the detector).
+    auto direction = [&](double da, double dy1, double dy2, Splat& sp) {
+        int aim = std::min(kAimCount - 1, static_cast<int>(da * kAimCount));
+        double aimShare = 1.0 / kAimCount;
+        if (!target.aim.empty()) {
+            const double all = target.aimCumulative.back();
+            aim = static_cast<int>(std::min<size_t>(
+                static_cast<size_t>(std::upper_bound(target.aimCumulative.begin(),
+                                                     target.aimCumulative.end(), da * all) -
+                                    target.aimCumulative.begin()),
+                kAimCount - 1));
+            aimShare = target.aim[static_cast<size_t>(aim)] / all;
+        }
+        sp.aim = aim;
+        const auto y = faces_[static_cast<size_t>(target.onward)].at((aim % kAim + dy1) / kAim,
+                                                                     (aim / kAim + dy2) / kAim);
+        if (!y) return false;
+        Vec3 to = y->point - x->point;
+        const double d2 = glm::dot(to, to);
+        if (!(d2 > 0.0)) return false;
+        const double d = std::sqrt(d2);
+        to /= d;
+        const double cosY = std::abs(glm::dot(to, y->normal));
+        const double cosX = std::abs(glm::dot(to, x->normal));
+        if (!(cosY > 0.0) || !(cosX > 0.0)) return false;
+        const double pdfDirection = aimShare * kAimCount * y->density * d2 / cosY;
+        // The radiance leaving toward `to`: a view point's, with `to` toward its detector.
+        const SceneObject& o = ts.scene->object(target.object);
+        ViewPoint vp;
+        vp.positionMm = x->point;
+        vp.normal = x->normal;
+        vp.toDetector = to;
+        vp.object = target.object;
+        vp.primitive = x->primitive;
+        vp.wavelength = w;
+        vp.fromFront = glm::dot(to, x->normal) > 0.0;
+        vp.medium = vp.fromFront ? o.mediumFront : o.mediumBack;
+        vp.otherMedium = vp.fromFront ? o.mediumBack : o.mediumFront;
+        const OpticalProperty& prop = ts.properties[ts.propertyOfObject[target.object]];
+        const double f = prop.bsdf(lightContext(ts, vp, -c->toLight, nm), to);
+        const double radiance = f * std::abs(glm::dot(c->toLight, x->normal)) * c->value;
+        if (!(radiance > 0.0)) return false;
+        const auto on =
+            lc_->onward({x->point, to}, target.object, x->primitive, vp.medium, target.onward, w,
+                        nm, detectorObject_, work, events ? &sc.onward : nullptr);
+        if (!on) return false;
+        const double tol = 1e-6 * std::max({1.0, std::abs(y->point.x), std::abs(y->point.y),
+                                            std::abs(y->point.z)}) +
+                           1e-7 * d;
+        if (glm::length(on->firstPoint - y->point) > tol) return false;
+        const double pointDensity = uvDensity * x->density;
+        sp.flux = radiance * cosX / (pdfDirection * pointDensity) * on->transmit * wavelengths /
+                  directions;
+        if (!(sp.flux > 0.0) || !std::isfinite(sp.flux)) return false;
+        if (detector) {
+            const auto pixel = detector->pixelOf(on->detectorHit.point);
+            if (!pixel) return false;
+            sp.pixel = *pixel;
+        }
+        if (!events) return true;
+        // The light's own scatter event, from its side of the surface.
+        const bool crosses = glm::dot(c->toLight, x->normal) * glm::dot(to, x->normal) < 0.0;
+        sc.chain.push_back(pathEvent(
+            crosses ? EventType::ScatterTransmit : EventType::ScatterReflect, target.object,
+            x->primitive, crosses ? vp.otherMedium : vp.medium, vp.medium));
+        return true;
+    };
+    // The first direction's uniforms were drawn with the point's; each further one draws its
+    // own. The point's light (the connection's solve) is shared by all of them: each carries
+    // 1 / directions of it.
+    const size_t chainEvents = sc.chain.size();
+    bool any = false;
+    for (int k = 0; k < directions; ++k) {
+        const double a = k == 0 ? ua : rng.uniform();
+        const double y1 = k == 0 ? uy1 : rng.uniform();
+        const double y2 = k == 0 ? uy2 : rng.uniform();
+        Splat o;
+        if (events) sc.chain.resize(chainEvents);
+        if (!direction(a, y1, y2, o)) continue;
+        if (!any) out = o;
+        any = true;
+        if (each) (*each)(o, sc);
     }
-    out.aim = aim;
-    const auto y = faces_[static_cast<size_t>(target.onward)].at((aim % kAim + uy1) / kAim,
-                                                                 (aim / kAim + uy2) / kAim);
-    if (!y) return false;
-    Vec3 to = y->point - x->point;
-    const double d2 = glm::dot(to, to);
-    if (!(d2 > 0.0)) return false;
-    const double d = std::sqrt(d2);
-    to /= d;
-    const double cosY = std::abs(glm::dot(to, y->normal));
-    const double cosX = std::abs(glm::dot(to, x->normal));
-    if (!(cosY > 0.0) || !(cosX > 0.0)) return false;
-    const double pdfDirection = aimShare * kAimCount * y->density * d2 / cosY;
-    // The radiance leaving toward `to`: a view point's, with `to` toward its detector.
-    const SceneObject& o = ts.scene->object(target.object);
-    ViewPoint vp;
-    vp.positionMm = x->point;
-    vp.normal = x->normal;
-    vp.toDetector = to;
-    vp.object = target.object;
-    vp.primitive = x->primitive;
-    vp.wavelength = w;
-    vp.fromFront = glm::dot(to, x->normal) > 0.0;
-    vp.medium = vp.fromFront ? o.mediumFront : o.mediumBack;
-    vp.otherMedium = vp.fromFront ? o.mediumBack : o.mediumFront;
-    const OpticalProperty& prop = ts.properties[ts.propertyOfObject[target.object]];
-    const double f = prop.bsdf(lightContext(ts, vp, -c->toLight, nm), to);
-    const double radiance = f * std::abs(glm::dot(c->toLight, x->normal)) * c->value;
-    if (!(radiance > 0.0)) return false;
-    const auto on =
-        lc_->onward({x->point, to}, target.object, x->primitive, vp.medium, target.onward, w, nm,
-                    detectorObject_, work, events ? &sc.onward : nullptr);
-    if (!on) return false;
-    const double tol =
-        1e-6 * std::max({1.0, std::abs(y->point.x), std::abs(y->point.y), std::abs(y->point.z)}) +
-        1e-7 * d;
-    if (glm::length(on->firstPoint - y->point) > tol) return false;
-    const double pointDensity = uvDensity * x->density;
-    out.flux = radiance * cosX / (pdfDirection * pointDensity) * on->transmit * wavelengths;
-    if (!(out.flux > 0.0) || !std::isfinite(out.flux)) return false;
-    if (detector) {
-        const auto pixel = detector->pixelOf(on->detectorHit.point);
-        if (!pixel) return false;
-        out.pixel = *pixel;
-    }
-    if (!events) return true;
-    // The light's own scatter event, from its side of the surface.
-    const bool crosses = glm::dot(c->toLight, x->normal) * glm::dot(to, x->normal) < 0.0;
-    sc.chain.push_back(pathEvent(crosses ? EventType::ScatterTransmit : EventType::ScatterReflect,
-                                 target.object, x->primitive, crosses ? vp.otherMedium : vp.medium,
-                                 vp.medium));
-    return true;
+    return any;
 }
 
 PartLight::Result PartLight::trace(const DetectorImage& detector, uint64_t samples, uint64_t seed,
-                                   const PathJudge* judge, bool prune, const Ranks& ranks) const {
+                                   const PathJudge* judge, bool prune, const Ranks& ranks,
+                                   int directions) const {
     Result result;
     const size_t pixels = static_cast<size_t>(detector.pixelCount());
     result.pixels.assign(pixels, 0.0);
@@ -819,19 +841,22 @@ PartLight::Result PartLight::trace(const DetectorImage& detector, uint64_t sampl
                                                                             rng.uniform());
             LensConnector::Work work;
             Splat sp;
-            const bool found =
-                sample(target, uv, density(target, uv), rng, &detector, sc, work, sp);
+            const std::function<void(const Splat&, const Scratch&)> landed = [&](const Splat& o,
+                                                                                 const Scratch& x) {
+                uint64_t matched = 0;
+                if (judge) {
+                    judge->reset(sc.state.data());
+                    judge->push(
+                        sc.state.data(),
+                        pathEvent(EventType::Emit, static_cast<int>(target.source), 0, 0, 0));
+                    for (const PathEvent& e : x.chain) judge->push(sc.state.data(), e);
+                    matched = judge->matches(sc.state.data(), x.onward, sc.scratch.data());
+                }
+                b.entries.push_back({o.pixel, o.flux * perSample, matched});
+            };
+            sample(target, uv, density(target, uv), rng, &detector, sc, work, sp, directions,
+                   &landed);
             b.rays += work.rays;
-            if (!found) continue;
-            uint64_t matched = 0;
-            if (judge) {
-                judge->reset(sc.state.data());
-                judge->push(sc.state.data(),
-                            pathEvent(EventType::Emit, static_cast<int>(target.source), 0, 0, 0));
-                for (const PathEvent& e : sc.chain) judge->push(sc.state.data(), e);
-                matched = judge->matches(sc.state.data(), sc.onward, sc.scratch.data());
-            }
-            b.entries.push_back({sp.pixel, sp.flux * perSample, matched});
         }
         return b;
     };

@@ -39,6 +39,8 @@
 //      point), over the samples. Where w meets that face first elsewhere than at the drawn
 //      point (a curved face crossed twice), the sample counts nothing: each direction is
 //      counted by its first crossing alone.
+//      A point sends RenderOptions::partDirections such directions, each with that share of
+//      its light: one solve of the connection serves them all.
 //   4. Ownership. A view point on a target's object, reached from the detector along the
 //      designed path down to step j (BackwardOptions::parts, owns()), leaves the connection of
 //      the target's chain to this; the rest of its light (gathered, direct, other chains,
@@ -70,6 +72,7 @@
 // reduced in a fixed order on rank 0 (tracer/runtime/ordered_blocks.h); thread-safe.
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <vector>
 
@@ -217,8 +220,9 @@ class PartLight {
         double sum = 0.0, squares = 0.0;
     };
     // One pass's estimate from `samples` points drawn from the streams of `seed`.
+    // Each point sends `directions` directions on (RenderOptions::partDirections).
     Result trace(const DetectorImage& detector, uint64_t samples, uint64_t seed,
-                 const PathJudge* judge, bool prune, const Ranks& ranks) const;
+                 const PathJudge* judge, bool prune, const Ranks& ranks, int directions = 1) const;
 
   private:
     // A box [lo, hi] of a part's map (u, v) with a kCells x kCells grid.
@@ -251,9 +255,13 @@ class PartLight {
     // The point of target t at uv of its map, drawn with density uvDensity per unit of the
     // map: its flux at a pixel (at none without a detector: the pilot), false when it reaches
     // none.
+    // With `directions` > 1, as many directions from the point, each with 1 / directions of
+    // its light (the connection's solve shared); `each`, if given, is called for every one
+    // that reaches a pixel, with the scratch's events of its path. `out` is the first.
     bool sample(const Target& t, const Vec2& uv, double uvDensity, CounterRng& rng,
                 const DetectorImage* detector, Scratch& scratch, LensConnector::Work& work,
-                Splat& out) const;
+                Splat& out, int directions = 1,
+                const std::function<void(const Splat&, const Scratch&)>* each = nullptr) const;
     // The density per unit of the map with which a pass draws uv on target t (its levels'
     // mixture).
     double density(const Target& t, const Vec2& uv) const;

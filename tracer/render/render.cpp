@@ -1047,7 +1047,7 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
         const auto t2 = std::chrono::steady_clock::now();
         const PartLight::Result lt =
             parts_.trace(detector_, options_.partSamples, passSeed(options_.seed, k, 4), judge_,
-                         options_.prune, ranks_);
+                         options_.prune, ranks_, options_.partDirections);
         std::vector<double>& caustic = out.pixels[static_cast<int>(RenderComponent::Caustic)];
         for (size_t i = 0; i < lt.pixels.size(); ++i) {
             caustic[i] += lt.pixels[i];

@@ -49,6 +49,8 @@ void RenderOptions::check() const {
         fail("the splats per narrow lobe scatter must lie in [1, 4096]");
     if (!(aimedSplats >= 0.0 && aimedSplats <= 1.0))
         fail("the aimed share of a narrow lobe's splats must lie in [0, 1]");
+    if (partDirections < 1 || partDirections > 1024)
+        fail("the directions per part sample must lie in [1, 1024]");
     if (partSamples > kMaxPartSamples)
         fail("the part samples per pass must lie in [0, " + std::to_string(kMaxPartSamples) + "]");
     if (partPhotons > kMaxPartSamples)
@@ -67,7 +69,8 @@ std::ostream& operator<<(std::ostream& os, const RenderOptions& o) {
               << ", follow lobes below " << o.followLobesBelowDeg << " deg, splat lobes below "
               << o.splatLobesBelowDeg << " deg (" << o.lobeSplats << " splats, " << o.aimedSplats
               << " aimed)" << (o.connectThroughLens ? ", connected through the lens" : "") << ", "
-              << o.partSamples << " part samples, " << o.partPhotons << " part photons}";
+              << o.partSamples << " part samples (" << o.partDirections << " directions), "
+              << o.partPhotons << " part photons}";
 }
 
 }  // namespace veil

@@ -123,6 +123,9 @@ struct RenderOptions {
     // the view points that reach those parts along the designed path leave that light to
     // them. 0: off. Needs connectThroughLens.
     uint64_t partSamples = 65536;
+    // Directions each of those points sends on toward the pixels, each with its share of the
+    // point's light: the connection's solve at the point, the costly part, serves them all.
+    int partDirections = 32;
     static constexpr uint64_t kMaxPartSamples = uint64_t{1} << 32;
     // Photons from the small lit parts (tracer/render/part_light.h, PartMode::Photons;
     // docs/render.md, "Photons from the lit parts"): with splatted lobes in the scene, photons
