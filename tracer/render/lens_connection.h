@@ -53,6 +53,8 @@
 //
 // Deterministic: no state changes after construction; thread-safe.
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <optional>
 #include <vector>
@@ -176,6 +178,14 @@ class LensConnector {
         SceneHit detectorHit;
         double transmit = 1.0;  // the crossings' shares and the media's absorption
         int medium = 0;         // in which it reached the detector
+        // Whether its first crossing is the point y aimed at from `distanceMm` away (to the
+        // rounding of the crossing): a ray that meets a curved face first elsewhere is not the
+        // aimed one.
+        bool firstMeets(const Vec3& y, double distanceMm) const {
+            const double tol = 1e-6 * std::max({1.0, std::abs(y.x), std::abs(y.y), std::abs(y.z)}) +
+                               1e-7 * distanceMm;
+            return glm::length(firstPoint - y) <= tol;
+        }
     };
     std::optional<Onward> onward(const Ray& start, int startObject, int startPrimitive, int medium,
                                  int fromStep, int line, double wavelengthNm, int detectorObject,

@@ -766,10 +766,7 @@ bool PartLight::sample(const Target& target, const Vec2& uv, double uvDensity, C
             lc_->onward({x->point, to}, target.object, x->primitive, vp.medium, target.onward, w,
                         nm, detectorObject_, work, events ? &sc.onward : nullptr);
         if (!on) return false;
-        const double tol = 1e-6 * std::max({1.0, std::abs(y->point.x), std::abs(y->point.y),
-                                            std::abs(y->point.z)}) +
-                           1e-7 * d;
-        if (glm::length(on->firstPoint - y->point) > tol) return false;
+        if (!on->firstMeets(y->point, d)) return false;
         const double pointDensity = uvDensity * x->density;
         sp.flux = radiance * cosX / (pdfDirection * pointDensity) * on->transmit * wavelengths /
                   directions;

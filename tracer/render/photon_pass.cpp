@@ -1031,12 +1031,9 @@ void BlockTracer::splatLobe(const PhotonBranch& br, const SceneHit& hit, const I
     // its channel's pdf), and the aim's (a point on the face by area, per steradian at the
     // place): the balance heuristic over the two, nLobe and nAim samples.
     auto lobePdf = [&](const Vec3& dir) {
-        const bool transmit = glm::dot(dir, in.context.normal) < 0.0;
-        double share = 0.0;
-        for (int c = 0; c < in.count; ++c)
-            if (in.children[c].scatter && in.children[c].transmit == transmit)
-                share += in.children[c].share;
-        return share > 0.0 ? share / scattered * in.property->scatterPdf(in.context, dir) : 0.0;
+        const int c = scatterChildToward(in, dir);
+        return c < 0 ? 0.0
+                     : in.children[c].share / scattered * in.property->scatterPdf(in.context, dir);
     };
     auto judgeStart = [&](int c) {
         uint64_t alive = br.alive;
@@ -1151,10 +1148,7 @@ void BlockTracer::splatLobe(const PhotonBranch& br, const SceneHit& hit, const I
             ph.wavelengthNm, p_.renderedObject_, work, p_.judge_ ? &aimEvents_ : nullptr);
         block_.segments += work.rays;
         if (!on) continue;
-        const double tol = 1e-6 * std::max({1.0, std::abs(y->point.x), std::abs(y->point.y),
-                                            std::abs(y->point.z)}) +
-                           1e-7 * d;
-        if (glm::length(on->firstPoint - y->point) > tol) continue;
+        if (!on->firstMeets(y->point, d)) continue;
         const double pa =
             nAim * static_cast<double>(kSplatAimCells) / litCells * y->density * d2 / cosY;
         const double flux = arriving * f * cosX / (nLobe * lobePdf(dir) + pa) * on->transmit;
