@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <bit>
 #include <cctype>
+#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstring>
@@ -493,9 +494,181 @@ Prescan prescanOff(const std::filesystem::path& path) {
     return p;
 }
 
-// The header only: OpenMesh's own parser loops without end, allocating, on a line it cannot
-// parse (an element count that is not a number, for one). The body is left to OpenMesh,
-// which reports a truncated one; the counts are compared afterwards.
+// The header, then the body, before OpenMesh sees the file: OpenMesh's own parser loops without
+// end, allocating, on a header line it cannot parse (an element count that is not a number),
+// and believes any list count in the body (a face of -3 corners, read as 4294967293, grew the
+// memory at 0.5 GB/s). Every count is checked against what the file holds before anything is
+// allocated, and every face's corners against the vertex count.
+struct PlyProperty {
+    std::string name;
+    bool list = false;
+    std::string countType, type;  // countType: lists only
+};
+struct PlyElement {
+    std::string name;
+    size_t count = 0;
+    std::vector<PlyProperty> properties;
+};
+
+size_t plyTypeSize(std::string_view t) {
+    if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
+    if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
+    if (t == "double" || t == "float64") return 8;
+    return 4;  // int, uint, float and their sized names
+}
+bool plyFloatType(std::string_view t) {
+    return t == "float" || t == "double" || t == "float32" || t == "float64";
+}
+bool plyUnsignedType(std::string_view t) {
+    return t == "uchar" || t == "uint8" || t == "ushort" || t == "uint16" || t == "uint" ||
+           t == "uint32";
+}
+// The corner list of a face element (OpenMesh reads the first list property as it).
+bool plyCorners(const PlyElement& e, const PlyProperty& p) {
+    return e.name == "face" && p.list && (p.name == "vertex_indices" || p.name == "vertex_index");
+}
+
+// An integer read from a binary body, as text (a value no integer type holds as such).
+std::string integerText(double x) {
+    if (std::abs(x) < 9e18 && x == std::floor(x)) return std::to_string(static_cast<long long>(x));
+    std::ostringstream os;
+    os << x;
+    return os.str();
+}
+
+// A body's list count is at most this many entries: far beyond any polygon, and what fits.
+constexpr long long kMaxPlyListCount = 1 << 20;
+
+void checkPlyAscii(LineReader& r, const std::vector<PlyElement>& elements, size_t vertices) {
+    for (const PlyElement& e : elements) {
+        for (size_t k = 0; k < e.count; ++k) {
+            if (!r.next())
+                r.fail(0, "the file ends after " + std::to_string(k) + " of its " +
+                              std::to_string(e.count) + " " + e.name + " elements (truncated?)");
+            const auto& w = r.words();
+            size_t at = 0;
+            auto need = [&](const std::string& what) {
+                if (at >= w.size())
+                    r.fail(0,
+                           e.name + " " + std::to_string(k) + ": the line ends before its " + what);
+            };
+            for (const PlyProperty& p : e.properties) {
+                if (!p.list) {
+                    need("'" + p.name + "'");
+                    if (!isFiniteNumber(w[at].text))
+                        r.fail(w[at].column, "'" + p.name + "': expected a finite number, got '" +
+                                                 std::string(w[at].text) + "'");
+                    ++at;
+                    continue;
+                }
+                need("list '" + p.name + "'");
+                const std::optional<long long> n = parseInteger(w[at].text);
+                if (!n || *n < 0 || *n > kMaxPlyListCount)
+                    r.fail(w[at].column, "list '" + p.name + "' starts with its count (0 to " +
+                                             std::to_string(kMaxPlyListCount) + "), got '" +
+                                             std::string(w[at].text) + "'");
+                if (w.size() - at - 1 < static_cast<size_t>(*n))
+                    r.fail(w[at].column, "list '" + p.name + "' announces " + std::to_string(*n) +
+                                             " values, but the line holds " +
+                                             std::to_string(w.size() - at - 1));
+                ++at;
+                for (long long i = 0; i < *n; ++i, ++at) {
+                    if (plyCorners(e, p)) {
+                        const std::optional<long long> index = parseInteger(w[at].text);
+                        if (!index || *index < 0 || static_cast<size_t>(*index) >= vertices)
+                            r.fail(w[at].column,
+                                   "expected a vertex index from 0 to " +
+                                       std::to_string(static_cast<long long>(vertices) - 1) +
+                                       ", got '" + std::string(w[at].text) + "'");
+                    } else if (!isFiniteNumber(w[at].text)) {
+                        r.fail(w[at].column, "list '" + p.name +
+                                                 "': expected a finite number, got '" +
+                                                 std::string(w[at].text) + "'");
+                    }
+                }
+            }
+            if (at != w.size())
+                r.fail(w[at].column, e.name + " " + std::to_string(k) + " has " +
+                                         std::to_string(w.size() - at) +
+                                         " values more than its properties");
+        }
+    }
+}
+
+void checkPlyBinary(const std::filesystem::path& path, uintmax_t bodyStart, bool bigEndian,
+                    const std::vector<PlyElement>& elements, size_t vertices) {
+    std::error_code ec;
+    const uintmax_t size = std::filesystem::file_size(path, ec);
+    std::ifstream in(path, std::ios::binary);
+    in.seekg(static_cast<std::streamoff>(bodyStart));
+    uintmax_t at = bodyStart;
+    auto fail = [&](const std::string& message) {
+        throw ParseError(FileLoc{path.string(), 0, 0},
+                         "byte " + std::to_string(at) + " of the PLY body: " + message);
+    };
+    auto ends = [&](const PlyElement& e, size_t k) {
+        fail("the file ends inside " + e.name + " " + std::to_string(k) + " of " +
+             std::to_string(e.count) + " (truncated?)");
+    };
+    // One value of type t, as a double (integers up to 2^32 exactly).
+    auto value = [&](const std::string& t, const PlyElement& e, size_t k) {
+        const size_t n = plyTypeSize(t);
+        unsigned char b[8] = {};
+        if (size - at < n || !in.read(reinterpret_cast<char*>(b), static_cast<std::streamsize>(n)))
+            ends(e, k);
+        if (bigEndian) std::reverse(b, b + n);
+        at += n;
+        uint64_t bits = 0;
+        for (size_t i = 0; i < n; ++i) bits |= uint64_t{b[i]} << (8 * i);
+        if (t == "float" || t == "float32") return double(std::bit_cast<float>(uint32_t(bits)));
+        if (plyFloatType(t)) return std::bit_cast<double>(bits);
+        if (plyUnsignedType(t)) return static_cast<double>(bits);
+        const int shift = static_cast<int>(64 - 8 * n);  // sign-extend
+        return static_cast<double>(static_cast<int64_t>(bits << shift) >> shift);
+    };
+    for (const PlyElement& e : elements) {
+        const bool fixed = std::none_of(e.properties.begin(), e.properties.end(),
+                                        [](const PlyProperty& p) { return p.list; });
+        if (fixed && e.name != "vertex") {
+            // Nothing to check inside: its size alone.
+            uintmax_t record = 0;
+            for (const PlyProperty& p : e.properties) record += plyTypeSize(p.type);
+            if (record != 0 && (size - at) / record < e.count) ends(e, (size - at) / record);
+            at += record * e.count;
+            in.seekg(static_cast<std::streamoff>(at));
+            continue;
+        }
+        for (size_t k = 0; k < e.count; ++k) {
+            for (const PlyProperty& p : e.properties) {
+                if (!p.list) {
+                    const double x = value(p.type, e, k);
+                    if (!std::isfinite(x))
+                        fail(e.name + " " + std::to_string(k) + ": '" + p.name +
+                             "' is not a finite number");
+                    continue;
+                }
+                const double n = value(p.countType, e, k);
+                if (!(n >= 0.0 && n <= static_cast<double>(kMaxPlyListCount)))
+                    fail(e.name + " " + std::to_string(k) + ": list '" + p.name + "' announces " +
+                         integerText(n) + " values (0 to " + std::to_string(kMaxPlyListCount) +
+                         ")");
+                const size_t count = static_cast<size_t>(n);
+                if ((size - at) / plyTypeSize(p.type) < count) ends(e, k);
+                for (size_t i = 0; i < count; ++i) {
+                    const double x = value(p.type, e, k);
+                    if (plyCorners(e, p) ? !(x >= 0.0 && x < static_cast<double>(vertices))
+                                         : !std::isfinite(x))
+                        fail(e.name + " " + std::to_string(k) + ": " +
+                             (plyCorners(e, p)
+                                  ? "vertex index " + integerText(x) + " outside 0 to " +
+                                        std::to_string(static_cast<long long>(vertices) - 1)
+                                  : "'" + p.name + "' is not a finite number"));
+                }
+            }
+        }
+    }
+}
+
 Prescan prescanPly(const std::filesystem::path& path) {
     Prescan p{"PLY", kUnknown, kUnknown};
     LineReader r(path);
@@ -505,8 +678,11 @@ Prescan prescanPly(const std::filesystem::path& path) {
             "int8", "uint8", "int16", "uint16", "int32", "uint32", "float32", "float64"};
         return std::find(std::begin(kTypes), std::end(kTypes), t) != std::end(kTypes);
     };
-    bool format = false, element = false;
+    bool format = false, ascii = false, bigEndian = false;
+    std::vector<PlyElement> elements;
+    uintmax_t headerBytes = 0;
     while (r.next()) {
+        headerBytes += r.text().size() + 1;  // '\r' of a CRLF line: see below
         const auto& w = r.words();
         if (r.line() == 1) {
             if (r.text() != "ply") r.fail(1, "a PLY file starts with a line 'ply'");
@@ -517,6 +693,24 @@ Prescan prescanPly(const std::filesystem::path& path) {
         if (kw == "comment" || kw == "obj_info") continue;
         if (kw == "end_header") {
             if (!format) r.fail(0, "the PLY header has no 'format' line");
+            size_t vertices = 0;
+            for (const PlyElement& e : elements)
+                if (e.name == "vertex") vertices = e.count;
+            if (ascii) {
+                checkPlyAscii(r, elements, vertices);
+            } else {
+                // The body starts after the header's last newline, found in the bytes
+                // themselves (a header with CRLF lines is one byte a line longer).
+                std::ifstream in(path, std::ios::binary);
+                std::string head(static_cast<size_t>(2 * headerBytes + 16), '\0');
+                in.read(head.data(), static_cast<std::streamsize>(head.size()));
+                head.resize(static_cast<size_t>(in.gcount()));
+                const size_t end = head.find("end_header");
+                const size_t newline = end == std::string::npos ? end : head.find('\n', end);
+                if (newline == std::string::npos)
+                    r.fail(0, "the PLY header's 'end_header' line has no newline");
+                checkPlyBinary(path, newline + 1, bigEndian, elements, vertices);
+            }
             return p;
         }
         if (kw == "format") {
@@ -528,6 +722,8 @@ Prescan prescanPly(const std::filesystem::path& path) {
                 w[2].text != "1.0")
                 r.fail(0, "expected 'format ascii|binary_little_endian|binary_big_endian 1.0'");
             p.format = w[1].text == "ascii" ? "PLY (ASCII)" : "PLY (binary)";
+            ascii = w[1].text == "ascii";
+            bigEndian = w[1].text == "binary_big_endian";
             format = true;
         } else if (kw == "element") {
             const std::optional<long long> n =
@@ -536,9 +732,9 @@ Prescan prescanPly(const std::filesystem::path& path) {
                 r.fail(0, "expected 'element <name> <count>', got '" + r.text() + "'");
             if (w[1].text == "vertex") p.vertices = static_cast<size_t>(*n);
             if (w[1].text == "face") p.faces = static_cast<size_t>(*n);
-            element = true;
+            elements.push_back({std::string(w[1].text), static_cast<size_t>(*n), {}});
         } else if (kw == "property") {
-            if (!element) r.fail(0, "'property' before any 'element'");
+            if (elements.empty()) r.fail(0, "'property' before any 'element'");
             const bool list =
                 w.size() == 5 && w[1].text == "list" && isType(w[2].text) && isType(w[3].text);
             if (!list && !(w.size() == 3 && isType(w[1].text)))
@@ -546,6 +742,15 @@ Prescan prescanPly(const std::filesystem::path& path) {
                        "expected 'property <type> <name>' or 'property list <type> <type> "
                        "<name>', got '" +
                            r.text() + "'");
+            if (list && plyFloatType(w[2].text))
+                r.fail(w[2].column,
+                       "a list's count is an integer type, got '" + std::string(w[2].text) + "'");
+            PlyProperty prop;
+            prop.list = list;
+            prop.name = std::string(w[list ? 4 : 2].text);
+            prop.type = std::string(w[list ? 3 : 1].text);
+            if (list) prop.countType = std::string(w[2].text);
+            elements.back().properties.push_back(std::move(prop));
         } else {
             r.fail(w[0].column, "unknown PLY header line '" + r.text() + "'");
         }
@@ -819,15 +1024,17 @@ template <class WriteFn>
 void writeAtomically(const std::filesystem::path& path, std::ios::openmode mode, WriteFn write) {
     const std::filesystem::path tmp = temporaryFor(path);
     {
+        errno = 0;
         std::ofstream out(tmp, mode | std::ios::out | std::ios::trunc);
         if (!out)
             throw std::runtime_error("cannot write " + path.string() + ": cannot create " +
-                                     tmp.string());
+                                     tmp.string() + ": " + systemReason());
         write(out);
         out.close();
         if (!out) {
+            const std::string reason = systemReason();
             removeQuietly(tmp);
-            throw std::runtime_error("cannot write " + path.string() + ": write failed");
+            throw std::runtime_error("cannot write " + path.string() + ": " + reason);
         }
     }
     commitFile(tmp, path);

@@ -155,6 +155,13 @@ class AgfParser {
 
     void finishGlass() {
         if (!glass_) return;
+        // Without its CD line a glass has no index at all (it was read as 1.0, vacuum, with
+        // no word: a lens's EFL went from +100 to -87 mm).
+        if (!(seen_ & kSeenCd))
+            throw ParseError(FileLoc{fileName_, nmLine_, 1},
+                             "glass '" + glass_->name() +
+                                 "' has no CD line (its dispersion coefficients) before the "
+                                 "next glass or the end of the catalog");
         std::stable_sort(glass_->transmittance.begin(), glass_->transmittance.end(),
                          [](const TransmittancePoint& a, const TransmittancePoint& b) {
                              return a.wavelengthNm < b.wavelengthNm;
@@ -233,6 +240,7 @@ class AgfParser {
         catalog.glasses.push_back(std::move(glass));
         glass_ = &catalog.glasses.back();
         seen_ = 0;
+        nmLine_ = lineNumber_;
     }
 
     void parseCc() {
@@ -289,6 +297,7 @@ class AgfParser {
     unsigned seen_ = 0;
     std::string_view line_;
     int lineNumber_ = 0;
+    int nmLine_ = 0;  // the current glass's NM line
     std::vector<Token> tokens_;
 };
 

@@ -1,5 +1,7 @@
 #include "lensdata/output_file.h"
 
+#include <cerrno>
+#include <cstring>
 #include <fstream>
 #include <stdexcept>
 #include <string>
@@ -10,6 +12,11 @@ std::filesystem::path temporaryFor(const std::filesystem::path& path) {
     std::filesystem::path tmp = path;
     tmp += ".tmp";
     return tmp;
+}
+
+std::string systemReason() {
+    const int e = errno;
+    return e != 0 ? std::strerror(e) : "the write failed";
 }
 
 void removeQuietly(const std::filesystem::path& path) {
@@ -29,12 +36,14 @@ void commitFile(const std::filesystem::path& tmp, const std::filesystem::path& p
 void writeTextFile(const std::filesystem::path& path, std::string_view text) {
     const std::filesystem::path tmp = temporaryFor(path);
     {
+        errno = 0;
         std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
         out.write(text.data(), static_cast<std::streamsize>(text.size()));
         out.close();
         if (!out) {
+            const std::string reason = systemReason();
             removeQuietly(tmp);
-            throw std::runtime_error("cannot write " + path.string());
+            throw std::runtime_error("cannot write " + path.string() + ": " + reason);
         }
     }
     commitFile(tmp, path);

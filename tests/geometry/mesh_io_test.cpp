@@ -384,6 +384,30 @@ TEST(MeshIo, UnreadableFilesAreParseErrorsNamingTheFile) {
     writeText(dir / "nan.obj", "v 0 0 0\nv 1 nan 0\nv 0 1 0\nf 1 2 3\n");
     writeText(dir / "part.step", "ISO-10303-21;\n");
     writeText(dir / "empty.obj", "# nothing\n");
+    // A face of -3 corners: OpenMesh read it as 4294967293 and grew without end (issue 44's
+    // 157-byte reproducer), in ASCII and binary.
+    const std::string plyHead =
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+        "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+    const std::string plyVertices = "0 0 0\n1 0 0\n0 1 0\n";
+    writeText(dir / "minus.ply", plyHead + plyVertices + "-3 0 1 2\n");
+    writeText(dir / "corner.ply", plyHead + plyVertices + "3 0 1 3\n");
+    writeText(dir / "short.ply", plyHead + plyVertices + "4 0 1 2\n");
+    writeText(dir / "cut.ply", plyHead + "0 0 0\n1 0 0\n");
+    auto binaryPly = [&](int32_t count, uint32_t lastCorner) {
+        std::string s =
+            "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
+            "property float y\nproperty float z\nelement face 1\n"
+            "property list int int vertex_indices\nend_header\n";
+        auto put = [&](const auto& v) { s.append(reinterpret_cast<const char*>(&v), sizeof v); };
+        for (float v : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f}) put(v);
+        put(count);
+        for (uint32_t c : {0u, 1u, lastCorner}) put(c);
+        return s;
+    };
+    writeText(dir / "minus_binary.ply", binaryPly(-3, 2));
+    writeText(dir / "huge_binary.ply", binaryPly(1 << 20, 2));
+    writeText(dir / "corner_binary.ply", binaryPly(3, 7));
     struct Case {
         std::filesystem::path file;
         int line;  // 0: OpenMesh tells no line, and neither can we
@@ -410,6 +434,15 @@ TEST(MeshIo, UnreadableFilesAreParseErrorsNamingTheFile) {
         {dir / "nan.obj", 2, 5, "vertex: expected a finite number, got 'nan'"},
         {dir / "part.step", 0, 0, "unknown mesh format '.step'"},
         {dir / "empty.obj", 0, 0, "no usable triangles"},
+        {dir / "minus.ply", 13, 1,
+         "list 'vertex_indices' starts with its count (0 to 1048576), got '-3'"},
+        {dir / "corner.ply", 13, 7, "expected a vertex index from 0 to 2, got '3'"},
+        {dir / "short.ply", 13, 1,
+         "list 'vertex_indices' announces 4 values, but the line holds 3"},
+        {dir / "cut.ply", 11, 0, "the file ends after 2 of its 3 vertex elements"},
+        {dir / "minus_binary.ply", 0, 0, "face 0: list 'vertex_indices' announces -3 values"},
+        {dir / "huge_binary.ply", 0, 0, "the file ends inside face 0 of 1"},
+        {dir / "corner_binary.ply", 0, 0, "face 0: vertex index 7 outside 0 to 2"},
     };
     for (const Case& c : cases) {
         SCOPED_TRACE(c.file.string());
@@ -517,6 +550,13 @@ TEST(MeshIo, FailedWriteLeavesNoFile) {
     const TriangleMesh m = readMeshFile(dataPath("cube_quads.obj"));
     EXPECT_THROW(writeMeshObj(dir / "missing_folder" / "x.obj", m), std::runtime_error);
     EXPECT_THROW(writeMeshPly(dir / "missing_folder" / "x.ply", m), std::runtime_error);
+    // The message says why, as the system does (it had only said "write failed").
+    try {
+        writeMeshObj(dir / "missing_folder" / "x.obj", m);
+    } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find("No such file or directory"), std::string::npos)
+            << e.what();
+    }
     EXPECT_TRUE(std::filesystem::is_empty(dir));
     const std::vector<int> tooFew = {1, 2};
     EXPECT_THROW(writeMeshObj(dir / "x.obj", m, tooFew), std::invalid_argument);

@@ -168,8 +168,9 @@ TEST(AgfReader, VeilCatalogMarkersSplitOneFileIntoCatalogs) {
     EXPECT_EQ(cats[1].glasses[0].catalog(), "BETA");
 
     // Glasses before a marker stay in the default catalog.
-    const auto mixed = parseAgf("NM D 2 0 1.5 60\nCD 1 0.01\nCC veil-catalog X\nNM E 2 0 1.5 60\n",
-                                "m.agf", "DEFAULT");
+    const auto mixed =
+        parseAgf("NM D 2 0 1.5 60\nCD 1 0.01\nCC veil-catalog X\nNM E 2 0 1.5 60\nCD 1 0.01\n",
+                 "m.agf", "DEFAULT");
     ASSERT_EQ(mixed.size(), 2u);
     EXPECT_EQ(mixed[0].name, "DEFAULT");
     EXPECT_EQ(mixed[1].name, "X");
@@ -234,8 +235,12 @@ TEST(AgfReader, OtherMalformedLines) {
         {"NM G 2 0 1.5 60\nIT 0.5\n", 2, 7, "IT line is missing the internal transmittance"},
         {"NM G 2 0 1.5 60\nLD 0.3\n", 2, 7, "LD line is missing the maximum wavelength"},
         {"NM G 2 0 1.5 60\nED 1 inf\n", 2, 6, "expected a number for ED data, got 'inf'"},
-        {"NM G 2 0 1.5 60\nNM g 2 0 1.5 60\n", 2, 4,
+        {"NM G 2 0 1.5 60\nCD 1 0.01\nNM g 2 0 1.5 60\n", 3, 4,
          "glass 'g' is defined twice in catalog T (first at line 1)"},
+        // A glass without its coefficients was read as index 1 (vacuum), silently.
+        {"NM G 2 0 1.5 60\nLD 0.3 2.5\nNM H 2 0 1.5 60\nCD 1 0.01\n", 1, 1,
+         "glass 'G' has no CD line (its dispersion coefficients)"},
+        {"NM G 2 0 1.5 60\nCD 1 0.01\nNM H 2 0 1.6 40\n", 3, 1, "glass 'H' has no CD line"},
         {"CC veil-catalog\n", 1, 1, "veil-catalog marker needs one catalog name"},
         {"GC a comment with no glass\n", 1, 1, "GC line before any NM line"},
         // Columns count characters: the two-byte "ß" is one column.
