@@ -174,7 +174,12 @@ int runCommandLine(const std::vector<std::string>& args, bool rethrow) {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
         if (rethrow && e.get_exit_code() != 0) throw UsageError(e.what());
-        return app.exit(e) == 0 ? 0 : 2;
+        if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+        // The option parser's own errors (a value out of its range, a missing argument) are
+        // said as every other error is.
+        std::cerr << "veil: error: " << e.what()
+                  << "\nRun veil --help, or veil COMMAND --help, for the options.\n";
+        return 2;
     }
     try {
         for (CLI::App* sub : app.get_subcommands())
@@ -188,6 +193,11 @@ int runCommandLine(const std::vector<std::string>& args, bool rethrow) {
     } catch (const UsageError& e) {
         if (rethrow) throw;
         return fail(e.what(), 2);
+    } catch (const ParseError& e) {
+        if (rethrow) throw;
+        // An option's value (the error names the option, "--time-limit", "-o") is a bad
+        // command line; a file's, bad input.
+        return fail(e.what(), e.loc().file.rfind('-', 0) == 0 ? 2 : 1);
     } catch (const std::exception& e) {
         if (rethrow) throw;
         return fail(e.what(), 1);

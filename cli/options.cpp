@@ -1,5 +1,7 @@
 #include "cli/options.h"
 
+#include <fcntl.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -19,6 +21,7 @@
 
 #include "analysis/pictures/picture.h"
 #include "analysis/reports/image_output.h"
+#include "cli/app.h"
 #include "lensdata/errors.h"
 #include "lensdata/output_file.h"
 #include "tracer/records/ray_database.h"
@@ -426,10 +429,97 @@ void setCommandLine(int argc, char** argv) {
     commandLine() = line;
 }
 
+namespace {
+
+std::string hostName() {
+    char name[256] = {};
+    return gethostname(name, sizeof name - 1) == 0 ? std::string(name) : std::string("?");
+}
+
+// Takes the folder's lock (kRunLock) or throws naming the run that holds it; a lock left by a
+// process of this host that no longer runs is removed first.
+std::filesystem::path lockFolder(const std::filesystem::path& folder) {
+    const std::filesystem::path lock = folder / kRunLock;
+    const std::string host = hostName();
+    for (int attempt = 0; attempt < 3; ++attempt) {
+        const int fd = ::open(lock.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0644);
+        if (fd >= 0) {
+            const std::string text = std::to_string(getpid()) + " " + host + " " + commandLine();
+            const bool ok = ::write(fd, text.data(), text.size()) == ssize_t(text.size());
+            ::close(fd);
+            if (!ok) {
+                std::error_code ec;
+                std::filesystem::remove(lock, ec);
+                throw std::runtime_error("cannot write the lock " + lock.string());
+            }
+            return lock;
+        }
+        if (errno != EEXIST)
+            throw std::runtime_error("cannot lock " + folder.string() +
+                                     " for this run: " + std::strerror(errno));
+        std::ifstream in(lock);
+        long long pid = 0;
+        std::string owner, command;
+        in >> pid >> owner;
+        std::getline(in >> std::ws, command);
+        in.close();
+        const bool gone =
+            owner == host && pid > 0 && ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH;
+        if (gone) {
+            std::error_code ec;
+            std::filesystem::remove(lock, ec);
+            std::cerr << "veil: note: removed the lock of a run that no longer runs (process "
+                      << pid << ": " << command << ") from " << folder.string() << "\n";
+            continue;
+        }
+        if (pid <= 0 && attempt == 0) {
+            // Being written this very moment by the run that took it: look again.
+            usleep(100000);
+            continue;
+        }
+        throw UsageError(folder.string() + ": another veil run is writing into this folder (" +
+                         (pid > 0
+                              ? "process " + std::to_string(pid) + " on " + owner + ": " + command
+                              : "its lock " + lock.string() + " names no process") +
+                         "); wait for it to finish, or choose another -o");
+    }
+    throw UsageError(folder.string() + ": cannot take the folder's lock " + lock.string());
+}
+
+}  // namespace
+
+WrittenFiles::WrittenFiles(WrittenFiles&& o) noexcept
+    : files_(std::move(o.files_)), folder_(std::move(o.folder_)), lock_(std::move(o.lock_)) {
+    o.lock_.clear();
+}
+
+WrittenFiles& WrittenFiles::operator=(WrittenFiles&& o) noexcept {
+    if (this != &o) {
+        unlock();
+        files_ = std::move(o.files_);
+        folder_ = std::move(o.folder_);
+        lock_ = std::move(o.lock_);
+        o.lock_.clear();
+    }
+    return *this;
+}
+
+WrittenFiles::~WrittenFiles() { unlock(); }
+
+void WrittenFiles::unlock() {
+    if (lock_.empty()) return;
+    std::error_code ec;
+    std::filesystem::remove(lock_, ec);
+    lock_.clear();
+}
+
 void WrittenFiles::beginRun(const std::filesystem::path& folder, bool keepFiles) {
     namespace fs = std::filesystem;
     folder_ = folder;
-    if (folder.empty() || !fs::is_directory(folder)) return;
+    if (folder.empty()) return;
+    // The folder its files go into, made now so that the lock holds from here on.
+    fs::create_directories(folder);
+    if (lock_.empty()) lock_ = lockFolder(folder);
     const fs::path manifest = folder / kRunManifest;
     if (fs::exists(manifest)) {
         // Unreadable JSON gives a discarded value: only the manifest itself goes then.
@@ -501,6 +591,7 @@ void WrittenFiles::finishRun() {
                  "a file of this folder not listed here belongs to no finished run"},
         {"files", files}};
     writeTextFile(folder_ / kRunManifest, manifest.dump(2) + "\n");
+    unlock();
 }
 
 nlohmann::json WrittenFiles::json() const {

@@ -104,6 +104,8 @@ void setCommandLine(int argc, char** argv);
 
 // The manifest of a finished run, written last into its output folder (kRunManifest below).
 inline constexpr const char* kRunManifest = "veil-run.json";
+// The lock of a folder a run is writing into (WrittenFiles::beginRun).
+inline constexpr const char* kRunLock = ".veil-lock";
 
 // The files a run wrote, in order, for its closing list, and the run manifest of its output
 // folder (docs/cli.md, "Output folders"). A folder holds at most one finished run:
@@ -115,10 +117,20 @@ inline constexpr const char* kRunManifest = "veil-run.json";
 //                     (keepFiles: only the manifest and the temporaries go);
 //   finishRun()       after the last file: writes veil-run.json with the run's id, command
 //                     line, veil version, time and every file's name, size and CRC-32.
+// From beginRun to finishRun (or the end of the run, however it ends) the folder is locked
+// (kRunLock: the process id, host and command line): a second run that begins writing there
+// meanwhile is refused with a message naming the first. A lock whose process is gone (a run
+// killed on this host) is removed, with a note.
 // A folder without veil-run.json holds no finished run (one is writing, failed or was
 // killed); one with it holds exactly the files it lists, as they were written.
 class WrittenFiles {
   public:
+    WrittenFiles() = default;
+    WrittenFiles(const WrittenFiles&) = delete;
+    WrittenFiles& operator=(const WrittenFiles&) = delete;
+    WrittenFiles(WrittenFiles&& o) noexcept;
+    WrittenFiles& operator=(WrittenFiles&& o) noexcept;
+    ~WrittenFiles();
     void add(const std::filesystem::path& file) { files_.push_back(file); }
     const std::vector<std::filesystem::path>& files() const { return files_; }
     // "wrote 3 files in out/sun7: sensor.exr, sensor.png, summary.json" (paths relative to
@@ -132,8 +144,10 @@ class WrittenFiles {
     void finishRun();
 
   private:
+    void unlock();
     std::vector<std::filesystem::path> files_;
     std::filesystem::path folder_;
+    std::filesystem::path lock_;  // held while not empty
 };
 
 // A study's closing report on standard output: with --json its JSON object (jsonText) with

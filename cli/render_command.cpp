@@ -136,6 +136,10 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
             "auto|N"))
         ->capture_default_str();
     addCount(sub, "--rays-per-pixel", o.raysPerPixel, "backward rays per pixel per pass");
+    addCount(sub, "--max-memory", o.maxMemory,
+             "the most memory the render may take, in bytes (4G: 4e9; default: the machine's "
+             "memory); the estimate is checked before any work",
+             0);
     sub->add_option("--radius", o.radiusMm,
                     "initial gathering radius r1 in mm (0: 1 % of the scattering parts' size)")
         ->check(CLI::Range(0.0, 1e6))
@@ -248,7 +252,9 @@ RenderRunSpec renderSpec(const RenderCommandOptions& o) {
     const std::optional<double> timeLimit = parseDuration(o.timeLimit);
     if (!timeLimit)
         throw ParseError({"--time-limit", 1, 1},
-                         "'" + o.timeLimit + "' is no duration: write 90s, 10m, 1h30m or none");
+                         "'" + o.timeLimit +
+                             "' is no time limit: write a duration above 0 such as 90s, 10m or "
+                             "1h30m, or none");
     if (!std::isfinite(*timeLimit) && o.passes == 0 && o.targetError <= 0.0)
         throw ParseError({"--time-limit", 1, 1}, "the run would never stop");
     if (o.prune && o.where.empty())
@@ -303,6 +309,7 @@ RenderRunSpec renderSpec(const RenderCommandOptions& o) {
     ro.partSamples = o.partSamples;
     ro.partPhotons = o.partPhotons;
     spec.detector = o.detector;
+    spec.maxMemoryBytes = static_cast<double>(o.maxMemory);
     spec.where = o.where;
     spec.scene = o.file;
     if (!o.resume.empty()) spec.resume = std::filesystem::path(o.resume) / kCheckpoint;

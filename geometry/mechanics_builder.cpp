@@ -394,7 +394,18 @@ void MechanicsBuilder::addPart(const std::string& name, const std::string& prope
     part.name = name;
     part.property = property;
     part.segments = segments_;
-    RevolvedMesh rm = revolveProfile(profile, segments_);
+    RevolvedMesh rm;
+    try {
+        rm = revolveProfile(profile, segments_);
+    } catch (const std::invalid_argument& e) {
+        // A profile the sizes made degenerate (a stop edge_mm of 1e-320): the part is named,
+        // not the function that found it.
+        std::string why = e.what();
+        const std::string internal = "revolveProfile: ";
+        if (why.rfind(internal, 0) == 0) why.erase(0, internal.size());
+        throw ModelError(name, "its cross-section cannot be built from the sizes given (" + why +
+                                   "); check the mechanics' lengths for this part");
+    }
     part.mesh = std::move(rm.mesh);
     const auto total = static_cast<uint32_t>(part.mesh.triangles.size());
     if (edgeName.empty()) {

@@ -127,7 +127,8 @@ void collectUnused(const detail::TomlDocumentState& doc, const toml::node& node,
                    const std::string& path, std::vector<UnusedKey>& out, bool openedOnly);
 
 // openedOnly: report unused keys only inside tables some reader opened below the root (the
-// readers that would open the others may not have run yet).
+// readers that would open the others may not have run yet), and only those that misspell a
+// key the reader asked for.
 void collectUnusedInTable(const detail::TomlDocumentState& doc, const toml::table& table,
                           const std::string& path, std::vector<UnusedKey>& out, bool openedOnly) {
     const auto it = doc.tables.find(&table);
@@ -140,6 +141,15 @@ void collectUnusedInTable(const detail::TomlDocumentState& doc, const toml::tabl
             continue;
         }
         if (openedOnly && path.empty()) continue;
+        std::string guess;
+        if (use) {
+            std::vector<std::string> candidates(use->known.begin(), use->known.end());
+            guess = closestSpelling(name, candidates);
+        }
+        // After an error, a key the reader has not asked for yet may be one it would have
+        // read next ('pixels' after a bad 'size_mm'): only a misspelling of a key it asked for
+        // explains the error better than the error's own message.
+        if (openedOnly && guess.empty()) continue;
         std::string message;
         const toml::table* sub = value.as_table();
         const toml::array* arr = value.as_array();
@@ -152,11 +162,7 @@ void collectUnusedInTable(const detail::TomlDocumentState& doc, const toml::tabl
             message = "unknown key '" + name + "' " + (path.empty() ? "at " : "in ") +
                       tableDisplayName(path);
         }
-        if (use) {
-            std::vector<std::string> candidates(use->known.begin(), use->known.end());
-            const std::string guess = closestSpelling(name, candidates);
-            if (!guess.empty()) message += " (did you mean '" + guess + "'?)";
-        }
+        if (!guess.empty()) message += " (did you mean '" + guess + "'?)";
         const bool edited = doc.origins.contains(&value);
         out.push_back({edited ? doc.locOf(value) : doc.locOf(key.source()), std::move(message)});
     }

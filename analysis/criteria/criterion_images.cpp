@@ -8,10 +8,11 @@ namespace veil {
 CriterionImages::CriterionImages(std::vector<std::string> criterionTexts,
                                  std::vector<CompiledCriterion> criteria,
                                  const std::vector<DetectorImage>& detectors,
-                                 std::vector<int> detectorOfObject)
+                                 std::vector<int> detectorOfObject, std::vector<int> nextDetector)
     : texts_(std::move(criterionTexts)),
       criteria_(std::move(criteria)),
       detectorOfObject_(std::move(detectorOfObject)),
+      nextDetector_(std::move(nextDetector)),
       images_(texts_.size() + 1, detectors) {}
 
 RayCallback CriterionImages::callback() {
@@ -22,6 +23,8 @@ void CriterionImages::collect(uint64_t ray, const PathHistory& h) {
     std::vector<Hit> hits;
     std::vector<NodeIndex> chain;
     std::vector<PathEvent> events;
+    std::vector<std::pair<int, int>> pixels;  // detector, pixel
+    std::vector<int> layers;
     thread_local std::vector<StreamingEvaluator> evaluators;
     thread_local PathSummary summary;
     evaluators.clear();
@@ -32,10 +35,15 @@ void CriterionImages::collect(uint64_t ray, const PathHistory& h) {
         const PathNode& end = h.node(leaf);
         if (end.type != EventType::DetectorHit) continue;
         if (end.object < 0 || end.object >= static_cast<int>(detectorOfObject_.size())) continue;
-        const int d = detectorOfObject_[end.object];
-        if (d < 0) continue;
-        const auto pixel = images_[0][d].pixelOf(end.position);
-        if (!pixel) continue;
+        const int first = detectorOfObject_[end.object];
+        if (first < 0) continue;
+        // Every detector on the object that has the hit in a pixel records it.
+        pixels.clear();
+        for (int d = first; d >= 0;
+             d = static_cast<size_t>(d) < nextDetector_.size() ? nextDetector_[d] : -1)
+            if (const auto pixel = images_[0][d].pixelOf(end.position))
+                pixels.push_back({d, *pixel});
+        if (pixels.empty()) continue;
         const PathView view = h.path(leaf, chain);
         events.clear();
         summary.reset();
@@ -43,7 +51,7 @@ void CriterionImages::collect(uint64_t ray, const PathHistory& h) {
             events.push_back(view.event(k));
             summary.add(events.back());
         }
-        bool any = false;
+        layers.clear();
         for (size_t c = 0; c < criteria_.size(); ++c) {
             // Most criteria (one per ghost) need an event this path lacks: skip their
             // evaluator, whose answer would be false.
@@ -51,12 +59,11 @@ void CriterionImages::collect(uint64_t ray, const PathHistory& h) {
             StreamingEvaluator& ev = evaluators[c];
             ev.reset();
             for (size_t k = 0; k < events.size() && !ev.decided(); ++k) ev.push(events[k]);
-            if (ev.finish() == CriterionState::True) {
-                hits.push_back({static_cast<int>(c), d, *pixel, end.flux});
-                any = true;
-            }
+            if (ev.finish() == CriterionState::True) layers.push_back(static_cast<int>(c));
         }
-        if (!any) hits.push_back({static_cast<int>(criteria_.size()), d, *pixel, end.flux});
+        if (layers.empty()) layers.push_back(static_cast<int>(criteria_.size()));
+        for (const auto& [d, pixel] : pixels)
+            for (const int c : layers) hits.push_back({c, d, pixel, end.flux});
     }
     if (hits.empty()) return;
     std::lock_guard<std::mutex> lock(mutex_);

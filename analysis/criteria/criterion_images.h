@@ -23,10 +23,12 @@ namespace veil {
 class CriterionImages {
   public:
     // `detectors`: empty images of the run (as given to traceNonsequential); `detectorOfObject`
-    // maps object ids to detector indices.
+    // maps object ids to detector indices, `nextDetector` each detector to the next one on the
+    // same object (TransportView's; empty: one detector an object).
     CriterionImages(std::vector<std::string> criterionTexts,
                     std::vector<CompiledCriterion> criteria,
-                    const std::vector<DetectorImage>& detectors, std::vector<int> detectorOfObject);
+                    const std::vector<DetectorImage>& detectors, std::vector<int> detectorOfObject,
+                    std::vector<int> nextDetector = {});
 
     // The onRay callback for traceNonsequential (thread-safe).
     RayCallback callback();
@@ -52,7 +54,7 @@ class CriterionImages {
 
     std::vector<std::string> texts_;
     std::vector<CompiledCriterion> criteria_;
-    std::vector<int> detectorOfObject_;
+    std::vector<int> detectorOfObject_, nextDetector_;
     std::vector<std::vector<DetectorImage>> images_;
     std::mutex mutex_;
     std::map<uint64_t, std::vector<Hit>> pending_;

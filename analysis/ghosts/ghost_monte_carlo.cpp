@@ -32,8 +32,9 @@ GhostMonteCarlo runGhostMonteCarlo(const SceneGeometry& setup, const SceneTransp
         compiled.push_back(compileCriterion(texts[i], names, source));
     }
     GhostMonteCarlo mc;
-    mc.images = std::make_unique<CriterionImages>(texts, std::move(compiled), trace.images,
-                                                  trace.view.detectorOfObject);
+    mc.images =
+        std::make_unique<CriterionImages>(texts, std::move(compiled), trace.images,
+                                          trace.view.detectorOfObject, trace.view.nextDetector);
     const CriteriaFilter filter(mc.images->criteria());
     TransportOptions to = o.transport;
     to.mode = TransportOptions::Mode::Split;

@@ -34,6 +34,7 @@ std::vector<Source> fieldSources(const SceneSpec& file, const GlassCatalog& cata
         name << "field" << f + 1;
         SpectralSampler spectrum(lines, FluxUnit::Watt, name.str());
         if (model.objectAtInfinity()) {
+            checkFieldAngles(fields[f].first, fields[f].second, "field " + std::to_string(f + 1));
             const Vec3 d = fieldDirection(fields[f].first, fields[f].second);
             BeamOptions o;
             const Beam beam = beamFillingAperture(ap, d, o);

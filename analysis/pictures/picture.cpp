@@ -3,6 +3,7 @@
 #include <cairo.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -623,12 +624,14 @@ void Picture::writeSvg(const std::filesystem::path& path, double widthPt) const 
     const std::string text = svg(widthPt);
     const std::filesystem::path tmp = temporaryFor(path);
     {
+        errno = 0;
         std::ofstream out(tmp, std::ios::binary);
         out << text;
         out.close();
         if (!out) {
+            const std::string reason = systemReason();
             removeQuietly(tmp);
-            throw std::runtime_error("cannot write " + path.string());
+            throw std::runtime_error("cannot write " + path.string() + ": " + reason);
         }
     }
     commitFile(tmp, path);

@@ -43,7 +43,13 @@ std::string formatFlux(double flux, double relativeError, const std::string& uni
     return os.str();
 }
 
+constexpr double kLongestDurationSeconds = 99.0 * 86400.0;
+
 std::string duration(double s) {
+    // Bounded: an ETA far beyond any run (a target error far away) is said as such, not as an
+    // hour count that overflows an int.
+    if (!(s >= 0.0)) s = 0.0;
+    if (s >= kLongestDurationSeconds) return "more than 99 days";
     std::ostringstream os;
     if (s >= 3600) os << static_cast<int>(s / 3600) << "h";
     if (s >= 60) os << static_cast<int>(std::fmod(s, 3600) / 60) << "m";

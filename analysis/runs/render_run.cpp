@@ -1,9 +1,15 @@
 #include "analysis/runs/render_run.h"
 
+#include <unistd.h>
+
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
+#include <fstream>
 #include <iomanip>
 #include <sstream>
+#include <string>
 
 #include "analysis/criteria/criterion_names.h"
 #include "analysis/criteria/render_criteria.h"
@@ -21,6 +27,26 @@ namespace veil {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// The machine's physical memory, or its container's limit when that is lower (cgroup v2).
+double machineMemoryBytes() {
+    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
+    double bytes = pages > 0 && page > 0 ? static_cast<double>(pages) * page : kInf;
+    std::ifstream limit("/sys/fs/cgroup/memory.max");
+    std::string text;
+    if (limit >> text && text != "max") {
+        char* end = nullptr;
+        const double v = std::strtod(text.c_str(), &end);
+        if (end != text.c_str() && v > 0.0) bytes = std::min(bytes, v);
+    }
+    return bytes;
+}
+
+std::string gigabytes(double bytes) {
+    std::ostringstream os;
+    os << std::setprecision(bytes < 1e9 ? 2 : 3) << bytes / 1e9 << " GB";
+    return os.str();
+}
 
 // FNV-1a over the text that determines a run's numbers: the scene as the renderer sees it and
 // the options that change what a pass computes.
@@ -186,6 +212,20 @@ RenderRun::RenderRun(const PreparedScene& scene, RenderRunSpec spec)
     RenderOptions& o = spec_.options;
     if (o.initialRadiusMm <= 0.0) o.initialRadiusMm = defaultInitialRadius(ts);
     o.check();
+    // The memory the render will take, before any of it is taken (1e9 rays per pixel had
+    // allocated 16 GB at 1.5 GB/s before anything said so).
+    memoryBytes_ =
+        renderMemoryBytes(static_cast<uint64_t>(geometry.pixelCount()), o, spec_.where.size());
+    const double limit = spec_.maxMemoryBytes > 0.0 ? spec_.maxMemoryBytes : machineMemoryBytes();
+    if (memoryBytes_ > limit) {
+        std::ostringstream m;
+        m << "the render needs about " << gigabytes(memoryBytes_) << " (" << geometry.pixelCount()
+          << " pixels x " << o.raysPerPixel << " rays per pixel, one view point each), more than "
+          << (spec_.maxMemoryBytes > 0.0 ? "--max-memory's " : "this machine's ")
+          << gigabytes(limit) << ": lower --rays-per-pixel or the detector's pixels"
+          << (spec_.maxMemoryBytes > 0.0 ? ", or raise --max-memory" : "");
+        throw ModelError(file, m.str());
+    }
     if (!spec_.where.empty()) {
         const NameTable names = criterionNames(*ts.scene, ts);
         criteria_ = std::make_unique<RenderCriteria>(compileWhereList(spec_.where, names), names);
@@ -194,7 +234,9 @@ RenderRun::RenderRun(const PreparedScene& scene, RenderRunSpec spec)
     // The renderer's set-up can take seconds (the pilots of the lit parts' light).
     if (spec_.progress && spec_.ranks.root())
         spec_.progress(
-            {"render: preparing (the lens connections, the lit parts' pilots)", 0, 0, ""});
+            {"render: preparing (the lens connections, the lit parts' pilots; memory about " +
+                 gigabytes(memoryBytes_) + ")",
+             0, 0, ""});
     renderer_ =
         std::make_unique<Renderer>(ts, *detector_, aperture_, o, criteria_.get(), spec_.ranks);
     fingerprint_ = fingerprintOf(ts, geometry, aperture_, o, spec_.where);
@@ -226,6 +268,7 @@ RenderResult RenderRun::run(const std::function<void(const RenderPassEvent&)>& o
     const Ranks& ranks = spec_.ranks;
     RenderResult r;
     r.passesBefore = state_.passes();
+    r.memoryBytes = memoryBytes_;
     const auto start = std::chrono::steady_clock::now();
     auto seconds = [&] {
         return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -385,6 +428,7 @@ nlohmann::json RenderResult::summary() const {
     summary["seconds_this_run"] = seconds;
     summary["stopped"] = stopReason;
     summary["seed"] = ro.seed;
+    summary["memory_estimate_bytes"] = memoryBytes;
     if (!spec.ranks.single())
         summary["ranks"] = {{"count", spec.ranks.size()},
                             {"rank0_bytes_received", traffic.received},

@@ -71,6 +71,9 @@ struct RenderRunSpec {
     std::string scene;  // the scene as the user named it (reports; errors name the file)
     Ranks ranks = Ranks::alone();
     ProgressSink progress;  // "render" events after every pass; may be empty
+    // The most memory the render may take (renderMemoryBytes, render.h); 0: the machine's
+    // (its physical memory, or its container's limit).
+    double maxMemoryBytes = 0.0;
 };
 
 // The per-pass totals the studies measure with: the flux on the detector per component and
@@ -97,6 +100,7 @@ struct RenderResult {
     RenderState state;                  // the accumulators: images on demand
     int passesBefore = 0;               // a resumed run's passes
     double seconds = 0.0;               // this run's wall clock
+    double memoryBytes = 0.0;           // the estimate checked before the run (renderMemoryBytes)
     std::string stopReason;             // "target error reached", "pass limit reached", ...
     double emittedFlux = 0.0;
     // This run's totals over its passes.
@@ -141,6 +145,8 @@ class RenderRun {
     // The fingerprint of what determines the numbers (scene, detector, options, criteria);
     // a checkpoint resumes only under the same one.
     uint64_t fingerprint() const { return fingerprint_; }
+    // About how much memory the run takes at its peak (renderMemoryBytes).
+    double memoryBytes() const { return memoryBytes_; }
     const RenderRunSpec& spec() const { return spec_; }
     int passesDone() const { return state_.passes(); }  // before run(): a resumed run's
 
@@ -158,6 +164,7 @@ class RenderRun {
     ExitAperture aperture_;
     std::unique_ptr<Renderer> renderer_;
     uint64_t fingerprint_ = 0;
+    double memoryBytes_ = 0.0;  // renderMemoryBytes of the run
     RenderState state_;
 };
 

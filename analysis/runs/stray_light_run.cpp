@@ -54,7 +54,8 @@ StrayLightResult runStrayLight(const PreparedScene& scene, const StrayLightSpec&
     if (!spec.where.empty()) {
         const NameTable names = criterionNames(scene.scene(), ts.view);
         result.layers = std::make_unique<CriterionImages>(
-            spec.where, compileWhereList(spec.where, names), ts.images, ts.view.detectorOfObject);
+            spec.where, compileWhereList(spec.where, names), ts.images, ts.view.detectorOfObject,
+            ts.view.nextDetector);
     }
     std::unique_ptr<CriteriaFilter> filter;
     if (spec.prune) {

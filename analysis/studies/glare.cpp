@@ -634,6 +634,8 @@ GlareResult runGlare(const SceneSpec& file, const GlassCatalog& catalog, const G
     if (spec.fNumbers.empty()) apertures.push_back({own, file});
     for (double n : spec.fNumbers) apertures.push_back({n, stoppedDown(file, catalog, n, own)});
     std::vector<Vec2> fields = spec.fieldsDeg;
+    for (size_t f = 0; f < fields.size(); ++f)
+        checkFieldAngles(fields[f].x, fields[f].y, "--field " + std::to_string(f + 1));
     if (fields.empty()) {
         fields.push_back(Vec2(0.0));
         for (const Field& f : file.prescription.system.fields)

@@ -125,6 +125,42 @@ TEST(CliConventions, RayCountsAreWholeNumbersWithSuffixes) {
     EXPECT_FALSE(std::filesystem::exists(std::string(VEIL_SOURCE_DIR) + "/trace"));
 }
 
+// One rule for the field of an object at infinity, as [[source]] field_deg has it: strictly
+// inside (-90, 90) degrees. "--field 0,90" had emitted 1.6e16 W from a 1 W beam, "0,180" was
+// silently "0,0", and "1e300,0" ran.
+TEST(CliConventions, FieldAnglesLieStrictlyInsideNinetyDegrees) {
+    const std::string dir = ::testing::TempDir() + "veil_fields";
+    for (const char* f : {"0,90", "0,180", "1e300,0", "-90,0"}) {
+        const VeilRun r =
+            runVeil(std::string("trace examples/scenes/longfocus_360mm_sun.toml -n 10 --field ") +
+                    f + " -o " + dir);
+        EXPECT_EQ(r.exitCode, 1) << f;
+        EXPECT_NE(r.err.find("field 1: a field angle of an object at infinity lies strictly "
+                             "between -90 and 90 degrees"),
+                  std::string::npos)
+            << r.err;
+    }
+    EXPECT_FALSE(std::filesystem::exists(dir));
+    const VeilRun r =
+        runVeil("trace examples/scenes/longfocus_360mm_sun.toml -n 10 --field 0,89 --json");
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+}
+
+// An option's bad value is a bad command line (exit 2), said as every error is.
+TEST(CliConventions, BadOptionValuesExitTwoWithTheVeilPrefix) {
+    const std::string dir = ::testing::TempDir() + "veil_bad_options";
+    VeilRun r =
+        runVeil("render examples/scenes/longfocus_360mm_sun.toml --time-limit 0s -o " + dir);
+    EXPECT_EQ(r.exitCode, 2);
+    EXPECT_NE(r.err.find("veil: error: --time-limit:1:1: '0s' is no time limit"), std::string::npos)
+        << r.err;
+    // A range the option parser checks.
+    r = runVeil("render examples/scenes/longfocus_360mm_sun.toml --aimed-splats 2 -o " + dir);
+    EXPECT_EQ(r.exitCode, 2);
+    EXPECT_EQ(r.err.rfind("veil: error: --aimed-splats", 0), 0u) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir));
+}
+
 TEST(CliConventions, MistypedCommandGetsASuggestion) {
     const VeilRun r = runVeil("trce examples/scenes/longfocus_360mm_sun.toml");
     EXPECT_EQ(r.exitCode, 2);

@@ -143,18 +143,19 @@ TEST(VeilGhosts, JsonOnStandardOutputAndTheCoatingWhatIf) {
     EXPECT_EQ(j["sources"].size(), 1u);
 }
 
-TEST(VeilGhosts, BadInputNamesTheOptionAndExitsWithOne) {
+// An option's bad value is a bad command line: exit 2 (docs/cli.md); the model's, 1.
+TEST(VeilGhosts, BadInputNamesTheOptionAndExitsWithTwo) {
     const std::string out = outDir("ghosts_bad");
     VeilRun r =
         runVeil("ghosts examples/lenses/singlet.toml -n 0 --coating 'L1.front' -o " + out);
-    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_EQ(r.exitCode, 2);
     EXPECT_NE(r.err.find("--coating 1"), std::string::npos) << r.err;
     r = runVeil("ghosts examples/lenses/singlet.toml -n 0 --coating 'L7.*=ideal_ar' -o " +
                 out);
-    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_EQ(r.exitCode, 2);
     EXPECT_NE(r.err.find("matches no object"), std::string::npos) << r.err;
     r = runVeil("ghosts examples/lenses/singlet.toml -n 0 --field 3 -o " + out);
-    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_EQ(r.exitCode, 2);
     EXPECT_NE(r.err.find("--field 1"), std::string::npos) << r.err;
     r = runVeil("ghosts examples/scenes/catadioptric_2000mm_window.toml -n 0 -o " + out);
     EXPECT_EQ(r.exitCode, 1);

@@ -380,7 +380,7 @@ TEST(VeilTrace, WhereSplitsTheDetectorFluxByCriterion) {
     // A criterion naming an unknown object fails before tracing, with its column.
     const VeilRun bad = runVeil("trace examples/scenes/longfocus_360mm_sun.toml -n 10 --quiet -o " +
                                 dir + " --where 'hit(L9.front)'");
-    EXPECT_EQ(bad.exitCode, 1);
+    EXPECT_EQ(bad.exitCode, 2);
     EXPECT_NE(bad.err.find("--where 1:1:5"), std::string::npos) << bad.err;
     EXPECT_NE(bad.err.find("the scene's objects are L1.front, L1.flat1"), std::string::npos)
         << bad.err;

@@ -37,7 +37,7 @@ TEST(ObjectsCommand, AnUnknownSourceIsAnErrorBeforeAnyFile) {
     std::filesystem::remove_all(dir);
     const VeilRun r =
         runVeil("objects examples/scenes/longfocus_360mm_sun.toml --source moon -o " + dir);
-    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_EQ(r.exitCode, 2);
     EXPECT_NE(r.err.find("--source moon: no source 'moon' (the scene has sun)"), std::string::npos)
         << r.err;
     EXPECT_FALSE(std::filesystem::exists(dir));

@@ -4,6 +4,8 @@
 // killed run left; a run refused for bad input touches nothing.
 
 #include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <filesystem>
@@ -78,7 +80,7 @@ TEST(OutputFolder, HoldsOneFinishedRunListedInItsManifest) {
     // A run refused for bad input touches nothing.
     r = runVeil("trace examples/scenes/double_gauss_50mm.toml -n 2 --quiet --where 'hit(' -o " +
                 dir);
-    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_EQ(r.exitCode, 2);
     EXPECT_TRUE(fs::exists(dir + "/veil-run.json"));
     EXPECT_TRUE(fs::exists(dir + "/sensor.exr"));
 
@@ -103,3 +105,39 @@ TEST(OutputFolder, JsonWithoutOutputWritesNoManifest) {
 }
 
 }  // namespace
+
+// A folder is locked while a run writes into it (kRunLock, cli/options.h): a second run is
+// refused, naming the first; the lock of a process that no longer runs is removed, with a
+// note. Two runs into one folder had both exited 0, the last to finish winning.
+TEST(OutputFolder, IsLockedWhileARunWritesIntoIt) {
+    const std::string dir = freshDir("veil_locked");
+    fs::create_directories(dir);
+    char host[256] = {};
+    ASSERT_EQ(gethostname(host, sizeof host - 1), 0);
+    // Process 1 always runs.
+    std::ofstream(fs::path(dir) / ".veil-lock")
+        << "1 " << host << " veil trace examples/lenses/singlet.toml -o " << dir;
+    VeilRun r = runVeil("trace examples/lenses/singlet.toml -n 10 -o " + dir);
+    EXPECT_EQ(r.exitCode, 2);
+    EXPECT_NE(r.err.find("another veil run is writing into this folder (process 1 on " +
+                         std::string(host) + ": veil trace examples/lenses/singlet.toml"),
+              std::string::npos)
+        << r.err;
+    EXPECT_FALSE(fs::exists(fs::path(dir) / "veil-run.json"));
+    EXPECT_TRUE(fs::exists(fs::path(dir) / ".veil-lock"));  // the other run's, untouched
+    // A process that has ended: its lock goes.
+    const pid_t child = fork();
+    if (child == 0) _exit(0);
+    ASSERT_GT(child, 0);
+    int status = 0;
+    waitpid(child, &status, 0);
+    std::ofstream(fs::path(dir) / ".veil-lock") << child << " " << host << " veil render x";
+    r = runVeil("trace examples/lenses/singlet.toml -n 10 -o " + dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.err.find("removed the lock of a run that no longer runs (process " +
+                         std::to_string(child) + ": veil render x)"),
+              std::string::npos)
+        << r.err;
+    EXPECT_TRUE(fs::exists(fs::path(dir) / "veil-run.json"));
+    EXPECT_FALSE(fs::exists(fs::path(dir) / ".veil-lock"));  // released at the end
+}

@@ -5,10 +5,12 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <limits>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include "analysis/reports/format.h"
 #include "run_veil.h"
 
 namespace {
@@ -26,6 +28,18 @@ std::vector<std::string> reportLines(const std::string& err, const std::string& 
     for (std::string line; std::getline(in, line);)
         if (line.rfind(label + ":", 0) == 0) lines.push_back(line);
     return lines;
+}
+
+// An ETA far away is said as such, not as an hour count past an int ("-2147483648h").
+TEST(VeilProgress, DurationsAreBounded) {
+    EXPECT_EQ(veil::duration(90.0), "1m30s");
+    EXPECT_EQ(veil::duration(3.0 * 3600.0 + 61.0), "3h1m1s");
+    EXPECT_EQ(veil::duration(98.0 * 86400.0), "2352h0m0s");
+    EXPECT_EQ(veil::duration(99.0 * 86400.0), "more than 99 days");
+    EXPECT_EQ(veil::duration(1e300), "more than 99 days");
+    EXPECT_EQ(veil::duration(std::numeric_limits<double>::infinity()), "more than 99 days");
+    EXPECT_EQ(veil::duration(std::numeric_limits<double>::quiet_NaN()), "0s");
+    EXPECT_EQ(veil::duration(-5.0), "0s");
 }
 
 // 3000 rays take about a second on one thread: the tracer asks for a report every 200 ms,
@@ -111,9 +125,16 @@ TEST(VeilProgress, RenderReportsItsSetUpAndTimesItsPassesFromTheStart) {
         "--rays-per-pixel 1 --threads 1 -o " +
         out);
     ASSERT_EQ(r.exitCode, 0) << r.err;
-    const std::vector<std::string> prep =
-        reportLines(r.err, "render: preparing (the lens connections, the lit parts' pilots)");
+    // The set-up line says the memory the render will take.
+    std::vector<std::string> prep;
+    std::istringstream lines(r.err);
+    for (std::string line; std::getline(lines, line);)
+        if (line.rfind("render: preparing (the lens connections, the lit parts' pilots; memory "
+                       "about ",
+                       0) == 0)
+            prep.push_back(line);
     ASSERT_EQ(prep.size(), 2u) << r.err;
+    EXPECT_NE(prep[0].find(" GB): "), std::string::npos) << prep[0];
     EXPECT_NE(prep[1].find(": done in "), std::string::npos) << prep[1];
     std::vector<std::string> passes;
     for (const std::string& l : reportLines(r.err, "render"))

@@ -54,12 +54,12 @@ TEST(VeilRays, WhereOnSavedHistoriesMatchesTheTrace) {
     }
     // A bad criterion names its option and column, before reading.
     const VeilRun bad = runVeil("rays " + dir + "/events.vrdb --where 'hit(L9.front)'");
-    EXPECT_EQ(bad.exitCode, 1);
+    EXPECT_EQ(bad.exitCode, 2);
     EXPECT_NE(bad.err.find("--where 1:1:5"), std::string::npos) << bad.err;
     // --events-only alone is a usage mistake.
     const VeilRun alone =
         runVeil("trace examples/scenes/longfocus_360mm_sun.toml -n 10 --events-only --json");
-    EXPECT_EQ(alone.exitCode, 1);
+    EXPECT_EQ(alone.exitCode, 2);
     EXPECT_NE(alone.err.find("--events-only needs --save-rays"), std::string::npos) << alone.err;
 }
 

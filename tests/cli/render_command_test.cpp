@@ -131,10 +131,10 @@ TEST(RenderCommand, SplitsTheImageByCriteria) {
     EXPECT_LT(p["total"]["flux"].get<double>(), scattered);
     // --prune alone, or a criterion naming nothing in the scene: refused before any pass.
     r = runVeil("render " + kSun + " --prune -o " + dirFor("noprune"));
-    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_EQ(r.exitCode, 2);
     EXPECT_NE(r.err.find("--prune needs at least one --where"), std::string::npos) << r.err;
     r = runVeil("render " + kSun + " --where 'scatter(nosuch)' -o " + dirFor("nosuch"));
-    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_EQ(r.exitCode, 2);
     EXPECT_NE(r.err.find("--where 1:1:9"), std::string::npos) << r.err;
     EXPECT_FALSE(std::filesystem::exists(dirFor("nosuch")));
 }
@@ -184,23 +184,23 @@ TEST(RenderCommand, BadInputStopsBeforeAnyPass) {
     EXPECT_NE(r.err.find("no surface scatters"), std::string::npos) << r.err;
     EXPECT_FALSE(std::filesystem::exists(dir));
     r = runVeil("render " + kSun + " --time-limit soon -o " + dir);
-    EXPECT_EQ(r.exitCode, 1);
-    EXPECT_NE(r.err.find("'soon' is no duration"), std::string::npos) << r.err;
+    EXPECT_EQ(r.exitCode, 2);
+    EXPECT_NE(r.err.find("'soon' is no time limit"), std::string::npos) << r.err;
     r = runVeil("render " + kSun + " --detector nosuch -o " + dir);
-    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_EQ(r.exitCode, 2);
     EXPECT_NE(r.err.find("no detector 'nosuch' in the scene (it has sensor_image)"),
               std::string::npos)
         << r.err;
     r = runVeil("render " + kSun + " --resume " + dir + " -o " + dir);
-    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_EQ(r.exitCode, 2);
     EXPECT_NE(r.err.find("holds no render.checkpoint"), std::string::npos) << r.err;
     r = runVeil("render " + kSun + " --target-on where2 --where scatter -o " + dir);
-    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_EQ(r.exitCode, 2);
     EXPECT_NE(r.err.find("'where2' is no image of this run"), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("where1 to where1"), std::string::npos) << r.err;
     EXPECT_FALSE(std::filesystem::exists(dir));
     r = runVeil("render " + kSun + " --target-on glare -o " + dir);
-    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_EQ(r.exitCode, 2);
     EXPECT_NE(r.err.find("or where<k> with --where"), std::string::npos) << r.err;
     EXPECT_FALSE(std::filesystem::exists(dir));
     r = runVeil("render " + kSun + " --alpha 1.5 -o " + dir);
@@ -220,6 +220,19 @@ TEST(RenderCommand, BadInputStopsBeforeAnyPass) {
     r = runVeil("render " + kSun + " --connect maybe -o " + dir);
     EXPECT_EQ(r.exitCode, 2);
     EXPECT_NE(r.err.find("--connect"), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir));
+    // Memory the machine does not have is refused before any of it is taken (1e9 rays per
+    // pixel had allocated 16 GB at 1.5 GB/s); so is more than --max-memory.
+    r = runVeil("render " + kSun + " --rays-per-pixel 1e9 --passes 1 -o " + dir);
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_NE(r.err.find("the render needs about"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("65536 pixels x 1000000000 rays per pixel"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("lower --rays-per-pixel or the detector's pixels"), std::string::npos)
+        << r.err;
+    r = runVeil("render " + kSun + " --max-memory 10M --passes 1 -o " + dir);
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_NE(r.err.find("more than --max-memory's 0.01 GB"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("or raise --max-memory"), std::string::npos) << r.err;
     EXPECT_FALSE(std::filesystem::exists(dir));
 }
 

@@ -203,20 +203,23 @@ TEST(ViewCommand, PathsAreTheSelectionOfVeilPathsAndTheSameSeedGivesTheSamePage)
 TEST(ViewCommand, BadInputStopsBeforeAnythingIsWritten) {
     const std::string dir = dirFor("bad");
     const std::string page = dir + "/scene.html";
+    // An option's bad value exits 2 (a bad command line), a missing package 1.
     struct Case {
         std::string args, env, message;
+        int exitCode;
     };
     const Case cases[] = {
-        {"view " + kDoubleGauss + " -o " + page, "VEIL_THREE_JS_DIR=/nonexistent", "libjs-three"},
-        {"view " + kDoubleGauss + " --where 'hit(nothing)' -o " + page, "", "nothing"},
-        {"view " + kDoubleGauss + " --colour event -o " + page, "", "give --where too"},
-        {"view " + kDoubleGauss + " -o " + dir, "", "is a folder"},
-        {"view " + kDoubleGauss + " -o /proc/x/scene.html", "", "-o /proc/x/scene.html"},
+        {"view " + kDoubleGauss + " -o " + page, "VEIL_THREE_JS_DIR=/nonexistent", "libjs-three",
+         1},
+        {"view " + kDoubleGauss + " --where 'hit(nothing)' -o " + page, "", "nothing", 2},
+        {"view " + kDoubleGauss + " --colour event -o " + page, "", "give --where too", 2},
+        {"view " + kDoubleGauss + " -o " + dir, "", "is a folder", 2},
+        {"view " + kDoubleGauss + " -o /proc/x/scene.html", "", "-o /proc/x/scene.html", 2},
     };
     for (const Case& c : cases) {
         SCOPED_TRACE(c.args);
         const VeilRun r = runVeil(c.args, c.env);
-        EXPECT_EQ(r.exitCode, 1) << r.err;
+        EXPECT_EQ(r.exitCode, c.exitCode) << r.err;
         EXPECT_NE(r.err.find(c.message), std::string::npos) << r.err;
         EXPECT_FALSE(fs::exists(page));
     }

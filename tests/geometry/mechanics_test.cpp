@@ -214,6 +214,18 @@ TEST(Mechanics, DoubleGaussStack) {
 
 // Stop
 
+// A size that leaves a part's cross-section degenerate (a knife edge of 1e-320 mm) names the
+// part, not the internal function that found it ("revolveProfile: ...").
+TEST(Mechanics, ADegenerateCrossSectionNamesThePart) {
+    MechanicsSpec spec;
+    spec.stop.edgeMm = 1e-320;
+    const ModelError e =
+        modelErrorOf([&] { buildMechanics(lens("double_gauss_50mm.toml"), spec); });
+    EXPECT_EQ(e.object(), "stop");
+    EXPECT_THAT(e.what(), HasSubstr("its cross-section cannot be built from the sizes given"));
+    EXPECT_THAT(e.what(), Not(HasSubstr("revolveProfile")));
+}
+
 TEST(Mechanics, StopEdgeIsExactlyEdgeMmWide) {
     const Prescription rx = lens("double_gauss_50mm.toml");
     for (double edge : {0.05, 0.1, 0.013}) {

@@ -146,6 +146,16 @@ EntranceAperture entranceAperture(const Prescription& p, const SequentialModel& 
     return a;
 }
 
+void checkFieldAngles(double xDeg, double yDeg, const std::string& where) {
+    if (!(std::abs(xDeg) < 90.0 && std::abs(yDeg) < 90.0)) {
+        std::ostringstream os;
+        os << "a field angle of an object at infinity lies strictly between -90 and 90 degrees, "
+              "got "
+           << xDeg << "," << yDeg;
+        throw ModelError(where, os.str());
+    }
+}
+
 Vec3 fieldDirection(double xDeg, double yDeg) {
     return glm::normalize(Vec3(std::tan(xDeg * kDegree), std::tan(yDeg * kDegree), 1.0));
 }

@@ -106,6 +106,11 @@ EntranceAperture entranceAperture(const Prescription& p, const SequentialModel& 
 
 // The unit direction of a field angle pair (degrees), as for the system fields.
 Vec3 fieldDirection(double xDeg, double yDeg);
+// The one rule for a field angle pair of an object at infinity, as [[source]] field_deg reads
+// it: both strictly between -90 and 90 degrees (at 90 the direction runs along the first
+// surface, and the beam that fills the aperture carries unbounded flux). A ModelError naming
+// `where` otherwise.
+void checkFieldAngles(double xDeg, double yDeg, const std::string& where);
 
 // Source Kinds
 

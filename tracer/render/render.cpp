@@ -7,6 +7,7 @@
 #include <array>
 #include <atomic>
 #include <bit>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -18,6 +19,7 @@
 #include "geometry/exact_face.h"
 #include "geometry/scene.h"
 #include "lensdata/errors.h"
+#include "lensdata/output_file.h"
 #include "tracer/records/detector.h"
 #include "tracer/render/photon_pass.h"
 #include "tracer/runtime/rng.h"
@@ -40,6 +42,20 @@ std::string_view toString(RenderComponent c) {
 }
 
 std::ostream& operator<<(std::ostream& os, RenderComponent c) { return os << toString(c); }
+
+double renderMemoryBytes(uint64_t pixels, const RenderOptions& o, size_t criteria) {
+    // A view point, its grid entry (a float position, its object and index), its two
+    // gathering disks (5 floats each) and its two reached marks.
+    constexpr double kPerViewPoint = sizeof(ViewPoint) + 20.0 + 40.0 + 2.0;
+    const double viewPoints = static_cast<double>(pixels) * static_cast<double>(o.raysPerPixel);
+    // Accumulated: (components + total) per criterion and plain, the radius differences, the
+    // image-forming and stray images, 3 doubles a pixel each; a pass: as many again, and the
+    // photon pass's own images (6 plain, 5 per criterion, a double a pixel).
+    const double c = static_cast<double>(criteria);
+    const double images =
+        2.0 * ((kRenderComponents + 1) * (1.0 + c) + 3.0 + c) * 24.0 + (6.0 + 5.0 * c) * 8.0;
+    return viewPoints * kPerViewPoint + static_cast<double>(pixels) * images;
+}
 
 uint64_t passSeed(uint64_t seed, uint64_t pass, uint32_t purpose) {
     const auto b = CounterRng::philox(
@@ -422,8 +438,11 @@ std::vector<T> getVector(std::istream& is, size_t n) {
 void RenderState::write(const std::filesystem::path& path, uint64_t fingerprint) const {
     const std::filesystem::path tmp = path.string() + ".tmp";
     {
+        errno = 0;
         std::ofstream os(tmp, std::ios::binary | std::ios::trunc);
-        if (!os) throw std::runtime_error(tmp.string() + ": cannot write the checkpoint");
+        if (!os)
+            throw std::runtime_error(tmp.string() +
+                                     ": cannot write the checkpoint: " + systemReason());
         os.write(kMagic, sizeof kMagic);
         put(os, kVersion);
         put(os, fingerprint);
@@ -462,9 +481,10 @@ void RenderState::write(const std::filesystem::path& path, uint64_t fingerprint)
         put(os, raySquares_);
         os.flush();
         if (!os) {
+            const std::string reason = systemReason();
             std::error_code ec;
             std::filesystem::remove(tmp, ec);
-            throw std::runtime_error(tmp.string() + ": writing the checkpoint failed");
+            throw std::runtime_error(tmp.string() + ": writing the checkpoint failed: " + reason);
         }
     }
     std::error_code ec;

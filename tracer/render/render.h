@@ -345,6 +345,12 @@ class RenderState {
     double radiusMm_ = 0.0, initialRadiusMm_ = 0.0, alpha_ = 2.0 / 3.0;
 };
 
+// About how many bytes a render of `pixels` pixels with these options and `criteria` path
+// criteria holds at its peak: one view point per pixel ray (with its grid entry, gathering
+// disks and marks) and the images (the sums of every pass so far, and one pass's own). veil
+// render checks it against the machine's memory before any work.
+double renderMemoryBytes(uint64_t pixels, const RenderOptions& options, size_t criteria);
+
 class Renderer {
   public:
     // `detector` gives the pixel grid (its sums are not used). Checks the options. `judge`:

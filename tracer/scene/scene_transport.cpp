@@ -23,8 +23,16 @@ SceneTransport prepareTransport(const SceneSpec& file, const SceneGeometry& setu
     t.view.properties = file.properties.properties();
     t.view.propertyOfObject = file.properties.resolve(setup.scene);
     t.view.detectorOfObject.assign(setup.scene.objects().size(), -1);
+    t.view.nextDetector.assign(setup.detectors.size(), -1);
     for (size_t d = 0; d < setup.detectors.size(); ++d) {
-        t.view.detectorOfObject[setup.detectors[d].object] = static_cast<int>(d);
+        int& first = t.view.detectorOfObject[setup.detectors[d].object];
+        if (first < 0) {
+            first = static_cast<int>(d);
+        } else {
+            int last = first;
+            while (t.view.nextDetector[last] >= 0) last = t.view.nextDetector[last];
+            t.view.nextDetector[last] = static_cast<int>(d);
+        }
         t.images.push_back(DetectorImage::grid(setup.detectors[d]));
         t.view.detectorNames.push_back(setup.detectors[d].name);
     }

@@ -41,6 +41,9 @@ struct TransportView {
     std::vector<OpticalProperty> properties;  // distinct properties
     std::vector<int> propertyOfObject;        // [object id] -> index into properties
     std::vector<int> detectorOfObject;        // [object id] -> detector index, or -1
+    // [detector index] -> the next detector on the same object, or -1: an object may carry any
+    // number of detectors, each recording every hit (detectorOfObject names the first).
+    std::vector<int> nextDetector;
     std::vector<std::string> detectorNames;   // [detector index] -> its name ([detector] name)
     std::vector<Source> sources;
 };

@@ -8,6 +8,9 @@
 
 #include <atomic>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 
 #include "lensdata/glass_catalog.h"
 #include "tracer/records/path_history.h"
@@ -53,6 +56,62 @@ TEST(StrayLightRun, ReportRowsAreTheImagesAndTheLayersAddUp) {
     EXPECT_GT(rows[1].flux, 0.0);
     EXPECT_GT(rows[2].flux, 0.0);
     for (const StrayLightRow& row : rows) EXPECT_GT(row.relativeError, 0.0) << row.layer;
+}
+
+// Any number of detectors on one object, each recording every hit (the first of two had
+// recorded nothing, "0 W (no hits)"): the Sun example's sensor carries its own 256 x 256
+// detector, the same again under another name, and a coarse 32 x 32 one of half the size.
+// The copy is the first image bit for bit; the coarse one holds the light of its half of the
+// sensor, summed over its bigger pixels; the flux budget counts each ray once.
+TEST(StrayLightRun, SeveralDetectorsOnOneObjectEachRecord) {
+    std::ifstream in(VEIL_SOURCE_DIR "/examples/scenes/longfocus_360mm_sun.toml");
+    std::stringstream text;
+    text << in.rdbuf();
+    std::string scene = text.str();
+    const std::string lens = "lens = \"../lenses/longfocus_360mm.toml\"";
+    scene.replace(scene.find(lens), lens.size(),
+                  "lens = \"" VEIL_SOURCE_DIR "/examples/lenses/longfocus_360mm.toml\"");
+    scene.replace(scene.find("[detector]"), 10, "[[detector]]");
+    scene +=
+        "\n[[detector]]\nname = \"copy\"\nobject = \"sensor\"\nsize_mm = [64.0, 64.0]\n"
+        "pixels = [256, 256]\n\n[[detector]]\nname = \"coarse\"\nobject = \"sensor\"\n"
+        "size_mm = [32.0, 32.0]\npixels = [32, 32]\n";
+    const std::filesystem::path path =
+        std::filesystem::temp_directory_path() / "veil_two_detectors_scene.toml";
+    std::ofstream(path) << scene;
+    const auto three = PreparedScene::read(path, GlassCatalog::builtIn());
+    StrayLightSpec spec;
+    spec.raysPerSource = 2000;
+    spec.transport.seed = 7;
+    spec.where = {"scatter"};
+    const StrayLightResult r = runStrayLight(*three, spec);
+    const StrayLightResult one = runStrayLight(sun(), spec);
+    ASSERT_EQ(r.images.size(), 3u);
+    ASSERT_EQ(one.images.size(), 1u);
+    EXPECT_GT(one.images[0].totalFlux(), 0.0);
+    EXPECT_TRUE(r.images[0].sameSums(one.images[0]));
+    EXPECT_TRUE(r.images[1].sameSums(one.images[0]));
+    EXPECT_EQ(r.budget.detected, one.budget.detected);
+    EXPECT_LT(std::abs(r.budget.imbalance()), 1e-12 * r.budget.emitted);
+    // The coarse detector: the central 32 x 32 mm of the fine one, 8 x 8 fine pixels each.
+    const DetectorImage& fine = one.images[0];
+    const DetectorImage& coarse = r.images[2];
+    double inside = 0.0;
+    for (int y = 64; y < 192; ++y)
+        for (int x = 64; x < 192; ++x) inside += fine.flux(y * 256 + x);
+    EXPECT_GT(inside, 0.0);
+    EXPECT_NEAR(coarse.totalFlux(), inside, 1e-9 * inside);
+    // The criterion layers exist per detector too: where1 on the copy is where1 on the first.
+    const std::vector<StrayLightRow> rows = r.report();
+    const std::vector<StrayLightRow> rowsOne = one.report();
+    double firstWhere = -1.0, copyWhere = -2.0;
+    for (const StrayLightRow& row : rows) {
+        if (row.layer != "where1") continue;
+        if (row.detector == "sensor_image") firstWhere = row.flux;
+        if (row.detector == "copy") copyWhere = row.flux;
+    }
+    EXPECT_EQ(firstWhere, copyWhere);
+    EXPECT_GT(firstWhere, 0.0);
 }
 
 TEST(StrayLightRun, BadSpecFailsBeforeTracingOrOpeningAnything) {

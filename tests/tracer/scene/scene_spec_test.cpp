@@ -356,6 +356,18 @@ TEST(SceneSpec, MisspeltKindsAndLensKeysSayWhatWasMeant) {
         << e;
     e = errorOf("lense = \"singlet.toml\"\n" + source);
     EXPECT_NE(e.find("1:9: unknown key 'lense' (did you mean 'lens'?)"), std::string::npos) << e;
+    // A bad value is reported as itself, not as the next key, which its reader had not asked
+    // for yet ("unknown key 'pixels'", "unknown key 'margin_mm'").
+    e = errorOf(lens +
+                "[detector]\nname = \"d\"\nobject = \"image\"\nsize_mm = [0, 24]\n"
+                "pixels = [64, 64]\n");
+    EXPECT_NE(e.find(":5:"), std::string::npos) << e;
+    EXPECT_NE(e.find("size_mm"), std::string::npos) << e;
+    EXPECT_EQ(e.find("unknown key"), std::string::npos) << e;
+    e = errorOf(lens + "[[source]]\nkind = \"collimated\"\nfield_deg = 90\nmargin_mm = 1\n");
+    EXPECT_NE(e.find("field_deg"), std::string::npos) << e;
+    EXPECT_NE(e.find("strictly between -90 and 90"), std::string::npos) << e;
+    EXPECT_EQ(e.find("unknown key"), std::string::npos) << e;
     std::filesystem::remove(dir / "veil_misspelt.toml");
 }
 
