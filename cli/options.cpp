@@ -481,7 +481,9 @@ std::filesystem::path lockFolder(const std::filesystem::path& folder) {
                          (pid > 0
                               ? "process " + std::to_string(pid) + " on " + owner + ": " + command
                               : "its lock " + lock.string() + " names no process") +
-                         "); wait for it to finish, or choose another -o");
+                         "); wait for it to finish, or choose another -o (if no such run is "
+                         "writing there, remove " +
+                         lock.string() + ")");
     }
     throw UsageError(folder.string() + ": cannot take the folder's lock " + lock.string());
 }
