@@ -2,6 +2,7 @@
 
 #include "tracer/records/detector.h"
 #include "tracer/records/path_history.h"
+#include "tracer/transport/interaction.h"
 
 namespace veil {
 
@@ -39,8 +40,7 @@ void CriterionImages::collect(uint64_t ray, const PathHistory& h) {
         if (first < 0) continue;
         // Every detector on the object that has the hit in a pixel records it.
         pixels.clear();
-        for (int d = first; d >= 0;
-             d = static_cast<size_t>(d) < nextDetector_.size() ? nextDetector_[d] : -1)
+        for (int d = first; d >= 0; d = nextDetectorOf(nextDetector_, d))
             if (const auto pixel = images_[0][d].pixelOf(end.position))
                 pixels.push_back({d, *pixel});
         if (pixels.empty()) continue;

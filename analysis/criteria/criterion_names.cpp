@@ -20,8 +20,7 @@ NameTable criterionNames(const Scene& scene, const TransportView& transport) {
         // A detector's own name ([detector] name = "sensor_image") names its object too.
         // Every detector on the object: an object may carry several.
         for (int d = n.detector ? transport.detectorOfObject[o.id] : -1; d >= 0;
-             d = static_cast<size_t>(d) < transport.nextDetector.size() ? transport.nextDetector[d]
-                                                                        : -1) {
+             d = nextDetectorOf(transport.nextDetector, d)) {
             if (d < static_cast<int>(transport.detectorNames.size())) {
                 const std::string& dn = transport.detectorNames[d];
                 if (!dn.empty() && dn != n.name &&

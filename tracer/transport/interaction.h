@@ -48,6 +48,12 @@ struct TransportView {
     std::vector<Source> sources;
 };
 
+// The detector after d on d's object in `next` (TransportView::nextDetector), -1 for none; a
+// list shorter than d (a view built without it) has one detector an object.
+inline int nextDetectorOf(const std::vector<int>& next, int d) {
+    return static_cast<size_t>(d) < next.size() ? next[static_cast<size_t>(d)] : -1;
+}
+
 // Why a channel's share left the transport without a branch (see the header comment).
 enum class DropReason : uint8_t {
     NoRefractedDirection = 0,

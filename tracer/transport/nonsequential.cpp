@@ -310,7 +310,7 @@ class RayTracer {
                 // Every detector on the object records the hit; the flux is detected once
                 // (the object absorbs it) when any of them has it in a pixel.
                 bool pixel = false;
-                for (int d = det; d >= 0; d = nextDetectorOf(d)) {
+                for (int d = det; d >= 0; d = nextDetectorOf(ts_.nextDetector, d)) {
                     const auto p = (*acc.detectors)[d].pixelOf(hit->point);
                     if (!p) continue;
                     acc.scratch[d].add(*p, br.flux);
@@ -376,12 +376,6 @@ class RayTracer {
             // channel, or the single channel of an opaque diffuse part).
             if (!survives(br, cullFlux, rouletteFlux, rng, b)) return;
         }
-    }
-
-    // The next detector on detector d's object (TransportView::nextDetector; a view built
-    // without it has one detector an object).
-    int nextDetectorOf(int d) const {
-        return static_cast<size_t>(d) < ts_.nextDetector.size() ? ts_.nextDetector[d] : -1;
     }
 
     const TransportView& ts_;
