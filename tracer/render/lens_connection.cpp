@@ -428,7 +428,11 @@ std::optional<LensConnector::Onward> LensConnector::onward(
         const bool last = i >= designed_.steps();
         if (!hit || hit->object != (last ? detectorObject : designed_.objectOfStep(i)))
             return std::nullopt;
-        if (i == fromStep) out.firstPoint = hit->point;
+        if (i == fromStep) {
+            out.firstPoint = hit->point;
+            out.firstNormal = hit->normal;
+            out.firstPrimitive = hit->primitive;
+        }
         const double alpha = ts.media->absorptionPerMm(medium, line);
         if (alpha > 0.0) out.transmit *= std::exp(-alpha * hit->t);
         if (last) {

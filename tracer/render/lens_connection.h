@@ -175,6 +175,8 @@ class LensConnector {
     struct Onward {
         Vec3 firstPoint{0.0};  // where it met the face of step fromStep (the detector's hit
                                // when fromStep == steps())
+        Vec3 firstNormal{0.0};  // the face's orientation there (SceneHit::normal)
+        int firstPrimitive = 0;
         SceneHit detectorHit;
         double transmit = 1.0;  // the crossings' shares and the media's absorption
         int medium = 0;         // in which it reached the detector

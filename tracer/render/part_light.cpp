@@ -18,6 +18,49 @@ namespace {
 constexpr uint64_t kPartPilotSeed = 0x706172746c696768ULL;  // the pilot's own stream key
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
+// The direction guide's map at a point x (PartLight::kGuideU): the pole p toward the detector's
+// centre, e1 perpendicular to it in the plane of p and the detector's axis, away from the axis
+// (so the map turns with the point about a lens's axis), e2 = p x e1. A direction at angle
+// theta from p and azimuth phi from e1 has u = sin(theta / 2) and v = phi / 2 pi; its solid
+// angle is 8 pi u du dv, so a density q per unit of (u, v) is q / (8 pi u) per steradian.
+struct GuideFrame {
+    Vec3 p{0.0, 0.0, 1.0}, e1{1.0, 0.0, 0.0}, e2{0.0, 1.0, 0.0};
+    GuideFrame(const Vec3& x, const Vec3& centre, const Vec3& axis) {
+        const Vec3 toCentre = centre - x;
+        const double length = glm::length(toCentre);
+        p = length > 0.0 ? toCentre / length : axis;
+        const Vec3 offset = (x - centre) - glm::dot(x - centre, axis) * axis;
+        Vec3 e = offset - glm::dot(offset, p) * p;
+        if (!(glm::dot(e, e) > 1e-18 * std::max(1.0, length * length)))
+            e = glm::cross(p, std::abs(p.x) < 0.9 ? Vec3(1.0, 0.0, 0.0) : Vec3(0.0, 1.0, 0.0));
+        e1 = glm::normalize(e);
+        e2 = glm::cross(p, e1);
+    }
+    int cell(const Vec3& w, double& u) const {
+        const double c = std::clamp(glm::dot(w, p), -1.0, 1.0);
+        u = std::sqrt(std::max(0.0, 0.5 * (1.0 - c)));
+        double phi = std::atan2(glm::dot(w, e2), glm::dot(w, e1));
+        if (phi < 0.0) phi += kTwoPi;
+        const int i = std::min(PartLight::kGuideU - 1, static_cast<int>(u * PartLight::kGuideU));
+        const int j =
+            std::min(PartLight::kGuideV - 1, static_cast<int>(phi / kTwoPi * PartLight::kGuideV));
+        return j * PartLight::kGuideU + i;
+    }
+    Vec3 at(double u, double v) const {
+        const double cosT = 1.0 - 2.0 * u * u;
+        const double sinT = 2.0 * u * std::sqrt(std::max(0.0, 1.0 - u * u));
+        const double phi = kTwoPi * v;
+        return cosT * p + sinT * (std::cos(phi) * e1 + std::sin(phi) * e2);
+    }
+    // The density per steradian of `w` for cell probabilities `q` (uniform within a cell).
+    double pdf(const Vec3& w, const std::vector<double>& q) const {
+        double u = 0.0;
+        const int c = cell(w, u);
+        return q[static_cast<size_t>(c)] * PartLight::kGuideCount /
+               (8.0 * std::numbers::pi * std::max(u, 1e-12));
+    }
+};
+
 }  // namespace
 
 PartShape::PartShape(const Scene& scene, int object) : object_(&scene.object(object)) {
@@ -196,7 +239,7 @@ struct PartLight::Scratch {
 };
 
 PartLight::PartLight(const TransportView& ts, const LensConnector& connector, int detectorObject,
-                     const std::vector<bool>& followed, double radiusMm, PartMode mode,
+                     const std::vector<bool>& followed, PartMode mode,
                      const std::vector<bool>& splatted)
     : ts_(&ts),
       lc_(&connector),
@@ -206,13 +249,17 @@ PartLight::PartLight(const TransportView& ts, const LensConnector& connector, in
       objects_(ts.scene->objects().size()) {
     const DesignedPath& dp = connector.designed();
     if (!connector.any() || dp.steps() == 0 || detectorObject < 0) return;
+    {
+        const Frame& frame = ts.scene->object(detectorObject).frame;
+        detectorCentre_ = frame.toGlobalPoint(Vec3(0.0));
+        detectorAxis_ = glm::normalize(frame.toGlobalDirection(Vec3(0.0, 0.0, 1.0)));
+    }
     const bool photons = mode == PartMode::Photons;
     if (photons && std::find(splatted.begin(), splatted.end(), true) == splatted.end()) return;
     const Scene& scene = *ts.scene;
     // The faces light goes on through (photon mode: the faces its splats aim at).
     for (int k = 0; k < dp.steps(); ++k) faces_.emplace_back(scene, dp.objectOfStep(k));
     faces_.emplace_back(scene, detectorObject);
-    const double most = kDisks * std::numbers::pi * radiusMm * radiusMm;
     shapes_.resize(objects_);
     std::vector<bool> tried(objects_, false);
     std::vector<Target> candidates;
@@ -227,7 +274,6 @@ PartLight::PartLight(const TransportView& ts, const LensConnector& connector, in
             if (!tried[o]) {
                 tried[o] = true;
                 shapes_[o] = PartShape(scene, static_cast<int>(o));
-                if (!photons && !(shapes_[o].areaMm2() < most)) shapes_[o] = PartShape();
             }
             if (!shapes_[o].valid()) continue;
             for (uint64_t m = chains; m != 0; m &= m - 1) {
@@ -264,6 +310,8 @@ PartLight::PartLight(const TransportView& ts, const LensConnector& connector, in
         int found = 0;
     };
     std::vector<std::vector<Pilot>> pilots(candidates.size());  // [candidate][level]
+    // [candidate][guide cell]: the light the pilot's directions brought through each cell.
+    std::vector<std::vector<double>> guideLight(candidates.size());
     std::vector<size_t> alive(candidates.size());
     for (size_t t = 0; t < candidates.size(); ++t) alive[t] = t;
     for (int level = 0; level < kLevels && !alive.empty(); ++level) {
@@ -313,6 +361,7 @@ PartLight::PartLight(const TransportView& ts, const LensConnector& connector, in
             std::vector<std::vector<uint64_t>> places(active.size());  // photon mode's
             std::vector<std::vector<std::pair<uint64_t, int>>> aims(active.size());
             std::vector<int> legs(active.size(), 0), lobes(active.size(), 0);
+            std::vector<std::vector<std::pair<int, double>>> guided(active.size());
             tbb::parallel_for(size_t{0}, active.size(), [&](size_t k) {
                 const size_t i = active[k];
                 const size_t t = alive[i / kCellCount];
@@ -332,18 +381,33 @@ PartLight::PartLight(const TransportView& ts, const LensConnector& connector, in
                     LensConnector::Work work;
                     Splat sp;
                     ++tries[i];
-                    const bool found =
-                        photons ? samplePhoton(candidates[t], uv, kCellCount / box.area(), rng,
-                                               work, sp, &places[k], &aims[k])
-                                : sample(candidates[t], uv, kCellCount / box.area(), rng, nullptr,
-                                         scratch, work, sp);
-                    if (!found) continue;
-                    legs[k] += sp.legs;
-                    lobes[k] += sp.lobes;
-                    sum2[i] += sp.flux * sp.flux;
+                    if (photons) {
+                        if (!samplePhoton(candidates[t], uv, kCellCount / box.area(), rng, work, sp,
+                                          &places[k], &aims[k]))
+                            continue;
+                        legs[k] += sp.legs;
+                        lobes[k] += sp.lobes;
+                        sum2[i] += sp.flux * sp.flux;
+                        ++hits[i];
+                        pilot.aimed[static_cast<size_t>(cell) * kAimCount +
+                                    static_cast<size_t>(sp.aim)] += 1.0;
+                        continue;
+                    }
+                    // kPilotDirections from the point, each with that share of its light: the
+                    // point's estimate is their sum.
+                    double flux = 0.0;
+                    const std::function<void(const Splat&, const Scratch&)> each =
+                        [&](const Splat& one, const Scratch&) {
+                            flux += one.flux;
+                            guided[k].push_back({one.guide, one.flux});
+                            pilot.aimed[static_cast<size_t>(cell) * kAimCount +
+                                        static_cast<size_t>(one.aim)] += 1.0;
+                        };
+                    if (!sample(candidates[t], uv, kCellCount / box.area(), rng, nullptr, scratch,
+                                work, sp, kPilotDirections, &each))
+                        continue;
+                    sum2[i] += flux * flux;
                     ++hits[i];
-                    pilot.aimed[static_cast<size_t>(cell) * kAimCount +
-                                static_cast<size_t>(sp.aim)] += 1.0;
                 }
             });
             for (size_t i = 0; i < hits.size(); ++i) {
@@ -353,9 +417,14 @@ PartLight::PartLight(const TransportView& ts, const LensConnector& connector, in
             for (const auto& p : places) productive_.insert(productive_.end(), p.begin(), p.end());
             for (const auto& a : aims) aims_.insert(aims_.end(), a.begin(), a.end());
             for (size_t k = 0; k < active.size(); ++k) {
-                Target& t = candidates[alive[active[k] / kCellCount]];
+                const size_t c = alive[active[k] / kCellCount];
+                Target& t = candidates[c];
                 t.legs += legs[k];
                 t.lobes += lobes[k];
+                if (guided[k].empty()) continue;
+                if (guideLight[c].empty()) guideLight[c].assign(kGuideCount, 0.0);
+                for (const auto& [cell, flux] : guided[k])
+                    guideLight[c][static_cast<size_t>(cell)] += flux;
             }
         }
         std::vector<size_t> lit;
@@ -450,6 +519,18 @@ PartLight::PartLight(const TransportView& ts, const LensConnector& connector, in
             running += p;
             target.aimCumulative.push_back(running);
         }
+        if (!guideLight[t].empty()) {
+            double guideTotal = 0.0;
+            for (const double g : guideLight[t]) guideTotal += g;
+            if (guideTotal > 0.0) {
+                double upTo = 0.0;
+                for (const double g : guideLight[t]) {
+                    target.guide.push_back(g / guideTotal);
+                    upTo += g / guideTotal;
+                    target.guideCumulative.push_back(upTo);
+                }
+            }
+        }
         const int index = static_cast<int>(targets_.size());
         const int deep = static_cast<int>(target.levels.size()) - 1;
         for (int level = 0; level <= deep; ++level) {
@@ -458,7 +539,9 @@ PartLight::PartLight(const TransportView& ts, const LensConnector& connector, in
                 double q = 0.0;
                 if (level == 0) q += kDefensive / static_cast<double>(cells);
                 if (level == deep)
-                    q += (1.0 - kDefensive) * deepest.rms[static_cast<size_t>(c)] / total;
+                    q += (1.0 - kDefensive) * light[t] / total *
+                         ((1.0 - kSpread) * deepest.rms[static_cast<size_t>(c)] / light[t] +
+                          kSpread / kCellCount);
                 strata_.push_back({index, level, c});
                 q_.push_back(q);
                 sum += q;
@@ -720,53 +803,141 @@ bool PartLight::sample(const Target& target, const Vec2& uv, double uvDensity, C
     const auto c = lc_->connect(target.source, w, nm, target.steps, x->point, target.object, u1, u2,
                                 work, events ? &sc.chain : nullptr);
     if (!c) return false;
-    // One direction: toward a point of the face light goes on through (or the detector).
-    auto direction = [&](double da, double dy1, double dy2, Splat& sp) {
-        int aim = std::min(kAimCount - 1, static_cast<int>(da * kAimCount));
-        double aimShare = 1.0 / kAimCount;
-        if (!target.aim.empty()) {
-            const double all = target.aimCumulative.back();
-            aim = static_cast<int>(std::min<size_t>(
-                static_cast<size_t>(std::upper_bound(target.aimCumulative.begin(),
-                                                     target.aimCumulative.end(), da * all) -
-                                    target.aimCumulative.begin()),
-                kAimCount - 1));
-            aimShare = target.aim[static_cast<size_t>(aim)] / all;
+    // The light's context at the point and its scatter channels, the same for every direction.
+    const SceneObject& object = ts.scene->object(target.object);
+    const OpticalProperty& prop = ts.properties[ts.propertyOfObject[target.object]];
+    ViewPoint at;
+    at.positionMm = x->point;
+    at.normal = x->normal;
+    at.object = target.object;
+    at.primitive = x->primitive;
+    at.wavelength = w;
+    at.fromFront = true;
+    at.medium = object.mediumFront;
+    at.otherMedium = object.mediumBack;
+    const SurfaceContext light = lightContext(ts, at, -c->toLight, nm);
+    const PartShape& face = faces_[static_cast<size_t>(target.onward)];
+    // The two ways a direction is drawn (the header comment, step 3): toward the aim's point
+    // of the next face, or from the part's own lobe, kLobeShare of the time where the face's
+    // map can be inverted (the density of a lobe's direction on it is then known).
+    // Where the pilot found light, kGuideShare of them come from the direction guide.
+    double reflectShare = 0.0, transmitShare = 0.0, lobeShare = 0.0, guideShare = 0.0;
+    if (face.invertible()) {
+        const Channels ch = prop.channels(light);
+        const double scatter = ch.scatterReflect + ch.scatterTransmit;
+        if (!target.guide.empty()) guideShare = kGuideShare;
+        if (scatter > 0.0) {
+            reflectShare = ch.scatterReflect / scatter;
+            transmitShare = ch.scatterTransmit / scatter;
+            lobeShare = (1.0 - guideShare) * kLobeShare;
         }
-        sp.aim = aim;
-        const auto y = faces_[static_cast<size_t>(target.onward)].at((aim % kAim + dy1) / kAim,
-                                                                     (aim / kAim + dy2) / kAim);
-        if (!y) return false;
-        Vec3 to = y->point - x->point;
-        const double d2 = glm::dot(to, to);
-        if (!(d2 > 0.0)) return false;
-        const double d = std::sqrt(d2);
-        to /= d;
-        const double cosY = std::abs(glm::dot(to, y->normal));
+    }
+    const double aimShare = 1.0 - guideShare - lobeShare;
+    const GuideFrame guideFrame(x->point, detectorCentre_, detectorAxis_);
+    auto lobePdf = [&](const Vec3& to) {
+        const double share = glm::dot(to, light.normal) < 0.0 ? transmitShare : reflectShare;
+        return share > 0.0 ? share * prop.scatterPdf(light, to) : 0.0;
+    };
+    auto aimCell = [&](double da, double& share) {
+        if (target.aim.empty()) {
+            share = 1.0 / kAimCount;
+            return std::min(kAimCount - 1, static_cast<int>(da * kAimCount));
+        }
+        const double all = target.aimCumulative.back();
+        const int cell = static_cast<int>(std::min<size_t>(
+            static_cast<size_t>(std::upper_bound(target.aimCumulative.begin(),
+                                                 target.aimCumulative.end(), da * all) -
+                                target.aimCumulative.begin()),
+            kAimCount - 1));
+        share = target.aim[static_cast<size_t>(cell)] / all;
+        return cell;
+    };
+    // The density per steradian with which the aim draws `to`, met first at y (normal ny).
+    auto aimPdf = [&](const Vec3& to, const Vec3& y, const Vec3& ny, int primitive, int& cell) {
+        cell = 0;
+        const auto uvY = face.uvOf(y);
+        if (!uvY) return 0.0;
+        const int i = std::min(kAim - 1, static_cast<int>(uvY->x * kAim));
+        const int j = std::min(kAim - 1, static_cast<int>(uvY->y * kAim));
+        cell = j * kAim + i;
+        const double share = target.aim.empty() ? 1.0 / kAimCount
+                                                : target.aim[static_cast<size_t>(cell)] /
+                                                      target.aimCumulative.back();
+        const Vec3 d = y - x->point;
+        const double cosY = std::abs(glm::dot(to, ny));
+        if (!(cosY > 0.0)) return 0.0;
+        return share * kAimCount * face.densityAt(y, primitive) * glm::dot(d, d) / cosY;
+    };
+    // One direction: toward a point of the face light goes on through (or the detector), or
+    // from the lobe.
+    auto direction = [&](double da, double dy1, double dy2, Splat& sp) {
+        const bool fromGuide = da < guideShare;
+        const bool fromLobe = !fromGuide && da < guideShare + lobeShare;
+        const bool aimed = !fromGuide && !fromLobe;
+        Vec3 to(0.0);
+        double pdfDirection = 0.0;
+        std::optional<PartPoint> y;
+        double d = 0.0;
+        if (fromGuide) {
+            const double all = target.guideCumulative.back();
+            const int cell = static_cast<int>(std::min<size_t>(
+                static_cast<size_t>(std::upper_bound(target.guideCumulative.begin(),
+                                                     target.guideCumulative.end(),
+                                                     da / guideShare * all) -
+                                    target.guideCumulative.begin()),
+                kGuideCount - 1));
+            to = guideFrame.at((cell % kGuideU + dy1) / kGuideU, (cell / kGuideU + dy2) / kGuideV);
+        } else if (fromLobe) {
+            const double dc = (da - guideShare) / lobeShare;
+            const ScatterSample ss = prop.sampleScatter(light, dc < transmitShare, dy1, dy2);
+            if (!(ss.pdf > 0.0)) return false;
+            to = glm::normalize(ss.direction);
+        } else {
+            double cellShare = 0.0;
+            const int aim =
+                aimCell(aimShare < 1.0 ? (da - guideShare - lobeShare) / aimShare : da, cellShare);
+            sp.aim = aim;
+            y = face.at((aim % kAim + dy1) / kAim, (aim / kAim + dy2) / kAim);
+            if (!y) return false;
+            to = y->point - x->point;
+            const double d2 = glm::dot(to, to);
+            if (!(d2 > 0.0)) return false;
+            d = std::sqrt(d2);
+            to /= d;
+            const double cosY = std::abs(glm::dot(to, y->normal));
+            if (!(cosY > 0.0)) return false;
+            pdfDirection = cellShare * kAimCount * y->density * d2 / cosY;
+        }
+        double guideU = 0.0;
+        sp.guide = guideFrame.cell(to, guideU);
         const double cosX = std::abs(glm::dot(to, x->normal));
-        if (!(cosY > 0.0) || !(cosX > 0.0)) return false;
-        const double pdfDirection = aimShare * kAimCount * y->density * d2 / cosY;
+        if (!(cosX > 0.0)) return false;
         // The radiance leaving toward `to`: a view point's, with `to` toward its detector.
-        const SceneObject& o = ts.scene->object(target.object);
-        ViewPoint vp;
-        vp.positionMm = x->point;
-        vp.normal = x->normal;
+        ViewPoint vp = at;
         vp.toDetector = to;
-        vp.object = target.object;
-        vp.primitive = x->primitive;
-        vp.wavelength = w;
         vp.fromFront = glm::dot(to, x->normal) > 0.0;
-        vp.medium = vp.fromFront ? o.mediumFront : o.mediumBack;
-        vp.otherMedium = vp.fromFront ? o.mediumBack : o.mediumFront;
-        const OpticalProperty& prop = ts.properties[ts.propertyOfObject[target.object]];
-        const double f = prop.bsdf(lightContext(ts, vp, -c->toLight, nm), to);
+        vp.medium = vp.fromFront ? object.mediumFront : object.mediumBack;
+        vp.otherMedium = vp.fromFront ? object.mediumBack : object.mediumFront;
+        const double f = prop.bsdf(light, to);
         const double radiance = f * std::abs(glm::dot(c->toLight, x->normal)) * c->value;
         if (!(radiance > 0.0)) return false;
         const auto on =
             lc_->onward({x->point, to}, target.object, x->primitive, vp.medium, target.onward, w,
                         nm, detectorObject_, work, events ? &sc.onward : nullptr);
         if (!on) return false;
-        if (!on->firstMeets(y->point, d)) return false;
+        if (aimed && !on->firstMeets(y->point, d)) return false;
+        // The mixture's density of `to`: the aim's through its first crossing of the face
+        // (the only one the aim counts), the lobe's and the guide's.
+        if (aimShare < 1.0) {
+            int cell = 0;
+            const double byAim =
+                aimed ? pdfDirection
+                      : aimPdf(to, on->firstPoint, on->firstNormal, on->firstPrimitive, cell);
+            if (!aimed) sp.aim = cell;
+            pdfDirection = aimShare * byAim + lobeShare * lobePdf(to) +
+                           (guideShare > 0.0 ? guideShare * guideFrame.pdf(to, target.guide) : 0.0);
+        }
+        if (!(pdfDirection > 0.0)) return false;
         const double pointDensity = uvDensity * x->density;
         sp.flux = radiance * cosX / (pdfDirection * pointDensity) * on->transmit * wavelengths /
                   directions;
@@ -793,12 +964,12 @@ bool PartLight::sample(const Target& target, const Vec2& uv, double uvDensity, C
         const double a = k == 0 ? ua : rng.uniform();
         const double y1 = k == 0 ? uy1 : rng.uniform();
         const double y2 = k == 0 ? uy2 : rng.uniform();
-        Splat o;
+        Splat one;
         if (events) sc.chain.resize(chainEvents);
-        if (!direction(a, y1, y2, o)) continue;
-        if (!any) out = o;
+        if (!direction(a, y1, y2, one)) continue;
+        if (!any) out = one;
         any = true;
-        if (each) (*each)(o, sc);
+        if (each) (*each)(one, sc);
     }
     return any;
 }

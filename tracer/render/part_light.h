@@ -10,9 +10,10 @@
 // forward to the sensor (light tracing, the t = 1 strategy of bidirectional path tracing):
 //
 //   1. Parts. A candidate is a chain (source s, object, k) of the connector on an object that
-//      scatters, whose lobe the backward rays do not follow, whose area is below kDisks
-//      gathering disks of the first pass (pi r1^2 each: parts that few pixel rays find, and
-//      that a disk would smear), and whose shape can be drawn by area (PartShape: an exact
+//      scatters, whose lobe the backward rays do not follow, of any size (what counts is the
+//      lit area, which the pilot finds: the rim of a mirror's holder that the converging beam
+//      grazes is a few mm wide on a part of 10^4 mm^2, and few pixel rays find it), and
+//      whose shape can be drawn by area (PartShape: an exact
 //      face with a circular, annular or rectangular aperture, a butt end, the triangles of a
 //      mesh), with a step j >= k where its light goes on toward the detector as designed (the
 //      faces of steps j..N-1, then the detector; j = N straight to it, as light a lens's back
@@ -137,17 +138,40 @@ class PartLight {
     // candidate has found light in fewer than kPilotFound of its points.
     static constexpr int kPilotRounds = 16;
     static constexpr int kPilotFound = 512;
+    // Directions each pilot point sends on (the light of a flat's points leaves within a few
+    // degrees of the one way to the sensor: one direction a point finds it too rarely).
+    static constexpr int kPilotDirections = 16;
     // The pilot's zoom: a level's box of lit cells gets a grid of its own when it holds at
     // most kZoom of the cells, up to kLevels levels.
     static constexpr double kZoom = 0.25;
     static constexpr int kLevels = 3;
     static constexpr double kDefensive = 0.25;
-    static constexpr double kDisks = 16.0;
+    // The share of a target's deepest grid spread evenly over its cells, the rest in
+    // proportion to the light the pilot found in each: a pilot that found a flat's light in
+    // a few dozen points leaves lit cells it happened to miss, whose points would otherwise
+    // carry 100x the light of their neighbours.
+    static constexpr double kSpread = 0.5;
     // The point on the next face each direction aims at: a cell of a kAim x kAim grid over the
     // face's map, drawn in proportion to the light the pilot found through it (mixed with
     // kDefensive of a uniform share), then a point uniform in the cell.
     static constexpr int kAim = 8;
     static constexpr int kAimCount = kAim * kAim;
+    // The share of directions drawn from the part's own lobe instead (where the next face's
+    // map can be inverted, so that the aim's density of a lobe's direction is known): light a
+    // flat scatters into the glass reaches the next face within the critical angle only from
+    // a few of its points, which the aim finds rarely and the lobe often.
+    static constexpr double kLobeShare = 0.5;
+    // Where the pilot found light, kGuideShare of the directions come from a guide instead: a
+    // grid over the directions seen from the point (kGuideU x kGuideV cells, fixed to the way
+    // toward the detector), each cell drawn in proportion to the light the pilot's directions
+    // brought through it. The light of a flat's points that reaches the sensor leaves within
+    // a few degrees of one way; the lobe finds it in one direction in a hundred.
+    static constexpr double kGuideShare = 0.5;
+    // The direction guide's map at a point x (GuideFrame in part_light.cpp): directions by
+    // their angle theta from the way to the detector's centre, u = sin(theta / 2), and their
+    // azimuth about it from the side away from the detector's axis, v.
+    static constexpr int kGuideU = 32, kGuideV = 16;
+    static constexpr int kGuideCount = kGuideU * kGuideV;
     // Photon mode's pilot: directions drawn from the part's lobe per point, and from a
     // splatted lobe it meets per direction.
     static constexpr int kPilotSplits = 16;
@@ -155,10 +179,10 @@ class PartLight {
     PartLight() = default;
     // The targets (see the header comment) of the connector's chains, and their pilot.
     // followed[property]: the backward rays follow that property's lobe (no view point, no
-    // part). radiusMm: the first pass's gathering radius.
+    // part).
     // Photon mode: splatted[property] as splattedLobes() gives it (no target without one).
     PartLight(const TransportView& ts, const LensConnector& connector, int detectorObject,
-              const std::vector<bool>& followed, double radiusMm, PartMode mode = PartMode::Onward,
+              const std::vector<bool>& followed, PartMode mode = PartMode::Onward,
               const std::vector<bool>& splatted = {});
     bool any() const { return !targets_.empty(); }
     size_t targets() const { return targets_.size(); }
@@ -240,6 +264,8 @@ class PartLight {
         std::vector<Level> levels{Level{}};      // the whole map, then the pilot's zoom
         std::vector<int> first;                  // [level]: its cell 0's stratum
         int legs = 0, lobes = 0;                 // photon mode's pilot (Start::legsPerLobe)
+        std::vector<double> guide;               // [guide cell]: probability (empty: none)
+        std::vector<double> guideCumulative;     // its running sums
     };
     struct Stratum {
         int target = 0, level = 0, cell = 0;
@@ -248,6 +274,7 @@ class PartLight {
         int pixel = -1;
         double flux = 0.0;
         int aim = 0;              // the aim cell
+        int guide = 0;            // the direction's guide cell
         int legs = 0, lobes = 0;  // photon mode: directions drawn, and those that met a
                                   // splatted lobe
     };
@@ -292,6 +319,7 @@ class PartLight {
     std::vector<std::pair<uint64_t, int>> aims_;  // photon mode: (placeKey, step), sorted
     std::vector<int> objectAims_;                 // photon mode: [object] (aimStepOfObject)
     int detectorObject_ = -1;
+    Vec3 detectorCentre_{0.0}, detectorAxis_{0.0, 0.0, 1.0};  // the direction guide's frame
     size_t objects_ = 0;
     std::vector<PartShape> shapes_;  // [object]: the candidates' (others invalid)
     std::vector<PartShape> faces_;   // [step]: the designed faces', then the detector's

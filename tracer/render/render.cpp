@@ -577,18 +577,14 @@ Renderer::Renderer(const TransportView& ts, const DetectorImage& detector, ExitA
     if (connector_.any() && options_.partSamples > 0) {
         const std::vector<bool> followed =
             followedLobes(ts_, options_.followLobesBelowDeg * std::numbers::pi / 180.0);
-        const double r1 =
-            options_.initialRadiusMm > 0.0 ? options_.initialRadiusMm : defaultInitialRadius(ts_);
-        parts_ = PartLight(ts_, connector_, detector_.geometry().object, followed, r1);
+        parts_ = PartLight(ts_, connector_, detector_.geometry().object, followed);
     }
     if (connector_.any() && options_.partPhotons > 0 && options_.splatLobesBelowDeg > 0.0) {
         const double followRad = options_.followLobesBelowDeg * std::numbers::pi / 180.0;
         const std::vector<bool> splatted =
             splattedLobes(ts_, options_.splatLobesBelowDeg * std::numbers::pi / 180.0, followRad);
-        const double r1 =
-            options_.initialRadiusMm > 0.0 ? options_.initialRadiusMm : defaultInitialRadius(ts_);
         partPhotons_ = PartLight(ts_, connector_, detector_.geometry().object,
-                                 followedLobes(ts_, followRad), r1, PartMode::Photons, splatted);
+                                 followedLobes(ts_, followRad), PartMode::Photons, splatted);
     }
 }
 

@@ -309,8 +309,7 @@ TEST(PartLight, RingBehindASingletAgreesWithQuadrature) {
     ASSERT_GT(truth, 0.0);
     const LensConnector lc(ts);
     const DetectorImage& det = s->transport().images[0];
-    const PartLight parts(ts, lc, det.geometry().object, std::vector<bool>(ts.properties.size()),
-                          5.0);
+    const PartLight parts(ts, lc, det.geometry().object, std::vector<bool>(ts.properties.size()));
     ASSERT_TRUE(parts.any());
     // One direction per point, and 16 sharing each point's solved light
     // (RenderOptions::partDirections): the same light, with less noise per point.
@@ -354,7 +353,7 @@ TEST(PartLight, OneAndTwoThreadsAreBitwiseTheSame) {
         const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
         const LensConnector lc(ts);
         const PartLight parts(ts, lc, det.geometry().object,
-                              std::vector<bool>(ts.properties.size()), 5.0);
+                              std::vector<bool>(ts.properties.size()));
         images[threads - 1] = parts.trace(det, 8192, 7, nullptr, false, Ranks::alone()).pixels;
     }
     ASSERT_EQ(images[0].size(), images[1].size());
