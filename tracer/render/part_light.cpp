@@ -817,10 +817,11 @@ bool PartLight::sample(const Target& target, const Vec2& uv, double uvDensity, C
     at.otherMedium = object.mediumBack;
     const SurfaceContext light = lightContext(ts, at, -c->toLight, nm);
     const PartShape& face = faces_[static_cast<size_t>(target.onward)];
-    // The two ways a direction is drawn (the header comment, step 3): toward the aim's point
-    // of the next face, or from the part's own lobe, kLobeShare of the time where the face's
-    // map can be inverted (the density of a lobe's direction on it is then known).
-    // Where the pilot found light, kGuideShare of them come from the direction guide.
+    // The three ways a direction is drawn (the header comment, step 3), where the next face's
+    // map can be inverted (so the aim's density of any direction is known): from the
+    // direction guide, kGuideShare of them once the pilot found light; from the part's own
+    // lobe, kLobeShare of the rest; toward the aim's point of the next face, the others.
+    // Elsewhere the aim alone.
     double reflectShare = 0.0, transmitShare = 0.0, lobeShare = 0.0, guideShare = 0.0;
     if (face.invertible()) {
         const Channels ch = prop.channels(light);
@@ -868,8 +869,8 @@ bool PartLight::sample(const Target& target, const Vec2& uv, double uvDensity, C
         if (!(cosY > 0.0)) return 0.0;
         return share * kAimCount * face.densityAt(y, primitive) * glm::dot(d, d) / cosY;
     };
-    // One direction: toward a point of the face light goes on through (or the detector), or
-    // from the lobe.
+    // One direction: from the guide, from the lobe, or toward a point of the face light goes
+    // on through (or the detector).
     auto direction = [&](double da, double dy1, double dy2, Splat& sp) {
         const bool fromGuide = da < guideShare;
         const bool fromLobe = !fromGuide && da < guideShare + lobeShare;

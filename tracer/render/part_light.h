@@ -25,21 +25,26 @@
 //      (fixed seed): rounds of kPilotPerCell points per cell of the whole map, up to
 //      kPilotRounds while the part found light in fewer than kPilotFound points; then, where
 //      the lit cells fit in a box of at most kZoom of the grid, the same on that box's own
-//      grid (up to kLevels grids). The deepest grid's cells get q in proportion to the root
-//      mean square of each cell's estimate (the allocation that minimizes the variance of a
-//      sum over strata); the whole map's cells also get kDefensive spread evenly over every
-//      cell of every target, so that every point keeps a chance wherever the pilot saw
-//      nothing. A point's density per mm^2 is the mixture's, d(x) times the sum over the
-//      target's grids of the q of the cell holding it over that cell's share of the map
-//      (density()), d the map's density.
+//      grid (up to kLevels grids). The deepest grid's cells get q, kSpread of it evenly and
+//      the rest in proportion to the root mean square of each cell's estimate (the
+//      allocation that minimizes the variance of a sum over strata); the whole map's cells
+//      also get kDefensive spread evenly over every cell of every target, so that every
+//      point keeps a chance wherever the pilot saw nothing. A point's density per mm^2 is the
+//      mixture's, d(x) times the sum over the target's grids of the q of the cell holding it over
+//      that cell's share of the map (density()), d the map's density.
 //   3. Each point's light: the connection (connect(), the same solve as at a view point) gives
-//      the radiance leaving toward a direction w, drawn toward a point uniform (by the map) on
-//      the face of step j, or the detector (density d_y |y - x|^2 / |cos_y| per sr); the light
-//      crosses steps j..N-1 as designed (LensConnector::onward) and reaches the pixel it meets
-//      with flux L |cos_x| T / (p_w p_x), times the number of model wavelengths (one drawn per
-//      point), over the samples. Where w meets that face first elsewhere than at the drawn
-//      point (a curved face crossed twice), the sample counts nothing: each direction is
-//      counted by its first crossing alone.
+//      the radiance leaving toward a direction w, drawn toward a point of the face of step j,
+//      or the detector, from the aim's cells (density d_y |y - x|^2 / |cos_y| per sr); the
+//      light crosses steps j..N-1 as designed (LensConnector::onward) and reaches the pixel it
+//      meets with flux L |cos_x| T / (p_w p_x), times the number of model wavelengths (one
+//      drawn per point), over the samples. Where w meets that face first elsewhere than at
+//      the drawn point (a curved face crossed twice), the sample counts nothing: each
+//      direction is counted by its first crossing alone. Where that face's map can be
+//      inverted, w also comes from the part's lobe (kLobeShare) and from the target's
+//      direction guide (kGuideShare, GuideFrame in part_light.cpp: a grid over directions
+//      learned from the pilot's), and p_w is the mixture's density: the three densities at
+//      w, the aim's through w's first crossing of the face. The pilot's points send
+//      kPilotDirections directions each.
 //      A point sends RenderOptions::partDirections such directions, each with that share of
 //      its light: one solve of the connection serves them all.
 //   4. Ownership. A view point on a target's object, reached from the detector along the
