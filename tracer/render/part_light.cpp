@@ -909,8 +909,10 @@ bool PartLight::sample(const Target& target, const Vec2& uv, double uvDensity, C
             if (!(cosY > 0.0)) return false;
             pdfDirection = cellShare * kAimCount * y->density * d2 / cosY;
         }
-        double guideU = 0.0;
-        sp.guide = guideFrame.cell(to, guideU);
+        if (!detector) {  // the pilot's, to learn the guide from
+            double guideU = 0.0;
+            sp.guide = guideFrame.cell(to, guideU);
+        }
         const double cosX = std::abs(glm::dot(to, x->normal));
         if (!(cosX > 0.0)) return false;
         // The radiance leaving toward `to`: a view point's, with `to` toward its detector.
