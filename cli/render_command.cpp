@@ -201,6 +201,13 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
                     "view point and followed lobe (on), or left to the photons (off)")
         ->check(CLI::IsMember({"on", "off"}))
         ->capture_default_str();
+    sub->add_option("--ghost-routes", o.ghostRoutes,
+                    "with --connect on, the light a bare face's Fresnel reflections (at most "
+                    "two) bring to a part is solved through the lens as well, on the routes "
+                    "the pilot finds carrying at least 5 % of the part's light (on), or left "
+                    "to the photons (off)")
+        ->check(CLI::IsMember({"on", "off"}))
+        ->capture_default_str();
     addCount(sub, "--part-samples", o.partSamples,
              "points drawn per pass on the small parts the lens lights and the pixels see "
              "through it (a stop's edge, butt ends, flats), their light traced to the pixels "
@@ -306,6 +313,7 @@ RenderRunSpec renderSpec(const RenderCommandOptions& o) {
     ro.aimedSplats = o.aimedSplats;
     ro.partDirections = o.partDirections;
     ro.connectThroughLens = o.connect == "on";
+    ro.ghostRoutes = o.ghostRoutes == "on";
     ro.partSamples = o.partSamples;
     ro.partPhotons = o.partPhotons;
     spec.detector = o.detector;

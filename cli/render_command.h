@@ -48,6 +48,7 @@ struct RenderCommandOptions {
     double aimedSplats = 0.5;       // RenderOptions::aimedSplats
     int partDirections = 32;        // RenderOptions::partDirections
     std::string connect = "on";     // RenderOptions::connectThroughLens
+    std::string ghostRoutes = "on";  // RenderOptions::ghostRoutes
     uint64_t partSamples = 65536;   // RenderOptions::partSamples
     uint64_t partPhotons = 16384;   // RenderOptions::partPhotons
     std::string backward = "random";

@@ -79,7 +79,8 @@ uint64_t fingerprintOf(const TransportView& ts, const DetectorGeometry& g, const
        << " " << o.partSamples << " " << o.photonGuideFraction << " " << o.scatterGuideFraction
        << " " << o.weightWindow << " " << o.visiblePhotonsPerPass << " " << o.balanceVisible << " "
        << o.splatLobesBelowDeg << " " << o.lobeSplats << " " << o.partPhotons << " "
-       << o.balancePhotonsByError << " " << o.aimedSplats << " " << o.partDirections;
+       << o.balancePhotonsByError << " " << o.aimedSplats << " " << o.partDirections << " "
+       << o.ghostRoutes << " " << o.partSplitByLight;
     for (const std::string& w : where) os << "\nwhere " << w;
     const std::string text = os.str();
     uint64_t h = 1469598103934665603ull;
@@ -460,7 +461,9 @@ nlohmann::json RenderResult::summary() const {
         {"photon_guide", ro.photonGuideFraction},
         {"follow_lobes_below_deg", ro.followLobesBelowDeg},
         {"connect_through_lens", ro.connectThroughLens},
+        {"ghost_routes", ro.ghostRoutes},
         {"part_samples_per_pass", ro.partSamples},
+        {"part_split_by_light", ro.partSplitByLight},
         {"splat_lobes_below_deg", ro.splatLobesBelowDeg},
         {"lobe_splats", ro.lobeSplats},
         {"aimed_splats", ro.aimedSplats},

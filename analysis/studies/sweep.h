@@ -73,10 +73,12 @@ struct SweepSpec {
     // Render: its options (the seed is transport.seed; passes = batches) and the detector
     // (empty: the first); ghosts: the detector. The learned aperture guide is off: guided
     // passes draw their pixel rays from the light found so far, which differs between
-    // variants, and that would cost the variants their common random numbers.
+    // variants, and that would cost the variants their common random numbers. For the same
+    // reason the small lit parts' points are split evenly over the parts.
     RenderOptions render = unguided();
     static RenderOptions unguided() {
         RenderOptions o;
+        o.partSplitByLight = false;
         o.guideFraction = 0.0;
         o.photonGuideFraction = 0.0;
         o.scatterGuideFraction = 0.0;

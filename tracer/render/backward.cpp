@@ -698,8 +698,21 @@ void PixelTracer::connectedLight(const ViewPoint& v, const Branch& br, PixelRayS
     std::vector<double>& by = br.lobes == 0 ? po.causticBy : po.secondaryBy;
     std::optional<ViewPointLobes> lobes;
     for (size_t si = 0; si < ts_.sources.size(); ++si) {
-        for (uint64_t chains = lc->chains(si, v.object); chains != 0; chains &= chains - 1) {
-            const int steps = std::countr_zero(chains) + 1;
+        // The designed chains, then (but at a followed lobe, whose own sampled direction
+        // weighs only the designed chains against its light) the ghost routes'.
+        const uint64_t designed = lc->chains(si, v.object);
+        const std::vector<int>& ghosts = lc->ghostChains(si, v.object);
+        const size_t count =
+            static_cast<size_t>(std::popcount(designed)) + (lobe ? 0 : ghosts.size());
+        uint64_t bits = designed;
+        for (size_t chain = 0; chain < count; ++chain) {
+            int steps = 0;
+            if (bits != 0) {
+                steps = std::countr_zero(bits) + 1;
+                bits &= bits - 1;
+            } else {
+                steps = ghosts[chain - static_cast<size_t>(std::popcount(designed))];
+            }
             // Two uniforms per chain, drawn whether or not it reaches the point.
             const double u1 = s.rng.uniform(), u2 = s.rng.uniform();
             // Light the parts traced to the sensor own (not behind or at a followed lobe).

@@ -47,6 +47,11 @@ class DesignedPath {
     }
 
     int steps() const { return steps_; }
+    // The step of `object`'s face, or kOff for an object off the path.
+    int stepOf(int object) const {
+        if (object < 0 || static_cast<size_t>(object) >= stepOfObject_.size()) return kOff;
+        return stepOfObject_[static_cast<size_t>(object)];
+    }
     // The face of step `step` (0 <= step < steps()), and the event that crosses it as designed.
     int objectOfStep(int step) const { return objectOfStep_[static_cast<size_t>(step)]; }
     EventType eventOfStep(int step) const {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <numbers>
 #include <variant>
 
@@ -65,7 +66,31 @@ struct LensConnector::Chain {
     double transmit = 1.0;
 };
 
-LensConnector::LensConnector(const TransportView& ts)
+// The ghost routes the pilot met: a node per route prefix after the first reflection, its
+// parent's key (a designed k, or kGhostBase + the parent node), and the light each brought to
+// a scattering object.
+struct LensConnector::GhostPilot {
+    struct Node {
+        int parent = 0, object = -1;
+        EventType event = EventType::Refract;
+        int lastStep = 0;
+    };
+    std::vector<Node> nodes;
+    std::map<uint64_t, int> children;  // nodeCode(parent, object, event) -> node
+    // (source * objects + object, node) -> light
+    std::map<std::pair<size_t, int>, double> light;
+    int child(int parent, int object, EventType event, int step) {
+        const uint64_t code = nodeCode(parent, object, event);
+        const auto it = children.find(code);
+        if (it != children.end()) return it->second;
+        const int key = kGhostBase + static_cast<int>(nodes.size());
+        nodes.push_back({parent, object, event, step});
+        children.emplace(code, key);
+        return key;
+    }
+};
+
+LensConnector::LensConnector(const TransportView& ts, bool ghostRoutes)
     : ts_(&ts), designed_(*ts.scene), objects_(ts.scene->objects().size()) {
     chains_.assign(ts.sources.size() * objects_, 0);
     other_.assign(ts.sources.size() * objects_, 0);
@@ -75,6 +100,11 @@ LensConnector::LensConnector(const TransportView& ts)
     // The pilot's first hits per chain, where the parametrizations are compared:
     // [source * objects + object] -> (steps, point).
     std::vector<std::vector<std::pair<int, Vec3>>> hits(ts.sources.size() * objects_);
+    // The pilot's light per chain's object, for the ghost routes' share: [source * objects +
+    // object], the designed chains'; (source * objects + object, provisional node) -> light,
+    // the ghost routes'.
+    std::vector<double> chainedLight(ts.sources.size() * objects_, 0.0);
+    GhostPilot ghostPilot;
 
     for (size_t s = 0; s < ts.sources.size(); ++s) {
         const Source& src = ts.sources[s];
@@ -84,14 +114,17 @@ LensConnector::LensConnector(const TransportView& ts)
             if (!(e.flux > 0.0)) continue;
             Ray ray = e.ray;
             int medium = 0, startObject = -1, startPrimitive = -1;
+            double flux = e.flux;
             for (int step = 0;; ++step) {
                 const auto hit =
                     scene.closestHit(ray, kInfinity, startObject, startPrimitive, medium);
                 if (!hit || ts.detectorOfObject[hit->object] >= 0) break;
+                flux *= std::exp(-ts.media->absorptionPerMm(medium, e.wavelength) * hit->t);
                 const OpticalProperty& prop = ts.properties[ts.propertyOfObject[hit->object]];
                 if (step >= 1 && step <= kMaxChain && prop.hasScatter()) {
                     const size_t at = s * objects_ + static_cast<size_t>(hit->object);
                     chains_[at] |= uint64_t{1} << (step - 1);
+                    chainedLight[at] += flux;
                     any_ = true;
                     if (params_[s].count > 1 &&
                         std::count_if(hits[at].begin(), hits[at].end(), [&](const auto& h) {
@@ -102,8 +135,18 @@ LensConnector::LensConnector(const TransportView& ts)
                 if (step >= designed_.steps() || hit->object != designed_.objectOfStep(step)) break;
                 const Interaction in =
                     interact(ts, *hit, ray.direction, e.wavelength, e.wavelengthNm);
+                if (ghostRoutes && i < kGhostPilotPhotons &&
+                    designed_.eventOfStep(step) == EventType::Refract) {
+                    const int r = designedChild(in, EventType::FresnelReflect);
+                    if (r >= 0)
+                        walkGhosts(ghostPilot, s, *hit, in.children[r], step,
+                                   flux * in.children[r].share *
+                                       (static_cast<double>(kPilotPhotons) / kGhostPilotPhotons),
+                                   e.wavelength, e.wavelengthNm);
+                }
                 const int c = designedChild(in, designed_.eventOfStep(step));
                 if (c < 0) break;
+                flux *= in.children[c].share;
                 ray = {hit->point, in.children[c].direction};
                 medium = in.children[c].medium;
                 startObject = hit->object;
@@ -111,11 +154,16 @@ LensConnector::LensConnector(const TransportView& ts)
             }
         }
     }
+    findGhostChains(ghostPilot, chainedLight);
     seeds_.assign(ts.sources.size(), {});
     for (size_t s = 0; s < ts.sources.size(); ++s) {
         uint64_t all = 0;
-        for (size_t o = 0; o < objects_; ++o) all |= chains_[s * objects_ + o];
-        if (all == 0) continue;
+        bool ghosts = false;
+        for (size_t o = 0; o < objects_; ++o) {
+            all |= chains_[s * objects_ + o];
+            ghosts = ghosts || !ghostChains(s, static_cast<int>(o)).empty();
+        }
+        if (all == 0 && !ghosts) continue;
         seeds_[s].resize(static_cast<size_t>(params_[s].count));
         for (int m = 0; m < params_[s].count; ++m) {
             std::vector<std::vector<SeedGrid>>& grids = seeds_[s][static_cast<size_t>(m)];
@@ -126,6 +174,15 @@ LensConnector::LensConnector(const TransportView& ts)
                 for (const Vec3& f : fixes)
                     grids[static_cast<size_t>(steps - 1)].push_back(buildSeeds(s, m, steps, f));
             }
+            // The ghost chains' (the source's own parametrization only).
+            if (m != 0) continue;
+            for (size_t o = 0; o < objects_; ++o)
+                for (const int key : ghostChains(s, static_cast<int>(o))) {
+                    const size_t slot = slotOf(key);
+                    if (grids.size() <= slot) grids.resize(slot + 1);
+                    if (!grids[slot].empty()) continue;
+                    for (const Vec3& f : fixes) grids[slot].push_back(buildSeeds(s, m, key, f));
+                }
         }
     }
     // Each chain's parametrization: the one whose light at the pilot's points has the smaller
@@ -162,6 +219,123 @@ LensConnector::LensConnector(const TransportView& ts)
             }
         }
     }
+}
+
+void LensConnector::walkGhosts(GhostPilot& pilot, size_t s, const SceneHit& hit,
+                               const InteractionChild& reflected, int step, double flux, int line,
+                               double wavelengthNm) const {
+    const TransportView& ts = *ts_;
+    struct Branch {
+        Ray ray;
+        int medium = 0, startObject = -1, startPrimitive = -1;
+        double flux = 0.0;
+        int key = 0, reflections = 0;
+    };
+    std::vector<Branch> stack;
+    stack.push_back({{hit.point, reflected.direction},
+                     reflected.medium,
+                     hit.object,
+                     hit.primitive,
+                     flux,
+                     pilot.child(step, hit.object, EventType::FresnelReflect, step),
+                     1});
+    // A route crosses each face at most a few times: light that has not left the lens after
+    // this many crossings is a loop's (total internal reflection along a ring).
+    const int longest = 4 * designed_.steps() + 8;
+    while (!stack.empty()) {
+        Branch b = stack.back();
+        stack.pop_back();
+        for (int crossings = 0; crossings < longest && b.flux > 0.0; ++crossings) {
+            const auto h =
+                ts.scene->closestHit(b.ray, kInfinity, b.startObject, b.startPrimitive, b.medium);
+            if (!h || ts.detectorOfObject[h->object] >= 0) break;
+            b.flux *= std::exp(-ts.media->absorptionPerMm(b.medium, line) * h->t);
+            if (ts.properties[ts.propertyOfObject[h->object]].hasScatter())
+                pilot.light[{s * objects_ + static_cast<size_t>(h->object), b.key}] += b.flux;
+            const int at = designed_.stepOf(h->object);
+            if (at == DesignedPath::kOff) break;
+            const Interaction in = interact(ts, *h, b.ray.direction, line, wavelengthNm);
+            const EventType want = designed_.eventOfStep(at);
+            if (b.reflections < kMaxGhostReflections && want == EventType::Refract) {
+                const int r = designedChild(in, EventType::FresnelReflect);
+                if (r >= 0 && in.children[r].share > 0.0)
+                    stack.push_back({{h->point, in.children[r].direction},
+                                     in.children[r].medium,
+                                     h->object,
+                                     h->primitive,
+                                     b.flux * in.children[r].share,
+                                     pilot.child(b.key, h->object, EventType::FresnelReflect, at),
+                                     b.reflections + 1});
+            }
+            const int c = designedChild(in, want);
+            if (c < 0) break;
+            b.flux *= in.children[c].share;
+            b.key = pilot.child(b.key, h->object, want, at);
+            b.ray = {h->point, in.children[c].direction};
+            b.medium = in.children[c].medium;
+            b.startObject = h->object;
+            b.startPrimitive = h->primitive;
+        }
+    }
+}
+
+void LensConnector::findGhostChains(GhostPilot& pilot, const std::vector<double>& chainedLight) {
+    if (pilot.light.empty()) return;
+    // Per (source, object): its ghost routes by light, most first.
+    std::map<size_t, std::vector<std::pair<double, int>>> byObject;
+    std::vector<double> ghostLight(chainedLight.size(), 0.0);
+    for (const auto& [at, light] : pilot.light) {
+        byObject[at.first].emplace_back(light, at.second);
+        ghostLight[at.first] += light;
+    }
+    // Per source: all the light the pilot brought to scattering objects by the chains.
+    std::vector<double> sourceLight(ts_->sources.size(), 0.0);
+    for (size_t at = 0; at < chainedLight.size(); ++at)
+        sourceLight[at / objects_] += chainedLight[at] + ghostLight[at];
+    std::vector<std::pair<size_t, int>> kept;  // (source * objects + object, provisional key)
+    for (auto& [at, routes] : byObject) {
+        std::sort(routes.begin(), routes.end(), [](const auto& x, const auto& y) {
+            return x.first > y.first || (x.first == y.first && x.second < y.second);
+        });
+        const double total = chainedLight[at] + ghostLight[at];
+        for (size_t i = 0; i < routes.size() && i < kGhostChains; ++i)
+            if (routes[i].first >= kGhostShare * total &&
+                routes[i].first >= kGhostFloor * sourceLight[at / objects_])
+                kept.emplace_back(at, routes[i].second);
+    }
+    if (kept.empty()) return;
+    // The nodes on the way to a kept route, in the pilot's order (a parent before its child).
+    std::vector<bool> used(pilot.nodes.size(), false);
+    for (const auto& [at, key] : kept)
+        for (int k = key; k >= kGhostBase;
+             k = pilot.nodes[static_cast<size_t>(k - kGhostBase)].parent)
+            used[static_cast<size_t>(k - kGhostBase)] = true;
+    std::vector<int> renamed(pilot.nodes.size(), DesignedPath::kOff);
+    for (size_t i = 0; i < pilot.nodes.size(); ++i) {
+        if (!used[i]) continue;
+        const GhostPilot::Node& n = pilot.nodes[i];
+        const int key = kGhostBase + static_cast<int>(ghostNodes_.size());
+        renamed[i] = key;
+        const int parent =
+            n.parent >= kGhostBase ? renamed[static_cast<size_t>(n.parent - kGhostBase)] : n.parent;
+        std::vector<std::pair<int, EventType>> route;
+        if (parent >= kGhostBase) {
+            route = ghostRoutes_[static_cast<size_t>(parent - kGhostBase)];
+        } else {
+            for (int k = 0; k < parent; ++k)
+                route.emplace_back(designed_.objectOfStep(k), designed_.eventOfStep(k));
+        }
+        route.emplace_back(n.object, n.event);
+        ghostNodes_.push_back({n.lastStep});
+        ghostRoutes_.push_back(std::move(route));
+        ghostChildren_.emplace_back(nodeCode(parent, n.object, n.event), key);
+    }
+    std::sort(ghostChildren_.begin(), ghostChildren_.end());
+    ghostChains_.assign(chainedLight.size(), {});
+    for (const auto& [at, key] : kept)
+        ghostChains_[at].push_back(renamed[static_cast<size_t>(key - kGhostBase)]);
+    for (std::vector<int>& keys : ghostChains_) std::sort(keys.begin(), keys.end());
+    any_ = true;
 }
 
 LensConnector::ParameterSets LensConnector::parametrize(const Source& src) {
@@ -296,8 +470,8 @@ const LensConnector::SeedGrid* LensConnector::seed(size_t s, int m, int steps, c
                                                    size_t* node) const {
     if (seeds_[s].size() <= static_cast<size_t>(m)) return nullptr;
     const std::vector<std::vector<SeedGrid>>& bySteps = seeds_[s][static_cast<size_t>(m)];
-    if (bySteps.size() < static_cast<size_t>(steps)) return nullptr;
-    const std::vector<SeedGrid>& grids = bySteps[static_cast<size_t>(steps - 1)];
+    if (bySteps.size() <= slotOf(steps)) return nullptr;
+    const std::vector<SeedGrid>& grids = bySteps[slotOf(steps)];
     if (grids.empty()) return nullptr;
     const SeedGrid* g = &grids.front();
     for (const SeedGrid& x : grids)
@@ -374,11 +548,10 @@ double LensConnector::fluxPerParameter(size_t s, int m, int line, const Ray& ent
     return emitted * src.emittingAreaMm2() * c * c * c * c;
 }
 
-bool LensConnector::crossAsDesigned(const SceneHit& hit, int step, int line, double wavelengthNm,
-                                    Ray& ray, int& medium, double& transmit,
-                                    std::vector<PathEvent>* events) const {
+bool LensConnector::cross(const SceneHit& hit, EventType want, int line, double wavelengthNm,
+                          Ray& ray, int& medium, double& transmit,
+                          std::vector<PathEvent>* events) const {
     const Interaction in = interact(*ts_, hit, ray.direction, line, wavelengthNm);
-    const EventType want = designed_.eventOfStep(step);
     const int c = designedChild(in, want);
     if (c < 0) return false;
     const InteractionChild& child = in.children[c];
@@ -396,14 +569,18 @@ bool LensConnector::trace(const Ray& entry, int steps, int line, double waveleng
     int medium = 0, startObject = -1, startPrimitive = -1;
     double transmit = 1.0;
     if (events) events->clear();
-    for (int i = 0; i < steps; ++i) {
+    const bool ghost = steps >= kGhostBase;
+    const int n = lengthOf(steps);
+    for (int i = 0; i < n; ++i) {
         const auto hit = ts.scene->closestHit(ray, kInfinity, startObject, startPrimitive, medium);
         ++work.rays;
-        if (!hit || hit->object != designed_.objectOfStep(i)) return false;
+        const auto [object, want] =
+            ghost ? routeOf(steps)[static_cast<size_t>(i)]
+                  : std::pair<int, EventType>(designed_.objectOfStep(i), designed_.eventOfStep(i));
+        if (!hit || hit->object != object) return false;
         const double alpha = ts.media->absorptionPerMm(medium, line);
         if (alpha > 0.0) transmit *= std::exp(-alpha * hit->t);
-        if (!crossAsDesigned(*hit, i, line, wavelengthNm, ray, medium, transmit, events))
-            return false;
+        if (!cross(*hit, want, line, wavelengthNm, ray, medium, transmit, events)) return false;
         startObject = hit->object;
         startPrimitive = hit->primitive;
     }
@@ -443,7 +620,8 @@ std::optional<LensConnector::Onward> LensConnector::onward(
             out.medium = medium;
             return out;
         }
-        if (!crossAsDesigned(*hit, i, line, wavelengthNm, ray, medium, out.transmit, events))
+        if (!cross(*hit, designed_.eventOfStep(i), line, wavelengthNm, ray, medium, out.transmit,
+                   events))
             return std::nullopt;
         startObject = hit->object;
         startPrimitive = hit->primitive;
@@ -564,8 +742,7 @@ std::optional<LensConnector::Light> LensConnector::connectAs(int m, size_t s, in
                                                              double u1, double u2, Work& work,
                                                              std::vector<PathEvent>* events) const {
     const Source& src = ts_->sources[s];
-    if (steps < 1 || steps > designed_.steps() || m < 0 || m >= params_[s].count)
-        return std::nullopt;
+    if (!validKey(steps) || m < 0 || m >= params_[s].count) return std::nullopt;
     const Parameters& pm = params_[s].set[m];
     // What the solver keeps (fluxPerParameter has the pdfs): a beam's direction, drawn
     // uniformly over the Sun's disk; a narrow cone's direction, drawn by the cosine law; a
@@ -685,8 +862,7 @@ std::optional<LensConnector::Light> LensConnector::foundAs(int m, size_t s, int 
                                                            double wavelengthNm, int steps,
                                                            const Vec3& point, int object,
                                                            const Ray& emitted, Work& work) const {
-    if (steps < 1 || steps > designed_.steps() || m < 0 || m >= params_[s].count)
-        return std::nullopt;
+    if (!validKey(steps) || m < 0 || m >= params_[s].count) return std::nullopt;
     const Parameters& pm = params_[s].set[m];
     // Everything connect() does with this fixed half, then the same ray.
     auto light = connectWith(s, m, line, wavelengthNm, steps, point, object, fixedIn(pm, emitted),

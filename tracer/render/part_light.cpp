@@ -263,10 +263,27 @@ PartLight::PartLight(const TransportView& ts, const LensConnector& connector, in
     shapes_.resize(objects_);
     std::vector<bool> tried(objects_, false);
     std::vector<Target> candidates;
+    // Candidates of chain `steps` going on as designed from each step j in [from, to] whose
+    // face can be drawn.
+    const auto addOnward = [&](size_t s, int object, int steps, int from, int to) {
+        for (int j = from; j <= to; ++j)
+            if (faces_[static_cast<size_t>(j)].valid()) {
+                Target t;
+                t.source = s;
+                t.object = object;
+                t.steps = steps;
+                t.onward = j;
+                candidates.push_back(std::move(t));
+            }
+    };
     for (size_t s = 0; s < ts.sources.size(); ++s)
         for (size_t o = 0; o < objects_; ++o) {
             const uint64_t chains = connector.chains(s, static_cast<int>(o));
-            if (chains == 0) continue;
+            // Ghost routes' chains too (not in photon mode): light a bare face reflected back
+            // onto a flat.
+            const std::vector<int>& ghosts =
+                photons ? std::vector<int>{} : connector.ghostChains(s, static_cast<int>(o));
+            if (chains == 0 && ghosts.empty()) continue;
             const int prop = ts.propertyOfObject[o];
             if (static_cast<size_t>(prop) < followed.size() && followed[static_cast<size_t>(prop)])
                 continue;
@@ -287,15 +304,13 @@ PartLight::PartLight(const TransportView& ts, const LensConnector& connector, in
                     candidates.push_back(std::move(t));
                     continue;
                 }
-                for (int j = steps; j <= dp.steps(); ++j)
-                    if (faces_[static_cast<size_t>(j)].valid()) {
-                        Target t;
-                        t.source = s;
-                        t.object = static_cast<int>(o);
-                        t.steps = steps;
-                        t.onward = j;
-                        candidates.push_back(std::move(t));
-                    }
+                addOnward(s, static_cast<int>(o), steps, steps, dp.steps());
+            }
+            // A ghost route's light goes on from the last face it crossed (it left that face
+            // backward) or the one after it: a part lies between those two faces' steps.
+            for (const int key : ghosts) {
+                const int last = std::max(0, connector.lastFaceStep(key));
+                addOnward(s, static_cast<int>(o), key, last, std::min(last + 1, dp.steps()));
             }
         }
     if (candidates.empty()) return;
@@ -533,24 +548,36 @@ PartLight::PartLight(const TransportView& ts, const LensConnector& connector, in
         }
         const int index = static_cast<int>(targets_.size());
         const int deep = static_cast<int>(target.levels.size()) - 1;
+        std::vector<double>& own = targetCumulative_.emplace_back();
+        double ownSum = 0.0;
         for (int level = 0; level <= deep; ++level) {
             target.first.push_back(static_cast<int>(q_.size()));
             for (int c = 0; c < kCellCount; ++c) {
-                double q = 0.0;
-                if (level == 0) q += kDefensive / static_cast<double>(cells);
+                // Within the target: kDefensive evenly over the whole map, the rest over
+                // the deepest grid (which does not change when the part's light is scaled,
+                // as a sweep's variant of its reflectance does); the target's own share:
+                // kDefensive evenly over the targets, the rest by their light.
+                double w = 0.0;
+                if (level == 0) w += kDefensive / kCellCount;
                 if (level == deep)
-                    q += (1.0 - kDefensive) * light[t] / total *
+                    w += (1.0 - kDefensive) *
                          ((1.0 - kSpread) * deepest.rms[static_cast<size_t>(c)] / light[t] +
                           kSpread / kCellCount);
+                const double q = w * (kDefensive * kCellCount / static_cast<double>(cells) +
+                                      (1.0 - kDefensive) * light[t] / total);
                 strata_.push_back({index, level, c});
                 q_.push_back(q);
                 sum += q;
                 cumulative_.push_back(sum);
+                ownSum += q;
+                own.push_back(ownSum);
             }
         }
+        targetShare_.push_back(ownSum);
         targetsOf_[target.source * objects_ + static_cast<size_t>(target.object)].push_back(index);
         targets_.push_back(std::move(target));
     }
+    for (double& share : targetShare_) share /= sum;
 }
 
 Vec2 PartLight::Level::at(int cell, double du, double dv) const {
@@ -595,6 +622,27 @@ const PartLight::Stratum& PartLight::stratumOf(double u) const {
                                      cumulative_.begin()),
                  cumulative_.size() - 1);
     return strata_[k];
+}
+
+const PartLight::Stratum& PartLight::stratumOf(size_t t, double u) const {
+    const std::vector<double>& own = targetCumulative_[t];
+    const size_t k = std::min(
+        static_cast<size_t>(std::upper_bound(own.begin(), own.end(), u * own.back()) - own.begin()),
+        own.size() - 1);
+    return strata_[static_cast<size_t>(targets_[t].first.front()) + k];
+}
+
+std::vector<uint64_t> PartLight::split(uint64_t samples, bool byLight) const {
+    std::vector<uint64_t> upTo;
+    uint64_t all = 0;
+    for (const double share : targetShare_) {
+        const double n =
+            byLight ? share * static_cast<double>(samples)
+                    : static_cast<double>(samples) / static_cast<double>(targetShare_.size());
+        all += std::max<uint64_t>(1, static_cast<uint64_t>(std::llround(n)));
+        upTo.push_back(all);
+    }
+    return upTo;
 }
 
 std::optional<PartLight::Start> PartLight::start(uint64_t i, uint64_t seed,
@@ -979,7 +1027,7 @@ bool PartLight::sample(const Target& target, const Vec2& uv, double uvDensity, C
 
 PartLight::Result PartLight::trace(const DetectorImage& detector, uint64_t samples, uint64_t seed,
                                    const PathJudge* judge, bool prune, const Ranks& ranks,
-                                   int directions) const {
+                                   int directions, bool splitByLight) const {
     Result result;
     const size_t pixels = static_cast<size_t>(detector.pixelCount());
     result.pixels.assign(pixels, 0.0);
@@ -987,6 +1035,12 @@ PartLight::Result PartLight::trace(const DetectorImage& detector, uint64_t sampl
     result.byCriterion.assign(criteria, std::vector<double>(pixels, 0.0));
     result.samples = samples;
     if (targets_.empty() || samples == 0 || mode_ != PartMode::Onward) return result;
+    // The samples split over the targets by their shares (stratified by target: a change of
+    // one part's light, as a sweep's variant makes, moves no other part's samples). Sample j
+    // of target t draws from the stream (t, j) and counts share_t / n_t of its density's
+    // estimate: the target's own estimate from its n_t samples.
+    const std::vector<uint64_t> upTo = split(samples, splitByLight);
+    result.samples = upTo.back();
     struct Entry {
         int pixel = 0;
         double flux = 0.0;
@@ -996,7 +1050,9 @@ PartLight::Result PartLight::trace(const DetectorImage& detector, uint64_t sampl
         std::vector<Entry> entries;
         uint64_t rays = 0;
     };
-    const double perSample = 1.0 / static_cast<double>(samples);
+    std::vector<double> perSample(upTo.size());
+    for (size_t t = 0; t < upTo.size(); ++t)
+        perSample[t] = targetShare_[t] / static_cast<double>(upTo[t] - (t == 0 ? 0 : upTo[t - 1]));
     auto produce = [&](uint64_t first, uint64_t last) {
         Block b;
         Scratch sc;
@@ -1004,10 +1060,14 @@ PartLight::Result PartLight::trace(const DetectorImage& detector, uint64_t sampl
             sc.state.resize(judge->stateBytes());
             sc.scratch.resize(judge->stateBytes());
         }
+        size_t t =
+            static_cast<size_t>(std::upper_bound(upTo.begin(), upTo.end(), first) - upTo.begin());
         for (uint64_t i = first; i < last; ++i) {
-            CounterRng rng(seed, i);
-            const Stratum& st = stratumOf(rng.uniform());
-            const Target& target = targets_[static_cast<size_t>(st.target)];
+            while (i >= upTo[t]) ++t;
+            const uint64_t j = i - (t == 0 ? 0 : upTo[t - 1]);
+            CounterRng rng(seed, (static_cast<uint64_t>(t) << 40) | j);
+            const Stratum& st = stratumOf(t, rng.uniform());
+            const Target& target = targets_[t];
             const Vec2 uv = target.levels[static_cast<size_t>(st.level)].at(st.cell, rng.uniform(),
                                                                             rng.uniform());
             LensConnector::Work work;
@@ -1023,7 +1083,7 @@ PartLight::Result PartLight::trace(const DetectorImage& detector, uint64_t sampl
                     for (const PathEvent& e : x.chain) judge->push(sc.state.data(), e);
                     matched = judge->matches(sc.state.data(), x.onward, sc.scratch.data());
                 }
-                b.entries.push_back({o.pixel, o.flux * perSample, matched});
+                b.entries.push_back({o.pixel, o.flux * perSample[t], matched});
             };
             sample(target, uv, density(target, uv), rng, &detector, sc, work, sp, directions,
                    &landed);
@@ -1058,7 +1118,7 @@ PartLight::Result PartLight::trace(const DetectorImage& detector, uint64_t sampl
         return b;
     };
     constexpr uint64_t kBlock = 1024;
-    forBlocksInOrderOnRanks(ranks, samples, kBlock, produce, consume, pack, unpack);
+    forBlocksInOrderOnRanks(ranks, upTo.back(), kBlock, produce, consume, pack, unpack);
     return result;
 }
 

@@ -19,17 +19,21 @@
 //      faces of steps j..N-1, then the detector; j = N straight to it, as light a lens's back
 //      flat scatters out of the glass). A target is a candidate in which the pilot below
 //      finds light.
-//   2. Points. Each pass draws `samples` points. A sample picks a target and a cell of one of
-//      its grids (Level: a box of the part's map (u, v), PartShape, with kCells x kCells
-//      cells) with probability q, then a point uniform in the cell. q comes from a pilot
+//   2. Points. Each pass draws about `samples` points, split over the targets by their
+//      shares of q (at least one each: split()), or evenly (a sweep's, whose variants change
+//      the parts' light and so their shares), each target's from its own streams. A
+//      target's sample picks a cell of one of its grids (Level: a box of the part's map
+//      (u, v), PartShape, with kCells x kCells cells) with probability q over the target's
+//      q, then a point uniform in the cell. q comes from a pilot
 //      (fixed seed): rounds of kPilotPerCell points per cell of the whole map, up to
 //      kPilotRounds while the part found light in fewer than kPilotFound points; then, where
 //      the lit cells fit in a box of at most kZoom of the grid, the same on that box's own
-//      grid (up to kLevels grids). The deepest grid's cells get q, kSpread of it evenly and
-//      the rest in proportion to the root mean square of each cell's estimate (the
-//      allocation that minimizes the variance of a sum over strata); the whole map's cells
-//      also get kDefensive spread evenly over every cell of every target, so that every
-//      point keeps a chance wherever the pilot saw nothing. A point's density per mm^2 is the
+//      grid (up to kLevels grids). Within a target, the whole map's cells get kDefensive
+//      evenly, so that every point keeps a chance wherever the pilot saw nothing, and the
+//      deepest grid's cells the rest, kSpread of it evenly and the rest in proportion to the
+//      root mean square of each cell's estimate (the allocation that minimizes the variance
+//      of a sum over strata); a target's share of all q is kDefensive evenly over the
+//      targets and the rest in proportion to its light. A point's density per mm^2 is the
 //      mixture's, d(x) times the sum over the target's grids of the q of the cell holding it over
 //      that cell's share of the map (density()), d the map's density.
 //   3. Each point's light: the connection (connect(), the same solve as at a view point) gives
@@ -248,10 +252,13 @@ class PartLight {
         // (RenderState::effectiveRays).
         double sum = 0.0, squares = 0.0;
     };
-    // One pass's estimate from `samples` points drawn from the streams of `seed`.
-    // Each point sends `directions` directions on (RenderOptions::partDirections).
+    // One pass's estimate from about `samples` points drawn from the streams of `seed`, split
+    // over the targets by their shares (`splitByLight`) or evenly
+    // (RenderOptions::partSplitByLight). Each point sends `directions` directions on
+    // (RenderOptions::partDirections).
     Result trace(const DetectorImage& detector, uint64_t samples, uint64_t seed,
-                 const PathJudge* judge, bool prune, const Ranks& ranks, int directions = 1) const;
+                 const PathJudge* judge, bool prune, const Ranks& ranks, int directions = 1,
+                 bool splitByLight = true) const;
 
   private:
     // A box [lo, hi] of a part's map (u, v) with a kCells x kCells grid.
@@ -313,8 +320,14 @@ class PartLight {
         return (static_cast<uint64_t>(static_cast<uint32_t>(object)) << 32) |
                static_cast<uint32_t>(primitive);
     }
-    // The stratum of a pass's sample drawn from u, and its point on the target's map.
+    // The stratum of a photon-mode sample drawn from u (over all targets' strata).
     const Stratum& stratumOf(double u) const;
+    // The stratum of target t's sample drawn from u (over its own strata).
+    const Stratum& stratumOf(size_t t, double u) const;
+    // A pass's split of `samples` over the targets (trace()): [target] running sums of its
+    // count, each count max(1, round(samples x its share)), or of samples / targets with
+    // !byLight.
+    std::vector<uint64_t> split(uint64_t samples, bool byLight) const;
 
     const TransportView* ts_ = nullptr;
     const LensConnector* lc_ = nullptr;
@@ -332,6 +345,9 @@ class PartLight {
     std::vector<std::vector<int>> targetsOf_;  // [source * objects + object]
     std::vector<Stratum> strata_;              // drawn with q_
     std::vector<double> q_, cumulative_;       // [stratum]: probability, running sums
+    // [target]: its strata's running sums of q (from 0), and its share of all q (trace()).
+    std::vector<std::vector<double>> targetCumulative_;
+    std::vector<double> targetShare_;
 };
 
 }  // namespace veil

@@ -124,6 +124,9 @@ struct PhotonBranch {
     // mount is followed as far as one that scattered off a 30 % one).
     double rouletteFlux = 0.0;
     int designed = 0;               // its step on the lens's designed path (DesignedPath)
+    // Its key on the connection's chains (LensConnector::advance): the designed step, or a
+    // ghost route's node.
+    int route = 0;
     size_t state = 0;               // with criteria: its path state's offset in the photon's arena
     uint64_t alive = ~uint64_t{0};  // criteria its path may still match
     int scatterVertex = -1;  // with a scatter guide: its last scatter (BlockTracer::vertices_)
@@ -782,6 +785,7 @@ void BlockTracer::tracePartPhoton(uint64_t j) {
     br.medium = at.mediumFrom;
     br.specular = true;
     br.designed = st->steps;
+    br.route = st->steps;
     if (p_.judge_) {
         br.alive = startPath(st->source);
         for (const PathEvent& e : chain)
@@ -897,8 +901,7 @@ void BlockTracer::follow(PhotonBranch br, Photon& ph) {
         double childScale = scatterScale;
         if (scatters && (br.specular || br.scattered) && scatterScale > 0.0) {
             const double share = gatherShare(br, *hit, ph);
-            if (p_.parts_ && !br.scattered &&
-                p_.parts_->carries(ph.source, hit->object, br.designed))
+            if (p_.parts_ && !br.scattered && p_.parts_->carries(ph.source, hit->object, br.route))
                 childScale *= share;
             const uint64_t before = block_.gathers;
             if (share > 0.0) {
@@ -918,18 +921,18 @@ void BlockTracer::follow(PhotonBranch br, Photon& ph) {
 
 double BlockTracer::gatherShare(const PhotonBranch& br, const SceneHit& hit, Photon& ph) {
     const LensConnector* lc = p_.connector_;
-    if (!lc || br.scattered || !lc->hasChain(ph.source, hit.object, br.designed)) return 1.0;
+    if (!lc || br.scattered || !lc->hasChain(ph.source, hit.object, br.route)) return 1.0;
     // The connection tries this point for this photon's fixed half: its light is the
     // connection's, but for the audit.
     LensConnector::Work work;
-    const bool tried = lc->inView(ph.source, br.designed,
-                                  lc->fixedOf(ph.source, hit.object, br.designed, ph.emitted),
-                                  hit.point, hit.object, work);
+    const bool tried =
+        lc->inView(ph.source, br.route, lc->fixedOf(ph.source, hit.object, br.route, ph.emitted),
+                   hit.point, hit.object, work);
     block_.segments += work.rays;
     if (!tried) return 1.0;
     if (!(ph.rng.uniform() * LensConnector::kAuditRate < 1.0)) return 0.0;
     work = {};
-    const bool found = lc->finds(ph.source, ph.wavelength, ph.wavelengthNm, br.designed, hit.point,
+    const bool found = lc->finds(ph.source, ph.wavelength, ph.wavelengthNm, br.route, hit.point,
                                  hit.object, ph.emitted, work);
     block_.segments += work.rays;
     return found ? 0.0 : static_cast<double>(LensConnector::kAuditRate);
@@ -1299,6 +1302,7 @@ bool BlockTracer::becomeOne(PhotonBranch& b, const SceneHit& hit, const Interact
     if (child.scatter && (!b.scattered || windowed))
         b.rouletteFlux = p_.options_.rouletteRelativeFlux * flux;
     b.designed = p_.designed_.forward(b.designed, hit.object, child.event);
+    b.route = p_.connector_ ? p_.connector_->advance(b.route, hit.object, child.event) : b.designed;
     (child.scatter ? b.scattered : b.specular) = true;
     b.flux = flux;
     b.ray = {hit.point, *dir};

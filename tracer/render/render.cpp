@@ -573,7 +573,7 @@ Renderer::Renderer(const TransportView& ts, const DetectorImage& detector, ExitA
     options_.check();
     if (options_.prune && !judge_)
         throw std::invalid_argument("pruning needs at least one path criterion");
-    if (options_.connectThroughLens) connector_ = LensConnector(ts_);
+    if (options_.connectThroughLens) connector_ = LensConnector(ts_, options_.ghostRoutes);
     if (connector_.any() && options_.partSamples > 0) {
         const std::vector<bool> followed =
             followedLobes(ts_, options_.followLobesBelowDeg * std::numbers::pi / 180.0);
@@ -1064,9 +1064,9 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
     // same in both estimates of the radius bias).
     if (parts_.any()) {
         const auto t2 = std::chrono::steady_clock::now();
-        const PartLight::Result lt =
-            parts_.trace(detector_, options_.partSamples, passSeed(options_.seed, k, 4), judge_,
-                         options_.prune, ranks_, options_.partDirections);
+        const PartLight::Result lt = parts_.trace(
+            detector_, options_.partSamples, passSeed(options_.seed, k, 4), judge_, options_.prune,
+            ranks_, options_.partDirections, options_.partSplitByLight);
         std::vector<double>& caustic = out.pixels[static_cast<int>(RenderComponent::Caustic)];
         for (size_t i = 0; i < lt.pixels.size(); ++i) {
             caustic[i] += lt.pixels[i];

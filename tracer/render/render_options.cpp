@@ -68,8 +68,12 @@ std::ostream& operator<<(std::ostream& os, const RenderOptions& o) {
               << o.scatterGuideFraction << ", weight window " << o.weightWindow
               << ", follow lobes below " << o.followLobesBelowDeg << " deg, splat lobes below "
               << o.splatLobesBelowDeg << " deg (" << o.lobeSplats << " splats, " << o.aimedSplats
-              << " aimed)" << (o.connectThroughLens ? ", connected through the lens" : "") << ", "
-              << o.partSamples << " part samples (" << o.partDirections << " directions), "
+              << " aimed)"
+              << (o.connectThroughLens
+                      ? (o.ghostRoutes ? ", connected through the lens (ghost routes too)"
+                                       : ", connected through the lens")
+                      : "")
+              << ", " << o.partSamples << " part samples (" << o.partDirections << " directions), "
               << o.partPhotons << " part photons}";
 }
 

@@ -117,12 +117,22 @@ struct RenderOptions {
     // is solved for (Newton on the source's ray) instead of gathered from photons (at a followed
     // lobe, weighed against the lobe's own direction by multiple importance sampling).
     bool connectThroughLens = true;
+    // Ghost routes (LensConnector, "Ghost routes"): the connection also solves the light a
+    // bare face's Fresnel reflections bring to a part (at most two reflections), on the routes
+    // its pilot finds carrying enough of the part's light; off: that light stays the
+    // photons'. Needs connectThroughLens.
+    bool ghostRoutes = true;
     // Small lit parts traced to the sensor (tracer/render/part_light.h): points drawn per pass
     // on the parts the lens lights as designed and the pixels see through the lens behind
     // them (a stop's edge band, butt ends, flats), their light traced forward to the pixels;
     // the view points that reach those parts along the designed path leave that light to
     // them. 0: off. Needs connectThroughLens.
     uint64_t partSamples = 65536;
+    // How a pass splits those points over the lit parts: in proportion to the light the pilot
+    // found on each (true), or evenly (sweeps: a variant that changes one part's light would
+    // otherwise move the other parts' points and cost the variants their common random
+    // numbers).
+    bool partSplitByLight = true;
     // Directions each of those points sends on toward the pixels, each with its share of the
     // point's light: the connection's solve at the point, the costly part, serves them all.
     int partDirections = 32;

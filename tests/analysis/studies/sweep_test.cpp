@@ -290,7 +290,8 @@ TEST(SweepRender, OneMountScatterFollowsTheReflectanceWithCommonRandomNumbers) {
     ASSERT_GT(value, 0.0);
     EXPECT_LT(std::abs(m.value), 4.0 * m.error + 1e-12) << m.value << " +- " << m.error;
     // Common random numbers: the difference is resolved better than the value it is taken
-    // from (0.24 of its error here; independent passes would give 1).
+    // from (0.12 of its error here; independent passes would give 1; 0.70 to 0.84 when
+    // the small lit parts' points were split by their light, which the variants change).
     EXPECT_LT(m.error, 0.5 * r.variants[0].measured[5].error * 3.0);
     // The sun's visible ghosts do not see the mounts.
     EXPECT_NEAR(r.variants[1].measured[1].value, r.variants[0].measured[1].value,

@@ -522,5 +522,77 @@ TEST(LensConnection, MisWeightsOfTheConnectionAndTheLobeSumToOne) {
     }
 }
 
+// Ghost routes (the header comment's "Ghost routes") against the closed form. A collimated
+// beam 10 degrees off axis (irradiance E) meets a bare plane-parallel plate (n 1.5); a white
+// plate 150 mm in front of it, beside the incoming beam, is lit only by the plate's
+// reflections. A plane face keeps a collimated beam's cross-section, so the irradiance
+// perpendicular to the ray is E R (the front face's reflection) and E (1 - R) R (1 - R) (in
+// through the front face, reflected by the back face, out through the front face; inside, the
+// reflectance at the refracted angle equals R by Stokes' relations), with R the unpolarized
+// Fresnel reflectance at 10 degrees.
+TEST(LensConnection, GhostRoutesAgreeWithTheFresnelClosedForm) {
+    const std::string stem = ::testing::TempDir() + "veil_lens_connection_ghost";
+    writeBox(stem + ".off", Vec3(-30.0, 20.0, -151.0), Vec3(30.0, 60.0, -150.0));
+    const std::string path = stem + ".toml";
+    FILE* f = fopen(path.c_str(), "w");
+    ASSERT_TRUE(f);
+    fprintf(f,
+            "[system]\nwavelengths_nm = [550.0]\naperture = { epd_mm = 20.0 }\n"
+            "fields_deg = [0.0]\nsurfaces = [\n"
+            "  { r = inf, t = 5.0, glass = { nd = 1.5, vd = 0.0 }, sd = 12.5, stop = true },\n"
+            "  { r = inf, t = 50.0, sd = 12.5 },\n]\n"
+            "[[mesh]]\nname = \"wall\"\nfile = \"%s\"\nproperty = \"white\"\n"
+            "[properties.white]\nscatter = { model = \"lambertian\", reflectance = 0.5 }\n"
+            "[[source]]\nname = \"beam\"\nkind = \"collimated\"\nfield_deg = 10.0\n"
+            "irradiance_w_mm2 = 2.0\n"
+            "[detector]\nsize_mm = [4.0, 4.0]\npixels = [1, 1]\n",
+            std::filesystem::path(stem + ".off").filename().c_str());
+    fclose(f);
+    const auto scene = PreparedScene::read(path, GlassCatalog::builtIn());
+    const TransportView& ts = scene->transport().view;
+    const LensConnector lc(ts);
+    const int wall = objectId(ts, "wall");
+    const int front = objectId(ts, "L1.front"), back = objectId(ts, "L1.back");
+
+    const double n = 1.5, ci = std::cos(10.0 * std::numbers::pi / 180.0);
+    const double ct = std::sqrt(1.0 - (1.0 - ci * ci) / (n * n));
+    const double rs = std::pow((ci - n * ct) / (ci + n * ct), 2.0);
+    const double rp = std::pow((n * ci - ct) / (n * ci + ct), 2.0);
+    const double r = 0.5 * (rs + rp);
+
+    // The two routes, as a photon's events reach them.
+    const int a = lc.advance(0, front, EventType::FresnelReflect);
+    const int b = lc.advance(
+        lc.advance(lc.advance(0, front, EventType::Refract), back, EventType::FresnelReflect),
+        front, EventType::Refract);
+    ASSERT_GE(a, LensConnector::kGhostBase);
+    ASSERT_GE(b, LensConnector::kGhostBase);
+    EXPECT_TRUE(lc.hasChain(0, wall, a));
+    EXPECT_TRUE(lc.hasChain(0, wall, b));
+    EXPECT_FALSE(lc.hasChain(0, wall, 2));  // no designed light reaches the wall
+    // Two reflections send the light on through the plate, away from the wall.
+    EXPECT_EQ(lc.ghostChains(0, wall).size(), 2u);
+
+    for (const auto& [key, expected] :
+         {std::pair{a, 2.0 * r}, std::pair{b, 2.0 * (1 - r) * r * (1 - r)}}) {
+        for (const double y : {24.0, 27.0, 31.0}) {
+            const Vec3 p(1.5, y, -150.0);
+            LensConnector::Work work;
+            std::vector<PathEvent> events;
+            const auto light = lc.connect(0, 0, 550.0, key, p, wall, 0.5, 0.5, work, &events);
+            ASSERT_TRUE(light) << key << " y " << y;
+            EXPECT_NEAR(light->value, expected, 1e-6 * expected) << key << " y " << y;
+            // It arrives along the reflected beam's direction.
+            EXPECT_NEAR(light->toLight.z, ci, 1e-9);
+            // The route's events, in the order light travels them.
+            ASSERT_EQ(events.size(), key == a ? 1u : 3u);
+            EXPECT_EQ(events[key == a ? 0 : 1].type, EventType::FresnelReflect);
+        }
+    }
+    // Outside the reflected beam there is nothing to find.
+    LensConnector::Work work;
+    EXPECT_FALSE(lc.connect(0, 0, 550.0, a, Vec3(0.0, 58.0, -150.0), wall, 0.5, 0.5, work));
+}
+
 }  // namespace
 }  // namespace veil
