@@ -314,7 +314,7 @@ void LensConnector::findGhostChains(GhostPilot& pilot, const std::vector<double>
     for (size_t i = 0; i < pilot.nodes.size(); ++i) {
         if (!used[i]) continue;
         const GhostPilot::Node& n = pilot.nodes[i];
-        const int key = kGhostBase + static_cast<int>(ghostNodes_.size());
+        const int key = kGhostBase + static_cast<int>(ghostLastSteps_.size());
         renamed[i] = key;
         const int parent =
             n.parent >= kGhostBase ? renamed[static_cast<size_t>(n.parent - kGhostBase)] : n.parent;
@@ -326,7 +326,7 @@ void LensConnector::findGhostChains(GhostPilot& pilot, const std::vector<double>
                 route.emplace_back(designed_.objectOfStep(k), designed_.eventOfStep(k));
         }
         route.emplace_back(n.object, n.event);
-        ghostNodes_.push_back({n.lastStep});
+        ghostLastSteps_.push_back(n.lastStep);
         ghostRoutes_.push_back(std::move(route));
         ghostChildren_.emplace_back(nodeCode(parent, n.object, n.event), key);
     }

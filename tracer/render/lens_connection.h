@@ -130,7 +130,7 @@ class LensConnector {
         if (at == DesignedPath::kOff) return at;
         if (at < kGhostBase) {
             const int next = designed_.forward(at, object, e);
-            if (next != DesignedPath::kOff || ghostNodes_.empty()) return next;
+            if (next != DesignedPath::kOff || ghostLastSteps_.empty()) return next;
         }
         const uint64_t code = nodeCode(at, object, e);
         const auto it = std::lower_bound(
@@ -143,7 +143,7 @@ class LensConnector {
     // that step's.
     int lastFaceStep(int steps) const {
         if (steps < kGhostBase) return steps - 1;
-        return ghostNodes_[static_cast<size_t>(steps - kGhostBase)].lastStep;
+        return ghostLastSteps_[static_cast<size_t>(steps - kGhostBase)];
     }
     bool any() const { return any_; }
     // The ways the solve parametrizes source s's rays: 1, or 2 for a narrow-coned area (the
@@ -319,7 +319,7 @@ class LensConnector {
     bool validKey(int steps) const {
         return (steps >= 1 && steps <= designed_.steps()) ||
                (steps >= kGhostBase &&
-                static_cast<size_t>(steps - kGhostBase) < ghostNodes_.size());
+                static_cast<size_t>(steps - kGhostBase) < ghostLastSteps_.size());
     }
     // The seed grids' index of a chain of key `steps`.
     static size_t slotOf(int steps) {
@@ -335,7 +335,7 @@ class LensConnector {
     // that face `step` (met at `hit`) reflected as `reflected`, with `flux`, along the
     // routes, into the pilot's provisional routes; findGhostChains() keeps those that carry
     // enough of an object's light (chainedLight: the designed chains', [source * objects +
-    // object]) and fills ghostNodes_, ghostRoutes_, ghostChildren_ and ghostChains_.
+    // object]) and fills ghostLastSteps_, ghostRoutes_, ghostChildren_ and ghostChains_.
     struct GhostPilot;
     void walkGhosts(GhostPilot& pilot, size_t s, const SceneHit& hit,
                     const InteractionChild& reflected, int step, double flux, int line,
@@ -360,13 +360,10 @@ class LensConnector {
     DesignedPath designed_;
     size_t objects_ = 0;
     std::vector<uint64_t> chains_;  // [source * objects + object]
-    // Ghost routes: a node per route prefix that leads to a ghost chain (key kGhostBase + i),
-    // the crossings from the source to it, and its children (nodeCode(parent key, object,
-    // event), key) sorted.
-    struct GhostNode {
-        int lastStep = 0;  // lastFaceStep()
-    };
-    std::vector<GhostNode> ghostNodes_;
+    // Ghost routes: a node per route prefix that leads to a ghost chain (key kGhostBase + i):
+    // the designed step of the last face it crosses (lastFaceStep()), the crossings from the
+    // source to it, and its children (nodeCode(parent key, object, event), key) sorted.
+    std::vector<int> ghostLastSteps_;
     std::vector<std::vector<std::pair<int, EventType>>> ghostRoutes_;
     std::vector<std::pair<uint64_t, int>> ghostChildren_;
     std::vector<std::vector<int>> ghostChains_;  // [source * objects + object]: keys

@@ -18,6 +18,15 @@ namespace {
 constexpr uint64_t kPartPilotSeed = 0x706172746c696768ULL;  // the pilot's own stream key
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
+// The entry of a table of running sums (non-empty, ascending, its last the total) that a
+// uniform u in [0, 1) falls in: the first whose sum exceeds u times the total, the last for u
+// at the very top.
+size_t drawFromRunningSums(const std::vector<double>& runningSums, double u) {
+    const auto it =
+        std::upper_bound(runningSums.begin(), runningSums.end(), u * runningSums.back());
+    return std::min(static_cast<size_t>(it - runningSums.begin()), runningSums.size() - 1);
+}
+
 // The direction guide's map at a point x (PartLight::kGuideU): the pole p toward the detector's
 // centre, e1 perpendicular to it in the plane of p and the detector's axis, away from the axis
 // (so the map turns with the point about a lens's axis), e2 = p x e1. A direction at angle
@@ -616,20 +625,12 @@ bool PartLight::carries(size_t s, int object, int steps) const {
 }
 
 const PartLight::Stratum& PartLight::stratumOf(double u) const {
-    const size_t k =
-        std::min(static_cast<size_t>(std::upper_bound(cumulative_.begin(), cumulative_.end(),
-                                                      u * cumulative_.back()) -
-                                     cumulative_.begin()),
-                 cumulative_.size() - 1);
-    return strata_[k];
+    return strata_[drawFromRunningSums(cumulative_, u)];
 }
 
 const PartLight::Stratum& PartLight::stratumOf(size_t t, double u) const {
-    const std::vector<double>& own = targetCumulative_[t];
-    const size_t k = std::min(
-        static_cast<size_t>(std::upper_bound(own.begin(), own.end(), u * own.back()) - own.begin()),
-        own.size() - 1);
-    return strata_[static_cast<size_t>(targets_[t].first.front()) + k];
+    return strata_[static_cast<size_t>(targets_[t].first.front()) +
+                   drawFromRunningSums(targetCumulative_[t], u)];
 }
 
 std::vector<uint64_t> PartLight::split(uint64_t samples, bool byLight) const {
@@ -892,13 +893,8 @@ bool PartLight::sample(const Target& target, const Vec2& uv, double uvDensity, C
             share = 1.0 / kAimCount;
             return std::min(kAimCount - 1, static_cast<int>(da * kAimCount));
         }
-        const double all = target.aimCumulative.back();
-        const int cell = static_cast<int>(std::min<size_t>(
-            static_cast<size_t>(std::upper_bound(target.aimCumulative.begin(),
-                                                 target.aimCumulative.end(), da * all) -
-                                target.aimCumulative.begin()),
-            kAimCount - 1));
-        share = target.aim[static_cast<size_t>(cell)] / all;
+        const int cell = static_cast<int>(drawFromRunningSums(target.aimCumulative, da));
+        share = target.aim[static_cast<size_t>(cell)] / target.aimCumulative.back();
         return cell;
     };
     // The density per steradian with which the aim draws `to`, met first at y (normal ny).
@@ -928,13 +924,8 @@ bool PartLight::sample(const Target& target, const Vec2& uv, double uvDensity, C
         std::optional<PartPoint> y;
         double d = 0.0;
         if (fromGuide) {
-            const double all = target.guideCumulative.back();
-            const int cell = static_cast<int>(std::min<size_t>(
-                static_cast<size_t>(std::upper_bound(target.guideCumulative.begin(),
-                                                     target.guideCumulative.end(),
-                                                     da / guideShare * all) -
-                                    target.guideCumulative.begin()),
-                kGuideCount - 1));
+            const int cell =
+                static_cast<int>(drawFromRunningSums(target.guideCumulative, da / guideShare));
             to = guideFrame.at((cell % kGuideU + dy1) / kGuideU, (cell / kGuideU + dy2) / kGuideV);
         } else if (fromLobe) {
             const double dc = (da - guideShare) / lobeShare;
