@@ -90,7 +90,8 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
                     "secondary, or where<k> (the k-th --where criterion's image)")
         ->capture_default_str();
     sub->add_option("--time-limit", o.timeLimit,
-                    "stop after this long: 90s, 10m, 1h30m ('none': no limit)")
+                    "stop after this long: 90s, 10m, 1h30m ('none': no limit); the pass under "
+                    "way is then cut and left out")
         ->capture_default_str();
     sub->add_option("--passes", o.passes, "stop after this many passes in all (0: no limit)")
         ->check(CLI::Range(0, 100000000))

@@ -18,6 +18,7 @@
 #include "lensdata/errors.h"
 #include "lensdata/output_file.h"
 #include "tracer/records/detector.h"
+#include "tracer/runtime/deadline.h"
 #include "tracer/scene/prepared_scene.h"
 #include "tracer/scene/scene_transport.h"
 #include "tracer/transport/interaction.h"
@@ -290,12 +291,27 @@ RenderResult RenderRun::run(const std::function<void(const RenderPassEvent&)>& o
         e.state = "pass " + std::to_string(r.passesBefore + 1) + " running";
         spec_.progress(e);
     }
+    // The time limit holds inside a pass in one process: the pass under way when it passes is
+    // cut at its next block and left out, so the images are those of the passes that finished
+    // (bitwise a run stopped after them). Ranks must stop together: across several, the limit
+    // is checked between passes.
+    const Deadline deadline =
+        ranks.single() && std::isfinite(spec_.stop.timeLimitSeconds)
+            ? Deadline(start + std::chrono::duration_cast<Deadline::Clock::duration>(
+                                   std::chrono::duration<double>(spec_.stop.timeLimitSeconds)))
+            : Deadline();
     while (true) {
         if (ranks.root()) r.stopReason = stopReason(seconds());
         if (!ranks.broadcastFlag(r.stopReason.empty())) break;
-        const RenderPass pass =
-            renderer_->runPass(state_.passes() + 1, state_.radiusMm(), state_.learned(),
-                               state_.photonsPerPass(), state_.visiblePhotons());
+        RenderPass pass;
+        try {
+            pass = renderer_->runPass(state_.passes() + 1, state_.radiusMm(), state_.learned(),
+                                      state_.photonsPerPass(), state_.visiblePhotons(), deadline);
+        } catch (const DeadlinePassed&) {
+            r.stopReason = "time limit reached (the pass under way was cut and left out)";
+            r.passCut = true;
+            break;
+        }
         state_.add(pass, ranks);
         if (spec_.options.balanceVisible) {
             ByteWriter w;
@@ -437,6 +453,7 @@ nlohmann::json RenderResult::summary() const {
     summary["passes_this_run"] = state.passes() - passesBefore;
     summary["seconds_this_run"] = seconds;
     summary["stopped"] = stopReason;
+    summary["pass_cut"] = passCut;
     summary["seed"] = ro.seed;
     summary["memory_estimate_bytes"] = memoryBytes;
     if (!spec.ranks.single())

@@ -102,6 +102,7 @@ struct RenderResult {
     double seconds = 0.0;               // this run's wall clock
     double memoryBytes = 0.0;           // the estimate checked before the run (renderMemoryBytes)
     std::string stopReason;             // "target error reached", "pass limit reached", ...
+    bool passCut = false;               // the time limit cut a pass under way, which was left out
     double emittedFlux = 0.0;
     // This run's totals over its passes.
     uint64_t photons = 0, gathers = 0, viewPoints = 0, prunedBranches = 0, prunedPhotons = 0;

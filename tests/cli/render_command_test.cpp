@@ -168,6 +168,20 @@ TEST(RenderCommand, ResumingGivesTheStraightRun) {
         << r.err;
 }
 
+// The time limit holds inside a pass: a pass of a billion photons per source is cut at its next
+// block once the limit passes (before, the limit was checked between passes only, and this run
+// went on for hours), and with no pass finished there is nothing to write.
+TEST(RenderCommand, TheTimeLimitCutsAPassUnderWay) {
+    const std::string dir = dirFor("cut");
+    const VeilRun r = runVeil(
+        "render " + kSun + " --photons 1e9 --rays-per-pixel 2 --time-limit 1s --quiet -o " + dir);
+    EXPECT_EQ(r.exitCode, 1) << r.err;
+    EXPECT_NE(r.err.find("no pass finished (the time limit ended the run first)"),
+              std::string::npos)
+        << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir + "/summary.json"));
+}
+
 TEST(RenderCommand, BadInputStopsBeforeAnyPass) {
     const std::string dir = dirFor("bad");
     // A singlet whose edge and flats absorb: nothing scatters (a bare lens scatters at its

@@ -974,6 +974,7 @@ BackwardResult traceBackward(const TransportView& ts, const DetectorImage& detec
     tbb::parallel_for(tbb::blocked_range<int>(0, myBlocks, 1), [&](const tbb::blocked_range<int>& r) {
         PixelTracer tracer(ts, detector, aperture, options);
         for (int j = r.begin(); j != r.end(); ++j) {
+            options.deadline.check();
             const int b = j * ranks.size() + ranks.rank();
             for (int p = b * kPixelBlock; p < std::min(pixels, (b + 1) * kPixelBlock); ++p)
                 tracer.tracePixel(p, out[static_cast<size_t>(p)]);

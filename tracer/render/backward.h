@@ -43,6 +43,7 @@
 #include "tracer/render/aperture_guide.h"
 #include "tracer/render/lens_connection.h"
 #include "tracer/render/path_judge.h"
+#include "tracer/runtime/deadline.h"
 #include "tracer/transport/interaction.h"
 
 namespace veil {
@@ -98,6 +99,9 @@ struct BackwardOptions {
     // rank traces its blocks, all ranks' pixels are shared, and every rank returns the whole
     // result, bitwise that of one process.
     Ranks ranks = Ranks::alone();
+    // Checked once per block of pixels: once it has passed, traceBackward throws
+    // DeadlinePassed (tracer/runtime/deadline.h). One process only: ranks must stop together.
+    Deadline deadline;
 };
 std::ostream& operator<<(std::ostream& os, const BackwardOptions& o);
 

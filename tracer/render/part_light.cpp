@@ -1018,7 +1018,8 @@ bool PartLight::sample(const Target& target, const Vec2& uv, double uvDensity, C
 
 PartLight::Result PartLight::trace(const DetectorImage& detector, uint64_t samples, uint64_t seed,
                                    const PathJudge* judge, bool prune, const Ranks& ranks,
-                                   int directions, bool splitByLight) const {
+                                   int directions, bool splitByLight,
+                                   const Deadline& deadline) const {
     Result result;
     const size_t pixels = static_cast<size_t>(detector.pixelCount());
     result.pixels.assign(pixels, 0.0);
@@ -1045,6 +1046,7 @@ PartLight::Result PartLight::trace(const DetectorImage& detector, uint64_t sampl
     for (size_t t = 0; t < upTo.size(); ++t)
         perSample[t] = targetShare_[t] / static_cast<double>(upTo[t] - (t == 0 ? 0 : upTo[t - 1]));
     auto produce = [&](uint64_t first, uint64_t last) {
+        deadline.check();
         Block b;
         Scratch sc;
         if (judge) {

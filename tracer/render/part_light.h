@@ -89,6 +89,7 @@
 #include "tracer/records/detector.h"
 #include "tracer/render/lens_connection.h"
 #include "tracer/render/path_judge.h"
+#include "tracer/runtime/deadline.h"
 #include "tracer/runtime/ranks.h"
 #include "tracer/transport/interaction.h"
 
@@ -255,10 +256,11 @@ class PartLight {
     // One pass's estimate from about `samples` points drawn from the streams of `seed`, split
     // over the targets by their shares (`splitByLight`) or evenly
     // (RenderOptions::partSplitByLight). Each point sends `directions` directions on
-    // (RenderOptions::partDirections).
+    // (RenderOptions::partDirections). `deadline` is checked once per block of points (it
+    // throws DeadlinePassed once passed; one process only).
     Result trace(const DetectorImage& detector, uint64_t samples, uint64_t seed,
                  const PathJudge* judge, bool prune, const Ranks& ranks, int directions = 1,
-                 bool splitByLight = true) const;
+                 bool splitByLight = true, const Deadline& deadline = {}) const;
 
   private:
     // A box [lo, hi] of a part's map (u, v) with a kCells x kCells grid.

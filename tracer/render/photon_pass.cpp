@@ -1428,14 +1428,18 @@ PhotonImages tracePhotons(const TransportView& ts, const DetectorImage& detector
                           const BackwardResult& back, const RenderOptions& options,
                           const PathJudge* judge, int k, double radiusMm, const Ranks& ranks,
                           const LensConnector* connector, const EmissionGuide* emissionGuide,
-                          const ScatterGuide* scatterGuide, const PartLight* partPhotons) {
+                          const ScatterGuide* scatterGuide, const PartLight* partPhotons,
+                          const Deadline& deadline) {
     const PhotonPass pass(ts, detector, back, options, judge, k, radiusMm, ranks, connector,
                           emissionGuide, scatterGuide, partPhotons);
     PhotonImages result = pass.emptyImages();
     constexpr uint64_t kBlock = 4096;
     forBlocksInOrderOnRanks(
         ranks, pass.total(), kBlock,
-        [&](uint64_t first, uint64_t last) { return pass.traceBlock(first, last); },
+        [&](uint64_t first, uint64_t last) {
+            deadline.check();
+            return pass.traceBlock(first, last);
+        },
         [&](const PhotonBlock& b) { PhotonPass::add(b, result); }, PhotonPass::pack,
         PhotonPass::unpack);
     result.diskRays = pass.diskRays();

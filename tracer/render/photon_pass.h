@@ -144,7 +144,8 @@ class EmissionGuide {
 // photon's flux divided by its density, and the images' emissionLearned holds what this pass
 // gathered per bin. With a scatter guide (ScatterGuide), the scatters of the photons beyond the
 // ghost photons draw their directions through it where it has learned light, and the images'
-// scatterLearned holds what this pass's scatters led to.
+// scatterLearned holds what this pass's scatters led to. `deadline` is checked once per block of
+// photons (it throws DeadlinePassed once passed; one process only).
 PhotonImages tracePhotons(const TransportView& ts, const DetectorImage& detector,
                           const BackwardResult& back, const RenderOptions& options,
                           const PathJudge* judge, int k, double radiusMm,
@@ -152,6 +153,6 @@ PhotonImages tracePhotons(const TransportView& ts, const DetectorImage& detector
                           const LensConnector* connector = nullptr,
                           const EmissionGuide* emissionGuide = nullptr,
                           const ScatterGuide* scatterGuide = nullptr,
-                          const PartLight* partPhotons = nullptr);
+                          const PartLight* partPhotons = nullptr, const Deadline& deadline = {});
 
 }  // namespace veil

@@ -925,8 +925,12 @@ uint64_t balancedVisiblePhotons(const RenderOptions& o, const RenderPass& pass,
 }
 
 RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& learned,
-                             uint64_t photonsPerSource, int64_t visiblePhotons) const {
+                             uint64_t photonsPerSource, int64_t visiblePhotons,
+                             const Deadline& deadline) const {
     if (k < 1) throw std::invalid_argument("Renderer::runPass: passes count from 1");
+    if (deadline.set() && !ranks_.single())
+        throw std::invalid_argument(
+            "Renderer::runPass: a deadline inside a pass needs one process");
     if (!(radiusMm > 0.0)) throw std::invalid_argument("Renderer::runPass: radius must be > 0");
     RenderPass out;
     out.radiusMm = radiusMm;
@@ -938,6 +942,7 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
     };
     // 1. Backward: visible, direct, view points.
     BackwardOptions bo = backwardOptions(k);
+    bo.deadline = deadline;
     // The learned light: the aperture guide's bins, then the emission guide's, then the
     // scatter guide's (each only when on; empty before the first pass).
     auto learnedPart = [&](size_t from, size_t bins) {
@@ -988,7 +993,7 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
     PhotonImages acc = tracePhotons(
         ts_, detector_, back, po, judge_, k, radiusMm, ranks_,
         connector_.any() ? &connector_ : nullptr, emissionGuided ? &emission : nullptr,
-        scatterGuided ? &scatter : nullptr, partPhotons_.any() ? &partPhotons_ : nullptr);
+        scatterGuided ? &scatter : nullptr, partPhotons_.any() ? &partPhotons_ : nullptr, deadline);
     const size_t criteria = judge_ ? static_cast<size_t>(judge_->count()) : 0;
     std::vector<double>& visible = out.pixels[static_cast<int>(RenderComponent::Visible)];
     for (int p = 0; p < pixels; ++p) visible[static_cast<size_t>(p)] += acc.visible[p];
@@ -1066,7 +1071,7 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
         const auto t2 = std::chrono::steady_clock::now();
         const PartLight::Result lt = parts_.trace(
             detector_, options_.partSamples, passSeed(options_.seed, k, 4), judge_, options_.prune,
-            ranks_, options_.partDirections, options_.partSplitByLight);
+            ranks_, options_.partDirections, options_.partSplitByLight, deadline);
         std::vector<double>& caustic = out.pixels[static_cast<int>(RenderComponent::Caustic)];
         for (size_t i = 0; i < lt.pixels.size(); ++i) {
             caustic[i] += lt.pixels[i];

@@ -368,8 +368,12 @@ class Renderer {
     // RenderState::photonsPerPass() when they are balanced).
     // visiblePhotons: its visible photons per source (-1: RenderOptions::visiblePhotonsPerPass;
     // RenderState::visiblePhotons() when they are balanced).
+    // deadline: checked once per block of pixels, photons and part points; once it has passed
+    // the pass throws DeadlinePassed (tracer/runtime/deadline.h) and has no result. One process
+    // only (the ranks must stop together: with several, the limit is checked between passes).
     RenderPass runPass(int k, double radiusMm, const std::vector<double>& learned = {},
-                       uint64_t photonsPerSource = 0, int64_t visiblePhotons = -1) const;
+                       uint64_t photonsPerSource = 0, int64_t visiblePhotons = -1,
+                       const Deadline& deadline = {}) const;
     // The backward stage of pass k.
     BackwardOptions backwardOptions(int k) const;
 

@@ -24,6 +24,7 @@
 #include "tests/tracer/render/box_mesh.h"
 #include "tracer/records/detector.h"
 #include "tracer/render/photon_pass.h"
+#include "tracer/runtime/deadline.h"
 #include "tracer/scene/prepared_scene.h"
 #include "tracer/scene/scene_transport.h"
 #include "tracer/sequential/sequential_model.h"
@@ -1427,6 +1428,12 @@ TEST(Render, ResumedAndThreadedRunsAreBitwiseTheSame) {
         first.write(cp, print);
     }
     RenderState resumed = RenderState::read(cp, print, g);
+    EXPECT_EQ(resumed.passes(), 3);
+    // A pass whose deadline passes (here before it starts: it stops at its first block) has no
+    // result, and the run goes on as if it had not been tried.
+    EXPECT_THROW(renderer.runPass(4, resumed.radiusMm(), resumed.learned(),
+                                  resumed.photonsPerPass(), -1, Deadline(Deadline::Clock::now())),
+                 DeadlinePassed);
     EXPECT_EQ(resumed.passes(), 3);
     {
         tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
