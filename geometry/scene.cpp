@@ -162,9 +162,13 @@ void Scene::commit() {
             r.n = glm::cross(mesh.vertices[tri[1]] - r.a, mesh.vertices[tri[2]] - r.a);
         }
     }
+    prepared_.clear();
+    preparedOf_.assign(objects_.size(), -1);
     for (const SceneObject& o : objects_) {
-        if (std::holds_alternative<FaceGeometry>(o.geometry)) {
+        if (const FaceGeometry* f = std::get_if<FaceGeometry>(&o.geometry)) {
             exactObjects_.push_back(o.id);
+            preparedOf_[static_cast<size_t>(o.id)] = static_cast<int>(prepared_.size());
+            prepared_.emplace_back(*f);
         } else {
             const MeshRef& r = std::get<MeshRef>(o.geometry);
             const uint32_t n = static_cast<uint32_t>(meshes_[r.mesh].triangles.size());
@@ -282,6 +286,21 @@ std::optional<SceneHit> Scene::makeHit(int object, int primitive, double t, cons
     h.mediumFrom = h.fromFront ? o.mediumFront : o.mediumBack;
     h.mediumTo = h.fromFront ? o.mediumBack : o.mediumFront;
     return out;
+}
+
+std::optional<SceneHit> Scene::hitOnFace(const Ray& ray, int object, int startObject,
+                                         double tMax) const {
+    if (!committed_) throw ModelError("scene", "hitOnFace() before commit()");
+    const SceneObject& o = objects_[static_cast<size_t>(object)];
+    const int p = preparedOf_[static_cast<size_t>(object)];
+    if (p < 0) return std::nullopt;
+    const FaceGeometry& f = std::get<FaceGeometry>(o.geometry);
+    FaceCrossing hit;
+    if (!prepared_[static_cast<size_t>(p)].cross(f, o.frame.toLocal(ray), 0.0, tMax,
+                                                 object == startObject, hit))
+        return std::nullopt;
+    const Vec3 normal = hit.hasNormal ? hit.normal : faceNormal(f, hit.point);
+    return makeHit(object, 0, hit.t, ray, o.frame.toGlobalDirection(normal));
 }
 
 std::optional<SceneHit> Scene::closestHit(const Ray& ray, double tMax, int startObject,

@@ -139,6 +139,15 @@ class Scene {
     std::optional<SceneHit> closestHit(const Ray& ray, double tMax = kInfinity,
                                        int startObject = -1, int startPrimitive = -1,
                                        int medium = -1) const;
+    // Where the ray first meets one object's exact face with t in (0, tMax], whatever lies
+    // before it (a sequential trace: the face alone, as if nothing else were in the scene);
+    // startObject: the object the ray starts on, its own root at t ~ 0 skipped. Where
+    // closestHit() meets that face first the hit is its hit: bit for bit on a plane, sphere,
+    // conic or cylinder, to the root search's tolerance on other shapes (closestHit() searches
+    // up to its nearest hit so far, a shorter interval). Empty for a mesh object: its triangles
+    // have no index of their own (use closestHit()).
+    std::optional<SceneHit> hitOnFace(const Ray& ray, int object, int startObject = -1,
+                                      double tMax = kInfinity) const;
     // Whether commit() proved the medium sealed (see the top of this file).
     bool sealed(int medium) const {
         return medium >= 0 && medium < static_cast<int>(sealed_.size()) && sealed_[medium];
@@ -165,6 +174,8 @@ class Scene {
     std::vector<TriangleMesh> meshes_;
     std::vector<SceneObject> objects_;
     std::vector<int> exactObjects_;  // ids of objects with FaceGeometry
+    std::vector<PreparedFace> prepared_;  // their faces prepared (hitOnFace())
+    std::vector<int> preparedOf_;         // [object]: index into prepared_, or -1 (a mesh)
     std::vector<ExactBody> bodies_;
     std::vector<unsigned char> sealed_;               // per medium, set by commit()
     std::vector<std::string> bodiesNotClear_;         // "L4: barrel", set by commit()

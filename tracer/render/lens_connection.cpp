@@ -563,7 +563,7 @@ bool LensConnector::cross(const SceneHit& hit, EventType want, int line, double 
 }
 
 bool LensConnector::trace(const Ray& entry, int steps, int line, double wavelengthNm, Chain& out,
-                          Work& work, std::vector<PathEvent>* events) const {
+                          Work& work, std::vector<PathEvent>* events, Crossing crossing) const {
     const TransportView& ts = *ts_;
     Ray ray = entry;
     int medium = 0, startObject = -1, startPrimitive = -1;
@@ -572,11 +572,15 @@ bool LensConnector::trace(const Ray& entry, int steps, int line, double waveleng
     const bool ghost = steps >= kGhostBase;
     const int n = lengthOf(steps);
     for (int i = 0; i < n; ++i) {
-        const auto hit = ts.scene->closestHit(ray, kInfinity, startObject, startPrimitive, medium);
-        ++work.rays;
         const auto [object, want] =
             ghost ? routeOf(steps)[static_cast<size_t>(i)]
                   : std::pair<int, EventType>(designed_.objectOfStep(i), designed_.eventOfStep(i));
+        const bool alone = crossing == Crossing::Faces &&
+                           std::holds_alternative<FaceGeometry>(ts.scene->object(object).geometry);
+        const auto hit =
+            alone ? ts.scene->hitOnFace(ray, object, startObject)
+                  : ts.scene->closestHit(ray, kInfinity, startObject, startPrimitive, medium);
+        ++work.rays;
         if (!hit || hit->object != object) return false;
         const double alpha = ts.media->absorptionPerMm(medium, line);
         if (alpha > 0.0) transmit *= std::exp(-alpha * hit->t);
@@ -660,7 +664,8 @@ bool LensConnector::solve(size_t s, int m, int line, double wavelengthNm, int st
     // point, drawn toward the axis until its chain traces.
     Chain c;
     bool started = seed(s, m, steps, fixed, point, a, b) != nullptr &&
-                   trace(entryRay(s, m, fixed, a, b), steps, line, wavelengthNm, c, work, nullptr);
+                   trace(entryRay(s, m, fixed, a, b), steps, line, wavelengthNm, c, work, nullptr,
+                         Crossing::Faces);
     if (!started) {
         const Ray straight = pm.movesOrigin
                                  ? Ray{point - fixed * (glm::dot(point - pm.center, pm.axis) /
@@ -672,7 +677,8 @@ bool LensConnector::solve(size_t s, int m, int line, double wavelengthNm, int st
         for (const double f : {1.0, 0.75, 0.5, 0.25, 0.0}) {
             a = a0 * f;
             b = b0 * f;
-            if (trace(entryRay(s, m, fixed, a, b), steps, line, wavelengthNm, c, work, nullptr)) {
+            if (trace(entryRay(s, m, fixed, a, b), steps, line, wavelengthNm, c, work, nullptr,
+                      Crossing::Faces)) {
                 started = true;
                 break;
             }
@@ -699,7 +705,7 @@ bool LensConnector::solve(size_t s, int m, int line, double wavelengthNm, int st
                 step = sign * h;
                 const double ak = a + (k == 0 ? step : 0.0), bk = b + (k == 1 ? step : 0.0);
                 if (trace(entryRay(s, m, fixed, ak, bk), steps, line, wavelengthNm, ck, work,
-                          nullptr) &&
+                          nullptr, Crossing::Faces) &&
                     crossingAt(ck.end, point, n, b1, b2, col[k])) {
                     ok = true;
                     break;
@@ -719,7 +725,7 @@ bool LensConnector::solve(size_t s, int m, int line, double wavelengthNm, int st
             Chain trial;
             const double at = a + lambda * da, bt = b + lambda * db;
             if (!trace(entryRay(s, m, fixed, at, bt), steps, line, wavelengthNm, trial, work,
-                       nullptr))
+                       nullptr, Crossing::Faces))
                 continue;
             const double trialMiss = missOf(trial.end, point);
             if (trialMiss < miss) {
@@ -838,7 +844,7 @@ double LensConnector::jacobian(size_t s, int m, int line, double wavelengthNm, i
             Chain cj;
             const double aj = a + (k == 0 ? step : 0.0), bj = b + (k == 1 ? step : 0.0);
             ok[j] = trace(entryRay(s, m, fixed, aj, bj), steps, line, wavelengthNm, cj, work,
-                          nullptr) &&
+                          nullptr, Crossing::Faces) &&
                     crossingAt(cj.end, point, n, b1, b2, side[j]);
         }
         if (ok[0] && ok[1])

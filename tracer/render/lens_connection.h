@@ -14,8 +14,10 @@
 //      beam and a point source have none), and Newton's method on the other half (the point
 //      on the beam's start plane or on the window, or the direction from a point) finds the
 //      ray that crosses those k faces as designed (refracting at lens faces, reflecting at
-//      mirrors, in the scene itself: its coatings, apertures and shapes) and then passes
-//      through p. It starts from the nearest node of a seed grid of the chain traced once.
+//      mirrors, with their coatings, apertures and shapes) and then passes through p. Its
+//      steps meet each face alone (Crossing::Faces, a sequential trace); the ray found is
+//      then traced in the scene itself, every part in the way refusing it. It starts from
+//      the nearest node of a seed grid of the chain traced once.
 //      A narrow-coned area has both ways (parametrizations()): its direction drawn and its
 //      point solved, which suits points near a pupil (few points of the window reach them,
 //      from many directions), or its point drawn and its direction solved, which suits points
@@ -138,12 +140,21 @@ class LensConnector {
             [](const std::pair<uint64_t, int>& c, uint64_t v) { return c.first < v; });
         return it != ghostChildren_.end() && it->first == code ? it->second : DesignedPath::kOff;
     }
-    // The designed step of the last face a chain of key `steps` crosses (k - 1 for a designed
-    // one): light the part scatters on toward the detector as designed meets no face before
-    // that step's.
-    int lastFaceStep(int steps) const {
-        if (steps < kGhostBase) return steps - 1;
-        return ghostLastSteps_[static_cast<size_t>(steps - kGhostBase)];
+    // The designed step of the first face that light a chain of key `steps` brings to a part
+    // can meet as the part scatters it on toward the detector as designed (k for a designed
+    // chain k; no face before it can be met). A ghost route's light, after an odd number of
+    // Fresnel reflections, travels against the designed order: it last met the face of step
+    // L (reflected there, or crossed it backward), so the part lies before that face and the
+    // light meets it first going on; after an even number it travels in the designed order
+    // again, past step L, and meets L + 1 first.
+    int onwardFaceStep(int steps) const {
+        if (steps < kGhostBase) return steps;
+        const size_t g = static_cast<size_t>(steps - kGhostBase);
+        size_t reflections = 0;
+        for (const auto& [object, event] : ghostRoutes_[g])
+            reflections += event == EventType::FresnelReflect ? 1 : 0;
+        return reflections % 2 == 1 ? std::max(0, ghostLastSteps_[g])
+                                    : std::min(ghostLastSteps_[g] + 1, designed_.steps());
     }
     bool any() const { return any_; }
     // The ways the solve parametrizes source s's rays: 1, or 2 for a narrow-coned area (the
@@ -301,8 +312,14 @@ class LensConnector {
     double fluxPerParameter(size_t s, int m, int line, const Ray& entry) const;
     // The parameters of an entry ray (the inverse of entryRay).
     void parametersOf(size_t s, int m, const Ray& entry, double& a, double& b) const;
+    // The chain of key `steps` from `entry`: each step's face must be the next one met, in the
+    // scene (Crossing::Scene: nothing in between, the path's check) or alone (Crossing::Faces:
+    // the face itself, whatever lies before it; a mesh step is met in the scene). The solver
+    // and the Jacobian move on the faces alone, a smooth map of the parameters that a part
+    // beside the path does not cut; the path they find is then checked in the scene.
+    enum class Crossing { Scene, Faces };
     bool trace(const Ray& entry, int steps, int line, double wavelengthNm, Chain& out, Work& work,
-               std::vector<PathEvent>* events) const;
+               std::vector<PathEvent>* events, Crossing crossing = Crossing::Scene) const;
     // Crosses the face met at `hit` by `ray` travelling in `medium` by the event `want` (its
     // designed one, or a ghost's Fresnel reflection): that child's share into `transmit`, its
     // event into `events`, and ray and medium become the child's. False where there is none
@@ -361,7 +378,7 @@ class LensConnector {
     size_t objects_ = 0;
     std::vector<uint64_t> chains_;  // [source * objects + object]
     // Ghost routes: a node per route prefix that leads to a ghost chain (key kGhostBase + i):
-    // the designed step of the last face it crosses (lastFaceStep()), the crossings from the
+    // the designed step of the last face it meets (onwardFaceStep()), the crossings from the
     // source to it, and its children (nodeCode(parent key, object, event), key) sorted.
     std::vector<int> ghostLastSteps_;
     std::vector<std::vector<std::pair<int, EventType>>> ghostRoutes_;

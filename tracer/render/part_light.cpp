@@ -315,11 +315,11 @@ PartLight::PartLight(const TransportView& ts, const LensConnector& connector, in
                 }
                 addOnward(s, static_cast<int>(o), steps, steps, dp.steps());
             }
-            // A ghost route's light goes on from the last face it crossed (it left that face
-            // backward) or the one after it: a part lies between those two faces' steps.
+            // A ghost route's light goes on through one face: the last it met, or the one after
+            // it, by the route's direction (LensConnector::onwardFaceStep).
             for (const int key : ghosts) {
-                const int last = std::max(0, connector.lastFaceStep(key));
-                addOnward(s, static_cast<int>(o), key, last, std::min(last + 1, dp.steps()));
+                const int onward = connector.onwardFaceStep(key);
+                addOnward(s, static_cast<int>(o), key, onward, onward);
             }
         }
     if (candidates.empty()) return;

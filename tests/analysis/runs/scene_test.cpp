@@ -40,7 +40,53 @@ struct Mismatch {
     int count = 0;
     std::string first;
     std::map<int, int> hitsOnObject;  // by the oracle: where the rays went
+    // hitOnFace() against closestHit() where that meets an exact face, and against
+    // intersectFace() on every exact face whatever lies before it.
+    int faceCount = 0, faceHits = 0, faceBeyond = 0;
+    std::string faceFirst;
 };
+
+// One exact face alone (Scene::hitOnFace): where closestHit() meets an exact face first, the
+// same hit (to 1e-12 of the distance: a face without a closed form, such as a toroid, is
+// solved by a root search whose steps depend on the interval searched, and closestHit()
+// searches up to the nearest hit so far); on every exact face, the general intersectFace() of
+// that face alone, to the same tolerance.
+void compareFaces(const Scene& scene, const Ray& ray, int startObject,
+                  const std::optional<SceneHit>& fast, Mismatch& m) {
+    auto note = [&](const std::string& what) {
+        if (m.faceCount++ == 0) {
+            std::ostringstream os;
+            os << ray << " from object " << startObject << ": " << what;
+            m.faceFirst = os.str();
+        }
+    };
+    if (fast && std::holds_alternative<FaceGeometry>(scene.object(fast->object).geometry)) {
+        const auto alone = scene.hitOnFace(ray, fast->object, startObject);
+        const double tol = 1e-12 * std::max(1.0, fast->t);
+        if (!alone || std::abs(alone->t - fast->t) > tol ||
+            glm::length(alone->point - fast->point) > tol ||
+            glm::length(alone->normal - fast->normal) > 1e-9 || alone->fromFront != fast->fromFront)
+            note("hitOnFace differs from closestHit on " + scene.object(fast->object).name);
+        ++m.faceHits;
+    }
+    for (const SceneObject& o : scene.objects()) {
+        const FaceGeometry* f = std::get_if<FaceGeometry>(&o.geometry);
+        if (!f) continue;
+        const auto want =
+            intersectFace(*f, o.frame.toLocal(ray), 0.0, kInfinity, o.id == startObject);
+        const auto got = scene.hitOnFace(ray, o.id, startObject);
+        if (want.has_value() != got.has_value()) {
+            note("hitOnFace and intersectFace disagree on a hit of " + o.name);
+            continue;
+        }
+        if (!want) continue;
+        if (!fast || fast->object != o.id) ++m.faceBeyond;
+        const Vec3 n = o.frame.toGlobalDirection(want->normal);
+        if (std::abs(got->t - want->t) > 1e-12 * std::max(1.0, want->t) ||
+            glm::length(got->normal - n) > 1e-9)
+            note("hitOnFace and intersectFace disagree on " + o.name);
+    }
+}
 
 // `medium`: the medium the ray travels in, as the tracer passes it (-1 unknown); in a sealed
 // medium closestHit() searches the exact faces alone.
@@ -48,6 +94,7 @@ void compare(const Scene& scene, const Ray& ray, int startObject, int startPrimi
              std::optional<SceneHit>* hitOut, int medium = -1) {
     const auto fast = scene.closestHit(ray, kInfinity, startObject, startPrimitive, medium);
     const auto slow = scene.closestHitBruteForce(ray, kInfinity, startObject, startPrimitive);
+    compareFaces(scene, ray, startObject, fast, m);
     if (slow) ++m.hitsOnObject[slow->object];
     if (hitOut) *hitOut = slow;
     bool same = fast.has_value() == slow.has_value();
@@ -230,6 +277,9 @@ TEST_P(SceneClosestHit, AgreesWithBruteForce) {
         EXPECT_TRUE(scene.sealed(static_cast<int>(k))) << scene.media()[k].name;
     EXPECT_GT(sealedRays, compared / 20);
     EXPECT_EQ(m.count, 0) << m.count << " of " << compared << " rays differ; first: " << m.first;
+    EXPECT_EQ(m.faceCount, 0) << m.faceCount << " face hits differ; first: " << m.faceFirst;
+    EXPECT_GT(m.faceHits, compared / 10);    // rays whose nearest hit is an exact face
+    EXPECT_GT(m.faceBeyond, compared / 10);  // faces met behind something nearer
     EXPECT_GT(hits, compared / 4);  // the rays do meet the scene
     // Every object is hit, the small ones (stop edge, flats, spacers) included.
     const SceneObject* least = nullptr;
