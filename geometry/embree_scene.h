@@ -73,6 +73,11 @@ class EmbreeScene {
     void nearestExact(const Ray& ray, int startObject, ExactCandidate& exact) const {
         faces_.nearest(ray, startObject, exact);
     }
+    // One exact face alone (ExactFaceIndex::cross()): entry indexes exactFaces().
+    bool crossExact(int entry, const Ray& ray, int startObject, double tMax,
+                    FaceCrossing& hit) const {
+        return faces_.cross(entry, ray, startObject, tMax, hit);
+    }
     bool empty() const { return meshCount_ == 0 && faces_.empty(); }
     const std::vector<ExactFaceEntry>& exactFaces() const { return faces_.faces(); }
 

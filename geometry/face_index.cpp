@@ -121,13 +121,8 @@ void ExactFaceIndex::nearest(const Ray& ray, int startObject, ExactCandidate& be
             if (tested[k] == entry) return;
         if (testedCount < kMaxTested) tested[testedCount++] = entry;
         const ExactFaceEntry& e = faces_[entry];
-        // A face on the z axis (every lens face) is reached by a shift alone: the same local
-        // ray as the rotation by the identity, without its 18 products.
-        const Ray local = shiftOnly_[entry] ? Ray{ray.origin - e.frame.translation, ray.direction}
-                                            : e.frame.toLocal(ray);
         FaceCrossing hit;
-        if (!prepared_[entry].cross(e.face, local, 0.0, best.t, e.object == startObject, hit))
-            return;
+        if (!cross(entry, ray, startObject, best.t, hit)) return;
         const bool nearer = hit.t < best.t || best.entry < 0 ||
                             (hit.t == best.t && e.object < faces_[best.entry].object);
         if (!nearer) return;

@@ -58,6 +58,22 @@ class ExactFaceIndex {
     // startObject: the scene object the ray starts on (its own root at t ~ 0 is skipped by
     // intersectFace()).
     void nearest(const Ray& ray, int startObject, ExactCandidate& best) const;
+    // Where the ray (global) crosses one entry's face with t in (0, tMax], whatever lies
+    // before it; `hit` in the face's local frame. The same crossing nearest() computes for
+    // that face (its prepared form): bit for bit where nearest() finds the face first, except
+    // on root-searched shapes, whose search depends on the interval (geometry/scene.h).
+    // Inlined: nearest() calls it for every face a ray's bands reach.
+    [[gnu::always_inline]] bool cross(int entry, const Ray& ray, int startObject, double tMax,
+                                      FaceCrossing& hit) const {
+        const ExactFaceEntry& e = faces_[static_cast<size_t>(entry)];
+        // A face on the z axis (every lens face) is reached by a shift alone: the same local
+        // ray as the rotation by the identity, without its 18 products.
+        const Ray local = shiftOnly_[static_cast<size_t>(entry)]
+                              ? Ray{ray.origin - e.frame.translation, ray.direction}
+                              : e.frame.toLocal(ray);
+        return prepared_[static_cast<size_t>(entry)].cross(e.face, local, 0.0, tMax,
+                                                           e.object == startObject, hit);
+    }
 
     const std::vector<ExactFaceEntry>& faces() const { return faces_; }
     bool empty() const { return faces_.empty(); }

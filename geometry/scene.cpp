@@ -162,13 +162,11 @@ void Scene::commit() {
             r.n = glm::cross(mesh.vertices[tri[1]] - r.a, mesh.vertices[tri[2]] - r.a);
         }
     }
-    prepared_.clear();
-    preparedOf_.assign(objects_.size(), -1);
+    exactEntryOf_.assign(objects_.size(), -1);
     for (const SceneObject& o : objects_) {
-        if (const FaceGeometry* f = std::get_if<FaceGeometry>(&o.geometry)) {
+        if (std::holds_alternative<FaceGeometry>(o.geometry)) {
+            exactEntryOf_[static_cast<size_t>(o.id)] = static_cast<int>(exactObjects_.size());
             exactObjects_.push_back(o.id);
-            preparedOf_[static_cast<size_t>(o.id)] = static_cast<int>(prepared_.size());
-            prepared_.emplace_back(*f);
         } else {
             const MeshRef& r = std::get<MeshRef>(o.geometry);
             const uint32_t n = static_cast<uint32_t>(meshes_[r.mesh].triangles.size());
@@ -292,13 +290,11 @@ std::optional<SceneHit> Scene::hitOnFace(const Ray& ray, int object, int startOb
                                          double tMax) const {
     if (!committed_) throw ModelError("scene", "hitOnFace() before commit()");
     const SceneObject& o = objects_[static_cast<size_t>(object)];
-    const int p = preparedOf_[static_cast<size_t>(object)];
-    if (p < 0) return std::nullopt;
-    const FaceGeometry& f = std::get<FaceGeometry>(o.geometry);
+    const int entry = exactEntryOf_[static_cast<size_t>(object)];
+    if (entry < 0) return std::nullopt;
     FaceCrossing hit;
-    if (!prepared_[static_cast<size_t>(p)].cross(f, o.frame.toLocal(ray), 0.0, tMax,
-                                                 object == startObject, hit))
-        return std::nullopt;
+    if (!embree_->crossExact(entry, ray, startObject, tMax, hit)) return std::nullopt;
+    const FaceGeometry& f = std::get<FaceGeometry>(o.geometry);
     const Vec3 normal = hit.hasNormal ? hit.normal : faceNormal(f, hit.point);
     return makeHit(object, 0, hit.t, ray, o.frame.toGlobalDirection(normal));
 }

@@ -174,8 +174,7 @@ class Scene {
     std::vector<TriangleMesh> meshes_;
     std::vector<SceneObject> objects_;
     std::vector<int> exactObjects_;  // ids of objects with FaceGeometry
-    std::vector<PreparedFace> prepared_;  // their faces prepared (hitOnFace())
-    std::vector<int> preparedOf_;         // [object]: index into prepared_, or -1 (a mesh)
+    std::vector<int> exactEntryOf_;  // [object]: its entry in embree_'s exact faces, or -1
     std::vector<ExactBody> bodies_;
     std::vector<unsigned char> sealed_;               // per medium, set by commit()
     std::vector<std::string> bodiesNotClear_;         // "L4: barrel", set by commit()
