@@ -138,7 +138,7 @@ void BM_TraceSun7Ghosts(benchmark::State& state) {
         o.recordHistories = true;
         o.filter = state.range(0) ? &filter : nullptr;
         const TraceResult r =
-            traceNonsequential(f.trace.view, f.trace.images, 500, o, {}, split.callback());
+            traceNonsequential(f.trace.view, f.trace.images, 500, o, {}, split.callback(true));
         split.finish();
         rays += static_cast<double>(r.budget.rays);
         segments += static_cast<double>(r.budget.segments);

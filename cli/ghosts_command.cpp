@@ -74,6 +74,7 @@ void addGhostsCommand(CLI::App& app, GhostsOptions& o) {
                     "less Monte Carlo noise per pixel; 0: the scene's)")
         ->check(CLI::Range(0, 16384))
         ->capture_default_str();
+    addMaxMemory(sub, o.maxMemory, "Monte Carlo check");
 }
 
 int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
@@ -88,6 +89,7 @@ int runGhosts(const CommonOptions& common, const GhostsOptions& o) {
     spec.fieldsDeg = parseFields(o.fields);
     spec.coatings = o.coatings;
     spec.pixels = o.pixels;
+    spec.maxMemoryBytes = static_cast<double>(o.maxMemory);
     spec.monteCarloRays = o.rays;
     spec.seed = o.seed;
     GhostRun run = prepareGhostRun(readScene(common, o.file, catalog), catalog, spec);

@@ -29,6 +29,7 @@ struct GhostsOptions {
     bool noImages = false;
     double decades = 3.0;  // PNG log range
     int pixels = 0;  // detector pixels along the longer side for the ghost images; 0 = the scene's
+    uint64_t maxMemory = 0;  // bytes; 0: the machine's (GhostRunSpec::maxMemoryBytes)
 };
 void addGhostsCommand(CLI::App& app, GhostsOptions& options);
 int runGhosts(const CommonOptions& common, const GhostsOptions& options);

@@ -94,6 +94,14 @@ CLI::Option* addRays(CLI::App* sub, uint64_t& rays, const std::string& help, uin
     return addCount(sub, "-n,--rays", rays, help, min);
 }
 
+CLI::Option* addMaxMemory(CLI::App* sub, uint64_t& bytes, const std::string& what) {
+    return addCount(sub, "--max-memory", bytes,
+                    "the most memory the " + what +
+                        " may take, in bytes (4G: 4e9; default: the machine's memory); the "
+                        "estimate is checked before any work",
+                    0);
+}
+
 void addRunControls(CLI::App* sub, int& threads, uint64_t& seed) {
     sub->add_option("--threads", threads, "worker threads (0: all cores)")
         ->check(CLI::Range(0, 4096))

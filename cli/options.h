@@ -42,6 +42,9 @@ CLI::Option* addRays(CLI::App* sub, uint64_t& rays, const std::string& help, uin
 // A count option of another name (--batch, ...), written like --rays.
 CLI::Option* addCount(CLI::App* sub, const std::string& name, uint64_t& value,
                       const std::string& help, uint64_t min = 1);
+// --max-memory: the most memory the run (`what`: "render", "trace") may take, in bytes, 4G
+// meaning 4e9; 0 (the default): the machine's. The run's estimate is checked before any work.
+CLI::Option* addMaxMemory(CLI::App* sub, uint64_t& bytes, const std::string& what);
 // --threads and --seed.
 void addRunControls(CLI::App* sub, int& threads, uint64_t& seed);
 // -o/--output as a folder (default shown: ./<defaultName>) or as one file.

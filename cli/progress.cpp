@@ -176,7 +176,8 @@ void ProgressReporter::writeLine(double seconds) {
     else if (last_.total > 0)
         os << std::fixed << std::setprecision(1) << 100.0 * last_.done / last_.total << " % ("
            << last_.done << " of " << last_.total << " " << last_.unit << "), "
-           << rateText(rate(last_.done, seconds)) << " " << last_.unit << "/s, ";
+           << rateText(rate(last_.done, seconds)) << " " << last_.unit << "/s, "
+           << (last_.state.empty() ? "" : last_.state + ", ");
     else
         os << last_.done << " " << last_.unit << ", "
            << (last_.state.empty() ? "" : last_.state + ", ") << "ETA "

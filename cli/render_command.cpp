@@ -137,10 +137,7 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
             "auto|N"))
         ->capture_default_str();
     addCount(sub, "--rays-per-pixel", o.raysPerPixel, "backward rays per pixel per pass");
-    addCount(sub, "--max-memory", o.maxMemory,
-             "the most memory the render may take, in bytes (4G: 4e9; default: the machine's "
-             "memory); the estimate is checked before any work",
-             0);
+    addMaxMemory(sub, o.maxMemory, "render");
     sub->add_option("--radius", o.radiusMm,
                     "initial gathering radius r1 in mm (0: 1 % of the scattering parts' size)")
         ->check(CLI::Range(0.0, 1e6))

@@ -43,6 +43,7 @@ void addTraceCommand(CLI::App& app, TraceOptions& o) {
                   "with --where: stop tracing a branch as soon as no criterion can match it "
                   "(faster; then only the criterion images are complete)");
     addPreviewFlags(sub, o.preview);
+    addMaxMemory(sub, o.maxMemory, "trace");
     sub->add_option("--save-rays", o.saveRays,
                     "write every ray's path history to this ray database file "
                     "(docs/ray-database.md); its size is estimated before tracing");
@@ -93,6 +94,7 @@ StrayLightSpec traceSpec(const TraceOptions& o) {
                          "--save-rays without mpirun");
     spec.where = o.where;
     spec.prune = o.prune;
+    spec.maxMemoryBytes = static_cast<double>(o.maxMemory);
     if (!o.saveRays.empty()) {
         // A file veil may create, before the sample traced to size it.
         if (std::filesystem::is_directory(o.saveRays))

@@ -29,6 +29,7 @@ struct TraceOptions {
     std::vector<std::string> where;  // path criteria: one image per criterion plus the rest
     bool prune = false;              // cull branches once every --where criterion is false
     PreviewFlags preview;            // --decades, --range
+    uint64_t maxMemory = 0;          // bytes; 0: the machine's (StrayLightSpec::maxMemoryBytes)
 };
 void addTraceCommand(CLI::App& app, TraceOptions& options);
 int runTrace(const CommonOptions& common, const TraceOptions& options);

@@ -14,10 +14,26 @@ CriterionImages::CriterionImages(std::vector<std::string> criterionTexts,
       criteria_(std::move(criteria)),
       detectorOfObject_(std::move(detectorOfObject)),
       nextDetector_(std::move(nextDetector)),
-      images_(texts_.size() + 1, detectors) {}
+      images_(texts_.size() + 1, detectors),
+      scratch_(images_.size(), std::vector<RayContribution>(detectors.size())) {}
 
-RayCallback CriterionImages::callback() {
+RayCallback CriterionImages::callback(bool everyRay) {
+    everyRay_ = everyRay;
+    nextRay_ = 0;
     return [this](uint64_t ray, const PathHistory& h) { collect(ray, h); };
+}
+
+void CriterionImages::addPending(bool all) {
+    while (!pending_.empty()) {
+        const auto front = pending_.begin();
+        if (!all && front->first != nextRay_) return;
+        for (const Hit& h : front->second) scratch_[h.layer][h.detector].add(h.pixel, h.flux);
+        for (size_t l = 0; l < scratch_.size(); ++l)
+            for (size_t d = 0; d < scratch_[l].size(); ++d)
+                if (!scratch_[l][d].empty()) images_[l][d].add(scratch_[l][d]);
+        nextRay_ = front->first + 1;
+        pending_.erase(front);
+    }
 }
 
 void CriterionImages::collect(uint64_t ray, const PathHistory& h) {
@@ -65,9 +81,10 @@ void CriterionImages::collect(uint64_t ray, const PathHistory& h) {
         for (const auto& [d, pixel] : pixels)
             for (const int c : layers) hits.push_back({c, d, pixel, end.flux});
     }
-    if (hits.empty()) return;
+    if (hits.empty() && !everyRay_) return;
     std::lock_guard<std::mutex> lock(mutex_);
     pending_[ray] = std::move(hits);
+    if (everyRay_) addPending(false);
 }
 
 void CriterionImages::finish(const Ranks& ranks) {
@@ -92,15 +109,7 @@ void CriterionImages::finish(const Ranks& ranks) {
             }
         }
     }
-    std::vector<std::vector<RayContribution>> scratch(
-        images_.size(), std::vector<RayContribution>(images_.empty() ? 0 : images_[0].size()));
-    for (auto& [ray, hits] : pending_) {
-        for (const Hit& h : hits) scratch[h.layer][h.detector].add(h.pixel, h.flux);
-        for (size_t l = 0; l < scratch.size(); ++l)
-            for (size_t d = 0; d < scratch[l].size(); ++d)
-                if (!scratch[l][d].empty()) images_[l][d].add(scratch[l][d]);
-    }
-    pending_.clear();
+    addPending(true);
 }
 
 }  // namespace veil

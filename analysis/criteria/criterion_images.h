@@ -5,8 +5,10 @@
 // detector hit is tested against each criterion (skipping those a PathSummary of the path
 // rules out, analysis/criteria/criteria.h); its flux goes into that criterion's image of that
 // detector when it matches, and into the "rest" image when it matches none. Images are filled in
-// ray order after the trace, so they are the same for any thread count, and each ray's
-// contributions are added once per image (per-ray statistics, like the plain images).
+// ray order, so they are the same for any thread count, and each ray's contributions are added
+// once per image (per-ray statistics, like the plain images). In one process a ray is added as
+// soon as every lower ray has arrived: memory is the images plus the rays in flight. Across
+// ranks each rank keeps its rays' hits (24 bytes a detected path) until finish().
 
 #include <map>
 #include <mutex>
@@ -30,13 +32,20 @@ class CriterionImages {
                     const std::vector<DetectorImage>& detectors, std::vector<int> detectorOfObject,
                     std::vector<int> nextDetector = {});
 
-    // The onRay callback for traceNonsequential (thread-safe).
-    RayCallback callback();
+    // The onRay callback for traceNonsequential (thread-safe). everyRay: the callback sees
+    // every ray index from 0 on, each once (one process); the rays are then added as they
+    // complete in order. Otherwise (a rank's share) they wait for finish().
+    RayCallback callback(bool everyRay);
     // Adds everything collected, in ray order. Call once after the trace. Traced across
     // ranks: every rank calls it, and rank 0 adds all ranks' rays (the others' images stay
     // empty).
     void finish(const Ranks& ranks = Ranks::alone());
 
+    // Rays collected and not added yet (with everyRay, those ahead of a ray still in flight).
+    size_t pendingRays() const {
+        std::lock_guard<std::mutex> lock(mutex_);
+        return pending_.size();
+    }
     size_t criterionCount() const { return texts_.size(); }
     const std::vector<CompiledCriterion>& criteria() const { return criteria_; }
     const std::string& text(size_t c) const { return texts_[c]; }
@@ -51,13 +60,19 @@ class CriterionImages {
         double flux;
     };
     void collect(uint64_t ray, const PathHistory& h);
+    // Adds the pending rays from the front of pending_ on, in order, while they are the next
+    // ones (all of them: to the end). Under mutex_.
+    void addPending(bool all);
 
     std::vector<std::string> texts_;
     std::vector<CompiledCriterion> criteria_;
     std::vector<int> detectorOfObject_, nextDetector_;
     std::vector<std::vector<DetectorImage>> images_;
-    std::mutex mutex_;
-    std::map<uint64_t, std::vector<Hit>> pending_;
+    mutable std::mutex mutex_;
+    std::map<uint64_t, std::vector<Hit>> pending_;  // everyRay: also rays without hits
+    bool everyRay_ = false;
+    uint64_t nextRay_ = 0;                               // everyRay: the lowest ray not added yet
+    std::vector<std::vector<RayContribution>> scratch_;  // [layer][detector]
 };
 
 }  // namespace veil

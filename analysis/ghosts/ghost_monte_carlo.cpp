@@ -47,7 +47,7 @@ GhostMonteCarlo runGhostMonteCarlo(const SceneGeometry& setup, const SceneTransp
         progress(0);
     }
     const TraceResult r = traceNonsequential(trace.view, trace.images, o.raysPerSource, to,
-                                             progress, mc.images->callback());
+                                             progress, mc.images->callback(to.ranks.single()));
     mc.images->finish();
     mc.budget = r.budget;
     mc.emittedRays = o.raysPerSource * trace.view.sources.size();

@@ -13,6 +13,8 @@
 #include "analysis/pictures/layout.h"
 #include "analysis/pictures/path_picture.h"
 #include "analysis/reports/image_output.h"
+#include "analysis/runs/memory_check.h"
+#include "lensdata/errors.h"
 #include "lensdata/glass_catalog.h"
 #include "lensdata/output_file.h"
 #include "tracer/records/detector.h"
@@ -35,6 +37,13 @@ void setPixels(SceneSpec& file, int pixels) {
         const double w = d.sizeMm ? d.sizeMm->x : 1.0, h = d.sizeMm ? d.sizeMm->y : 1.0;
         d.pixelsX = w >= h ? pixels : std::max(1, static_cast<int>(std::lround(pixels * w / h)));
         d.pixelsY = h >= w ? pixels : std::max(1, static_cast<int>(std::lround(pixels * h / w)));
+        if (int64_t(d.pixelsX) * d.pixelsY > kMaxDetectorPixels)
+            throw ParseError({"--pixels", 0, 0},
+                             std::to_string(pixels) + " makes " +
+                                 (d.name.empty() ? "the detector " : "detector '" + d.name + "' ") +
+                                 std::to_string(d.pixelsX) + " x " + std::to_string(d.pixelsY) +
+                                 " pixels, more than " + std::to_string(kMaxDetectorPixels) +
+                                 " in all");
     }
 }
 
@@ -173,10 +182,31 @@ void runGhostAnalysis(GhostRun& run, const GlassCatalog& catalog, const GhostRun
     run.analysis = tracer.analyse();
     run.detector = tracer.detectorIndex();
     if (spec.monteCarloRays >= 1) {
+        // The check's images (the nominal path, each ghost, all ghosts and the rest, on every
+        // detector, beside the traced image) before any of them is taken: a fourth-order
+        // analysis can find thousands of ghosts.
+        uint64_t pixels = 0;
+        for (const DetectorImage& d : ts.images)
+            pixels += static_cast<uint64_t>(d.geometry().pixelCount());
+        const double layers = static_cast<double>(run.analysis.ghosts.size()) + 3.0;
+        const double bytes = residentBytes() + static_cast<double>(pixels) *
+                                                   (kImageBytesPerPixel * (layers + 1.0) + 12.0);
+        std::ostringstream detail;
+        detail << layers << " images of " << pixels
+               << " pixels: one per ghost, the nominal path, all ghosts and the rest";
+        checkMemory(spec.scene.empty() ? run.scene->spec().path.string() : spec.scene,
+                    "Monte Carlo check", bytes, detail.str(),
+                    "lower --pixels, or give -n 0 for the sequential estimate alone",
+                    spec.maxMemoryBytes);
         GhostMonteCarloOptions mo;
         mo.raysPerSource = spec.monteCarloRays;
         mo.transport.seed = spec.seed;
-        mo.progress = spec.progress;
+        if (spec.progress)
+            mo.progress = [sink = spec.progress,
+                           memory = "memory about " + gigabytes(bytes)](ProgressEvent e) {
+                e.state = memory;
+                sink(e);
+            };
         run.monteCarlo = runGhostMonteCarlo(setup, ts, run.analysis, mo);
     }
     const bool haveMc = run.monteCarlo.images != nullptr;

@@ -40,6 +40,8 @@ struct GhostRunSpec {
     int pixels = 0;  // detector pixels along the longer side (square pixels); 0: the scene's
     uint64_t monteCarloRays = 10000;  // per source; 0: the sequential estimate alone
     uint64_t seed = 1;
+    // The most memory the Monte Carlo check's images may take; 0: the machine's.
+    double maxMemoryBytes = 0.0;
     ProgressSink progress;  // the Monte Carlo check's "Monte Carlo" events
 };
 

@@ -15,6 +15,7 @@
 #include "analysis/criteria/render_criteria.h"
 #include "analysis/reports/format.h"
 #include "analysis/reports/image_output.h"
+#include "analysis/runs/memory_check.h"
 #include "lensdata/errors.h"
 #include "lensdata/output_file.h"
 #include "tracer/records/detector.h"
@@ -28,35 +29,6 @@ namespace veil {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-
-// The machine's physical memory, or its container's limit when that is lower (cgroup v2).
-double machineMemoryBytes() {
-    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
-    double bytes = pages > 0 && page > 0 ? static_cast<double>(pages) * page : kInf;
-    std::ifstream limit("/sys/fs/cgroup/memory.max");
-    std::string text;
-    if (limit >> text && text != "max") {
-        char* end = nullptr;
-        const double v = std::strtod(text.c_str(), &end);
-        if (end != text.c_str() && v > 0.0) bytes = std::min(bytes, v);
-    }
-    return bytes;
-}
-
-// What the process holds now (the scene, its meshes and Embree's trees, the glass tables):
-// the render's memory comes on top of it.
-double residentBytes() {
-    std::ifstream statm("/proc/self/statm");
-    double pages = 0.0, resident = 0.0;
-    if (!(statm >> pages >> resident)) return 0.0;
-    return resident * static_cast<double>(sysconf(_SC_PAGE_SIZE));
-}
-
-std::string gigabytes(double bytes) {
-    std::ostringstream os;
-    os << std::setprecision(bytes < 1e9 ? 2 : 3) << bytes / 1e9 << " GB";
-    return os.str();
-}
 
 // FNV-1a over the text that determines a run's numbers: the scene as the renderer sees it and
 // the options that change what a pass computes.
@@ -227,15 +199,12 @@ RenderRun::RenderRun(const PreparedScene& scene, RenderRunSpec spec)
     // allocated 16 GB at 1.5 GB/s before anything said so).
     memoryBytes_ = residentBytes() + renderMemoryBytes(static_cast<uint64_t>(geometry.pixelCount()),
                                                        o, spec_.where.size());
-    const double limit = spec_.maxMemoryBytes > 0.0 ? spec_.maxMemoryBytes : machineMemoryBytes();
-    if (memoryBytes_ > limit) {
-        std::ostringstream m;
-        m << "the render needs about " << gigabytes(memoryBytes_) << " (" << geometry.pixelCount()
-          << " pixels x " << o.raysPerPixel << " rays per pixel, one view point each), more than "
-          << (spec_.maxMemoryBytes > 0.0 ? "--max-memory's " : "this machine's ")
-          << gigabytes(limit) << ": lower --rays-per-pixel or the detector's pixels"
-          << (spec_.maxMemoryBytes > 0.0 ? ", or raise --max-memory" : "");
-        throw ModelError(file, m.str());
+    {
+        std::ostringstream detail;
+        detail << geometry.pixelCount() << " pixels x " << o.raysPerPixel
+               << " rays per pixel, one view point each";
+        checkMemory(file, "render", memoryBytes_, detail.str(),
+                    "lower --rays-per-pixel or the detector's pixels", spec_.maxMemoryBytes);
     }
     if (!spec_.where.empty()) {
         const NameTable names = criterionNames(*ts.scene, ts);

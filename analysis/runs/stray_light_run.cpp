@@ -10,6 +10,7 @@
 #include "analysis/criteria/criterion_names.h"
 #include "analysis/reports/format.h"
 #include "analysis/reports/image_output.h"
+#include "analysis/runs/memory_check.h"
 #include "lensdata/output_file.h"
 #include "tracer/records/detector.h"
 #include "tracer/records/path_history.h"
@@ -36,6 +37,16 @@ std::vector<StrayLightRow> StrayLightResult::report() const {
     return rows;
 }
 
+double traceMemoryBytes(const std::vector<DetectorImage>& detectors, size_t criteria) {
+    double pixels = 0.0;
+    for (const DetectorImage& d : detectors)
+        pixels += static_cast<double>(d.geometry().pixelCount());
+    // The images, the criterion layers (the criteria and the rest), the PNG's range copy
+    // (writeTraceFiles) and the EXR's float channels while a file is written.
+    const double layers = criteria > 0 ? static_cast<double>(criteria + 1) : 0.0;
+    return pixels * (kImageBytesPerPixel * (2.0 + layers) + 16.0 * (1.0 + layers));
+}
+
 StrayLightResult runStrayLight(const PreparedScene& scene, const StrayLightSpec& spec) {
     const SceneTransport& ts = scene.transport();
     StrayLightResult result;
@@ -50,6 +61,24 @@ StrayLightResult runStrayLight(const PreparedScene& scene, const StrayLightSpec&
     if (spec.prune && spec.where.empty())
         throw ModelError(scene.spec().path.string(), "pruning needs at least one criterion");
 
+    // The memory the trace will take, before any of it is taken (a 16384 x 16384 detector
+    // holds 6.4 GB an image).
+    result.memoryBytes = residentBytes() + traceMemoryBytes(ts.images, spec.where.size());
+    {
+        uint64_t pixels = 0;
+        for (const DetectorImage& d : ts.images)
+            pixels += static_cast<uint64_t>(d.geometry().pixelCount());
+        std::ostringstream detail;
+        detail << pixels << " pixels on " << ts.images.size() << " detector"
+               << (ts.images.size() == 1 ? "" : "s");
+        if (!spec.where.empty())
+            detail << ", " << spec.where.size() + 1 << " criterion layers each";
+        checkMemory(result.scene, "trace", result.memoryBytes, detail.str(),
+                    spec.where.empty()
+                        ? "lower the detectors' pixels"
+                        : "lower the detectors' pixels or use fewer --where criteria",
+                    spec.maxMemoryBytes);
+    }
     TransportOptions options = spec.transport;
     if (!spec.where.empty()) {
         const NameTable names = criterionNames(scene.scene(), ts.view);
@@ -66,7 +95,8 @@ StrayLightResult runStrayLight(const PreparedScene& scene, const StrayLightSpec&
     RayCallback onRay;
     if (result.layers || extra) {
         options.recordHistories = true;
-        RayCallback layerCallback = result.layers ? result.layers->callback() : RayCallback{};
+        RayCallback layerCallback =
+            result.layers ? result.layers->callback(options.ranks.single()) : RayCallback{};
         onRay = [layerCallback, extra](uint64_t i, const PathHistory& h) {
             if (layerCallback) layerCallback(i, h);
             if (extra) extra(i, h);
@@ -76,7 +106,12 @@ StrayLightResult runStrayLight(const PreparedScene& scene, const StrayLightSpec&
     std::function<void(uint64_t)> progress;
     if (spec.progress) {
         const uint64_t total = spec.raysPerSource * ts.view.sources.size();
-        progress = [&spec, total](uint64_t done) { spec.progress({"trace", done, total}); };
+        const std::string memory = "memory about " + gigabytes(result.memoryBytes);
+        progress = [&spec, total, memory](uint64_t done) {
+            ProgressEvent e("trace", done, total);
+            e.state = memory;
+            spec.progress(e);
+        };
         progress(0);
     }
     TraceResult traced =

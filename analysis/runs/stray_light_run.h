@@ -45,6 +45,8 @@ struct StrayLightSpec {
     std::function<RayCallback()> openConsumer;
     // "trace" events, the rays done of every source's (from one thread; may be empty).
     ProgressSink progress;
+    // The most memory the run may take (traceMemoryBytes); 0: the machine's.
+    double maxMemoryBytes = 0.0;
 };
 
 // One row of the report: a detector's total or one of its criterion layers.
@@ -63,6 +65,7 @@ struct StrayLightResult {
     uint64_t emittedRays = 0;
     std::string fluxUnit;  // "W" or "lm"
     double seconds = 0.0;  // wall time of the trace
+    double memoryBytes = 0.0;  // the estimate checked before the trace (traceMemoryBytes)
     // What the run was, for its reports.
     std::string scene;
     uint64_t raysPerSource = 0, seed = 0;
@@ -87,6 +90,13 @@ struct StrayLightResult {
 std::vector<std::filesystem::path> writeTraceFiles(const StrayLightResult& result,
                                                    const std::filesystem::path& folder,
                                                    const PreviewScale& scale = {});
+
+// About how many bytes a trace holds at its peak beyond what the process holds before it: per
+// detector its image and, with criteria, one image per criterion and the rest (each 24 bytes a
+// pixel), plus the copy its PNG is scaled on; the rays in flight are a few blocks' logs,
+// whatever the ray count. runStrayLight checks it against the machine's memory (or
+// maxMemoryBytes) before the first ray.
+double traceMemoryBytes(const std::vector<DetectorImage>& detectors, size_t criteria);
 
 // Throws ParseError for a criterion that does not parse or names nothing in the scene, and
 // ModelError when the scene has no source or prune is asked without criteria, before tracing.

@@ -162,6 +162,24 @@ TEST(VeilGhosts, BadInputNamesTheOptionAndExitsWithTwo) {
     EXPECT_NE(r.err.find("window"), std::string::npos) << r.err;
     r = runVeil("ghosts examples/lenses/singlet.toml --order 3 -o " + out);
     EXPECT_EQ(r.exitCode, 2);
+    // A --pixels past the detectors' limit names the option; the Monte Carlo check's images
+    // (one per ghost, the nominal path, all ghosts and the rest) are sized before any is taken.
+    r = runVeil("ghosts examples/lenses/singlet.toml --pixels 7000 -o " + out);
+    EXPECT_EQ(r.exitCode, 2);
+    EXPECT_NE(r.err.find("--pixels: 7000 makes the detector 7000 x 7000 pixels, more than "
+                         "33554432 in all"),
+              std::string::npos)
+        << r.err;
+    r = runVeil("ghosts examples/lenses/cooke_triplet.toml --pixels 4096 --max-memory 1G -o " +
+                out);
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_NE(r.err.find("the Monte Carlo check needs about 7."), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("(18 images of 16777216 pixels: one per ghost"), std::string::npos)
+        << r.err;
+    EXPECT_NE(r.err.find("lower --pixels, or give -n 0 for the sequential estimate alone, or "
+                         "raise --max-memory"),
+              std::string::npos)
+        << r.err;
     // Nothing written by the failed runs.
     EXPECT_FALSE(std::filesystem::exists(out + "/ghosts.json"));
 }

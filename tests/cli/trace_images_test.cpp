@@ -163,3 +163,36 @@ TEST(VeilTrace, ImportWarningsAreGroupedWithTheGlassesFirst) {
         EXPECT_EQ(r.err.find("unknown command 'FROB'"), std::string::npos) << r.err;
     }
 }
+
+namespace {
+
+// The trace states its memory estimate and refuses, before any ray and with nothing written,
+// a run that would not fit: each criterion adds an image of every detector's pixels.
+TEST(VeilTrace, MemoryIsEstimatedAndCheckedBeforeTheFirstRay) {
+    const std::filesystem::path dir =
+        std::filesystem::path(::testing::TempDir()) / "veil_trace_memory";
+    std::filesystem::remove_all(dir);
+    const std::string big = "--set detector.pixels[1]=4096 --set detector.pixels[2]=4096 ";
+    VeilRun r = runVeil(big +
+                        "trace examples/scenes/longfocus_360mm_sun.toml -n 100 --where scatter "
+                        "--where 'reflect{2}' --max-memory 2G -o " +
+                        dir.string());
+    EXPECT_EQ(r.exitCode, 1);
+    // 16777216 pixels x (24 bytes x (2 + 3 layers) + 16 x (1 + 3)): 3.09 GB with the process.
+    EXPECT_NE(r.err.find("the trace needs about 3."), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("(16777216 pixels on 1 detector, 3 criterion layers each)"),
+              std::string::npos)
+        << r.err;
+    EXPECT_NE(r.err.find("more than --max-memory's 2 GB: lower the detectors' pixels or use "
+                         "fewer --where criteria, or raise --max-memory"),
+              std::string::npos)
+        << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir));
+    // Within the limit the estimate is shown with the progress.
+    r = runVeil("trace examples/scenes/longfocus_360mm_sun.toml -n 200 --threads 1 -o " +
+                dir.string());
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.err.find(", memory about 0.0"), std::string::npos) << r.err;
+}
+
+}  // namespace

@@ -205,7 +205,9 @@ DetectorGeometry placeDetector(const DetectorSpec& spec, const Scene& scene) {
     g.heightMm = size->y;
     defaultPixels(g, spec.pixelsX, spec.pixelsY);
     if (int64_t(g.pixelsX) * g.pixelsY > kMaxDetectorPixels)
-        throw ParseError(spec.loc, "detector '" + g.name + "' has too many pixels");
+        throw ParseError(spec.loc, "detector '" + g.name + "' has " + std::to_string(g.pixelsX) +
+                                       " x " + std::to_string(g.pixelsY) + " pixels, more than " +
+                                       std::to_string(kMaxDetectorPixels) + " in all");
     requireSquarishPixels(g, spec);
     return g;
 }

@@ -247,7 +247,7 @@ std::vector<Share> sharesByCriterion(const SceneGeometry& setup, const SceneTran
     o.seed = seed;
     o.recordHistories = true;
     const TraceResult res =
-        traceNonsequential(trace.view, trace.images, n, o, {}, split.callback());
+        traceNonsequential(trace.view, trace.images, n, o, {}, split.callback(true));
     split.finish();
     const FluxBudget& b = res.budget;
     EXPECT_NEAR(b.emitted, expectedEmitted, 1e-12 * expectedEmitted);

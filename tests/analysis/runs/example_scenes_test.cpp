@@ -63,7 +63,7 @@ std::vector<Flux> fluxByCriterion(const Prepared& s, const std::vector<std::stri
     o.recordHistories = true;
     if (prune) o.filter = &filter;
     const TraceResult res =
-        traceNonsequential(s.trace.view, s.trace.images, rays, o, {}, split.callback());
+        traceNonsequential(s.trace.view, s.trace.images, rays, o, {}, split.callback(true));
     split.finish();
     EXPECT_LT(std::abs(res.budget.imbalance()), 1e-12 * res.budget.emitted) << res.budget;
     if (emitted) *emitted = res.budget.emitted;

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <memory>
 #include <sstream>
 #include <variant>
 
@@ -445,7 +446,7 @@ pixels = [72, 48]
     o.seed = 21;
     o.recordHistories = true;
     const TraceResult res =
-        traceNonsequential(r.trace.view, r.trace.images, 4000, o, {}, split.callback());
+        traceNonsequential(r.trace.view, r.trace.images, 4000, o, {}, split.callback(true));
     split.finish();
     const DetectorImage& whole = res.detectors[0];
     const DetectorImage& ghosts = split.images()[0][0];
@@ -459,6 +460,51 @@ pixels = [72, 48]
             << "pixel " << p;
     EXPECT_NEAR(ghosts.totalFlux() + others.totalFlux(), whole.totalFlux(),
                 1e-12 * whole.totalFlux());
+}
+
+// The criterion layers of one process are added as their rays complete, in ray order: no ray
+// is left waiting once the trace is done (memory is the images plus the rays in flight, not
+// every detected path), and the images are bitwise those added after the trace, on 1 or 2
+// threads.
+TEST(Transport, CriterionImagesStreamInRayOrder) {
+    const auto path =
+        writeScene("where_stream", "lens = \"" + kLenses + "double_gauss_50mm.toml\"\n" + R"(
+[mechanics]
+[[source]]
+kind = "sun"
+field_deg = [0.0, 12.0]
+[detector]
+size_mm = [36.0, 24.0]
+pixels = [72, 48]
+)");
+    Prepared r = prepare(path);
+    const NameTable names = criterionNames(r.setup->scene, r.trace.view);
+    const std::vector<std::string> texts = {"reflect{2}"};
+    std::vector<CompiledCriterion> compiled;
+    for (const std::string& t : texts) compiled.push_back(compile(parseCriterion(t), names));
+    auto run = [&](bool everyRay, int threads) {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+        auto split = std::make_unique<CriterionImages>(texts, compiled, r.trace.images,
+                                                       r.trace.view.detectorOfObject);
+        TransportOptions o;
+        o.seed = 23;
+        o.raysPerBlock = 64;
+        o.recordHistories = true;
+        traceNonsequential(r.trace.view, r.trace.images, 3000, o, {}, split->callback(everyRay));
+        if (everyRay) {
+            EXPECT_EQ(split->pendingRays(), 0u);
+        } else {
+            EXPECT_GT(split->pendingRays(), 100u);
+        }
+        split->finish();
+        return split;
+    };
+    const auto after = run(false, 2), streamed1 = run(true, 1), streamed2 = run(true, 2);
+    ASSERT_GT(after->images()[0][0].totalFlux(), 0.0);
+    for (size_t l = 0; l < 2; ++l) {
+        EXPECT_TRUE(streamed1->images()[l][0].sameSums(after->images()[l][0])) << "layer " << l;
+        EXPECT_TRUE(streamed2->images()[l][0].sameSums(after->images()[l][0])) << "layer " << l;
+    }
 }
 
 // Online pruning: with the branches that can no longer match culled as they go, the
@@ -491,7 +537,7 @@ pixels = [36, 24]
         o.recordHistories = true;
         o.filter = prune ? &filter : nullptr;
         const TraceResult res =
-            traceNonsequential(r.trace.view, r.trace.images, n, o, {}, split.callback());
+            traceNonsequential(r.trace.view, r.trace.images, n, o, {}, split.callback(true));
         split.finish();
         segments = res.budget.segments;
         EXPECT_LT(std::abs(res.budget.imbalance()), 1e-12 * res.budget.emitted);
