@@ -420,7 +420,7 @@ bool leftoverTemporary(const std::filesystem::path& p) {
     if (ext != ".tmp" && ext != ".partial") return false;
     const std::string inner = p.stem().extension().string();
     for (const char* e : {".exr", ".png", ".svg", ".json", ".csv", ".md", ".vrdb", ".obj", ".ply",
-                          ".txt"})
+                          ".txt", ".checkpoint"})
         if (inner == e) return true;
     return false;
 }
@@ -523,7 +523,8 @@ void WrittenFiles::unlock() {
     lock_.clear();
 }
 
-void WrittenFiles::beginRun(const std::filesystem::path& folder, bool keepFiles) {
+void WrittenFiles::beginRun(const std::filesystem::path& folder, bool keepFiles,
+                            const std::vector<std::filesystem::path>& keep) {
     namespace fs = std::filesystem;
     folder_ = folder;
     if (folder.empty()) return;
@@ -567,7 +568,12 @@ void WrittenFiles::beginRun(const std::filesystem::path& folder, bool keepFiles)
          !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
         if (it.depth() > 1) it.disable_recursion_pending();
         std::error_code removed;
-        if (it->is_regular_file() && leftoverTemporary(it->path())) fs::remove(it->path(), removed);
+        const bool kept = std::any_of(keep.begin(), keep.end(), [&](const fs::path& k) {
+            std::error_code same;
+            return fs::equivalent(k, it->path(), same);
+        });
+        if (it->is_regular_file() && leftoverTemporary(it->path()) && !kept)
+            fs::remove(it->path(), removed);
     }
 }
 

@@ -142,8 +142,10 @@ class WrittenFiles {
     nlohmann::json json() const;
     // No-ops for an empty folder (a --json run without -o writes nothing).
     // keepFiles (a resumable command: render --resume, sweep): the older run's files stay
-    // to be continued or overwritten; its manifest and temporaries go.
-    void beginRun(const std::filesystem::path& folder, bool keepFiles = false);
+    // to be continued or overwritten; its manifest and temporaries go, except `keep` (the
+    // partial ray database a resumed trace goes on writing).
+    void beginRun(const std::filesystem::path& folder, bool keepFiles = false,
+                  const std::vector<std::filesystem::path>& keep = {});
     void finishRun();
 
   private:

@@ -30,6 +30,8 @@ struct TraceOptions {
     bool prune = false;              // cull branches once every --where criterion is false
     PreviewFlags preview;            // --decades, --range
     uint64_t maxMemory = 0;          // bytes; 0: the machine's (StrayLightSpec::maxMemoryBytes)
+    std::string resume;              // folder of a killed run to go on with (its trace.checkpoint)
+    double checkpointSeconds = 60.0;  // a checkpoint at most this often (0: after every block)
 };
 void addTraceCommand(CLI::App& app, TraceOptions& options);
 int runTrace(const CommonOptions& common, const TraceOptions& options);

@@ -1,5 +1,7 @@
 #include "analysis/criteria/criterion_images.h"
 
+#include <stdexcept>
+
 #include "tracer/records/detector.h"
 #include "tracer/records/path_history.h"
 #include "tracer/transport/interaction.h"
@@ -19,8 +21,22 @@ CriterionImages::CriterionImages(std::vector<std::string> criterionTexts,
 
 RayCallback CriterionImages::callback(bool everyRay) {
     everyRay_ = everyRay;
-    nextRay_ = 0;
     return [this](uint64_t ray, const PathHistory& h) { collect(ray, h); };
+}
+
+void CriterionImages::restore(uint64_t nextRay, std::vector<std::vector<DetectorImage>> images) {
+    if (!everyRay_)
+        throw std::invalid_argument("CriterionImages::restore: only a one-process trace goes on");
+    bool same = images.size() == images_.size();
+    for (size_t l = 0; same && l < images.size(); ++l) {
+        same = images[l].size() == images_[l].size();
+        for (size_t d = 0; same && d < images[l].size(); ++d)
+            same = images[l][d].geometry().pixelCount() == images_[l][d].geometry().pixelCount();
+    }
+    if (!same) throw std::invalid_argument("CriterionImages::restore: not this run's layers");
+    std::lock_guard<std::mutex> lock(mutex_);
+    images_ = std::move(images);
+    nextRay_ = resumeBelow_ = nextRay;
 }
 
 void CriterionImages::addPending(bool all) {
@@ -37,6 +53,7 @@ void CriterionImages::addPending(bool all) {
 }
 
 void CriterionImages::collect(uint64_t ray, const PathHistory& h) {
+    if (ray < resumeBelow_) return;  // a resumed run's ray, added before
     std::vector<Hit> hits;
     std::vector<NodeIndex> chain;
     std::vector<PathEvent> events;

@@ -10,6 +10,7 @@
 // soon as every lower ray has arrived: memory is the images plus the rays in flight. Across
 // ranks each rank keeps its rays' hits (24 bytes a detected path) until finish().
 
+#include <functional>
 #include <map>
 #include <mutex>
 #include <string>
@@ -41,6 +42,18 @@ class CriterionImages {
     // empty).
     void finish(const Ranks& ranks = Ranks::alone());
 
+    // A checkpoint's part (one process, everyRay): `f(nextRay, images)` under the lock, the
+    // rays below nextRay being in the images.
+    void withState(
+        const std::function<void(uint64_t, const std::vector<std::vector<DetectorImage>>&)>& f)
+        const {
+        std::lock_guard<std::mutex> lock(mutex_);
+        f(nextRay_, images_);
+    }
+    // Goes on from a checkpoint's state (before the trace, after callback(true)): the rays below
+    // nextRay are in `images` and are ignored when traced again. Throws std::invalid_argument
+    // when the images are not this run's layers.
+    void restore(uint64_t nextRay, std::vector<std::vector<DetectorImage>> images);
     // Rays collected and not added yet (with everyRay, those ahead of a ray still in flight).
     size_t pendingRays() const {
         std::lock_guard<std::mutex> lock(mutex_);
@@ -72,6 +85,7 @@ class CriterionImages {
     std::map<uint64_t, std::vector<Hit>> pending_;  // everyRay: also rays without hits
     bool everyRay_ = false;
     uint64_t nextRay_ = 0;                               // everyRay: the lowest ray not added yet
+    uint64_t resumeBelow_ = 0;  // restored: the rays below this are in the images already
     std::vector<std::vector<RayContribution>> scratch_;  // [layer][detector]
 };
 

@@ -16,10 +16,12 @@
 #include "analysis/reports/format.h"
 #include "analysis/reports/image_output.h"
 #include "analysis/runs/memory_check.h"
+#include "analysis/runs/scene_fingerprint.h"
 #include "lensdata/errors.h"
 #include "lensdata/output_file.h"
 #include "tracer/records/detector.h"
 #include "tracer/runtime/deadline.h"
+#include "tracer/runtime/fingerprint.h"
 #include "tracer/scene/prepared_scene.h"
 #include "tracer/scene/scene_transport.h"
 #include "tracer/transport/interaction.h"
@@ -35,12 +37,7 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 uint64_t fingerprintOf(const TransportView& ts, const DetectorGeometry& g, const ExitAperture& a,
                        const RenderOptions& o, const std::vector<std::string>& where) {
     std::ostringstream os;
-    os << std::setprecision(17);
-    for (const SceneObject& obj : ts.scene->objects()) os << obj << "\n";
-    os << ts.scene->bounds() << "\n";
-    for (const OpticalProperty& p : ts.properties) os << p << "\n";
-    for (int p : ts.propertyOfObject) os << p << ",";
-    for (const Source& s : ts.sources) os << s << "\n";
+    putSceneFingerprint(os, ts);
     os << g << "\n" << a << "\n";
     os << o.raysPerPixel << " " << o.photonsPerPass << " " << o.initialRadiusMm << " " << o.alpha
        << " " << o.seed << " " << o.splitBackward << " " << o.minRelativeWeight << " "
@@ -55,13 +52,7 @@ uint64_t fingerprintOf(const TransportView& ts, const DetectorGeometry& g, const
        << o.balancePhotonsByError << " " << o.aimedSplats << " " << o.partDirections << " "
        << o.ghostRoutes << " " << o.partSplitByLight;
     for (const std::string& w : where) os << "\nwhere " << w;
-    const std::string text = os.str();
-    uint64_t h = 1469598103934665603ull;
-    for (unsigned char c : text) {
-        h ^= c;
-        h *= 1099511628211ull;
-    }
-    return h;
+    return fnv1a64(os.str());
 }
 
 double targetErrorOf(const RenderState& state, const RenderTarget& target) {

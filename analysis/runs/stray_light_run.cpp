@@ -5,15 +5,19 @@
 #include <cmath>
 #include <iomanip>
 #include <limits>
+#include <optional>
 #include <sstream>
 
 #include "analysis/criteria/criterion_names.h"
 #include "analysis/reports/format.h"
 #include "analysis/reports/image_output.h"
 #include "analysis/runs/memory_check.h"
+#include "analysis/runs/scene_fingerprint.h"
+#include "lensdata/errors.h"
 #include "lensdata/output_file.h"
 #include "tracer/records/detector.h"
 #include "tracer/records/path_history.h"
+#include "tracer/runtime/fingerprint.h"
 #include "tracer/scene/prepared_scene.h"
 #include "tracer/scene/scene_transport.h"
 
@@ -46,6 +50,23 @@ double traceMemoryBytes(const std::vector<DetectorImage>& detectors, size_t crit
     const double layers = criteria > 0 ? static_cast<double>(criteria + 1) : 0.0;
     return pixels * (kImageBytesPerPixel * (2.0 + layers) + 16.0 * (1.0 + layers));
 }
+
+namespace {
+
+// FNV-1a over what determines a trace's numbers: the scene as the tracer sees it, the rays, the
+// transport options, the criteria and the per-ray consumer.
+uint64_t traceFingerprint(const TransportView& ts, const std::vector<DetectorImage>& detectors,
+                          const StrayLightSpec& spec, const TransportOptions& o) {
+    std::ostringstream os;
+    putSceneFingerprint(os, ts);
+    for (const DetectorImage& d : detectors) os << d.geometry() << "\n";
+    os << spec.raysPerSource << " " << o << " " << o.raysPerBlock << " " << spec.prune << "\n";
+    for (const std::string& w : spec.where) os << "where " << w << "\n";
+    os << "consumer " << spec.consumerKey;
+    return fnv1a64(os.str());
+}
+
+}  // namespace
 
 StrayLightResult runStrayLight(const PreparedScene& scene, const StrayLightSpec& spec) {
     const SceneTransport& ts = scene.transport();
@@ -91,6 +112,19 @@ StrayLightResult runStrayLight(const PreparedScene& scene, const StrayLightSpec&
         filter = std::make_unique<CriteriaFilter>(result.layers->criteria());
         options.filter = filter.get();
     }
+    // A run that goes on from its checkpoint: every part (the images, the layers, the
+    // consumer) back at its own mark, before the consumer opens.
+    const bool checkpoints = !spec.checkpoint.empty();
+    if (checkpoints && !options.ranks.single())
+        throw ModelError(result.scene, "checkpoints need one process (not mpirun)");
+    const uint64_t fingerprint =
+        checkpoints ? traceFingerprint(ts.view, ts.images, spec, options) : 0;
+    std::optional<TraceCheckpoint> resumed;
+    if (checkpoints && spec.resume) {
+        resumed = readTraceCheckpoint(spec.checkpoint, fingerprint, ts.images,
+                                      spec.where.empty() ? 0 : spec.where.size() + 1);
+        if (resumed->hasConsumer && spec.restoreConsumer) spec.restoreConsumer(resumed->consumer);
+    }
     const RayCallback extra = spec.openConsumer ? spec.openConsumer() : RayCallback{};
     RayCallback onRay;
     if (result.layers || extra) {
@@ -102,20 +136,51 @@ StrayLightResult runStrayLight(const PreparedScene& scene, const StrayLightSpec&
             if (extra) extra(i, h);
         };
     }
+    const uint64_t total = spec.raysPerSource * ts.view.sources.size();
+    TraceContinuation continuation;
+    if (resumed) {
+        const uint64_t block = std::max<uint64_t>(1, options.raysPerBlock);
+        uint64_t lowest = resumed->added;
+        if (resumed->hasLayers) {
+            lowest = std::min(lowest, resumed->layersNextRay);
+            result.layers->restore(resumed->layersNextRay, std::move(resumed->layers));
+        }
+        if (resumed->hasConsumer) lowest = std::min(lowest, resumed->consumer.nextRay);
+        if (resumed->added > total)
+            throw ParseError({"--resume", 0, 0},
+                             spec.checkpoint.string() + ": is damaged (more rays than the run's)");
+        continuation.start = lowest / block * block;
+        result.resumedFromRay = continuation.start;
+        continuation.added = resumed->added;
+        continuation.budget = resumed->budget;
+        continuation.images = std::move(resumed->images);
+    }
+    auto lastCheckpoint = std::chrono::steady_clock::now();
+    if (checkpoints)
+        continuation.afterBlock = [&](uint64_t added, const FluxBudget& b,
+                                      const std::vector<DetectorImage>& images) {
+            const auto now = std::chrono::steady_clock::now();
+            if (added >= total || std::chrono::duration<double>(now - lastCheckpoint).count() <
+                                      spec.checkpointSeconds)
+                return;
+            const ConsumerMark mark = spec.consumerMark ? spec.consumerMark() : ConsumerMark{};
+            writeTraceCheckpoint(spec.checkpoint, fingerprint, added, b, images,
+                                 result.layers.get(), spec.consumerMark ? &mark : nullptr);
+            lastCheckpoint = now;
+        };
     const auto start = std::chrono::steady_clock::now();
     std::function<void(uint64_t)> progress;
     if (spec.progress) {
-        const uint64_t total = spec.raysPerSource * ts.view.sources.size();
         const std::string memory = "memory about " + gigabytes(result.memoryBytes);
         progress = [&spec, total, memory](uint64_t done) {
             ProgressEvent e("trace", done, total);
             e.state = memory;
             spec.progress(e);
         };
-        progress(0);
+        progress(continuation.start);
     }
-    TraceResult traced =
-        traceNonsequential(ts.view, ts.images, spec.raysPerSource, options, progress, onRay);
+    TraceResult traced = traceNonsequential(ts.view, ts.images, spec.raysPerSource, options,
+                                            progress, onRay, checkpoints ? &continuation : nullptr);
     if (result.layers) result.layers->finish(options.ranks);
     result.seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

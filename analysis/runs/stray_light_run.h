@@ -23,6 +23,7 @@
 #include "analysis/criteria/criterion_images.h"
 #include "analysis/reports/image_output.h"
 #include "analysis/reports/progress.h"
+#include "analysis/runs/trace_checkpoint.h"
 
 namespace veil {
 
@@ -47,6 +48,18 @@ struct StrayLightSpec {
     ProgressSink progress;
     // The most memory the run may take (traceMemoryBytes); 0: the machine's.
     double maxMemoryBytes = 0.0;
+    // Checkpoints (one process; analysis/runs/trace_checkpoint.h): the run's state written to
+    // `checkpoint` after a block of rays, at most every checkpointSeconds (0: after every
+    // block); with resume the run goes on from that file, to the result it would have had.
+    std::filesystem::path checkpoint;
+    double checkpointSeconds = 60.0;
+    bool resume = false;
+    // The per-ray consumer's part of a checkpoint (the ray database's mark), taken with each;
+    // on resume given back before openConsumer is called. consumerKey names the consumer in
+    // the run's fingerprint ("" for none).
+    std::function<ConsumerMark()> consumerMark;
+    std::function<void(const ConsumerMark&)> restoreConsumer;
+    std::string consumerKey;
 };
 
 // One row of the report: a detector's total or one of its criterion layers.
@@ -63,6 +76,7 @@ struct StrayLightResult {
     std::vector<DetectorImage> images;        // one per detector
     std::unique_ptr<CriterionImages> layers;  // null without criteria
     uint64_t emittedRays = 0;
+    uint64_t resumedFromRay = 0;  // resumed: the first ray traced again (not in summary())
     std::string fluxUnit;  // "W" or "lm"
     double seconds = 0.0;  // wall time of the trace
     double memoryBytes = 0.0;  // the estimate checked before the trace (traceMemoryBytes)

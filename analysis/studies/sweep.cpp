@@ -20,6 +20,7 @@
 #include "lensdata/input_file.h"
 #include "lensdata/output_file.h"
 #include "lensdata/toml_document.h"
+#include "tracer/runtime/fingerprint.h"
 #include "tracer/scene/prepared_scene.h"
 #include "tracer/scene/scene_spec.h"
 #include "tracer/transport/interaction.h"
@@ -68,12 +69,7 @@ std::vector<std::string> split(const std::string& s, char sep) {
 
 // FNV-1a, 64 bit: a stable fingerprint of a file's text.
 std::string textHash(const std::filesystem::path& path) {
-    const std::string text = readInputFile(path).value_or("");
-    uint64_t h = 1469598103934665603ull;
-    for (unsigned char c : text) {
-        h ^= c;
-        h *= 1099511628211ull;
-    }
+    const uint64_t h = fnv1a64(readInputFile(path).value_or(""));
     std::ostringstream os;
     os << std::hex << std::setw(16) << std::setfill('0') << h;
     return os.str();

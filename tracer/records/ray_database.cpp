@@ -280,6 +280,18 @@ struct RayDatabaseWriter::Impl {
     uint32_t chunkRecords = 0;
     std::vector<RayDatabaseChunk> index;
     RayDatabaseSummary summary;
+    RayDatabaseMark lastMark;  // after the last whole chunk (mark())
+    uint64_t resumeBelow = 0;  // a resumed writer ignores the rays below this
+
+    // The file, its partial name, what it describes and the options (chunk size clamped).
+    void name(std::filesystem::path p, RayDatabaseInfo i, const RayDatabaseOptions& o) {
+        path = std::move(p);
+        temp = path;
+        temp += ".partial";
+        info = std::move(i);
+        options = o;
+        options.chunkBytes = std::clamp<size_t>(o.chunkBytes, 1, size_t{1} << 31);
+    }
 
     void write(const uint8_t* data, size_t n) {
         if (n != 0 && std::fwrite(data, 1, n, file) != n) {
@@ -381,6 +393,22 @@ struct RayDatabaseWriter::Impl {
         chunk.clear();
         chunkRecords = 0;
         ++summary.chunks;
+        // The chunk on the system's side, so a killed process leaves it in the file.
+        if (std::fflush(file) != 0)
+            throw RayDatabaseError(temp, offset,
+                                   std::string("write failed: ") + std::strerror(errno));
+        setMark(prevRay + 1);
+    }
+
+    // The mark after the file's last whole chunk (or its header): the rays below nextRay are
+    // in it.
+    void setMark(uint64_t nextRay) {
+        lastMark.bytes = offset;
+        lastMark.nextRay = nextRay;
+        lastMark.index = index;
+        lastMark.summary = summary;
+        lastMark.anyRay = nextRay > options.firstRay;
+        lastMark.highest = lastMark.anyRay ? nextRay - 1 : 0;
     }
 
     void abandon() noexcept {
@@ -395,12 +423,7 @@ RayDatabaseWriter::RayDatabaseWriter(std::filesystem::path path, RayDatabaseInfo
                                      RayDatabaseOptions options)
     : impl_(std::make_unique<Impl>()) {
     Impl& w = *impl_;
-    w.path = std::move(path);
-    w.temp = w.path;
-    w.temp += ".partial";
-    w.info = std::move(info);
-    w.options = options;
-    w.options.chunkBytes = std::clamp<size_t>(options.chunkBytes, 1, size_t{1} << 31);
+    w.name(std::move(path), std::move(info), options);
     w.next = options.firstRay;
     const std::vector<uint8_t> header = encodeHeader(w.info);
     w.file = std::fopen(w.temp.c_str(), "wb");
@@ -409,10 +432,61 @@ RayDatabaseWriter::RayDatabaseWriter(std::filesystem::path path, RayDatabaseInfo
     }
     try {
         w.write(header.data(), header.size());
+        if (std::fflush(w.file) != 0)
+            throw RayDatabaseError(w.temp, 0, std::string("write failed: ") + std::strerror(errno));
     } catch (...) {
         w.abandon();
         throw;
     }
+    w.resumeBelow = w.next;
+    w.setMark(w.next);
+}
+
+RayDatabaseMark RayDatabaseWriter::mark() const {
+    std::lock_guard<std::mutex> lock(impl_->mutex);
+    return impl_->lastMark;
+}
+
+RayDatabaseWriter::RayDatabaseWriter(std::filesystem::path path, RayDatabaseInfo info,
+                                     RayDatabaseOptions options, const RayDatabaseMark& mark)
+    : impl_(std::make_unique<Impl>()) {
+    Impl& w = *impl_;
+    w.name(std::move(path), std::move(info), options);
+    const std::vector<uint8_t> header = encodeHeader(w.info);
+    std::error_code ec;
+    const uint64_t size = std::filesystem::file_size(w.temp, ec);
+    if (ec)
+        throw RayDatabaseError(w.temp, 0,
+                               "cannot continue the run's ray database: " + ec.message());
+    if (size < mark.bytes || mark.bytes < header.size())
+        throw RayDatabaseError(w.temp, size,
+                               "holds " + std::to_string(size) + " bytes, not the " +
+                                   std::to_string(mark.bytes) + " the run had written");
+    w.file = std::fopen(w.temp.c_str(), "r+b");
+    if (!w.file)
+        throw RayDatabaseError(w.temp, 0, std::string("cannot open: ") + std::strerror(errno));
+    std::vector<uint8_t> head(header.size());
+    if (std::fread(head.data(), 1, head.size(), w.file) != head.size() || head != header) {
+        std::fclose(w.file);
+        w.file = nullptr;
+        throw RayDatabaseError(w.temp, 0,
+                               "its header is not this run's (another scene or options)");
+    }
+    std::filesystem::resize_file(w.temp, mark.bytes, ec);
+    if (ec || std::fseek(w.file, static_cast<long>(mark.bytes), SEEK_SET) != 0) {
+        std::fclose(w.file);
+        w.file = nullptr;
+        throw RayDatabaseError(w.temp, mark.bytes,
+                               "cannot cut back: " + (ec ? ec.message() : std::strerror(errno)));
+    }
+    w.offset = mark.bytes;
+    w.next = std::max(mark.nextRay, options.firstRay);
+    w.resumeBelow = w.next;
+    w.index = mark.index;
+    w.summary = mark.summary;
+    w.anyRay = mark.anyRay;
+    w.highest = mark.highest;
+    w.lastMark = mark;
 }
 
 RayDatabaseWriter::~RayDatabaseWriter() {
@@ -421,6 +495,7 @@ RayDatabaseWriter::~RayDatabaseWriter() {
 
 void RayDatabaseWriter::add(uint64_t rayIndex, const PathHistory& history) {
     Impl& w = *impl_;
+    if (rayIndex < w.resumeBelow && rayIndex >= w.options.firstRay) return;  // written before
     if (rayIndex < w.options.firstRay) {
         throw std::invalid_argument("ray database: ray " + std::to_string(rayIndex) +
                                     " is below the first ray " +
@@ -441,6 +516,7 @@ void RayDatabaseWriter::add(uint64_t rayIndex, const PathHistory& history) {
 
 void RayDatabaseWriter::skip(uint64_t rayIndex) {
     Impl& w = *impl_;
+    if (rayIndex < w.resumeBelow && rayIndex >= w.options.firstRay) return;  // written before
     if (rayIndex < w.options.firstRay) {
         throw std::invalid_argument("ray database: ray " + std::to_string(rayIndex) +
                                     " is below the first ray");

@@ -117,6 +117,21 @@ struct RayDatabaseOptions {
     uint64_t firstRay = 0;                       // the lowest ray index the run will add
 };
 
+// Where a run's ray database stood at its last whole chunk: what a resumed run needs to go on
+// writing the same file. Everything before `bytes` is on the system's side of the process
+// (flushed after the chunk), so a killed run's `.partial` file holds it; the rays from
+// `nextRay` on are written again by the resumed run.
+struct RayDatabaseMark {
+    uint64_t bytes = 0;    // the file's length: the header and the whole chunks
+    uint64_t nextRay = 0;  // the first ray not in those chunks
+    std::vector<RayDatabaseChunk> index;
+    RayDatabaseSummary summary;  // stored rays, events, paths and chunks so far
+    bool anyRay = false;         // whether any ray had been added or skipped, and the highest
+    uint64_t highest = 0;
+
+    bool operator==(const RayDatabaseMark&) const = default;
+};
+
 class RayDatabaseWriter {
   public:
     // Creates `<path>.partial` and writes the header. Throws RayDatabaseError if the file
@@ -124,6 +139,13 @@ class RayDatabaseWriter {
     // units, names longer than 2^20 bytes).
     RayDatabaseWriter(std::filesystem::path path, RayDatabaseInfo info,
                       RayDatabaseOptions options = {});
+    // Goes on writing a killed run's `<path>.partial` from `mark` (a mark() of that run): the
+    // file is cut back to mark.bytes, and rays below mark.nextRay are ignored when added again.
+    // Rays added from there as the first run would have added them give the same file, byte
+    // for byte. Throws RayDatabaseError when the partial file is missing, shorter than the
+    // mark, or its header is not `info`'s.
+    RayDatabaseWriter(std::filesystem::path path, RayDatabaseInfo info, RayDatabaseOptions options,
+                      const RayDatabaseMark& mark);
     ~RayDatabaseWriter();  // without close(): the partial file is removed
     RayDatabaseWriter(const RayDatabaseWriter&) = delete;
     RayDatabaseWriter& operator=(const RayDatabaseWriter&) = delete;
@@ -139,6 +161,8 @@ class RayDatabaseWriter {
     // Hands every thread's buffer to the ordered stream (bounds memory between batches).
     // Not to be called concurrently with add() or skip().
     void flush();
+    // The last whole chunk written (thread-safe). Before the first chunk: the header alone.
+    RayDatabaseMark mark() const;
     // The emitted ray count for the end block; default: the highest index added or skipped
     // plus one.
     void setEmittedRays(uint64_t n);

@@ -100,6 +100,7 @@ struct Accumulator {
     // its branches) is done: sums of squares are per emitted ray, per pixel and in total.
     std::vector<RayContribution> scratch;
     uint64_t rays = 0;  // emitted
+    uint64_t end = 0;   // one past the block's last ray (one process)
 
     Bytes pack() const {
         ByteWriter w;
@@ -391,21 +392,43 @@ class RayTracer {
 TraceResult traceNonsequential(const TransportView& ts, const std::vector<DetectorImage>& detectors,
                                uint64_t raysPerSource, const TransportOptions& options,
                                const std::function<void(uint64_t)>& progress,
-                               const RayCallback& onRay) {
+                               const RayCallback& onRay, TraceContinuation* continuation) {
     const uint64_t sources = ts.sources.size();
     const uint64_t total = raysPerSource * sources;
-    std::atomic<uint64_t> done{0};
+    const uint64_t blockSize = std::max<uint64_t>(1, options.raysPerBlock);
+    uint64_t start = 0, added = 0;
+    if (continuation) {
+        if (!options.ranks.single())
+            throw std::invalid_argument("traceNonsequential: a continuation needs one process");
+        start = continuation->start;
+        added = continuation->added;
+        if (start % blockSize != 0 || start > added || added > total ||
+            (added > 0 && continuation->images.size() != detectors.size()))
+            throw std::invalid_argument("traceNonsequential: the continuation starts at ray " +
+                                        std::to_string(start) + " with " + std::to_string(added) +
+                                        " added, of " + std::to_string(total));
+    }
+    std::atomic<uint64_t> done{start};
 
     // Blocks traced in parallel, added to the images in block order
     // (tracer/runtime/ordered_blocks.h): the sums do not depend on the thread count, and memory is
     // the images plus the logs of a few blocks, whatever the ray count.
     FluxBudget budget;
-    std::vector<DetectorImage> images = detectors;
+    std::vector<DetectorImage> images;
+    if (continuation && !continuation->images.empty()) {
+        images = std::move(continuation->images);
+        budget = continuation->budget;
+    } else {
+        images = detectors;
+    }
     auto work = [&]() {
         forBlocksInOrderOnRanks(
-            options.ranks, total, options.raysPerBlock,  // 0 counts as 1
+            options.ranks, total - start, blockSize,
             [&](uint64_t first, uint64_t last) {
+                first += start;
+                last += start;
                 Accumulator acc(detectors);
+                acc.end = last;
                 RayTracer tracer(ts, options);
                 // Progress counts rays within a block too: a block of long branching rays
                 // (parallel uncoated plates) can take minutes.
@@ -426,9 +449,13 @@ TraceResult traceNonsequential(const TransportView& ts, const std::vector<Detect
                 return acc;
             },
             [&](const Accumulator& acc) {
-                budget.merge(acc.budget);
-                for (size_t d = 0; d < images.size(); ++d) images[d].add(acc.logs[d]);
+                if (!continuation || acc.end > added) {  // a resumed run's blocks are added once
+                    budget.merge(acc.budget);
+                    for (size_t d = 0; d < images.size(); ++d) images[d].add(acc.logs[d]);
+                }
                 if (!options.ranks.single()) done += acc.rays;  // rank 0 sees every block
+                if (continuation && continuation->afterBlock)
+                    continuation->afterBlock(std::max(acc.end, added), budget, images);
             },
             [](const Accumulator& acc) { return acc.pack(); },
             [&](const Bytes& bytes) {

@@ -116,9 +116,29 @@ struct TraceResult {
 // With options.recordHistories, onRay(rayIndex, history) is called once per emitted ray,
 // from worker threads, concurrently: it must be thread-safe (RayDatabaseWriter::add is).
 using RayCallback = std::function<void(uint64_t, const PathHistory&)>;
+
+// A trace that stops and goes on (veil trace's checkpoints; one process only).
+struct TraceContinuation {
+    // Resumed: the rays below `added` are in `budget` and `images` already. Tracing starts at
+    // ray `start` (a multiple of the block size, at most `added`): the rays from there on are
+    // traced again for onRay's consumers, whose own marks may lie behind `added`, and the
+    // blocks below `added` are not added again. `images` empty: a new trace.
+    uint64_t start = 0, added = 0;
+    FluxBudget budget;
+    std::vector<DetectorImage> images;
+    // Called in block order after each block is added (and after each block below `added`):
+    // the rays added so far, the budget and the images.
+    std::function<void(uint64_t added, const FluxBudget&, const std::vector<DetectorImage>&)>
+        afterBlock;
+};
+
+// `continuation` (may be null): resume from a checkpoint (its images are moved from), and take
+// checkpoints; throws
+// std::invalid_argument with several ranks, or a start that is no block boundary.
 TraceResult traceNonsequential(const TransportView& ts, const std::vector<DetectorImage>& detectors,
                                uint64_t raysPerSource, const TransportOptions& options,
                                const std::function<void(uint64_t)>& progress = {},
-                               const RayCallback& onRay = {});
+                               const RayCallback& onRay = {},
+                               TraceContinuation* continuation = nullptr);
 
 }  // namespace veil

@@ -218,6 +218,76 @@ TEST(RayDatabase, FileBytesDoNotDependOnAddOrderOrThreads) {
     std::filesystem::remove(shuffled);
 }
 
+// A killed run's ray database goes on from the writer's last mark: the partial file, which
+// may hold chunks past the mark, is cut back to it, the rays from the mark on are added again
+// (those below it, added again too, are ignored), and it closes to the bytes of the run that
+// was not stopped. A partial file of another run, or one shorter than the mark, is refused.
+TEST(RayDatabase, AResumedWriterFinishesTheSameFile) {
+    const RayDatabaseInfo info = testInfo();
+    const uint64_t n = 2000;
+    const auto straight = tempFile("straight");
+    writeRays(straight, iota(n), smallChunks(), info);
+    const std::vector<uint8_t> reference = readBytes(straight);
+    auto put = [](RayDatabaseWriter& w, uint64_t ray) {
+        if (ray % 7 == 3) {
+            w.skip(ray);
+        } else {
+            w.add(ray, randomHistory(2024, ray, 150));
+        }
+    };
+    const auto path = tempFile("killed");
+    std::filesystem::path partial = path;
+    partial += ".partial";
+    RayDatabaseMark mark;
+    std::vector<uint8_t> onDisk;
+    {
+        RayDatabaseWriter w(path, info, smallChunks());
+        EXPECT_EQ(w.mark().nextRay, 0u);
+        for (uint64_t ray = 0; ray < 1200; ++ray) put(w, ray);
+        w.flush();
+        mark = w.mark();
+        for (uint64_t ray = 1200; ray < 1500; ++ray) put(w, ray);
+        w.flush();
+        onDisk = readBytes(partial);
+    }  // not closed: as a killed run leaves it, but for the file, which is put back below
+    ASSERT_GT(mark.summary.chunks, 2u);
+    EXPECT_GT(mark.nextRay, 900u);
+    EXPECT_LT(mark.nextRay, 1200u);
+    ASSERT_GT(onDisk.size(), mark.bytes);  // chunks past the mark
+    EXPECT_TRUE(std::equal(onDisk.begin(), onDisk.begin() + static_cast<std::ptrdiff_t>(mark.bytes),
+                           reference.begin()));
+    writeBytes(partial, onDisk);
+    {
+        RayDatabaseWriter w(path, info, smallChunks(), mark);
+        EXPECT_EQ(w.mark(), mark);
+        for (uint64_t ray = mark.nextRay - 100; ray < n; ++ray) put(w, ray);
+        w.close();
+    }
+    EXPECT_TRUE(readBytes(path) == reference) << "the resumed file differs";
+    EXPECT_FALSE(std::filesystem::exists(partial));
+
+    // Another run's partial file (another seed in its header), or one cut short.
+    writeBytes(partial, onDisk);
+    RayDatabaseInfo other = info;
+    other.seed = 43;
+    EXPECT_THROW(RayDatabaseWriter(path, other, smallChunks(), mark), RayDatabaseError);
+    EXPECT_TRUE(std::filesystem::exists(partial));  // a refused resume leaves the file
+    onDisk.resize(mark.bytes - 1);
+    writeBytes(partial, onDisk);
+    try {
+        RayDatabaseWriter w(path, info, smallChunks(), mark);
+        ADD_FAILURE() << "a partial file shorter than the mark was taken";
+    } catch (const RayDatabaseError& e) {
+        EXPECT_NE(std::string(e.what()).find("not the " + std::to_string(mark.bytes) +
+                                             " the run had written"),
+                  std::string::npos)
+            << e.what();
+    }
+    std::filesystem::remove(partial);
+    std::filesystem::remove(path);
+    std::filesystem::remove(straight);
+}
+
 TEST(RayDatabase, SeekRayContinuesAtTheFirstStoredRayAtOrAfter) {
     const auto p = tempFile("seek");
     writeRays(p, iota(1200), smallChunks(), testInfo());
