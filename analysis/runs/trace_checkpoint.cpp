@@ -36,9 +36,13 @@ void putImage(std::ostream& os, const DetectorImage& s) {
 
 class Reader {
   public:
-    Reader(const std::filesystem::path& path) : path_(path), is_(path, std::ios::binary) {
+    explicit Reader(const std::filesystem::path& path) : path_(path), is_(path, std::ios::binary) {
         if (!is_) fail("cannot be read: " + systemReason());
+        std::error_code ec;
+        size_ = std::filesystem::file_size(path, ec);
+        if (ec) fail("cannot be read: " + ec.message());
     }
+    uint64_t size() const { return size_; }
     [[noreturn]] void fail(const std::string& why) const {
         throw ParseError({"--resume", 0, 0}, path_.string() + ": " + why);
     }
@@ -72,6 +76,7 @@ class Reader {
   private:
     std::filesystem::path path_;
     std::ifstream is_;
+    uint64_t size_ = 0;
 };
 
 }  // namespace
@@ -149,7 +154,7 @@ TraceCheckpoint readTraceCheckpoint(const std::filesystem::path& path, uint64_t 
     if (c.hasConsumer) {
         c.consumer.nextRay = r.get<uint64_t>();
         const uint64_t n = r.get<uint64_t>();
-        if (n > (uint64_t{1} << 32)) r.fail("is damaged");
+        if (n > r.size()) r.fail("is damaged (a length past its end)");
         c.consumer.bytes.resize(n);
         r.stream().read(c.consumer.bytes.data(), std::streamsize(n));
     }

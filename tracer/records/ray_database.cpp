@@ -280,7 +280,10 @@ struct RayDatabaseWriter::Impl {
     uint32_t chunkRecords = 0;
     std::vector<RayDatabaseChunk> index;
     RayDatabaseSummary summary;
-    RayDatabaseMark lastMark;  // after the last whole chunk (mark())
+    // After the last whole chunk (mark()): all but the index, of which the first
+    // lastMarkChunks entries (the index only grows; copied when a mark is asked for).
+    RayDatabaseMark lastMark;
+    size_t lastMarkChunks = 0;
     uint64_t resumeBelow = 0;  // a resumed writer ignores the rays below this
 
     // The file, its partial name, what it describes and the options (chunk size clamped).
@@ -405,7 +408,7 @@ struct RayDatabaseWriter::Impl {
     void setMark(uint64_t nextRay) {
         lastMark.bytes = offset;
         lastMark.nextRay = nextRay;
-        lastMark.index = index;
+        lastMarkChunks = index.size();
         lastMark.summary = summary;
         lastMark.anyRay = nextRay > options.firstRay;
         lastMark.highest = lastMark.anyRay ? nextRay - 1 : 0;
@@ -444,7 +447,10 @@ RayDatabaseWriter::RayDatabaseWriter(std::filesystem::path path, RayDatabaseInfo
 
 RayDatabaseMark RayDatabaseWriter::mark() const {
     std::lock_guard<std::mutex> lock(impl_->mutex);
-    return impl_->lastMark;
+    RayDatabaseMark m = impl_->lastMark;
+    m.index.assign(impl_->index.begin(),
+                   impl_->index.begin() + static_cast<std::ptrdiff_t>(impl_->lastMarkChunks));
+    return m;
 }
 
 RayDatabaseWriter::RayDatabaseWriter(std::filesystem::path path, RayDatabaseInfo info,
@@ -487,6 +493,8 @@ RayDatabaseWriter::RayDatabaseWriter(std::filesystem::path path, RayDatabaseInfo
     w.anyRay = mark.anyRay;
     w.highest = mark.highest;
     w.lastMark = mark;
+    w.lastMark.index.clear();
+    w.lastMarkChunks = mark.index.size();
 }
 
 RayDatabaseWriter::~RayDatabaseWriter() {
