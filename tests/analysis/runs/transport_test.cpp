@@ -423,11 +423,10 @@ field_deg = [0.0, 25.0]
     EXPECT_GT(st.eventsByType[static_cast<size_t>(EventType::FresnelReflect)], 0u);
 }
 
-// The seed's filtered images: on the double Gauss with the Sun off axis, the image of the
-// two-reflection ghosts, the image of its complement, and the whole add up, pixel by pixel,
-// to the unfiltered image within floating point; nothing is left for "the rest".
-TEST(Transport, CriterionImagesAndTheirComplementAddUpToTheImage) {
-    const auto path = writeScene("where", "lens = \"" + kLenses + "double_gauss_50mm.toml\"\n" + R"(
+// The double Gauss with its mechanics and the Sun 12 degrees off axis (two-reflection ghosts
+// on the detector), a 72 x 48 pixel detector: the criterion image tests' scene.
+std::filesystem::path doubleGaussSunAt12(const std::string& name) {
+    return writeScene(name, "lens = \"" + kLenses + "double_gauss_50mm.toml\"\n" + R"(
 [mechanics]
 [[source]]
 kind = "sun"
@@ -436,11 +435,24 @@ field_deg = [0.0, 12.0]
 size_mm = [36.0, 24.0]
 pixels = [72, 48]
 )");
-    Prepared r = prepare(path);
+}
+
+// The criteria compiled against the prepared scene's names.
+std::vector<CompiledCriterion> compileAll(const Prepared& r,
+                                          const std::vector<std::string>& texts) {
     const NameTable names = criterionNames(r.setup->scene, r.trace.view);
-    const std::vector<std::string> texts = {"reflect{2}", "not reflect{2}"};
     std::vector<CompiledCriterion> compiled;
     for (const std::string& t : texts) compiled.push_back(compile(parseCriterion(t), names));
+    return compiled;
+}
+
+// The seed's filtered images: on the double Gauss with the Sun off axis, the image of the
+// two-reflection ghosts, the image of its complement, and the whole add up, pixel by pixel,
+// to the unfiltered image within floating point; nothing is left for "the rest".
+TEST(Transport, CriterionImagesAndTheirComplementAddUpToTheImage) {
+    Prepared r = prepare(doubleGaussSunAt12("where"));
+    const std::vector<std::string> texts = {"reflect{2}", "not reflect{2}"};
+    const std::vector<CompiledCriterion> compiled = compileAll(r, texts);
     CriterionImages split(texts, compiled, r.trace.images, r.trace.view.detectorOfObject);
     TransportOptions o;
     o.seed = 21;
@@ -467,21 +479,9 @@ pixels = [72, 48]
 // every detected path), and the images are bitwise those added after the trace, on 1 or 2
 // threads.
 TEST(Transport, CriterionImagesStreamInRayOrder) {
-    const auto path =
-        writeScene("where_stream", "lens = \"" + kLenses + "double_gauss_50mm.toml\"\n" + R"(
-[mechanics]
-[[source]]
-kind = "sun"
-field_deg = [0.0, 12.0]
-[detector]
-size_mm = [36.0, 24.0]
-pixels = [72, 48]
-)");
-    Prepared r = prepare(path);
-    const NameTable names = criterionNames(r.setup->scene, r.trace.view);
+    Prepared r = prepare(doubleGaussSunAt12("where_stream"));
     const std::vector<std::string> texts = {"reflect{2}"};
-    std::vector<CompiledCriterion> compiled;
-    for (const std::string& t : texts) compiled.push_back(compile(parseCriterion(t), names));
+    const std::vector<CompiledCriterion> compiled = compileAll(r, texts);
     auto run = [&](bool everyRay, int threads) {
         tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
         auto split = std::make_unique<CriterionImages>(texts, compiled, r.trace.images,
