@@ -137,6 +137,10 @@ void addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
             "auto|N"))
         ->capture_default_str();
     addCount(sub, "--rays-per-pixel", o.raysPerPixel, "backward rays per pixel per pass");
+    addCount(sub, "--tile-rays", o.tileRays,
+             "the most backward rays (view points) a pass holds at once: past it the sensor is "
+             "rendered in tiles, the photons traced again for each (less memory, more time)")
+        ->check(CLI::Range(uint64_t{1}, RenderOptions::kMaxTileRays));
     addMaxMemory(sub, o.maxMemory, "render");
     sub->add_option("--radius", o.radiusMm,
                     "initial gathering radius r1 in mm (0: 1 % of the scattering parts' size)")
@@ -271,6 +275,7 @@ RenderRunSpec renderSpec(const RenderCommandOptions& o) {
         throw ParseError({"--resume", 1, 1}, o.resume + " holds no " + kCheckpoint + " to continue");
     RenderOptions& ro = spec.options;
     ro.raysPerPixel = o.raysPerPixel;
+    ro.tileRays = o.tileRays;
     if (o.photons == "auto" || o.photons == "work") {
         ro.balancePhotons = true;
         ro.balancePhotonsByError = o.photons == "auto";

@@ -33,6 +33,7 @@ struct RenderCommandOptions {
     uint64_t ghostPhotons = 16384;  // of those, following every specular branch
     std::string visiblePhotons = "auto";  // more, depositing the visible light alone
     uint64_t raysPerPixel = 16;
+    uint64_t tileRays = uint64_t{1} << 21;  // RenderOptions::tileRays
     uint64_t maxMemory = 0;  // bytes; 0: the machine's (RenderRunSpec::maxMemoryBytes)
     double radiusMm = 0.0;  // 0: automatic
     double alpha = 2.0 / 3.0;

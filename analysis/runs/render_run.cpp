@@ -51,6 +51,9 @@ uint64_t fingerprintOf(const TransportView& ts, const DetectorGeometry& g, const
        << o.splatLobesBelowDeg << " " << o.lobeSplats << " " << o.partPhotons << " "
        << o.balancePhotonsByError << " " << o.aimedSplats << " " << o.partDirections << " "
        << o.ghostRoutes << " " << o.partSplitByLight;
+    // Tiles change the order of the guides' sums, so a run resumes with the same ones.
+    if (o.tilePixels(g.pixelCount()) < g.pixelCount())
+        os << " tiles " << o.tilePixels(g.pixelCount());
     for (const std::string& w : where) os << "\nwhere " << w;
     return fnv1a64(os.str());
 }
@@ -189,13 +192,16 @@ RenderRun::RenderRun(const PreparedScene& scene, RenderRunSpec spec)
     // The memory the render will take, before any of it is taken (1e9 rays per pixel had
     // allocated 16 GB at 1.5 GB/s before anything said so).
     memoryBytes_ = residentBytes() + renderMemoryBytes(static_cast<uint64_t>(geometry.pixelCount()),
-                                                       o, spec_.where.size());
+                                                       o, spec_.where.size(), ts.sources.size());
     {
+        const int tile = o.tilePixels(geometry.pixelCount());
         std::ostringstream detail;
-        detail << geometry.pixelCount() << " pixels x " << o.raysPerPixel
-               << " rays per pixel, one view point each";
+        detail << geometry.pixelCount() << " pixels";
+        if (tile < geometry.pixelCount()) detail << " in tiles of " << tile;
+        detail << " x " << o.raysPerPixel << " rays per pixel, one view point each";
         checkMemory(file, "render", memoryBytes_, detail.str(),
-                    "lower --rays-per-pixel or the detector's pixels", spec_.maxMemoryBytes);
+                    "lower --tile-rays, --rays-per-pixel or the detector's pixels",
+                    spec_.maxMemoryBytes);
     }
     if (!spec_.where.empty()) {
         const NameTable names = criterionNames(*ts.scene, ts);
@@ -423,6 +429,8 @@ nlohmann::json RenderResult::summary() const {
                             {"rank0_seconds_in_mpi", traffic.seconds}};
     summary["options"] = {
         {"rays_per_pixel", ro.raysPerPixel},
+        {"tile_rays", ro.tileRays},
+        {"tile_pixels", ro.tilePixels(state.pixelCount())},
         {"photons_per_source_per_pass", ro.photonsPerPass},
         {"balanced_photons", ro.balancePhotons},
         {"photons_balanced_by_error", ro.balancePhotons && ro.balancePhotonsByError},

@@ -133,9 +133,10 @@ nlohmann::json renderOnRanksAndResume(const std::string& args,
 
 TEST(Mpi, RenderOnRanksIsBitwiseAndResumesOnAnotherRankCount) {
     SKIP_WITHOUT_MPI();
+    // In 4 tiles of the sensor (--tile-rays): each tile's pixels and photons split over the ranks.
     renderOnRanksAndResume("render " + kSun +
-                               " --photons 4k --rays-per-pixel 2 --time-limit none --threads 1 "
-                               "--quiet --seed 3 ",
+                               " --photons 4k --rays-per-pixel 2 --tile-rays 40000 --time-limit "
+                               "none --threads 1 --quiet --seed 3 ",
                            {"render.checkpoint", "sensor_image.exr", "sensor_image.png"});
 }
 

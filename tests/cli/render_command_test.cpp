@@ -168,6 +168,57 @@ TEST(RenderCommand, ResumingGivesTheStraightRun) {
         << r.err;
 }
 
+// A sensor rendered in tiles (--tile-rays: 3 tiles of 25000 pixels here, each tile's view
+// points gathering all the photons traced again) gives the images of one trace over the whole
+// sensor: the first pass bitwise (the same rays, the same photons, the same gathers, each pixel's
+// sums in the same order), with each photon's gathered light summed over the tiles; later passes
+// differ only as the guides' sums were added in another order, within their error bars. Memory
+// holds one tile's view points.
+TEST(RenderCommand, TilesGiveTheImageOfOneTrace) {
+    const std::string a = dirFor("whole"), b = dirFor("tiles");
+    // veil render's summary of `passes` passes into `dir`, tiled or not.
+    auto render = [&](int passes, const std::string& dir, bool tiled) {
+        const VeilRun r =
+            runVeil("render " + kSun + " --passes " + std::to_string(passes) + kSmall +
+                    (tiled ? " --tile-rays 50000" : "") + " --json --quiet -o " + dir);
+        EXPECT_EQ(r.exitCode, 0) << r.err;
+        return r.exitCode == 0 ? nlohmann::json::parse(r.out) : nlohmann::json::object();
+    };
+    const nlohmann::json whole = render(1, a, false), tiles = render(1, b, true);
+    ASSERT_TRUE(whole.contains("options") && tiles.contains("options"));
+    EXPECT_EQ(whole["options"]["tile_pixels"].get<int>(), 65536);
+    EXPECT_EQ(tiles["options"]["tile_pixels"].get<int>(), 25000);
+    for (const char* c : {"visible", "direct", "caustic", "secondary"}) {
+        EXPECT_GT(whole["components"][c]["flux"].get<double>(), 0.0) << c;
+        EXPECT_EQ(tiles["components"][c]["flux"].get<double>(),
+                  whole["components"][c]["flux"].get<double>())
+            << c;
+    }
+    EXPECT_EQ(tiles["view_points_this_run"].get<uint64_t>(),
+              whole["view_points_this_run"].get<uint64_t>());
+    EXPECT_EQ(tiles["photons_this_run"].get<uint64_t>(), whole["photons_this_run"].get<uint64_t>());
+    const double effective = whole["gathered_effective_photons"].get<double>();
+    EXPECT_GT(effective, 10.0);
+    EXPECT_NEAR(tiles["gathered_effective_photons"].get<double>(), effective, 1e-9 * effective);
+    // The pixels too, layer by layer.
+    const veil::DetectorExr ea = veil::readDetectorExr(a + "/sensor_image.exr"),
+                            eb = veil::readDetectorExr(b + "/sensor_image.exr");
+    ASSERT_EQ(ea.layers.size(), eb.layers.size());
+    for (size_t l = 0; l < ea.layers.size(); ++l)
+        EXPECT_EQ(ea.layers[l].value, eb.layers[l].value) << ea.layers[l].name;
+    EXPECT_LT(tiles["memory_estimate_bytes"].get<double>(),
+              whole["memory_estimate_bytes"].get<double>());
+    // Two passes: the same light within the error bars of the two.
+    const nlohmann::json whole2 = render(2, a, false), tiles2 = render(2, b, true);
+    ASSERT_TRUE(whole2.contains("total") && tiles2.contains("total"));
+    const double fa = whole2["total"]["flux"].get<double>(),
+                 fb = tiles2["total"]["flux"].get<double>();
+    const double sa = whole2["total"]["relative_error"].get<double>() * fa,
+                 sb = tiles2["total"]["relative_error"].get<double>() * fb;
+    EXPECT_GT(sa, 0.0);
+    EXPECT_LT(std::abs(fa - fb), 4.0 * std::hypot(sa, sb)) << fa << " " << fb;
+}
+
 // The time limit holds inside a pass: a pass of a billion photons per source is cut at its next
 // block once the limit passes (before, the limit was checked between passes only, and this run
 // went on for hours), and with no pass finished there is nothing to write.
@@ -240,9 +291,18 @@ TEST(RenderCommand, BadInputStopsBeforeAnyPass) {
     r = runVeil("render " + kSun + " --rays-per-pixel 1e9 --passes 1 -o " + dir);
     EXPECT_EQ(r.exitCode, 1);
     EXPECT_NE(r.err.find("the render needs about"), std::string::npos) << r.err;
-    EXPECT_NE(r.err.find("65536 pixels x 1000000000 rays per pixel"), std::string::npos) << r.err;
-    EXPECT_NE(r.err.find("lower --rays-per-pixel or the detector's pixels"), std::string::npos)
+    EXPECT_NE(r.err.find("65536 pixels in tiles of 1 x 1000000000 rays per pixel"),
+              std::string::npos)
         << r.err;
+    EXPECT_NE(r.err.find("lower --tile-rays, --rays-per-pixel or the detector's pixels"),
+              std::string::npos)
+        << r.err;
+    // Tiles of no ray, or of more than the most: refused, naming the option.
+    for (const char* bad : {"0", "1e10", "-3"}) {
+        r = runVeil("render " + kSun + " --tile-rays " + bad + " -o " + dir);
+        EXPECT_EQ(r.exitCode, 2) << bad;
+        EXPECT_NE(r.err.find("--tile-rays"), std::string::npos) << r.err;
+    }
     r = runVeil("render " + kSun + " --max-memory 10M --passes 1 -o " + dir);
     EXPECT_EQ(r.exitCode, 1);
     EXPECT_NE(r.err.find("more than --max-memory's 0.01 GB"), std::string::npos) << r.err;

@@ -851,20 +851,21 @@ void PixelTracer::pushChildren(const Branch& br, const SceneHit& hit, const Inte
 // Blocks of 64 pixels; across ranks, block b on rank b mod K (local block j is j K + rank).
 constexpr int kPixelBlock = 64;
 
-// Every rank's pixels to every rank: the photons of each need all view points.
-void sharePixels(const Ranks& ranks, int pixels, std::vector<PixelOutput>& out) {
-    const int blocks = (pixels + kPixelBlock - 1) / kPixelBlock;
+// Every rank's pixels of a range of `count` (out[i] its i-th, blocks of kPixelBlock counted
+// from its first) to every rank: the photons of each need all view points.
+void sharePixels(const Ranks& ranks, int count, std::vector<PixelOutput>& out) {
+    const int blocks = (count + kPixelBlock - 1) / kPixelBlock;
     ByteWriter w;
     for (int b = ranks.rank(); b < blocks; b += ranks.size())
-        for (int p = b * kPixelBlock; p < std::min(pixels, (b + 1) * kPixelBlock); ++p)
-            out[static_cast<size_t>(p)].pack(w);
+        for (int i = b * kPixelBlock; i < std::min(count, (b + 1) * kPixelBlock); ++i)
+            out[static_cast<size_t>(i)].pack(w);
     const std::vector<Bytes> all = ranks.gatherAll(w.take());
     for (int q = 0; q < ranks.size(); ++q) {
         if (q == ranks.rank()) continue;
         ByteReader in(all[static_cast<size_t>(q)]);
         for (int b = q; b < blocks; b += ranks.size())
-            for (int p = b * kPixelBlock; p < std::min(pixels, (b + 1) * kPixelBlock); ++p)
-                out[static_cast<size_t>(p)].unpack(in);
+            for (int i = b * kPixelBlock; i < std::min(count, (b + 1) * kPixelBlock); ++i)
+                out[static_cast<size_t>(i)].unpack(in);
         if (!in.done()) throw std::runtime_error("the pixels of another rank are damaged");
     }
 }
@@ -902,13 +903,12 @@ void internViewPoints(PixelOutput& po, BackwardResult& result,
                              po.viewPoints.end());
 }
 
-// The pixels' outputs merged in pixel order.
-BackwardResult mergePixels(const DetectorImage& detector, const BackwardOptions& options,
-                           std::vector<PixelOutput>& out) {
+// The images a pass's pixels add to, empty.
+void startResult(const DetectorImage& detector, const BackwardOptions& options,
+                 BackwardResult& result) {
     const int pixels = detector.pixelCount();
-    const uint64_t perPixel = options.raysPerPixel;
     const size_t criteria = options.judge ? static_cast<size_t>(options.judge->count()) : 0;
-    BackwardResult result;
+    result = BackwardResult{};
     result.visible = DetectorImage(detector.geometry());
     result.direct = DetectorImage(detector.geometry());
     result.imageForming = DetectorImage(detector.geometry());
@@ -919,9 +919,20 @@ BackwardResult mergePixels(const DetectorImage& detector, const BackwardOptions&
     result.causticByCriterion.assign(criteria, std::vector<double>(static_cast<size_t>(pixels)));
     result.secondaryByCriterion.assign(criteria, std::vector<double>(static_cast<size_t>(pixels)));
     if (options.guide) result.learned.assign(options.guide->bins(), 0.0);
+}
+
+// The outputs of pixels [first, first + out.size()) merged in pixel order into `result`, whose
+// view points and events become theirs.
+void mergePixels(const BackwardOptions& options, int first, std::vector<PixelOutput>& out,
+                 BackwardResult& result) {
+    const uint64_t perPixel = options.raysPerPixel;
+    const size_t criteria = options.judge ? static_cast<size_t>(options.judge->count()) : 0;
+    result.viewPoints.clear();
+    result.events.clear();
     std::unordered_map<uint64_t, std::vector<uint32_t>> interned;  // suffix hash -> offsets
-    for (int p = 0; p < pixels; ++p) {
-        PixelOutput& po = out[static_cast<size_t>(p)];
+    for (size_t i = 0; i < out.size(); ++i) {
+        const int p = first + static_cast<int>(i);
+        PixelOutput& po = out[i];
         if (options.guide)
             for (uint64_t k = 0; k < perPixel; ++k)
                 result.learned[options.guide->bin(p, po.cell[k])] +=
@@ -954,34 +965,46 @@ BackwardResult mergePixels(const DetectorImage& detector, const BackwardOptions&
         result.connectionRays += po.connectionRays;
         result.prunedBranches += po.pruned;
     }
-    result.rays = static_cast<uint64_t>(pixels) * perPixel;
-    return result;
+    result.rays += static_cast<uint64_t>(out.size()) * perPixel;
 }
 
 }  // namespace
 
 BackwardResult traceBackward(const TransportView& ts, const DetectorImage& detector,
                              const ExitAperture& aperture, const BackwardOptions& options) {
+    BackwardResult result;
+    traceBackward(ts, detector, aperture, options, 0, detector.pixelCount(), result);
+    return result;
+}
+
+void traceBackward(const TransportView& ts, const DetectorImage& detector,
+                   const ExitAperture& aperture, const BackwardOptions& options, int firstPixel,
+                   int endPixel, BackwardResult& into) {
     if (options.raysPerPixel == 0)
         throw std::invalid_argument("traceBackward: raysPerPixel must be at least 1");
     if (!(aperture.radiusMm > 0.0))
         throw std::invalid_argument("traceBackward: the exit aperture has no area");
-    const int pixels = detector.pixelCount();
-    std::vector<PixelOutput> out(static_cast<size_t>(pixels));
+    if (firstPixel < 0 || endPixel < firstPixel || endPixel > detector.pixelCount())
+        throw std::invalid_argument("traceBackward: pixels [" + std::to_string(firstPixel) + ", " +
+                                    std::to_string(endPixel) + ") outside the detector's " +
+                                    std::to_string(detector.pixelCount()));
+    if (firstPixel == 0) startResult(detector, options, into);
+    const int count = endPixel - firstPixel;
+    std::vector<PixelOutput> out(static_cast<size_t>(count));
     const Ranks& ranks = options.ranks;
-    const int blocks = (pixels + kPixelBlock - 1) / kPixelBlock;
+    const int blocks = (count + kPixelBlock - 1) / kPixelBlock;
     const int myBlocks = static_cast<int>(ranks.ownedCount(static_cast<uint64_t>(blocks)));
     tbb::parallel_for(tbb::blocked_range<int>(0, myBlocks, 1), [&](const tbb::blocked_range<int>& r) {
         PixelTracer tracer(ts, detector, aperture, options);
         for (int j = r.begin(); j != r.end(); ++j) {
             options.deadline.check();
             const int b = j * ranks.size() + ranks.rank();
-            for (int p = b * kPixelBlock; p < std::min(pixels, (b + 1) * kPixelBlock); ++p)
-                tracer.tracePixel(p, out[static_cast<size_t>(p)]);
+            for (int i = b * kPixelBlock; i < std::min(count, (b + 1) * kPixelBlock); ++i)
+                tracer.tracePixel(firstPixel + i, out[static_cast<size_t>(i)]);
         }
     });
-    if (!ranks.single()) sharePixels(ranks, pixels, out);
-    return mergePixels(detector, options, out);
+    if (!ranks.single()) sharePixels(ranks, count, out);
+    mergePixels(options, firstPixel, out, into);
 }
 
 }  // namespace veil

@@ -164,6 +164,13 @@ struct BackwardResult {
 // it. Throws std::invalid_argument for raysPerPixel = 0 or an aperture of no area.
 BackwardResult traceBackward(const TransportView& ts, const DetectorImage& detector,
                              const ExitAperture& aperture, const BackwardOptions& options);
+// The same for the pixels [firstPixel, endPixel) alone (a tile of the sensor: Renderer), added
+// to `into`: its images and sums gather the tiles of a pass (firstPixel 0 starts them anew),
+// while its view points and events become the tile's own. Each pixel's rays are those of the
+// whole sensor's trace, so a pass traced by tiles in pixel order has the same images.
+void traceBackward(const TransportView& ts, const DetectorImage& detector,
+                   const ExitAperture& aperture, const BackwardOptions& options, int firstPixel,
+                   int endPixel, BackwardResult& into);
 
 // The half width at half maximum of a property's scatter lobe about its specular direction
 // (radians): a Gaussian's half width, the widest ABg lobe's (in direction cosines, at normal

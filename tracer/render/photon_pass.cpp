@@ -157,6 +157,9 @@ struct PhotonBlock {
     uint64_t ghostWork = 0;    // the segments and gathers of the ghost photons
     uint64_t visibleWork = 0;  // the segments of the visible photons
     double gatheredSum = 0.0, gatheredSquares = 0.0;  // PhotonImages'
+    // With PhotonTile::perPhoton: each photon's gathered light, photons [first, first + size).
+    uint64_t first = 0;
+    std::vector<double> perPhoton;
 };
 
 // One photon as emitted: its random stream (shared by all its branches) and the thresholds of
@@ -192,7 +195,7 @@ class PhotonPass {
                const RenderOptions& options, const PathJudge* judge, int k, double radiusMm,
                const Ranks& ranks, const LensConnector* connector,
                const EmissionGuide* emissionGuide, const ScatterGuide* scatterGuide,
-               const PartLight* partPhotons);
+               const PartLight* partPhotons, const PhotonTile& tile);
 
     // The photons (photonsPerPass per source), then the visible photons
     // (visiblePhotonsPerPass per source whose visible light the photons deposit), then the
@@ -254,6 +257,7 @@ class PhotonPass {
     const int k_;
     const double radiusMm_;
     const Ranks& ranks_;
+    const PhotonTile tile_;
     const std::vector<ViewPoint>& vps_;
     const ViewPointGrid grid_;
     const double r2_, gapMm_;
@@ -291,7 +295,8 @@ PhotonPass::PhotonPass(const TransportView& ts, const DetectorImage& detector,
                        const BackwardResult& back, const RenderOptions& options,
                        const PathJudge* judge, int k, double radiusMm, const Ranks& ranks,
                        const LensConnector* connector, const EmissionGuide* emissionGuide,
-                       const ScatterGuide* scatterGuide, const PartLight* partPhotons)
+                       const ScatterGuide* scatterGuide, const PartLight* partPhotons,
+                       const PhotonTile& tile)
     : ts_(ts),
       detector_(detector),
       back_(back),
@@ -311,6 +316,7 @@ PhotonPass::PhotonPass(const TransportView& ts, const DetectorImage& detector,
       k_(k),
       radiusMm_(radiusMm),
       ranks_(ranks),
+      tile_(tile),
       vps_(back.viewPoints),
       grid_(back.viewPoints, radiusMm),
       r2_(radiusMm * radiusMm),
@@ -353,7 +359,8 @@ PhotonPass::Disk PhotonPass::disk(uint32_t i, bool otherSide) const {
     float c = slot[3].load(std::memory_order_acquire);
     if (c == 0.0f) {
         const double turn =
-            2.0 * std::numbers::pi * CounterRng(passSeed(options_.seed, k_, 2), i).uniform();
+            2.0 * std::numbers::pi *
+            CounterRng(passSeed(options_.seed, k_, 2), tile_.viewPointBase + i).uniform();
         const GatherDisk d =
             viewPointDisk(*ts_.scene, vps_[i], radiusMm_, options_.areaSamples, turn, otherSide);
         const double sign = d.inGap ? -1.0 : 1.0;
@@ -570,6 +577,8 @@ Bytes PhotonPass::pack(const PhotonBlock& b) {
         w.put(n);
     w.put(b.gatheredSum);
     w.put(b.gatheredSquares);
+    w.put(b.first);
+    w.putVector(b.perPhoton);
     return w.take();
 }
 
@@ -589,6 +598,8 @@ PhotonBlock PhotonPass::unpack(const Bytes& bytes) {
         *n = r.get<uint64_t>();
     b.gatheredSum = r.get<double>();
     b.gatheredSquares = r.get<double>();
+    b.first = r.get<uint64_t>();
+    b.perPhoton = r.getVector<double>();
     if (!r.done()) throw std::runtime_error("a block of photons from another rank is damaged");
     return b;
 }
@@ -604,7 +615,13 @@ class BlockTracer {
         if (pass.scatterGuide_) block_.scatterLearned.assign(pass.scatterGuide_->bins(), 0.0);
     }
     PhotonBlock run(uint64_t first, uint64_t last) {
-        for (uint64_t i = first; i < last; ++i) tracePhoton(i);
+        block_.first = first;
+        if (p_.tile_.perPhoton) block_.perPhoton.assign(last - first, 0.0);
+        for (uint64_t i = first; i < last; ++i) {
+            gathered_ = 0.0;
+            tracePhoton(i);
+            if (p_.tile_.perPhoton) block_.perPhoton[i - first] = gathered_;
+        }
         return std::move(block_);
     }
 
@@ -762,7 +779,7 @@ void BlockTracer::book(int slot, uint64_t matched, const std::vector<int>* sprea
 
 void BlockTracer::tracePartPhoton(uint64_t j) {
     const TransportView& ts = p_.ts_;
-    ++block_.photons;
+    if (p_.tile_.first) ++block_.photons;
     LensConnector::Work work;
     std::vector<PathEvent>& chain = suffix_;
     const auto st = p_.parts_->start(j, p_.partSeed_, work, p_.judge_ ? &chain : nullptr);
@@ -824,11 +841,13 @@ void BlockTracer::tracePartPhoton(uint64_t j) {
 
 void BlockTracer::tracePhoton(uint64_t i) {
     if (i >= p_.withVisible()) return tracePartPhoton(i - p_.withVisible());
+    // The visible photons only deposit on the detector: the first tile's.
+    if (i >= p_.gathering() && !p_.tile_.first) return;
     EmittedRay e;
     Photon ph = p_.emit(i, e);
     // The ghost photons' count is fixed: only the others' halves (PhotonImages::parity).
     parity_ = !p_.halves_ || ph.splitAll ? 0.0 : (i & 1) != 0 ? -1.0 : 1.0;
-    ++block_.photons;
+    if (p_.tile_.first) ++block_.photons;
     if (!(e.flux > 0.0)) return;
     stack_.clear();
     PhotonBranch first{e.ray, e.flux, 0, -1, -1, false, false, 0, ph.rouletteFlux};
@@ -847,7 +866,7 @@ void BlockTracer::tracePhoton(uint64_t i) {
     drain(ph);
     if (p_.scatterGuide_) {
         block_.scatterLearned[p_.scatterGuide_->totalGatheredBin()] += gathered_;
-        block_.scatterLearned[p_.scatterGuide_->emittedBin()] += e.flux;
+        if (p_.tile_.first) block_.scatterLearned[p_.scatterGuide_->emittedBin()] += e.flux;
     }
 }
 
@@ -867,7 +886,8 @@ void BlockTracer::follow(PhotonBranch br, Photon& ph) {
         const double alpha = ts.media->absorptionPerMm(br.medium, w);
         if (alpha > 0.0) br.flux *= std::exp(-alpha * hit->t);
         if (ts.detectorOfObject[hit->object] >= 0) {
-            if (ph.deposits && ph.splitAll && !br.scattered && hit->object == p_.renderedObject_)
+            if (ph.deposits && ph.splitAll && !br.scattered && hit->object == p_.renderedObject_ &&
+                p_.tile_.first)
                 depositVisible(br, *hit, ph);
             break;
         }
@@ -907,7 +927,11 @@ void BlockTracer::follow(PhotonBranch br, Photon& ph) {
             if (share > 0.0) {
                 const size_t prop = static_cast<size_t>(ts.propertyOfObject[hit->object]);
                 if (prop < p_.splatted_.size() && p_.splatted_[prop] != 0) {
-                    splatLobe(br, *hit, in, scatterScale * share, ph);
+                    // On a stream of its own: a later tile skips the splats (they land on the
+                    // detector, not at view points) and the photon goes on the same.
+                    Photon splat = ph;
+                    splat.rng = ph.rng.fork();
+                    if (p_.tile_.first) splatLobe(br, *hit, in, scatterScale * share, splat);
                 } else {
                     gather(br, *hit, in, scatterScale * share, w);
                 }
@@ -1430,9 +1454,24 @@ PhotonImages tracePhotons(const TransportView& ts, const DetectorImage& detector
                           const LensConnector* connector, const EmissionGuide* emissionGuide,
                           const ScatterGuide* scatterGuide, const PartLight* partPhotons,
                           const Deadline& deadline) {
+    PhotonImages result;
+    tracePhotons(ts, detector, back, options, judge, k, radiusMm, PhotonTile{}, result, ranks,
+                 connector, emissionGuide, scatterGuide, partPhotons, deadline);
+    return result;
+}
+
+void tracePhotons(const TransportView& ts, const DetectorImage& detector,
+                  const BackwardResult& back, const RenderOptions& options, const PathJudge* judge,
+                  int k, double radiusMm, const PhotonTile& tile, PhotonImages& into,
+                  const Ranks& ranks, const LensConnector* connector,
+                  const EmissionGuide* emissionGuide, const ScatterGuide* scatterGuide,
+                  const PartLight* partPhotons, const Deadline& deadline) {
     const PhotonPass pass(ts, detector, back, options, judge, k, radiusMm, ranks, connector,
-                          emissionGuide, scatterGuide, partPhotons);
-    PhotonImages result = pass.emptyImages();
+                          emissionGuide, scatterGuide, partPhotons, tile);
+    if (tile.first) {
+        into = pass.emptyImages();
+        if (tile.perPhoton) into.perPhoton.assign(pass.total(), 0.0);
+    }
     constexpr uint64_t kBlock = 4096;
     forBlocksInOrderOnRanks(
         ranks, pass.total(), kBlock,
@@ -1440,10 +1479,17 @@ PhotonImages tracePhotons(const TransportView& ts, const DetectorImage& detector
             deadline.check();
             return pass.traceBlock(first, last);
         },
-        [&](const PhotonBlock& b) { PhotonPass::add(b, result); }, PhotonPass::pack,
-        PhotonPass::unpack);
-    result.diskRays = pass.diskRays();
-    return result;
+        [&](const PhotonBlock& b) {
+            PhotonPass::add(b, into);
+            if (b.perPhoton.empty()) return;
+            if (b.perPhoton.size() > into.perPhoton.size() ||
+                b.first > into.perPhoton.size() - b.perPhoton.size())
+                throw std::runtime_error("a block of photons lies beyond the pass's photons");
+            for (size_t j = 0; j < b.perPhoton.size(); ++j)
+                into.perPhoton[b.first + j] += b.perPhoton[j];
+        },
+        PhotonPass::pack, PhotonPass::unpack);
+    into.diskRays += pass.diskRays();
 }
 
 }  // namespace veil

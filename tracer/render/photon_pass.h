@@ -89,6 +89,26 @@ struct PhotonImages {
     // the probe rays that fitted the gathering disks the photons reached
     // (RenderPass::photonWork).
     uint64_t ghostWork = 0, visibleWork = 0, diskRays = 0;
+    // With PhotonTile::perPhoton: each photon's gathered light summed over the tiles, by its
+    // index in the pass (gatheredSum and gatheredSquares then hold only the last tile's).
+    std::vector<double> perPhoton;
+};
+
+// One tile of a pass traced by tiles of the sensor (Renderer): the pass's photons traced again
+// for each tile's view points. Each photon follows the same path in every tile (it draws the
+// same numbers: its lobe splats, which the later tiles skip, draw on a forked stream), so the
+// tiles together gather what one trace over all view points would.
+//   first          the first tile: it starts `into` anew, counts the photons, and alone deposits
+//                  on the detector (the visible light, the lobe splats); the visible photons,
+//                  which do nothing else, are traced in it alone
+//   viewPointBase  the index of the tile's first view point among the pass's (the gathering
+//                  disks' spirals are turned by that index, as in one trace)
+//   perPhoton      book each photon's gathered light (PhotonImages::perPhoton): its sum over the
+//                  tiles is the photon's gathered light
+struct PhotonTile {
+    bool first = true;
+    uint64_t viewPointBase = 0;
+    bool perPhoton = false;
 };
 
 // The photons' emission guide (RenderOptions::photonGuideFraction, docs/render.md, "Photons
@@ -154,5 +174,14 @@ PhotonImages tracePhotons(const TransportView& ts, const DetectorImage& detector
                           const EmissionGuide* emissionGuide = nullptr,
                           const ScatterGuide* scatterGuide = nullptr,
                           const PartLight* partPhotons = nullptr, const Deadline& deadline = {});
+// The same for one tile of the sensor's view points (`back` holds the tile's), added to `into`
+// (tile.first: `into` anew). The disk probe rays add up over the tiles.
+void tracePhotons(const TransportView& ts, const DetectorImage& detector,
+                  const BackwardResult& back, const RenderOptions& options, const PathJudge* judge,
+                  int k, double radiusMm, const PhotonTile& tile, PhotonImages& into,
+                  const Ranks& ranks = Ranks::alone(), const LensConnector* connector = nullptr,
+                  const EmissionGuide* emissionGuide = nullptr,
+                  const ScatterGuide* scatterGuide = nullptr,
+                  const PartLight* partPhotons = nullptr, const Deadline& deadline = {});
 
 }  // namespace veil

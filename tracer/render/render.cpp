@@ -43,21 +43,32 @@ std::string_view toString(RenderComponent c) {
 
 std::ostream& operator<<(std::ostream& os, RenderComponent c) { return os << toString(c); }
 
-double renderMemoryBytes(uint64_t pixels, const RenderOptions& o, size_t criteria) {
+double renderMemoryBytes(uint64_t pixels, const RenderOptions& o, size_t criteria, size_t sources) {
     // A view point, its grid entry (a float position, its object and index), its two
     // gathering disks (5 floats each) and its two reached marks; the view point counted three
     // times, for its copies while the pass's lists are gathered and sorted. Calibrated on the
     // README's render (65536 pixels x 16 rays): peak resident memory 0.50 GB measured, 0.26 GB
     // with one ViewPoint a view point, about 0.53 GB with three.
     constexpr double kPerViewPoint = 3.0 * sizeof(ViewPoint) + 20.0 + 40.0 + 2.0;
-    const double viewPoints = static_cast<double>(pixels) * static_cast<double>(o.raysPerPixel);
+    // The view points of one tile of the sensor (RenderOptions::tileRays) at a time.
+    const uint64_t tile = static_cast<uint64_t>(
+        o.tilePixels(static_cast<int>(std::min<uint64_t>(pixels, uint64_t{1} << 30))));
+    const double viewPoints =
+        static_cast<double>(std::min(pixels, tile)) * static_cast<double>(o.raysPerPixel);
+    // Tiled, each photon's gathered light over the tiles (a double per photon of each source).
+    const double perPhoton =
+        tile < pixels ? 8.0 *
+                            static_cast<double>(std::max(o.photonsPerPass, o.maxPhotonsPerPass) +
+                                                o.partPhotons) *
+                            static_cast<double>(std::max<size_t>(sources, 1))
+                      : 0.0;
     // Accumulated: (components + total) per criterion and plain, the radius differences, the
     // image-forming and stray images, 3 doubles a pixel each; a pass: as many again, and the
     // photon pass's own images (6 plain, 5 per criterion, a double a pixel).
     const double c = static_cast<double>(criteria);
     const double images =
         2.0 * ((kRenderComponents + 1) * (1.0 + c) + 3.0 + c) * 24.0 + (6.0 + 5.0 * c) * 8.0;
-    return viewPoints * kPerViewPoint + static_cast<double>(pixels) * images;
+    return viewPoints * kPerViewPoint + static_cast<double>(pixels) * images + perPhoton;
 }
 
 uint64_t passSeed(uint64_t seed, uint64_t pass, uint32_t purpose) {
@@ -936,7 +947,6 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
     out.radiusMm = radiusMm;
     const int pixels = detector_.pixelCount();
 
-    const auto t0 = std::chrono::steady_clock::now();
     auto since = [](std::chrono::steady_clock::time_point t) {
         return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
     };
@@ -976,24 +986,48 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
                         scatter.bins()),
             options_.scatterGuideFraction, options_.weightWindow);
     }
-    BackwardResult back = traceBackward(ts_, detector_, aperture_, bo);
+    // 1 and 2 by tiles of the sensor (RenderOptions::tileRays): each tile's view points
+    // gather the pass's photons, traced again for every tile; the backward images and sums
+    // and the photon images add up over the tiles.
+    RenderOptions po = options_;
+    if (photonsPerSource > 0) po.photonsPerPass = photonsPerSource;
+    if (visiblePhotons >= 0) po.visiblePhotonsPerPass = static_cast<uint64_t>(visiblePhotons);
+    const int tile = options_.tilePixels(pixels);
+    const bool tiled = tile < pixels;
+    BackwardResult back;
+    PhotonImages acc;
+    uint64_t viewPoints = 0;
+    for (int first = 0; first < pixels; first += tile) {
+        const auto tb = std::chrono::steady_clock::now();
+        traceBackward(ts_, detector_, aperture_, bo, first, std::min(pixels, first + tile), back);
+        const auto tp = std::chrono::steady_clock::now();
+        out.backwardSeconds += std::chrono::duration<double>(tp - tb).count();
+        // 2. Forward photons gathered at the view points.
+        const PhotonTile pt{first == 0, viewPoints, tiled};
+        tracePhotons(ts_, detector_, back, po, judge_, k, radiusMm, pt, acc, ranks_,
+                     connector_.any() ? &connector_ : nullptr, emissionGuided ? &emission : nullptr,
+                     scatterGuided ? &scatter : nullptr,
+                     partPhotons_.any() ? &partPhotons_ : nullptr, deadline);
+        out.photonSeconds += since(tp);
+        viewPoints += back.viewPoints.size();
+    }
+    if (tiled) {
+        // Each photon's gathered light is its sum over the tiles.
+        acc.gatheredSum = acc.gatheredSquares = 0.0;
+        for (const double c : acc.perPhoton) {
+            acc.gatheredSum += c;
+            acc.gatheredSquares += c * c;
+        }
+        acc.perPhoton = {};
+    }
+    back.viewPoints = {};
+    back.events = {};
     out.pixels[static_cast<int>(RenderComponent::Visible)] = back.visible.fluxes();
     out.pixels[static_cast<int>(RenderComponent::Direct)] = back.direct.fluxes();
     out.backwardRays = back.rays;
     out.backwardSegments = back.segments;
     out.connectionRays = back.connectionRays;
-    out.viewPoints = back.viewPoints.size();
-
-    out.backwardSeconds = since(t0);
-    const auto t1 = std::chrono::steady_clock::now();
-    // 2. Forward photons gathered at the view points.
-    RenderOptions po = options_;
-    if (photonsPerSource > 0) po.photonsPerPass = photonsPerSource;
-    if (visiblePhotons >= 0) po.visiblePhotonsPerPass = static_cast<uint64_t>(visiblePhotons);
-    PhotonImages acc = tracePhotons(
-        ts_, detector_, back, po, judge_, k, radiusMm, ranks_,
-        connector_.any() ? &connector_ : nullptr, emissionGuided ? &emission : nullptr,
-        scatterGuided ? &scatter : nullptr, partPhotons_.any() ? &partPhotons_ : nullptr, deadline);
+    out.viewPoints = viewPoints;
     const size_t criteria = judge_ ? static_cast<size_t>(judge_->count()) : 0;
     std::vector<double>& visible = out.pixels[static_cast<int>(RenderComponent::Visible)];
     for (int p = 0; p < pixels; ++p) visible[static_cast<size_t>(p)] += acc.visible[p];
@@ -1055,7 +1089,7 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
     // (segments, gathers, the ghost photons' among them, and the probe rays that fitted the
     // gathering disks they reached: a disk is fitted when a photon first lands within it).
     out.photonsPerSource = po.photonsPerPass;
-    out.viewPointWork = back.segments + back.viewPoints.size() * (1 + ts_.sources.size());
+    out.viewPointWork = back.segments + viewPoints * (1 + ts_.sources.size());
     out.photonWork = acc.segments + acc.gathers + acc.diskRays;
     out.ghostWork = acc.ghostWork;
     out.ghostPerSource = po.ghostPhotons();
@@ -1064,7 +1098,6 @@ RenderPass Renderer::runPass(int k, double radiusMm, const std::vector<double>& 
     out.nextPhotonsPerSource = options_.balancePhotons ? balancedPhotons(options_, out) : 0;
     out.prunedPhotons = acc.pruned;
     out.prunedBranches = back.prunedBranches;
-    out.photonSeconds = since(t1);
     // 3. Points on the small lit parts, traced to the pixels: caustic light, not gathered (the
     // same in both estimates of the radius bias).
     if (parts_.any()) {

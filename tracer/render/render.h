@@ -28,6 +28,9 @@
 //      caustic component when the photon has seen only specular events, the secondary one
 //      when it scattered before. (A photon's first hit is the direct light, which step 1
 //      counts.)
+//   Steps 1 and 2 run by tiles of the sensor when its pixels x raysPerPixel exceed
+//   RenderOptions::tileRays: each tile's view points gather the pass's photons, traced again
+//   for them, so a pass holds one tile's view points (docs/render.md, "Tiles of the sensor").
 //   With path criteria (tracer/render/path_judge.h), every contribution is also judged on its
 //   joined path (the photon's or the sampled source's events, the scatter at the view point, the
 //   view point's backward events) and added to the images of the criteria it matches.
@@ -236,6 +239,7 @@ class RenderState {
                 int criteria = 0);
 
     int passes() const { return passes_; }
+    int pixelCount() const { return sums_[0].pixelCount(); }
     double radiusMm() const { return radiusMm_; }  // of the next pass
     double initialRadiusMm() const { return initialRadiusMm_; }
     double alpha() const { return alpha_; }
@@ -345,11 +349,13 @@ class RenderState {
     double radiusMm_ = 0.0, initialRadiusMm_ = 0.0, alpha_ = 2.0 / 3.0;
 };
 
-// About how many bytes a render of `pixels` pixels with these options and `criteria` path
-// criteria holds at its peak: one view point per pixel ray (with its grid entry, gathering
-// disks and marks) and the images (the sums of every pass so far, and one pass's own). veil
+// About how many bytes a render of `pixels` pixels with these options, `criteria` path
+// criteria and `sources` sources holds at its peak: one view point per pixel ray of a tile
+// (RenderOptions::tileRays; with its grid entry, gathering disks and marks), the images (the
+// sums of every pass so far, and one pass's own) and, tiled, each photon's gathered light. veil
 // render checks it against the machine's memory before any work.
-double renderMemoryBytes(uint64_t pixels, const RenderOptions& options, size_t criteria);
+double renderMemoryBytes(uint64_t pixels, const RenderOptions& options, size_t criteria,
+                         size_t sources = 1);
 
 class Renderer {
   public:

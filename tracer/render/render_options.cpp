@@ -53,6 +53,8 @@ void RenderOptions::check() const {
         fail("the directions per part sample must lie in [1, 1024]");
     if (partSamples > kMaxPartSamples)
         fail("the part samples per pass must lie in [0, " + std::to_string(kMaxPartSamples) + "]");
+    if (tileRays == 0 || tileRays > kMaxTileRays)
+        fail("the rays per tile must lie in [1, " + std::to_string(kMaxTileRays) + "]");
     if (partPhotons > kMaxPartSamples)
         fail("the part photons per pass must lie in [0, " + std::to_string(kMaxPartSamples) + "]");
 }
@@ -74,7 +76,7 @@ std::ostream& operator<<(std::ostream& os, const RenderOptions& o) {
                                        : ", connected through the lens")
                       : "")
               << ", " << o.partSamples << " part samples (" << o.partDirections << " directions), "
-              << o.partPhotons << " part photons}";
+              << o.partPhotons << " part photons, tiles of " << o.tileRays << " rays}";
 }
 
 }  // namespace veil

@@ -143,6 +143,19 @@ struct RenderOptions {
     // connection finds there, and scatter on from them as photons; the sources' photons leave
     // that scattered light to them. 0: off. Needs connectThroughLens.
     uint64_t partPhotons = 16384;
+    // Tiles (docs/render.md, "Tiles of the sensor"): the most backward rays, and so view points,
+    // a pass holds at once. A pass whose pixels x raysPerPixel exceed it traces its sensor in
+    // tiles of tilePixels() pixels, in pixel order, each tile's view points gathering all the
+    // pass's photons traced again for them: memory O(tile x raysPerPixel + pixels) for photon
+    // work times the tiles. The images are those of one trace over the whole sensor (pass 1
+    // bitwise; the guides after it learn sums added in another order).
+    uint64_t tileRays = uint64_t{1} << 21;
+    static constexpr uint64_t kMaxTileRays = uint64_t{1} << 32;
+    // The pixels of a tile: tileRays / raysPerPixel, at least 1, at most `pixels`.
+    int tilePixels(int pixels) const {
+        const uint64_t n = std::max<uint64_t>(1, tileRays / std::max<uint64_t>(1, raysPerPixel));
+        return static_cast<int>(std::min<uint64_t>(n, static_cast<uint64_t>(std::max(pixels, 1))));
+    }
     // Throws std::invalid_argument naming the option when a value is out of range.
     void check() const;
 };

@@ -29,6 +29,14 @@ class CounterRng {
         return block_[index_++];
     }
 
+    // A stream of its own, keyed by this one's next 64 bits (this one advances by those alone,
+    // whatever the fork then draws): work that may be skipped (a photon's lobe splats in a later
+    // tile of a render pass) leaves the draws after it unchanged.
+    CounterRng fork() {
+        const uint64_t hi = next32(), lo = next32();
+        return CounterRng((hi << 32) | lo, 0x666f726bull /* "fork" */);
+    }
+
     // One Philox 4x32 block: 10 rounds of the bijection on the counter under the key.
     static std::array<uint32_t, 4> philox(std::array<uint32_t, 4> c, std::array<uint32_t, 2> k) {
         constexpr uint32_t kM0 = 0xD2511F53u, kM1 = 0xCD9E8D57u;
